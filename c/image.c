@@ -1,0 +1,314 @@
+/* image.c -- pixel primitives: [-1 0 1] filter (thesis sec. 2.4.1.2), Sobel
+ * (thesis sec. 2.4.2), Gaussian pyramid step (IVVI paper, sec. on optical flow),
+ * integral image, normalised cross-correlation (thesis sec. 3.3) and SAD block
+ * difference (IVVI paper, block matching). See image.h for scaling and borders. */
+#include "vehtrack/image.h"
+#include "internal.h"
+
+vt_status vt_image_u8_check(const vt_image_u8 *img)
+{
+    if (img == NULL || img->px == NULL) {
+        return VT_E_ARG;
+    }
+    return vt__check_dims(img->w, img->h, img->stride, VT_MAX_WIDTH, VT_MAX_HEIGHT);
+}
+
+static vt_status vt__check_s16(const vt_image_s16 *img)
+{
+    if (img == NULL || img->px == NULL) {
+        return VT_E_ARG;
+    }
+    return vt__check_dims(img->w, img->h, img->stride, VT_MAX_WIDTH, VT_MAX_HEIGHT);
+}
+
+/* Checks a source and a same-size int16 destination. */
+static vt_status vt__check_src_dst(const vt_image_u8 *src, const vt_image_s16 *dst)
+{
+    vt_status s = vt_image_u8_check(src);
+    if (s != VT_OK) {
+        return s;
+    }
+    s = vt__check_s16(dst);
+    if (s != VT_OK) {
+        return s;
+    }
+    if (dst->w != src->w || dst->h != src->h) {
+        return VT_E_SIZE;
+    }
+    return VT_OK;
+}
+
+vt_status vt_filter_h101(const vt_image_u8 *src, vt_image_s16 *dst)
+{
+    int32_t x, y, w;
+    vt_status s = vt__check_src_dst(src, dst);
+    if (s != VT_OK) {
+        return s;
+    }
+    w = src->w;
+    for (y = 0; y < src->h; ++y) {
+        const uint8_t *p = src->px + (size_t)y * (size_t)src->stride;
+        int16_t *o = dst->px + (size_t)y * (size_t)dst->stride;
+        if (w == 1) {
+            o[0] = 0;
+            continue;
+        }
+        o[0] = (int16_t)(p[1] - p[0]);
+        for (x = 1; x < w - 1; ++x) {
+            o[x] = (int16_t)(p[x + 1] - p[x - 1]);
+        }
+        o[w - 1] = (int16_t)(p[w - 1] - p[w - 2]);
+    }
+    return VT_OK;
+}
+
+vt_status vt_sobel_x(const vt_image_u8 *src, vt_image_s16 *dst)
+{
+    int32_t x, y, w, h;
+    vt_status s = vt__check_src_dst(src, dst);
+    if (s != VT_OK) {
+        return s;
+    }
+    w = src->w;
+    h = src->h;
+    for (y = 0; y < h; ++y) {
+        /* Replicated border: the rows above/below the edge are the edge row. */
+        const uint8_t *pm = src->px + (size_t)(y > 0 ? y - 1 : 0) * (size_t)src->stride;
+        const uint8_t *p0 = src->px + (size_t)y * (size_t)src->stride;
+        const uint8_t *pp = src->px + (size_t)(y < h - 1 ? y + 1 : h - 1) * (size_t)src->stride;
+        int16_t *o = dst->px + (size_t)y * (size_t)dst->stride;
+        for (x = 0; x < w; ++x) {
+            int32_t xl = x > 0 ? x - 1 : 0;
+            int32_t xr = x < w - 1 ? x + 1 : w - 1;
+            o[x] = (int16_t)((pm[xr] - pm[xl]) + 2 * (p0[xr] - p0[xl]) + (pp[xr] - pp[xl]));
+        }
+    }
+    return VT_OK;
+}
+
+vt_status vt_sobel_y(const vt_image_u8 *src, vt_image_s16 *dst)
+{
+    int32_t x, y, w, h;
+    vt_status s = vt__check_src_dst(src, dst);
+    if (s != VT_OK) {
+        return s;
+    }
+    w = src->w;
+    h = src->h;
+    for (y = 0; y < h; ++y) {
+        const uint8_t *pm = src->px + (size_t)(y > 0 ? y - 1 : 0) * (size_t)src->stride;
+        const uint8_t *pp = src->px + (size_t)(y < h - 1 ? y + 1 : h - 1) * (size_t)src->stride;
+        int16_t *o = dst->px + (size_t)y * (size_t)dst->stride;
+        for (x = 0; x < w; ++x) {
+            int32_t xl = x > 0 ? x - 1 : 0;
+            int32_t xr = x < w - 1 ? x + 1 : w - 1;
+            o[x] = (int16_t)((pp[xl] + 2 * pp[x] + pp[xr]) - (pm[xl] + 2 * pm[x] + pm[xr]));
+        }
+    }
+    return VT_OK;
+}
+
+vt_status vt_pyr_down(const vt_image_u8 *src, vt_image_u8_mut *dst)
+{
+    /* Vertical pass into one row of column sums (<= 16*255, fits uint16), then
+     * the horizontal pass; 15 multiply-adds per output pixel instead of 25.
+     * The row lives on the stack: 2*VT_MAX_WIDTH bytes. */
+    uint16_t col[VT_MAX_WIDTH];
+    static const int32_t k[5] = {1, 4, 6, 4, 1};
+    int32_t ox, oy, ow, oh, w, h, i;
+    vt_status s = vt_image_u8_check(src);
+    if (s != VT_OK) {
+        return s;
+    }
+    if (dst == NULL || dst->px == NULL) {
+        return VT_E_ARG;
+    }
+    w = src->w;
+    h = src->h;
+    ow = (w + 1) / 2;
+    oh = (h + 1) / 2;
+    if (dst->w != ow || dst->h != oh || dst->stride < dst->w) {
+        return VT_E_SIZE;
+    }
+    for (oy = 0; oy < oh; ++oy) {
+        const uint8_t *r[5];
+        int32_t x;
+        for (i = 0; i < 5; ++i) {
+            r[i] = src->px + (size_t)vt__reflect101(2 * oy + i - 2, h) * (size_t)src->stride;
+        }
+        for (x = 0; x < w; ++x) {
+            col[x] = (uint16_t)(r[0][x] + 4 * r[1][x] + 6 * r[2][x] + 4 * r[3][x] + r[4][x]);
+        }
+        {
+            uint8_t *o = dst->px + (size_t)oy * (size_t)dst->stride;
+            for (ox = 0; ox < ow; ++ox) {
+                int32_t cx = 2 * ox, acc = 0;
+                if (cx >= 2 && cx + 2 < w) {
+                    acc = col[cx - 2] + 4 * col[cx - 1] + 6 * col[cx] + 4 * col[cx + 1] +
+                          col[cx + 2];
+                } else {
+                    for (i = 0; i < 5; ++i) {
+                        acc += k[i] * col[vt__reflect101(cx + i - 2, w)];
+                    }
+                }
+                /* acc <= 256*255: round half up, no saturation needed. */
+                o[ox] = (uint8_t)((acc + 128) >> 8);
+            }
+        }
+    }
+    return VT_OK;
+}
+
+vt_status vt_integral(const vt_image_u8 *src, vt_image_u32 *dst)
+{
+    int32_t x, y, w, h;
+    vt_status s = vt_image_u8_check(src);
+    if (s != VT_OK) {
+        return s;
+    }
+    if (dst == NULL || dst->px == NULL) {
+        return VT_E_ARG;
+    }
+    w = src->w;
+    h = src->h;
+    if (dst->w != w + 1 || dst->h != h + 1 || dst->stride < dst->w) {
+        return VT_E_SIZE;
+    }
+    for (x = 0; x <= w; ++x) {
+        dst->px[x] = 0;
+    }
+    for (y = 0; y < h; ++y) {
+        const uint8_t *p = src->px + (size_t)y * (size_t)src->stride;
+        const uint32_t *above = dst->px + (size_t)y * (size_t)dst->stride;
+        uint32_t *o = dst->px + (size_t)(y + 1) * (size_t)dst->stride;
+        uint32_t run = 0;
+        o[0] = 0;
+        for (x = 0; x < w; ++x) {
+            run += p[x];
+            o[x + 1] = above[x + 1] + run;
+        }
+    }
+    return VT_OK;
+}
+
+vt_status vt_box_sum(const vt_image_u32 *ii, int32_t x, int32_t y, int32_t w, int32_t h,
+                     uint32_t *sum)
+{
+    const uint32_t *r0, *r1;
+    if (ii == NULL || ii->px == NULL || sum == NULL) {
+        return VT_E_ARG;
+    }
+    if (ii->w < 2 || ii->h < 2 || ii->w > VT_MAX_WIDTH + 1 || ii->h > VT_MAX_HEIGHT + 1 ||
+        ii->stride < ii->w) {
+        return VT_E_SIZE;
+    }
+    /* Written so no sum of two int32 arguments can overflow. */
+    if (x < 0 || y < 0 || w < 1 || h < 1 || x > ii->w - 1 - w || y > ii->h - 1 - h) {
+        return VT_E_SIZE;
+    }
+    r0 = ii->px + (size_t)y * (size_t)ii->stride;
+    r1 = ii->px + (size_t)(y + h) * (size_t)ii->stride;
+    /* Unsigned wrap-around in the middle cancels exactly: the result is < 2^32. */
+    *sum = r1[x + w] - r1[x] - r0[x + w] + r0[x];
+    return VT_OK;
+}
+
+/* Shared checks for the two-patch functions. */
+static vt_status vt__check_pair(const vt_image_u8 *a, const vt_image_u8 *b)
+{
+    vt_status s = vt_image_u8_check(a);
+    if (s != VT_OK) {
+        return s;
+    }
+    s = vt_image_u8_check(b);
+    if (s != VT_OK) {
+        return s;
+    }
+    return (a->w == b->w && a->h == b->h) ? VT_OK : VT_E_SIZE;
+}
+
+/* Largest k with v << 2k < 2^62 (v > 0, v < 2^62). */
+static int vt__norm_shift(uint64_t v)
+{
+    int k = 0;
+    while ((v << 2) < ((uint64_t)1 << 62)) {
+        v <<= 2;
+        ++k;
+    }
+    return k;
+}
+
+vt_status vt_ncc_u8(const vt_image_u8 *a, const vt_image_u8 *b, vt_q14 *ncc)
+{
+    uint64_t sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0, n, da, db, p;
+    int64_t va, vb, cov, q;
+    int32_t x, y, ka, kb;
+    vt_status s;
+    if (ncc == NULL) {
+        return VT_E_ARG;
+    }
+    s = vt__check_pair(a, b);
+    if (s != VT_OK) {
+        return s;
+    }
+    if ((int64_t)a->w * a->h > VT_MAX_PATCH_PIXELS) {
+        return VT_E_SIZE;
+    }
+    for (y = 0; y < a->h; ++y) {
+        const uint8_t *pa = a->px + (size_t)y * (size_t)a->stride;
+        const uint8_t *pb = b->px + (size_t)y * (size_t)b->stride;
+        for (x = 0; x < a->w; ++x) {
+            uint32_t u = pa[x], v = pb[x];
+            sa += u;
+            sb += v;
+            saa += u * u;
+            sbb += v * v;
+            sab += u * v;
+        }
+    }
+    n = (uint64_t)a->w * (uint64_t)a->h;
+    /* n <= 2^16 and each sum of products < 2^32: all below 2^48, exact. */
+    va = (int64_t)(n * saa) - (int64_t)(sa * sa);
+    vb = (int64_t)(n * sbb) - (int64_t)(sb * sb);
+    cov = (int64_t)(n * sab) - (int64_t)(sa * sb);
+    if (va <= 0 || vb <= 0) {
+        return VT_E_SINGULAR;
+    }
+    /* sqrt(va) = da / 2^ka with da in [2^30, 2^31): ~30 significant bits. */
+    ka = vt__norm_shift((uint64_t)va);
+    kb = vt__norm_shift((uint64_t)vb);
+    da = vt_isqrt_u64((uint64_t)va << (2 * ka));
+    db = vt_isqrt_u64((uint64_t)vb << (2 * kb));
+    p = (da * db) >> 14; /* sqrt(va*vb) * 2^(ka+kb) / 2^14, >= 2^46 */
+    /* |cov| * 2^(ka+kb) <= sqrt(va*vb) * 2^(ka+kb) < 2^62 by Cauchy-Schwarz. */
+    s = vt_div_round_s64(cov * ((int64_t)1 << (ka + kb)), (int64_t)p, &q);
+    if (s != VT_OK) {
+        return s;
+    }
+    /* The floored square roots can push |q| a hair past 1.0. */
+    *ncc = (vt_q14)(q > VT_Q14_ONE ? VT_Q14_ONE : (q < -VT_Q14_ONE ? -VT_Q14_ONE : q));
+    return VT_OK;
+}
+
+vt_status vt_sad_u8(const vt_image_u8 *a, const vt_image_u8 *b, uint32_t *sad)
+{
+    int32_t x, y;
+    uint32_t acc = 0;
+    vt_status s;
+    if (sad == NULL) {
+        return VT_E_ARG;
+    }
+    s = vt__check_pair(a, b);
+    if (s != VT_OK) {
+        return s;
+    }
+    for (y = 0; y < a->h; ++y) {
+        const uint8_t *pa = a->px + (size_t)y * (size_t)a->stride;
+        const uint8_t *pb = b->px + (size_t)y * (size_t)b->stride;
+        for (x = 0; x < a->w; ++x) {
+            acc += (uint32_t)(pa[x] > pb[x] ? pa[x] - pb[x] : pb[x] - pa[x]);
+        }
+    }
+    *sad = acc;
+    return VT_OK;
+}

@@ -1,0 +1,39 @@
+/* internal.h -- helpers shared by the C sources; not part of the public API. */
+#ifndef VEHTRACK_INTERNAL_H
+#define VEHTRACK_INTERNAL_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include "vehtrack/config.h"
+#include "vehtrack/status.h"
+
+/* Size check shared by every view type: VT_E_SIZE unless 1 <= w <= maxw,
+ * 1 <= h <= maxh and stride >= w. */
+static inline vt_status vt__check_dims(int32_t w, int32_t h, int32_t stride, int32_t maxw,
+                                       int32_t maxh)
+{
+    if (w < 1 || h < 1 || w > maxw || h > maxh || stride < w) {
+        return VT_E_SIZE;
+    }
+    return VT_OK;
+}
+
+static inline int32_t vt__clamp_i32(int32_t v, int32_t lo, int32_t hi)
+{
+    return v < lo ? lo : (v > hi ? hi : v);
+}
+
+/* BORDER_REFLECT_101 index (as OpenCV's borderInterpolate): ... 2 1 | 0 1 2 ... n-1 | n-2 ...
+ * reflected as often as needed, so tiny images work too. */
+static inline int32_t vt__reflect101(int32_t p, int32_t n)
+{
+    if (n == 1) {
+        return 0;
+    }
+    while (p < 0 || p >= n) {
+        p = p < 0 ? -p : 2 * (n - 1) - p;
+    }
+    return p;
+}
+
+#endif /* VEHTRACK_INTERNAL_H */

@@ -1,0 +1,82 @@
+"""Friendly wrappers over the C pixel primitives (see include/vehtrack/image.h).
+
+Each takes a 2-D uint8 NumPy image (any row stride), allocates the output and
+returns it. Errors from the core arrive as `pyvehtrack.VtError`."""
+from __future__ import annotations
+
+import numpy as np
+
+from . import _native
+
+Q14_ONE = 1 << 14
+
+
+def _new(shape, dtype) -> np.ndarray:
+    return np.empty(shape, dtype=dtype)
+
+
+def _shape(img) -> tuple[int, int]:
+    if not isinstance(img, np.ndarray):
+        raise TypeError(f"expected a numpy.ndarray, got {type(img).__name__}")
+    if img.ndim != 2:
+        raise ValueError(f"expected a 2-D gray image, got shape {img.shape}")
+    return img.shape
+
+
+def filter_h101(img: np.ndarray) -> np.ndarray:
+    """[-1 0 1] horizontal derivative, int16, edge replicated."""
+    out = _new(_shape(img), np.int16)
+    _native.filter_h101(img, out)
+    return out
+
+
+def sobel_x(img: np.ndarray) -> np.ndarray:
+    """3x3 Sobel d/dx, int16, edge replicated."""
+    out = _new(_shape(img), np.int16)
+    _native.sobel_x(img, out)
+    return out
+
+
+def sobel_y(img: np.ndarray) -> np.ndarray:
+    """3x3 Sobel d/dy (positive where brighter below), int16, edge replicated."""
+    out = _new(_shape(img), np.int16)
+    _native.sobel_y(img, out)
+    return out
+
+
+def pyr_down(img: np.ndarray) -> np.ndarray:
+    """One 5x5 Gaussian pyramid step to ((h+1)//2, (w+1)//2), as cv2.pyrDown."""
+    h, w = _shape(img)
+    out = _new(((h + 1) // 2, (w + 1) // 2), np.uint8)
+    _native.pyr_down(img, out)
+    return out
+
+
+def integral(img: np.ndarray) -> np.ndarray:
+    """(h+1, w+1) uint32 integral image with a zero first row and column."""
+    h, w = _shape(img)
+    out = _new((h + 1, w + 1), np.uint32)
+    _native.integral(img, out)
+    return out
+
+
+def box_sum(ii: np.ndarray, x: int, y: int, w: int, h: int) -> int:
+    """Sum of the source pixels in [x, x+w) x [y, y+h) from an integral image."""
+    return _native.box_sum(ii, x, y, w, h)
+
+
+def ncc(a: np.ndarray, b: np.ndarray) -> float:
+    """Normalised cross-correlation in [-1, 1] (the core's Q1.14 value / 16384).
+
+    Returns NaN when a patch is flat, where the coefficient is undefined."""
+    try:
+        return _native.ncc_u8(a, b) / Q14_ONE
+    except _native.VtError as e:
+        if e.status == _native.lib.VT_E_SINGULAR:
+            return float("nan")
+        raise
+
+
+def sad(a: np.ndarray, b: np.ndarray) -> int:
+    """Sum of absolute differences of two equal-size uint8 blocks."""
+    return _native.sad_u8(a, b)
