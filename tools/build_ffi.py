@@ -14,12 +14,13 @@ from pathlib import Path
 import cffi
 
 ROOT = Path(__file__).resolve().parent.parent
-CDEF = ROOT / "pyvehtrack" / "_cdef.h"
+CDEF_DIR = ROOT / "pyvehtrack" / "cdef"
 
 
 def make_ffi() -> cffi.FFI:
     ffi = cffi.FFI()
-    ffi.cdef(CDEF.read_text())
+    # One cdef file per C module, read in name order (00_core.h first).
+    ffi.cdef("\n".join(p.read_text() for p in sorted(CDEF_DIR.glob("*.h"))))
     # The library itself is linked by meson; here we only include its header.
     ffi.set_source("pyvehtrack._vtffi", '#include "vehtrack/vehtrack.h"\n')
     return ffi

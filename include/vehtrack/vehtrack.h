@@ -9,6 +9,7 @@
 #include "vehtrack/fixed.h"
 #include "vehtrack/trig.h"
 #include "vehtrack/image.h"
+#include "vehtrack/road.h"
 
 #define VT_VERSION_MAJOR 0
 #define VT_VERSION_MINOR 1

@@ -57,3 +57,14 @@ vt_status vt_integral(const vt_image_u8 *src, vt_image_u32 *dst);
 vt_status vt_box_sum(const vt_image_u32 *ii, int32_t x, int32_t y, int32_t w, int32_t h, uint32_t *sum);
 vt_status vt_ncc_u8(const vt_image_u8 *a, const vt_image_u8 *b, vt_q14 *ncc);
 vt_status vt_sad_u8(const vt_image_u8 *a, const vt_image_u8 *b, uint32_t *sad);
+
+/* road.h */
+typedef struct {
+    int32_t valid;
+    int32_t y_top;
+    int32_t y_bottom;
+    int32_t height;
+    int16_t x_left[...];
+    int16_t x_right[...];
+    int16_t lane_width[...];
+} vt_road_area;

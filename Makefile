@@ -1,0 +1,73 @@
+# The short hand a person types. meson.build is the build of record (pip install -e .
+# runs it); these targets add the strict C build, the sanitizer run, the firmware
+# image and the benchmarks.
+#
+#   make setup        install everything a fresh Debian machine needs (apt-get + pip)
+#   make test         the whole suite: strict C build, pytest, firmware under QEMU
+#   make check SAN=1  the pytest suite against a copy of the extension built with ASan+UBSan
+#   make firmware     Cortex-M3/M7 images, size table, forbidden-symbol check
+#   make bench        C vs reference per stage, plus callgrind instructions per pixel
+
+PY      ?= python3
+CC      ?= cc
+BUILD   ?= build
+SAN     ?= 0
+STRICT  := -std=c99 -pedantic -Wall -Wextra -Werror -Wshadow -Wstrict-prototypes \
+           -Wmissing-prototypes -Wcast-qual -Wdouble-promotion -Wfloat-equal
+CORE_SRCS := $(wildcard c/*.c)
+CORE_HDRS := $(wildcard include/vehtrack/*.h) $(wildcard c/*.h) $(wildcard c/tables/*.h)
+
+.PHONY: all lib setup test pytest check firmware firmware-run bench clean tables
+
+all: lib
+
+# The core alone, with the strictest flags, as a firmware engineer would build it.
+lib: $(BUILD)/libvehtrack.a
+$(BUILD)/libvehtrack.a: $(CORE_SRCS) $(CORE_HDRS)
+	@mkdir -p $(BUILD)/obj
+	@set -e; for f in $(CORE_SRCS); do \
+	  $(CC) $(STRICT) -O2 -Iinclude -c $$f -o $(BUILD)/obj/$$(basename $$f .c).o; done
+	ar rcs $@ $(BUILD)/obj/*.o
+	@echo "strict C99 build: OK ($(words $(CORE_SRCS)) sources)"
+
+setup:
+	$(PY) tools/setup_env.py
+
+tables:
+	$(PY) tools/gen_tables.py
+
+test: lib
+	$(PY) -m pytest -q
+	$(MAKE) check SAN=1
+
+pytest:
+	$(PY) -m pytest -q
+
+# ---- the suite against an out-of-meson build of the extension (sanitizers, -D configs)
+EXT_SUFFIX := $(shell $(PY) -c "import sysconfig; print(sysconfig.get_config_var('EXT_SUFFIX'))")
+PY_INC     := $(shell $(PY) -c "import sysconfig; print(sysconfig.get_paths()['include'])")
+CHECK_DIR  := $(BUILD)/check$(if $(filter 1,$(SAN)),-san,)
+CHECK_EXT  := $(CHECK_DIR)/_vtffi$(EXT_SUFFIX)
+ifeq ($(SAN),1)
+SAN_FLAGS  := -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer -g
+SAN_ENV    := LD_PRELOAD="$$($(CC) -print-file-name=libasan.so) $$($(CC) -print-file-name=libubsan.so)" \
+              ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+endif
+CHECK_DEFS ?=
+
+$(CHECK_EXT): $(CORE_SRCS) $(CORE_HDRS) $(wildcard pyvehtrack/cdef/*.h) tools/build_ffi.py
+	@mkdir -p $(CHECK_DIR)
+	$(PY) tools/build_ffi.py $(CHECK_DIR)/_vtffi.c >/dev/null
+	$(CC) -shared -fPIC -O1 $(SAN_FLAGS) $(CHECK_DEFS) -Iinclude -I$(PY_INC) \
+	  $(CORE_SRCS) $(CHECK_DIR)/_vtffi.c -o $@
+
+TESTS ?= tests
+check: $(CHECK_EXT)
+	$(SAN_ENV) PYTHONPATH=$(CURDIR) PYVEHTRACK_FFI=$(abspath $(CHECK_EXT)) $(PY) -m pytest -q \
+	  -p no:cacheprovider $(TESTS)
+
+-include firmware_demo/firmware.mk
+-include bench/bench.mk
+
+clean:
+	rm -rf $(BUILD)
