@@ -30,8 +30,19 @@ $(BUILD)/libvehtrack.a: $(CORE_SRCS) $(CORE_HDRS)
 	ar rcs $@ $(BUILD)/obj/*.o
 	@echo "strict C99 build: OK ($(words $(CORE_SRCS)) sources)"
 
+# System packages: the ARM toolchain and QEMU for the firmware proof, valgrind for
+# `make bench`. Python: the build backend first, then the package in editable mode
+# (meson-python rebuilds the C on import, so it needs no build isolation).
+APT_PKGS := gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm valgrind
+SUDO     := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 setup:
-	$(PY) tools/setup_env.py
+	@missing=""; for t in arm-none-eabi-gcc qemu-system-arm valgrind; do \
+	  command -v $$t >/dev/null || missing="$$missing $$t"; done; \
+	if [ -n "$$missing" ]; then echo "installing system packages for:$$missing"; \
+	  $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq \
+	    --no-install-recommends $(APT_PKGS) >/dev/null; fi
+	$(PY) -m pip install -q --upgrade "meson-python>=0.15" "meson>=1.1" ninja "cffi>=1.16"
+	$(PY) -m pip install -q --no-build-isolation -e ".[test]"
 
 tables:
 	$(PY) tools/gen_tables.py

@@ -1,0 +1,178 @@
+"""C core pixel primitives vs the float oracle (include/vehtrack/image.h vs
+pyvehtrack/reference/image.py), on hypothesis-drawn images.
+
+Sizes are drawn in 1..67 to hit every loop tail and the 1-pixel borders, rows
+get random padding (stride > width) filled with a value a correct primitive
+never reads, and every output lives inside a guard buffer that must stay intact."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, strategies as st
+from hypothesis.extra import numpy as hnp
+
+import pyvehtrack as vt
+from pyvehtrack import _native
+from pyvehtrack.reference import image as ref
+
+from conftest import Guarded, padded_copy
+
+dims = st.integers(1, 67)
+
+
+@st.composite
+def images(draw, min_side=1, max_side=67):
+    h = draw(st.integers(min_side, max_side))
+    w = draw(st.integers(min_side, max_side))
+    kind = draw(st.sampled_from(["random", "extremes", "flat", "checker"]))
+    if kind == "random":
+        img = draw(hnp.arrays(np.uint8, (h, w), elements=st.integers(0, 255)))
+    elif kind == "extremes":  # values at the uint8 limits maximise every gradient
+        img = draw(hnp.arrays(np.uint8, (h, w), elements=st.sampled_from([0, 255])))
+    elif kind == "flat":
+        img = np.full((h, w), draw(st.integers(0, 255)), np.uint8)
+    else:
+        yy, xx = np.mgrid[0:h, 0:w]
+        img = (((yy + xx) % 2) * 255).astype(np.uint8)
+    pad = draw(st.integers(0, 5))
+    return padded_copy(img, pad) if pad else img
+
+
+# The 3x3 filters are exact integer sums of at most 8 terms of |v| <= 255 on both
+# sides (float32 represents them exactly), so the tolerance is 0 LSB.
+@pytest.mark.parametrize("cname,oracle", [
+    ("filter_h101", ref.filter_h101), ("sobel_x", ref.sobel_x), ("sobel_y", ref.sobel_y)])
+@given(img=images())
+def test_gradients_exact(cname, oracle, img):
+    g = Guarded(*img.shape, np.int16)
+    getattr(_native, cname)(img, g.view)
+    assert g.intact()
+    np.testing.assert_array_equal(g.view.astype(np.float64), oracle(np.ascontiguousarray(img)))
+
+
+# pyr_down: the float oracle sums 25 products that are multiples of 1/256 with
+# magnitude < 256, all exact in float64, then rounds half up as the C contract
+# says; the C sum is the same exact integer. Tolerance: 0 LSB.
+@given(img=images())
+def test_pyr_down_exact(img):
+    h, w = img.shape
+    g = Guarded((h + 1) // 2, (w + 1) // 2, np.uint8)
+    _native.pyr_down(img, g.view)
+    assert g.intact()
+    np.testing.assert_array_equal(g.view, ref.pyr_down(np.ascontiguousarray(img)))
+
+
+@given(img=images(min_side=5))
+def test_pyr_down_matches_opencv(img):
+    """Same as cv2.pyrDown, the usual yardstick (0 LSB: same integer arithmetic)."""
+    import cv2
+    np.testing.assert_array_equal(vt.image.pyr_down(img), cv2.pyrDown(np.ascontiguousarray(img)))
+
+
+# Integral image and box sums: integers below 2^32 on the C side, float64 sums
+# below 2^53 on the oracle side: both exact, tolerance 0.
+@given(img=images(), data=st.data())
+def test_integral_and_box_sum_exact(img, data):
+    h, w = img.shape
+    g = Guarded(h + 1, w + 1, np.uint32)
+    _native.integral(img, g.view)
+    assert g.intact()
+    np.testing.assert_array_equal(g.view.astype(np.float64), ref.integral(img))
+    x = data.draw(st.integers(0, w - 1))
+    y = data.draw(st.integers(0, h - 1))
+    bw = data.draw(st.integers(1, w - x))
+    bh = data.draw(st.integers(1, h - y))
+    assert _native.box_sum(g.view, x, y, bw, bh) == ref.box_sum(img, x, y, bw, bh)
+
+
+def test_integral_full_frame_extreme():
+    """The largest frame of all-255 pixels: the sum must not wrap uint32."""
+    img = np.full((vt.MAX_HEIGHT, vt.MAX_WIDTH), 255, np.uint8)
+    ii = vt.image.integral(img)
+    assert int(ii[-1, -1]) == 255 * vt.MAX_WIDTH * vt.MAX_HEIGHT
+    assert vt.image.box_sum(ii, 0, 0, vt.MAX_WIDTH, vt.MAX_HEIGHT) == 255 * vt.MAX_WIDTH * vt.MAX_HEIGHT
+
+
+@st.composite
+def patch_pairs(draw):
+    h = draw(st.integers(1, 40))
+    w = draw(st.integers(1, 40))
+    a = draw(hnp.arrays(np.uint8, (h, w), elements=st.integers(0, 255)))
+    mode = draw(st.sampled_from(["independent", "affine", "negated", "noisy"]))
+    if mode == "independent":
+        b = draw(hnp.arrays(np.uint8, (h, w), elements=st.integers(0, 255)))
+    elif mode == "affine":  # correlation exactly 1 up to the uint8 rounding
+        b = np.clip(a.astype(np.int32) // 2 + 40, 0, 255).astype(np.uint8)
+    elif mode == "negated":
+        b = (255 - a).astype(np.uint8)
+    else:
+        noise = draw(hnp.arrays(np.int16, (h, w), elements=st.integers(-20, 20)))
+        b = np.clip(a.astype(np.int32) + noise, 0, 255).astype(np.uint8)
+    return padded_copy(a, draw(st.integers(0, 3))), b
+
+
+# NCC: the C side computes the centred sums exactly, then a quotient with ~29
+# significant bits before rounding to Q14 (see vt_ncc_u8 in image.h), i.e. an
+# error < 2^-15 LSB before the final rounding: result within 1 LSB of the exact
+# value * 16384.
+@given(pair=patch_pairs())
+def test_ncc_within_1_lsb(pair):
+    a, b = pair
+    r = ref.ncc(a, b)
+    if math.isnan(r):
+        with pytest.raises(vt.VtError) as e:
+            _native.ncc_u8(a, b)
+        assert e.value.status == vt.lib.VT_E_SINGULAR
+        assert math.isnan(vt.image.ncc(a, b))
+        return
+    c = _native.ncc_u8(a, b)
+    assert abs(c - r * 16384) <= 1.0, (c, r * 16384)
+
+
+def test_ncc_largest_patch_extremes():
+    """VT_MAX_PATCH_PIXELS pixels of 0/255: the int64 sums are at their largest."""
+    n = vt.lib.VT_MAX_PATCH_PIXELS
+    side = int(math.isqrt(n))
+    rng = np.random.default_rng(7)
+    a = (rng.integers(0, 2, (side, n // side)) * 255).astype(np.uint8)
+    for b in (a.copy(), (255 - a).astype(np.uint8), (rng.integers(0, 2, a.shape) * 255).astype(np.uint8)):
+        assert abs(_native.ncc_u8(a, b) - ref.ncc(a, b) * 16384) <= 1.0
+    with pytest.raises(vt.VtError) as e:
+        _native.ncc_u8(np.zeros((side + 1, n // side), np.uint8), np.zeros((side + 1, n // side), np.uint8))
+    assert e.value.status == vt.lib.VT_E_SIZE
+
+
+@given(pair=patch_pairs())
+def test_sad_exact(pair):
+    a, b = pair
+    assert _native.sad_u8(a, b) == ref.sad(a, b)
+
+
+def test_sad_largest_frame():
+    a = np.zeros((vt.MAX_HEIGHT, vt.MAX_WIDTH), np.uint8)
+    b = np.full_like(a, 255)
+    assert vt.image.sad(a, b) == 255 * a.size
+
+
+# sin/cos: table entries are the exact value rounded to Q14, so |error| <= 0.5 LSB
+# (plus 1e-9 for the float64 evaluation of the oracle itself).
+def test_sincos_every_table_angle():
+    for a in range(-1440, 2 * 1440 + 1):
+        s, c = _native.sincos_q14(a)
+        rs, rc = ref.sincos(a / 4)
+        assert abs(s - rs * 16384) <= 0.5 + 1e-9 and abs(c - rc * 16384) <= 0.5 + 1e-9, a
+
+
+@given(a=st.integers(-(2**31), 2**31 - 1))
+def test_sincos_any_int32_angle(a):
+    s, c = _native.sincos_q14(a)
+    rs, rc = ref.sincos((a % 1440) / 4)
+    assert abs(s - rs * 16384) <= 0.5 + 1e-9 and abs(c - rc * 16384) <= 0.5 + 1e-9
+
+
+def test_sincos_null_outputs():
+    s = vt.ffi.new("vt_q14 *")
+    assert vt.lib.vt_sincos_q14(10, vt.ffi.NULL, vt.ffi.NULL) == vt.lib.VT_E_ARG
+    assert vt.lib.vt_sincos_q14(360, s, vt.ffi.NULL) == vt.lib.VT_OK and s[0] == 16384
