@@ -20,7 +20,13 @@ import numpy as np
 def _load_ffi_module():
     path = os.environ.get("PYVEHTRACK_FFI")
     if not path:
-        from . import _vtffi
+        try:
+            from . import _vtffi
+        except ImportError as e:
+            raise ImportError(
+                "pyvehtrack's C extension (pyvehtrack._vtffi) is not built: run `make setup` "
+                "(pip install --no-build-isolation -e .), or point PYVEHTRACK_FFI at a build "
+                "made by `make check`") from e
         return _vtffi
     loader = importlib.machinery.ExtensionFileLoader("pyvehtrack._vtffi", path)
     spec = importlib.util.spec_from_file_location("pyvehtrack._vtffi", path, loader=loader)
