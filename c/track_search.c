@@ -1,0 +1,146 @@
+/* track_search.c -- the tracker's measurement inside a predicted ROI (thesis
+ * sec. 3.6.1): horizontal-edge projection searched from the bottom to the middle
+ * for the bottom edge, vertical-edge projections searched from the left and the
+ * right for the sides, with the thesis's two-threshold rule against jumps. */
+#include "vehtrack/track_search.h"
+#include "internal.h"
+
+/* Sobel responses at (x, y) with the edge replicated, as vt_sobel_x/y. */
+static int32_t vt__sobel_y_at(const vt_image_u8 *img, int32_t x, int32_t y)
+{
+    int32_t xl = x > 0 ? x - 1 : 0, xr = x < img->w - 1 ? x + 1 : img->w - 1;
+    const uint8_t *pm = img->px + (size_t)(y > 0 ? y - 1 : 0) * (size_t)img->stride;
+    const uint8_t *pp = img->px + (size_t)(y < img->h - 1 ? y + 1 : img->h - 1) * (size_t)img->stride;
+    return (pp[xl] + 2 * pp[x] + pp[xr]) - (pm[xl] + 2 * pm[x] + pm[xr]);
+}
+
+static int32_t vt__sobel_x_at(const vt_image_u8 *img, int32_t x, int32_t y)
+{
+    int32_t xl = x > 0 ? x - 1 : 0, xr = x < img->w - 1 ? x + 1 : img->w - 1;
+    const uint8_t *pm = img->px + (size_t)(y > 0 ? y - 1 : 0) * (size_t)img->stride;
+    const uint8_t *p0 = img->px + (size_t)y * (size_t)img->stride;
+    const uint8_t *pp = img->px + (size_t)(y < img->h - 1 ? y + 1 : img->h - 1) * (size_t)img->stride;
+    return (pm[xr] - pm[xl]) + 2 * (p0[xr] - p0[xl]) + (pp[xr] - pp[xl]);
+}
+
+/* First index in [lo, hi) (stepping +1) or (hi, lo] (stepping -1) whose value is
+ * >= thr, or -1. thr is compared as 2*v >= 2*thr_half to keep halves exact. */
+static int32_t vt__scan(const int32_t *v, int32_t from, int32_t to, int32_t step, int32_t num,
+                        int32_t den, int32_t vmax)
+{
+    int32_t i;
+    for (i = from; i != to; i += step) {
+        /* v >= vmax * num / den without a division (vmax, v < 2^20). */
+        if ((int64_t)v[i] * den >= (int64_t)vmax * num) {
+            return i;
+        }
+    }
+    return -1;
+}
+
+static int32_t vt__max_range(const int32_t *v, int32_t lo, int32_t hi)
+{
+    int32_t i, m = 0;
+    for (i = lo; i < hi; ++i) {
+        m = v[i] > m ? v[i] : m;
+    }
+    return m;
+}
+
+static int32_t vt__abs32(int32_t v)
+{
+    return v < 0 ? -v : v;
+}
+
+vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg,
+                          const vt_box *roi, vt_track_sides *sides,
+                          vt_track_search_ws *ws, vt_box *meas, int32_t *found)
+{
+    int32_t l, t, r, b, x, y, ybest, hbest, mid, midx, lmax, rmax, xl, xr, rows;
+    vt_status s = vt_image_u8_check(img);
+    if (s != VT_OK) {
+        return s;
+    }
+    if (cfg == NULL || roi == NULL || ws == NULL || meas == NULL || found == NULL) {
+        return VT_E_ARG;
+    }
+    if (cfg->h_thresh < 1 || cfg->v_thresh < 1 || cfg->min_h_percent < 0 ||
+        cfg->min_h_percent > 100 || cfg->min_v_percent < 0 || cfg->min_v_percent > 100) {
+        return VT_E_ARG;
+    }
+    *found = 0;
+    /* Work on half-open ranges [l, r) x [t, b) inside the image. */
+    l = vt__clamp_i32(roi->left, 0, img->w);
+    r = roi->right < roi->left ? l : vt__clamp_i32(roi->right, -1, img->w - 1) + 1;
+    t = vt__clamp_i32(roi->top, 0, img->h);
+    b = roi->bottom < roi->top ? t : vt__clamp_i32(roi->bottom, -1, img->h - 1) + 1;
+    /* Too small to hold a bottom edge and two sides: not found (not an error,
+     * a predicted box may leave the frame). */
+    if (r - l < 4 || b - t < 2) {
+        return VT_OK;
+    }
+    for (y = t; y < b; ++y) {
+        int32_t n = 0;
+        for (x = l; x < r; ++x) {
+            n += vt__sobel_y_at(img, x, y) <= -cfg->h_thresh;
+        }
+        ws->hproj[y] = n;
+    }
+    /* Bottom edge: from the bottom row up to the middle row, the largest count;
+     * the lower row wins ties because it is met first. */
+    mid = t + (b - t) / 2;
+    ybest = -1;
+    hbest = 0;
+    for (y = b - 1; y >= mid; --y) {
+        if (ws->hproj[y] > hbest) {
+            hbest = ws->hproj[y];
+            ybest = y;
+        }
+    }
+    if (ybest < 0 || (int64_t)hbest * 100 < (int64_t)cfg->min_h_percent * (r - l)) {
+        return VT_OK;
+    }
+    rows = ybest - t + 1;
+    for (x = l; x < r; ++x) {
+        int32_t n = 0;
+        for (y = t; y <= ybest; ++y) {
+            n += vt__abs32(vt__sobel_x_at(img, x, y)) >= cfg->v_thresh;
+        }
+        ws->vproj[x] = n;
+    }
+    midx = l + (r - l) / 2;
+    lmax = vt__max_range(ws->vproj, l, midx);
+    rmax = vt__max_range(ws->vproj, midx, r);
+    if ((int64_t)lmax * 100 < (int64_t)cfg->min_v_percent * rows || lmax == 0 ||
+        (int64_t)rmax * 100 < (int64_t)cfg->min_v_percent * rows || rmax == 0) {
+        return VT_OK;
+    }
+    /* First threshold: half the largest value; the halves' largest values exist,
+     * so both scans succeed. */
+    xl = vt__scan(ws->vproj, l, midx, 1, 1, 2, lmax);
+    xr = vt__scan(ws->vproj, r - 1, midx - 1, -1, 1, 2, rmax);
+    if (sides != NULL && sides->have_prev) {
+        int32_t dl = vt__abs32(xl - sides->prev_left), dr = vt__abs32(xr - sides->prev_right);
+        if (dl > sides->max_change_left) {
+            xl = vt__scan(ws->vproj, l, midx, 1, 1, 1, lmax);
+            dl = vt__abs32(xl - sides->prev_left);
+        }
+        if (dr > sides->max_change_right) {
+            xr = vt__scan(ws->vproj, r - 1, midx - 1, -1, 1, 1, rmax);
+            dr = vt__abs32(xr - sides->prev_right);
+        }
+        sides->max_change_left = dl > sides->max_change_left ? dl : sides->max_change_left;
+        sides->max_change_right = dr > sides->max_change_right ? dr : sides->max_change_right;
+    }
+    if (sides != NULL) {
+        sides->have_prev = 1;
+        sides->prev_left = xl;
+        sides->prev_right = xr;
+    }
+    meas->left = xl;
+    meas->right = xr;
+    meas->top = t;
+    meas->bottom = ybest;
+    *found = 1;
+    return VT_OK;
+}

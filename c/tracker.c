@@ -1,0 +1,379 @@
+/* tracker.c -- multi-vehicle tracking (thesis ch. 3): Kalman prediction of the
+ * bottom edge (sec. 3.5), ROI search by edge projections (sec. 3.6.1),
+ * detection every N frames and the correlation check before a track is dropped
+ * (sec. 3.6). The order of slots, matches and deletions is fully determined, so
+ * pyvehtrack/reference/tracker.py can replay it step for step. */
+#include "vehtrack/tracker.h"
+#include <string.h>
+#include "internal.h"
+
+/* Detections accepted per frame; more is a caller error. */
+#define VT__MAX_DETS 256
+
+static int32_t vt__max32(int32_t a, int32_t b)
+{
+    return a > b ? a : b;
+}
+
+static int32_t vt__abs(int32_t v)
+{
+    return v < 0 ? -v : v;
+}
+
+/* Box from the filter state: corners rounded half up; height from the aspect. */
+static void vt__box_from_state(vt_track *t)
+{
+    int32_t l = vt_q16_round(t->kf.x[0]);
+    int32_t b = vt_q16_round(t->kf.x[1]);
+    int32_t r = vt_q16_round(t->kf.x[2]);
+    int32_t w, h;
+    if (r < l) { /* the corners crossed: keep a one-pixel box at their middle */
+        int32_t m = (int32_t)vt__floor_shr64((int64_t)l + r, 1);
+        l = m;
+        r = m;
+    }
+    w = r - l + 1;
+    h = (int32_t)vt__floor_shr64((int64_t)w * t->aspect_q8 + 128, 8);
+    h = h < 1 ? 1 : h;
+    t->box.left = l;
+    t->box.right = r;
+    t->box.bottom = b;
+    t->box.top = b - h + 1;
+    t->vx = (vt_q16)vt__floor_shr64((int64_t)t->kf.x[3] + t->kf.x[5], 1);
+    t->vy = t->kf.x[4];
+}
+
+/* Nearest-pixel resample of `box` (clamped into the image) to T x T, sampling
+ * each cell's centre: y = top + floor((2i + 1) h / 2T). */
+static void vt__sample(const vt_image_u8 *img, const vt_box *box, uint8_t *dst)
+{
+    int32_t i, j, w = box->right - box->left + 1, h = box->bottom - box->top + 1;
+    for (i = 0; i < VT_TRACK_TEMPLATE; ++i) {
+        int32_t y = box->top + (int32_t)(((int64_t)(2 * i + 1) * h) / (2 * VT_TRACK_TEMPLATE));
+        const uint8_t *row;
+        y = vt__clamp_i32(y, 0, img->h - 1);
+        row = img->px + (size_t)y * (size_t)img->stride;
+        for (j = 0; j < VT_TRACK_TEMPLATE; ++j) {
+            int32_t x = box->left + (int32_t)(((int64_t)(2 * j + 1) * w) / (2 * VT_TRACK_TEMPLATE));
+            dst[i * VT_TRACK_TEMPLATE + j] = row[vt__clamp_i32(x, 0, img->w - 1)];
+        }
+    }
+}
+
+/* IoU as a fraction inter / uni (both >= 0, uni > 0 for valid boxes). */
+static void vt__iou(const vt_box *a, const vt_box *b, int64_t *inter, int64_t *uni)
+{
+    int64_t iw = (int64_t)(a->right < b->right ? a->right : b->right) -
+                 (a->left > b->left ? a->left : b->left) + 1;
+    int64_t ih = (int64_t)(a->bottom < b->bottom ? a->bottom : b->bottom) -
+                 (a->top > b->top ? a->top : b->top) + 1;
+    int64_t aa = ((int64_t)a->right - a->left + 1) * ((int64_t)a->bottom - a->top + 1);
+    int64_t ab = ((int64_t)b->right - b->left + 1) * ((int64_t)b->bottom - b->top + 1);
+    *inter = (iw > 0 && ih > 0) ? iw * ih : 0;
+    *uni = aa + ab - *inter;
+}
+
+static int vt__box_ok(const vt_box *b)
+{
+    /* Generous bounds keep every later product inside int64. */
+    const int32_t lim = 4 * (VT_MAX_WIDTH > VT_MAX_HEIGHT ? VT_MAX_WIDTH : VT_MAX_HEIGHT);
+    return b->left <= b->right && b->top <= b->bottom && b->left >= -lim && b->right <= lim &&
+           b->top >= -lim && b->bottom <= lim;
+}
+
+static vt_status vt__check_cfg(const vt_tracker_cfg *c)
+{
+    vt_q32 var;
+    const vt_kf_model_cfg *m = &c->model;
+    if (c->search.h_thresh < 1 || c->search.v_thresh < 1 || c->search.min_h_percent < 0 ||
+        c->search.min_h_percent > 100 || c->search.min_v_percent < 0 ||
+        c->search.min_v_percent > 100) {
+        return VT_E_ARG;
+    }
+    if (c->roi_margin_min < 0 || c->roi_margin_min > VT_MAX_WIDTH || c->roi_margin_percent < 0 ||
+        c->roi_margin_percent > 400 || c->gate_percent < 0 || c->gate_percent > 400 ||
+        c->confirm_hits < 1 || c->max_coast < 0 || c->match_iou_percent < 1 ||
+        c->match_iou_percent > 100 || c->keep_ncc < -VT_Q14_ONE || c->keep_ncc > VT_Q14_ONE ||
+        c->init_max_change < 0) {
+        return VT_E_ARG;
+    }
+    if (m->dt <= 0 || m->meas_sigma_x < 0 || m->meas_sigma_y < 0 || m->init_sigma_pos < 0 ||
+        m->init_sigma_vel < 0) {
+        return VT_E_ARG;
+    }
+    if (vt_kf_accel_var(m->accel_x, m->p_max, m->p_zero, &var) != VT_OK ||
+        vt_kf_accel_var(m->accel_y, m->p_max, m->p_zero, &var) != VT_OK) {
+        return VT_E_ARG;
+    }
+    return VT_OK;
+}
+
+vt_status vt_tracker_init(vt_tracker *tr)
+{
+    if (tr == NULL) {
+        return VT_E_ARG;
+    }
+    memset(tr, 0, sizeof(*tr));
+    tr->next_id = 1;
+    return VT_OK;
+}
+
+vt_status vt_tracker_cfg_default(vt_tracker_cfg *cfg)
+{
+    static const vt_tracker_cfg def = VT_TRACKER_CFG_DEFAULT;
+    if (cfg == NULL) {
+        return VT_E_ARG;
+    }
+    *cfg = def;
+    return VT_OK;
+}
+
+/* A successful measurement: lifecycle and template. */
+static void vt__hit(vt_track *t, const vt_tracker_cfg *cfg, const vt_image_u8 *img)
+{
+    t->hits += 1;
+    t->misses = 0;
+    if (t->state == VT_TRACK_TENTATIVE && t->hits >= cfg->confirm_hits) {
+        t->state = VT_TRACK_CONFIRMED;
+    } else if (t->state == VT_TRACK_COASTING) {
+        t->state = VT_TRACK_CONFIRMED;
+    }
+    vt__sample(img, &t->box, t->tmpl);
+}
+
+static vt_status vt__update(vt_track *t, int32_t left, int32_t bottom, int32_t right)
+{
+    vt_q16 z[3];
+    vt_status s;
+    z[0] = vt_q16_from_int(left);
+    z[1] = vt_q16_from_int(bottom);
+    z[2] = vt_q16_from_int(right);
+    s = vt_kf_update(&t->kf, z);
+    if (s == VT_OK) {
+        vt__box_from_state(t);
+    }
+    return s;
+}
+
+static void vt__start(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *cfg,
+                      const vt_image_u8 *img, const vt_box *d)
+{
+    int32_t w = d->right - d->left + 1, h = d->bottom - d->top + 1;
+    memset(t, 0, sizeof(*t));
+    if (vt_kf_init_bottom_edge(&t->kf, &cfg->model, vt_q16_from_int(d->left),
+                               vt_q16_from_int(d->bottom), vt_q16_from_int(d->right)) != VT_OK) {
+        return; /* cannot happen: the model was validated; leave the slot free */
+    }
+    t->id = tr->next_id;
+    tr->next_id = tr->next_id < INT32_MAX ? tr->next_id + 1 : tr->next_id;
+    t->state = cfg->confirm_hits <= 1 ? VT_TRACK_CONFIRMED : VT_TRACK_TENTATIVE;
+    t->hits = 1;
+    t->aspect_q8 = (int32_t)(((int64_t)h * 256 + w / 2) / w);
+    t->sides.have_prev = 1;
+    t->sides.prev_left = d->left;
+    t->sides.prev_right = d->right;
+    t->sides.max_change_left = cfg->init_max_change;
+    t->sides.max_change_right = cfg->init_max_change;
+    vt__box_from_state(t);
+    vt__sample(img, &t->box, t->tmpl);
+}
+
+vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_image_u8 *img,
+                          int32_t detection_frame, const vt_box *dets, int32_t n_dets,
+                          vt_track_out *out, int32_t out_cap, int32_t *n_out)
+{
+    int32_t i, j, n;
+    uint8_t measured[VT_MAX_TRACKS];
+    uint8_t track_matched[VT_MAX_TRACKS];
+    int16_t match_of_det[VT__MAX_DETS];
+    vt_status s = vt_image_u8_check(img);
+    if (s != VT_OK) {
+        return s;
+    }
+    if (tr == NULL || cfg == NULL || n_out == NULL || (out == NULL && out_cap != 0) ||
+        out_cap < 0 || tr->next_id < 1) {
+        return VT_E_ARG;
+    }
+    if (detection_frame) {
+        if (n_dets < 0 || n_dets > VT__MAX_DETS) {
+            return VT_E_SIZE;
+        }
+        if (n_dets > 0 && dets == NULL) {
+            return VT_E_ARG;
+        }
+        for (j = 0; j < n_dets; ++j) {
+            if (!vt__box_ok(&dets[j])) {
+                return VT_E_ARG;
+            }
+        }
+    }
+    s = vt__check_cfg(cfg);
+    if (s != VT_OK) {
+        return s;
+    }
+    tr->frame += 1;
+
+    /* 1. Every live track: predict, search the ROI, update or coast. */
+    for (i = 0; i < VT_MAX_TRACKS; ++i) {
+        vt_track *t = &tr->tracks[i];
+        vt_box roi, meas;
+        vt_track_sides sides;
+        int32_t found = 0, w, m, gate;
+        measured[i] = 0;
+        track_matched[i] = 0;
+        if (t->state == VT_TRACK_FREE) {
+            continue;
+        }
+        t->age += 1;
+        if (vt_kf_predict(&t->kf) != VT_OK) {
+            t->state = VT_TRACK_FREE;
+            continue;
+        }
+        vt__box_from_state(t);
+        w = t->box.right - t->box.left + 1;
+        m = vt__max32(cfg->roi_margin_min, (int32_t)((int64_t)w * cfg->roi_margin_percent / 100));
+        gate = vt__max32(8, (int32_t)((int64_t)w * cfg->gate_percent / 100));
+        roi.left = t->box.left - m;
+        roi.right = t->box.right + m;
+        roi.top = t->box.top - m;
+        roi.bottom = t->box.bottom + m;
+        sides = t->sides;
+        s = vt_track_search(img, &cfg->search, &roi, &sides, &tr->ws, &meas, &found);
+        if (s == VT_OK && found && vt__abs(meas.left - t->box.left) <= gate &&
+            vt__abs(meas.right - t->box.right) <= gate &&
+            vt__abs(meas.bottom - t->box.bottom) <= gate &&
+            vt__update(t, meas.left, meas.bottom, meas.right) == VT_OK) {
+            t->sides = sides;
+            measured[i] = 1;
+            vt__hit(t, cfg, img);
+        } else {
+            t->misses += 1;
+            if (t->state == VT_TRACK_CONFIRMED) {
+                t->state = VT_TRACK_COASTING;
+            }
+        }
+    }
+
+    /* 2. Detection frame: associate, re-check unmatched tracks, start new ones. */
+    if (detection_frame) {
+        for (j = 0; j < n_dets; ++j) {
+            match_of_det[j] = -1;
+        }
+        for (;;) {
+            int32_t bi = -1, bj = -1;
+            int64_t bin = 0, bun = 1;
+            for (i = 0; i < VT_MAX_TRACKS; ++i) {
+                if (tr->tracks[i].state == VT_TRACK_FREE || track_matched[i]) {
+                    continue;
+                }
+                for (j = 0; j < n_dets; ++j) {
+                    int64_t in, un;
+                    if (match_of_det[j] >= 0) {
+                        continue;
+                    }
+                    vt__iou(&tr->tracks[i].box, &dets[j], &in, &un);
+                    /* IoU >= threshold, and strictly better than the best so far
+                     * (so the first of equal pairs, in slot then detection order, wins). */
+                    if (in * 100 >= (int64_t)cfg->match_iou_percent * un && in * bun > bin * un) {
+                        bi = i;
+                        bj = j;
+                        bin = in;
+                        bun = un;
+                    }
+                }
+            }
+            if (bi < 0) {
+                break;
+            }
+            track_matched[bi] = 1;
+            match_of_det[bj] = (int16_t)bi;
+            if (!measured[bi]) {
+                vt_track *t = &tr->tracks[bi];
+                const vt_box *d = &dets[bj];
+                int32_t dw = d->right - d->left + 1;
+                if (vt__update(t, d->left, d->bottom, d->right) == VT_OK) {
+                    t->aspect_q8 = (int32_t)(((int64_t)(d->bottom - d->top + 1) * 256 + dw / 2) / dw);
+                    vt__box_from_state(t);
+                    t->sides.prev_left = d->left;
+                    t->sides.prev_right = d->right;
+                    measured[bi] = 1;
+                    vt__hit(t, cfg, img);
+                }
+            }
+        }
+        /* Tracks the detector no longer sees: keep only if the last template
+         * still correlates with the same place in this frame. */
+        for (i = 0; i < VT_MAX_TRACKS; ++i) {
+            vt_track *t = &tr->tracks[i];
+            uint8_t now[VT_TRACK_TEMPLATE * VT_TRACK_TEMPLATE];
+            vt_image_u8 a, b;
+            vt_q14 r = 0;
+            if (t->state == VT_TRACK_FREE || track_matched[i]) {
+                continue;
+            }
+            vt__sample(img, &t->box, now);
+            a.px = t->tmpl;
+            b.px = now;
+            a.w = b.w = a.h = b.h = a.stride = b.stride = VT_TRACK_TEMPLATE;
+            if (vt_ncc_u8(&a, &b, &r) != VT_OK || r < cfg->keep_ncc) {
+                t->state = VT_TRACK_FREE;
+            }
+        }
+        for (j = 0; j < n_dets; ++j) {
+            int overlaps = 0;
+            if (match_of_det[j] >= 0) {
+                continue;
+            }
+            for (i = 0; i < VT_MAX_TRACKS && !overlaps; ++i) {
+                int64_t in, un;
+                if (tr->tracks[i].state == VT_TRACK_FREE) {
+                    continue;
+                }
+                vt__iou(&tr->tracks[i].box, &dets[j], &in, &un);
+                overlaps = in * 10 >= un; /* IoU >= 10 %: the same vehicle, not a new one */
+            }
+            if (overlaps) {
+                continue;
+            }
+            for (i = 0; i < VT_MAX_TRACKS && tr->tracks[i].state != VT_TRACK_FREE; ++i) {
+            }
+            if (i == VT_MAX_TRACKS) {
+                tr->dropped_full += 1;
+                continue;
+            }
+            vt__start(tr, &tr->tracks[i], cfg, img, &dets[j]);
+        }
+    }
+
+    /* 3. Lifecycle: drop tracks that coasted too long or left the frame. */
+    for (i = 0; i < VT_MAX_TRACKS; ++i) {
+        vt_track *t = &tr->tracks[i];
+        if (t->state == VT_TRACK_FREE) {
+            continue;
+        }
+        if (t->misses > cfg->max_coast || (t->state == VT_TRACK_TENTATIVE && t->misses >= 2) ||
+            t->box.right < 0 || t->box.left >= img->w || t->box.bottom < 0 ||
+            t->box.top >= img->h) {
+            t->state = VT_TRACK_FREE;
+        }
+    }
+
+    /* 4. Report. */
+    n = 0;
+    for (i = 0; i < VT_MAX_TRACKS; ++i) {
+        const vt_track *t = &tr->tracks[i];
+        if (t->state == VT_TRACK_FREE) {
+            continue;
+        }
+        if (n < out_cap) {
+            out[n].id = t->id;
+            out[n].state = t->state;
+            out[n].box = t->box;
+            out[n].vx = t->vx;
+            out[n].vy = t->vy;
+        }
+        ++n;
+    }
+    *n_out = n < out_cap ? n : out_cap;
+    return n > out_cap ? VT_E_CAPACITY : VT_OK;
+}

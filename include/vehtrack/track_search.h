@@ -1,0 +1,66 @@
+/* vehtrack/track_search.h -- the tracker's measurement: find a tracked vehicle's
+ * bottom edge and sides inside its predicted region of interest (thesis sec. 3.6.1).
+ *
+ * Cost: no state of its own; the caller's vt_track_search_ws holds two projection
+ * vectors (4 * (VT_MAX_WIDTH + VT_MAX_HEIGHT) bytes). Work: two 3x3 Sobel
+ * responses per ROI pixel and two passes over the projections; no frame buffer. */
+#ifndef VEHTRACK_TRACK_SEARCH_H
+#define VEHTRACK_TRACK_SEARCH_H
+
+#include <stdint.h>
+#include "vehtrack/config.h"
+#include "vehtrack/image.h"
+#include "vehtrack/status.h"
+
+/* vt_box (inclusive pixel box: columns left..right, rows top..bottom) comes
+ * from the detector's verification stage, whose boxes the tracker takes in. */
+#include "vehtrack/verify.h"
+
+typedef struct {
+    /* A horizontal (shadow) edge pixel has Sobel d/dy <= -h_thresh: bright above,
+     * dark below, the thesis's negative vertical gradient (sec. 2.4.2.1). */
+    int32_t h_thresh;
+    /* A vertical edge pixel has |Sobel d/dx| >= v_thresh. */
+    int32_t v_thresh;
+    /* The bottom edge needs at least this many edge pixels in its row, as a
+     * percentage of the ROI width (so a blank ROI is "not found"). */
+    int32_t min_h_percent;
+    /* A side needs at least this many edge pixels in its column, as a percentage
+     * of the searched height. */
+    int32_t min_v_percent;
+} vt_track_search_cfg;
+
+#define VT_TRACK_SEARCH_CFG_DEFAULT { 96, 96, 20, 20 }
+
+/* Projection vectors; caller-owned so the search allocates nothing. */
+typedef struct {
+    int32_t hproj[VT_MAX_HEIGHT];
+    int32_t vproj[VT_MAX_WIDTH];
+} vt_track_search_ws;
+
+/* Per-track memory of the two-threshold side rule. */
+typedef struct {
+    int32_t have_prev;       /* 0 until the first accepted measurement */
+    int32_t prev_left;
+    int32_t prev_right;
+    int32_t max_change_left; /* largest accepted side move so far, px */
+    int32_t max_change_right;
+} vt_track_sides;
+
+/* Search `roi` (clipped to the image) of `img`:
+ * 1. horizontal-edge projection per row (count of shadow-edge pixels); the
+ *    largest value between the bottom row and the middle row, searched from the
+ *    bottom (ties: the lower row), is the bottom edge;
+ * 2. vertical-edge projection per column over rows roi.top..bottom edge; the left
+ *    half is searched from the left, the right half from the right, for the first
+ *    column >= half of that half's largest value; if the side then moved more than
+ *    the largest move accepted so far (`sides`), that side is searched again for
+ *    the largest value itself (the thesis's two thresholds). `sides` is updated.
+ * *found is 1 and *meas the box (its top copied from roi) when all three edges
+ * were found, else 0 (and *meas untouched). Exact integer arithmetic throughout.
+ * `sides` may be NULL (no history: first threshold only). */
+vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg,
+                          const vt_box *roi, vt_track_sides *sides,
+                          vt_track_search_ws *ws, vt_box *meas, int32_t *found);
+
+#endif /* VEHTRACK_TRACK_SEARCH_H */

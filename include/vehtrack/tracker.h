@@ -1,0 +1,113 @@
+/* vehtrack/tracker.h -- multi-vehicle tracker (thesis ch. 3, sec. 3.5-3.6): per
+ * track a Kalman filter on the box's bottom edge predicts the box, a search in the
+ * predicted ROI measures it (vt_track_search), detections every N frames start
+ * new tracks, and normalised correlation decides whether a track the detector no
+ * longer sees is still there before it is dropped.
+ *
+ * Cost: sizeof(vt_tracker) = VT_MAX_TRACKS * sizeof(vt_track) (each about 2.4 KB:
+ * a 2 KB fixed-point Kalman filter and a VT_TRACK_TEMPLATE^2-byte template) plus
+ * the projection workspace (4 * (VT_MAX_WIDTH + VT_MAX_HEIGHT) bytes). Work per
+ * frame and track: one predict + update (about 1 100 multiplies) and two Sobel
+ * responses per ROI pixel; nothing outside the ROIs is touched except on
+ * detection frames (the template check, VT_TRACK_TEMPLATE^2 pixels per track). */
+#ifndef VEHTRACK_TRACKER_H
+#define VEHTRACK_TRACKER_H
+
+#include <stdint.h>
+#include "vehtrack/config.h"
+#include "vehtrack/fixed.h"
+#include "vehtrack/image.h"
+#include "vehtrack/kalman.h"
+#include "vehtrack/status.h"
+#include "vehtrack/track_search.h"
+
+/* Side of the square template kept per track for the correlation check. */
+#ifndef VT_TRACK_TEMPLATE
+#define VT_TRACK_TEMPLATE 16
+#endif
+
+/* Track lifecycle. A slot in state VT_TRACK_FREE holds no track. */
+typedef enum {
+    VT_TRACK_FREE = 0,
+    VT_TRACK_TENTATIVE = 1, /* seen, not yet confirmed_hits times */
+    VT_TRACK_CONFIRMED = 2, /* measured in this frame */
+    VT_TRACK_COASTING = 3   /* confirmed, running on predictions (occlusion) */
+} vt_track_state;
+
+typedef struct {
+    vt_track_search_cfg search;
+    vt_kf_model_cfg model;
+    int32_t roi_margin_min;      /* ROI = predicted box widened by the larger of   */
+    int32_t roi_margin_percent;  /* these two, px and % of the box width           */
+    int32_t gate_percent;        /* a measurement moving a corner more than this %
+                                    of the box width (or 8 px) is rejected          */
+    int32_t confirm_hits;        /* measurements before tentative -> confirmed      */
+    int32_t max_coast;           /* frames without measurement before deletion      */
+    int32_t match_iou_percent;   /* detection <-> track association threshold       */
+    vt_q14 keep_ncc;             /* correlation that keeps an undetected track      */
+    int32_t init_max_change;     /* px: the two-threshold rule's starting allowance */
+} vt_tracker_cfg;
+
+#define VT_TRACKER_CFG_DEFAULT                                                     \
+    {                                                                              \
+        VT_TRACK_SEARCH_CFG_DEFAULT, VT_KF_MODEL_CFG_DEFAULT, 4, 15, 35, 3, 6, 30, \
+            (vt_q14)(VT_Q14_ONE * 7 / 10), 3                                       \
+    }
+
+/* One track. Public so that callers can inspect and save it; change it only
+ * through the functions below. */
+typedef struct {
+    int32_t id;           /* > 0, never reused within a run */
+    int32_t state;        /* vt_track_state */
+    int32_t hits;         /* successful measurements so far */
+    int32_t misses;       /* consecutive frames without a measurement */
+    int32_t age;          /* frames since the track started */
+    int32_t aspect_q8;    /* box height / width, Q8, from the detection */
+    vt_box box;           /* current estimate (inclusive pixels) */
+    vt_q16 vx;            /* image velocity of the bottom edge, px/frame */
+    vt_q16 vy;
+    vt_track_sides sides; /* the two-threshold side rule's memory */
+    vt_kf kf;             /* bottom-edge model [x1, y1, x2, vx1, vy1, vx2] */
+    uint8_t tmpl[VT_TRACK_TEMPLATE * VT_TRACK_TEMPLATE];
+} vt_track;
+
+typedef struct {
+    int32_t next_id;
+    int32_t frame;          /* frames stepped so far */
+    int32_t dropped_full;   /* detections not started because every slot was used */
+    vt_track tracks[VT_MAX_TRACKS];
+    vt_track_search_ws ws;
+} vt_tracker;
+
+/* What the tracker reports per track and frame. */
+typedef struct {
+    int32_t id;
+    int32_t state;
+    vt_box box;
+    vt_q16 vx; /* px/frame */
+    vt_q16 vy;
+} vt_track_out;
+
+/* Empty the tracker (ids restart at 1). VT_E_ARG for NULL. */
+vt_status vt_tracker_init(vt_tracker *tr);
+
+/* Fill *cfg with VT_TRACKER_CFG_DEFAULT. VT_E_ARG for NULL. */
+vt_status vt_tracker_cfg_default(vt_tracker_cfg *cfg);
+
+/* One frame. Every live track: predict, search its ROI in `img`, update when
+ * found (else it coasts). If `detection_frame` is non-zero, `dets[0..n_dets-1]`
+ * are this frame's detections (n_dets may be 0; dets may be NULL only then):
+ * each is matched to at most one track by IoU (greedy, best pair first, at least
+ * match_iou_percent); a matched track whose search failed is updated with the
+ * detection; a track no detection matched survives only if its template
+ * correlates with the same box in `img` at >= keep_ncc; an unmatched detection
+ * that overlaps no track starts a tentative track (or, when every slot is used,
+ * is counted in dropped_full: the defined behaviour when full).
+ * Writes up to out_cap live tracks to out (all states but FREE) and their count
+ * to *n_out; VT_E_CAPACITY if more were live than out_cap (out is still filled).
+ * VT_E_ARG / VT_E_SIZE for bad arguments (then the tracker is unchanged). */
+vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_image_u8 *img,
+                          int32_t detection_frame, const vt_box *dets, int32_t n_dets,
+                          vt_track_out *out, int32_t out_cap, int32_t *n_out);
+
+#endif /* VEHTRACK_TRACKER_H */

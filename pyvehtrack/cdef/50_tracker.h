@@ -1,0 +1,74 @@
+/* track_search.h, tracker.h: ROI measurement and the multi-vehicle tracker. */
+#define VT_TRACK_TEMPLATE ...
+
+/* vt_box is declared in 40_detect.h */
+typedef struct {
+    int32_t h_thresh;
+    int32_t v_thresh;
+    int32_t min_h_percent;
+    int32_t min_v_percent;
+} vt_track_search_cfg;
+typedef struct { ...; } vt_track_search_ws;
+typedef struct {
+    int32_t have_prev;
+    int32_t prev_left;
+    int32_t prev_right;
+    int32_t max_change_left;
+    int32_t max_change_right;
+} vt_track_sides;
+
+vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg,
+                          const vt_box *roi, vt_track_sides *sides,
+                          vt_track_search_ws *ws, vt_box *meas, int32_t *found);
+
+typedef enum { VT_TRACK_FREE, VT_TRACK_TENTATIVE, VT_TRACK_CONFIRMED, VT_TRACK_COASTING, ... } vt_track_state;
+
+typedef struct {
+    vt_track_search_cfg search;
+    vt_kf_model_cfg model;
+    int32_t roi_margin_min;
+    int32_t roi_margin_percent;
+    int32_t gate_percent;
+    int32_t confirm_hits;
+    int32_t max_coast;
+    int32_t match_iou_percent;
+    vt_q14 keep_ncc;
+    int32_t init_max_change;
+} vt_tracker_cfg;
+
+typedef struct {
+    int32_t id;
+    int32_t state;
+    int32_t hits;
+    int32_t misses;
+    int32_t age;
+    int32_t aspect_q8;
+    vt_box box;
+    vt_q16 vx;
+    vt_q16 vy;
+    vt_track_sides sides;
+    vt_kf kf;
+    uint8_t tmpl[...];
+} vt_track;
+
+typedef struct {
+    int32_t next_id;
+    int32_t frame;
+    int32_t dropped_full;
+    vt_track tracks[...];
+    ...;
+} vt_tracker;
+
+typedef struct {
+    int32_t id;
+    int32_t state;
+    vt_box box;
+    vt_q16 vx;
+    vt_q16 vy;
+} vt_track_out;
+
+vt_status vt_tracker_init(vt_tracker *tr);
+vt_status vt_tracker_cfg_default(vt_tracker_cfg *cfg);
+vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_image_u8 *img,
+                          int32_t detection_frame, const vt_box *dets, int32_t n_dets,
+                          vt_track_out *out, int32_t out_cap, int32_t *n_out);

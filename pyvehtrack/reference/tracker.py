@@ -1,0 +1,250 @@
+"""Float reference of the multi-vehicle tracker (thesis ch. 3, sec. 3.5-3.6); the
+specification of c/tracker.c, step for step, with filterpy's KalmanFilter in place
+of the fixed-point one.
+
+Per frame: every live track predicts its bottom edge [x1, y1, x2] (6-state model,
+thesis eq. 3.17), searches the ROI around the predicted box (track_search) and is
+updated when the measurement passes the gate, else coasts. On detection frames,
+detections are matched to tracks by IoU (greedy, best pair first); a track no
+detection matches survives only if its 16x16 template still correlates with the
+same box in the new frame; unmatched detections that overlap no track start
+tentative tracks in the first free slot."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from filterpy.kalman import KalmanFilter
+
+from . import image as rimg
+from .track_search import SearchCfg, Sides, track_search
+
+FREE, TENTATIVE, CONFIRMED, COASTING = 0, 1, 2, 3
+TEMPLATE = 16
+MAX_DETS = 256
+
+
+@dataclass
+class ModelCfg:
+    """The bottom-edge model's parameters, as vt_kf_model_cfg (floats here)."""
+    dt: float = 1.0
+    accel_x: float = 1.0
+    accel_y: float = 0.5
+    p_max: float = 0.1
+    p_zero: float = 0.3
+    meas_sigma_x: float = 2.0
+    meas_sigma_y: float = 2.0
+    init_sigma_pos: float = 4.0
+    init_sigma_vel: float = 5.0
+
+
+@dataclass
+class TrackerCfg:
+    search: SearchCfg = field(default_factory=SearchCfg)
+    model: ModelCfg = field(default_factory=ModelCfg)
+    roi_margin_min: int = 4
+    roi_margin_percent: int = 15
+    gate_percent: int = 35
+    confirm_hits: int = 3
+    max_coast: int = 6
+    match_iou_percent: int = 30
+    keep_ncc: float = 0.7
+    init_max_change: int = 3
+
+
+def accel_var(a: float, p_max: float, p_zero: float) -> float:
+    """Thesis eq. 3.24: uniform +-A with point masses P1 at +-A and P2 at 0."""
+    return a * a / 3.0 * (1.0 + 4.0 * p_max - p_zero)
+
+
+def bottom_edge_filter(m: ModelCfg, x1: float, y1: float, x2: float) -> KalmanFilter:
+    kf = KalmanFilter(dim_x=6, dim_z=3)
+    kf.F = np.eye(6)
+    kf.F[0, 3] = kf.F[1, 4] = kf.F[2, 5] = m.dt
+    kf.H = np.hstack([np.eye(3), np.zeros((3, 3))])
+    sx, sy = accel_var(m.accel_x, m.p_max, m.p_zero), accel_var(m.accel_y, m.p_max, m.p_zero)
+    kf.Q = np.diag([0, 0, 0, sx * m.dt ** 2, sy * m.dt ** 2, sx * m.dt ** 2])
+    kf.R = np.diag([m.meas_sigma_x ** 2, m.meas_sigma_y ** 2, m.meas_sigma_x ** 2])
+    kf.P = np.diag([m.init_sigma_pos ** 2] * 3 + [m.init_sigma_vel ** 2] * 3)
+    kf.x = np.array([[x1], [y1], [x2], [0.0], [0.0], [0.0]])
+    return kf
+
+
+def _round(v: float) -> int:
+    return math.floor(v + 0.5)
+
+
+@dataclass
+class Track:
+    id: int = 0
+    state: int = FREE
+    hits: int = 0
+    misses: int = 0
+    age: int = 0
+    aspect_q8: int = 256
+    box: tuple = (0, 0, 0, 0)
+    vx: float = 0.0
+    vy: float = 0.0
+    sides: Sides = field(default_factory=Sides)
+    kf: KalmanFilter | None = None
+    tmpl: np.ndarray | None = None
+
+    def box_from_state(self):
+        x = self.kf.x[:, 0]
+        l, b, r = _round(x[0]), _round(x[1]), _round(x[2])
+        if r < l:
+            l = r = (l + r) // 2
+        w = r - l + 1
+        h = max(1, (w * self.aspect_q8 + 128) >> 8)
+        self.box = (l, b - h + 1, r, b)
+        self.vx = (x[3] + x[5]) / 2
+        self.vy = x[4]
+
+
+def sample(img: np.ndarray, box) -> np.ndarray:
+    """Nearest-pixel T x T resample of the box at each cell's centre, clamped."""
+    l, t, r, b = box
+    w, h = r - l + 1, b - t + 1
+    i = np.arange(TEMPLATE)
+    ys = np.clip(t + ((2 * i + 1) * h) // (2 * TEMPLATE), 0, img.shape[0] - 1)
+    xs = np.clip(l + ((2 * i + 1) * w) // (2 * TEMPLATE), 0, img.shape[1] - 1)
+    return img[np.ix_(ys, xs)]
+
+
+def iou_frac(a, b) -> tuple[int, int]:
+    iw = min(a[2], b[2]) - max(a[0], b[0]) + 1
+    ih = min(a[3], b[3]) - max(a[1], b[1]) + 1
+    inter = iw * ih if iw > 0 and ih > 0 else 0
+    uni = (a[2] - a[0] + 1) * (a[3] - a[1] + 1) + (b[2] - b[0] + 1) * (b[3] - b[1] + 1) - inter
+    return inter, uni
+
+
+class Tracker:
+    def __init__(self, cfg: TrackerCfg | None = None, max_tracks: int = 16):
+        self.cfg = cfg or TrackerCfg()
+        self.tracks = [Track() for _ in range(max_tracks)]
+        self.next_id = 1
+        self.frame = 0
+        self.dropped_full = 0
+
+    def _hit(self, t: Track, img):
+        t.hits += 1
+        t.misses = 0
+        if t.state == TENTATIVE and t.hits >= self.cfg.confirm_hits:
+            t.state = CONFIRMED
+        elif t.state == COASTING:
+            t.state = CONFIRMED
+        t.tmpl = sample(img, t.box)
+
+    def _update(self, t: Track, left, bottom, right):
+        t.kf.update(np.array([[left], [bottom], [right]], dtype=float))
+        t.box_from_state()
+
+    def _start(self, t: Track, img, d):
+        c = self.cfg
+        l, top, r, b = (int(v) for v in d)
+        w, h = r - l + 1, b - top + 1
+        t.__init__()
+        t.kf = bottom_edge_filter(c.model, l, b, r)
+        t.id = self.next_id
+        self.next_id += 1
+        t.state = CONFIRMED if c.confirm_hits <= 1 else TENTATIVE
+        t.hits = 1
+        t.aspect_q8 = (h * 256 + w // 2) // w
+        t.sides = Sides(True, l, r, c.init_max_change, c.init_max_change)
+        t.box_from_state()
+        t.tmpl = sample(img, t.box)
+
+    def step(self, img: np.ndarray, detection_frame: bool = False, dets=()):
+        c = self.cfg
+        img = np.asarray(img, np.uint8)
+        dets = [tuple(int(v) for v in d) for d in (dets if detection_frame else [])]
+        self.frame += 1
+        grads = (rimg.sobel_x(img), rimg.sobel_y(img))
+        n = len(self.tracks)
+        measured = [False] * n
+        matched = [False] * n
+        for i, t in enumerate(self.tracks):
+            if t.state == FREE:
+                continue
+            t.age += 1
+            t.kf.predict()
+            t.box_from_state()
+            l, top, r, b = t.box
+            w = r - l + 1
+            m = max(c.roi_margin_min, (w * c.roi_margin_percent) // 100)
+            gate = max(8, (w * c.gate_percent) // 100)
+            sides = Sides(**vars(t.sides))
+            meas = track_search(img, c.search, (l - m, top - m, r + m, b + m), sides, grads)
+            if meas is not None and abs(meas[0] - l) <= gate and abs(meas[2] - r) <= gate \
+                    and abs(meas[3] - b) <= gate:
+                self._update(t, meas[0], meas[3], meas[2])
+                t.sides = sides
+                measured[i] = True
+                self._hit(t, img)
+            else:
+                t.misses += 1
+                if t.state == CONFIRMED:
+                    t.state = COASTING
+        if detection_frame:
+            match_of_det = [-1] * len(dets)
+            while True:
+                best = None  # (inter, uni, i, j)
+                for i, t in enumerate(self.tracks):
+                    if t.state == FREE or matched[i]:
+                        continue
+                    for j, d in enumerate(dets):
+                        if match_of_det[j] >= 0:
+                            continue
+                        inter, uni = iou_frac(t.box, d)
+                        if inter * 100 >= c.match_iou_percent * uni and \
+                                (best is None or inter * best[1] > best[0] * uni):
+                            best = (inter, uni, i, j)
+                if best is None:
+                    break
+                _, _, bi, bj = best
+                matched[bi] = True
+                match_of_det[bj] = bi
+                if not measured[bi]:
+                    t, d = self.tracks[bi], dets[bj]
+                    dw = d[2] - d[0] + 1
+                    self._update(t, d[0], d[3], d[2])
+                    t.aspect_q8 = ((d[3] - d[1] + 1) * 256 + dw // 2) // dw
+                    t.box_from_state()
+                    t.sides.prev_left, t.sides.prev_right = d[0], d[2]
+                    measured[bi] = True
+                    self._hit(t, img)
+            for i, t in enumerate(self.tracks):
+                if t.state == FREE or matched[i]:
+                    continue
+                r = rimg.ncc(t.tmpl, sample(img, t.box))
+                # C compares the Q14-rounded coefficient; compare on that grid too.
+                if math.isnan(r) or math.floor(r * 16384 + 0.5) < round(c.keep_ncc * 16384):
+                    t.state = FREE
+            for j, d in enumerate(dets):
+                if match_of_det[j] >= 0:
+                    continue
+                overlaps = False
+                for t in self.tracks:
+                    if t.state != FREE:
+                        inter, uni = iou_frac(t.box, d)
+                        if inter * 10 >= uni:
+                            overlaps = True
+                            break
+                if overlaps:
+                    continue
+                free = next((k for k, t in enumerate(self.tracks) if t.state == FREE), None)
+                if free is None:
+                    self.dropped_full += 1
+                    continue
+                self._start(self.tracks[free], img, d)
+        h, w = img.shape
+        for t in self.tracks:
+            if t.state == FREE:
+                continue
+            l, top, r, b = t.box
+            if t.misses > c.max_coast or (t.state == TENTATIVE and t.misses >= 2) or \
+                    r < 0 or l >= w or b < 0 or top >= h:
+                t.state = FREE
+        return [(t.id, t.state, t.box, t.vx, t.vy) for t in self.tracks if t.state != FREE]

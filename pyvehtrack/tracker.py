@@ -1,0 +1,125 @@
+"""Multi-vehicle tracking from Python (thesis ch. 3), on the C core or the float
+reference.
+
+    trk = Tracker()                       # C engine, thesis defaults, detection every 10th frame
+    for frame in frames:
+        tracks = trk.step(frame)          # list[Track]: id, state, box, velocity (px/frame)
+
+`step(frame, detections=...)` feeds your own detections instead (an (N, 4) array
+of inclusive [left, top, right, bottom] boxes); then detection frames are the
+frames where you pass them."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from . import _native
+from .reference import tracker as rtrk
+
+STATES = {1: "tentative", 2: "confirmed", 3: "coasting"}
+
+
+@dataclass(frozen=True)
+class Track:
+    id: int
+    state: str            # "tentative" | "confirmed" | "coasting"
+    box: tuple            # (left, top, right, bottom), inclusive, input pixels
+    velocity: tuple       # (vx, vy) of the bottom edge, input px/frame
+
+
+def cfg_to_c(cfg: rtrk.TrackerCfg):
+    """The C struct for a TrackerCfg: Q16 for model values, Q14 for the NCC threshold
+    (each rounded to nearest)."""
+    c = _native.ffi.new("vt_tracker_cfg *")
+    s = cfg.search
+    c.search.h_thresh, c.search.v_thresh = s.h_thresh, s.v_thresh
+    c.search.min_h_percent, c.search.min_v_percent = s.min_h_percent, s.min_v_percent
+    for name in ("dt", "accel_x", "accel_y", "p_max", "p_zero", "meas_sigma_x", "meas_sigma_y",
+                 "init_sigma_pos", "init_sigma_vel"):
+        v = float(getattr(cfg.model, name))
+        if not np.isfinite(v) or abs(v) >= 32768:
+            raise ValueError(f"model.{name}={v} is outside the Q15.16 range")
+        setattr(c.model, name, int(round(v * 65536)))
+    for name in ("roi_margin_min", "roi_margin_percent", "gate_percent", "confirm_hits", "max_coast",
+                 "match_iou_percent", "init_max_change"):
+        setattr(c, name, int(getattr(cfg, name)))
+    if not -1.0 <= cfg.keep_ncc <= 1.0:
+        raise ValueError(f"keep_ncc={cfg.keep_ncc} must be in [-1, 1]")
+    c.keep_ncc = int(round(cfg.keep_ncc * 16384))
+    return c
+
+
+def to_gray(frame) -> np.ndarray:
+    if not isinstance(frame, np.ndarray):
+        raise TypeError(f"frame must be a numpy.ndarray, got {type(frame).__name__}")
+    if frame.ndim == 3 and frame.shape[2] == 3:
+        frame = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
+    elif frame.ndim == 3 and frame.shape[2] == 1:
+        frame = frame[:, :, 0]
+    if frame.ndim != 2:
+        raise ValueError(f"frame must be gray (h, w) or BGR (h, w, 3), got shape {frame.shape}")
+    if frame.dtype != np.uint8:
+        raise TypeError(f"frame must be uint8, got {frame.dtype}")
+    return np.ascontiguousarray(frame)
+
+
+class Tracker:
+    """Vehicle tracker. engine="c" runs the fixed-point core, "reference" the float oracle.
+
+    detector: an object with .detect(gray) -> result with .boxes (N, 4), used every
+    `detect_every` frames when step() is not given detections. Frames larger than the
+    core's compile-time maximum are downscaled by an integer factor (boxes are scaled
+    back to input pixels), never clipped."""
+
+    def __init__(self, engine: str = "c", cfg: rtrk.TrackerCfg | None = None,
+                 detect_every: int = 10, detector=None):
+        if engine not in ("c", "reference"):
+            raise ValueError(f"engine must be 'c' or 'reference', got {engine!r}")
+        if int(detect_every) < 1:
+            raise ValueError(f"detect_every must be >= 1, got {detect_every}")
+        self.engine = engine
+        self.cfg = cfg or rtrk.TrackerCfg()
+        self.detect_every = int(detect_every)
+        self.detector = detector
+        self.frame_index = 0
+        if engine == "c":
+            self._ccfg = cfg_to_c(self.cfg)
+            self._tr = _native.tracker_new()
+        else:
+            self._ref = rtrk.Tracker(self.cfg, max_tracks=int(_native.lib.VT_MAX_TRACKS))
+
+    def _scale(self, gray: np.ndarray) -> int:
+        h, w = gray.shape
+        f = 1
+        while w // f > _native.lib.VT_MAX_WIDTH or h // f > _native.lib.VT_MAX_HEIGHT:
+            f += 1
+        return f
+
+    def step(self, frame: np.ndarray, detections=None) -> list[Track]:
+        gray = to_gray(frame)
+        if gray.size == 0:
+            raise ValueError("empty frame")
+        f = self._scale(gray)
+        small = cv2.resize(gray, (gray.shape[1] // f, gray.shape[0] // f),
+                           interpolation=cv2.INTER_AREA) if f > 1 else gray
+        if detections is not None:
+            det_frame, dets = True, _native._boxes_i32(detections, "detections")
+        elif self.detector is not None and self.frame_index % self.detect_every == 0:
+            det_frame, dets = True, np.asarray(self.detector.detect(frame).boxes).reshape(-1, 4)
+        else:
+            det_frame, dets = False, np.zeros((0, 4), np.int32)
+        if f > 1 and len(dets):
+            dets = np.asarray(dets) // f
+        self.frame_index += 1
+        if self.engine == "c":
+            rows = _native.tracker_step(self._tr, self._ccfg, small, det_frame, dets)
+            out = [Track(int(r["id"]), STATES[int(r["state"])],
+                         tuple(int(r[k]) * f for k in ("left", "top", "right", "bottom")),
+                         (r["vx"] / 65536 * f, r["vy"] / 65536 * f)) for r in rows]
+        else:
+            rows = self._ref.step(small, det_frame, dets)
+            out = [Track(i, STATES[s], tuple(int(v) * f for v in b), (vx * f, vy * f))
+                   for i, s, b, vx, vy in rows]
+        return out
