@@ -51,7 +51,7 @@ typedef struct {
 #define VT_TRACKER_CFG_DEFAULT                                                     \
     {                                                                              \
         VT_TRACK_SEARCH_CFG_DEFAULT, VT_KF_MODEL_CFG_DEFAULT, 4, 15, 35, 3, 6, 30, \
-            (vt_q14)(VT_Q14_ONE * 7 / 10), 3                                       \
+            (vt_q14)((VT_Q14_ONE * 7 + 5) / 10), 3 /* 0.7, rounded */             \
     }
 
 /* One track. Public so that callers can inspect and save it; change it only
