@@ -1,0 +1,459 @@
+/* main.c -- the firmware proof: the C core's pixel, trig and fixed-point
+ * primitives run on a real road frame held in flash, on a bare Cortex-M3
+ * (soft-float ABI) and Cortex-M7, and every output is folded into an FNV-1a
+ * checksum that tests/test_firmware.py recomputes on the host through cffi.
+ * Equal checksums mean the same C gives the same bits on ARM and on the host.
+ *
+ * Every buffer is static (.bss), so the linker's size table is the RAM bill.
+ * The checksum recipe (what is hashed, in which order) is mirrored line by line
+ * in tests/test_firmware.py; change both together. */
+#include <stddef.h>
+#include <stdint.h>
+#include "vehtrack/fixed.h"
+#include "vehtrack/image.h"
+#include "vehtrack/road.h"
+#include "vehtrack/status.h"
+#include "vehtrack/trig.h"
+#include "board.h"
+#include "frame_data.h"
+
+#ifndef FW_CORE_NAME
+#define FW_CORE_NAME "unknown-core"
+#endif
+
+#define W FW_FRAME_W
+#define H FW_FRAME_H
+#define PW ((W + 1) / 2)
+#define PH ((H + 1) / 2)
+
+/* Outputs, all in .bss. */
+static int16_t g_h101[H * W];
+static int16_t g_sobx[H * W];
+static int16_t g_soby[H * W];
+static uint8_t g_pyr[PH * PW];
+static uint32_t g_ii[(H + 1) * (W + 1)];
+
+/* ---------------------------------------------------------------- FNV-1a 32 */
+#define FNV_BASIS 2166136261u
+#define FNV_PRIME 16777619u
+
+static uint32_t fnv_u8(uint32_t h, uint8_t b)
+{
+    return (h ^ b) * FNV_PRIME;
+}
+
+/* Multi-byte values are hashed as their little-endian bytes, whatever the
+ * target's byte order. */
+static uint32_t fnv_u16(uint32_t h, uint16_t v)
+{
+    h = fnv_u8(h, (uint8_t)(v & 0xFFu));
+    return fnv_u8(h, (uint8_t)(v >> 8));
+}
+
+static uint32_t fnv_u32(uint32_t h, uint32_t v)
+{
+    h = fnv_u16(h, (uint16_t)(v & 0xFFFFu));
+    return fnv_u16(h, (uint16_t)(v >> 16));
+}
+
+static uint32_t fnv_s16(uint32_t h, int16_t v)
+{
+    return fnv_u16(h, (uint16_t)v); /* two's complement bits, modulo 2^16 */
+}
+
+static uint32_t fnv_s32(uint32_t h, int32_t v)
+{
+    return fnv_u32(h, (uint32_t)v);
+}
+
+static uint32_t fnv_status(uint32_t h, vt_status s)
+{
+    return fnv_s32(h, (int32_t)s);
+}
+
+/* ---------------------------------------------------------------- sequences */
+/* Numerical Recipes LCG: a deterministic sequence both sides can reproduce. */
+static uint32_t lcg(uint32_t *state)
+{
+    *state = *state * 1664525u + 1013904223u;
+    return *state;
+}
+
+/* uint32 -> int32 with two's complement meaning, without implementation-
+ * defined conversion. */
+static int32_t u2s(uint32_t u)
+{
+    return u <= (uint32_t)INT32_MAX ? (int32_t)u : -(int32_t)(~u) - 1;
+}
+
+/* A signed value of random magnitude: |v| < 2^(31-k) for a random k. */
+static int32_t lcg_scaled(uint32_t *state)
+{
+    uint32_t k = lcg(state) >> 27;
+    uint32_t m = (lcg(state) >> k) >> 1;
+    uint32_t neg = lcg(state) >> 31;
+    return neg ? -(int32_t)m : (int32_t)m;
+}
+
+/* ---------------------------------------------------------------- output */
+static uint32_t g_all = FNV_BASIS;
+static uint32_t g_t0;
+
+static void report(const char *name, uint32_t sum)
+{
+    fw_line_str("checksum ");
+    fw_line_str(name);
+    fw_line_str(" ");
+    fw_line_hex32(sum);
+    fw_line_end();
+    g_all = fnv_u32(g_all, sum);
+}
+
+/* Time one call: start() before it, stop() right after it (hashing the
+ * output is not counted). QEMU's MPS2 runs the processor clock, and so
+ * SysTick, at 25 MHz: 40 ns a tick. With -icount shift=0 one instruction is
+ * 1 ns, so ticks * 40 counts instructions to within 40 (without -icount the
+ * figure is meaningless). */
+static void start(void)
+{
+    g_t0 = fw_ticks();
+}
+
+static void insns(const char *name, uint32_t ticks)
+{
+    fw_line_str("insns ");
+    fw_line_str(name);
+    fw_line_str(" ");
+    fw_line_u32(ticks * 40u);
+    fw_line_end();
+}
+
+static void stop(const char *name)
+{
+    insns(name, fw_ticks_since(g_t0));
+}
+
+static void print_size(const char *what, uint32_t bytes)
+{
+    fw_line_str(what);
+    fw_line_str(" ");
+    fw_line_u32(bytes);
+    fw_line_end();
+}
+
+/* ---------------------------------------------------------------- checks */
+static const vt_image_u8 g_frame = {fw_frame, W, H, W};
+
+static uint32_t hash_s16_image(uint32_t h, const int16_t *px, int32_t n)
+{
+    int32_t i;
+    for (i = 0; i < n; ++i) {
+        h = fnv_s16(h, px[i]);
+    }
+    return h;
+}
+
+static void check_frame(void)
+{
+    uint32_t h = FNV_BASIS;
+    int32_t i;
+    for (i = 0; i < W * H; ++i) {
+        h = fnv_u8(h, fw_frame[i]);
+    }
+    report("frame", h);
+}
+
+typedef vt_status (*fw_grad_fn)(const vt_image_u8 *src, vt_image_s16 *dst);
+
+static void check_grad(const char *name, fw_grad_fn fn, int16_t *buf)
+{
+    vt_image_s16 dst;
+    uint32_t h = FNV_BASIS;
+    vt_status s;
+    dst.px = buf;
+    dst.w = W;
+    dst.h = H;
+    dst.stride = W;
+    start();
+    s = fn(&g_frame, &dst);
+    stop(name);
+    h = fnv_status(h, s);
+    h = hash_s16_image(h, buf, W * H);
+    report(name, h);
+}
+
+static void check_pyr(void)
+{
+    vt_image_u8_mut dst;
+    uint32_t h = FNV_BASIS;
+    vt_status s;
+    int32_t i;
+    dst.px = g_pyr;
+    dst.w = PW;
+    dst.h = PH;
+    dst.stride = PW;
+    start();
+    s = vt_pyr_down(&g_frame, &dst);
+    stop("pyr_down");
+    h = fnv_status(h, s);
+    for (i = 0; i < PW * PH; ++i) {
+        h = fnv_u8(h, g_pyr[i]);
+    }
+    report("pyr_down", h);
+}
+
+static void check_integral_and_boxes(void)
+{
+    vt_image_u32 ii;
+    uint32_t h = FNV_BASIS, state = 12345u, sum;
+    vt_status s;
+    int32_t i, x, y, bw, bh;
+    ii.px = g_ii;
+    ii.w = W + 1;
+    ii.h = H + 1;
+    ii.stride = W + 1;
+    start();
+    s = vt_integral(&g_frame, &ii);
+    stop("integral");
+    h = fnv_status(h, s);
+    for (i = 0; i < (W + 1) * (H + 1); ++i) {
+        h = fnv_u32(h, g_ii[i]);
+    }
+    report("integral", h);
+
+    /* Box sums: the whole frame, a NULL output, then 256 pseudo-random boxes of
+     * which about half stick out of the frame (VT_E_SIZE, folded in too). */
+    h = FNV_BASIS;
+    sum = 0;
+    s = vt_box_sum(&ii, 0, 0, W, H, &sum);
+    h = fnv_u32(fnv_status(h, s), sum);
+    s = vt_box_sum(&ii, 0, 0, 1, 1, NULL);
+    h = fnv_status(h, s);
+    for (i = 0; i < 256; ++i) {
+        x = (int32_t)(lcg(&state) % (W + 8)) - 4;
+        y = (int32_t)(lcg(&state) % (H + 8)) - 4;
+        bw = (int32_t)(lcg(&state) % (W / 2 + 1));
+        bh = (int32_t)(lcg(&state) % (H / 2 + 1));
+        sum = 0;
+        s = vt_box_sum(&ii, x, y, bw, bh, &sum);
+        h = fnv_u32(fnv_status(h, s), sum);
+    }
+    report("box_sum", h);
+}
+
+/* Patch pairs inside the frame: {ax, ay, bx, by, w, h}. */
+static const int16_t g_pairs[][6] = {
+    {40, 30, 42, 31, 32, 24},   /* overlapping, shifted by (2, 1) */
+    {120, 40, 120, 40, 48, 40}, /* identical: NCC 1.0, SAD 0 */
+    {0, 0, 288, 72, 32, 24},    /* opposite corners */
+    {130, 44, 134, 46, 56, 40}, /* the lead car, shifted by (4, 2) */
+    {0, 10, 0, 11, 320, 1},     /* a full row against the next */
+    {300, 0, 301, 0, 19, 96},   /* a tall strip at the right edge */
+    {0, 0, 1, 0, 319, 96},      /* nearly the whole frame, shifted by one column */
+    {24, 0, 60, 0, 8, 4},       /* sky: saturated, possibly flat */
+};
+#define N_PAIRS (sizeof g_pairs / sizeof g_pairs[0])
+
+static const uint8_t g_flat[8 * 8] = {
+    128, 128, 128, 128, 128, 128, 128, 128, 128, 128, 128, 128, 128, 128, 128, 128,
+    128, 128, 128, 128, 128, 128, 128, 128, 128, 128, 128, 128, 128, 128, 128, 128,
+    128, 128, 128, 128, 128, 128, 128, 128, 128, 128, 128, 128, 128, 128, 128, 128,
+    128, 128, 128, 128, 128, 128, 128, 128, 128, 128, 128, 128, 128, 128, 128, 128,
+};
+
+static vt_image_u8 sub(int32_t x, int32_t y, int32_t w, int32_t h)
+{
+    vt_image_u8 v;
+    v.px = fw_frame + (size_t)y * W + (size_t)x;
+    v.w = w;
+    v.h = h;
+    v.stride = W;
+    return v;
+}
+
+static void check_patches(void)
+{
+    uint32_t hn = FNV_BASIS, hs = FNV_BASIS, t_ncc = 0, t_sad = 0, t;
+    size_t i;
+    vt_image_u8 a, b, flat;
+    vt_q14 ncc;
+    uint32_t sad;
+    vt_status s;
+    for (i = 0; i < N_PAIRS; ++i) {
+        a = sub(g_pairs[i][0], g_pairs[i][1], g_pairs[i][4], g_pairs[i][5]);
+        b = sub(g_pairs[i][2], g_pairs[i][3], g_pairs[i][4], g_pairs[i][5]);
+        ncc = 0;
+        t = fw_ticks();
+        s = vt_ncc_u8(&a, &b, &ncc);
+        t_ncc += fw_ticks_since(t);
+        hn = fnv_s16(fnv_status(hn, s), ncc);
+        sad = 0;
+        t = fw_ticks();
+        s = vt_sad_u8(&a, &b, &sad);
+        t_sad += fw_ticks_since(t);
+        hs = fnv_u32(fnv_status(hs, s), sad);
+    }
+    /* Error paths: a flat patch (NCC undefined), unequal sizes, NULL output. */
+    flat.px = g_flat;
+    flat.w = 8;
+    flat.h = 8;
+    flat.stride = 8;
+    a = sub(100, 50, 8, 8);
+    b = sub(100, 50, 8, 7);
+    ncc = 0;
+    s = vt_ncc_u8(&a, &flat, &ncc);
+    hn = fnv_s16(fnv_status(hn, s), ncc);
+    s = vt_ncc_u8(&a, &b, &ncc);
+    hn = fnv_status(hn, s);
+    s = vt_ncc_u8(&a, &a, NULL);
+    hn = fnv_status(hn, s);
+    sad = 0;
+    s = vt_sad_u8(&a, &flat, &sad);
+    hs = fnv_u32(fnv_status(hs, s), sad);
+    s = vt_sad_u8(&a, &b, &sad);
+    hs = fnv_status(hs, s);
+    s = vt_sad_u8(&a, &a, NULL);
+    hs = fnv_status(hs, s);
+    insns("ncc_u8", t_ncc);
+    insns("sad_u8", t_sad);
+    report("ncc_u8", hn);
+    report("sad_u8", hs);
+}
+
+static void check_sincos(void)
+{
+    static const int32_t extra[] = {-1, -1440, 1440, 1441, 2879, -721, INT32_MAX, INT32_MIN};
+    uint32_t h = FNV_BASIS;
+    int32_t a;
+    size_t i;
+    vt_q14 sn, cs;
+    vt_status s;
+    for (a = 0; a < VT_QDEG_TURN; ++a) {
+        sn = 0;
+        cs = 0;
+        s = vt_sincos_q14(a, &sn, &cs);
+        h = fnv_s16(fnv_s16(fnv_status(h, s), sn), cs);
+    }
+    for (i = 0; i < sizeof extra / sizeof extra[0]; ++i) {
+        sn = 0;
+        cs = 0;
+        s = vt_sincos_q14(extra[i], &sn, &cs);
+        h = fnv_s16(fnv_s16(fnv_status(h, s), sn), cs);
+    }
+    s = vt_sincos_q14(0, NULL, NULL);
+    h = fnv_status(h, s);
+    report("sincos_q14", h);
+}
+
+/* Edge values for the Q16 helpers: zero, one LSB, 0.5, 1.0, the limits. */
+static const int32_t g_q16_edges[] = {
+    0, 1, -1, 2, -2, 32768, -32768, 65535, 65536, -65536, 98304, -98304,
+    INT32_MAX, INT32_MIN, INT32_MAX - 1, INT32_MIN + 1,
+};
+#define N_EDGES (sizeof g_q16_edges / sizeof g_q16_edges[0])
+#define N_RANDOM 512
+
+static void check_fixed(void)
+{
+    static const uint64_t edges64[] = {
+        0u, 1u, 2u, 3u, 4u, 15u, 16u, 17u, 0xFFFFFFFFu, 0x100000000u,
+        0xFFFFFFFE00000001u, /* (2^32 - 1)^2 */
+        0xFFFFFFFE00000000u, /* (2^32 - 1)^2 - 1 */
+        0x4000000000000000u, 0x8000000000000000u, 0xFFFFFFFFFFFFFFFFu,
+    };
+    uint32_t h, state, k;
+    size_t i, j;
+    int32_t a, b;
+    vt_q16 q;
+    vt_status s;
+    uint64_t x;
+
+    /* vt_q16_mul_sat: all edge pairs, then random value x random magnitude. */
+    h = FNV_BASIS;
+    state = 1u;
+    for (i = 0; i < N_EDGES; ++i) {
+        for (j = 0; j < N_EDGES; ++j) {
+            h = fnv_s32(h, vt_q16_mul_sat(g_q16_edges[i], g_q16_edges[j]));
+        }
+    }
+    for (i = 0; i < N_RANDOM; ++i) {
+        a = u2s(lcg(&state));
+        b = lcg_scaled(&state);
+        h = fnv_s32(h, vt_q16_mul_sat(a, b));
+    }
+    report("q16_mul_sat", h);
+
+    /* vt_q16_div: the same, with its status (division by zero included). */
+    h = FNV_BASIS;
+    state = 2u;
+    for (i = 0; i < N_EDGES; ++i) {
+        for (j = 0; j < N_EDGES; ++j) {
+            q = 0;
+            s = vt_q16_div(g_q16_edges[i], g_q16_edges[j], &q);
+            h = fnv_s32(fnv_status(h, s), q);
+        }
+    }
+    for (i = 0; i < N_RANDOM; ++i) {
+        a = lcg_scaled(&state);
+        b = lcg_scaled(&state);
+        q = 0;
+        s = vt_q16_div(a, b, &q);
+        h = fnv_s32(fnv_status(h, s), q);
+    }
+    s = vt_q16_div(1, 1, NULL);
+    h = fnv_status(h, s);
+    report("q16_div", h);
+
+    /* vt_isqrt_u64: edges, then 64-bit values of random magnitude. */
+    h = FNV_BASIS;
+    state = 3u;
+    for (i = 0; i < sizeof edges64 / sizeof edges64[0]; ++i) {
+        h = fnv_u32(h, vt_isqrt_u64(edges64[i]));
+    }
+    for (i = 0; i < N_RANDOM; ++i) {
+        x = (uint64_t)lcg(&state) << 32;
+        x |= lcg(&state);
+        k = lcg(&state) >> 26; /* 0..63 */
+        h = fnv_u32(h, vt_isqrt_u64(x >> k));
+    }
+    report("isqrt_u64", h);
+}
+
+int main(void)
+{
+    fw_line_str("core " FW_CORE_NAME);
+    fw_line_end();
+    fw_line_str("frame ");
+    fw_line_u32(W);
+    fw_line_str("x");
+    fw_line_u32(H);
+    fw_line_end();
+
+    check_frame();
+    check_grad("filter_h101", vt_filter_h101, g_h101);
+    check_grad("sobel_x", vt_sobel_x, g_sobx);
+    check_grad("sobel_y", vt_sobel_y, g_soby);
+    check_pyr();
+    check_integral_and_boxes();
+    check_patches();
+    check_sincos();
+    check_fixed();
+
+    fw_line_str("checksum all ");
+    fw_line_hex32(g_all);
+    fw_line_end();
+
+    /* The RAM bill, from sizeof: the static outputs, then the stack. */
+    print_size("ram filter_h101", (uint32_t)sizeof g_h101);
+    print_size("ram sobel_x", (uint32_t)sizeof g_sobx);
+    print_size("ram sobel_y", (uint32_t)sizeof g_soby);
+    print_size("ram pyr_down", (uint32_t)sizeof g_pyr);
+    print_size("ram integral", (uint32_t)sizeof g_ii);
+    print_size("sizeof vt_image_u8", (uint32_t)sizeof(vt_image_u8));
+    print_size("sizeof vt_road_area", (uint32_t)sizeof(vt_road_area));
+    print_size("stack reserved", fw_stack_size());
+    print_size("stack used", fw_stack_used());
+    fw_line_str("done");
+    fw_line_end();
+    return 0;
+}

@@ -1,0 +1,375 @@
+"""The firmware proof: the same C core on a bare Cortex-M3 and Cortex-M7 (under
+QEMU) and on the host (through cffi) gives the same bits.
+
+firmware_demo/main.c runs the pixel, trig and fixed-point primitives on a real
+road frame held in flash and prints an FNV-1a checksum of each output (statuses
+folded in). `host_checksums()` below repeats that recipe step by step through
+the cffi binding on the PNG the flash frame was generated from; the checksums
+must be equal, line by line, for both cores. There is no tolerance: the
+primitives are exact integer functions, so any difference is a portability bug
+(int width, shift or division semantics, byte order) or a stale frame.
+
+The ARM toolchain and QEMU are required, not optional: CI installs them with
+`make setup`, and a skipped proof would prove nothing, so a missing tool FAILS.
+"""
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from pyvehtrack import _native
+
+ROOT = Path(__file__).resolve().parent.parent
+PNG = ROOT / "tests" / "data" / "kitti_0000_gray_320x96.png"
+CORES = ("cortex-m3", "cortex-m7")
+TOOLS = ("arm-none-eabi-gcc", "arm-none-eabi-nm", "arm-none-eabi-objdump",
+         "arm-none-eabi-size", "qemu-system-arm")
+
+lib, ffi, view = _native.lib, _native.ffi, _native.view
+
+INT32_MAX, INT32_MIN = 2**31 - 1, -2**31
+M32 = 0xFFFFFFFF
+
+
+def _tool_env() -> dict[str, str]:
+    """The environment for the toolchain and QEMU: without the sanitizer
+    runtime `make check SAN=1` preloads into this Python process."""
+    return {k: v for k, v in os.environ.items() if k != "LD_PRELOAD"}
+
+
+def _require_tools() -> None:
+    missing = [t for t in TOOLS if shutil.which(t) is None]
+    if missing:
+        pytest.fail(f"firmware proof needs {', '.join(missing)}: run `make setup` "
+                    "(apt-get install gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm)",
+                    pytrace=False)
+
+
+# ---------------------------------------------------------------- FNV-1a 32, as main.c
+FNV_BASIS = 2166136261
+FNV_PRIME = 16777619
+
+
+def fnv(h: int, data: bytes) -> int:
+    for b in data:
+        h = ((h ^ b) * FNV_PRIME) & M32
+    return h
+
+
+def fnv_u32(h: int, v: int) -> int:
+    return fnv(h, (v & M32).to_bytes(4, "little"))
+
+
+fnv_s32 = fnv_u32  # two's complement bits, little-endian
+
+
+def fnv_s16(h: int, v: int) -> int:
+    return fnv(h, (v & 0xFFFF).to_bytes(2, "little"))
+
+
+def lcg_stream(seed: int):
+    """main.c's lcg(): Numerical Recipes constants, mod 2^32."""
+    state = seed
+
+    def nxt() -> int:
+        nonlocal state
+        state = (state * 1664525 + 1013904223) & M32
+        return state
+    return nxt
+
+
+def u2s(u: int) -> int:
+    return u - 2**32 if u >= 2**31 else u
+
+
+def lcg_scaled(nxt) -> int:
+    k = nxt() >> 27
+    m = (nxt() >> k) >> 1
+    neg = nxt() >> 31
+    return -m if neg else m
+
+
+# ---------------------------------------------------------------- the recipe, on the host
+PAIRS = [  # {ax, ay, bx, by, w, h}, as g_pairs in main.c
+    (40, 30, 42, 31, 32, 24),
+    (120, 40, 120, 40, 48, 40),
+    (0, 0, 288, 72, 32, 24),
+    (130, 44, 134, 46, 56, 40),
+    (0, 10, 0, 11, 320, 1),
+    (300, 0, 301, 0, 19, 96),
+    (0, 0, 1, 0, 319, 96),
+    (24, 0, 60, 0, 8, 4),
+]
+SINCOS_EXTRA = [-1, -1440, 1440, 1441, 2879, -721, INT32_MAX, INT32_MIN]
+Q16_EDGES = [0, 1, -1, 2, -2, 32768, -32768, 65535, 65536, -65536, 98304, -98304,
+             INT32_MAX, INT32_MIN, INT32_MAX - 1, INT32_MIN + 1]
+U64_EDGES = [0, 1, 2, 3, 4, 15, 16, 17, 0xFFFFFFFF, 0x100000000,
+             0xFFFFFFFE00000001, 0xFFFFFFFE00000000,
+             0x4000000000000000, 0x8000000000000000, 0xFFFFFFFFFFFFFFFF]
+N_RANDOM = 512
+
+
+def load_frame() -> np.ndarray:
+    img = cv2.imread(str(PNG), cv2.IMREAD_UNCHANGED)
+    assert img is not None and img.dtype == np.uint8 and img.ndim == 2, PNG
+    return img
+
+
+def host_checksums(frame: np.ndarray) -> list[tuple[str, int]]:
+    h_, w_ = frame.shape
+    out: list[tuple[str, int]] = []
+    src = view(frame, "frame")
+
+    out.append(("frame", fnv(FNV_BASIS, frame.tobytes())))
+
+    for name in ("filter_h101", "sobel_x", "sobel_y"):
+        g = np.zeros((h_, w_), np.int16)
+        s = getattr(lib, "vt_" + name)(src, view(g, "dst", writable=True, dtype=np.int16))
+        out.append((name, fnv(fnv_s32(FNV_BASIS, s), g.astype("<i2").tobytes())))
+
+    p = np.zeros(((h_ + 1) // 2, (w_ + 1) // 2), np.uint8)
+    s = lib.vt_pyr_down(src, view(p, "dst", writable=True))
+    out.append(("pyr_down", fnv(fnv_s32(FNV_BASIS, s), p.tobytes())))
+
+    ii = np.zeros((h_ + 1, w_ + 1), np.uint32)
+    iiv = view(ii, "ii", writable=True, dtype=np.uint32)
+    s = lib.vt_integral(src, iiv)
+    out.append(("integral", fnv(fnv_s32(FNV_BASIS, s), ii.astype("<u4").tobytes())))
+
+    h = FNV_BASIS
+    box = ffi.new("uint32_t *")
+    s = lib.vt_box_sum(iiv, 0, 0, w_, h_, box)
+    h = fnv_u32(fnv_s32(h, s), box[0])
+    h = fnv_s32(h, lib.vt_box_sum(iiv, 0, 0, 1, 1, ffi.NULL))
+    nxt = lcg_stream(12345)
+    for _ in range(256):
+        x = nxt() % (w_ + 8) - 4
+        y = nxt() % (h_ + 8) - 4
+        bw = nxt() % (w_ // 2 + 1)
+        bh = nxt() % (h_ // 2 + 1)
+        box[0] = 0
+        s = lib.vt_box_sum(iiv, x, y, bw, bh, box)
+        h = fnv_u32(fnv_s32(h, s), box[0])
+    out.append(("box_sum", h))
+
+    hn = hs = FNV_BASIS
+    ncc = ffi.new("vt_q14 *")
+    sad = ffi.new("uint32_t *")
+    for ax, ay, bx, by, pw, ph in PAIRS:
+        a, b = frame[ay:ay + ph, ax:ax + pw], frame[by:by + ph, bx:bx + pw]
+        va, vb = view(a, "a"), view(b, "b")
+        ncc[0] = 0
+        s = lib.vt_ncc_u8(va, vb, ncc)
+        hn = fnv_s16(fnv_s32(hn, s), ncc[0])
+        sad[0] = 0
+        s = lib.vt_sad_u8(va, vb, sad)
+        hs = fnv_u32(fnv_s32(hs, s), sad[0])
+    flat = np.full((8, 8), 128, np.uint8)
+    a, b = frame[50:58, 100:108], frame[50:57, 100:108]
+    va, vb, vf = view(a, "a"), view(b, "b"), view(flat, "flat")
+    ncc[0] = 0
+    s = lib.vt_ncc_u8(va, vf, ncc)
+    hn = fnv_s16(fnv_s32(hn, s), ncc[0])
+    hn = fnv_s32(hn, lib.vt_ncc_u8(va, vb, ncc))
+    hn = fnv_s32(hn, lib.vt_ncc_u8(va, va, ffi.NULL))
+    sad[0] = 0
+    s = lib.vt_sad_u8(va, vf, sad)
+    hs = fnv_u32(fnv_s32(hs, s), sad[0])
+    hs = fnv_s32(hs, lib.vt_sad_u8(va, vb, sad))
+    hs = fnv_s32(hs, lib.vt_sad_u8(va, va, ffi.NULL))
+    out.append(("ncc_u8", hn))
+    out.append(("sad_u8", hs))
+
+    h = FNV_BASIS
+    sn, cs = ffi.new("vt_q14 *"), ffi.new("vt_q14 *")
+    for ang in list(range(lib.VT_QDEG_TURN)) + SINCOS_EXTRA:
+        sn[0] = cs[0] = 0
+        s = lib.vt_sincos_q14(ang, sn, cs)
+        h = fnv_s16(fnv_s16(fnv_s32(h, s), sn[0]), cs[0])
+    h = fnv_s32(h, lib.vt_sincos_q14(0, ffi.NULL, ffi.NULL))
+    out.append(("sincos_q14", h))
+
+    h = FNV_BASIS
+    nxt = lcg_stream(1)
+    for a_ in Q16_EDGES:
+        for b_ in Q16_EDGES:
+            h = fnv_s32(h, lib.vt_q16_mul_sat(a_, b_))
+    for _ in range(N_RANDOM):
+        a_ = u2s(nxt())
+        b_ = lcg_scaled(nxt)
+        h = fnv_s32(h, lib.vt_q16_mul_sat(a_, b_))
+    out.append(("q16_mul_sat", h))
+
+    h = FNV_BASIS
+    nxt = lcg_stream(2)
+    q = ffi.new("vt_q16 *")
+    pairs = [(a_, b_) for a_ in Q16_EDGES for b_ in Q16_EDGES]
+    for _ in range(N_RANDOM):
+        a_ = lcg_scaled(nxt)
+        b_ = lcg_scaled(nxt)
+        pairs.append((a_, b_))
+    for a_, b_ in pairs:
+        q[0] = 0
+        s = lib.vt_q16_div(a_, b_, q)
+        h = fnv_s32(fnv_s32(h, s), q[0])
+    h = fnv_s32(h, lib.vt_q16_div(1, 1, ffi.NULL))
+    out.append(("q16_div", h))
+
+    h = FNV_BASIS
+    nxt = lcg_stream(3)
+    for x in U64_EDGES:
+        h = fnv_u32(h, lib.vt_isqrt_u64(x))
+    for _ in range(N_RANDOM):
+        x = nxt() << 32
+        x |= nxt()
+        k = nxt() >> 26
+        h = fnv_u32(h, lib.vt_isqrt_u64(x >> k))
+    out.append(("isqrt_u64", h))
+
+    total = FNV_BASIS
+    for _, v in out:
+        total = fnv_u32(total, v)
+    out.append(("all", total))
+    return out
+
+
+# ---------------------------------------------------------------- the QEMU run
+def parse_run(text: str) -> dict[str, dict]:
+    """Per core: ordered checksum lines, the frame size, and whether it finished."""
+    cores: dict[str, dict] = {}
+    cur = None
+    for line in text.splitlines():
+        m = re.match(r"== qemu (\S+) (\S+) ==$", line)
+        if m:
+            cur = cores.setdefault(m.group(1), {"board": m.group(2), "checksums": [],
+                                                "frame": None, "done": False, "core": None})
+            continue
+        if cur is None:
+            continue
+        if m := re.match(r"checksum (\S+) 0x([0-9a-f]{8})$", line):
+            cur["checksums"].append((m.group(1), int(m.group(2), 16)))
+        elif m := re.match(r"frame (\d+)x(\d+)$", line):
+            cur["frame"] = (int(m.group(1)), int(m.group(2)))
+        elif m := re.match(r"core (\S+)$", line):
+            cur["core"] = m.group(1)
+        elif line == "done":
+            cur["done"] = True
+    return cores
+
+
+@pytest.fixture(scope="module")
+def firmware_run():
+    """One `make firmware-run` per session (the build dir comes from the caller's
+    make command line through MAKEFLAGS, e.g. `make check BUILD=build-x`)."""
+    _require_tools()
+    proc = subprocess.run(["make", "--no-print-directory", "firmware-run"], cwd=ROOT,
+                          stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                          timeout=900, env=_tool_env())
+    text = proc.stdout
+    assert proc.returncode == 0, f"make firmware-run failed (exit {proc.returncode}):\n{text[-4000:]}"
+    return text
+
+
+@pytest.fixture(scope="module")
+def host():
+    return host_checksums(load_frame())
+
+
+def test_symbol_check_ran_and_passed(firmware_run):
+    for core in CORES:
+        assert re.search(rf"^symbol check {core}: OK\b", firmware_run, re.M), \
+            f"the forbidden-symbol check did not report OK for {core}:\n{firmware_run[-3000:]}"
+    assert "FAIL" not in firmware_run
+    # The size table of both images was printed (arm-none-eabi-size, berkeley format).
+    assert len(re.findall(r"^\s*\d+\s+\d+\s+\d+\s+\d+\s+[0-9a-f]+\s+\S*firmware-m[37]\.elf$",
+                          firmware_run, re.M)) == 2
+
+
+@pytest.mark.parametrize("core", CORES)
+def test_qemu_checksums_equal_host(firmware_run, host, core):
+    cores = parse_run(firmware_run)
+    assert core in cores, f"no QEMU output section for {core}:\n{firmware_run[-3000:]}"
+    run = cores[core]
+    assert run["core"] == core
+    assert run["done"], f"{core} image did not finish:\n{firmware_run[-3000:]}"
+    h_, w_ = load_frame().shape
+    assert run["frame"] == (w_, h_)
+    got = run["checksums"]
+    assert [n for n, _ in got] == [n for n, _ in host], "checksum lines differ in names/order"
+    for (name, g), (_, e) in zip(got, host):
+        assert g == e, f"{core}: checksum {name} 0x{g:08x} on QEMU, 0x{e:08x} on the host"
+
+
+def test_host_recipe_sees_error_statuses():
+    """The recipe must exercise error paths too, or folding statuses would prove
+    nothing: the flat patch is singular, a NULL output is an argument error."""
+    flat = np.full((8, 8), 128, np.uint8)
+    out = ffi.new("vt_q14 *")
+    assert lib.vt_ncc_u8(view(flat, "a"), view(flat, "b"), out) == lib.VT_E_SINGULAR
+    assert lib.vt_q16_div(1, 0, ffi.new("vt_q16 *")) == lib.VT_E_SINGULAR
+    assert lib.vt_sincos_q14(0, ffi.NULL, ffi.NULL) == lib.VT_E_ARG
+
+
+def test_frame_header_is_fresh():
+    proc = subprocess.run([sys.executable, str(ROOT / "tools" / "gen_firmware_frame.py"), "--check"],
+                          capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+
+
+BAD_SOFT = r"""
+#include <stdlib.h>
+float f(float a, int b);
+float f(float a, int b) { return a / (float)b; }
+void *volatile keep;
+int main(void) { keep = malloc(16); return (int)f(3.0f, 2); }
+"""
+
+BAD_HARD = r"""
+float g(float a, float b);
+float g(float a, float b) { return a * b + 1.0f; }
+void _start(void);
+void _start(void) { volatile float x = g(2.0f, 3.0f); (void)x; for (;;) {} }
+"""
+
+
+def _check_elf(elf: Path):
+    return subprocess.run(["sh", str(ROOT / "firmware_demo" / "check_elf.sh"), "bad", str(elf)],
+                          capture_output=True, text=True, env=_tool_env())
+
+
+def test_symbol_check_catches_heap_and_soft_float(tmp_path):
+    """The checker itself can fail: a Cortex-M3 soft-float image with a float
+    division and a malloc is rejected, naming both."""
+    _require_tools()
+    c = tmp_path / "bad.c"
+    c.write_text(BAD_SOFT)
+    elf = tmp_path / "bad.elf"
+    subprocess.run(["arm-none-eabi-gcc", "-mcpu=cortex-m3", "-mthumb", "-mfloat-abi=soft", "-O2",
+                    "--specs=nosys.specs", str(c), "-o", str(elf)], check=True,
+                   capture_output=True, text=True, env=_tool_env())
+    proc = _check_elf(elf)
+    assert proc.returncode != 0
+    assert "malloc" in proc.stderr and "__aeabi_fdiv" in proc.stderr, proc.stderr
+
+
+def test_symbol_check_catches_fp_instructions(tmp_path):
+    """... and a hard-float Cortex-M7 image computing in float, which needs no
+    helper, is rejected for its VFP instructions."""
+    _require_tools()
+    c = tmp_path / "badhf.c"
+    c.write_text(BAD_HARD)
+    elf = tmp_path / "badhf.elf"
+    subprocess.run(["arm-none-eabi-gcc", "-mcpu=cortex-m7", "-mthumb", "-mfpu=fpv5-d16",
+                    "-mfloat-abi=hard", "-O2", "-nostdlib", str(c), "-o", str(elf), "-lgcc"],
+                   check=True, capture_output=True, text=True, env=_tool_env())
+    proc = _check_elf(elf)
+    assert proc.returncode != 0
+    assert "floating-point instructions" in proc.stderr, proc.stderr
