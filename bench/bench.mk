@@ -1,0 +1,34 @@
+# make bench -- C vs the float oracle per stage, plus callgrind instructions per pixel.
+# Included by the top Makefile (it defines PY, CC, BUILD, STRICT, CORE_SRCS, CORE_HDRS,
+# EXT_SUFFIX, PY_INC). Both the cffi extension timed here and the callgrind driver are
+# built from the sources with the same flags, $(BENCH_OPT), into $(BUILD)/bench/, so
+# the bench never depends on (or disturbs) an installed or -O1 check build.
+#
+#   make bench                      full run: bench/results.md and bench/results.json
+#   make bench BENCH_ARGS=--quick   tiny frames, one repeat (seconds)
+#   make bench BENCH_OPT=-O3        another optimisation level (meson release builds use -O3)
+
+BENCH_DIR    := $(BUILD)/bench
+BENCH_OPT    ?= -O2
+BENCH_EXT    := $(BENCH_DIR)/_vtffi$(EXT_SUFFIX)
+BENCH_DRIVER := $(BENCH_DIR)/callgrind_main
+BENCH_ARGS   ?=
+VALGRIND     ?= valgrind
+
+$(BENCH_EXT): $(CORE_SRCS) $(CORE_HDRS) $(wildcard pyvehtrack/cdef/*.h) tools/build_ffi.py bench/bench.mk
+	@mkdir -p $(BENCH_DIR)
+	$(PY) tools/build_ffi.py $(BENCH_DIR)/_vtffi.c >/dev/null
+	$(CC) -shared -fPIC $(BENCH_OPT) -Iinclude -I$(PY_INC) \
+	  $(CORE_SRCS) $(BENCH_DIR)/_vtffi.c -o $@
+
+# -g adds line info for callgrind_annotate only; it does not change the code generated.
+# -z now resolves libc symbols (memset, ...) at start-up, so the first stage to call
+# one is not charged the dynamic linker's lazy binding.
+$(BENCH_DRIVER): bench/callgrind_main.c $(CORE_SRCS) $(CORE_HDRS) bench/bench.mk
+	@mkdir -p $(BENCH_DIR)
+	$(CC) $(STRICT) $(BENCH_OPT) -g -Wl,-z,now -Iinclude $(CORE_SRCS) bench/callgrind_main.c -o $@
+
+bench: $(BENCH_EXT) $(BENCH_DRIVER)
+	PYTHONPATH=$(CURDIR) PYVEHTRACK_FFI=$(abspath $(BENCH_EXT)) $(PY) bench/bench.py \
+	  --driver $(BENCH_DRIVER) --valgrind $(VALGRIND) --workdir $(BENCH_DIR) \
+	  --cc "$(CC)" --cflags="$(BENCH_OPT)" --command "make bench" $(BENCH_ARGS)

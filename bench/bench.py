@@ -1,0 +1,592 @@
+#!/usr/bin/env python3
+"""`make bench`: each stage, C (through cffi) against the float oracle in one run,
+plus callgrind instructions per pixel of the C alone. A benchmark, not a test:
+it prints figures and never passes or fails on them.
+
+    make bench                      # the usual way (builds an -O2 extension and the driver)
+    python bench/bench.py [--quick] [--driver BUILD/bench/callgrind_main] [--out bench/results]
+
+For every registered stage it reports
+- the median wall time of one run, in µs, for the C through `pyvehtrack._native`
+  (outputs preallocated, so the C column is the C plus the cffi call) and for the
+  oracle in `pyvehtrack.reference`, and the ratio oracle/C;
+- from `valgrind --tool=callgrind` on bench/callgrind_main.c doing the same run on
+  the same frame: instructions (Ir) per run, per pixel and per item;
+- whether the driver's output digest equals the one from the cffi run (same work,
+  same data).
+It writes the table to stdout, to OUT.md and to OUT.json, with the machine,
+compiler, date, and sizeof of every struct the cffi binding knows.
+
+Adding a stage (lane, detect, tracker, ...) is one entry: a function decorated
+with `@register("name", sizes=...)` that receives a `Ctx` (the gray frame, quick
+flag, seeded random numbers) and returns a `Stage` with a "C" and a "reference"
+callable, the pixel count and the number of items one run handles. Give
+bench/callgrind_main.c a stage of the same name (setup/run/digest) to get its
+instruction count; without one the callgrind columns show "—".
+"""
+from __future__ import annotations
+
+import argparse
+import datetime as _dt
+import gc
+import json
+import os
+import platform
+import shutil
+import statistics
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Iterator
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+sys.path.insert(0, str(HERE))
+import callgrind  # noqa: E402  (bench/callgrind.py, next to this file)
+
+BASE_FRAME = HERE / "data" / "road_640x480.png"
+FULL_SIZES = ((640, 480),)
+
+
+# ---------------------------------------------------------------- registry
+@dataclass
+class Stage:
+    """One benchmarked unit of work. `c` and `reference` each do one complete run,
+    from the same starting state every time (reset any state inside the callable).
+
+    pixels: image pixels one run processes (0 when cost does not scale with
+    pixels, e.g. box sums from an integral image); units/unit: the items one run
+    handles ("frame", "box", ...); digest: checksum of the C outputs of the last
+    run, the same fold as bench/callgrind_main.c (None: not compared)."""
+
+    name: str
+    c: Callable[[], Any]
+    reference: Callable[[], Any] | None
+    pixels: int
+    units: int = 1
+    unit: str = "frame"
+    digest: Callable[[], int] | None = None
+    note: str = ""
+    calls: int | None = None  # pyvehtrack calls one C run makes (None: one per unit)
+
+    @property
+    def binding_calls(self) -> int:
+        return self.units if self.calls is None else self.calls
+
+
+@dataclass
+class StageSpec:
+    name: str
+    make: Callable[["Ctx"], Stage]
+    sizes: tuple[tuple[int, int], ...]
+    driver: bool  # bench/callgrind_main.c has a stage of this name
+
+
+REGISTRY: list[StageSpec] = []
+
+
+def register(name: str, sizes: tuple[tuple[int, int], ...] = FULL_SIZES, driver: bool = True):
+    """Decorator: add a stage factory `make(ctx) -> Stage` to the bench."""
+    def deco(make: Callable[["Ctx"], Stage]):
+        if any(s.name == name for s in REGISTRY):
+            raise ValueError(f"stage {name!r} registered twice")
+        REGISTRY.append(StageSpec(name, make, tuple(sizes), driver))
+        return make
+    return deco
+
+
+@dataclass
+class Ctx:
+    frame: np.ndarray  # gray uint8 (h, w)
+    quick: bool
+
+    def units(self, full: int, quick: int) -> int:
+        return quick if self.quick else full
+
+    @staticmethod
+    def xorshift32(seed: int) -> Iterator[int]:
+        """The generator bench/callgrind_main.c uses, so both draw the same inputs."""
+        x = seed & 0xFFFFFFFF
+        while True:
+            x ^= (x << 13) & 0xFFFFFFFF
+            x ^= x >> 17
+            x ^= (x << 5) & 0xFFFFFFFF
+            yield x
+
+
+def digest(values) -> int:
+    """sum((uint32)v[i] * (i + 1)) mod 2^32 over the values in row-major order.
+    uint64 arithmetic wraps mod 2^64, a multiple of 2^32, so the result is exact."""
+    v = np.asarray(values).astype(np.int64).ravel().astype(np.uint64)
+    idx = np.arange(1, v.size + 1, dtype=np.uint64)
+    return int((v * idx).sum(dtype=np.uint64)) & 0xFFFFFFFF
+
+
+# ---------------------------------------------------------------- the primitives (issue 2)
+def _frame_op(name: str, c_name: str, out_shape: Callable[[tuple[int, int]], tuple[int, int]],
+              dtype, note: str = ""):
+    def make(ctx: Ctx) -> Stage:
+        from pyvehtrack import _native
+        from pyvehtrack.reference import image as ref
+        img = ctx.frame
+        out = np.empty(out_shape(img.shape), dtype)
+        cfn, rfn = getattr(_native, c_name), getattr(ref, name)
+        return Stage(name, c=lambda: cfn(img, out), reference=lambda: rfn(img),
+                     pixels=img.size, digest=lambda: digest(out), note=note, calls=1)
+    register(name)(make)
+
+
+_same = lambda s: s  # noqa: E731
+_frame_op("filter_h101", "filter_h101", _same, np.int16)
+_frame_op("sobel_x", "sobel_x", _same, np.int16)
+_frame_op("sobel_y", "sobel_y", _same, np.int16)
+_frame_op("pyr_down", "pyr_down", lambda s: ((s[0] + 1) // 2, (s[1] + 1) // 2), np.uint8,
+          note="per input px")
+_frame_op("integral", "integral", lambda s: (s[0] + 1, s[1] + 1), np.uint32)
+
+
+@register("box_sum")
+def _box_sum(ctx: Ctx) -> Stage:
+    from pyvehtrack import _native
+    from pyvehtrack.reference import image as ref
+    img = ctx.frame
+    h, w = img.shape
+    ii = np.empty((h + 1, w + 1), np.uint32)
+    _native.integral(img, ii)
+    rnd = ctx.xorshift32(1)
+    boxes = []
+    for _ in range(ctx.units(10000, 100)):
+        x = next(rnd) % w
+        bw = 1 + next(rnd) % (w - x)
+        y = next(rnd) % h
+        bh = 1 + next(rnd) % (h - y)
+        boxes.append((x, y, bw, bh))
+    out = np.zeros(len(boxes), np.int64)
+
+    def c():
+        f = _native.box_sum
+        for i, (x, y, bw, bh) in enumerate(boxes):
+            out[i] = f(ii, x, y, bw, bh)
+
+    def reference():
+        return [ref.box_sum(img, x, y, bw, bh) for x, y, bw, bh in boxes]
+
+    return Stage("box_sum", c, reference, pixels=0, units=len(boxes), unit="box",
+                 digest=lambda: digest(out),
+                 note="C: 4 lookups in a prepared integral image; oracle: sums the box's pixels")
+
+
+def _pairs(ctx: Ctx, seed: int, side: int, n: int):
+    img = ctx.frame
+    h, w = img.shape
+    p = min(side, w, h)
+    rnd = ctx.xorshift32(seed)
+    pairs = []
+    for _ in range(n):
+        xa, ya, xb, yb = (next(rnd) % (w - p + 1), next(rnd) % (h - p + 1),
+                          next(rnd) % (w - p + 1), next(rnd) % (h - p + 1))
+        pairs.append((img[ya:ya + p, xa:xa + p], img[yb:yb + p, xb:xb + p]))
+    return p, pairs
+
+
+@register("ncc")
+def _ncc(ctx: Ctx) -> Stage:
+    from pyvehtrack import _native
+    from pyvehtrack.reference import image as ref
+    p, pairs = _pairs(ctx, 2, 64, ctx.units(100, 4))
+    out = np.zeros(len(pairs), np.int64)
+
+    def c():
+        f, err = _native.ncc_u8, _native.VtError
+        for i, (a, b) in enumerate(pairs):
+            try:
+                out[i] = f(a, b)
+            except err as e:  # a flat patch: the driver records the status code too
+                out[i] = e.status
+
+    def reference():
+        return [ref.ncc(a, b) for a, b in pairs]
+
+    return Stage("ncc", c, reference, pixels=len(pairs) * p * p, units=len(pairs),
+                 unit=f"{p}x{p} pair", digest=lambda: digest(out))
+
+
+@register("sad")
+def _sad(ctx: Ctx) -> Stage:
+    from pyvehtrack import _native
+    from pyvehtrack.reference import image as ref
+    p, pairs = _pairs(ctx, 3, 16, ctx.units(1000, 20))
+    out = np.zeros(len(pairs), np.int64)
+
+    def c():
+        f = _native.sad_u8
+        for i, (a, b) in enumerate(pairs):
+            out[i] = f(a, b)
+
+    def reference():
+        return [ref.sad(a, b) for a, b in pairs]
+
+    return Stage("sad", c, reference, pixels=len(pairs) * p * p, units=len(pairs),
+                 unit=f"{p}x{p} pair", digest=lambda: digest(out))
+
+
+@register("sincos")
+def _sincos(ctx: Ctx) -> Stage:
+    from pyvehtrack import _native
+    from pyvehtrack.reference import image as ref
+    rnd = ctx.xorshift32(4)
+    # Any int32 angle in quarter degrees, as the driver draws them.
+    angles = [(r - (1 << 32)) if r >= 1 << 31 else r
+              for r in (next(rnd) for _ in range(ctx.units(1440, 64)))]
+    out = np.zeros(2 * len(angles), np.int64)
+
+    def c():
+        f = _native.sincos_q14
+        for i, a in enumerate(angles):
+            out[2 * i], out[2 * i + 1] = f(a)
+
+    def reference():
+        return [ref.sincos(a / 4.0) for a in angles]
+
+    return Stage("sincos", c, reference, pixels=0, units=len(angles), unit="angle",
+                 digest=lambda: digest(out))
+
+
+# ---------------------------------------------------------------- frames
+def load_frame(w: int, h: int, quick: bool) -> tuple[np.ndarray, str]:
+    """The gray bench frame of size w x h (quick: an eighth of each side, at least
+    64x48), and where it came from."""
+    import cv2
+    if quick:
+        w, h = max(64, w // 8), max(48, h // 8)
+    own = HERE / "data" / f"road_{w}x{h}.png"
+    src = own if own.exists() else BASE_FRAME
+    img = cv2.imread(str(src), cv2.IMREAD_GRAYSCALE)
+    if img is None:
+        raise SystemExit(f"bench: cannot read {src}")
+    if img.shape != (h, w):
+        img = cv2.resize(img, (w, h), interpolation=cv2.INTER_AREA)
+        return np.ascontiguousarray(img), f"{src.relative_to(ROOT)} resized to {w}x{h}"
+    return np.ascontiguousarray(img), str(src.relative_to(ROOT))
+
+
+def write_pgm(path: Path, img: np.ndarray) -> None:
+    h, w = img.shape
+    path.write_bytes(b"P5\n%d %d\n255\n" % (w, h) + img.tobytes())
+
+
+# ---------------------------------------------------------------- timing
+def time_us(fn: Callable[[], Any], min_reps: int, max_reps: int, budget_s: float) -> tuple[float, int]:
+    """Median wall time of one call in µs, after one warm-up call. Repeats until
+    max_reps, or min_reps once budget_s has been spent. gc is off while timing."""
+    fn()
+    times: list[int] = []
+    was_enabled = gc.isenabled()
+    gc.disable()
+    try:
+        start = time.perf_counter()
+        while len(times) < max_reps:
+            t0 = time.perf_counter_ns()
+            fn()
+            times.append(time.perf_counter_ns() - t0)
+            if len(times) >= min_reps and time.perf_counter() - start > budget_s:
+                break
+    finally:
+        if was_enabled:
+            gc.enable()
+    return statistics.median(times) / 1000.0, len(times)
+
+
+def cffi_overhead_us(quick: bool) -> dict[str, float]:
+    """What a tiny op pays for the binding, per pyvehtrack._native call, at the two
+    ends: sincos_q14 (no image views, two outputs) and sad_u8 of two 1x1 blocks
+    (two view structs built from NumPy arrays, one output)."""
+    from pyvehtrack import _native
+    a = np.zeros((1, 1), np.uint8)
+    b = np.ones((1, 1), np.uint8)
+    n = 100 if quick else 2000
+    calls = {"sincos_q14": lambda: _native.sincos_q14(0), "sad_u8_1x1": lambda: _native.sad_u8(a, b)}
+    out = {}
+    for name, f in calls.items():
+        def batch(f=f):
+            for _ in range(n):
+                f()
+        us, _ = time_us(batch, 1 if quick else 5, 1 if quick else 15, 0.5)
+        out[name] = us / n
+    return out
+
+
+# ---------------------------------------------------------------- callgrind
+def tool_env() -> dict[str, str]:
+    """The environment for the tools bench runs (driver, valgrind, cc, git): without
+    the sanitizer runtime that `make check SAN=1` preloads for the extension, which
+    valgrind and an uninstrumented driver cannot run under."""
+    return {k: v for k, v in os.environ.items() if k != "LD_PRELOAD"}
+
+
+def driver_stages(driver: Path) -> set[str]:
+    out = subprocess.run([str(driver), "--list"], check=True, capture_output=True, text=True,
+                         env=tool_env()).stdout
+    return {line.split()[0] for line in out.splitlines() if line.strip()}
+
+
+def run_callgrind(valgrind: str, driver: Path, pgm: Path, stages: list[Stage],
+                  out_file: Path) -> dict[str, dict]:
+    """One callgrind run of the driver over `stages`: Ir per run, status, digest."""
+    args = [f"{s.name}:{s.units}" for s in stages]
+    cmd = [valgrind, "--tool=callgrind", "-q", f"--callgrind-out-file={out_file}",
+           "--dump-instr=no", str(driver), str(pgm), *args]
+    res = subprocess.run(cmd, capture_output=True, text=True, env=tool_env())
+    if res.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)} failed ({res.returncode}):\n{res.stderr}")
+    printed = {}
+    for line in res.stdout.splitlines():
+        tok = line.split()
+        if len(tok) == 8 and tok[0] == "stage":
+            printed[tok[1]] = {"status": int(tok[5]), "digest": int(tok[7], 16)}
+    prof = callgrind.parse(out_file)
+    found = {}
+    for s in stages:
+        fn = f"bench_run_{s.name}"
+        calls = prof.calls_in.get(fn, 0)
+        found[s.name] = {"ir": prof.inclusive(fn) // max(calls, 1), "calls": calls,
+                         **printed.get(s.name, {"status": None, "digest": None})}
+    return found
+
+
+# ---------------------------------------------------------------- machine
+def _first_line(cmd: list[str]) -> str:
+    try:
+        out = subprocess.run(cmd, capture_output=True, text=True, timeout=20, env=tool_env())
+        return (out.stdout or out.stderr).strip().splitlines()[0]
+    except (OSError, IndexError, subprocess.SubprocessError):
+        return "unknown"
+
+
+def machine_info(cc: str, cflags: str, valgrind: str | None) -> dict[str, str]:
+    cpu = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.lower().startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    import cffi
+    import cv2
+    commit = _first_line(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"])
+    try:
+        if subprocess.run(["git", "-C", str(ROOT), "status", "--porcelain", "--untracked-files=no"],
+                          capture_output=True, text=True, timeout=20, env=tool_env()).stdout.strip():
+            commit += " + uncommitted changes"
+    except (OSError, subprocess.SubprocessError):
+        pass
+    info = {
+        "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "cpu": f"{cpu} ({os.cpu_count()} logical CPUs)",
+        "load average (1/5/15 min, at the end)": " ".join(f"{x:.2f}" for x in os.getloadavg()),
+        "compiler": f"{_first_line(cc.split() + ['--version'])} ({cc})",
+        "cflags": cflags,
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "opencv": cv2.__version__,
+        "cffi": cffi.__version__,
+        "valgrind": _first_line([valgrind, "--version"]) if valgrind else "not found",
+        "extension": os.environ.get("PYVEHTRACK_FFI", "installed pyvehtrack._vtffi"),
+        "commit": commit,
+    }
+    return info
+
+
+def struct_sizes() -> list[dict]:
+    """sizeof/alignof of every struct and union cffi knows (typedef'd or tagged),
+    read from the compiled extension, so new modules show up by themselves."""
+    from pyvehtrack import ffi
+    typedefs, structs, unions = ffi.list_types()
+    rows = []
+    for name in typedefs:
+        t = ffi.typeof(name)
+        if t.kind in ("struct", "union"):
+            rows.append({"type": name, "sizeof": ffi.sizeof(t), "alignof": ffi.alignof(t)})
+    for kind, names in (("struct", structs), ("union", unions)):
+        for n in names:
+            if not n.startswith("$"):
+                t = ffi.typeof(f"{kind} {n}")
+                rows.append({"type": f"{kind} {n}", "sizeof": ffi.sizeof(t), "alignof": ffi.alignof(t)})
+    return rows
+
+
+# ---------------------------------------------------------------- report
+def _fmt(v, digits: int = 1) -> str:
+    if v is None:
+        return "—"
+    if isinstance(v, float):
+        if v >= 100:
+            return f"{v:,.0f}"
+        return f"{v:.{digits}f}"
+    return f"{v:,}"
+
+
+def render(result: dict) -> str:
+    m = result["machine"]
+    ov = result["cffi_overhead_us"]
+    lines = ["# make bench", ""]
+    lines += [f"- {k}: {v}" for k, v in m.items()]
+    lines += [f"- frames: {', '.join(result['frames'])}",
+              f"- command: `{result['command']}`", ""]
+    lines += ["| stage | size | work per run | reps C/ref | C µs | oracle µs | oracle/C | "
+              "C Ir per run | Ir/px | Ir/item | driver = cffi | note |",
+              "|---|---|---|---|---:|---:|---:|---:|---:|---:|---|---|"]
+    for r in result["rows"]:
+        unit = r["unit"]
+        if r["units"] != 1:
+            unit += "es" if unit.endswith(("s", "x")) else "s"
+        work = f"{r['units']:,} {unit}"
+        match = {True: "yes", False: "**NO**", None: "—"}[r["digest_match"]]
+        lines.append(
+            f"| {r['stage']} | {r['size']} | {work} | {r['reps_c']}/{r['reps_ref'] or '—'} | "
+            f"{_fmt(r['c_us'])} | {_fmt(r['ref_us'])} | {_fmt(r['ratio'])} | {_fmt(r['ir'])} | "
+            f"{_fmt(r['ir_per_px'], 2)} | {_fmt(r['ir_per_item'])} | {match} | {r['note']} |")
+    lines += ["",
+              f"C µs: one run through `pyvehtrack._native` (cffi), outputs preallocated, so it includes "
+              f"the binding: {ov['sincos_q14']:.2f} µs per call without image views (sincos_q14) "
+              f"to {ov['sad_u8_1x1']:.2f} µs with two (sad_u8 of 1x1 blocks) on this machine. "
+              f"Where a stage makes one call per item, the note estimates the binding's share of "
+              f"its C column (its instructions at the Ir/µs the C reaches on the one-call frame "
+              f"stages, against the time measured); where that share is large the callgrind "
+              f"columns, which count the C alone, are the figure to read. Medians over the "
+              f"reps shown. Ir: instructions counted by callgrind on bench/callgrind_main.c built "
+              f"with the flags above, doing the same run on the same frame (`driver = cffi`: its "
+              f"output digest equals the cffi run's).", ""]
+    lines += ["## sizeof of the public structs (from the cffi extension)", "",
+              "| type | sizeof | alignof |", "|---|---:|---:|"]
+    lines += [f"| {s['type']} | {s['sizeof']:,} | {s['alignof']} |" for s in result["sizeof"]]
+    return "\n".join(lines) + "\n"
+
+
+# ---------------------------------------------------------------- main
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--quick", action="store_true",
+                    help="tiny frames, few items, one repeat (for the test suite)")
+    ap.add_argument("--driver", type=Path, help="bench/callgrind_main.c built; omit to skip callgrind")
+    ap.add_argument("--valgrind", default=os.environ.get("VALGRIND", "valgrind"))
+    ap.add_argument("--workdir", type=Path, default=ROOT / "build" / "bench",
+                    help="where the frames and callgrind outputs go")
+    ap.add_argument("--out", type=Path, default=HERE / "results",
+                    help="writes OUT.md and OUT.json")
+    ap.add_argument("--cc", default=os.environ.get("CC", "cc"), help="compiler, for the report")
+    ap.add_argument("--cflags", default="?", help="flags the C was built with, for the report")
+    ap.add_argument("--stages", help="comma-separated subset of stage names")
+    ap.add_argument("--command", help="the command to print in the report (make passes 'make bench')")
+    ap.add_argument("--oracle-threads", type=int, default=1,
+                    help="cv2.setNumThreads for the oracle (0: OpenCV's default, all cores)")
+    ap.add_argument("--budget", type=float, default=1.0,
+                    help="seconds of timing per stage and variant before stopping at min reps")
+    args = ap.parse_args(argv)
+
+    specs = REGISTRY
+    if args.stages:
+        want = args.stages.split(",")
+        unknown = set(want) - {s.name for s in REGISTRY}
+        if unknown:
+            ap.error(f"unknown stage(s) {sorted(unknown)}; have {[s.name for s in REGISTRY]}")
+        specs = [s for s in REGISTRY if s.name in want]
+
+    import pyvehtrack  # noqa: F401  (fails early and clearly if the extension is missing)
+    import cv2
+    # The C runs on one core; by default so does the oracle's OpenCV, which makes the
+    # ratio a like-for-like figure and keeps it steady on a shared machine.
+    cv2.setNumThreads(args.oracle_threads)
+
+    valgrind = shutil.which(args.valgrind)
+    if args.driver is not None and valgrind is None:
+        print(f"bench: {args.valgrind} not found; callgrind columns left empty", file=sys.stderr)
+    in_driver = driver_stages(args.driver) if args.driver is not None else set()
+    args.workdir.mkdir(parents=True, exist_ok=True)
+    min_reps, max_reps = (1, 1) if args.quick else (3, 101)
+
+    overhead = cffi_overhead_us(args.quick)
+    rows, frames = [], []
+    sizes = sorted({sz for s in specs for sz in s.sizes})
+    for size in sizes:
+        frame, origin = load_frame(*size, quick=args.quick)
+        fh, fw = frame.shape
+        frames.append(f"{fw}x{fh} from {origin}")
+        ctx = Ctx(frame=frame, quick=args.quick)
+        stages = [(spec, spec.make(ctx)) for spec in specs if size in spec.sizes]
+        for spec, st in stages:
+            if st.name != spec.name:
+                raise ValueError(f"stage registered as {spec.name!r} returned Stage({st.name!r})")
+        timed = {}
+        for spec, st in stages:
+            c_us, reps_c = time_us(st.c, min_reps, max_reps, args.budget)
+            got_digest = st.digest() if st.digest else None
+            ref_us, reps_ref = (time_us(st.reference, min_reps, max_reps, args.budget)
+                                if st.reference else (None, 0))
+            timed[st.name] = (c_us, reps_c, ref_us, reps_ref, got_digest)
+            print(f"  {st.name:<14} {fw}x{fh}: C {c_us:10.1f} µs   oracle "
+                  f"{_fmt(ref_us):>10} µs", file=sys.stderr)
+        cg = {}
+        cg_stages = [st for spec, st in stages if spec.driver and st.name in in_driver]
+        if cg_stages and valgrind is not None:
+            pgm = args.workdir / f"frame_{fw}x{fh}.pgm"
+            write_pgm(pgm, frame)
+            cg = run_callgrind(valgrind, args.driver, pgm, cg_stages,
+                               args.workdir / f"callgrind_{fw}x{fh}.out")
+        # The C's own speed on this machine, from stages that make one binding call
+        # per run (where the binding is negligible): instructions per µs.
+        speeds = [cg[st.name]["ir"] / timed[st.name][0] for _, st in stages
+                  if st.binding_calls == 1 and st.name in cg and timed[st.name][0] > 0]
+        ir_per_us = statistics.median(speeds) if speeds else None
+        for spec, st in stages:
+            c_us, reps_c, ref_us, reps_ref, got_digest = timed[st.name]
+            g = cg.get(st.name)
+            ir = g["ir"] if g else None
+            note = [st.note] if st.note else []
+            n_calls = st.binding_calls
+            if n_calls > 1:
+                if ir is not None and ir_per_us:
+                    share = max(0.0, 1.0 - (ir / ir_per_us) / c_us)
+                    note.append(f"{n_calls:,} cffi calls: ~{share:.0%} of the C column is binding "
+                                f"(est. from Ir at {ir_per_us:,.0f} Ir/µs)")
+                else:
+                    note.append(f"{n_calls:,} cffi calls: {n_calls * min(overhead.values()):,.0f}"
+                                f"–{n_calls * max(overhead.values()):,.0f} µs of binding")
+            if args.driver is not None and not (spec.driver and st.name in in_driver):
+                note.append("no callgrind_main.c entry")
+            if g and g["status"] not in (None, 0):
+                note.append(f"driver status {g['status']}")
+            match = None
+            if g and g["digest"] is not None and got_digest is not None:
+                match = g["digest"] == got_digest
+            rows.append({
+                "stage": st.name, "size": f"{fw}x{fh}", "units": st.units, "unit": st.unit,
+                "pixels": st.pixels, "c_us": c_us, "reps_c": reps_c, "ref_us": ref_us,
+                "reps_ref": reps_ref, "ratio": (ref_us / c_us) if ref_us and c_us > 0 else None,
+                "ir": ir, "ir_per_px": (ir / st.pixels) if ir is not None and st.pixels else None,
+                "ir_per_item": (ir / st.units) if ir is not None else None,
+                "digest_c": got_digest, "digest_driver": g["digest"] if g else None,
+                "digest_match": match, "note": "; ".join(note)})
+
+    command = args.command or " ".join(["python", "bench/bench.py", *(argv if argv is not None
+                                                                       else sys.argv[1:])])
+    machine = machine_info(args.cc, args.cflags, valgrind)
+    machine["oracle threads (cv2.setNumThreads)"] = str(args.oracle_threads)
+    result = {"machine": machine, "frames": frames,
+              "command": command, "quick": args.quick, "cffi_overhead_us": overhead,
+              "rows": rows, "sizeof": struct_sizes()}
+    text = render(result)
+    sys.stdout.write(text)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.with_suffix(".md").write_text(text)
+    args.out.with_suffix(".json").write_text(json.dumps(result, indent=2) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

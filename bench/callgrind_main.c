@@ -1,0 +1,425 @@
+/* callgrind_main.c -- host driver for `make bench`: runs each benchmark stage once on
+ * a frame read from a binary PGM, so `valgrind --tool=callgrind` can count the
+ * instructions of each stage on its own.
+ *
+ *   callgrind_main --list                     stage names, one per line
+ *   callgrind_main FRAME.pgm NAME[:UNITS]...  run the named stages in that order
+ *
+ * Each stage is three functions: bench_setup_NAME prepares inputs (not measured),
+ * bench_run_NAME does exactly the work one run of the Python stage of the same name
+ * in bench/bench.py does, and bench_digest_NAME folds the outputs into a checksum.
+ * bench/callgrind.py reads the inclusive cost of bench_run_NAME: the stages are
+ * only ever called through the table's function pointers, chosen from argv at run
+ * time, so the compiler cannot inline them into main and each keeps its own symbol.
+ *
+ * Per stage it prints `stage NAME units N status S digest 0xXXXXXXXX`; the digest
+ * (sum over outputs of (uint32)v[i] * (i + 1), mod 2^32) equals the one bench.py
+ * computes from the same C through cffi, which shows the callgrind run did the
+ * same work on the same data. Random inputs come from xorshift32 with the seeds
+ * bench.py uses.
+ *
+ * To add a stage: write its setup/run/digest functions below and add one line to
+ * `stages[]`; add the Python twin to bench/bench.py's registry under the same name.
+ * This file is a host tool, not part of the core: it may use stdio. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "vehtrack/vehtrack.h"
+
+#define BENCH_MAX_UNITS 100000
+
+typedef struct {
+    vt_image_u8 frame;
+    int32_t units;
+    int32_t status; /* the first negative status a run saw, else VT_OK */
+} bench_ctx;
+
+typedef struct {
+    const char *name;
+    int32_t default_units;
+    void (*setup)(bench_ctx *ctx);
+    void (*run)(bench_ctx *ctx);
+    uint32_t (*digest)(const bench_ctx *ctx);
+} bench_stage;
+
+/* Frame and output buffers, static like the library's own memory. */
+static uint8_t g_frame[VT_MAX_WIDTH * VT_MAX_HEIGHT];
+static int16_t g_s16[VT_MAX_WIDTH * VT_MAX_HEIGHT];
+static uint8_t g_u8[((VT_MAX_WIDTH + 1) / 2) * ((VT_MAX_HEIGHT + 1) / 2)];
+static uint32_t g_u32[(VT_MAX_WIDTH + 1) * (VT_MAX_HEIGHT + 1)];
+static int32_t g_arg[BENCH_MAX_UNITS][4]; /* per-unit inputs: rectangles, patch corners, angles */
+static uint32_t g_out[2 * BENCH_MAX_UNITS]; /* per-unit outputs (negative codes mod 2^32) */
+
+static vt_image_s16 g_s16_view;
+static vt_image_u8_mut g_u8_view;
+static vt_image_u32 g_u32_view;
+
+/* ------------------------------------------------------------------ helpers */
+static uint32_t xorshift32(uint32_t *s)
+{
+    uint32_t x = *s;
+    x ^= x << 13;
+    x ^= x >> 17;
+    x ^= x << 5;
+    *s = x;
+    return x;
+}
+
+static void note_status(bench_ctx *ctx, vt_status s)
+{
+    if (s < 0 && ctx->status == VT_OK) {
+        ctx->status = s;
+    }
+}
+
+static uint32_t digest_u32(const uint32_t *v, size_t n)
+{
+    uint32_t acc = 0;
+    size_t i;
+    for (i = 0; i < n; ++i) {
+        acc += v[i] * (uint32_t)(i + 1);
+    }
+    return acc;
+}
+
+static void setup_s16(bench_ctx *ctx)
+{
+    g_s16_view.px = g_s16;
+    g_s16_view.w = ctx->frame.w;
+    g_s16_view.h = ctx->frame.h;
+    g_s16_view.stride = ctx->frame.w;
+}
+
+static uint32_t digest_s16(const bench_ctx *ctx)
+{
+    uint32_t acc = 0;
+    size_t i, n = (size_t)ctx->frame.w * (size_t)ctx->frame.h;
+    for (i = 0; i < n; ++i) {
+        acc += (uint32_t)(int32_t)g_s16[i] * (uint32_t)(i + 1);
+    }
+    return acc;
+}
+
+/* A square patch side, clipped to the frame. */
+static int32_t patch_side(const bench_ctx *ctx, int32_t want)
+{
+    int32_t p = want;
+    if (p > ctx->frame.w) {
+        p = ctx->frame.w;
+    }
+    if (p > ctx->frame.h) {
+        p = ctx->frame.h;
+    }
+    return p;
+}
+
+/* Corners of `units` pairs of p x p patches, drawn as bench.py draws them. */
+static void setup_pairs(bench_ctx *ctx, uint32_t seed, int32_t p)
+{
+    uint32_t s = seed;
+    uint32_t nx = (uint32_t)(ctx->frame.w - p + 1), ny = (uint32_t)(ctx->frame.h - p + 1);
+    int32_t i;
+    for (i = 0; i < ctx->units; ++i) {
+        g_arg[i][0] = (int32_t)(xorshift32(&s) % nx);
+        g_arg[i][1] = (int32_t)(xorshift32(&s) % ny);
+        g_arg[i][2] = (int32_t)(xorshift32(&s) % nx);
+        g_arg[i][3] = (int32_t)(xorshift32(&s) % ny);
+    }
+}
+
+static vt_image_u8 sub_view(const bench_ctx *ctx, int32_t x, int32_t y, int32_t p)
+{
+    vt_image_u8 v;
+    v.px = ctx->frame.px + (size_t)y * (size_t)ctx->frame.stride + (size_t)x;
+    v.w = p;
+    v.h = p;
+    v.stride = ctx->frame.stride;
+    return v;
+}
+
+/* ------------------------------------------------------------------ stages */
+static void bench_setup_filter_h101(bench_ctx *ctx) { setup_s16(ctx); }
+static void bench_run_filter_h101(bench_ctx *ctx)
+{
+    note_status(ctx, vt_filter_h101(&ctx->frame, &g_s16_view));
+}
+
+static void bench_setup_sobel_x(bench_ctx *ctx) { setup_s16(ctx); }
+static void bench_run_sobel_x(bench_ctx *ctx)
+{
+    note_status(ctx, vt_sobel_x(&ctx->frame, &g_s16_view));
+}
+
+static void bench_setup_sobel_y(bench_ctx *ctx) { setup_s16(ctx); }
+static void bench_run_sobel_y(bench_ctx *ctx)
+{
+    note_status(ctx, vt_sobel_y(&ctx->frame, &g_s16_view));
+}
+
+static void bench_setup_pyr_down(bench_ctx *ctx)
+{
+    g_u8_view.px = g_u8;
+    g_u8_view.w = (ctx->frame.w + 1) / 2;
+    g_u8_view.h = (ctx->frame.h + 1) / 2;
+    g_u8_view.stride = g_u8_view.w;
+}
+static void bench_run_pyr_down(bench_ctx *ctx)
+{
+    note_status(ctx, vt_pyr_down(&ctx->frame, &g_u8_view));
+}
+static uint32_t bench_digest_pyr_down(const bench_ctx *ctx)
+{
+    uint32_t acc = 0;
+    size_t i, n = (size_t)g_u8_view.w * (size_t)g_u8_view.h;
+    (void)ctx;
+    for (i = 0; i < n; ++i) {
+        acc += (uint32_t)g_u8[i] * (uint32_t)(i + 1);
+    }
+    return acc;
+}
+
+static void bench_setup_integral(bench_ctx *ctx)
+{
+    g_u32_view.px = g_u32;
+    g_u32_view.w = ctx->frame.w + 1;
+    g_u32_view.h = ctx->frame.h + 1;
+    g_u32_view.stride = g_u32_view.w;
+}
+static void bench_run_integral(bench_ctx *ctx)
+{
+    note_status(ctx, vt_integral(&ctx->frame, &g_u32_view));
+}
+static uint32_t bench_digest_integral(const bench_ctx *ctx)
+{
+    uint32_t acc = 0;
+    size_t i, n = (size_t)g_u32_view.w * (size_t)g_u32_view.h;
+    (void)ctx;
+    for (i = 0; i < n; ++i) {
+        acc += g_u32[i] * (uint32_t)(i + 1);
+    }
+    return acc;
+}
+
+/* Random boxes inside the frame: x, w, y, h drawn in that order (seed 1). */
+static void bench_setup_box_sum(bench_ctx *ctx)
+{
+    uint32_t s = 1u;
+    uint32_t w = (uint32_t)ctx->frame.w, h = (uint32_t)ctx->frame.h;
+    int32_t i;
+    bench_setup_integral(ctx);
+    note_status(ctx, vt_integral(&ctx->frame, &g_u32_view));
+    for (i = 0; i < ctx->units; ++i) {
+        uint32_t x = xorshift32(&s) % w;
+        uint32_t bw = 1u + xorshift32(&s) % (w - x);
+        uint32_t y = xorshift32(&s) % h;
+        uint32_t bh = 1u + xorshift32(&s) % (h - y);
+        g_arg[i][0] = (int32_t)x;
+        g_arg[i][1] = (int32_t)y;
+        g_arg[i][2] = (int32_t)bw;
+        g_arg[i][3] = (int32_t)bh;
+    }
+}
+static void bench_run_box_sum(bench_ctx *ctx)
+{
+    int32_t i;
+    for (i = 0; i < ctx->units; ++i) {
+        uint32_t sum = 0;
+        note_status(ctx, vt_box_sum(&g_u32_view, g_arg[i][0], g_arg[i][1], g_arg[i][2],
+                                    g_arg[i][3], &sum));
+        g_out[i] = sum;
+    }
+}
+
+#define BENCH_NCC_SIDE 64
+static void bench_setup_ncc(bench_ctx *ctx)
+{
+    setup_pairs(ctx, 2u, patch_side(ctx, BENCH_NCC_SIDE));
+}
+static void bench_run_ncc(bench_ctx *ctx)
+{
+    int32_t i, p = patch_side(ctx, BENCH_NCC_SIDE);
+    for (i = 0; i < ctx->units; ++i) {
+        vt_image_u8 a = sub_view(ctx, g_arg[i][0], g_arg[i][1], p);
+        vt_image_u8 b = sub_view(ctx, g_arg[i][2], g_arg[i][3], p);
+        vt_q14 q = 0;
+        vt_status s = vt_ncc_u8(&a, &b, &q);
+        /* A flat patch is a legal outcome (VT_E_SINGULAR); its code is the result. */
+        g_out[i] = (uint32_t)(s == VT_OK ? (int32_t)q : (int32_t)s);
+        if (s != VT_E_SINGULAR) {
+            note_status(ctx, s);
+        }
+    }
+}
+
+#define BENCH_SAD_SIDE 16
+static void bench_setup_sad(bench_ctx *ctx)
+{
+    setup_pairs(ctx, 3u, patch_side(ctx, BENCH_SAD_SIDE));
+}
+static void bench_run_sad(bench_ctx *ctx)
+{
+    int32_t i, p = patch_side(ctx, BENCH_SAD_SIDE);
+    for (i = 0; i < ctx->units; ++i) {
+        vt_image_u8 a = sub_view(ctx, g_arg[i][0], g_arg[i][1], p);
+        vt_image_u8 b = sub_view(ctx, g_arg[i][2], g_arg[i][3], p);
+        uint32_t sad = 0;
+        note_status(ctx, vt_sad_u8(&a, &b, &sad));
+        g_out[i] = sad;
+    }
+}
+
+/* Any int32 angle in quarter degrees (seed 4). */
+static void bench_setup_sincos(bench_ctx *ctx)
+{
+    uint32_t s = 4u;
+    int32_t i;
+    for (i = 0; i < ctx->units; ++i) {
+        uint32_t r = xorshift32(&s);
+        /* Two's complement reinterpretation without implementation-defined casts. */
+        g_arg[i][0] = r <= (uint32_t)INT32_MAX ? (int32_t)r : -(int32_t)(~r) - 1;
+    }
+}
+static void bench_run_sincos(bench_ctx *ctx)
+{
+    int32_t i;
+    for (i = 0; i < ctx->units; ++i) {
+        vt_q14 sn = 0, cs = 0;
+        note_status(ctx, vt_sincos_q14(g_arg[i][0], &sn, &cs));
+        g_out[2 * i] = (uint32_t)(int32_t)sn;
+        g_out[2 * i + 1] = (uint32_t)(int32_t)cs;
+    }
+}
+
+static uint32_t bench_digest_units(const bench_ctx *ctx)
+{
+    return digest_u32(g_out, (size_t)ctx->units);
+}
+static uint32_t bench_digest_units2(const bench_ctx *ctx)
+{
+    return digest_u32(g_out, 2u * (size_t)ctx->units);
+}
+
+/* The registry. Default units match bench.py's full run. */
+static const bench_stage stages[] = {
+    {"filter_h101", 1, bench_setup_filter_h101, bench_run_filter_h101, digest_s16},
+    {"sobel_x", 1, bench_setup_sobel_x, bench_run_sobel_x, digest_s16},
+    {"sobel_y", 1, bench_setup_sobel_y, bench_run_sobel_y, digest_s16},
+    {"pyr_down", 1, bench_setup_pyr_down, bench_run_pyr_down, bench_digest_pyr_down},
+    {"integral", 1, bench_setup_integral, bench_run_integral, bench_digest_integral},
+    {"box_sum", 10000, bench_setup_box_sum, bench_run_box_sum, bench_digest_units},
+    {"ncc", 100, bench_setup_ncc, bench_run_ncc, bench_digest_units},
+    {"sad", 1000, bench_setup_sad, bench_run_sad, bench_digest_units},
+    {"sincos", 1440, bench_setup_sincos, bench_run_sincos, bench_digest_units2},
+};
+#define N_STAGES (sizeof stages / sizeof stages[0])
+
+/* ------------------------------------------------------------------ frame I/O */
+static int read_token(FILE *f, long *out)
+{
+    int c = fgetc(f);
+    long v = 0;
+    int digits = 0;
+    while (c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '#') {
+        if (c == '#') {
+            while (c != '\n' && c != EOF) {
+                c = fgetc(f);
+            }
+        }
+        c = fgetc(f);
+    }
+    while (c >= '0' && c <= '9' && v < 100000) {
+        v = v * 10 + (c - '0');
+        ++digits;
+        c = fgetc(f);
+    }
+    *out = v;
+    return digits > 0; /* the single whitespace after maxval is consumed here */
+}
+
+/* Binary 8-bit PGM (P5, maxval 255) into g_frame. */
+static int read_pgm(const char *path, vt_image_u8 *img)
+{
+    FILE *f = fopen(path, "rb");
+    long w = 0, h = 0, maxval = 0;
+    size_t n;
+    if (f == NULL) {
+        fprintf(stderr, "callgrind_main: cannot open %s\n", path);
+        return -1;
+    }
+    if (fgetc(f) != 'P' || fgetc(f) != '5' || !read_token(f, &w) || !read_token(f, &h) ||
+        !read_token(f, &maxval) || maxval != 255 || w < 1 || h < 1 || w > VT_MAX_WIDTH ||
+        h > VT_MAX_HEIGHT) {
+        fprintf(stderr, "callgrind_main: %s is not an 8-bit P5 PGM within VT_MAX_*\n", path);
+        fclose(f);
+        return -1;
+    }
+    n = (size_t)w * (size_t)h;
+    if (fread(g_frame, 1, n, f) != n) {
+        fprintf(stderr, "callgrind_main: %s is truncated\n", path);
+        fclose(f);
+        return -1;
+    }
+    fclose(f);
+    img->px = g_frame;
+    img->w = (int32_t)w;
+    img->h = (int32_t)h;
+    img->stride = (int32_t)w;
+    return 0;
+}
+
+static const bench_stage *find_stage(const char *name, size_t len)
+{
+    size_t i;
+    for (i = 0; i < N_STAGES; ++i) {
+        if (strlen(stages[i].name) == len && strncmp(stages[i].name, name, len) == 0) {
+            return &stages[i];
+        }
+    }
+    return NULL;
+}
+
+int main(int argc, char **argv)
+{
+    vt_image_u8 frame;
+    int i;
+    if (argc == 2 && strcmp(argv[1], "--list") == 0) {
+        size_t k;
+        for (k = 0; k < N_STAGES; ++k) {
+            printf("%s %ld\n", stages[k].name, (long)stages[k].default_units);
+        }
+        return 0;
+    }
+    if (argc < 3) {
+        fprintf(stderr, "usage: %s --list | FRAME.pgm NAME[:UNITS]...\n", argv[0]);
+        return 2;
+    }
+    if (read_pgm(argv[1], &frame) != 0) {
+        return 2;
+    }
+    for (i = 2; i < argc; ++i) {
+        const char *colon = strchr(argv[i], ':');
+        size_t len = colon != NULL ? (size_t)(colon - argv[i]) : strlen(argv[i]);
+        const bench_stage *st = find_stage(argv[i], len);
+        bench_ctx ctx;
+        long units;
+        if (st == NULL) {
+            fprintf(stderr, "callgrind_main: unknown stage '%s' (see --list)\n", argv[i]);
+            return 2;
+        }
+        units = colon != NULL ? strtol(colon + 1, NULL, 10) : (long)st->default_units;
+        if (units < 1 || units > BENCH_MAX_UNITS) {
+            fprintf(stderr, "callgrind_main: units for %s must be 1..%d\n", st->name,
+                    BENCH_MAX_UNITS);
+            return 2;
+        }
+        ctx.frame = frame;
+        ctx.units = (int32_t)units;
+        ctx.status = VT_OK;
+        st->setup(&ctx);
+        st->run(&ctx);
+        printf("stage %s units %ld status %ld digest 0x%08lx\n", st->name, units,
+               (long)ctx.status, (unsigned long)st->digest(&ctx));
+    }
+    return 0;
+}
