@@ -62,6 +62,17 @@ vt_status vt_filter_h101(const vt_image_u8 *src, vt_image_s16 *dst)
     return VT_OK;
 }
 
+/* Sobel responses at one column with explicit neighbours (used at the borders). */
+static int16_t vt__sx(const uint8_t *pm, const uint8_t *p0, const uint8_t *pp, int32_t xl, int32_t xr)
+{
+    return (int16_t)((pm[xr] - pm[xl]) + 2 * (p0[xr] - p0[xl]) + (pp[xr] - pp[xl]));
+}
+
+static int16_t vt__sy(const uint8_t *pm, const uint8_t *pp, int32_t xl, int32_t x, int32_t xr)
+{
+    return (int16_t)((pp[xl] + 2 * pp[x] + pp[xr]) - (pm[xl] + 2 * pm[x] + pm[xr]));
+}
+
 vt_status vt_sobel_x(const vt_image_u8 *src, vt_image_s16 *dst)
 {
     int32_t x, y, w, h;
@@ -77,10 +88,14 @@ vt_status vt_sobel_x(const vt_image_u8 *src, vt_image_s16 *dst)
         const uint8_t *p0 = src->px + (size_t)y * (size_t)src->stride;
         const uint8_t *pp = src->px + (size_t)(y < h - 1 ? y + 1 : h - 1) * (size_t)src->stride;
         int16_t *o = dst->px + (size_t)y * (size_t)dst->stride;
-        for (x = 0; x < w; ++x) {
-            int32_t xl = x > 0 ? x - 1 : 0;
-            int32_t xr = x < w - 1 ? x + 1 : w - 1;
-            o[x] = (int16_t)((pm[xr] - pm[xl]) + 2 * (p0[xr] - p0[xl]) + (pp[xr] - pp[xl]));
+        o[0] = vt__sx(pm, p0, pp, 0, w > 1 ? 1 : 0);
+        /* The interior has no border test, so the compiler can vectorise it. */
+        for (x = 1; x < w - 1; ++x) {
+            o[x] = (int16_t)((pm[x + 1] - pm[x - 1]) + 2 * (p0[x + 1] - p0[x - 1]) +
+                             (pp[x + 1] - pp[x - 1]));
+        }
+        if (w > 1) {
+            o[w - 1] = vt__sx(pm, p0, pp, w - 2, w - 1);
         }
     }
     return VT_OK;
@@ -99,10 +114,12 @@ vt_status vt_sobel_y(const vt_image_u8 *src, vt_image_s16 *dst)
         const uint8_t *pm = src->px + (size_t)(y > 0 ? y - 1 : 0) * (size_t)src->stride;
         const uint8_t *pp = src->px + (size_t)(y < h - 1 ? y + 1 : h - 1) * (size_t)src->stride;
         int16_t *o = dst->px + (size_t)y * (size_t)dst->stride;
-        for (x = 0; x < w; ++x) {
-            int32_t xl = x > 0 ? x - 1 : 0;
-            int32_t xr = x < w - 1 ? x + 1 : w - 1;
-            o[x] = (int16_t)((pp[xl] + 2 * pp[x] + pp[xr]) - (pm[xl] + 2 * pm[x] + pm[xr]));
+        o[0] = vt__sy(pm, pp, 0, 0, w > 1 ? 1 : 0);
+        for (x = 1; x < w - 1; ++x) {
+            o[x] = (int16_t)((pp[x - 1] + 2 * pp[x] + pp[x + 1]) - (pm[x - 1] + 2 * pm[x] + pm[x + 1]));
+        }
+        if (w > 1) {
+            o[w - 1] = vt__sy(pm, pp, w - 2, w - 1, w - 1);
         }
     }
     return VT_OK;

@@ -108,7 +108,12 @@ def view(arr, name: str, *, writable: bool = False, dtype=np.uint8):
                              f"stride; {_describe(arr)} (use np.ascontiguousarray)")
     struct = rw if writable else (ro or rw)
     v = ffi.new(struct + " *")
-    v.px = ffi.cast(ptype, arr.__array_interface__["data"][0])
+    # from_buffer is the cheap path for contiguous arrays; a padded view has no
+    # contiguous buffer, so its address is taken instead (the caller keeps it alive).
+    if arr.flags.c_contiguous and arr.size:
+        v.px = ffi.from_buffer(ptype[:-2] + "[]", arr, require_writable=writable)
+    else:
+        v.px = ffi.cast(ptype, arr.ctypes.data)
     v.w = w
     v.h = h
     v.stride = sy // item if h > 0 and w > 0 else w
@@ -189,3 +194,204 @@ def q16_recip(a: int) -> int:
     out = ffi.new("vt_q16 *")
     check("vt_q16_recip", lib.vt_q16_recip(a, out), f"1 / {a} (Q16)")
     return int(out[0])
+
+
+# ================================================================ kalman.h
+# (Kalman filter section; appended by the kf helper. Thin 1:1 wrappers: values
+# are raw fixed-point ints, the friendly API is pyvehtrack.kalman.)
+def kf_new():
+    """A zeroed vt_kf owned by Python (dims 0: call kf_init or a model init)."""
+    return ffi.new("vt_kf *")
+
+
+def kf_init(kf, dim_x: int, dim_z: int) -> None:
+    check("vt_kf_init", lib.vt_kf_init(kf, dim_x, dim_z), f"dim_x={dim_x}, dim_z={dim_z}")
+
+
+def _kf_dims(kf) -> str:
+    return "kf=NULL" if kf == ffi.NULL else f"dim_x={kf.dim_x}, dim_z={kf.dim_z}"
+
+
+def kf_predict(kf) -> None:
+    check("vt_kf_predict", lib.vt_kf_predict(kf), _kf_dims(kf))
+
+
+def kf_update(kf, z_q16) -> None:
+    """z_q16: dim_z ints in Q15.16 (C reads exactly dim_z of them)."""
+    vals = [int(v) for v in z_q16]
+    if kf != ffi.NULL and 1 <= kf.dim_z <= lib.VT_KF_MAX_Z and len(vals) != kf.dim_z:
+        # C would read dim_z values from a shorter buffer: refuse here.
+        raise ValueError(f"vt_kf_update: z has {len(vals)} values, the filter has "
+                         f"dim_z={kf.dim_z}")
+    z = ffi.new("vt_q16[]", vals) if vals else ffi.NULL
+    check("vt_kf_update", lib.vt_kf_update(kf, z), f"{_kf_dims(kf)}, z={list(z_q16)} (Q16)")
+
+
+def kf_accel_var(accel: int, p_max: int, p_zero: int) -> int:
+    out = ffi.new("vt_q32 *")
+    check("vt_kf_accel_var", lib.vt_kf_accel_var(accel, p_max, p_zero, out),
+          f"accel={accel}, p_max={p_max}, p_zero={p_zero} (Q16)")
+    return int(out[0])
+
+
+def kf_model_cfg_default():
+    cfg = ffi.new("vt_kf_model_cfg *")
+    check("vt_kf_model_cfg_default", lib.vt_kf_model_cfg_default(cfg))
+    return cfg
+
+
+def _kf_cfg_detail(cfg) -> str:
+    names = ("dt", "accel_x", "accel_y", "p_max", "p_zero", "meas_sigma_x", "meas_sigma_y",
+             "init_sigma_pos", "init_sigma_vel")
+    return "cfg (Q16) " + ", ".join(f"{n}={getattr(cfg, n)}" for n in names)
+
+
+def kf_init_bottom_edge(kf, cfg, x1: int, y1: int, x2: int) -> None:
+    check("vt_kf_init_bottom_edge", lib.vt_kf_init_bottom_edge(kf, cfg, x1, y1, x2),
+          _kf_cfg_detail(cfg))
+
+
+def kf_init_cv(kf, cfg, x: int, y: int) -> None:
+    check("vt_kf_init_cv", lib.vt_kf_init_cv(kf, cfg, x, y), _kf_cfg_detail(cfg))
+# ================================================================ end kalman.h
+
+
+# ================================================================ tracker.h
+TRACK_OUT_DTYPE = np.dtype([("id", np.int32), ("state", np.int32), ("left", np.int32),
+                            ("top", np.int32), ("right", np.int32), ("bottom", np.int32),
+                            ("vx", np.int32), ("vy", np.int32)])
+
+
+def tracker_cfg_default():
+    cfg = ffi.new("vt_tracker_cfg *")
+    check("vt_tracker_cfg_default", lib.vt_tracker_cfg_default(cfg))
+    return cfg
+
+
+def tracker_new():
+    tr = ffi.new("vt_tracker *")
+    check("vt_tracker_init", lib.vt_tracker_init(tr))
+    return tr
+
+
+def _boxes_i32(dets, name: str) -> np.ndarray:
+    a = np.asarray(dets if dets is not None else np.zeros((0, 4)))
+    if a.size == 0:
+        return np.zeros((0, 4), np.int32)
+    if a.ndim != 2 or a.shape[1] != 4:
+        raise ValueError(f"{name}: expected an (N, 4) array of [left, top, right, bottom], got shape {a.shape}")
+    if not np.issubdtype(a.dtype, np.number) or not np.all(np.isfinite(a)):
+        raise ValueError(f"{name}: boxes must be finite numbers")
+    if np.any(np.abs(a) > 2**30):
+        raise ValueError(f"{name}: box coordinates out of range")
+    return np.ascontiguousarray(np.rint(a), dtype=np.int32)
+
+
+def tracker_step(tr, cfg, img: np.ndarray, detection_frame: bool, dets=None) -> np.ndarray:
+    """One frame; returns the live tracks as a TRACK_OUT_DTYPE array (vx, vy in Q16)."""
+    v = view(img, "img")
+    boxes = _boxes_i32(dets, "dets")
+    pdets = ffi.cast("vt_box *", boxes.ctypes.data) if len(boxes) else ffi.NULL
+    cap = int(lib.VT_MAX_TRACKS)
+    out = np.zeros(cap, TRACK_OUT_DTYPE)
+    n = ffi.new("int32_t *")
+    check("vt_tracker_step",
+          lib.vt_tracker_step(tr, cfg, v, 1 if detection_frame else 0, pdets, len(boxes),
+                              ffi.cast("vt_track_out *", out.ctypes.data), cap, n),
+          f"img {img.shape}, {len(boxes)} detections")
+    return out[: n[0]].copy()
+# ================================================================ end tracker.h
+
+
+# ================================================================ shadow.h, verify.h, detect.h
+def shadow_cfg_default():
+    cfg = ffi.new("vt_shadow_cfg *")
+    check("vt_shadow_cfg_default", lib.vt_shadow_cfg_default(cfg))
+    return cfg
+
+
+def verify_cfg_default():
+    cfg = ffi.new("vt_verify_cfg *")
+    check("vt_verify_cfg_default", lib.vt_verify_cfg_default(cfg))
+    return cfg
+
+
+def detect_cfg_default():
+    cfg = ffi.new("vt_detect_cfg *")
+    check("vt_detect_cfg_default", lib.vt_detect_cfg_default(cfg))
+    return cfg
+
+
+def road_area(road, h: int):
+    """A vt_road_area for an image of h rows from any object with y_top, y_bottom,
+    x_left, x_right, lane_width (arrays of >= h entries, or None) and valid; None gives
+    an invalid (empty) road. Values are clipped to int16; h must be 0..VT_MAX_HEIGHT."""
+    r = ffi.new("vt_road_area *")
+    n = int(lib.VT_MAX_HEIGHT)
+    if not 0 <= h <= n:
+        raise ValueError(f"road_area: {h} rows, the core holds at most {n}")
+    r.height = h
+    if road is None or not getattr(road, "valid", True):
+        return r
+    r.valid = 1
+    r.y_top = int(np.clip(road.y_top, -2**31, 2**31 - 1))
+    r.y_bottom = int(np.clip(road.y_bottom, -2**31, 2**31 - 1))
+    for name in ("x_left", "x_right", "lane_width"):
+        a = np.asarray(getattr(road, name))
+        if a.ndim != 1 or a.shape[0] < h:
+            raise ValueError(f"road_area: {name} needs one entry per image row ({h}), got shape {a.shape}")
+        dst = np.frombuffer(ffi.buffer(getattr(r, name)), np.int16)
+        dst[:h] = np.clip(a[:h], -32768, 32767).astype(np.int16)
+    return r
+
+
+_HYP_DTYPE = np.dtype(np.int32)
+
+
+def _road_detail(road) -> str:
+    if road is None or road == ffi.NULL:
+        return "road NULL"
+    return f"road rows {road.y_top}..{road.y_bottom} of {road.height}, valid {road.valid}"
+
+
+def shadow_find(st, cfg, img: np.ndarray, road, out: np.ndarray, cap: int) -> int:
+    """vt_shadow_find into out (an (M, 3) int32 array, M >= cap) -> number written."""
+    v = view(img, "img")
+    if out.dtype != _HYP_DTYPE or out.ndim != 2 or out.shape[1] != 3 or not out.flags.c_contiguous \
+            or out.shape[0] < cap:
+        raise ValueError(f"out: expected a C-contiguous (>= {cap}, 3) int32 array, got "
+                         f"{out.shape} {out.dtype}")
+    n = ffi.new("int32_t *")
+    p = ffi.cast("vt_hypothesis *", out.ctypes.data) if out.shape[0] else ffi.NULL
+    check("vt_shadow_find", lib.vt_shadow_find(st, cfg, v, road, p, cap, n),
+          f"img {img.shape}, {_road_detail(road)}, cap {cap}")
+    return int(n[0])
+
+
+def verify(st, cfg, img: np.ndarray, hyps: np.ndarray, out: np.ndarray, cap: int) -> int:
+    """vt_verify of hyps ((N, 3) int32 rows [row, x_start, x_end]) into out (an (M, 4)
+    int32 array, M >= cap) -> number of boxes written."""
+    v = view(img, "img")
+    for name, a, k in (("hyps", hyps, 3), ("out", out, 4)):
+        if a.dtype != np.int32 or a.ndim != 2 or a.shape[1] != k or not a.flags.c_contiguous:
+            raise ValueError(f"{name}: expected a C-contiguous (N, {k}) int32 array, got "
+                             f"{a.shape} {a.dtype}")
+    if out.shape[0] < cap:
+        raise ValueError(f"out: {out.shape[0]} rows for cap {cap}")
+    n = ffi.new("int32_t *")
+    ph = ffi.cast("vt_hypothesis *", hyps.ctypes.data) if hyps.shape[0] else ffi.NULL
+    po = ffi.cast("vt_box *", out.ctypes.data) if out.shape[0] else ffi.NULL
+    check("vt_verify", lib.vt_verify(st, cfg, v, ph, hyps.shape[0], po, cap, n),
+          f"img {img.shape}, {hyps.shape[0]} hypotheses, cap {cap}")
+    return int(n[0])
+
+
+def detect(st, cfg, img: np.ndarray, road, out) -> tuple[np.ndarray, np.ndarray]:
+    """vt_detect -> (hypotheses (N, 3) int32, boxes (M, 4) int32), copies of out's arrays."""
+    v = view(img, "img")
+    check("vt_detect", lib.vt_detect(st, cfg, v, road, out),
+          f"img {img.shape}, {_road_detail(road)}")
+    hyp = np.frombuffer(ffi.buffer(out.hyp), np.int32).reshape(-1, 3)[: out.n_hyp].copy()
+    box = np.frombuffer(ffi.buffer(out.box), np.int32).reshape(-1, 4)[: out.n_boxes].copy()
+    return hyp, box
+# ================================================================ end shadow.h, verify.h, detect.h
