@@ -56,7 +56,7 @@ vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg
                           const vt_box *roi, vt_track_sides *sides,
                           vt_track_search_ws *ws, vt_box *meas, int32_t *found)
 {
-    int32_t l, t, r, b, x, y, ybest, hbest, mid, midx, lmax, rmax, xl, xr, rows;
+    int32_t l, t, r, b, x, y, ybest, hbest, mid, midx, lmax, rmax, xl, xr, rows, sign;
     vt_status s = vt_image_u8_check(img);
     if (s != VT_OK) {
         return s;
@@ -64,7 +64,8 @@ vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg
     if (cfg == NULL || roi == NULL || ws == NULL || meas == NULL || found == NULL) {
         return VT_E_ARG;
     }
-    if (cfg->h_thresh < 1 || cfg->v_thresh < 1 || cfg->min_h_percent < 0 ||
+    if ((cfg->polarity != VT_EDGE_DARK_ABOVE && cfg->polarity != VT_EDGE_DARK_BELOW) ||
+        cfg->h_thresh < 1 || cfg->v_thresh < 1 || cfg->min_h_percent < 0 ||
         cfg->min_h_percent > 100 || cfg->min_v_percent < 0 || cfg->min_v_percent > 100) {
         return VT_E_ARG;
     }
@@ -79,10 +80,11 @@ vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg
     if (r - l < 4 || b - t < 2) {
         return VT_OK;
     }
+    sign = cfg->polarity == VT_EDGE_DARK_ABOVE ? 1 : -1;
     for (y = t; y < b; ++y) {
         int32_t n = 0;
         for (x = l; x < r; ++x) {
-            n += vt__sobel_y_at(img, x, y) <= -cfg->h_thresh;
+            n += sign * vt__sobel_y_at(img, x, y) >= cfg->h_thresh;
         }
         ws->hproj[y] = n;
     }

@@ -85,13 +85,15 @@ static vt_status vt__check_cfg(const vt_tracker_cfg *c)
 {
     vt_q32 var;
     const vt_kf_model_cfg *m = &c->model;
-    if (c->search.h_thresh < 1 || c->search.v_thresh < 1 || c->search.min_h_percent < 0 ||
+    if ((c->search.polarity != VT_EDGE_DARK_ABOVE && c->search.polarity != VT_EDGE_DARK_BELOW) ||
+        c->search.h_thresh < 1 || c->search.v_thresh < 1 || c->search.min_h_percent < 0 ||
         c->search.min_h_percent > 100 || c->search.min_v_percent < 0 ||
         c->search.min_v_percent > 100) {
         return VT_E_ARG;
     }
     if (c->roi_margin_min < 0 || c->roi_margin_min > VT_MAX_WIDTH || c->roi_margin_percent < 0 ||
         c->roi_margin_percent > 400 || c->gate_percent < 0 || c->gate_percent > 400 ||
+        c->gate_bottom_percent < 0 || c->gate_bottom_percent > 400 ||
         c->confirm_hits < 1 || c->max_coast < 0 || c->match_iou_percent < 1 ||
         c->match_iou_percent > 100 || c->keep_ncc < -VT_Q14_ONE || c->keep_ncc > VT_Q14_ONE ||
         c->init_max_change < 0) {
@@ -218,7 +220,7 @@ vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_im
         vt_track *t = &tr->tracks[i];
         vt_box roi, meas;
         vt_track_sides sides;
-        int32_t found = 0, w, m, gate;
+        int32_t found = 0, w, m, gate, gate_b;
         measured[i] = 0;
         track_matched[i] = 0;
         if (t->state == VT_TRACK_FREE) {
@@ -233,15 +235,20 @@ vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_im
         w = t->box.right - t->box.left + 1;
         m = vt__max32(cfg->roi_margin_min, (int32_t)((int64_t)w * cfg->roi_margin_percent / 100));
         gate = vt__max32(8, (int32_t)((int64_t)w * cfg->gate_percent / 100));
+        gate_b = vt__max32(4, (int32_t)((int64_t)w * cfg->gate_bottom_percent / 100));
+        /* The ROI of the verification step (thesis sec. 3.6: "determined as
+         * described in the hypothesis verification step"): the bottom edge widened
+         * by the margin, half the edge length high; below it, as far as the bottom
+         * gate lets the edge move. */
         roi.left = t->box.left - m;
         roi.right = t->box.right + m;
-        roi.top = t->box.top - m;
-        roi.bottom = t->box.bottom + m;
+        roi.top = t->box.bottom - w / 2;
+        roi.bottom = t->box.bottom + vt__max32(m, gate_b);
         sides = t->sides;
         s = vt_track_search(img, &cfg->search, &roi, &sides, &tr->ws, &meas, &found);
         if (s == VT_OK && found && vt__abs(meas.left - t->box.left) <= gate &&
             vt__abs(meas.right - t->box.right) <= gate &&
-            vt__abs(meas.bottom - t->box.bottom) <= gate &&
+            vt__abs(meas.bottom - t->box.bottom) <= gate_b &&
             vt__update(t, meas.left, meas.bottom, meas.right) == VT_OK) {
             t->sides = sides;
             measured[i] = 1;
@@ -287,7 +294,10 @@ vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_im
             }
             track_matched[bi] = 1;
             match_of_det[bj] = (int16_t)bi;
-            if (!measured[bi]) {
+            {
+                /* The detection is a second, independent measurement of the same
+                 * bottom edge: it pulls back a search that drifted, and re-anchors
+                 * the aspect ratio and the side memory. */
                 vt_track *t = &tr->tracks[bi];
                 const vt_box *d = &dets[bj];
                 int32_t dw = d->right - d->left + 1;
@@ -296,8 +306,12 @@ vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_im
                     vt__box_from_state(t);
                     t->sides.prev_left = d->left;
                     t->sides.prev_right = d->right;
-                    measured[bi] = 1;
-                    vt__hit(t, cfg, img);
+                    if (!measured[bi]) {
+                        measured[bi] = 1;
+                        vt__hit(t, cfg, img);
+                    } else {
+                        vt__sample(img, &t->box, t->tmpl);
+                    }
                 }
             }
         }

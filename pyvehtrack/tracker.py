@@ -34,7 +34,7 @@ def cfg_to_c(cfg: rtrk.TrackerCfg):
     (each rounded to nearest)."""
     c = _native.ffi.new("vt_tracker_cfg *")
     s = cfg.search
-    c.search.h_thresh, c.search.v_thresh = s.h_thresh, s.v_thresh
+    c.search.polarity, c.search.h_thresh, c.search.v_thresh = s.polarity, s.h_thresh, s.v_thresh
     c.search.min_h_percent, c.search.min_v_percent = s.min_h_percent, s.min_v_percent
     for name in ("dt", "accel_x", "accel_y", "p_max", "p_zero", "meas_sigma_x", "meas_sigma_y",
                  "init_sigma_pos", "init_sigma_vel"):
@@ -42,7 +42,8 @@ def cfg_to_c(cfg: rtrk.TrackerCfg):
         if not np.isfinite(v) or abs(v) >= 32768:
             raise ValueError(f"model.{name}={v} is outside the Q15.16 range")
         setattr(c.model, name, int(round(v * 65536)))
-    for name in ("roi_margin_min", "roi_margin_percent", "gate_percent", "confirm_hits", "max_coast",
+    for name in ("roi_margin_min", "roi_margin_percent", "gate_percent", "gate_bottom_percent",
+                 "confirm_hits", "max_coast",
                  "match_iou_percent", "init_max_change"):
         setattr(c, name, int(getattr(cfg, name)))
     if not -1.0 <= cfg.keep_ncc <= 1.0:

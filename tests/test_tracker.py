@@ -18,7 +18,8 @@ ffi, lib = vt.ffi, vt.lib
 
 def draw_car(img, l, by, w, body=200, shadow=20):
     """A rear view: bright body, dark window band, dark shadow under it (rows by-2..by+2).
-    Returns the inclusive box down to the shadow's top edge (what the tracker measures)."""
+    Returns the inclusive box down to the shadow's last row: the dark-above-bright edge
+    the detector and the tracker both take as the bottom (VT_EDGE_DARK_ABOVE)."""
     h, W = img.shape
     top = by - w + 5
     r = l + w
@@ -26,7 +27,7 @@ def draw_car(img, l, by, w, body=200, shadow=20):
     img[max(0, top):max(0, min(h, by - 2)), sl] = body
     img[max(0, by - w // 2):max(0, min(h, by - w // 3)), max(0, l + 5):max(0, min(W, r - 5))] = 60
     img[max(0, by - 2):max(0, min(h, by + 3)), sl] = shadow
-    return (l, top, r - 1, by - 3)
+    return (l, top, r - 1, by + 2)
 
 
 def make_scene(rng, cars, t, shape=(240, 320), noise=8):
@@ -138,16 +139,17 @@ def test_ids_never_reused_and_full_capacity_is_defined():
 
 @settings(max_examples=100)
 @given(seed=st.integers(0, 2**31), l=st.integers(-20, 300), t=st.integers(-20, 220),
-       w=st.integers(-5, 120), h=st.integers(-5, 120), prev=st.booleans())
-def test_track_search_exact(seed, l, t, w, h, prev):
+       w=st.integers(-5, 120), h=st.integers(-5, 120), prev=st.booleans(), polarity=st.sampled_from([0, 1]))
+def test_track_search_exact(seed, l, t, w, h, prev, polarity):
     """Integer counts and comparisons on both sides: exact equality, box and sides."""
     rng = np.random.default_rng(seed)
     img, _ = make_scene(rng, [(rng.integers(0, 250), rng.integers(60, 230), rng.integers(20, 70), 0, 0, 0)], 0)
     roi = (l, t, l + w, t + h)
-    cfg = rts.SearchCfg()
+    cfg = rts.SearchCfg(polarity=polarity)
     sides_r = rts.Sides(True, l + 3, l + w - 3, 2, 2) if prev else None
     ref = rts.track_search(img, cfg, roi, sides_r)
-    c_cfg = ffi.new("vt_track_search_cfg *", [cfg.h_thresh, cfg.v_thresh, cfg.min_h_percent, cfg.min_v_percent])
+    c_cfg = ffi.new("vt_track_search_cfg *", [cfg.polarity, cfg.h_thresh, cfg.v_thresh, cfg.min_h_percent,
+                                               cfg.min_v_percent])
     c_roi = ffi.new("vt_box *", list(roi))
     c_sides = ffi.new("vt_track_sides *", [1, l + 3, l + w - 3, 2, 2]) if prev else ffi.NULL
     ws = ffi.new("vt_track_search_ws *")
@@ -170,12 +172,13 @@ def test_python_defaults_equal_c_defaults():
     e.g. 0.1 -> 6553), the Python ones round (6554): 1 LSB of Q16 apart at most."""
     c = _native.tracker_cfg_default()
     p = cfg_to_c(rtrk.TrackerCfg())
-    for f in ("h_thresh", "v_thresh", "min_h_percent", "min_v_percent"):
+    for f in ("polarity", "h_thresh", "v_thresh", "min_h_percent", "min_v_percent"):
         assert getattr(c.search, f) == getattr(p.search, f), f
     for f in ("dt", "accel_x", "accel_y", "p_max", "p_zero", "meas_sigma_x", "meas_sigma_y",
               "init_sigma_pos", "init_sigma_vel"):
         assert abs(getattr(c.model, f) - getattr(p.model, f)) <= 1, f
-    for f in ("roi_margin_min", "roi_margin_percent", "gate_percent", "confirm_hits", "max_coast",
+    for f in ("roi_margin_min", "roi_margin_percent", "gate_percent", "gate_bottom_percent",
+              "confirm_hits", "max_coast",
               "match_iou_percent", "keep_ncc", "init_max_change"):
         assert getattr(c, f) == getattr(p, f), f
 

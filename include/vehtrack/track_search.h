@@ -16,9 +16,15 @@
  * from the detector's verification stage, whose boxes the tracker takes in. */
 #include "vehtrack/verify.h"
 
+/* Which border of the shadow is the bottom edge (as vt_shadow_cfg.polarity, so
+ * the tracker measures the edge the detector found). */
+#define VT_EDGE_DARK_ABOVE 0 /* shadow above the lit road: sobel_y >= h_thresh */
+#define VT_EDGE_DARK_BELOW 1 /* body above its shadow: -sobel_y >= h_thresh */
+
 typedef struct {
-    /* A horizontal (shadow) edge pixel has Sobel d/dy <= -h_thresh: bright above,
-     * dark below, the thesis's negative vertical gradient (sec. 2.4.2.1). */
+    int32_t polarity; /* VT_EDGE_DARK_ABOVE (default) or VT_EDGE_DARK_BELOW */
+    /* A horizontal (shadow) edge pixel has s * Sobel d/dy >= h_thresh, s = +1 for
+     * DARK_ABOVE, -1 for DARK_BELOW. Sobel has a gain of 4 (a 12-level step: 48). */
     int32_t h_thresh;
     /* A vertical edge pixel has |Sobel d/dx| >= v_thresh. */
     int32_t v_thresh;
@@ -30,7 +36,9 @@ typedef struct {
     int32_t min_v_percent;
 } vt_track_search_cfg;
 
-#define VT_TRACK_SEARCH_CFG_DEFAULT { 96, 96, 20, 20 }
+/* Thresholds as the detector's stages: 48 as vt_shadow_cfg's fixed threshold,
+ * 60 as vt_verify_cfg's vertical-edge threshold. */
+#define VT_TRACK_SEARCH_CFG_DEFAULT { VT_EDGE_DARK_ABOVE, 48, 60, 20, 20 }
 
 /* Projection vectors; caller-owned so the search allocates nothing. */
 typedef struct {

@@ -38,9 +38,11 @@ typedef struct {
     vt_track_search_cfg search;
     vt_kf_model_cfg model;
     int32_t roi_margin_min;      /* ROI = predicted box widened by the larger of   */
-    int32_t roi_margin_percent;  /* these two, px and % of the box width           */
-    int32_t gate_percent;        /* a measurement moving a corner more than this %
+    int32_t roi_margin_percent;  /* these two, px and % of the box width (thesis:
+                                    6 px, as the verification ROI)                  */
+    int32_t gate_percent;        /* a measurement moving a side more than this %
                                     of the box width (or 8 px) is rejected          */
+    int32_t gate_bottom_percent; /* ... or the bottom more than this % (or 4 px)    */
     int32_t confirm_hits;        /* measurements before tentative -> confirmed      */
     int32_t max_coast;           /* frames without measurement before deletion      */
     int32_t match_iou_percent;   /* detection <-> track association threshold       */
@@ -50,7 +52,7 @@ typedef struct {
 
 #define VT_TRACKER_CFG_DEFAULT                                                     \
     {                                                                              \
-        VT_TRACK_SEARCH_CFG_DEFAULT, VT_KF_MODEL_CFG_DEFAULT, 4, 15, 35, 3, 6, 30, \
+        VT_TRACK_SEARCH_CFG_DEFAULT, VT_KF_MODEL_CFG_DEFAULT, 6, 0, 35, 10, 3, 6, 30,   \
             (vt_q14)((VT_Q14_ONE * 7 + 5) / 10), 3 /* 0.7, rounded */             \
     }
 
@@ -98,8 +100,8 @@ vt_status vt_tracker_cfg_default(vt_tracker_cfg *cfg);
  * found (else it coasts). If `detection_frame` is non-zero, `dets[0..n_dets-1]`
  * are this frame's detections (n_dets may be 0; dets may be NULL only then):
  * each is matched to at most one track by IoU (greedy, best pair first, at least
- * match_iou_percent); a matched track whose search failed is updated with the
- * detection; a track no detection matched survives only if its template
+ * match_iou_percent); a matched track is updated with the detection as a
+ * second measurement (counted as its hit when the search failed); a track no detection matched survives only if its template
  * correlates with the same box in `img` at >= keep_ncc; an unmatched detection
  * that overlaps no track starts a tentative track (or, when every slot is used,
  * is counted in dropped_full: the defined behaviour when full).

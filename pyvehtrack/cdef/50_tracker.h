@@ -2,7 +2,10 @@
 #define VT_TRACK_TEMPLATE ...
 
 /* vt_box is declared in 40_detect.h */
+#define VT_EDGE_DARK_ABOVE ...
+#define VT_EDGE_DARK_BELOW ...
 typedef struct {
+    int32_t polarity;
     int32_t h_thresh;
     int32_t v_thresh;
     int32_t min_h_percent;
@@ -29,6 +32,7 @@ typedef struct {
     int32_t roi_margin_min;
     int32_t roi_margin_percent;
     int32_t gate_percent;
+    int32_t gate_bottom_percent;
     int32_t confirm_hits;
     int32_t max_coast;
     int32_t match_iou_percent;

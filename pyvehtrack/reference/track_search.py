@@ -1,7 +1,7 @@
 """Float reference for the tracker's ROI measurement (thesis sec. 3.6.1); the
 specification of c/track_search.c.
 
-Within the predicted ROI: count shadow-edge pixels (Sobel d/dy <= -h_thresh) per
+Within the predicted ROI: count shadow-edge pixels (s * Sobel d/dy >= h_thresh) per
 row and take the largest count from the bottom row up to the middle row as the
 bottom edge; count vertical-edge pixels (|Sobel d/dx| >= v_thresh) per column
 above it; the left half searched from the left and the right half from the right
@@ -16,10 +16,14 @@ import numpy as np
 from . import image as rimg
 
 
+DARK_ABOVE, DARK_BELOW = 0, 1
+
+
 @dataclass
 class SearchCfg:
-    h_thresh: int = 96
-    v_thresh: int = 96
+    polarity: int = DARK_ABOVE   # shadow above the lit road: sobel_y >= h_thresh
+    h_thresh: int = 48
+    v_thresh: int = 60
     min_h_percent: int = 20
     min_v_percent: int = 20
 
@@ -52,7 +56,8 @@ def track_search(img: np.ndarray, cfg: SearchCfg, roi, sides: Sides | None = Non
     if r - l < 4 or b - t < 2:
         return None
     gx, gy = grads if grads is not None else (rimg.sobel_x(img), rimg.sobel_y(img))
-    hproj = (gy[t:b, l:r] <= -cfg.h_thresh).sum(axis=1)
+    sign = 1 if cfg.polarity == DARK_ABOVE else -1
+    hproj = (sign * gy[t:b, l:r] >= cfg.h_thresh).sum(axis=1)
     mid = t + (b - t) // 2
     best, ybest = 0, None
     for y in range(b - 1, mid - 1, -1):

@@ -43,9 +43,10 @@ class ModelCfg:
 class TrackerCfg:
     search: SearchCfg = field(default_factory=SearchCfg)
     model: ModelCfg = field(default_factory=ModelCfg)
-    roi_margin_min: int = 4
-    roi_margin_percent: int = 15
+    roi_margin_min: int = 6        # thesis: the verification ROI's 6 px
+    roi_margin_percent: int = 0
     gate_percent: int = 35
+    gate_bottom_percent: int = 10
     confirm_hits: int = 3
     max_coast: int = 6
     match_iou_percent: int = 30
@@ -175,10 +176,13 @@ class Tracker:
             w = r - l + 1
             m = max(c.roi_margin_min, (w * c.roi_margin_percent) // 100)
             gate = max(8, (w * c.gate_percent) // 100)
+            gate_b = max(4, (w * c.gate_bottom_percent) // 100)
             sides = Sides(**vars(t.sides))
-            meas = track_search(img, c.search, (l - m, top - m, r + m, b + m), sides, grads)
+            # the verification step's ROI: half the edge length high; below, as far
+            # as the bottom gate lets the edge move
+            meas = track_search(img, c.search, (l - m, b - w // 2, r + m, b + max(m, gate_b)), sides, grads)
             if meas is not None and abs(meas[0] - l) <= gate and abs(meas[2] - r) <= gate \
-                    and abs(meas[3] - b) <= gate:
+                    and abs(meas[3] - b) <= gate_b:
                 self._update(t, meas[0], meas[3], meas[2])
                 t.sides = sides
                 measured[i] = True
@@ -206,15 +210,18 @@ class Tracker:
                 _, _, bi, bj = best
                 matched[bi] = True
                 match_of_det[bj] = bi
+                # the detection is a second measurement of the bottom edge
+                t, d = self.tracks[bi], dets[bj]
+                dw = d[2] - d[0] + 1
+                self._update(t, d[0], d[3], d[2])
+                t.aspect_q8 = ((d[3] - d[1] + 1) * 256 + dw // 2) // dw
+                t.box_from_state()
+                t.sides.prev_left, t.sides.prev_right = d[0], d[2]
                 if not measured[bi]:
-                    t, d = self.tracks[bi], dets[bj]
-                    dw = d[2] - d[0] + 1
-                    self._update(t, d[0], d[3], d[2])
-                    t.aspect_q8 = ((d[3] - d[1] + 1) * 256 + dw // 2) // dw
-                    t.box_from_state()
-                    t.sides.prev_left, t.sides.prev_right = d[0], d[2]
                     measured[bi] = True
                     self._hit(t, img)
+                else:
+                    t.tmpl = sample(img, t.box)
             for i, t in enumerate(self.tracks):
                 if t.state == FREE or matched[i]:
                     continue
