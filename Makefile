@@ -42,6 +42,7 @@ setup:
 	  $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq \
 	    --no-install-recommends $(APT_PKGS) >/dev/null; fi
 	$(PY) -m pip install -q --upgrade "meson-python>=0.15" "meson>=1.1" ninja "cffi>=1.16"
+	$(PY) -m pip install -q --no-deps "trackeval==1.3.0"
 	$(PY) -m pip install -q --no-build-isolation -e ".[test]"
 
 tables:

@@ -26,7 +26,8 @@ try:
     import trackeval
     from trackeval.datasets.kitti_2d_box import Kitti2DBox as _Kitti2DBox
 except ImportError as exc:  # pragma: no cover - trackeval is a declared dependency
-    raise ImportError("pyvehtrack.evaluate needs TrackEval: pip install trackeval") from exc
+    raise ImportError("pyvehtrack.evaluate needs TrackEval: `make setup`, or "
+                      "pip install --no-deps trackeval==1.3.0 pycocotools tabulate") from exc
 
 __all__ = ["LABEL_DTYPE", "read_kitti", "to_labels", "evaluate_kitti", "evaluate_many", "format_results"]
 
