@@ -256,6 +256,44 @@ def _sincos(ctx: Ctx) -> Stage:
                  digest=lambda: digest(out))
 
 
+# ---------------------------------------------------------------- the tracker (issue 4)
+@register("track_frame")
+def _track_frame(ctx: Ctx) -> Stage:
+    """One tracked frame (no detection) with the two cars of the bench frame, from the
+    same primed state every run (the C side restores a 55 KB state copy first)."""
+    import copy
+
+    from pyvehtrack import _native
+    from pyvehtrack.reference import tracker as rtrk
+    from pyvehtrack.tracker import cfg_to_c
+    img = ctx.frame
+    h, w = img.shape
+    dets = np.array([[370 * w // 640, 270 * h // 480, 456 * w // 640, 328 * h // 480],
+                     [528 * w // 640, 268 * h // 480, 639 * w // 640, 336 * h // 480]])
+    ccfg = cfg_to_c(rtrk.TrackerCfg())
+    tr = _native.tracker_new()
+    _native.tracker_step(tr, ccfg, img, True, dets)
+    saved = _native.ffi.new("vt_tracker *")
+    _native.ffi.memmove(saved, tr, _native.ffi.sizeof("vt_tracker"))
+    ref = rtrk.Tracker(rtrk.TrackerCfg(), max_tracks=int(_native.lib.VT_MAX_TRACKS))
+    ref.step(img, True, dets)
+    last = {}
+
+    def c():
+        _native.ffi.memmove(tr, saved, _native.ffi.sizeof("vt_tracker"))
+        last["out"] = _native.tracker_step(tr, ccfg, img, False)
+
+    def reference():
+        return copy.deepcopy(ref).step(img, False)
+
+    def dig():
+        o = last["out"]
+        return digest(np.stack([o["id"], o["left"], o["top"], o["right"], o["bottom"]], 1)) if len(o) else 0
+
+    return Stage("track_frame", c, reference, pixels=img.size, digest=dig, calls=1,
+                 note="2 tracks; oracle copies its tracker each run")
+
+
 # ---------------------------------------------------------------- frames
 def load_frame(w: int, h: int, quick: bool) -> tuple[np.ndarray, str]:
     """The gray bench frame of size w x h (quick: an eighth of each side, at least

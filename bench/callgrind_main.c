@@ -300,6 +300,52 @@ static uint32_t bench_digest_units2(const bench_ctx *ctx)
     return digest_u32(g_out, 2u * (size_t)ctx->units);
 }
 
+/* ---- tracker (issue 4): one tracked frame (no detection) with two vehicles.
+ * The boxes are the two cars of bench/data/road_640x480.png, scaled to the frame
+ * as bench.py scales them. Setup primes the tracker with a detection frame. */
+static vt_tracker g_tracker;
+static vt_tracker_cfg g_tracker_cfg;
+static vt_track_out g_track_out[VT_MAX_TRACKS];
+static int32_t g_track_n;
+
+static void bench_setup_track_frame(bench_ctx *ctx)
+{
+    static const int32_t base[2][4] = {{370, 270, 456, 328}, {528, 268, 639, 336}};
+    vt_box dets[2];
+    int32_t i, n = 0;
+    for (i = 0; i < 2; ++i) {
+        dets[i].left = base[i][0] * ctx->frame.w / 640;
+        dets[i].top = base[i][1] * ctx->frame.h / 480;
+        dets[i].right = base[i][2] * ctx->frame.w / 640;
+        dets[i].bottom = base[i][3] * ctx->frame.h / 480;
+    }
+    note_status(ctx, vt_tracker_cfg_default(&g_tracker_cfg));
+    note_status(ctx, vt_tracker_init(&g_tracker));
+    note_status(ctx, vt_tracker_step(&g_tracker, &g_tracker_cfg, &ctx->frame, 1, dets, 2,
+                                     g_track_out, VT_MAX_TRACKS, &n));
+}
+
+static void bench_run_track_frame(bench_ctx *ctx)
+{
+    note_status(ctx, vt_tracker_step(&g_tracker, &g_tracker_cfg, &ctx->frame, 0, NULL, 0,
+                                     g_track_out, VT_MAX_TRACKS, &g_track_n));
+}
+
+static uint32_t bench_digest_track_frame(const bench_ctx *ctx)
+{
+    uint32_t v[VT_MAX_TRACKS * 5];
+    int32_t i;
+    (void)ctx;
+    for (i = 0; i < g_track_n; ++i) {
+        v[5 * i] = (uint32_t)g_track_out[i].id;
+        v[5 * i + 1] = (uint32_t)g_track_out[i].box.left;
+        v[5 * i + 2] = (uint32_t)g_track_out[i].box.top;
+        v[5 * i + 3] = (uint32_t)g_track_out[i].box.right;
+        v[5 * i + 4] = (uint32_t)g_track_out[i].box.bottom;
+    }
+    return digest_u32(v, 5u * (size_t)g_track_n);
+}
+
 /* The registry. Default units match bench.py's full run. */
 static const bench_stage stages[] = {
     {"filter_h101", 1, bench_setup_filter_h101, bench_run_filter_h101, digest_s16},
@@ -311,6 +357,7 @@ static const bench_stage stages[] = {
     {"ncc", 100, bench_setup_ncc, bench_run_ncc, bench_digest_units},
     {"sad", 1000, bench_setup_sad, bench_run_sad, bench_digest_units},
     {"sincos", 1440, bench_setup_sincos, bench_run_sincos, bench_digest_units2},
+    {"track_frame", 1, bench_setup_track_frame, bench_run_track_frame, bench_digest_track_frame},
 };
 #define N_STAGES (sizeof stages / sizeof stages[0])
 

@@ -5,22 +5,43 @@
 #include "vehtrack/track_search.h"
 #include "internal.h"
 
-/* Sobel responses at (x, y) with the edge replicated, as vt_sobel_x/y. */
-static int32_t vt__sobel_y_at(const vt_image_u8 *img, int32_t x, int32_t y)
+/* Row pointers of the 3x3 neighbourhood of row y, the edge row replicated. */
+static void vt__rows(const vt_image_u8 *img, int32_t y, const uint8_t **pm, const uint8_t **p0,
+                     const uint8_t **pp)
 {
-    int32_t xl = x > 0 ? x - 1 : 0, xr = x < img->w - 1 ? x + 1 : img->w - 1;
-    const uint8_t *pm = img->px + (size_t)(y > 0 ? y - 1 : 0) * (size_t)img->stride;
-    const uint8_t *pp = img->px + (size_t)(y < img->h - 1 ? y + 1 : img->h - 1) * (size_t)img->stride;
-    return (pp[xl] + 2 * pp[x] + pp[xr]) - (pm[xl] + 2 * pm[x] + pm[xr]);
+    *pm = img->px + (size_t)(y > 0 ? y - 1 : 0) * (size_t)img->stride;
+    *p0 = img->px + (size_t)y * (size_t)img->stride;
+    *pp = img->px + (size_t)(y < img->h - 1 ? y + 1 : img->h - 1) * (size_t)img->stride;
 }
 
-static int32_t vt__sobel_x_at(const vt_image_u8 *img, int32_t x, int32_t y)
+/* Count of columns x in [l, r) of row y whose s * Sobel d/dy >= thr (edge replicated,
+ * as vt_sobel_y). Columns 0 and w-1 take the clamped path; the rest none. */
+static int32_t vt__count_h(const vt_image_u8 *img, int32_t y, int32_t l, int32_t r, int32_t s,
+                           int32_t thr)
 {
-    int32_t xl = x > 0 ? x - 1 : 0, xr = x < img->w - 1 ? x + 1 : img->w - 1;
-    const uint8_t *pm = img->px + (size_t)(y > 0 ? y - 1 : 0) * (size_t)img->stride;
-    const uint8_t *p0 = img->px + (size_t)y * (size_t)img->stride;
-    const uint8_t *pp = img->px + (size_t)(y < img->h - 1 ? y + 1 : img->h - 1) * (size_t)img->stride;
-    return (pm[xr] - pm[xl]) + 2 * (p0[xr] - p0[xl]) + (pp[xr] - pp[xl]);
+    const uint8_t *pm, *p0, *pp;
+    int32_t x, n = 0, lo = l > 1 ? l : 1, hi = r < img->w - 1 ? r : img->w - 1;
+    vt__rows(img, y, &pm, &p0, &pp);
+    for (x = l; x < lo && x < r; ++x) { /* column 0 */
+        int32_t xr = img->w > 1 ? 1 : 0;
+        n += s * ((pp[0] + 2 * pp[0] + pp[xr]) - (pm[0] + 2 * pm[0] + pm[xr])) >= thr;
+    }
+    for (x = lo; x < hi; ++x) {
+        n += s * ((pp[x - 1] + 2 * pp[x] + pp[x + 1]) - (pm[x - 1] + 2 * pm[x] + pm[x + 1])) >= thr;
+    }
+    for (x = hi > lo ? hi : lo; x < r; ++x) { /* column w-1 */
+        int32_t xl = x > 0 ? x - 1 : 0;
+        n += s * ((pp[xl] + 2 * pp[x] + pp[x]) - (pm[xl] + 2 * pm[x] + pm[x])) >= thr;
+    }
+    return n;
+}
+
+/* |Sobel d/dx| >= thr at (x, y), edge replicated (as vt_sobel_x). */
+static int32_t vt__vedge(const uint8_t *pm, const uint8_t *p0, const uint8_t *pp, int32_t xl,
+                         int32_t xr, int32_t thr)
+{
+    int32_t g = (pm[xr] - pm[xl]) + 2 * (p0[xr] - p0[xl]) + (pp[xr] - pp[xl]);
+    return (g < 0 ? -g : g) >= thr;
 }
 
 /* First index in [lo, hi) (stepping +1) or (hi, lo] (stepping -1) whose value is
@@ -82,11 +103,7 @@ vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg
     }
     sign = cfg->polarity == VT_EDGE_DARK_ABOVE ? 1 : -1;
     for (y = t; y < b; ++y) {
-        int32_t n = 0;
-        for (x = l; x < r; ++x) {
-            n += sign * vt__sobel_y_at(img, x, y) >= cfg->h_thresh;
-        }
-        ws->hproj[y] = n;
+        ws->hproj[y] = vt__count_h(img, y, l, r, sign, cfg->h_thresh);
     }
     /* Bottom edge: from the bottom row up to the middle row, the largest count;
      * the lower row wins ties because it is met first. */
@@ -103,12 +120,17 @@ vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg
         return VT_OK;
     }
     rows = ybest - t + 1;
+    /* Row by row (cache-friendly), accumulating per column. */
     for (x = l; x < r; ++x) {
-        int32_t n = 0;
-        for (y = t; y <= ybest; ++y) {
-            n += vt__abs32(vt__sobel_x_at(img, x, y)) >= cfg->v_thresh;
+        ws->vproj[x] = 0;
+    }
+    for (y = t; y <= ybest; ++y) {
+        const uint8_t *pm, *p0, *pp;
+        vt__rows(img, y, &pm, &p0, &pp);
+        for (x = l; x < r; ++x) {
+            int32_t cl = x > 0 ? x - 1 : 0, cr = x < img->w - 1 ? x + 1 : img->w - 1;
+            ws->vproj[x] += vt__vedge(pm, p0, pp, cl, cr, cfg->v_thresh);
         }
-        ws->vproj[x] = n;
     }
     midx = l + (r - l) / 2;
     lmax = vt__max_range(ws->vproj, l, midx);
