@@ -4,6 +4,7 @@ A fixed-point C99 core (static memory, no float) called through cffi, with a flo
 NumPy/OpenCV reference in `pyvehtrack.reference` that serves as its oracle."""
 from ._native import VtError, ffi, lib
 from . import image
+from . import kalman
 
 __all__ = ["VtError", "ffi", "lib", "image", "MAX_WIDTH", "MAX_HEIGHT", "__version__"]
 

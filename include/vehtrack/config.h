@@ -27,6 +27,78 @@
 #define VT_MAX_TRACKS 16
 #endif
 
+/* Kalman filter sizes (vt_kf): states and measurements. The thesis's
+ * bottom-edge model needs 6 and 3; 8 and 4 leave room for a full box model.
+ * sizeof(vt_kf) = 8 + 4 (MX + MZ) (padded to 8) + 8 (3 MX^2 + 2 MX MZ + 2 MZ^2)
+ * bytes, 2360 with these values. */
+#ifndef VT_KF_MAX_X
+#define VT_KF_MAX_X 8
+#endif
+#ifndef VT_KF_MAX_Z
+#define VT_KF_MAX_Z 4
+#endif
+
+/* Shadow hypothesis stage (vt_shadow_state): open shadow-edge groups while
+ * merging rows, closed groups that passed the width check, 12 bytes each. A run
+ * or group past these is dropped and counted, never written out of bounds. */
+#ifndef VT_MAX_SHADOW_ACTIVE
+#define VT_MAX_SHADOW_ACTIVE 64
+#endif
+#ifndef VT_MAX_SHADOW_CAND
+#define VT_MAX_SHADOW_CAND 64
+#endif
+/* Vehicle hypotheses (bottom edges) and verified boxes per frame in
+ * vt_detect_result (12 and 16 bytes each). */
+#ifndef VT_MAX_HYPOTHESES
+#define VT_MAX_HYPOTHESES 32
+#endif
+#ifndef VT_MAX_BOXES
+#define VT_MAX_BOXES 32
+#endif
+#if VT_MAX_SHADOW_ACTIVE < 1 || VT_MAX_SHADOW_CAND < 1 || VT_MAX_HYPOTHESES < 1 || \
+    VT_MAX_BOXES < 1 || VT_MAX_SHADOW_ACTIVE > 32767 || VT_MAX_SHADOW_CAND > 32767
+#error "shadow/detect capacities must be in 1..32767"
+#endif
+
+/* Lane stage (vt_lane_state, vehtrack/lane.h). The frame is box-downscaled to a
+ * working frame of at most VT_LANE_MAX_WORK_W x VT_LANE_MAX_WORK_H; the row buffers
+ * (4 bytes per column) and per-row indices (4 bytes per row) follow from these.
+ * Marking centres (2 bytes each) are kept per frame up to VT_LANE_MAX_MARKS, at most
+ * VT_LANE_MAX_ROW_MARKS per row. The Hough accumulator of one half holds
+ * VT_LANE_ACC_CELLS uint16 cells (64 KB): 77 theta bins x ~400 rho bins, the worst
+ * case of a 640x480 working frame at 1 degree and 1 px. Candidate lines per half:
+ * VT_LANE_MAX_PEAKS; polyline vertices per lane: VT_LANE_MAX_VERTS. */
+#ifndef VT_LANE_MAX_WORK_W
+#define VT_LANE_MAX_WORK_W 640
+#endif
+#ifndef VT_LANE_MAX_WORK_H
+#define VT_LANE_MAX_WORK_H 480
+#endif
+#ifndef VT_LANE_MAX_MARKS
+#define VT_LANE_MAX_MARKS 4096
+#endif
+#ifndef VT_LANE_MAX_ROW_MARKS
+#define VT_LANE_MAX_ROW_MARKS 32
+#endif
+#ifndef VT_LANE_MAX_THETA
+#define VT_LANE_MAX_THETA 181
+#endif
+#ifndef VT_LANE_ACC_CELLS
+#define VT_LANE_ACC_CELLS 32768
+#endif
+#ifndef VT_LANE_MAX_PEAKS
+#define VT_LANE_MAX_PEAKS 8
+#endif
+#ifndef VT_LANE_MAX_VERTS
+#define VT_LANE_MAX_VERTS 24
+#endif
+#if VT_LANE_MAX_WORK_W < 16 || VT_LANE_MAX_WORK_W > 4096 || VT_LANE_MAX_WORK_H < 16 || \
+    VT_LANE_MAX_WORK_H > 4096 || VT_LANE_MAX_MARKS < 1 || VT_LANE_MAX_MARKS > 65535 ||  \
+    VT_LANE_MAX_ROW_MARKS < 1 || VT_LANE_MAX_THETA < 1 || VT_LANE_ACC_CELLS < 1 ||     \
+    VT_LANE_ACC_CELLS > 16777216 || VT_LANE_MAX_PEAKS < 1 || VT_LANE_MAX_VERTS < 4
+#error "lane capacities out of range (see vehtrack/config.h)"
+#endif
+
 #if VT_MAX_WIDTH < 1 || VT_MAX_HEIGHT < 1 || VT_MAX_WIDTH > 4096 || VT_MAX_HEIGHT > 4096
 #error "VT_MAX_WIDTH and VT_MAX_HEIGHT must be in 1..4096"
 #endif
@@ -35,6 +107,10 @@
 #endif
 #if VT_MAX_PATCH_PIXELS < 1 || VT_MAX_PATCH_PIXELS > 65536
 #error "VT_MAX_PATCH_PIXELS must be in 1..65536"
+#endif
+
+#if VT_KF_MAX_X < 1 || VT_KF_MAX_X > 16 || VT_KF_MAX_Z < 1 || VT_KF_MAX_Z > 8
+#error "VT_KF_MAX_X must be in 1..16 and VT_KF_MAX_Z in 1..8"
 #endif
 
 #endif /* VEHTRACK_CONFIG_H */

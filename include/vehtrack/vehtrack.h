@@ -10,6 +10,13 @@
 #include "vehtrack/trig.h"
 #include "vehtrack/image.h"
 #include "vehtrack/road.h"
+#include "vehtrack/lane.h"
+#include "vehtrack/shadow.h"
+#include "vehtrack/verify.h"
+#include "vehtrack/detect.h"
+#include "vehtrack/kalman.h"
+#include "vehtrack/track_search.h"
+#include "vehtrack/tracker.h"
 
 #define VT_VERSION_MAJOR 0
 #define VT_VERSION_MINOR 1
