@@ -395,3 +395,40 @@ def detect(st, cfg, img: np.ndarray, road, out) -> tuple[np.ndarray, np.ndarray]
     box = np.frombuffer(ffi.buffer(out.box), np.int32).reshape(-1, 4)[: out.n_boxes].copy()
     return hyp, box
 # ================================================================ end shadow.h, verify.h, detect.h
+
+
+# ================================================================ lane.h
+# (lane section; thin 1:1 wrappers, raw fixed-point values; the friendly API is
+# pyvehtrack.lane.)
+def lane_cfg_default():
+    cfg = ffi.new("vt_lane_cfg *")
+    check("vt_lane_cfg_default", lib.vt_lane_cfg_default(cfg))
+    return cfg
+
+
+def lane_cfg_check(cfg) -> None:
+    check("vt_lane_cfg_check", lib.vt_lane_cfg_check(cfg), "a field is out of range "
+          "(see vt_lane_cfg_check in vehtrack/lane.h)")
+
+
+def lane_state_new():
+    """A zeroed vt_lane_state (a fresh tracker) owned by Python."""
+    return ffi.new("vt_lane_state *")
+
+
+def lane_reset(st) -> None:
+    check("vt_lane_reset", lib.vt_lane_reset(st))
+
+
+def lane_detect(cfg, st, img: np.ndarray, res, road=None) -> None:
+    """vt_lane_detect into res (a vt_lane_result *) and road (a vt_road_area * or None)."""
+    v = view(img, "img")
+    check("vt_lane_detect", lib.vt_lane_detect(cfg, st, v, res, ffi.NULL if road is None else road),
+          f"img {img.shape}")
+
+
+def lane_line_x(line, y_q16: int) -> int:
+    out = ffi.new("vt_q16 *")
+    check("vt_lane_line_x", lib.vt_lane_line_x(line, y_q16, out), f"y {y_q16} (Q16)")
+    return int(out[0])
+# ================================================================ end lane.h

@@ -1,0 +1,74 @@
+/* vehtrack/verify.h -- hypothesis verification by vertical edges (thesis sec.
+ * 2.4.2.2): a region of interest above each shadow bottom edge, the horizontal
+ * projection of its vertical edges searched from the left and from the right for
+ * the vehicle's two sides, the top from an aspect ratio.
+ *
+ * Cost: sizeof(vt_verify_state) = 4*VT_MAX_WIDTH bytes (7.5 KB at 1920); no
+ * frame buffer: Sobel d/dx is formed on the fly from three source rows through
+ * one row of vertical [1 2 1] sums. Work per hypothesis: about 5 adds and 1
+ * compare per ROI pixel (ROI = (edge + 12) x edge/2 at the defaults). */
+#ifndef VEHTRACK_VERIFY_H
+#define VEHTRACK_VERIFY_H
+
+#include <stdint.h>
+#include "vehtrack/config.h"
+#include "vehtrack/image.h"
+#include "vehtrack/shadow.h"
+#include "vehtrack/status.h"
+
+/* Configuration (const: may live in flash). Fractions are Q8 (256 = 1.0). */
+typedef struct {
+    int32_t widen_px;         /* ROI = edge widened by widen_px + widen_q8 x edge length */
+    int32_t widen_q8;         /* on each side (thesis: 6 px and 0), 0..4096 and 0..1024 */
+    int32_t roi_height_q8;    /* ROI height = this x edge length (thesis: 1/2), 1..4096 */
+    int32_t vedge_threshold;  /* |sobel_x| >= this is a vertical edge pixel, 1..1020 */
+    int32_t side_min_frac_q8; /* a side's column needs edges on >= this x ROI rows, 0..256 */
+    int32_t side_min_px;      /* and on >= this many rows, 0..4096 */
+    int32_t side_contrast_q8; /* and >= this x the ROI's mean column count, 0..4096
+                                 (a side stands out; texture and noise do not) */
+    int32_t min_width_q8;     /* sides >= this x edge length apart (right-left+1), 0..4096 */
+    int32_t aspect_q8;        /* box height = width x this (thesis: 1.0 = 256), 1..4096 */
+} vt_verify_cfg;
+
+/* Defaults: the thesis's 6 px, half-length ROI and aspect 1; widen_q8 = 0.1
+ * (the shadow between the wheels is narrower than the body), the edge threshold
+ * 40 and the side fractions were chosen on the KITTI frames of
+ * tools/eval_kitti_lead.py. */
+#define VT_VERIFY_CFG_DEFAULT                                                              \
+    {                                                                                      \
+        6, 26, 128, 40, 64, 3, 384, 128, 256                                               \
+    }
+
+
+/* A vehicle box, inclusive pixel coordinates: columns left..right, rows
+ * top..bottom (bottom = the shadow edge's row). The tracker takes these in. */
+typedef struct {
+    int32_t left;
+    int32_t top;
+    int32_t right;
+    int32_t bottom;
+} vt_box;
+
+/* Row scratch; the caller owns it. No content carries over between calls. */
+typedef struct {
+    uint16_t vsum[VT_MAX_WIDTH]; /* vertical [1 2 1] sums of one ROI row */
+    uint16_t proj[VT_MAX_WIDTH]; /* vertical-edge count per ROI column */
+} vt_verify_state;
+
+/* Fill *cfg with VT_VERIFY_CFG_DEFAULT. */
+vt_status vt_verify_cfg_default(vt_verify_cfg *cfg);
+
+/* VT_OK if every field is in its domain, else VT_E_ARG. */
+vt_status vt_verify_cfg_check(const vt_verify_cfg *cfg);
+
+/* Verify n_hyp hypotheses (n_hyp >= 0; hyp may be NULL when n_hyp is 0); the
+ * boxes of those that pass are written in hypothesis order to out[0..cap-1]
+ * (out may be NULL when cap is 0; boxes past cap are not written) and their
+ * number to *n_out. Every hypothesis must lie in the image
+ * (0 <= x_start <= x_end < w, 0 <= row < h), else VT_E_ARG and nothing is
+ * verified. On any error *n_out (if not NULL) is 0. */
+vt_status vt_verify(vt_verify_state *st, const vt_verify_cfg *cfg, const vt_image_u8 *img,
+                    const vt_hypothesis *hyp, int32_t n_hyp, vt_box *out, int32_t cap,
+                    int32_t *n_out);
+
+#endif /* VEHTRACK_VERIFY_H */

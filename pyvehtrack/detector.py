@@ -1,0 +1,263 @@
+"""Vehicle detection in single frames (thesis sec. 2.4): lanes -> road area -> shadow
+hypotheses -> vertical-edge verification, from the C core or from the float oracle.
+
+    from pyvehtrack.detector import Detector
+    det = Detector()                       # engine="c" (default) or "reference"
+    res = det.detect(frame)                # uint8 gray (h, w) or BGR (h, w, 3)
+    res.boxes                              # (N, 4) int [left, top, right, bottom]
+
+Coordinates in a result are the INPUT frame's pixels, boxes inclusive. Frames larger
+than the core's compile-time maximum (pyvehtrack.MAX_WIDTH x MAX_HEIGHT) are
+downscaled to fit before detection (a warning says so once per Detector, and
+`result.scale` gives the factor), never clipped; both engines see the same
+downscaled frame.
+
+The road area comes from the lane stage (pyvehtrack.lane.LaneDetector) when that
+module is present and finds lanes; otherwise from a fixed trapezoid
+(`fixed_road=`), and `result.road_source` says which was used.
+"""
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field, fields
+
+import cv2
+import numpy as np
+
+from . import _native
+from ._native import ffi, lib
+from .reference import shadow as rshadow
+from .reference import verify as rverify
+from .reference.shadow import RoadArea, ShadowConfig, trapezoid_road
+from .reference.verify import VerifyConfig
+
+ENGINES = ("c", "reference")
+
+
+@dataclass(frozen=True)
+class DetectConfig:
+    """Both stages' configurations (fields as vt_shadow_cfg / vt_verify_cfg)."""
+    shadow: ShadowConfig = field(default_factory=ShadowConfig)
+    verify: VerifyConfig = field(default_factory=VerifyConfig)
+
+
+@dataclass(frozen=True)
+class FixedRoad:
+    """A fixed trapezoid road area (see reference.shadow.trapezoid_road): the
+    vanishing point and the road's bottom span as fractions of the frame, the ego lane
+    width at the bottom row as a fraction of the frame width."""
+    vp: tuple = (0.5, 0.45)
+    bottom: tuple = (0.05, 0.95)
+    lane_bottom: float = 0.45
+
+    def make(self, h: int, w: int) -> RoadArea:
+        return trapezoid_road(h, w, vp=self.vp, bottom=self.bottom, lane_bottom=self.lane_bottom)
+
+
+@dataclass
+class Lane:
+    side: str              # the lane stage's slot: "left-most", "left", "right", "right-most"
+    points: np.ndarray     # (N, 2) int [x, y], input pixels
+
+
+@dataclass
+class DetectionResult:
+    lanes: list                   # [Lane, ...]
+    road_polygon: np.ndarray      # (N, 2) int [x, y] outline of the road area
+    hypotheses: np.ndarray        # (N, 3) int [row, x_start, x_end], nearest first
+    boxes: np.ndarray             # (N, 4) int [left, top, right, bottom], inclusive
+    scale: float = 1.0            # input pixels per processed pixel
+    road_source: str = "none"     # "lanes", "fixed", "given" or "none"
+    stats: dict = field(default_factory=dict)  # median, mad, dark_limit, n_runs, n_dropped
+
+
+def _lane_module():
+    try:
+        from . import lane  # noqa: PLC0415  (written by the lane stage; optional)
+    except ImportError:
+        return None
+    return lane if hasattr(lane, "LaneDetector") else None
+
+
+def road_from_lanes(lr):
+    """The road area of a lane-stage result as a RoadArea, or None when it has none.
+    Takes pyvehtrack.lane.LaneResult (per-row arrays road_y_top, road_y_bottom, x_left,
+    x_right, lane_width, road_valid) or any object whose `road` has RoadArea's fields."""
+    if hasattr(lr, "road_valid"):
+        if not lr.road_valid:
+            return None
+        return RoadArea(int(lr.road_y_top), int(lr.road_y_bottom), np.asarray(lr.x_left),
+                        np.asarray(lr.x_right), np.asarray(lr.lane_width), True)
+    road = getattr(lr, "road", None)
+    if road is None or not hasattr(road, "y_top") or not getattr(road, "valid", True):
+        return None
+    return road
+
+
+def to_gray(frame) -> np.ndarray:
+    """A uint8 (h, w) gray image from a gray, BGR or BGRA uint8 array."""
+    if not isinstance(frame, np.ndarray):
+        raise TypeError(f"frame: expected a numpy.ndarray, got {type(frame).__name__}")
+    if frame.dtype != np.uint8:
+        raise TypeError(f"frame: expected dtype uint8, got {frame.dtype}")
+    if frame.ndim == 3 and frame.shape[2] == 1:
+        frame = frame[:, :, 0]
+    if frame.ndim == 3 and frame.shape[2] in (3, 4):
+        if frame.shape[0] == 0 or frame.shape[1] == 0:
+            raise ValueError(f"frame: empty image of shape {frame.shape}")
+        code = cv2.COLOR_BGR2GRAY if frame.shape[2] == 3 else cv2.COLOR_BGRA2GRAY
+        return cv2.cvtColor(np.ascontiguousarray(frame), code)
+    if frame.ndim != 2:
+        raise ValueError(f"frame: expected (h, w) gray or (h, w, 3) BGR, got shape {frame.shape}")
+    if frame.shape[0] == 0 or frame.shape[1] == 0:
+        raise ValueError(f"frame: empty image of shape {frame.shape}")
+    return np.ascontiguousarray(frame)
+
+
+def fit_size(h: int, w: int, max_h: int, max_w: int) -> tuple[int, int]:
+    """The largest (h', w') <= (max_h, max_w) with the frame's aspect ratio (each >= 1)."""
+    if h <= max_h and w <= max_w:
+        return h, w
+    s = max(h / max_h, w / max_w)
+    return max(1, min(max_h, int(h / s))), max(1, min(max_w, int(w / s)))
+
+
+def _cfg_to_c(cfg: DetectConfig):
+    c = _native.detect_cfg_default()
+    for f in fields(ShadowConfig):
+        setattr(c.shadow, f.name, int(getattr(cfg.shadow, f.name)))
+    for f in fields(VerifyConfig):
+        setattr(c.verify, f.name, int(getattr(cfg.verify, f.name)))
+    _native.check("vt_shadow_cfg_check", lib.vt_shadow_cfg_check(ffi.addressof(c, "shadow")),
+                  f"shadow config {cfg.shadow}")
+    _native.check("vt_verify_cfg_check", lib.vt_verify_cfg_check(ffi.addressof(c, "verify")),
+                  f"verify config {cfg.verify}")
+    return c
+
+
+def c_default_config() -> DetectConfig:
+    """The C core's VT_DETECT_CFG_DEFAULT as a DetectConfig."""
+    c = _native.detect_cfg_default()
+    return DetectConfig(
+        ShadowConfig(**{f.name: int(getattr(c.shadow, f.name)) for f in fields(ShadowConfig)}),
+        VerifyConfig(**{f.name: int(getattr(c.verify, f.name)) for f in fields(VerifyConfig)}))
+
+
+class Detector:
+    """Lanes -> road area -> shadow hypotheses -> verified boxes, frame by frame.
+
+    engine: "c" (the fixed-point core) or "reference" (the float oracle).
+    cfg: a DetectConfig (default: the thesis-based defaults shared by both engines).
+    road: "auto" (lanes when the lane stage is available and finds them, else the
+    fixed trapezoid), "lanes", "fixed", a RoadArea-like object for every frame, or a
+    callable gray -> RoadArea-like (or None).
+    fixed_road: the FixedRoad used for "fixed" and as the fallback of "auto".
+    The lane stage tracks lines over frames, so use one Detector per video."""
+
+    def __init__(self, engine: str = "c", cfg: DetectConfig | None = None, *, road="auto",
+                 fixed_road: FixedRoad | None = None, lane_detector=None):
+        if engine not in ENGINES:
+            raise ValueError(f"engine: expected one of {ENGINES}, got {engine!r}")
+        self.engine = engine
+        self.cfg = cfg if cfg is not None else DetectConfig()
+        if not isinstance(self.cfg, DetectConfig):
+            raise TypeError(f"cfg: expected a DetectConfig, got {type(self.cfg).__name__}")
+        self._cfg_c = _cfg_to_c(self.cfg)  # validates the config for both engines
+        self.fixed_road = fixed_road if fixed_road is not None else FixedRoad()
+        if isinstance(road, str) and road not in ("auto", "lanes", "fixed"):
+            raise ValueError(f"road: expected 'auto', 'lanes', 'fixed', a road area or a callable, got {road!r}")
+        self.road = road
+        self.lane_detector = lane_detector
+        if self.lane_detector is None and road in ("auto", "lanes"):
+            mod = _lane_module()
+            if mod is not None:
+                self.lane_detector = mod.LaneDetector(engine=engine)
+            elif road == "lanes":
+                raise RuntimeError("road='lanes': the lane stage (pyvehtrack.lane) is not available")
+        self.max_h, self.max_w = int(lib.VT_MAX_HEIGHT), int(lib.VT_MAX_WIDTH)
+        self._warned = False
+        if engine == "c":
+            self._state = ffi.new("vt_detect_state *")
+            self._out = ffi.new("vt_detect_result *")
+
+    # ------------------------------------------------------------------ road
+    def _road_for(self, gray: np.ndarray):
+        """(road area or None, lanes as [(side, points)], source) in processed pixels."""
+        h, w = gray.shape
+        if callable(self.road) and not isinstance(self.road, str):
+            return self.road(gray), [], "given"
+        if not isinstance(self.road, str):
+            return self.road, [], "given"
+        lanes, road = [], None
+        if self.road in ("auto", "lanes") and self.lane_detector is not None:
+            try:
+                lr = self.lane_detector.detect(gray)
+            except ValueError:          # e.g. a frame below the lane stage's minimum size
+                lr = None
+            if lr is not None:
+                road = road_from_lanes(lr)
+                for ln in getattr(lr, "lanes", None) or []:
+                    side, pts = getattr(ln, "side", None), getattr(ln, "points", None)
+                    if isinstance(side, str) and pts is not None and len(pts):
+                        lanes.append((side, np.asarray(pts, np.float64).reshape(-1, 2)))
+            if road is not None:
+                return road, lanes, "lanes"
+            if self.road == "lanes":
+                return None, lanes, "none"
+        return self.fixed_road.make(h, w), lanes, "fixed"
+
+    # ------------------------------------------------------------------ detect
+    def _prepare(self, frame):
+        gray = to_gray(frame)
+        h, w = gray.shape
+        ph, pw = fit_size(h, w, self.max_h, self.max_w)
+        if (ph, pw) != (h, w):
+            if not self._warned:
+                warnings.warn(f"frame {w}x{h} is larger than the core's maximum "
+                              f"{self.max_w}x{self.max_h}: downscaled to {pw}x{ph}", stacklevel=3)
+                self._warned = True
+            gray = cv2.resize(gray, (pw, ph), interpolation=cv2.INTER_AREA)
+        return gray, (w / pw, h / ph)
+
+    def detect_gray(self, gray: np.ndarray, road):
+        """Hypotheses (N, 3) and boxes (M, 4) in the pixels of `gray` (which must fit the
+        core) for a given road area (RoadArea-like or None), with the stage statistics."""
+        if self.engine == "c":
+            r = _native.road_area(road, gray.shape[0])
+            hyp, box = _native.detect(self._state, self._cfg_c, gray, r, self._out)
+            s = self._state.shadow
+            stats = {"median": s.median, "mad": s.mad, "dark_limit": s.dark_limit,
+                     "n_runs": s.n_runs, "n_dropped": s.n_dropped}
+            return hyp.astype(np.int64), box.astype(np.int64), stats
+        res = rshadow.find_hypotheses(gray, road, self.cfg.shadow,
+                                      max_active=int(lib.VT_MAX_SHADOW_ACTIVE),
+                                      max_cand=int(lib.VT_MAX_SHADOW_CAND),
+                                      max_out=int(lib.VT_MAX_HYPOTHESES))
+        box = rverify.verify(gray, res.hypotheses, self.cfg.verify, max_out=int(lib.VT_MAX_BOXES))
+        stats = {"median": res.median, "mad": res.mad, "dark_limit": res.dark_threshold,
+                 "n_runs": res.n_runs, "n_dropped": res.n_dropped}
+        return res.hypotheses, box, stats
+
+    def detect(self, frame) -> DetectionResult:
+        gray, (sx, sy) = self._prepare(frame)
+        road, lanes, source = self._road_for(gray)
+        hyp, box, stats = self.detect_gray(gray, road)
+
+        def mx(x):
+            return np.floor((np.asarray(x, np.float64) + 0.5) * sx).astype(np.int64)
+
+        def my(y):
+            return np.floor((np.asarray(y, np.float64) + 0.5) * sy).astype(np.int64)
+
+        if sx != 1.0 or sy != 1.0:
+            hyp = np.stack([my(hyp[:, 0]), mx(hyp[:, 1]), mx(hyp[:, 2])], 1).reshape(-1, 3)
+            box = np.stack([mx(box[:, 0]), my(box[:, 1]), mx(box[:, 2]), my(box[:, 3])], 1).reshape(-1, 4)
+        poly = rshadow.road_polygon(road) if road is not None else np.zeros((0, 2), np.int64)
+        poly = np.stack([mx(poly[:, 0]), my(poly[:, 1])], 1).reshape(-1, 2) if len(poly) else poly
+        out_lanes = [Lane(side, np.stack([mx(p[:, 0]), my(p[:, 1])], 1).reshape(-1, 2))
+                     for side, p in lanes]
+        return DetectionResult(out_lanes, poly, hyp, box, float(max(sx, sy)), source, stats)
+
+
+__all__ = ["Detector", "DetectConfig", "DetectionResult", "FixedRoad", "Lane", "ShadowConfig",
+           "VerifyConfig", "RoadArea", "c_default_config", "to_gray", "fit_size"]

@@ -1,0 +1,100 @@
+"""Float reference for hypothesis verification (thesis sec. 2.4.2.2), twin of c/verify.c.
+
+For each bottom edge (row, x_start, x_end) from the shadow stage:
+ 1. ROI: the edge widened on each side by widen_px (thesis: 6 px) plus
+    floor(widen_q8 x length / 256) (the shadow between the wheels can be narrower
+    than the body; the thesis has 0), clipped to the image; its height is roi_height (Q8, thesis: 1/2) of the edge length, ending at
+    the edge's row (at least one row);
+ 2. vertical edges: |Sobel d/dx| >= vedge_threshold; their horizontal projection
+    p[x] = number of vertical-edge pixels in column x of the ROI;
+ 3. the left side is the largest p searched from the left over the left half of the
+    ROI (first maximum), the right side the largest p searched from the right over
+    the right half (first maximum from the right). The halves: columns x0..mid-1 and
+    mid..x1 with mid = (x0 + x1 + 1) // 2;
+ 4. a vehicle needs one horizontal edge (the shadow edge, present by construction)
+    and two vertical edges: both sides need p >= side_min_px,
+    p * 256 >= roi_rows * side_min_frac_q8 and p >= side_contrast x the mean of p over
+    the ROI (p * n * 256 >= sum(p) * side_contrast_q8: a vehicle's side stands out,
+    road texture and noise do not; our addition), and the sides must be at least
+    min_width_q8 of the edge length apart (right - left + 1);
+ 5. the top follows from the aspect ratio (thesis: no consistent cue for the top):
+    height = round_half_up(width * aspect_q8 / 256), clipped at row 0.
+
+Only integer counts are compared, so C and this oracle agree exactly wherever the
+Sobel values agree (they are exact integers in both)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+
+@dataclass(frozen=True)
+class VerifyConfig:
+    """Same fields, units and defaults as vt_verify_cfg (include/vehtrack/verify.h)."""
+    widen_px: int = 6              # thesis: 6 px on each side
+    widen_q8: int = 26             # plus this x edge length, 0.1 (thesis: 0)
+    roi_height_q8: int = 128       # thesis: half the edge length
+    vedge_threshold: int = 40      # |sobel_x| >= this (Sobel gain 4: a 10-level step)
+    side_min_frac_q8: int = 64     # a side needs vertical edges on 1/4 of the ROI rows
+    side_min_px: int = 3           # and on at least 3 rows
+    side_contrast_q8: int = 384    # and >= 1.5 x the ROI's mean column count
+    min_width_q8: int = 128        # sides >= 0.5 x edge length apart
+    aspect_q8: int = 256           # height / width = 1.0 (thesis default)
+
+
+def verify_one(gray: np.ndarray, hyp, cfg: VerifyConfig, sx_abs: np.ndarray | None = None):
+    """The box [left, top, right, bottom] for one hypothesis, or None if rejected."""
+    h, w = gray.shape
+    row, xs, xe = (int(v) for v in hyp)
+    length = xe - xs + 1
+    wid = cfg.widen_px + ((length * cfg.widen_q8) >> 8)
+    x0 = max(0, xs - wid)
+    x1 = min(w - 1, xe + wid)
+    rows = max(1, (length * cfg.roi_height_q8) >> 8)
+    top = max(0, row - rows + 1)
+    rows = row - top + 1
+    if sx_abs is None:
+        sx_abs = np.abs(cv2.Sobel(np.asarray(gray, np.float32), cv2.CV_32F, 1, 0, ksize=3,
+                                  borderType=cv2.BORDER_REPLICATE))
+    p = (sx_abs[top:row + 1, x0:x1 + 1] >= cfg.vedge_threshold).sum(0).astype(np.int64)
+    n = x1 - x0 + 1
+    mid = (n + 1) // 2                   # local index of the first right-half column
+    if mid < 1 or n - mid < 1:
+        return None
+    li = int(np.argmax(p[:mid]))                       # first maximum from the left
+    ri = n - 1 - int(np.argmax(p[mid:][::-1]))         # first maximum from the right
+
+    total = int(p.sum())
+
+    def strong(v):
+        return (v >= cfg.side_min_px and v * 256 >= rows * cfg.side_min_frac_q8
+                and v * n * 256 >= total * cfg.side_contrast_q8)
+
+    if not (strong(p[li]) and strong(p[ri])):
+        return None
+    left, right = x0 + li, x0 + ri
+    width = right - left + 1
+    if width * 256 < length * cfg.min_width_q8:
+        return None
+    height = max(1, (width * cfg.aspect_q8 + 128) >> 8)
+    return [left, max(0, row - height + 1), right, row]
+
+
+def verify(gray: np.ndarray, hypotheses, cfg: VerifyConfig = VerifyConfig(), *,
+           max_out: int = 32) -> np.ndarray:
+    """Boxes (N, 4) int [left, top, right, bottom] (inclusive pixel coordinates) for the
+    hypotheses that pass, in hypothesis order, at most max_out."""
+    gray = np.asarray(gray, np.uint8)
+    hyps = np.asarray(hypotheses, np.int64).reshape(-1, 3)
+    if hyps.shape[0] == 0:
+        return np.zeros((0, 4), np.int64)
+    sx_abs = np.abs(cv2.Sobel(gray.astype(np.float32), cv2.CV_32F, 1, 0, ksize=3,
+                              borderType=cv2.BORDER_REPLICATE))
+    out = []
+    for hyp in hyps:
+        b = verify_one(gray, hyp, cfg, sx_abs)
+        if b is not None and len(out) < max_out:
+            out.append(b)
+    return np.array(out, np.int64).reshape(-1, 4)
