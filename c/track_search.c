@@ -44,8 +44,8 @@ static int32_t vt__vedge(const uint8_t *pm, const uint8_t *p0, const uint8_t *pp
     return (g < 0 ? -g : g) >= thr;
 }
 
-/* First index in [lo, hi) (stepping +1) or (hi, lo] (stepping -1) whose value is
- * >= thr, or -1. thr is compared as 2*v >= 2*thr_half to keep halves exact. */
+/* First index from `from` towards `to` (exclusive, stepping `step`) whose value
+ * v >= vmax * num / den, or -1; compared as v * den >= vmax * num, exactly. */
 static int32_t vt__scan(const int32_t *v, int32_t from, int32_t to, int32_t step, int32_t num,
                         int32_t den, int32_t vmax)
 {
@@ -87,7 +87,9 @@ vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg
     }
     if ((cfg->polarity != VT_EDGE_DARK_ABOVE && cfg->polarity != VT_EDGE_DARK_BELOW) ||
         cfg->h_thresh < 1 || cfg->v_thresh < 1 || cfg->min_h_percent < 0 ||
-        cfg->min_h_percent > 100 || cfg->min_v_percent < 0 || cfg->min_v_percent > 100) {
+        cfg->min_h_percent > 100 || cfg->min_v_percent < 0 || cfg->min_v_percent > 100 ||
+        cfg->bottom_percent < 1 || cfg->bottom_percent > 100 ||
+        (cfg->side_mode != VT_SIDES_TWO_THRESHOLD && cfg->side_mode != VT_SIDES_LARGEST)) {
         return VT_E_ARG;
     }
     *found = 0;
@@ -105,20 +107,15 @@ vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg
     for (y = t; y < b; ++y) {
         ws->hproj[y] = vt__count_h(img, y, l, r, sign, cfg->h_thresh);
     }
-    /* Bottom edge: from the bottom row up to the middle row, the largest count;
-     * the lower row wins ties because it is met first. */
+    /* Bottom edge: between the bottom row and the middle row, the lowest row whose
+     * count reaches bottom_percent of the largest count there (100: the largest
+     * itself, the thesis's rule; the lower row wins ties). */
     mid = t + (b - t) / 2;
-    ybest = -1;
-    hbest = 0;
-    for (y = b - 1; y >= mid; --y) {
-        if (ws->hproj[y] > hbest) {
-            hbest = ws->hproj[y];
-            ybest = y;
-        }
-    }
-    if (ybest < 0 || (int64_t)hbest * 100 < (int64_t)cfg->min_h_percent * (r - l)) {
+    hbest = vt__max_range(ws->hproj, mid, b);
+    if (hbest == 0 || (int64_t)hbest * 100 < (int64_t)cfg->min_h_percent * (r - l)) {
         return VT_OK;
     }
+    ybest = vt__scan(ws->hproj, b - 1, mid - 1, -1, cfg->bottom_percent, 100, hbest);
     rows = ybest - t + 1;
     /* Row by row (cache-friendly), accumulating per column. */
     for (x = l; x < r; ++x) {
@@ -139,11 +136,18 @@ vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg
         (int64_t)rmax * 100 < (int64_t)cfg->min_v_percent * rows || rmax == 0) {
         return VT_OK;
     }
-    /* First threshold: half the largest value; the halves' largest values exist,
-     * so both scans succeed. */
-    xl = vt__scan(ws->vproj, l, midx, 1, 1, 2, lmax);
-    xr = vt__scan(ws->vproj, r - 1, midx - 1, -1, 1, 2, rmax);
-    if (sides != NULL && sides->have_prev) {
+    if (cfg->side_mode == VT_SIDES_LARGEST) {
+        /* The verification step's rule: the largest value of each half, met
+         * first from the outside. */
+        xl = vt__scan(ws->vproj, l, midx, 1, 1, 1, lmax);
+        xr = vt__scan(ws->vproj, r - 1, midx - 1, -1, 1, 1, rmax);
+    } else {
+        /* First threshold: half the largest value; the halves' largest values
+         * exist, so both scans succeed. */
+        xl = vt__scan(ws->vproj, l, midx, 1, 1, 2, lmax);
+        xr = vt__scan(ws->vproj, r - 1, midx - 1, -1, 1, 2, rmax);
+    }
+    if (cfg->side_mode == VT_SIDES_TWO_THRESHOLD && sides != NULL && sides->have_prev) {
         int32_t dl = vt__abs32(xl - sides->prev_left), dr = vt__abs32(xr - sides->prev_right);
         if (dl > sides->max_change_left) {
             xl = vt__scan(ws->vproj, l, midx, 1, 1, 1, lmax);

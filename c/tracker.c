@@ -88,7 +88,9 @@ static vt_status vt__check_cfg(const vt_tracker_cfg *c)
     if ((c->search.polarity != VT_EDGE_DARK_ABOVE && c->search.polarity != VT_EDGE_DARK_BELOW) ||
         c->search.h_thresh < 1 || c->search.v_thresh < 1 || c->search.min_h_percent < 0 ||
         c->search.min_h_percent > 100 || c->search.min_v_percent < 0 ||
-        c->search.min_v_percent > 100) {
+        c->search.min_v_percent > 100 || c->search.bottom_percent < 1 ||
+        c->search.bottom_percent > 100 ||
+        (c->search.side_mode != VT_SIDES_TWO_THRESHOLD && c->search.side_mode != VT_SIDES_LARGEST)) {
         return VT_E_ARG;
     }
     if (c->roi_margin_min < 0 || c->roi_margin_min > VT_MAX_WIDTH || c->roi_margin_percent < 0 ||

@@ -36,6 +36,7 @@ def cfg_to_c(cfg: rtrk.TrackerCfg):
     s = cfg.search
     c.search.polarity, c.search.h_thresh, c.search.v_thresh = s.polarity, s.h_thresh, s.v_thresh
     c.search.min_h_percent, c.search.min_v_percent = s.min_h_percent, s.min_v_percent
+    c.search.bottom_percent, c.search.side_mode = s.bottom_percent, s.side_mode
     for name in ("dt", "accel_x", "accel_y", "p_max", "p_zero", "meas_sigma_x", "meas_sigma_y",
                  "init_sigma_pos", "init_sigma_vel"):
         v = float(getattr(cfg.model, name))

@@ -34,11 +34,26 @@ typedef struct {
     /* A side needs at least this many edge pixels in its column, as a percentage
      * of the searched height. */
     int32_t min_v_percent;
+    /* The bottom edge is the lowest row (between the ROI's bottom and middle)
+     * whose count reaches this % of the largest count there: 100 is the thesis's
+     * "largest projection value"; lower values prefer the shadow's border, which
+     * is weaker than a bumper edge above it. 1..100. */
+    int32_t bottom_percent;
+    /* VT_SIDES_TWO_THRESHOLD: the thesis's tracking rule (half the largest value,
+     * then the largest when the side jumps more than ever before);
+     * VT_SIDES_LARGEST: the verification step's rule (the largest value). */
+    int32_t side_mode;
 } vt_track_search_cfg;
 
-/* Thresholds as the detector's stages: 48 as vt_shadow_cfg's fixed threshold,
- * 60 as vt_verify_cfg's vertical-edge threshold. */
-#define VT_TRACK_SEARCH_CFG_DEFAULT { VT_EDGE_DARK_ABOVE, 48, 60, 20, 20 }
+#define VT_SIDES_TWO_THRESHOLD 0
+#define VT_SIDES_LARGEST 1
+
+/* Defaults: 60 as vt_verify_cfg's vertical-edge threshold; a weak 16 (a
+ * 4-level step) for the shadow border, the lowest row at half the largest count,
+ * and the verification step's side rule. These three were chosen on the 78 KITTI
+ * frames of tools/eval_kitti_track.py (the thesis's rules, bottom_percent 100 and
+ * VT_SIDES_TWO_THRESHOLD, are one field away; the README gives both figures). */
+#define VT_TRACK_SEARCH_CFG_DEFAULT { VT_EDGE_DARK_ABOVE, 16, 60, 20, 20, 50, VT_SIDES_LARGEST }
 
 /* Projection vectors; caller-owned so the search allocates nothing. */
 typedef struct {
@@ -56,14 +71,15 @@ typedef struct {
 } vt_track_sides;
 
 /* Search `roi` (clipped to the image) of `img`:
- * 1. horizontal-edge projection per row (count of shadow-edge pixels); the
- *    largest value between the bottom row and the middle row, searched from the
- *    bottom (ties: the lower row), is the bottom edge;
+ * 1. horizontal-edge projection per row (count of shadow-edge pixels); searched
+ *    from the bottom row up to the middle row, the first row reaching
+ *    bottom_percent of the largest value there is the bottom edge;
  * 2. vertical-edge projection per column over rows roi.top..bottom edge; the left
- *    half is searched from the left, the right half from the right, for the first
- *    column >= half of that half's largest value; if the side then moved more than
- *    the largest move accepted so far (`sides`), that side is searched again for
- *    the largest value itself (the thesis's two thresholds). `sides` is updated.
+ *    half is searched from the left, the right half from the right: with
+ *    VT_SIDES_LARGEST for the largest value, with VT_SIDES_TWO_THRESHOLD for the
+ *    first column >= half of that half's largest value, and if the side then
+ *    moved more than the largest move accepted so far (`sides`), for the largest
+ *    value itself (the thesis's two thresholds). `sides` is updated.
  * *found is 1 and *meas the box (its top copied from roi) when all three edges
  * were found, else 0 (and *meas untouched). Exact integer arithmetic throughout.
  * `sides` may be NULL (no history: first threshold only). */

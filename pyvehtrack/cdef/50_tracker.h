@@ -10,7 +10,11 @@ typedef struct {
     int32_t v_thresh;
     int32_t min_h_percent;
     int32_t min_v_percent;
+    int32_t bottom_percent;
+    int32_t side_mode;
 } vt_track_search_cfg;
+#define VT_SIDES_TWO_THRESHOLD ...
+#define VT_SIDES_LARGEST ...
 typedef struct { ...; } vt_track_search_ws;
 typedef struct {
     int32_t have_prev;

@@ -2,11 +2,14 @@
 specification of c/track_search.c.
 
 Within the predicted ROI: count shadow-edge pixels (s * Sobel d/dy >= h_thresh) per
-row and take the largest count from the bottom row up to the middle row as the
-bottom edge; count vertical-edge pixels (|Sobel d/dx| >= v_thresh) per column
-above it; the left half searched from the left and the right half from the right
-for the first column reaching half of that half's largest count, or, when that
-moves the side more than the largest move accepted so far, the largest count."""
+row; searched from the bottom row up to the middle row, the first row reaching
+bottom_percent of the largest count there is the bottom edge (100: the thesis's
+largest); count vertical-edge pixels (|Sobel d/dx| >= v_thresh) per column above
+it; the left half searched from the left and the right half from the right for the
+largest count (LARGEST, the verification step's rule) or (TWO_THRESHOLD, the
+thesis's tracking rule) for the first column reaching half of that half's largest
+count, or, when that moves the side more than the largest move accepted so far,
+the largest count."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -17,15 +20,18 @@ from . import image as rimg
 
 
 DARK_ABOVE, DARK_BELOW = 0, 1
+TWO_THRESHOLD, LARGEST = 0, 1
 
 
 @dataclass
 class SearchCfg:
     polarity: int = DARK_ABOVE   # shadow above the lit road: sobel_y >= h_thresh
-    h_thresh: int = 48
+    h_thresh: int = 16
     v_thresh: int = 60
     min_h_percent: int = 20
     min_v_percent: int = 20
+    bottom_percent: int = 50      # 100: the thesis's largest value
+    side_mode: int = LARGEST      # TWO_THRESHOLD: the thesis's tracking rule
 
 
 @dataclass
@@ -59,12 +65,10 @@ def track_search(img: np.ndarray, cfg: SearchCfg, roi, sides: Sides | None = Non
     sign = 1 if cfg.polarity == DARK_ABOVE else -1
     hproj = (sign * gy[t:b, l:r] >= cfg.h_thresh).sum(axis=1)
     mid = t + (b - t) // 2
-    best, ybest = 0, None
-    for y in range(b - 1, mid - 1, -1):
-        if hproj[y - t] > best:
-            best, ybest = hproj[y - t], y
-    if ybest is None or best * 100 < cfg.min_h_percent * (r - l):
+    best = int(hproj[mid - t:].max(initial=0))
+    if best == 0 or best * 100 < cfg.min_h_percent * (r - l):
         return None
+    ybest = next(y for y in range(b - 1, mid - 1, -1) if hproj[y - t] * 100 >= best * cfg.bottom_percent)
     rows = ybest - t + 1
     vproj = np.zeros(w)
     vproj[l:r] = (np.abs(gx[t:ybest + 1, l:r]) >= cfg.v_thresh).sum(axis=0)
@@ -73,9 +77,10 @@ def track_search(img: np.ndarray, cfg: SearchCfg, roi, sides: Sides | None = Non
     if lmax == 0 or rmax == 0 or lmax * 100 < cfg.min_v_percent * rows or rmax * 100 < cfg.min_v_percent * rows:
         return None
     left_idx, right_idx = range(l, midx), range(r - 1, midx - 1, -1)
-    xl = _scan(vproj, left_idx, 0.5, lmax)
-    xr = _scan(vproj, right_idx, 0.5, rmax)
-    if sides is not None and sides.have_prev:
+    first = 1.0 if cfg.side_mode == LARGEST else 0.5
+    xl = _scan(vproj, left_idx, first, lmax)
+    xr = _scan(vproj, right_idx, first, rmax)
+    if cfg.side_mode == TWO_THRESHOLD and sides is not None and sides.have_prev:
         dl, dr = abs(xl - sides.prev_left), abs(xr - sides.prev_right)
         if dl > sides.max_change_left:
             xl = _scan(vproj, left_idx, 1.0, lmax)
