@@ -48,8 +48,9 @@ def draw_tracks(frame, tracks, frame_index: int, detection_frame: bool):
         cx, cy = (l + r) // 2, b
         cv2.arrowedLine(img, (cx, cy), (int(cx + 5 * vx), int(cy + 5 * vy)), c, 2, tipLength=0.3)
         label = f"#{t.id} {vx:+.1f},{vy:+.1f}px/f"
-        cv2.putText(img, label, (l, max(12, tp - 4)), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 3, cv2.LINE_AA)
-        cv2.putText(img, label, (l, max(12, tp - 4)), cv2.FONT_HERSHEY_SIMPLEX, 0.45, c, 1, cv2.LINE_AA)
+        ty = tp - 5 if tp >= 16 else tp + 15  # inside the box when there is no room above
+        cv2.putText(img, label, (l + 2, ty), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 3, cv2.LINE_AA)
+        cv2.putText(img, label, (l + 2, ty), cv2.FONT_HERSHEY_SIMPLEX, 0.45, c, 1, cv2.LINE_AA)
     tag = f"frame {frame_index}" + ("  [detection]" if detection_frame else "")
     cv2.putText(img, tag, (8, 20), cv2.FONT_HERSHEY_SIMPLEX, 0.55, (255, 255, 255), 2, cv2.LINE_AA)
     return np.ascontiguousarray(img)
