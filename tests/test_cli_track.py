@@ -1,0 +1,71 @@
+"""`pyvehtrack track` and `pyvehtrack eval`: the KITTI tracking file format other tools
+read, the annotated video, TrackEval scoring through the CLI, and clear errors."""
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import cv2
+import pytest
+
+from pyvehtrack.cli import main as cli_main
+
+CLIP = Path(__file__).parent / "data" / "kitti_clip"
+
+
+@pytest.fixture(scope="module")
+def tracked(tmp_path_factory):
+    d = tmp_path_factory.mktemp("track")
+    frames = d / "frames"
+    frames.mkdir()
+    for p in sorted(CLIP.glob("*.png"))[:8]:
+        shutil.copy(p, frames / p.name)
+    out, tracks = d / "annotated.mp4", d / "tracks.txt"
+    rc = cli_main(["track", str(frames), "--out", str(out), "--tracks", str(tracks), "--no-progress"])
+    return rc, out, tracks, d
+
+
+def test_track_writes_kitti_tracks_and_video(tracked):
+    rc, out, tracks, _ = tracked
+    assert rc == 0
+    lines = tracks.read_text().splitlines()
+    assert lines, "no track written for a clip with a lead car"
+    for line in lines:
+        f = line.split()
+        # frame id Car -1 -1 -10 left top right bottom -1 -1 -1 -1000 -1000 -1000 -10 score
+        assert len(f) == 18, line
+        assert f[2] == "Car" and f[3:6] == ["-1", "-1", "-10"] and f[10:17] == ["-1", "-1", "-1", "-1000",
+                                                                               "-1000", "-1000", "-10"]
+        assert 0 <= int(f[0]) < 8 and int(f[1]) >= 1
+        l, t, r, b = (float(v) for v in f[6:10])
+        assert l <= r and t <= b
+    cap = cv2.VideoCapture(str(out))
+    n = 0
+    while cap.read()[0]:
+        n += 1
+    assert n == 8
+
+
+def test_eval_scores_tracks_against_themselves(tracked, capsys):
+    _, _, tracks, d = tracked
+    js = d / "eval.json"
+    assert cli_main(["eval", "--gt", str(tracks), "--tracks", str(tracks), "--no-preproc", "--json", str(js)]) == 0
+    import json
+    res = json.loads(js.read_text())[str(tracks)]
+    assert res["HOTA"] == pytest.approx(1.0) and res["MOTA"] == pytest.approx(1.0) and res["IDSW"] == 0
+    assert "HOTA" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("args,msg", [
+    (["track", "no/such/video.mp4", "--out", "x.mp4"], "no such file"),
+    (["track", "{clip}", "--out", "x.txt"], "expected an .mp4"),
+    (["track", "{clip}", "--out", "x.mp4", "--detect-every", "0"], "must be >= 1"),
+    (["track", "{clip}", "--out", "no/such/dir/x.mp4"], "does not exist"),
+    (["eval", "--gt", "no/such/gt.txt", "--tracks", "x.txt"], "no such file"),
+])
+def test_cli_errors_are_one_line(args, msg, capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    args = [a.replace("{clip}", str(CLIP)) for a in args]
+    assert cli_main(args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and msg in err[0], err
