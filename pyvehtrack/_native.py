@@ -428,6 +428,9 @@ def lane_detect(cfg, st, img: np.ndarray, res, road=None) -> None:
 
 
 def lane_line_x(line, y_q16: int) -> int:
+    """vt_lane_line_x; line is a vt_lane_line * or a vt_lane_line (e.g. res.lines[k])."""
+    if ffi.typeof(line).kind == "struct":
+        line = ffi.addressof(line)
     out = ffi.new("vt_q16 *")
     check("vt_lane_line_x", lib.vt_lane_line_x(line, y_q16, out), f"y {y_q16} (Q16)")
     return int(out[0])
