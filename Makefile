@@ -3,7 +3,8 @@
 # image and the benchmarks.
 #
 #   make setup        install everything a fresh Debian machine needs (apt-get + pip)
-#   make test         the whole suite: strict C build, pytest, firmware under QEMU
+#   make test         the whole suite: strict C build, pytest (firmware under QEMU included),
+#                     again under ASan+UBSan, again against the smallest -D configuration
 #   make check SAN=1  the pytest suite against a copy of the extension built with ASan+UBSan
 #   make firmware     Cortex-M3/M7 images, size table, forbidden-symbol check
 #   make bench        C vs reference per stage, plus callgrind instructions per pixel
@@ -48,9 +49,13 @@ setup:
 tables:
 	$(PY) tools/gen_tables.py
 
+# The smallest sensible build: one track slot, VGA-sized frames at most.
+SMALL_DEFS := -DVT_MAX_TRACKS=1 -DVT_MAX_WIDTH=700 -DVT_MAX_HEIGHT=500
+
 test: lib
 	$(PY) -m pytest -q
 	$(MAKE) check SAN=1
+	$(MAKE) check CHECK_DEFS="$(SMALL_DEFS)"
 
 pytest:
 	$(PY) -m pytest -q
@@ -58,14 +63,15 @@ pytest:
 # ---- the suite against an out-of-meson build of the extension (sanitizers, -D configs)
 EXT_SUFFIX := $(shell $(PY) -c "import sysconfig; print(sysconfig.get_config_var('EXT_SUFFIX'))")
 PY_INC     := $(shell $(PY) -c "import sysconfig; print(sysconfig.get_paths()['include'])")
-CHECK_DIR  := $(BUILD)/check$(if $(filter 1,$(SAN)),-san,)
+CHECK_DEFS ?=
+# A -D configuration gets its own build dir, so builds of different configs never mix.
+CHECK_DIR  := $(BUILD)/check$(if $(filter 1,$(SAN)),-san,)$(if $(strip $(CHECK_DEFS)),-$(shell echo '$(CHECK_DEFS)' | md5sum | cut -c1-8),)
 CHECK_EXT  := $(CHECK_DIR)/_vtffi$(EXT_SUFFIX)
 ifeq ($(SAN),1)
 SAN_FLAGS  := -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer -g
 SAN_ENV    := LD_PRELOAD="$$($(CC) -print-file-name=libasan.so) $$($(CC) -print-file-name=libubsan.so)" \
               ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 endif
-CHECK_DEFS ?=
 
 $(CHECK_EXT): $(CORE_SRCS) $(CORE_HDRS) $(wildcard pyvehtrack/cdef/*.h) tools/build_ffi.py
 	@mkdir -p $(CHECK_DIR)
