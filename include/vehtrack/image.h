@@ -71,7 +71,9 @@ vt_status vt_sobel_y(const vt_image_u8 *src, vt_image_s16 *dst);
 
 /* One Gaussian pyramid step: 5x5 kernel [1 4 6 4 1]^T[1 4 6 4 1]/256, then keep
  * even rows and columns. dst must be ((w+1)/2) x ((h+1)/2). The sum of 25
- * products is exact in int32; the /256 rounds half up, as cv2.pyrDown does. */
+ * products is exact in int32; the /256 rounds half up, as cv2.pyrDown does.
+ * Stack: one row of column sums, 2 * VT_MAX_WIDTH bytes (3.8 KB at the default
+ * width; build with a smaller VT_MAX_WIDTH for a small firmware stack). */
 vt_status vt_pyr_down(const vt_image_u8 *src, vt_image_u8_mut *dst);
 
 /* Integral image: dst is (w+1) x (h+1), dst(0,*) = dst(*,0) = 0 and
