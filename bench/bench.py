@@ -256,6 +256,95 @@ def _sincos(ctx: Ctx) -> Stage:
                  digest=lambda: digest(out))
 
 
+# ---------------------------------------------------------------- detection (issue 3)
+DETECT_SIZES = ((640, 480), (1280, 720))
+
+
+def _bench_road(h: int, w: int):
+    """The Detector's fixed fallback trapezoid (pyvehtrack.detector.FixedRoad defaults);
+    bench/callgrind_main.c builds the same one."""
+    from pyvehtrack.reference.shadow import trapezoid_road
+    return trapezoid_road(h, w, vp=(0.5, 0.45), bottom=(0.05, 0.95), lane_bottom=0.45)
+
+
+def _detect_setup(ctx: Ctx):
+    from pyvehtrack import _native
+    from pyvehtrack.detector import DetectConfig, c_default_config
+    img = ctx.frame
+    road = _bench_road(*img.shape)
+    return _native, img, road, _native.road_area(road, img.shape[0]), _native.detect_cfg_default(), \
+        c_default_config()
+
+
+@register("shadow", sizes=DETECT_SIZES)
+def _shadow(ctx: Ctx) -> Stage:
+    from pyvehtrack.reference import shadow as rshadow
+    nat, img, road, croad, ccfg, pcfg = _detect_setup(ctx)
+    st = nat.ffi.new("vt_shadow_state *")
+    cap = int(nat.lib.VT_MAX_HYPOTHESES)
+    out = np.zeros((cap, 3), np.int32)
+    last = {}
+
+    def c():
+        last["n"] = nat.shadow_find(st, nat.ffi.addressof(ccfg, "shadow"), img, croad, out, cap)
+
+    def reference():
+        return rshadow.find_hypotheses(img, road, pcfg.shadow, max_active=int(nat.lib.VT_MAX_SHADOW_ACTIVE),
+                                       max_cand=int(nat.lib.VT_MAX_SHADOW_CAND), max_out=cap)
+
+    return Stage("shadow", c, reference, pixels=img.size, calls=1,
+                 digest=lambda: digest(out[: last["n"]]) if last.get("n") else 0,
+                 note="road area: the fixed trapezoid")
+
+
+@register("verify", sizes=DETECT_SIZES)
+def _verify(ctx: Ctx) -> Stage:
+    from pyvehtrack.reference import verify as rverify
+    nat, img, road, croad, ccfg, pcfg = _detect_setup(ctx)
+    st = nat.ffi.new("vt_shadow_state *")
+    cap = int(nat.lib.VT_MAX_HYPOTHESES)
+    hyp = np.zeros((cap, 3), np.int32)
+    n = nat.shadow_find(st, nat.ffi.addressof(ccfg, "shadow"), img, croad, hyp, cap)
+    hyp = np.ascontiguousarray(hyp[:n])
+    vst = nat.ffi.new("vt_verify_state *")
+    bcap = int(nat.lib.VT_MAX_BOXES)
+    out = np.zeros((bcap, 4), np.int32)
+    last = {}
+
+    def c():
+        last["n"] = nat.verify(vst, nat.ffi.addressof(ccfg, "verify"), img, hyp, out, bcap)
+
+    def reference():
+        return rverify.verify(img, hyp, pcfg.verify, max_out=bcap)
+
+    return Stage("verify", c, reference, pixels=img.size, calls=1,
+                 digest=lambda: digest(out[: last["n"]]) if last.get("n") else 0,
+                 note=f"{n} hypotheses; oracle: Sobel of the whole frame")
+
+
+@register("detect", sizes=DETECT_SIZES)
+def _detect(ctx: Ctx) -> Stage:
+    from pyvehtrack.reference import shadow as rshadow
+    from pyvehtrack.reference import verify as rverify
+    nat, img, road, croad, ccfg, pcfg = _detect_setup(ctx)
+    st = nat.ffi.new("vt_detect_state *")
+    res = nat.ffi.new("vt_detect_result *")
+    last = {}
+
+    def c():
+        last["boxes"] = nat.detect(st, ccfg, img, croad, res)[1]
+
+    def reference():
+        h = rshadow.find_hypotheses(img, road, pcfg.shadow, max_active=int(nat.lib.VT_MAX_SHADOW_ACTIVE),
+                                    max_cand=int(nat.lib.VT_MAX_SHADOW_CAND),
+                                    max_out=int(nat.lib.VT_MAX_HYPOTHESES))
+        return rverify.verify(img, h.hypotheses, pcfg.verify, max_out=int(nat.lib.VT_MAX_BOXES))
+
+    return Stage("detect", c, reference, pixels=img.size, calls=1,
+                 digest=lambda: digest(last["boxes"]) if len(last.get("boxes", [])) else 0,
+                 note="shadow + verify (vt_detect), fixed trapezoid road")
+
+
 # ---------------------------------------------------------------- the tracker (issue 4)
 @register("track_frame")
 def _track_frame(ctx: Ctx) -> Stage:

@@ -300,6 +300,92 @@ static uint32_t bench_digest_units2(const bench_ctx *ctx)
     return digest_u32(g_out, 2u * (size_t)ctx->units);
 }
 
+/* ---- detection (issue 3): shadow, verify and both (vt_detect) on the fixed
+ * trapezoid road area of pyvehtrack.detector.FixedRoad, built here with the same
+ * double arithmetic as pyvehtrack/reference/shadow.py:trapezoid_road (host tool:
+ * doubles are fine here, the core never sees them). */
+static vt_road_area g_road;
+static vt_detect_cfg g_detect_cfg;
+static vt_detect_state g_detect_state;
+static vt_detect_result g_detect_out;
+static vt_hypothesis g_hyp[VT_MAX_HYPOTHESES];
+static int32_t g_n_hyp;
+static vt_box g_boxes[VT_MAX_BOXES];
+static int32_t g_n_boxes;
+
+static double bench_floor(double v)
+{
+    double f = (double)(long long)v;
+    return f > v ? f - 1.0 : f;
+}
+
+static void bench_make_road(bench_ctx *ctx)
+{
+    int32_t w = ctx->frame.w, h = ctx->frame.h, y, yt;
+    double vx = 0.5 * (w - 1), vy = 0.45 * (h - 1), yb = h - 1, span, t;
+    span = yb > vy ? yb - vy : 1.0;
+    yt = (int32_t)(-bench_floor(-vy)) + 4;
+    yt = yt < 0 ? 0 : (yt > h - 1 ? h - 1 : yt);
+    memset(&g_road, 0, sizeof(g_road));
+    g_road.valid = 1;
+    g_road.height = h;
+    g_road.y_top = yt;
+    g_road.y_bottom = h - 1;
+    for (y = 0; y < h; ++y) {
+        t = (y - vy) / span;
+        t = t < 0.0 ? 0.0 : (t > 1.0 ? 1.0 : t);
+        g_road.x_left[y] = (int16_t)bench_floor(vx + t * (0.05 * (w - 1) - vx) + 0.5);
+        g_road.x_right[y] = (int16_t)bench_floor(vx + t * (0.95 * (w - 1) - vx) + 0.5);
+        g_road.lane_width[y] = (int16_t)bench_floor(t * 0.45 * w + 0.5);
+    }
+    note_status(ctx, vt_detect_cfg_default(&g_detect_cfg));
+}
+
+static void bench_setup_shadow(bench_ctx *ctx) { bench_make_road(ctx); }
+
+static void bench_run_shadow(bench_ctx *ctx)
+{
+    note_status(ctx, vt_shadow_find(&g_detect_state.shadow, &g_detect_cfg.shadow, &ctx->frame, &g_road,
+                                    g_hyp, VT_MAX_HYPOTHESES, &g_n_hyp));
+}
+
+static uint32_t bench_digest_shadow(const bench_ctx *ctx)
+{
+    (void)ctx;
+    return digest_u32((const uint32_t *)(const void *)g_hyp, 3u * (size_t)g_n_hyp);
+}
+
+static void bench_setup_verify(bench_ctx *ctx)
+{
+    bench_make_road(ctx);
+    bench_run_shadow(ctx);
+}
+
+static void bench_run_verify(bench_ctx *ctx)
+{
+    note_status(ctx, vt_verify(&g_detect_state.verify, &g_detect_cfg.verify, &ctx->frame, g_hyp, g_n_hyp,
+                               g_boxes, VT_MAX_BOXES, &g_n_boxes));
+}
+
+static uint32_t bench_digest_verify(const bench_ctx *ctx)
+{
+    (void)ctx;
+    return digest_u32((const uint32_t *)(const void *)g_boxes, 4u * (size_t)g_n_boxes);
+}
+
+static void bench_setup_detect(bench_ctx *ctx) { bench_make_road(ctx); }
+
+static void bench_run_detect(bench_ctx *ctx)
+{
+    note_status(ctx, vt_detect(&g_detect_state, &g_detect_cfg, &ctx->frame, &g_road, &g_detect_out));
+}
+
+static uint32_t bench_digest_detect(const bench_ctx *ctx)
+{
+    (void)ctx;
+    return digest_u32((const uint32_t *)(const void *)g_detect_out.box, 4u * (size_t)g_detect_out.n_boxes);
+}
+
 /* ---- tracker (issue 4): one tracked frame (no detection) with two vehicles.
  * The boxes are the two cars of bench/data/road_640x480.png, scaled to the frame
  * as bench.py scales them. Setup primes the tracker with a detection frame. */
@@ -357,6 +443,9 @@ static const bench_stage stages[] = {
     {"ncc", 100, bench_setup_ncc, bench_run_ncc, bench_digest_units},
     {"sad", 1000, bench_setup_sad, bench_run_sad, bench_digest_units},
     {"sincos", 1440, bench_setup_sincos, bench_run_sincos, bench_digest_units2},
+    {"shadow", 1, bench_setup_shadow, bench_run_shadow, bench_digest_shadow},
+    {"verify", 1, bench_setup_verify, bench_run_verify, bench_digest_verify},
+    {"detect", 1, bench_setup_detect, bench_run_detect, bench_digest_detect},
     {"track_frame", 1, bench_setup_track_frame, bench_run_track_frame, bench_digest_track_frame},
 };
 #define N_STAGES (sizeof stages / sizeof stages[0])
