@@ -55,7 +55,6 @@ void fw_reset_handler(void)
 {
     const uint32_t *src = &_sidata;
     uint32_t *dst;
-    uintptr_t sp;
 
     for (dst = &_sdata; (uintptr_t)dst < (uintptr_t)&_edata; ++dst, ++src) {
         *dst = *src;
@@ -69,11 +68,7 @@ void fw_reset_handler(void)
     SCB_CPACR |= 0xFu << 20;
     __asm__ volatile("dsb\n\tisb" ::: "memory");
 #endif
-    /* Paint the stack below us so fw_stack_used() can find the high-water mark. */
-    __asm__ volatile("mov %0, sp" : "=r"(sp));
-    for (dst = &_sstack; (uintptr_t)dst < sp - 64u; ++dst) {
-        *dst = FW_STACK_PAINT;
-    }
+    fw_stack_paint();
     /* SysTick on the processor clock, free running, no interrupt. */
     SYST_RVR = SYST_MAX;
     SYST_CVR = 0;
@@ -149,6 +144,17 @@ void fw_line_u32(uint32_t v)
     }
 }
 
+void fw_line_s32(int32_t v)
+{
+    if (v < 0) {
+        fw_line_char('-');
+        /* -(v + 1) + 1 in unsigned: the magnitude, INT32_MIN included. */
+        fw_line_u32((uint32_t)(-(v + 1)) + 1u);
+    } else {
+        fw_line_u32((uint32_t)v);
+    }
+}
+
 void fw_line_hex32(uint32_t v)
 {
     static const char digits[] = "0123456789abcdef";
@@ -176,6 +182,18 @@ uint32_t fw_ticks(void)
 uint32_t fw_ticks_since(uint32_t start)
 {
     return (fw_ticks() - start) & SYST_MAX;
+}
+
+/* Paint the free stack below the caller (64 bytes of margin below this
+ * function's own frame) so fw_stack_used() can find the high-water mark. */
+void fw_stack_paint(void)
+{
+    uint32_t *dst;
+    uintptr_t sp;
+    __asm__ volatile("mov %0, sp" : "=r"(sp));
+    for (dst = &_sstack; (uintptr_t)dst < sp - 64u; ++dst) {
+        *dst = FW_STACK_PAINT;
+    }
 }
 
 uint32_t fw_stack_used(void)

@@ -15,6 +15,7 @@ void fw_puts(const char *s);
  * single semihosting trap (one trap per character would be slow). */
 void fw_line_str(const char *s);
 void fw_line_u32(uint32_t v);    /* decimal */
+void fw_line_s32(int32_t v);     /* decimal, '-' when negative */
 void fw_line_hex32(uint32_t v);  /* 0x%08x */
 void fw_line_end(void);
 
@@ -28,6 +29,9 @@ uint32_t fw_ticks_since(uint32_t start);
 
 /* Bytes of the reserved stack ever written (painted at reset, scanned here). */
 uint32_t fw_stack_used(void);
+/* Paint the free stack again (done at reset), so that fw_stack_used() then
+ * measures only what runs after this call. */
+void fw_stack_paint(void);
 /* Bytes of the reserved stack. */
 uint32_t fw_stack_size(void);
 

@@ -2,6 +2,10 @@
  * primitives run on a real road frame held in flash, on a bare Cortex-M3
  * (soft-float ABI) and Cortex-M7, and every output is folded into an FNV-1a
  * checksum that tests/test_firmware.py recomputes on the host through cffi.
+ * Then the vehicle pipeline: detection (vt_detect) on the first of three real
+ * 640x256 frames in flash, in a fixed trapezoid road area built in integer
+ * arithmetic, and the tracker (vt_tracker_step) over the three frames, printing
+ * every box and track and their checksums (the host test repeats them too).
  * Equal checksums mean the same C gives the same bits on ARM and on the host.
  *
  * Every buffer is static (.bss), so the linker's size table is the RAM bill.
@@ -9,12 +13,15 @@
  * in tests/test_firmware.py; change both together. */
 #include <stddef.h>
 #include <stdint.h>
+#include "vehtrack/detect.h"
 #include "vehtrack/fixed.h"
 #include "vehtrack/image.h"
 #include "vehtrack/road.h"
 #include "vehtrack/status.h"
+#include "vehtrack/tracker.h"
 #include "vehtrack/trig.h"
 #include "board.h"
+#include "clip_data.h"
 #include "frame_data.h"
 
 #ifndef FW_CORE_NAME
@@ -32,6 +39,16 @@ static int16_t g_sobx[H * W];
 static int16_t g_soby[H * W];
 static uint8_t g_pyr[PH * PW];
 static uint32_t g_ii[(H + 1) * (W + 1)];
+
+/* The pipeline's state, all in .bss: configurations, the road area, the
+ * detector's scratch and result, the tracker and its per-frame output. */
+static vt_road_area g_road;
+static vt_detect_cfg g_detect_cfg;
+static vt_detect_state g_detect;
+static vt_detect_result g_detected;
+static vt_tracker_cfg g_tracker_cfg;
+static vt_tracker g_tracker;
+static vt_track_out g_tracks[VT_MAX_TRACKS];
 
 /* ---------------------------------------------------------------- FNV-1a 32 */
 #define FNV_BASIS 2166136261u
@@ -99,13 +116,18 @@ static int32_t lcg_scaled(uint32_t *state)
 static uint32_t g_all = FNV_BASIS;
 static uint32_t g_t0;
 
-static void report(const char *name, uint32_t sum)
+static void print_checksum(const char *name, uint32_t sum)
 {
     fw_line_str("checksum ");
     fw_line_str(name);
     fw_line_str(" ");
     fw_line_hex32(sum);
     fw_line_end();
+}
+
+static void report(const char *name, uint32_t sum)
+{
+    print_checksum(name, sum);
     g_all = fnv_u32(g_all, sum);
 }
 
@@ -419,8 +441,184 @@ static void check_fixed(void)
     report("isqrt_u64", h);
 }
 
+/* ---------------------------------------------------------------- pipeline */
+/* The fixed trapezoid road area of pyvehtrack.detector.FixedRoad, i.e.
+ * reference/shadow.py:trapezoid_road(h, w, vp=(0.5, 0.45), bottom=(0.05, 0.95),
+ * lane_bottom=0.45, top_margin=4), in exact integer arithmetic: every fraction
+ * is k/20, so with the row's position t = num/den between the vanishing point
+ * (t = 0) and the bottom row (t = 1),
+ *   num = clamp(20 y - 9 (h-1), 0, den),  den = 11 (h-1)  (20 when h = 1),
+ *   x   = floor(vx + t (b - vx) + 1/2)
+ *       = floor((2 (VX (den - num) + B num) + 20 den) / (40 den)),
+ * where VX = 10 (w-1) and B = (w-1) or 19 (w-1) are 20 x the columns of the
+ * vanishing point and of the bottom corner, and the lane width
+ *   floor(t 0.45 w + 1/2) = floor((18 w num + 20 den) / (40 den)).
+ * Every term is non-negative, so the divisions are floors; uint64 keeps them
+ * exact for any frame up to 4096x4096 (__aeabi_uldivmod on the M3/M7). The
+ * float Python gives the same integers (checked for this size by the test);
+ * tests/test_firmware.py builds the identical struct with this formula. */
+static void make_road(vt_road_area *road, int32_t h, int32_t w)
+{
+    const uint64_t vx20 = 10u * (uint64_t)(w - 1);
+    const uint64_t left20 = 1u * (uint64_t)(w - 1);
+    const uint64_t right20 = 19u * (uint64_t)(w - 1);
+    const int64_t vy20 = 9 * (int64_t)(h - 1);
+    int64_t den = 20 * (int64_t)(h - 1) - vy20, num;
+    int32_t y, y_top;
+    uint64_t d;
+    if (den <= 0) {
+        den = 20; /* the Python's span of 1.0 when the frame has one row */
+    }
+    d = (uint64_t)den;
+    y_top = (int32_t)((vy20 + 19) / 20) + 4; /* ceil(vy) + top_margin */
+    y_top = y_top < 0 ? 0 : (y_top > h - 1 ? h - 1 : y_top);
+    road->valid = 1;
+    road->y_top = y_top;
+    road->y_bottom = h - 1;
+    road->height = h;
+    for (y = 0; y < h; ++y) {
+        num = 20 * (int64_t)y - vy20;
+        num = num < 0 ? 0 : (num > den ? den : num);
+        road->x_left[y] = (int16_t)((2u * (vx20 * (d - (uint64_t)num) + left20 * (uint64_t)num) + 20u * d) /
+                                    (40u * d));
+        road->x_right[y] = (int16_t)((2u * (vx20 * (d - (uint64_t)num) + right20 * (uint64_t)num) + 20u * d) /
+                                     (40u * d));
+        road->lane_width[y] = (int16_t)((18u * (uint64_t)w * (uint64_t)num + 20u * d) / (40u * d));
+    }
+}
+
+static uint32_t fnv_box(uint32_t h, const vt_box *b)
+{
+    h = fnv_s32(h, b->left);
+    h = fnv_s32(h, b->top);
+    h = fnv_s32(h, b->right);
+    return fnv_s32(h, b->bottom);
+}
+
+static void line_box(const vt_box *b)
+{
+    fw_line_s32(b->left);
+    fw_line_str(" ");
+    fw_line_s32(b->top);
+    fw_line_str(" ");
+    fw_line_s32(b->right);
+    fw_line_str(" ");
+    fw_line_s32(b->bottom);
+}
+
+#if FW_CLIP_N != 3
+#error "run_pipeline() names one insns line per clip frame: update g_track_insns_names"
+#endif
+static const char *const g_track_insns_names[FW_CLIP_N] = {"track_frame0", "track_frame1", "track_frame2"};
+
+/* Road, detection on frame 0, tracking over the clip. Checksums (statuses folded
+ * in, as above) go to their own lines and to `checksum pipeline`, never into
+ * `checksum all`, which stays the primitives' alone. */
+static void run_pipeline(void)
+{
+    uint32_t h, pipeline = FNV_BASIS;
+    vt_image_u8 img;
+    vt_status s;
+    int32_t i, f, n_out;
+
+    fw_line_str("clip ");
+    fw_line_u32(FW_CLIP_W);
+    fw_line_str("x");
+    fw_line_u32(FW_CLIP_H);
+    fw_line_str("x");
+    fw_line_u32(FW_CLIP_N);
+    fw_line_end();
+
+    /* The road area: the header fields, then three int16 per row. */
+    make_road(&g_road, FW_CLIP_H, FW_CLIP_W);
+    h = FNV_BASIS;
+    h = fnv_s32(h, g_road.valid);
+    h = fnv_s32(h, g_road.y_top);
+    h = fnv_s32(h, g_road.y_bottom);
+    h = fnv_s32(h, g_road.height);
+    for (i = 0; i < FW_CLIP_H; ++i) {
+        h = fnv_s16(h, g_road.x_left[i]);
+        h = fnv_s16(h, g_road.x_right[i]);
+        h = fnv_s16(h, g_road.lane_width[i]);
+    }
+    print_checksum("road", h);
+    pipeline = fnv_u32(pipeline, h);
+
+    /* Detection on frame 0: hypotheses (nearest first) and verified boxes. */
+    img.px = fw_clip[0];
+    img.w = FW_CLIP_W;
+    img.h = FW_CLIP_H;
+    img.stride = FW_CLIP_W;
+    h = fnv_status(FNV_BASIS, vt_detect_cfg_default(&g_detect_cfg));
+    start();
+    s = vt_detect(&g_detect, &g_detect_cfg, &img, &g_road, &g_detected);
+    stop("detect");
+    h = fnv_status(h, s);
+    h = fnv_s32(h, g_detected.n_hyp);
+    for (i = 0; i < g_detected.n_hyp; ++i) {
+        h = fnv_s32(h, g_detected.hyp[i].row);
+        h = fnv_s32(h, g_detected.hyp[i].x_start);
+        h = fnv_s32(h, g_detected.hyp[i].x_end);
+    }
+    h = fnv_s32(h, g_detected.n_boxes);
+    fw_line_str("boxes ");
+    fw_line_s32(g_detected.n_boxes);
+    fw_line_end();
+    for (i = 0; i < g_detected.n_boxes; ++i) {
+        h = fnv_box(h, &g_detected.box[i]);
+        fw_line_str("box ");
+        line_box(&g_detected.box[i]);
+        fw_line_end();
+    }
+    print_checksum("detect", h);
+    pipeline = fnv_u32(pipeline, h);
+
+    /* Tracking: frame 0 is a detection frame with the boxes above, frames 1
+     * and 2 are tracked only (ROI search + Kalman update per track). */
+    h = fnv_status(FNV_BASIS, vt_tracker_cfg_default(&g_tracker_cfg));
+    h = fnv_status(h, vt_tracker_init(&g_tracker));
+    for (f = 0; f < FW_CLIP_N; ++f) {
+        img.px = fw_clip[f];
+        n_out = 0;
+        start();
+        s = vt_tracker_step(&g_tracker, &g_tracker_cfg, &img, f == 0 ? 1 : 0, g_detected.box,
+                            f == 0 ? g_detected.n_boxes : 0, g_tracks, VT_MAX_TRACKS, &n_out);
+        stop(g_track_insns_names[f]);
+        h = fnv_s32(fnv_status(h, s), n_out);
+        fw_line_str("tracks ");
+        fw_line_s32(f);
+        fw_line_str(" ");
+        fw_line_s32(n_out);
+        fw_line_end();
+        for (i = 0; i < n_out && i < VT_MAX_TRACKS; ++i) {
+            const vt_track_out *t = &g_tracks[i];
+            h = fnv_s32(fnv_s32(h, t->id), t->state);
+            h = fnv_box(h, &t->box);
+            h = fnv_s32(fnv_s32(h, t->vx), t->vy);
+            fw_line_str("track ");
+            fw_line_s32(f);
+            fw_line_str(" ");
+            fw_line_s32(t->id);
+            fw_line_str(" ");
+            fw_line_s32(t->state);
+            fw_line_str(" ");
+            line_box(&t->box);
+            fw_line_str(" ");
+            fw_line_s32(t->vx);
+            fw_line_str(" ");
+            fw_line_s32(t->vy);
+            fw_line_end();
+        }
+    }
+    print_checksum("tracker", h);
+    pipeline = fnv_u32(pipeline, h);
+    print_checksum("pipeline", pipeline);
+}
+
 int main(void)
 {
+    uint32_t stack_primitives, stack_pipeline;
+
     fw_line_str("core " FW_CORE_NAME);
     fw_line_end();
     fw_line_str("frame ");
@@ -443,16 +641,29 @@ int main(void)
     fw_line_hex32(g_all);
     fw_line_end();
 
+    /* The pipeline's own stack: paint again, run, scan. */
+    stack_primitives = fw_stack_used();
+    fw_stack_paint();
+    run_pipeline();
+    stack_pipeline = fw_stack_used();
+
     /* The RAM bill, from sizeof: the static outputs, then the stack. */
     print_size("ram filter_h101", (uint32_t)sizeof g_h101);
     print_size("ram sobel_x", (uint32_t)sizeof g_sobx);
     print_size("ram sobel_y", (uint32_t)sizeof g_soby);
     print_size("ram pyr_down", (uint32_t)sizeof g_pyr);
     print_size("ram integral", (uint32_t)sizeof g_ii);
+    print_size("ram road", (uint32_t)sizeof g_road);
+    print_size("ram detect", (uint32_t)sizeof g_detect);
+    print_size("ram detect_result", (uint32_t)sizeof g_detected);
+    print_size("ram tracker", (uint32_t)sizeof g_tracker);
+    print_size("ram track_out", (uint32_t)sizeof g_tracks);
+    print_size("ram configs", (uint32_t)(sizeof g_detect_cfg + sizeof g_tracker_cfg));
     print_size("sizeof vt_image_u8", (uint32_t)sizeof(vt_image_u8));
     print_size("sizeof vt_road_area", (uint32_t)sizeof(vt_road_area));
     print_size("stack reserved", fw_stack_size());
-    print_size("stack used", fw_stack_used());
+    print_size("stack pipeline", stack_pipeline);
+    print_size("stack used", stack_primitives > stack_pipeline ? stack_primitives : stack_pipeline);
     fw_line_str("done");
     fw_line_end();
     return 0;

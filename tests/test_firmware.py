@@ -9,6 +9,13 @@ must be equal, line by line, for both cores. There is no tolerance: the
 primitives are exact integer functions, so any difference is a portability bug
 (int width, shift or division semantics, byte order) or a stale frame.
 
+Then the vehicle pipeline: vt_detect on the first of three 640x256 clip frames in
+flash (in a fixed trapezoid road area that both sides build with the same integer
+formula, `int_road()`), and vt_tracker_step over the three frames. The image
+prints every box and every track (box and Q16 velocity) and their checksums;
+`host_pipeline()` repeats it and every line must be equal, again with no
+tolerance (the Kalman filter is fixed-point too).
+
 The ARM toolchain and QEMU are required, not optional: CI installs them with
 `make setup`, and a skipped proof would prove nothing, so a missing tool FAILS.
 """
@@ -26,9 +33,11 @@ import numpy as np
 import pytest
 
 from pyvehtrack import _native
+from pyvehtrack.detector import FixedRoad
 
 ROOT = Path(__file__).resolve().parent.parent
 PNG = ROOT / "tests" / "data" / "kitti_0000_gray_320x96.png"
+CLIP = [ROOT / "tests" / "data" / "kitti_clip" / f"{i:06d}.png" for i in range(3)]
 CORES = ("cortex-m3", "cortex-m7")
 TOOLS = ("arm-none-eabi-gcc", "arm-none-eabi-nm", "arm-none-eabi-objdump",
          "arm-none-eabi-size", "qemu-system-arm")
@@ -241,6 +250,107 @@ def host_checksums(frame: np.ndarray) -> list[tuple[str, int]]:
     return out
 
 
+# ---------------------------------------------------------------- the pipeline, on the host
+def load_clip() -> list[np.ndarray]:
+    frames = [cv2.imread(str(p), cv2.IMREAD_UNCHANGED) for p in CLIP]
+    for p, f in zip(CLIP, frames):
+        assert f is not None and f.dtype == np.uint8 and f.ndim == 2, p
+    return frames
+
+
+def int_road(h: int, w: int):
+    """main.c's make_road(): reference/shadow.py:trapezoid_road(h, w, vp=(0.5, 0.45),
+    bottom=(0.05, 0.95), lane_bottom=0.45, top_margin=4) in exact integer arithmetic
+    (every fraction is k/20; see the comment in main.c). Returns (y_top, y_bottom,
+    x_left, x_right, lane_width), the arrays as Python int lists of h entries."""
+    vx20, left20, right20, vy20 = 10 * (w - 1), w - 1, 19 * (w - 1), 9 * (h - 1)
+    den = 20 * (h - 1) - vy20
+    if den <= 0:
+        den = 20
+    y_top = min(max((vy20 + 19) // 20 + 4, 0), h - 1)
+    xl, xr, lw = [], [], []
+    for y in range(h):
+        num = min(max(20 * y - vy20, 0), den)
+        xl.append((2 * (vx20 * (den - num) + left20 * num) + 20 * den) // (40 * den))
+        xr.append((2 * (vx20 * (den - num) + right20 * num) + 20 * den) // (40 * den))
+        lw.append((18 * w * num + 20 * den) // (40 * den))
+    return y_top, h - 1, xl, xr, lw
+
+
+def road_struct(h: int, w: int):
+    """The vt_road_area main.c builds (rows past h stay zero, as in its .bss)."""
+    y_top, y_bottom, xl, xr, lw = int_road(h, w)
+    r = ffi.new("vt_road_area *")
+    r.valid, r.y_top, r.y_bottom, r.height = 1, y_top, y_bottom, h
+    for i in range(h):
+        r.x_left[i], r.x_right[i], r.lane_width[i] = xl[i], xr[i], lw[i]
+    return r
+
+
+def _box_line(b) -> str:
+    return f"{b.left} {b.top} {b.right} {b.bottom}"
+
+
+def _fnv_box(h: int, b) -> int:
+    for v in (b.left, b.top, b.right, b.bottom):
+        h = fnv_s32(h, v)
+    return h
+
+
+def host_pipeline(frames: list[np.ndarray]) -> tuple[list[str], list[tuple[str, int]]]:
+    """main.c's run_pipeline(): the printed lines (clip/boxes/box/tracks/track) and
+    the checksums road, detect, tracker, pipeline."""
+    h_, w_ = frames[0].shape
+    lines = [f"clip {w_}x{h_}x{len(frames)}"]
+    sums: list[tuple[str, int]] = []
+
+    road = road_struct(h_, w_)
+    h = FNV_BASIS
+    for v in (road.valid, road.y_top, road.y_bottom, road.height):
+        h = fnv_s32(h, v)
+    for i in range(h_):
+        h = fnv_s16(fnv_s16(fnv_s16(h, road.x_left[i]), road.x_right[i]), road.lane_width[i])
+    sums.append(("road", h))
+
+    cfg = ffi.new("vt_detect_cfg *")
+    h = fnv_s32(FNV_BASIS, lib.vt_detect_cfg_default(cfg))
+    st, res = ffi.new("vt_detect_state *"), ffi.new("vt_detect_result *")
+    h = fnv_s32(h, lib.vt_detect(st, cfg, view(frames[0], "frame0"), road, res))
+    h = fnv_s32(h, res.n_hyp)
+    for i in range(res.n_hyp):
+        hy = res.hyp[i]
+        h = fnv_s32(fnv_s32(fnv_s32(h, hy.row), hy.x_start), hy.x_end)
+    h = fnv_s32(h, res.n_boxes)
+    lines.append(f"boxes {res.n_boxes}")
+    for i in range(res.n_boxes):
+        h = _fnv_box(h, res.box[i])
+        lines.append(f"box {_box_line(res.box[i])}")
+    sums.append(("detect", h))
+
+    tcfg, tr = ffi.new("vt_tracker_cfg *"), ffi.new("vt_tracker *")
+    h = fnv_s32(FNV_BASIS, lib.vt_tracker_cfg_default(tcfg))
+    h = fnv_s32(h, lib.vt_tracker_init(tr))
+    cap = int(lib.VT_MAX_TRACKS)
+    out, n_out = ffi.new("vt_track_out[]", cap), ffi.new("int32_t *")
+    for f, frame in enumerate(frames):
+        n_out[0] = 0
+        s = lib.vt_tracker_step(tr, tcfg, view(frame, "frame"), 1 if f == 0 else 0, res.box,
+                                res.n_boxes if f == 0 else 0, out, cap, n_out)
+        h = fnv_s32(fnv_s32(h, s), n_out[0])
+        lines.append(f"tracks {f} {n_out[0]}")
+        for t in out[0:min(n_out[0], cap)]:
+            h = _fnv_box(fnv_s32(fnv_s32(h, t.id), t.state), t.box)
+            h = fnv_s32(fnv_s32(h, t.vx), t.vy)
+            lines.append(f"track {f} {t.id} {t.state} {_box_line(t.box)} {t.vx} {t.vy}")
+    sums.append(("tracker", h))
+
+    total = FNV_BASIS
+    for _, v in sums:
+        total = fnv_u32(total, v)
+    sums.append(("pipeline", total))
+    return lines, sums
+
+
 # ---------------------------------------------------------------- the QEMU run
 def parse_run(text: str) -> dict[str, dict]:
     """Per core: ordered checksum lines, the frame size, and whether it finished."""
@@ -250,11 +360,14 @@ def parse_run(text: str) -> dict[str, dict]:
         m = re.match(r"== qemu (\S+) (\S+) ==$", line)
         if m:
             cur = cores.setdefault(m.group(1), {"board": m.group(2), "checksums": [],
-                                                "frame": None, "done": False, "core": None})
+                                                "frame": None, "done": False, "core": None,
+                                                "pipeline": []})
             continue
         if cur is None:
             continue
-        if m := re.match(r"checksum (\S+) 0x([0-9a-f]{8})$", line):
+        if re.match(r"(clip|boxes|box|tracks|track) ", line):
+            cur["pipeline"].append(line)
+        elif m := re.match(r"checksum (\S+) 0x([0-9a-f]{8})$", line):
             cur["checksums"].append((m.group(1), int(m.group(2), 16)))
         elif m := re.match(r"frame (\d+)x(\d+)$", line):
             cur["frame"] = (int(m.group(1)), int(m.group(2)))
@@ -279,8 +392,15 @@ def firmware_run():
 
 
 @pytest.fixture(scope="module")
-def host():
-    return host_checksums(load_frame())
+def pipeline():
+    return host_pipeline(load_clip())
+
+
+@pytest.fixture(scope="module")
+def host(pipeline):
+    """Every checksum line the image prints, in order: the primitives (ending with
+    `all`, which covers them alone), then road, detect, tracker and pipeline."""
+    return host_checksums(load_frame()) + pipeline[1]
 
 
 def test_symbol_check_ran_and_passed(firmware_run):
@@ -306,6 +426,41 @@ def test_qemu_checksums_equal_host(firmware_run, host, core):
     assert [n for n, _ in got] == [n for n, _ in host], "checksum lines differ in names/order"
     for (name, g), (_, e) in zip(got, host):
         assert g == e, f"{core}: checksum {name} 0x{g:08x} on QEMU, 0x{e:08x} on the host"
+
+
+@pytest.mark.parametrize("core", CORES)
+def test_qemu_pipeline_equal_host(firmware_run, pipeline, core):
+    """Every box and track line (ids, states, boxes, Q16 velocities) as on the host."""
+    run = parse_run(firmware_run).get(core)
+    assert run is not None and run["done"], f"{core} image did not finish:\n{firmware_run[-3000:]}"
+    got, want = run["pipeline"], pipeline[0]
+    for i, (g, e) in enumerate(zip(got, want)):
+        assert g == e, f"{core}: pipeline line {i}: {g!r} on QEMU, {e!r} on the host"
+    assert len(got) == len(want), f"{core}: {len(got)} pipeline lines on QEMU, {len(want)} on the host"
+
+
+def test_pipeline_exercises_detection_and_tracking(pipeline):
+    """A proof over an empty pipeline would prove little: the detector finds at
+    least one box on frame 0, and a track exists in every frame, so the tracked
+    frames run the ROI search and the Kalman filter."""
+    lines = pipeline[0]
+    assert int(next(ln for ln in lines if ln.startswith("boxes ")).split()[1]) >= 1, lines
+    for f in range(len(CLIP)):
+        assert any(ln.startswith(f"track {f} ") for ln in lines), (f, lines)
+
+
+@pytest.mark.parametrize("h,w", [(256, 640), (96, 320), (188, 621), (480, 640), (720, 1280), (1, 1)])
+def test_integer_road_is_the_fixed_road(h, w):
+    """The integer road main.c builds is pyvehtrack.detector.FixedRoad's float
+    trapezoid, row for row (the rationals are exact; the float formula lands on no
+    rounding tie at these sizes), so the firmware detects in the road the host
+    Detector(road="fixed") uses."""
+    ref = FixedRoad().make(h, w)
+    y_top, y_bottom, xl, xr, lw = int_road(h, w)
+    assert (y_top, y_bottom) == (ref.y_top, ref.y_bottom)
+    assert xl == np.asarray(ref.x_left).tolist()
+    assert xr == np.asarray(ref.x_right).tolist()
+    assert lw == np.asarray(ref.lane_width).tolist()
 
 
 def test_host_recipe_sees_error_statuses():
