@@ -1,0 +1,554 @@
+"""Lane stage (c/lane.c) against its float oracle (pyvehtrack/reference/lane.py), on
+synthetic road scenes, on real frames, on bad frames and bad arguments.
+
+Tolerances, and why:
+  * Hough lines: within 1 accumulator bin in theta and in rho. Everything before the
+    votes is exact integer arithmetic in both (same marking centres); C computes
+    rho = x cos + y sin with Q1.14 table values, each within 0.5/16384 of the exact
+    sine, so |rho_C - rho| <= (|x| + |y|) / 32768 < 0.04 px for a 640-px working frame:
+    a vote moves to the next bin only when the exact rho lies that close to a bin
+    boundary, which can move a peak by one bin (or flip a tie between neighbours).
+    Not covered: a near-tie, where the oracle's window holds another cell more than
+    one bin away with at most one vote less (a flat ridge: short dashed lines in small
+    frames); there a single moved vote decides, and only the slot is compared.
+  * Refined lines and polylines: within 0.25 px across the line. They are least-squares
+    fits to the same centres (Q16 in C, float here; the rounding is ~1e-4 px); the
+    point sets differ only if a centre lies at the edge of a window. Within 1 px
+    instead when (a) the Hough cells differ by a bin: the refinement windows then
+    start from lines one bin apart and a centre near an edge can enter one fit only
+    (lines flatter than ego_theta_max are not refined: for them one theta bin moves
+    the line by pixels and only the bin is compared), or (b) the vanishing rows differ
+    by one: it is the floor of a quotient that symmetric scenes make an exact integer,
+    and the Q16 and float quotients can fall on either side; the extension segments
+    then start a row apart. Not compared: rows above an extension segment chosen by a
+    margin of one count (the oracle records that row, `sure_y`), where a centre at a
+    window edge can tip the choice.
+  * Road area: within 1 px per row (C rounds the Q16 x half up, the oracle the float x:
+    only a .5 tie can flip), plus the boundary lines' own tolerance scaled to input px.
+Outer lines (left-most, right-most) are kept only if they pass within a tolerance of
+the vanishing point of the ego pair; a one-bin difference in an ego line moves that
+point a little, and an outer line at the tolerance is then kept by one engine only
+(about 1 scene in 200 here). Their presence is not compared; when both engines report
+them they are held to the rules above. The ego lines' presence must agree.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
+
+from pyvehtrack import VtError
+from pyvehtrack import _native as N
+from pyvehtrack import eval_lanes as ev
+from pyvehtrack.lane import LaneDetector, default_config, tusimple_lanes
+from pyvehtrack.reference import lane as rl
+
+ffi, lib = N.ffi, N.lib
+DATA = Path(__file__).parent / "data"
+
+
+# ------------------------------------------------------------------ synthetic scenes
+def road_scene(w, h, seed, vp_dx=0.0, vp_y=0.38, width_b=0.8, dashed=(False, False),
+               outer=(False, False), noise=3.0, contrast=110, bg=80, mark_w=0.02,
+               draw=(True, True)):
+    """Gray road scene: two ego lane markings meeting at a vanishing point, narrower
+    with distance; optional dashes (period shrinking with distance), outer lines,
+    Gaussian noise. draw=(left, right) hides a marking."""
+    rng = np.random.default_rng(seed)
+    img = np.full((h, w), float(bg))
+    img[: int(vp_y * h)] = bg + 40
+    vx, vy = w / 2 + vp_dx * w, vp_y * h
+    xl, xr = w / 2 - width_b * w / 2, w / 2 + width_b * w / 2
+    lines = []
+    if draw[0]:
+        lines.append((xl, dashed[0]))
+    if draw[1]:
+        lines.append((xr, dashed[1]))
+    if outer[0]:
+        lines.append((xl - width_b * w, False))
+    if outer[1]:
+        lines.append((xr + width_b * w, False))
+    for xb, dash in lines:
+        for y in range(int(vy) + 2, h):
+            t = (y - vy) / (h - 1 - vy)
+            if dash and int(8 / max(t, 0.05)) % 2:
+                continue
+            xc = vx + (xb - vx) * t
+            half = max(0.6, mark_w * w * t / 2)
+            x0, x1 = int(round(xc - half)), int(round(xc + half))
+            if x1 < 0 or x0 >= w:
+                continue
+            img[y, max(x0, 0):min(x1, w - 1) + 1] = bg + contrast
+    img += rng.normal(0, noise, img.shape)
+    return np.clip(np.round(img), 0, 255).astype(np.uint8)
+
+
+scenes = st.fixed_dictionaries({
+    "w": st.integers(64, 700), "h": st.integers(120, 500), "seed": st.integers(0, 2**31),
+    "vp_dx": st.floats(-0.08, 0.08), "vp_y": st.floats(0.30, 0.45),
+    "width_b": st.floats(0.5, 1.0), "dashed": st.tuples(st.booleans(), st.booleans()),
+    "outer": st.tuples(st.booleans(), st.booleans()), "noise": st.floats(0.0, 6.0),
+    "contrast": st.integers(50, 150), "bg": st.integers(30, 120),
+    "mark_w": st.floats(0.01, 0.04)})
+
+
+def _ego_theta_deg(p):
+    """Largest |theta| (normal angle, degrees) of the two ego markings of a scene."""
+    w, h = p["w"], p["h"]
+    vx, vy = w / 2 + p["vp_dx"] * w, p["vp_y"] * h
+    dx = max(abs(w / 2 - p["width_b"] * w / 2 - vx), abs(w / 2 + p["width_b"] * w / 2 - vx))
+    return float(np.degrees(np.arctan2(dx, h - 1 - vy)))
+
+
+def _c_verts(line):
+    return [(int(line.vy[i]), line.vx[i] / 65536.0) for i in range(line.n_verts)]
+
+
+def _near_tie(frame, slot, line):
+    """Does the oracle's NMS window around this line's peak hold another cell more than
+    one bin away with at least votes - 1?"""
+    acc, bin0 = frame.accs[0 if slot < 2 else 1]
+    cfg = rl.DEFAULT
+    k, col = line.theta_bin, line.rho_bin - bin0
+    for kk in range(max(0, k - cfg.nms_theta_bins), min(acc.shape[0], k + cfg.nms_theta_bins + 1)):
+        for cc in range(max(0, col - cfg.nms_rho_bins), min(acc.shape[1], col + cfg.nms_rho_bins + 1)):
+            if max(abs(kk - k), abs(cc - col)) > 1 and acc[kk, cc] >= line.votes - 1:
+                return True
+    return False
+
+
+def compare_frames(a, b, where=""):
+    """C LaneResult a against oracle LaneResult b, with the tolerances of the module doc."""
+    ra, rb = a.raw, b.raw
+    assert (ra.shift, ra.w, ra.h, ra.roi_top, ra.band_top) == \
+        (rb.shift, rb.W, rb.H, rb.roi_top, rb.band_top), where
+    # The vanishing row is known when it falls in [roi_top, vp_low]: at those limits
+    # the one-row rounding difference (see above) can make it known to one engine only,
+    # and then the extensions aim at different rows: only the band is compared.
+    ext = ra.vp_known == rb.vp_known
+    if ext:
+        assert abs(ra.vp_y - rb.vp_y) <= 1, where
+    else:
+        y = ra.vp_y if ra.vp_known else rb.vp_y
+        vp_low = ra.h * rl.DEFAULT.vp_low_permille // 1000
+        assert min(abs(y - ra.roi_top), abs(y - vp_low)) <= 1, where
+    same_slots = True
+    strict = {}   # slot -> (first working row compared, x tolerance there in working px)
+    for k in range(4):
+        la, lb = ra.lines[k], rb.lines[k]
+        if (la.state != 0) != (lb is not None):
+            assert k in (0, 3), f"{where} slot {k}: C {la.state}, oracle {lb}"
+            same_slots = False
+            continue
+        if lb is None:
+            continue
+        assert la.state == lb.state, where
+        if lb.state != rl.HELD and _near_tie(rb, k, lb):
+            continue
+        assert abs(la.theta_bin - lb.theta_bin) <= 1 and abs(la.rho_bin - lb.rho_bin) <= 1, \
+            f"{where} slot {k}: C bin ({la.theta_bin}, {la.rho_bin}), oracle ({lb.theta_bin}, {lb.rho_bin})"
+        same_bin = (la.theta_bin, la.rho_bin) == (lb.theta_bin, lb.rho_bin)
+        if same_bin:
+            assert la.theta == lb.theta_qdeg and la.rho == lb.rho, where
+        elif abs(lb.theta_qdeg) > rl.DEFAULT.ego_theta_max_qdeg:
+            continue  # unrefined flat line: one theta bin moves it by pixels; the bin rule holds
+        # Distances across the line (x difference / sqrt(1 + slope^2)): flat outer lines
+        # move a lot in x for a small move across.
+        across = 1.0 / np.hypot(1.0, lb.slope)
+        tol = 0.25 if same_bin else 1.0
+        assert abs(la.xb / 65536 - lb.xb) * across <= tol, where
+        # Above the first extension segment decided by a margin of <= 1 count (sure_y),
+        # one centre at a window edge may tip C and the oracle apart: not compared.
+        vc = _c_verts(la)
+        tol = 0.25 if ra.vp_y == rb.vp_y and same_bin else 1.0
+        if lb.sure_y < 0 and ext:
+            assert abs(la.y_top - lb.y_top) <= 1, where
+        first = max(la.y_top, lb.y_top, lb.sure_y, -1 if ext else max(la.vy[1], lb.verts[1][0]))
+        for y in range(first, ra.h):
+            d = abs(rl.polyline_x(vc, y) - rl.polyline_x(lb.verts, y)) * across
+            assert d <= tol, f"{where} slot {k} row {y}"
+        strict[k] = (first if lb.sure_y >= 0 or not ext else -1, tol / across)
+    if same_slots:
+        assert a.road_valid == b.road_valid, where
+        bounds = [1 if ra.lines[1].state else 0, 2 if ra.lines[2].state else 3]
+        if a.road_valid and all(k in strict for k in bounds):
+            n = 1 << ra.shift
+            first_w = max(strict[k][0] for k in bounds)
+            if first_w < 0:
+                # the lanes' top rows agree within one working row = 2^shift input rows
+                assert abs(a.road_y_top - b.road_y_top) <= n, where
+            # x per input row: the polylines' tolerance scaled to input pixels, plus the
+            # rounding of either engine to whole pixels.
+            xtol = 1 + max(strict[k][1] for k in bounds) * n
+            first = max(a.road_y_top, b.road_y_top, (first_w + 1) * n)
+            rows = slice(first, a.road_y_bottom + 1)
+            for nm in ("x_left", "x_right", "lane_width"):
+                diff = np.abs(getattr(a, nm)[rows].astype(float) - getattr(b, nm)[rows])
+                assert diff.size == 0 or diff.max() <= xtol * (2 if nm == "lane_width" else 1), \
+                    f"{where} {nm}"
+
+
+def test_default_config_is_the_oracles():
+    assert default_config() == rl.DEFAULT
+
+
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(scenes)
+def test_synthetic_scene_c_matches_oracle(p):
+    # Ego markings steeper than ego_theta_max (65 degrees) by a margin: at the limit
+    # itself one theta bin decides whether a line may be an ego line at all.
+    assume(_ego_theta_deg(p) <= 60)
+    img = road_scene(**p)
+    a = LaneDetector("c").detect(img)
+    b = LaneDetector("reference").detect(img)
+    compare_frames(a, b, str(p))
+    # A solid ego marking drawn in full contrast must be found (C and oracle agree on the
+    # slots, checked above), unless it sits at the frame's edge, the working frame is
+    # tiny (an extreme aspect ratio downscaled to fit work_width_max x work_height_max),
+    # or it is drawn wider than the widest marking accepted
+    # (mark_w_bottom_permille of the width; the renderer adds a pixel). A dashed marking
+    # can leave too few dashes in the Hough band of a small frame.
+    if p["width_b"] <= 0.9 and a.raw.w >= 64 and a.raw.h >= 48 \
+            and p["mark_w"] * p["w"] + 1 <= rl.DEFAULT.mark_w_bottom_permille / 1000 * p["w"]:
+        for slot, dashed in ((1, p["dashed"][0]), (2, p["dashed"][1])):
+            assert dashed or a.raw.lines[slot].state != 0, (slot, p)
+
+
+def test_synthetic_scene_is_found_where_drawn():
+    # Not only agreement: the lines found are the markings drawn (within 2 px at the
+    # bottom row, the marking half-width plus the refinement's rounding).
+    w, h = 640, 480
+    img = road_scene(w, h, 1, vp_dx=0.03, vp_y=0.4, width_b=0.7, noise=2.0)
+    res = LaneDetector("c").detect(img)
+    vx, vy = w / 2 + 0.03 * w, 0.4 * h
+    for side, xb in (("left", w / 2 - 0.35 * w), ("right", w / 2 + 0.35 * w)):
+        ln = res.lane(side)
+        assert ln is not None and ln.state == "found"
+        pts = ln.points
+        for x, y in pts[:: max(1, len(pts) // 20)]:
+            t = (y - vy) / (h - 1 - vy)
+            assert abs(x - (vx + (xb - vx) * t)) <= 2.0, (side, x, y)
+        assert pts[:, 1].min() < vy + 0.1 * h  # runs up to near the vanishing point
+    assert res.road_valid and res.road.shape[1] == 2
+    assert res.vanishing_row is not None and abs(res.vanishing_row - vy) <= 6
+
+
+def test_tracker_holds_a_hidden_marking_then_drops_it():
+    cfg = default_config()
+    c, r = LaneDetector("c"), LaneDetector("reference")
+    seq = [road_scene(400, 300, i, vp_dx=0.01 * i, draw=(True, i < 3)) for i in range(3 + cfg.track_hold + 2)]
+    for i, img in enumerate(seq):
+        a, b = c.detect(img), r.detect(img)
+        compare_frames(a, b, f"frame {i}")
+        right = a.raw.lines[2]
+        if i < 3:
+            assert right.state == 1
+        elif i - 2 <= cfg.track_hold:
+            assert right.state == 2 and right.held == i - 2, i
+        else:
+            assert right.state == 0, i
+    c.reset()
+    assert c.detect(seq[-1]).raw.lines[2].state == 0
+
+
+def test_tracker_smooths_toward_the_new_line():
+    c, r = LaneDetector("c"), LaneDetector("reference")
+    a0 = c.detect(road_scene(400, 300, 0, vp_dx=0.0))
+    r.detect(road_scene(400, 300, 0, vp_dx=0.0))
+    img = road_scene(400, 300, 1, vp_dx=0.02)
+    a1, b1 = c.detect(img), r.detect(img)
+    compare_frames(a1, b1)
+    fresh = LaneDetector("c").detect(img)
+    for k in (1, 2):
+        x0, x1, xf = (v.raw.lines[k].xb / 65536 for v in (a0, a1, fresh))
+        # alpha = 1/2: halfway between the last frame's line and this frame's.
+        assert abs(x1 - (x0 + xf) / 2) <= 0.01
+
+
+# ------------------------------------------------------------------ real frames
+def _labels():
+    return json.loads((DATA / "lane_tusimple_ego_labels_640x360.json").read_text())
+
+
+@pytest.mark.parametrize("item", _labels(), ids=lambda it: it["file"][14:33])
+def test_real_tusimple_frames(item):
+    """Regression on 4 TuSimple frames (640x360 copies): both ego lanes are within N = 10 px
+    (TuSimple's 20 px at 1280x720, divided by cos(angle) as TuSimple does) of the labels
+    on >= 90% of the labelled rows (measured 95.5-99.1%), with no false or missed lane;
+    and C agrees with the oracle."""
+    img = cv2.imread(str(DATA / item["file"]), cv2.IMREAD_GRAYSCALE)
+    a = LaneDetector("c").detect(img)
+    b = LaneDetector("reference").detect(img)
+    compare_frames(a, b, item["file"])
+    hs = item["h_samples"]
+    pred = tusimple_lanes(a, hs, img.shape[1])
+    # The benchmark's 20 px rule at twice the scale == 10 px here.
+    acc, fp, fn = ev.bench([[2 * x if x >= 0 else -2 for x in p] for p in pred],
+                           [[2 * x if x >= 0 else -2 for x in g] for g in item["ego_lanes"]],
+                           [2 * y for y in hs])
+    assert fp == 0 and fn == 0 and acc >= 0.90, (acc, fp, fn)
+
+
+def test_real_udacity_frame():
+    img = cv2.imread(str(DATA / "lane_udacity_solidWhiteCurve_gray_640x360.png"), cv2.IMREAD_GRAYSCALE)
+    a = LaneDetector("c").detect(img)
+    b = LaneDetector("reference").detect(img)
+    compare_frames(a, b, "udacity")
+    assert a.lane("left") is not None and a.lane("right") is not None and a.road_valid
+    # Checked by eye: the dashed left marking meets the bottom row near x = 126, the
+    # solid right one near x = 591, and they meet near row 206 (the horizon of this
+    # camera is low: the vanishing point lies inside the Hough band). Within 6 px = 3
+    # working pixels.
+    left, right = a.lane("left").points, a.lane("right").points
+    assert abs(left[-1, 0] - 126) <= 6 and abs(right[-1, 0] - 591) <= 6
+    assert a.vanishing_row is not None and abs(a.vanishing_row - 206) <= 6
+    # Both lines end just below the vanishing point, never above it.
+    assert left[0, 1] > a.vanishing_row and right[0, 1] > a.vanishing_row
+
+
+# ------------------------------------------------------------------ bad frames
+@pytest.mark.parametrize("engine", ["c", "reference"])
+def test_bad_frames_give_an_empty_result_or_a_clear_error(engine):
+    det = LaneDetector(engine)
+    rng = np.random.default_rng(0)
+    for img in (np.zeros((480, 640), np.uint8), np.full((480, 640), 255, np.uint8),
+                rng.integers(0, 256, (480, 640), dtype=np.uint8),
+                rng.integers(0, 256, (16, 16), dtype=np.uint8),
+                np.tile((np.arange(640) % 8 < 2).astype(np.uint8) * 255, (480, 1))):
+        det.reset()
+        res = det.detect(img)
+        assert res.lanes == [] and not res.road_valid and res.road.shape == (0, 2)
+        assert res.x_left.shape == (img.shape[0],) and not res.x_left.any()
+    for shape in ((1, 1), (15, 640), (480, 15), (0, 0)):
+        with pytest.raises(ValueError, match="too small"):
+            det.detect(np.zeros(shape, np.uint8))
+    with pytest.raises(TypeError):
+        det.detect(np.zeros((64, 64), np.float32))
+    with pytest.raises(TypeError):
+        det.detect([[0] * 64] * 64)
+    with pytest.raises(ValueError):
+        det.detect(np.zeros((64, 64, 2), np.uint8))
+
+
+def test_huge_and_colour_frames():
+    img = cv2.imread(str(DATA / "lane_tusimple_0601_1494452495543904834_gray_640x360.png"),
+                     cv2.IMREAD_GRAYSCALE)
+    det = LaneDetector("c")
+    small = det.detect(img)
+    det.reset()
+    colour = det.detect(cv2.cvtColor(img, cv2.COLOR_GRAY2BGR))
+    assert [ln.side for ln in colour.lanes] == [ln.side for ln in small.lanes]
+    big = cv2.resize(img, (3200, 1800), interpolation=cv2.INTER_NEAREST)
+    det.reset()
+    with pytest.warns(UserWarning, match="downscaled"):
+        res = det.detect(big)
+    assert "downscaled" in res.note and res.input_scale < 1
+    assert res.x_left.shape == (1800,)
+    # The same lanes in the big frame's coordinates (x5). The big frame is first
+    # downscaled to 1920x1080 (x0.6), then worked on at 240 px wide (s = 3) instead of
+    # 320: one working pixel is 8 / 0.6 = 13.3 input px. At the middle of each lane the
+    # two results agree within that pixel (measured: <= 1 px).
+    for ln in small.lanes:
+        other = res.lane(ln.side)
+        assert other is not None
+        x, y = ln.points[len(ln.points) // 2]
+        pts = other.points[np.argsort(other.points[:, 1])]
+        xb = np.interp(5 * (y + 0.5) - 0.5, pts[:, 1], pts[:, 0])
+        assert abs(xb - (5 * (x + 0.5) - 0.5)) <= 8 / 0.6
+
+
+# ------------------------------------------------------------------ C arguments
+def _st():
+    return N.lane_state_new()
+
+
+def test_c_null_arguments():
+    cfg, st_ = N.lane_cfg_default(), _st()
+    res, road = ffi.new("vt_lane_result *"), ffi.new("vt_road_area *")
+    img = np.zeros((64, 64), np.uint8)
+    v = N.view(img, "img")
+    E = lib.VT_E_ARG
+    assert lib.vt_lane_detect(ffi.NULL, st_, v, res, road) == E
+    assert lib.vt_lane_detect(cfg, ffi.NULL, v, res, road) == E
+    assert lib.vt_lane_detect(cfg, st_, ffi.NULL, res, road) == E
+    assert lib.vt_lane_detect(cfg, st_, v, ffi.NULL, road) == E
+    assert lib.vt_lane_detect(cfg, st_, v, res, ffi.NULL) == lib.VT_OK  # road is optional
+    v.px = ffi.NULL
+    assert lib.vt_lane_detect(cfg, st_, v, res, road) == E
+    assert lib.vt_lane_cfg_check(ffi.NULL) == E
+    assert lib.vt_lane_cfg_default(ffi.NULL) == E
+    assert lib.vt_lane_reset(ffi.NULL) == E
+    out = ffi.new("vt_q16 *")
+    assert lib.vt_lane_line_x(ffi.NULL, 0, out) == E
+    assert lib.vt_lane_line_x(res.lines, 0, ffi.NULL) == E
+    with pytest.raises(VtError, match="vt_lane_detect"):
+        N.lane_detect(cfg, st_, np.zeros((8, 8), np.uint8), res)
+
+
+@pytest.mark.parametrize("w,h,stride", [(0, 64, 64), (64, 0, 64), (-5, 64, 64), (64, -1, 64),
+                                        (64, 64, 63), (15, 64, 64), (64, 15, 64),
+                                        (lib.VT_MAX_WIDTH + 1, 64, lib.VT_MAX_WIDTH + 1),
+                                        (64, lib.VT_MAX_HEIGHT + 1, 64), (2**31 - 1, 2**31 - 1, 2**31 - 1)])
+def test_c_bad_sizes(w, h, stride):
+    cfg, st_ = N.lane_cfg_default(), _st()
+    res = ffi.new("vt_lane_result *")
+    buf = np.zeros(64 * 64, np.uint8)
+    v = ffi.new("vt_image_u8 *")
+    v.px = ffi.cast("uint8_t *", buf.ctypes.data)
+    v.w, v.h, v.stride = w, h, stride
+    assert lib.vt_lane_detect(cfg, st_, v, res, ffi.NULL) == lib.VT_E_SIZE
+
+
+def test_c_frame_too_big_for_the_working_limits():
+    cfg = N.lane_cfg_default()
+    cfg.work_width_max = 16
+    img = np.zeros((64, 1024), np.uint8)  # 1024 >> 3 = 128 > 16
+    with pytest.raises(VtError) as e:
+        N.lane_detect(cfg, _st(), img, ffi.new("vt_lane_result *"))
+    assert e.value.status == lib.VT_E_SIZE
+
+
+def test_c_config_fields_out_of_range():
+    from dataclasses import fields
+    assert lib.vt_lane_cfg_check(N.lane_cfg_default()) == lib.VT_OK
+    for f in fields(rl.LaneConfig):
+        for bad in (-10**6, 2**31 - 1):
+            cfg = N.lane_cfg_default()
+            setattr(cfg, f.name, bad)
+            assert lib.vt_lane_cfg_check(cfg) < 0, (f.name, bad)
+            res = ffi.new("vt_lane_result *")
+            assert lib.vt_lane_detect(cfg, _st(), N.view(np.zeros((64, 64), np.uint8), "i"), res,
+                                      ffi.NULL) < 0
+    cap = {"work_width_max": lib.VT_LANE_MAX_WORK_W + 1, "work_height_max": lib.VT_LANE_MAX_WORK_H + 1,
+           "marks_per_row_max": lib.VT_LANE_MAX_ROW_MARKS + 1, "marks_max": lib.VT_LANE_MAX_MARKS + 1,
+           "max_peaks": lib.VT_LANE_MAX_PEAKS + 1}
+    for name, v in cap.items():
+        cfg = N.lane_cfg_default()
+        setattr(cfg, name, v)
+        assert lib.vt_lane_cfg_check(cfg) == lib.VT_E_CAPACITY, name
+    cfg = N.lane_cfg_default()
+    cfg.theta_min_qdeg, cfg.theta_max_qdeg, cfg.theta_step_qdeg = -356, 356, 1  # 713 bins
+    assert lib.vt_lane_cfg_check(cfg) == lib.VT_E_CAPACITY
+    cfg.lane_w_min_permille, cfg.lane_w_max_permille = 900, 800
+    assert lib.vt_lane_cfg_check(cfg) == lib.VT_E_ARG
+    # Friendly layer: the same check, as a VtError naming the C function.
+    with pytest.raises(VtError, match="vt_lane_cfg_check"):
+        LaneDetector(grad_min=0)
+    with pytest.raises(TypeError):
+        LaneDetector(no_such_field=1)
+
+
+def test_c_accumulator_capacity():
+    # 1 rho bin = 1 px, 0.25 degree theta steps over the full range: far more cells than
+    # VT_LANE_ACC_CELLS for a 320x240 working frame.
+    cfg = N.lane_cfg_default()
+    cfg.theta_min_qdeg, cfg.theta_max_qdeg, cfg.theta_step_qdeg = 4, 4 + lib.VT_LANE_MAX_THETA - 1, 1
+    assert lib.vt_lane_cfg_check(cfg) == lib.VT_OK
+    res = ffi.new("vt_lane_result *")
+    guard = bytes(ffi.buffer(res))
+    with pytest.raises(VtError) as e:
+        N.lane_detect(cfg, _st(), np.zeros((240, 320), np.uint8), res)
+    assert e.value.status == lib.VT_E_CAPACITY
+    assert bytes(ffi.buffer(res)) == guard
+
+
+def test_c_errors_leave_outputs_untouched():
+    cfg, st_ = N.lane_cfg_default(), _st()
+    res, road = ffi.new("vt_lane_result *"), ffi.new("vt_road_area *")
+    ffi.memmove(res, b"\x5a" * ffi.sizeof(res[0]), ffi.sizeof(res[0]))
+    ffi.memmove(road, b"\x5a" * ffi.sizeof(road[0]), ffi.sizeof(road[0]))
+    before = bytes(ffi.buffer(res)), bytes(ffi.buffer(road))
+    assert lib.vt_lane_detect(cfg, st_, N.view(np.zeros((8, 64), np.uint8), "i"), res, road) < 0
+    assert (bytes(ffi.buffer(res)), bytes(ffi.buffer(road))) == before
+
+
+def _guarded(ctype, pad=64):
+    n = ffi.sizeof(ctype)
+    buf = ffi.new("uint8_t[]", n + pad)
+    ffi.memmove(buf + n, b"\xa5" * pad, pad)
+    return ffi.cast(ctype + " *", buf), buf, n, pad
+
+
+def test_c_guard_bytes_after_outputs():
+    img = cv2.imread(str(DATA / "lane_tusimple_0531_1492626726476963805_gray_640x360.png"),
+                     cv2.IMREAD_GRAYSCALE)
+    cfg = N.lane_cfg_default()
+    st_, sbuf, sn, pad = _guarded("vt_lane_state")
+    res, rbuf, rn, _ = _guarded("vt_lane_result")
+    road, dbuf, dn, _ = _guarded("vt_road_area")
+    lib.vt_lane_reset(st_)
+    for frame in (img, img[:, ::-1].copy(), np.zeros_like(img), img):
+        N.lane_detect(cfg, st_, frame, res, road)
+    assert res.lines[1].state != 0 and road.valid == 1
+    for buf, n in ((sbuf, sn), (rbuf, rn), (dbuf, dn)):
+        assert bytes(ffi.buffer(buf + n, pad)) == b"\xa5" * pad
+
+
+def test_c_survives_a_garbage_state():
+    img = cv2.imread(str(DATA / "lane_tusimple_0601_1494453287696553635_gray_640x360.png"),
+                     cv2.IMREAD_GRAYSCALE)
+    cfg = N.lane_cfg_default()
+    rng = np.random.default_rng(1)
+    for trial in range(20):
+        st_ = _st()
+        n = ffi.sizeof(st_[0])
+        ffi.memmove(st_, rng.integers(0, 256, n, dtype=np.uint8).tobytes(), n)
+        # The first four fields (header order) say "previous frame, same geometry":
+        # the tracker then reads garbage lines.
+        head = ffi.cast("int32_t *", st_)
+        head[0], head[1], head[2], head[3] = 1, 1, 320, 180
+        res, road = ffi.new("vt_lane_result *"), ffi.new("vt_road_area *")
+        N.lane_detect(cfg, st_, img, res, road)
+        for k in range(4):
+            ln = res.lines[k]
+            assert ln.state in (0, 1, 2)
+            if ln.state:
+                assert 2 <= ln.n_verts <= lib.VT_LANE_MAX_VERTS and 0 <= ln.y_top < res.h
+        if road.valid:
+            assert 0 <= road.y_top <= road.y_bottom == img.shape[0] - 1
+            xl = np.frombuffer(ffi.buffer(road.x_left), np.int16)[road.y_top:img.shape[0]]
+            xr = np.frombuffer(ffi.buffer(road.x_right), np.int16)[road.y_top:img.shape[0]]
+            assert (xl >= 0).all() and (xl <= xr).all() and (xr < img.shape[1]).all()
+
+
+def test_c_line_x_matches_the_polyline():
+    img = cv2.imread(str(DATA / "lane_tusimple_0601_1494453643540652356_gray_640x360.png"),
+                     cv2.IMREAD_GRAYSCALE)
+    a = LaneDetector("c").detect(img)
+    for k in range(4):
+        ln = a.raw.lines[k]
+        if ln.state == 0:
+            continue
+        verts = _c_verts(ln)
+        for yq in (0, 17 * 65536 + 12345, ln.y_top * 65536, (a.raw.h - 1) * 65536, a.raw.h * 65536 + 7,
+                   -(2**31), 2**31 - 1):
+            x = N.lane_line_x(ln, yq) / 65536
+            ref = rl.polyline_x(verts, max(min(yq / 65536, 2**13), -2**13))
+            if abs(yq) < 2**28:
+                assert abs(x - ref) <= 1 / 32768 + 1e-9, (k, yq)
+    bad = ffi.new("vt_lane_line *")
+    with pytest.raises(VtError):
+        N.lane_line_x(bad, 0)
+    bad.state, bad.n_verts = 1, lib.VT_LANE_MAX_VERTS + 1
+    with pytest.raises(VtError):
+        N.lane_line_x(bad, 0)
+
+
+def test_road_area_shape():
+    img = cv2.imread(str(DATA / "lane_tusimple_0601_1494452495543904834_gray_640x360.png"),
+                     cv2.IMREAD_GRAYSCALE)
+    res = LaneDetector("c").detect(img)
+    assert res.road_valid
+    rows = np.arange(res.road_y_top, res.road_y_bottom + 1)
+    assert (res.x_left[rows] <= res.x_right[rows]).all()
+    assert not res.x_left[: res.road_y_top].any() and not res.x_right[: res.road_y_top].any()
+    # Both ego lines found: lane width is their distance, growing toward the bottom.
+    assert (res.lane_width[rows] >= 0).all() and res.lane_width[rows[-1]] > res.lane_width[rows[0]]
+    assert len(res.road) == 2 * len(rows)
+    r = res.raw
+    assert r.vp_known == 1 and r.roi_top <= r.vp_y <= r.h * rl.DEFAULT.vp_low_permille // 1000
