@@ -345,6 +345,72 @@ def _detect(ctx: Ctx) -> Stage:
                  note="shadow + verify (vt_detect), fixed trapezoid road")
 
 
+def _road_digest(road) -> int:
+    """Fold of a vt_road_area: valid, rows, then x_left/x_right/lane_width over the rows
+    (the driver folds the same values)."""
+    if not road.valid:
+        return 0
+    ys = range(road.y_top, road.y_bottom + 1)
+    vals = [road.valid, road.y_top, road.y_bottom] + [v for y in ys for v in
+                                                      (road.x_left[y], road.x_right[y], road.lane_width[y])]
+    return digest(np.array(vals, np.int64))
+
+
+@register("lane", sizes=DETECT_SIZES)
+def _lane(ctx: Ctx) -> Stage:
+    """The lane stage from a fresh tracker (reset each run), road area out."""
+    from pyvehtrack import _native as nat
+    from pyvehtrack.lane import LaneDetector
+    img = ctx.frame
+    cfg = nat.lane_cfg_default()
+    st = nat.lane_state_new()
+    res = nat.ffi.new("vt_lane_result *")
+    road = nat.ffi.new("vt_road_area *")
+    ref = LaneDetector(engine="reference")
+
+    def c():
+        nat.lane_reset(st)
+        nat.lane_detect(cfg, st, img, res, road)
+
+    def reference():
+        ref.reset()
+        return ref.detect(img)
+
+    return Stage("lane", c, reference, pixels=img.size, calls=2, digest=lambda: _road_digest(road),
+                 note="fresh lane tracker each run")
+
+
+@register("full_detect", sizes=DETECT_SIZES)
+def _full_detect(ctx: Ctx) -> Stage:
+    """Lanes -> road area -> shadow -> verify: the whole detection frame."""
+    from pyvehtrack import _native as nat
+    from pyvehtrack.detector import Detector
+    img = ctx.frame
+    lcfg = nat.lane_cfg_default()
+    lst = nat.lane_state_new()
+    lres = nat.ffi.new("vt_lane_result *")
+    road = nat.ffi.new("vt_road_area *")
+    dcfg = nat.detect_cfg_default()
+    dst = nat.ffi.new("vt_detect_state *")
+    dres = nat.ffi.new("vt_detect_result *")
+    ref = Detector(engine="reference", road="lanes")  # as the C side: no fallback road
+    last = {}
+
+    def c():
+        nat.lane_reset(lst)
+        nat.lane_detect(lcfg, lst, img, lres, road)
+        last["boxes"] = nat.detect(dst, dcfg, img, road, dres)[1]
+
+    def reference():
+        if ref.lane_detector is not None:
+            ref.lane_detector.reset()
+        return ref.detect(img)
+
+    return Stage("full_detect", c, reference, pixels=img.size, calls=3,
+                 digest=lambda: digest(last["boxes"]) if len(last.get("boxes", [])) else 0,
+                 note="lane + shadow + verify; road area from the lanes")
+
+
 # ---------------------------------------------------------------- the tracker (issue 4)
 @register("track_frame")
 def _track_frame(ctx: Ctx) -> Stage:

@@ -386,6 +386,51 @@ static uint32_t bench_digest_detect(const bench_ctx *ctx)
     return digest_u32((const uint32_t *)(const void *)g_detect_out.box, 4u * (size_t)g_detect_out.n_boxes);
 }
 
+/* ---- lanes, and the whole detection frame (lanes -> road -> shadow -> verify) */
+static vt_lane_cfg g_lane_cfg;
+static vt_lane_state g_lane_state;
+static vt_lane_result g_lane_res;
+static vt_road_area g_lane_road;
+
+static void bench_setup_lane(bench_ctx *ctx)
+{
+    note_status(ctx, vt_lane_cfg_default(&g_lane_cfg));
+    note_status(ctx, vt_lane_reset(&g_lane_state));
+    note_status(ctx, vt_detect_cfg_default(&g_detect_cfg));
+}
+
+static void bench_run_lane(bench_ctx *ctx)
+{
+    note_status(ctx, vt_lane_detect(&g_lane_cfg, &g_lane_state, &ctx->frame, &g_lane_res, &g_lane_road));
+}
+
+static uint32_t bench_digest_lane(const bench_ctx *ctx)
+{
+    uint32_t acc = 0, i = 1;
+    int32_t y;
+    (void)ctx;
+    if (!g_lane_road.valid) {
+        return 0;
+    }
+    /* The fold of digest_u32 over valid, y_top, y_bottom, then (x_left, x_right,
+     * lane_width) per row, as bench.py's _road_digest. */
+    acc += (uint32_t)g_lane_road.valid * i++;
+    acc += (uint32_t)g_lane_road.y_top * i++;
+    acc += (uint32_t)g_lane_road.y_bottom * i++;
+    for (y = g_lane_road.y_top; y <= g_lane_road.y_bottom; ++y) {
+        acc += (uint32_t)(int32_t)g_lane_road.x_left[y] * i++;
+        acc += (uint32_t)(int32_t)g_lane_road.x_right[y] * i++;
+        acc += (uint32_t)(int32_t)g_lane_road.lane_width[y] * i++;
+    }
+    return acc;
+}
+
+static void bench_run_full_detect(bench_ctx *ctx)
+{
+    note_status(ctx, vt_lane_detect(&g_lane_cfg, &g_lane_state, &ctx->frame, &g_lane_res, &g_lane_road));
+    note_status(ctx, vt_detect(&g_detect_state, &g_detect_cfg, &ctx->frame, &g_lane_road, &g_detect_out));
+}
+
 /* ---- tracker (issue 4): one tracked frame (no detection) with two vehicles.
  * The boxes are the two cars of bench/data/road_640x480.png, scaled to the frame
  * as bench.py scales them. Setup primes the tracker with a detection frame. */
@@ -446,6 +491,8 @@ static const bench_stage stages[] = {
     {"shadow", 1, bench_setup_shadow, bench_run_shadow, bench_digest_shadow},
     {"verify", 1, bench_setup_verify, bench_run_verify, bench_digest_verify},
     {"detect", 1, bench_setup_detect, bench_run_detect, bench_digest_detect},
+    {"lane", 1, bench_setup_lane, bench_run_lane, bench_digest_lane},
+    {"full_detect", 1, bench_setup_lane, bench_run_full_detect, bench_digest_detect},
     {"track_frame", 1, bench_setup_track_frame, bench_run_track_frame, bench_digest_track_frame},
 };
 #define N_STAGES (sizeof stages / sizeof stages[0])
