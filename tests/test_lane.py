@@ -335,6 +335,10 @@ def test_bad_frames_give_an_empty_result_or_a_clear_error(engine):
         det.detect(np.zeros((64, 64, 2), np.uint8))
 
 
+# The big frame is downscaled to the core's maximum; only when that maximum is at least
+# twice the original's width does the lane stage work at the original's resolution
+# (a 700-px build halves it, and the lines found legitimately differ).
+@pytest.mark.skipif(int(N.lib.VT_MAX_WIDTH) < 1280, reason="needs VT_MAX_WIDTH >= 1280")
 def test_huge_and_colour_frames():
     img = cv2.imread(str(DATA / "lane_tusimple_0601_1494452495543904834_gray_640x360.png"),
                      cv2.IMREAD_GRAYSCALE)
