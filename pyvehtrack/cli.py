@@ -134,6 +134,30 @@ def _video_fps(sources) -> float:
     return 10.0
 
 
+class VideoOut:
+    """An annotated-video writer opened on the first frame (its size fixes the video's);
+    later frames of another size are resized to it."""
+
+    def __init__(self, path: Path, sources):
+        self.path, self.sources, self.writer, self.size = path, sources, None, None
+
+    def write(self, img) -> None:
+        import cv2
+        if self.writer is None:
+            self.size = (img.shape[1], img.shape[0])
+            fourcc = cv2.VideoWriter_fourcc(*("MJPG" if self.path.suffix.lower() == ".avi" else "mp4v"))
+            self.writer = cv2.VideoWriter(str(self.path), fourcc, _video_fps(self.sources), self.size)
+            if not self.writer.isOpened():
+                raise CliError(f"{self.path}: cannot open a video writer")
+        if (img.shape[1], img.shape[0]) != self.size:
+            img = cv2.resize(img, self.size, interpolation=cv2.INTER_AREA)
+        self.writer.write(img)
+
+    def close(self) -> None:
+        if self.writer is not None:
+            self.writer.release()
+
+
 # ====================================================================== drawing
 def draw_detection(frame, res):
     """A BGR copy of `frame` with the road area (yellow, translucent), lanes (left blue,
@@ -213,7 +237,7 @@ def run_detect(args) -> int:
         det = Detector(engine=args.engine, road=args.road)
     except (RuntimeError, ValueError) as e:
         raise CliError(str(e)) from None
-    entries, written, writer, size = [], [], None, None
+    entries, written, video = [], [], VideoOut(out, sources)
     multi = total is None or total > 1
     try:
         with tqdm(total=total, unit="frame", disable=not show, file=sys.stderr) as bar:
@@ -230,19 +254,10 @@ def run_detect(args) -> int:
                         raise CliError(f"{path}: cannot write")
                     written.append(str(path))
                 else:
-                    if writer is None:
-                        size = (img.shape[1], img.shape[0])
-                        fourcc = cv2.VideoWriter_fourcc(*("MJPG" if out.suffix.lower() == ".avi" else "mp4v"))
-                        writer = cv2.VideoWriter(str(out), fourcc, _video_fps(sources), size)
-                        if not writer.isOpened():
-                            raise CliError(f"{out}: cannot open a video writer")
-                    if (img.shape[1], img.shape[0]) != size:
-                        img = cv2.resize(img, size, interpolation=cv2.INTER_AREA)
-                    writer.write(img)
+                    video.write(img)
                 bar.update(1)
     finally:
-        if writer is not None:
-            writer.release()
+        video.close()
     if kind == "video":
         written.append(str(out))
     if args.json:

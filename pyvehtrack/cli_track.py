@@ -15,7 +15,7 @@ import json
 import sys
 from pathlib import Path
 
-from .cli import CliError, IMAGE_EXTS, _count_frames, _frames_of, _iter_frames, _video_fps
+from .cli import CliError, IMAGE_EXTS, VideoOut, _count_frames, _frames_of, _iter_frames
 
 STATE_SCORE = {"confirmed": 1.0, "coasting": 0.5, "tentative": 0.25}
 
@@ -100,7 +100,7 @@ def run_track(args) -> int:
         trk = Tracker(engine=args.engine, detect_every=args.detect_every, detector=det)
     except (RuntimeError, ValueError) as e:
         raise CliError(str(e)) from None
-    lines, ids, writer, size, n = [], set(), None, None, 0
+    lines, ids, n, video = [], set(), 0, VideoOut(out, sources)
     try:
         with tqdm(total=total, unit="frame", disable=args.no_progress, file=sys.stderr) as bar:
             for i, (file, _k, frame) in enumerate(_iter_frames(sources)):
@@ -119,20 +119,11 @@ def run_track(args) -> int:
                     if not cv2.imwrite(str(path), img):
                         raise CliError(f"{path}: cannot write")
                 else:
-                    if writer is None:
-                        size = (img.shape[1], img.shape[0])
-                        fourcc = cv2.VideoWriter_fourcc(*("MJPG" if suffix == ".avi" else "mp4v"))
-                        writer = cv2.VideoWriter(str(out), fourcc, _video_fps(sources), size)
-                        if not writer.isOpened():
-                            raise CliError(f"{out}: cannot open a video writer")
-                    if (img.shape[1], img.shape[0]) != size:
-                        img = cv2.resize(img, size, interpolation=cv2.INTER_AREA)
-                    writer.write(img)
+                    video.write(img)
                 n += 1
                 bar.update(1)
     finally:
-        if writer is not None:
-            writer.release()
+        video.close()
     if args.tracks:
         try:
             Path(args.tracks).write_text("".join(s + "\n" for s in lines))

@@ -30,6 +30,7 @@ from .reference import shadow as rshadow
 from .reference import verify as rverify
 from .reference.shadow import RoadArea, ShadowConfig, trapezoid_road
 from .reference.verify import VerifyConfig
+from .frames import to_gray  # noqa: F401  (re-exported: pyvehtrack.detector.to_gray)
 
 ENGINES = ("c", "reference")
 
@@ -92,26 +93,6 @@ def road_from_lanes(lr):
     if road is None or not hasattr(road, "y_top") or not getattr(road, "valid", True):
         return None
     return road
-
-
-def to_gray(frame) -> np.ndarray:
-    """A uint8 (h, w) gray image from a gray, BGR or BGRA uint8 array."""
-    if not isinstance(frame, np.ndarray):
-        raise TypeError(f"frame: expected a numpy.ndarray, got {type(frame).__name__}")
-    if frame.dtype != np.uint8:
-        raise TypeError(f"frame: expected dtype uint8, got {frame.dtype}")
-    if frame.ndim == 3 and frame.shape[2] == 1:
-        frame = frame[:, :, 0]
-    if frame.ndim == 3 and frame.shape[2] in (3, 4):
-        if frame.shape[0] == 0 or frame.shape[1] == 0:
-            raise ValueError(f"frame: empty image of shape {frame.shape}")
-        code = cv2.COLOR_BGR2GRAY if frame.shape[2] == 3 else cv2.COLOR_BGRA2GRAY
-        return cv2.cvtColor(np.ascontiguousarray(frame), code)
-    if frame.ndim != 2:
-        raise ValueError(f"frame: expected (h, w) gray or (h, w, 3) BGR, got shape {frame.shape}")
-    if frame.shape[0] == 0 or frame.shape[1] == 0:
-        raise ValueError(f"frame: empty image of shape {frame.shape}")
-    return np.ascontiguousarray(frame)
 
 
 def fit_size(h: int, w: int, max_h: int, max_w: int) -> tuple[int, int]:

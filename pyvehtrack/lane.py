@@ -22,6 +22,7 @@ import cv2
 import numpy as np
 
 from . import _native
+from .frames import to_gray
 from .reference import lane as _ref
 
 SIDES = _ref.SIDE_NAMES
@@ -80,19 +81,7 @@ def _to_c_cfg(cfg: _ref.LaneConfig):
     return c
 
 
-def _as_gray(frame) -> np.ndarray:
-    if not isinstance(frame, np.ndarray):
-        raise TypeError(f"expected a numpy.ndarray frame, got {type(frame).__name__}")
-    if frame.dtype != np.uint8:
-        raise TypeError(f"expected a uint8 frame, got dtype {frame.dtype}")
-    if frame.ndim == 3 and frame.shape[2] in (3, 4):
-        code = cv2.COLOR_BGR2GRAY if frame.shape[2] == 3 else cv2.COLOR_BGRA2GRAY
-        return cv2.cvtColor(np.ascontiguousarray(frame), code)
-    if frame.ndim == 3 and frame.shape[2] == 1:
-        frame = frame[:, :, 0]
-    if frame.ndim != 2:
-        raise ValueError(f"expected a gray (h, w) or colour (h, w, 3) frame, got shape {frame.shape}")
-    return np.ascontiguousarray(frame)
+_as_gray = to_gray  # one conversion for every entry point (pyvehtrack.frames)
 
 
 class LaneDetector:

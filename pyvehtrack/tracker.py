@@ -16,6 +16,7 @@ import cv2
 import numpy as np
 
 from . import _native
+from .frames import to_gray
 from .reference import tracker as rtrk
 
 STATES = {1: "tentative", 2: "confirmed", 3: "coasting"}
@@ -51,20 +52,6 @@ def cfg_to_c(cfg: rtrk.TrackerCfg):
         raise ValueError(f"keep_ncc={cfg.keep_ncc} must be in [-1, 1]")
     c.keep_ncc = int(round(cfg.keep_ncc * 16384))
     return c
-
-
-def to_gray(frame) -> np.ndarray:
-    if not isinstance(frame, np.ndarray):
-        raise TypeError(f"frame must be a numpy.ndarray, got {type(frame).__name__}")
-    if frame.ndim == 3 and frame.shape[2] == 3:
-        frame = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
-    elif frame.ndim == 3 and frame.shape[2] == 1:
-        frame = frame[:, :, 0]
-    if frame.ndim != 2:
-        raise ValueError(f"frame must be gray (h, w) or BGR (h, w, 3), got shape {frame.shape}")
-    if frame.dtype != np.uint8:
-        raise TypeError(f"frame must be uint8, got {frame.dtype}")
-    return np.ascontiguousarray(frame)
 
 
 class Tracker:

@@ -257,7 +257,7 @@ def test_python_tracker_bad_input():
     with pytest.raises(TypeError):
         tr.step(np.zeros((10, 10), np.float32))
     with pytest.raises(ValueError):
-        tr.step(np.zeros((10, 10, 4), np.uint8))
+        tr.step(np.zeros((10, 10, 2), np.uint8))
     with pytest.raises(ValueError):
         tr.step(np.zeros((10, 10), np.uint8), detections=np.zeros((2, 3)))
     with pytest.raises(ValueError):
