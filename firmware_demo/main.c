@@ -2,10 +2,11 @@
  * primitives run on a real road frame held in flash, on a bare Cortex-M3
  * (soft-float ABI) and Cortex-M7, and every output is folded into an FNV-1a
  * checksum that tests/test_firmware.py recomputes on the host through cffi.
- * Then the vehicle pipeline: detection (vt_detect) on the first of three real
- * 640x256 frames in flash, in a fixed trapezoid road area built in integer
- * arithmetic, and the tracker (vt_tracker_step) over the three frames, printing
- * every box and track and their checksums (the host test repeats them too).
+ * Then the vehicle pipeline over three real 640x256 frames in flash: the lane
+ * stage (vt_lane_detect) on every frame, its road area feeding detection
+ * (vt_detect) on the first frame, and the tracker (vt_tracker_step) over the
+ * three frames, printing every road area, box and track and their checksums
+ * (the host test repeats them too).
  * Equal checksums mean the same C gives the same bits on ARM and on the host.
  *
  * Every buffer is static (.bss), so the linker's size table is the RAM bill.
@@ -16,6 +17,7 @@
 #include "vehtrack/detect.h"
 #include "vehtrack/fixed.h"
 #include "vehtrack/image.h"
+#include "vehtrack/lane.h"
 #include "vehtrack/road.h"
 #include "vehtrack/status.h"
 #include "vehtrack/tracker.h"
@@ -40,8 +42,13 @@ static int16_t g_soby[H * W];
 static uint8_t g_pyr[PH * PW];
 static uint32_t g_ii[(H + 1) * (W + 1)];
 
-/* The pipeline's state, all in .bss: configurations, the road area, the
- * detector's scratch and result, the tracker and its per-frame output. */
+/* The pipeline's state, all in .bss: configurations, the lane stage (its
+ * tracker and scratch, ~86 KB, most of it the Hough accumulator), its lines and
+ * road area, the detector's scratch and result, the tracker and its per-frame
+ * output. */
+static vt_lane_cfg g_lane_cfg;
+static vt_lane_state g_lane;
+static vt_lane_result g_lanes;
 static vt_road_area g_road;
 static vt_detect_cfg g_detect_cfg;
 static vt_detect_state g_detect;
@@ -442,51 +449,6 @@ static void check_fixed(void)
 }
 
 /* ---------------------------------------------------------------- pipeline */
-/* The fixed trapezoid road area of pyvehtrack.detector.FixedRoad, i.e.
- * reference/shadow.py:trapezoid_road(h, w, vp=(0.5, 0.45), bottom=(0.05, 0.95),
- * lane_bottom=0.45, top_margin=4), in exact integer arithmetic: every fraction
- * is k/20, so with the row's position t = num/den between the vanishing point
- * (t = 0) and the bottom row (t = 1),
- *   num = clamp(20 y - 9 (h-1), 0, den),  den = 11 (h-1)  (20 when h = 1),
- *   x   = floor(vx + t (b - vx) + 1/2)
- *       = floor((2 (VX (den - num) + B num) + 20 den) / (40 den)),
- * where VX = 10 (w-1) and B = (w-1) or 19 (w-1) are 20 x the columns of the
- * vanishing point and of the bottom corner, and the lane width
- *   floor(t 0.45 w + 1/2) = floor((18 w num + 20 den) / (40 den)).
- * Every term is non-negative, so the divisions are floors; uint64 keeps them
- * exact for any frame up to 4096x4096 (__aeabi_uldivmod on the M3/M7). The
- * float Python gives the same integers (checked for this size by the test);
- * tests/test_firmware.py builds the identical struct with this formula. */
-static void make_road(vt_road_area *road, int32_t h, int32_t w)
-{
-    const uint64_t vx20 = 10u * (uint64_t)(w - 1);
-    const uint64_t left20 = 1u * (uint64_t)(w - 1);
-    const uint64_t right20 = 19u * (uint64_t)(w - 1);
-    const int64_t vy20 = 9 * (int64_t)(h - 1);
-    int64_t den = 20 * (int64_t)(h - 1) - vy20, num;
-    int32_t y, y_top;
-    uint64_t d;
-    if (den <= 0) {
-        den = 20; /* the Python's span of 1.0 when the frame has one row */
-    }
-    d = (uint64_t)den;
-    y_top = (int32_t)((vy20 + 19) / 20) + 4; /* ceil(vy) + top_margin */
-    y_top = y_top < 0 ? 0 : (y_top > h - 1 ? h - 1 : y_top);
-    road->valid = 1;
-    road->y_top = y_top;
-    road->y_bottom = h - 1;
-    road->height = h;
-    for (y = 0; y < h; ++y) {
-        num = 20 * (int64_t)y - vy20;
-        num = num < 0 ? 0 : (num > den ? den : num);
-        road->x_left[y] = (int16_t)((2u * (vx20 * (d - (uint64_t)num) + left20 * (uint64_t)num) + 20u * d) /
-                                    (40u * d));
-        road->x_right[y] = (int16_t)((2u * (vx20 * (d - (uint64_t)num) + right20 * (uint64_t)num) + 20u * d) /
-                                     (40u * d));
-        road->lane_width[y] = (int16_t)((18u * (uint64_t)w * (uint64_t)num + 20u * d) / (40u * d));
-    }
-}
-
 static uint32_t fnv_box(uint32_t h, const vt_box *b)
 {
     h = fnv_s32(h, b->left);
@@ -506,17 +468,58 @@ static void line_box(const vt_box *b)
     fw_line_s32(b->bottom);
 }
 
+/* The lane stage on one frame: its status and the road area (the header fields,
+ * then three int16 per row) go into h, and a `road` line is printed. The road
+ * is hashed even after an error (vt_lane_detect then leaves it untouched). */
+static uint32_t lane_frame(uint32_t h, int32_t f, const vt_image_u8 *img)
+{
+    vt_status s;
+    int32_t i;
+    if (f == 0) {
+        start();
+    }
+    s = vt_lane_detect(&g_lane_cfg, &g_lane, img, &g_lanes, &g_road);
+    if (f == 0) {
+        stop("lane");
+    }
+    h = fnv_status(h, s);
+    h = fnv_s32(h, g_road.valid);
+    h = fnv_s32(h, g_road.y_top);
+    h = fnv_s32(h, g_road.y_bottom);
+    h = fnv_s32(h, g_road.height);
+    for (i = 0; i < FW_CLIP_H; ++i) {
+        h = fnv_s16(h, g_road.x_left[i]);
+        h = fnv_s16(h, g_road.x_right[i]);
+        h = fnv_s16(h, g_road.lane_width[i]);
+    }
+    fw_line_str("road ");
+    fw_line_s32(f);
+    fw_line_str(" ");
+    fw_line_s32(s);
+    fw_line_str(" ");
+    fw_line_s32(g_road.valid);
+    fw_line_str(" ");
+    fw_line_s32(g_road.y_top);
+    fw_line_str(" ");
+    fw_line_s32(g_road.y_bottom);
+    fw_line_end();
+    return h;
+}
+
 #if FW_CLIP_N != 3
 #error "run_pipeline() names one insns line per clip frame: update g_track_insns_names"
 #endif
 static const char *const g_track_insns_names[FW_CLIP_N] = {"track_frame0", "track_frame1", "track_frame2"};
 
-/* Road, detection on frame 0, tracking over the clip. Checksums (statuses folded
- * in, as above) go to their own lines and to `checksum pipeline`, never into
- * `checksum all`, which stays the primitives' alone. */
+/* Lanes on every frame (as a detector keeps its lane tracker fed), detection
+ * on frame 0 in frame 0's lane road area, tracking over the clip. Checksums
+ * (statuses folded in, as above) go to their own lines and to `checksum
+ * pipeline` (folded in the order road, detect, tracker), never into `checksum
+ * all`, which stays the primitives' alone. `checksum road` covers the three
+ * frames' road areas, so it is printed after the tracking loop. */
 static void run_pipeline(void)
 {
-    uint32_t h, pipeline = FNV_BASIS;
+    uint32_t h, hroad, hdetect, pipeline = FNV_BASIS;
     vt_image_u8 img;
     vt_status s;
     int32_t i, f, n_out;
@@ -529,26 +532,16 @@ static void run_pipeline(void)
     fw_line_u32(FW_CLIP_N);
     fw_line_end();
 
-    /* The road area: the header fields, then three int16 per row. */
-    make_road(&g_road, FW_CLIP_H, FW_CLIP_W);
-    h = FNV_BASIS;
-    h = fnv_s32(h, g_road.valid);
-    h = fnv_s32(h, g_road.y_top);
-    h = fnv_s32(h, g_road.y_bottom);
-    h = fnv_s32(h, g_road.height);
-    for (i = 0; i < FW_CLIP_H; ++i) {
-        h = fnv_s16(h, g_road.x_left[i]);
-        h = fnv_s16(h, g_road.x_right[i]);
-        h = fnv_s16(h, g_road.lane_width[i]);
-    }
-    print_checksum("road", h);
-    pipeline = fnv_u32(pipeline, h);
-
-    /* Detection on frame 0: hypotheses (nearest first) and verified boxes. */
+    /* The lane stage on frame 0: its road area is the detector's. */
     img.px = fw_clip[0];
     img.w = FW_CLIP_W;
     img.h = FW_CLIP_H;
     img.stride = FW_CLIP_W;
+    hroad = fnv_status(FNV_BASIS, vt_lane_cfg_default(&g_lane_cfg));
+    hroad = fnv_status(hroad, vt_lane_reset(&g_lane));
+    hroad = lane_frame(hroad, 0, &img);
+
+    /* Detection on frame 0: hypotheses (nearest first) and verified boxes. */
     h = fnv_status(FNV_BASIS, vt_detect_cfg_default(&g_detect_cfg));
     start();
     s = vt_detect(&g_detect, &g_detect_cfg, &img, &g_road, &g_detected);
@@ -571,14 +564,18 @@ static void run_pipeline(void)
         fw_line_end();
     }
     print_checksum("detect", h);
-    pipeline = fnv_u32(pipeline, h);
+    hdetect = h;
 
     /* Tracking: frame 0 is a detection frame with the boxes above, frames 1
-     * and 2 are tracked only (ROI search + Kalman update per track). */
+     * and 2 are tracked only (ROI search + Kalman update per track), after the
+     * lane stage has seen them. */
     h = fnv_status(FNV_BASIS, vt_tracker_cfg_default(&g_tracker_cfg));
     h = fnv_status(h, vt_tracker_init(&g_tracker));
     for (f = 0; f < FW_CLIP_N; ++f) {
         img.px = fw_clip[f];
+        if (f > 0) {
+            hroad = lane_frame(hroad, f, &img);
+        }
         n_out = 0;
         start();
         s = vt_tracker_step(&g_tracker, &g_tracker_cfg, &img, f == 0 ? 1 : 0, g_detected.box,
@@ -610,7 +607,10 @@ static void run_pipeline(void)
             fw_line_end();
         }
     }
+    print_checksum("road", hroad);
     print_checksum("tracker", h);
+    pipeline = fnv_u32(pipeline, hroad);
+    pipeline = fnv_u32(pipeline, hdetect);
     pipeline = fnv_u32(pipeline, h);
     print_checksum("pipeline", pipeline);
 }
@@ -653,12 +653,14 @@ int main(void)
     print_size("ram sobel_y", (uint32_t)sizeof g_soby);
     print_size("ram pyr_down", (uint32_t)sizeof g_pyr);
     print_size("ram integral", (uint32_t)sizeof g_ii);
+    print_size("ram lane", (uint32_t)sizeof g_lane);
+    print_size("ram lane_result", (uint32_t)sizeof g_lanes);
     print_size("ram road", (uint32_t)sizeof g_road);
     print_size("ram detect", (uint32_t)sizeof g_detect);
     print_size("ram detect_result", (uint32_t)sizeof g_detected);
     print_size("ram tracker", (uint32_t)sizeof g_tracker);
     print_size("ram track_out", (uint32_t)sizeof g_tracks);
-    print_size("ram configs", (uint32_t)(sizeof g_detect_cfg + sizeof g_tracker_cfg));
+    print_size("ram configs", (uint32_t)(sizeof g_lane_cfg + sizeof g_detect_cfg + sizeof g_tracker_cfg));
     print_size("sizeof vt_image_u8", (uint32_t)sizeof(vt_image_u8));
     print_size("sizeof vt_road_area", (uint32_t)sizeof(vt_road_area));
     print_size("stack reserved", fw_stack_size());

@@ -9,10 +9,10 @@ must be equal, line by line, for both cores. There is no tolerance: the
 primitives are exact integer functions, so any difference is a portability bug
 (int width, shift or division semantics, byte order) or a stale frame.
 
-Then the vehicle pipeline: vt_detect on the first of three 640x256 clip frames in
-flash (in a fixed trapezoid road area that both sides build with the same integer
-formula, `int_road()`), and vt_tracker_step over the three frames. The image
-prints every box and every track (box and Q16 velocity) and their checksums;
+Then the vehicle pipeline over three 640x256 clip frames in flash: the lane stage
+(vt_lane_detect) on every frame, vt_detect on the first frame in that frame's lane
+road area, and vt_tracker_step over the three frames. The image prints every road
+area (status, valid, rows), box and track (box and Q16 velocity) and their checksums;
 `host_pipeline()` repeats it and every line must be equal, again with no
 tolerance (the Kalman filter is fixed-point too).
 
@@ -33,7 +33,6 @@ import numpy as np
 import pytest
 
 from pyvehtrack import _native
-from pyvehtrack.detector import FixedRoad
 
 ROOT = Path(__file__).resolve().parent.parent
 PNG = ROOT / "tests" / "data" / "kitti_0000_gray_320x96.png"
@@ -258,35 +257,6 @@ def load_clip() -> list[np.ndarray]:
     return frames
 
 
-def int_road(h: int, w: int):
-    """main.c's make_road(): reference/shadow.py:trapezoid_road(h, w, vp=(0.5, 0.45),
-    bottom=(0.05, 0.95), lane_bottom=0.45, top_margin=4) in exact integer arithmetic
-    (every fraction is k/20; see the comment in main.c). Returns (y_top, y_bottom,
-    x_left, x_right, lane_width), the arrays as Python int lists of h entries."""
-    vx20, left20, right20, vy20 = 10 * (w - 1), w - 1, 19 * (w - 1), 9 * (h - 1)
-    den = 20 * (h - 1) - vy20
-    if den <= 0:
-        den = 20
-    y_top = min(max((vy20 + 19) // 20 + 4, 0), h - 1)
-    xl, xr, lw = [], [], []
-    for y in range(h):
-        num = min(max(20 * y - vy20, 0), den)
-        xl.append((2 * (vx20 * (den - num) + left20 * num) + 20 * den) // (40 * den))
-        xr.append((2 * (vx20 * (den - num) + right20 * num) + 20 * den) // (40 * den))
-        lw.append((18 * w * num + 20 * den) // (40 * den))
-    return y_top, h - 1, xl, xr, lw
-
-
-def road_struct(h: int, w: int):
-    """The vt_road_area main.c builds (rows past h stay zero, as in its .bss)."""
-    y_top, y_bottom, xl, xr, lw = int_road(h, w)
-    r = ffi.new("vt_road_area *")
-    r.valid, r.y_top, r.y_bottom, r.height = 1, y_top, y_bottom, h
-    for i in range(h):
-        r.x_left[i], r.x_right[i], r.lane_width[i] = xl[i], xr[i], lw[i]
-    return r
-
-
 def _box_line(b) -> str:
     return f"{b.left} {b.top} {b.right} {b.bottom}"
 
@@ -298,19 +268,31 @@ def _fnv_box(h: int, b) -> int:
 
 
 def host_pipeline(frames: list[np.ndarray]) -> tuple[list[str], list[tuple[str, int]]]:
-    """main.c's run_pipeline(): the printed lines (clip/boxes/box/tracks/track) and
-    the checksums road, detect, tracker, pipeline."""
+    """main.c's run_pipeline(): the printed lines (clip/road/boxes/box/tracks/track)
+    and the checksums in the order printed, detect, road (over the three frames'
+    lane road areas), tracker, then pipeline (over road, detect, tracker)."""
     h_, w_ = frames[0].shape
     lines = [f"clip {w_}x{h_}x{len(frames)}"]
     sums: list[tuple[str, int]] = []
 
-    road = road_struct(h_, w_)
-    h = FNV_BASIS
-    for v in (road.valid, road.y_top, road.y_bottom, road.height):
-        h = fnv_s32(h, v)
-    for i in range(h_):
-        h = fnv_s16(fnv_s16(fnv_s16(h, road.x_left[i]), road.x_right[i]), road.lane_width[i])
-    sums.append(("road", h))
+    # The lane stage, fresh (main.c's static state, reset), its road area in a struct
+    # that lives across frames as main.c's .bss one does (an error leaves it as it was).
+    lcfg, lst = ffi.new("vt_lane_cfg *"), _native.lane_state_new()
+    lres, road = ffi.new("vt_lane_result *"), ffi.new("vt_road_area *")
+    hroad = fnv_s32(FNV_BASIS, lib.vt_lane_cfg_default(lcfg))
+    hroad = fnv_s32(hroad, lib.vt_lane_reset(lst))
+
+    def lane_frame(h: int, f: int) -> int:
+        s = lib.vt_lane_detect(lcfg, lst, view(frames[f], "frame"), lres, road)
+        h = fnv_s32(h, s)
+        for v in (road.valid, road.y_top, road.y_bottom, road.height):
+            h = fnv_s32(h, v)
+        for i in range(h_):
+            h = fnv_s16(fnv_s16(fnv_s16(h, road.x_left[i]), road.x_right[i]), road.lane_width[i])
+        lines.append(f"road {f} {s} {road.valid} {road.y_top} {road.y_bottom}")
+        return h
+
+    hroad = lane_frame(hroad, 0)
 
     cfg = ffi.new("vt_detect_cfg *")
     h = fnv_s32(FNV_BASIS, lib.vt_detect_cfg_default(cfg))
@@ -326,6 +308,7 @@ def host_pipeline(frames: list[np.ndarray]) -> tuple[list[str], list[tuple[str, 
         h = _fnv_box(h, res.box[i])
         lines.append(f"box {_box_line(res.box[i])}")
     sums.append(("detect", h))
+    hdetect = h
 
     tcfg, tr = ffi.new("vt_tracker_cfg *"), ffi.new("vt_tracker *")
     h = fnv_s32(FNV_BASIS, lib.vt_tracker_cfg_default(tcfg))
@@ -333,6 +316,8 @@ def host_pipeline(frames: list[np.ndarray]) -> tuple[list[str], list[tuple[str, 
     cap = int(lib.VT_MAX_TRACKS)
     out, n_out = ffi.new("vt_track_out[]", cap), ffi.new("int32_t *")
     for f, frame in enumerate(frames):
+        if f > 0:
+            hroad = lane_frame(hroad, f)
         n_out[0] = 0
         s = lib.vt_tracker_step(tr, tcfg, view(frame, "frame"), 1 if f == 0 else 0, res.box,
                                 res.n_boxes if f == 0 else 0, out, cap, n_out)
@@ -342,10 +327,11 @@ def host_pipeline(frames: list[np.ndarray]) -> tuple[list[str], list[tuple[str, 
             h = _fnv_box(fnv_s32(fnv_s32(h, t.id), t.state), t.box)
             h = fnv_s32(fnv_s32(h, t.vx), t.vy)
             lines.append(f"track {f} {t.id} {t.state} {_box_line(t.box)} {t.vx} {t.vy}")
+    sums.append(("road", hroad))
     sums.append(("tracker", h))
 
     total = FNV_BASIS
-    for _, v in sums:
+    for v in (hroad, hdetect, h):
         total = fnv_u32(total, v)
     sums.append(("pipeline", total))
     return lines, sums
@@ -365,7 +351,7 @@ def parse_run(text: str) -> dict[str, dict]:
             continue
         if cur is None:
             continue
-        if re.match(r"(clip|boxes|box|tracks|track) ", line):
+        if re.match(r"(clip|road|boxes|box|tracks|track) ", line):
             cur["pipeline"].append(line)
         elif m := re.match(r"checksum (\S+) 0x([0-9a-f]{8})$", line):
             cur["checksums"].append((m.group(1), int(m.group(2), 16)))
@@ -399,7 +385,7 @@ def pipeline():
 @pytest.fixture(scope="module")
 def host(pipeline):
     """Every checksum line the image prints, in order: the primitives (ending with
-    `all`, which covers them alone), then road, detect, tracker and pipeline."""
+    `all`, which covers them alone), then detect, road, tracker and pipeline."""
     return host_checksums(load_frame()) + pipeline[1]
 
 
@@ -449,18 +435,17 @@ def test_pipeline_exercises_detection_and_tracking(pipeline):
         assert any(ln.startswith(f"track {f} ") for ln in lines), (f, lines)
 
 
-@pytest.mark.parametrize("h,w", [(256, 640), (96, 320), (188, 621), (480, 640), (720, 1280), (1, 1)])
-def test_integer_road_is_the_fixed_road(h, w):
-    """The integer road main.c builds is pyvehtrack.detector.FixedRoad's float
-    trapezoid, row for row (the rationals are exact; the float formula lands on no
-    rounding tie at these sizes), so the firmware detects in the road the host
-    Detector(road="fixed") uses."""
-    ref = FixedRoad().make(h, w)
-    y_top, y_bottom, xl, xr, lw = int_road(h, w)
-    assert (y_top, y_bottom) == (ref.y_top, ref.y_bottom)
-    assert xl == np.asarray(ref.x_left).tolist()
-    assert xr == np.asarray(ref.x_right).tolist()
-    assert lw == np.asarray(ref.lane_width).tolist()
+def test_pipeline_detects_in_the_lane_road(pipeline):
+    """The detection runs in a road area the lane stage found (VT_OK, valid) on every
+    frame, and in it the lead car's track is confirmed by frame 2 (three hits:
+    the detection and two ROI searches), as Detector + Tracker find on this clip
+    (tests/test_tracker_real.py)."""
+    lines = pipeline[0]
+    for f in range(len(CLIP)):
+        road = next(ln for ln in lines if ln.startswith(f"road {f} ")).split()
+        assert road[2:4] == [str(int(lib.VT_OK)), "1"], (f, road)
+    last = [ln.split() for ln in lines if ln.startswith(f"track {len(CLIP) - 1} ")]
+    assert any(int(t[3]) == int(lib.VT_TRACK_CONFIRMED) for t in last), lines
 
 
 def test_host_recipe_sees_error_statuses():
