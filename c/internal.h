@@ -18,6 +18,17 @@ static inline vt_status vt__check_dims(int32_t w, int32_t h, int32_t stride, int
     return VT_OK;
 }
 
+/* |v| for v > INT32_MIN (pixel coordinates and differences of them). */
+static inline int32_t vt__abs_i32(int32_t v)
+{
+    return v < 0 ? -v : v;
+}
+
+static inline int32_t vt__max_i32(int32_t a, int32_t b)
+{
+    return a > b ? a : b;
+}
+
 static inline int32_t vt__clamp_i32(int32_t v, int32_t lo, int32_t hi)
 {
     return v < lo ? lo : (v > hi ? hi : v);

@@ -68,11 +68,6 @@ static int32_t vt__max_range(const int32_t *v, int32_t lo, int32_t hi)
     return m;
 }
 
-static int32_t vt__abs32(int32_t v)
-{
-    return v < 0 ? -v : v;
-}
-
 vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg,
                           const vt_box *roi, vt_track_sides *sides,
                           vt_track_search_ws *ws, vt_box *meas, int32_t *found)
@@ -123,10 +118,17 @@ vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg
     }
     for (y = t; y <= ybest; ++y) {
         const uint8_t *pm, *p0, *pp;
+        /* Only columns 0 and w-1 need the replicated border; the rest none. */
+        int32_t lo = l > 1 ? l : 1, hi = r < img->w - 1 ? r : img->w - 1;
         vt__rows(img, y, &pm, &p0, &pp);
-        for (x = l; x < r; ++x) {
-            int32_t cl = x > 0 ? x - 1 : 0, cr = x < img->w - 1 ? x + 1 : img->w - 1;
-            ws->vproj[x] += vt__vedge(pm, p0, pp, cl, cr, cfg->v_thresh);
+        for (x = l; x < r && x < lo; ++x) {
+            ws->vproj[x] += vt__vedge(pm, p0, pp, 0, img->w > 1 ? 1 : 0, cfg->v_thresh);
+        }
+        for (x = lo; x < hi; ++x) {
+            ws->vproj[x] += vt__vedge(pm, p0, pp, x - 1, x + 1, cfg->v_thresh);
+        }
+        for (x = hi > lo ? hi : lo; x < r; ++x) {
+            ws->vproj[x] += vt__vedge(pm, p0, pp, x > 0 ? x - 1 : 0, img->w - 1, cfg->v_thresh);
         }
     }
     midx = l + (r - l) / 2;
@@ -148,14 +150,14 @@ vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg
         xr = vt__scan(ws->vproj, r - 1, midx - 1, -1, 1, 2, rmax);
     }
     if (cfg->side_mode == VT_SIDES_TWO_THRESHOLD && sides != NULL && sides->have_prev) {
-        int32_t dl = vt__abs32(xl - sides->prev_left), dr = vt__abs32(xr - sides->prev_right);
+        int32_t dl = vt__abs_i32(xl - sides->prev_left), dr = vt__abs_i32(xr - sides->prev_right);
         if (dl > sides->max_change_left) {
             xl = vt__scan(ws->vproj, l, midx, 1, 1, 1, lmax);
-            dl = vt__abs32(xl - sides->prev_left);
+            dl = vt__abs_i32(xl - sides->prev_left);
         }
         if (dr > sides->max_change_right) {
             xr = vt__scan(ws->vproj, r - 1, midx - 1, -1, 1, 1, rmax);
-            dr = vt__abs32(xr - sides->prev_right);
+            dr = vt__abs_i32(xr - sides->prev_right);
         }
         sides->max_change_left = dl > sides->max_change_left ? dl : sides->max_change_left;
         sides->max_change_right = dr > sides->max_change_right ? dr : sides->max_change_right;

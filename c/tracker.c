@@ -10,16 +10,6 @@
 /* Detections accepted per frame; more is a caller error. */
 #define VT__MAX_DETS 256
 
-static int32_t vt__max32(int32_t a, int32_t b)
-{
-    return a > b ? a : b;
-}
-
-static int32_t vt__abs(int32_t v)
-{
-    return v < 0 ? -v : v;
-}
-
 /* Box from the filter state: corners rounded half up; height from the aspect. */
 static void vt__box_from_state(vt_track *t)
 {
@@ -235,9 +225,9 @@ vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_im
         }
         vt__box_from_state(t);
         w = t->box.right - t->box.left + 1;
-        m = vt__max32(cfg->roi_margin_min, (int32_t)((int64_t)w * cfg->roi_margin_percent / 100));
-        gate = vt__max32(8, (int32_t)((int64_t)w * cfg->gate_percent / 100));
-        gate_b = vt__max32(4, (int32_t)((int64_t)w * cfg->gate_bottom_percent / 100));
+        m = vt__max_i32(cfg->roi_margin_min, (int32_t)((int64_t)w * cfg->roi_margin_percent / 100));
+        gate = vt__max_i32(8, (int32_t)((int64_t)w * cfg->gate_percent / 100));
+        gate_b = vt__max_i32(4, (int32_t)((int64_t)w * cfg->gate_bottom_percent / 100));
         /* The ROI of the verification step (thesis sec. 3.6: "determined as
          * described in the hypothesis verification step"): the bottom edge widened
          * by the margin, half the edge length high; below it, as far as the bottom
@@ -245,12 +235,12 @@ vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_im
         roi.left = t->box.left - m;
         roi.right = t->box.right + m;
         roi.top = t->box.bottom - w / 2;
-        roi.bottom = t->box.bottom + vt__max32(m, gate_b);
+        roi.bottom = t->box.bottom + vt__max_i32(m, gate_b);
         sides = t->sides;
         s = vt_track_search(img, &cfg->search, &roi, &sides, &tr->ws, &meas, &found);
-        if (s == VT_OK && found && vt__abs(meas.left - t->box.left) <= gate &&
-            vt__abs(meas.right - t->box.right) <= gate &&
-            vt__abs(meas.bottom - t->box.bottom) <= gate_b &&
+        if (s == VT_OK && found && vt__abs_i32(meas.left - t->box.left) <= gate &&
+            vt__abs_i32(meas.right - t->box.right) <= gate &&
+            vt__abs_i32(meas.bottom - t->box.bottom) <= gate_b &&
             vt__update(t, meas.left, meas.bottom, meas.right) == VT_OK) {
             t->sides = sides;
             measured[i] = 1;

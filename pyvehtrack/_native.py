@@ -65,6 +65,15 @@ def status_name(code: int) -> str:
     return ffi.string(out[0]).decode()
 
 
+def _defaults(ctype: str):
+    """A new `ctype` struct filled by the C function `<ctype>_default` (e.g.
+    vt_tracker_cfg_default), so no default value is copied into Python."""
+    cfg = ffi.new(ctype + " *")
+    fn = ctype + "_default"
+    check(fn, getattr(lib, fn)(cfg))
+    return cfg
+
+
 def check(function: str, status: int, detail: str = "") -> None:
     """Raise VtError for a negative status."""
     if status < 0:
@@ -235,9 +244,7 @@ def kf_accel_var(accel: int, p_max: int, p_zero: int) -> int:
 
 
 def kf_model_cfg_default():
-    cfg = ffi.new("vt_kf_model_cfg *")
-    check("vt_kf_model_cfg_default", lib.vt_kf_model_cfg_default(cfg))
-    return cfg
+    return _defaults("vt_kf_model_cfg")
 
 
 def _kf_cfg_detail(cfg) -> str:
@@ -263,9 +270,7 @@ TRACK_OUT_DTYPE = np.dtype([("id", np.int32), ("state", np.int32), ("left", np.i
 
 
 def tracker_cfg_default():
-    cfg = ffi.new("vt_tracker_cfg *")
-    check("vt_tracker_cfg_default", lib.vt_tracker_cfg_default(cfg))
-    return cfg
+    return _defaults("vt_tracker_cfg")
 
 
 def tracker_new():
@@ -305,21 +310,15 @@ def tracker_step(tr, cfg, img: np.ndarray, detection_frame: bool, dets=None) -> 
 
 # ================================================================ shadow.h, verify.h, detect.h
 def shadow_cfg_default():
-    cfg = ffi.new("vt_shadow_cfg *")
-    check("vt_shadow_cfg_default", lib.vt_shadow_cfg_default(cfg))
-    return cfg
+    return _defaults("vt_shadow_cfg")
 
 
 def verify_cfg_default():
-    cfg = ffi.new("vt_verify_cfg *")
-    check("vt_verify_cfg_default", lib.vt_verify_cfg_default(cfg))
-    return cfg
+    return _defaults("vt_verify_cfg")
 
 
 def detect_cfg_default():
-    cfg = ffi.new("vt_detect_cfg *")
-    check("vt_detect_cfg_default", lib.vt_detect_cfg_default(cfg))
-    return cfg
+    return _defaults("vt_detect_cfg")
 
 
 def road_area(road, h: int):
@@ -401,9 +400,7 @@ def detect(st, cfg, img: np.ndarray, road, out) -> tuple[np.ndarray, np.ndarray]
 # (lane section; thin 1:1 wrappers, raw fixed-point values; the friendly API is
 # pyvehtrack.lane.)
 def lane_cfg_default():
-    cfg = ffi.new("vt_lane_cfg *")
-    check("vt_lane_cfg_default", lib.vt_lane_cfg_default(cfg))
-    return cfg
+    return _defaults("vt_lane_cfg")
 
 
 def lane_cfg_check(cfg) -> None:

@@ -104,7 +104,6 @@ def run_track(args) -> int:
     try:
         with tqdm(total=total, unit="frame", disable=args.no_progress, file=sys.stderr) as bar:
             for i, (file, _k, frame) in enumerate(_iter_frames(sources)):
-                detection_frame = trk.frame_index % trk.detect_every == 0
                 try:
                     tracks = trk.step(frame)
                 except (VtError, ValueError, TypeError) as e:
@@ -113,7 +112,7 @@ def run_track(args) -> int:
                     if args.all_states or t.state != "tentative":
                         lines.append(kitti_line(i, t))
                         ids.add(t.id)
-                img = draw_tracks(frame, tracks, i, detection_frame)
+                img = draw_tracks(frame, tracks, i, trk.last_was_detection)
                 if kind == "image":
                     path = out.with_name(f"{out.stem}_{i:05d}{out.suffix}")
                     if not cv2.imwrite(str(path), img):

@@ -10,13 +10,14 @@ of inclusive [left, top, right, bottom] boxes); then detection frames are the
 frames where you pass them."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import cv2
 import numpy as np
 
 from . import _native
 from .frames import to_gray
+from .kalman import ModelConfig
 from .reference import tracker as rtrk
 
 STATES = {1: "tentative", 2: "confirmed", 3: "coasting"}
@@ -34,20 +35,12 @@ def cfg_to_c(cfg: rtrk.TrackerCfg):
     """The C struct for a TrackerCfg: Q16 for model values, Q14 for the NCC threshold
     (each rounded to nearest)."""
     c = _native.ffi.new("vt_tracker_cfg *")
-    s = cfg.search
-    c.search.polarity, c.search.h_thresh, c.search.v_thresh = s.polarity, s.h_thresh, s.v_thresh
-    c.search.min_h_percent, c.search.min_v_percent = s.min_h_percent, s.min_v_percent
-    c.search.bottom_percent, c.search.side_mode = s.bottom_percent, s.side_mode
-    for name in ("dt", "accel_x", "accel_y", "p_max", "p_zero", "meas_sigma_x", "meas_sigma_y",
-                 "init_sigma_pos", "init_sigma_vel"):
-        v = float(getattr(cfg.model, name))
-        if not np.isfinite(v) or abs(v) >= 32768:
-            raise ValueError(f"model.{name}={v} is outside the Q15.16 range")
-        setattr(c.model, name, int(round(v * 65536)))
-    for name in ("roi_margin_min", "roi_margin_percent", "gate_percent", "gate_bottom_percent",
-                 "confirm_hits", "max_coast",
-                 "match_iou_percent", "init_max_change"):
-        setattr(c, name, int(getattr(cfg, name)))
+    for f in fields(cfg.search):
+        setattr(c.search, f.name, int(getattr(cfg.search, f.name)))
+    c.model = ModelConfig(**vars(cfg.model)).to_c()[0]  # Q16, checked, as the Kalman API does
+    for f in fields(cfg):
+        if f.name not in ("search", "model", "keep_ncc"):
+            setattr(c, f.name, int(getattr(cfg, f.name)))
     if not -1.0 <= cfg.keep_ncc <= 1.0:
         raise ValueError(f"keep_ncc={cfg.keep_ncc} must be in [-1, 1]")
     c.keep_ncc = int(round(cfg.keep_ncc * 16384))
@@ -73,6 +66,7 @@ class Tracker:
         self.detect_every = int(detect_every)
         self.detector = detector
         self.frame_index = 0
+        self.last_was_detection = False  # whether the last step() had detections
         if engine == "c":
             self._ccfg = cfg_to_c(self.cfg)
             self._tr = _native.tracker_new()
@@ -99,6 +93,7 @@ class Tracker:
             det_frame, dets = True, np.asarray(self.detector.detect(frame).boxes).reshape(-1, 4)
         else:
             det_frame, dets = False, np.zeros((0, 4), np.int32)
+        self.last_was_detection = det_frame
         if f > 1 and len(dets):
             dets = np.asarray(dets) // f
         self.frame_index += 1

@@ -50,11 +50,7 @@ def run(engine, frames, dets_at):
     return [tr.step(img, detections=dets_at.get(k)) for k, img in enumerate(frames)]
 
 
-def iou(a, b):
-    iw = min(a[2], b[2]) - max(a[0], b[0]) + 1
-    ih = min(a[3], b[3]) - max(a[1], b[1]) + 1
-    inter = max(iw, 0) * max(ih, 0)
-    return inter / ((a[2] - a[0] + 1) * (a[3] - a[1] + 1) + (b[2] - b[0] + 1) * (b[3] - b[1] + 1) - inter)
+iou = rtrk.box_iou
 
 
 @st.composite

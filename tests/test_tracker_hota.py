@@ -13,6 +13,7 @@ import pyvehtrack as vt
 from pyvehtrack import evaluate as ev
 from pyvehtrack import synth
 from pyvehtrack.reference.sort import run_sort
+from pyvehtrack.reference.tracker import box_iou
 from pyvehtrack.tracker import Tracker
 
 
@@ -68,11 +69,6 @@ def test_c_matches_reference_on_synthetic_sequences(scenario):
     for k, (c, r) in enumerate(zip(runs["c"], runs["reference"])):
         assert [(a.id, a.state) for a in c] == [(b.id, b.state) for b in r], k
         for a, b in zip(c, r):
-            iw = min(a.box[2], b.box[2]) - max(a.box[0], b.box[0]) + 1
-            ih = min(a.box[3], b.box[3]) - max(a.box[1], b.box[1]) + 1
-            inter = max(iw, 0) * max(ih, 0)
-            union = ((a.box[2] - a.box[0] + 1) * (a.box[3] - a.box[1] + 1)
-                     + (b.box[2] - b.box[0] + 1) * (b.box[3] - b.box[1] + 1) - inter)
-            assert inter / union >= 0.9, (k, a, b)
+            assert box_iou(a.box, b.box) >= 0.9, (k, a, b)
         n_tracks += len(c)
     assert n_tracks > 0  # the comparison compared something

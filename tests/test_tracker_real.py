@@ -15,16 +15,10 @@ import numpy as np
 import pytest
 
 from pyvehtrack.detector import Detector
+from pyvehtrack.reference.tracker import box_iou as iou
 from pyvehtrack.tracker import Tracker
 
 CLIP = Path(__file__).parent / "data" / "kitti_clip"
-
-
-def iou(a, b):
-    iw = min(a[2], b[2]) - max(a[0], b[0]) + 1
-    ih = min(a[3], b[3]) - max(a[1], b[1]) + 1
-    inter = max(iw, 0) * max(ih, 0)
-    return inter / ((a[2] - a[0] + 1) * (a[3] - a[1] + 1) + (b[2] - b[0] + 1) * (b[3] - b[1] + 1) - inter)
 
 
 def _run(engine):

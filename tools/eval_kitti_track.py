@@ -29,15 +29,9 @@ from tqdm import tqdm
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from pyvehtrack.reference.tracker import box_iou as iou  # noqa: E402
+
 DEFAULT_DATA = ROOT.parent / "shared" / "data" / "kitti-raw-sfnd-ttc"
-
-
-def iou(a, b) -> float:
-    iw = min(a[2], b[2]) - max(a[0], b[0]) + 1
-    ih = min(a[3], b[3]) - max(a[1], b[1]) + 1
-    inter = max(iw, 0) * max(ih, 0)
-    ua = (a[2] - a[0] + 1) * (a[3] - a[1] + 1) + (b[2] - b[0] + 1) * (b[3] - b[1] + 1) - inter
-    return inter / ua if ua > 0 else 0.0
 
 
 def load(data: Path):

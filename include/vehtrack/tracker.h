@@ -8,7 +8,7 @@
  * on x86-64: the 2,360-byte fixed-point Kalman filter and a VT_TRACK_TEMPLATE^2-byte
  * template) plus the projection workspace (4 * (VT_MAX_WIDTH + VT_MAX_HEIGHT)
  * bytes): 55,024 bytes at the defaults. Work per frame and track: one predict +
- * update (about 1 100 multiplies) and two Sobel responses per ROI pixel (2.6
+ * update (about 1 100 multiplies) and two Sobel responses per ROI pixel (2.3
  * instructions per frame pixel for two tracks at 640x480, `make bench`); nothing
  * outside the ROIs is touched except on detection frames (the template check,
  * VT_TRACK_TEMPLATE^2 pixels per track). Stack: about 2 KB (the Kalman update). */

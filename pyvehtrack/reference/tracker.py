@@ -18,6 +18,7 @@ import numpy as np
 from filterpy.kalman import KalmanFilter
 
 from . import image as rimg
+from .kalman import bottom_edge_filter
 from .track_search import SearchCfg, Sides, track_search
 
 FREE, TENTATIVE, CONFIRMED, COASTING = 0, 1, 2, 3
@@ -52,24 +53,6 @@ class TrackerCfg:
     match_iou_percent: int = 30
     keep_ncc: float = 0.7
     init_max_change: int = 3
-
-
-def accel_var(a: float, p_max: float, p_zero: float) -> float:
-    """Thesis eq. 3.24: uniform +-A with point masses P1 at +-A and P2 at 0."""
-    return a * a / 3.0 * (1.0 + 4.0 * p_max - p_zero)
-
-
-def bottom_edge_filter(m: ModelCfg, x1: float, y1: float, x2: float) -> KalmanFilter:
-    kf = KalmanFilter(dim_x=6, dim_z=3)
-    kf.F = np.eye(6)
-    kf.F[0, 3] = kf.F[1, 4] = kf.F[2, 5] = m.dt
-    kf.H = np.hstack([np.eye(3), np.zeros((3, 3))])
-    sx, sy = accel_var(m.accel_x, m.p_max, m.p_zero), accel_var(m.accel_y, m.p_max, m.p_zero)
-    kf.Q = np.diag([0, 0, 0, sx * m.dt ** 2, sy * m.dt ** 2, sx * m.dt ** 2])
-    kf.R = np.diag([m.meas_sigma_x ** 2, m.meas_sigma_y ** 2, m.meas_sigma_x ** 2])
-    kf.P = np.diag([m.init_sigma_pos ** 2] * 3 + [m.init_sigma_vel ** 2] * 3)
-    kf.x = np.array([[x1], [y1], [x2], [0.0], [0.0], [0.0]])
-    return kf
 
 
 def _round(v: float) -> int:
@@ -121,6 +104,12 @@ def iou_frac(a, b) -> tuple[int, int]:
     return inter, uni
 
 
+def box_iou(a, b) -> float:
+    """IoU of two inclusive [left, top, right, bottom] boxes, as a float."""
+    inter, uni = iou_frac(a, b)
+    return inter / uni if uni > 0 else 0.0
+
+
 class Tracker:
     def __init__(self, cfg: TrackerCfg | None = None, max_tracks: int = 16):
         self.cfg = cfg or TrackerCfg()
@@ -147,7 +136,7 @@ class Tracker:
         l, top, r, b = (int(v) for v in d)
         w, h = r - l + 1, b - top + 1
         t.__init__()
-        t.kf = bottom_edge_filter(c.model, l, b, r)
+        t.kf = bottom_edge_filter(l, b, r, **vars(c.model))
         t.id = self.next_id
         self.next_id += 1
         t.state = CONFIRMED if c.confirm_hits <= 1 else TENTATIVE
