@@ -46,7 +46,7 @@ vt_status vt_camera_cfg_check(const vt_camera_cfg *c)
     if (c == NULL) {
         return VT_E_ARG;
     }
-    if (!VT__IN(c->img_w, 1, VT_MAX_WIDTH) || !VT__IN(c->img_h, 1, VT_MAX_HEIGHT)) {
+    if (!VT__IN(c->img_w, 1, 32767) || !VT__IN(c->img_h, 1, 32767)) {
         return VT_E_SIZE;
     }
     if (!VT__IN((int64_t)c->fx, one, 16384 * one) || !VT__IN((int64_t)c->fy, one, 16384 * one) ||

@@ -54,8 +54,8 @@
 
 /* Camera (pixels of the input frame). vt_camera_cfg_check() states the ranges. */
 typedef struct {
-    int32_t img_w;            /* frame size the intrinsics are for, 1..VT_MAX_WIDTH  */
-    int32_t img_h;            /* ... and 1..VT_MAX_HEIGHT                            */
+    int32_t img_w;            /* frame size the intrinsics are for, 1..32767 (the    */
+    int32_t img_h;            /* camera reads no pixels, so any frame size is fine)  */
     vt_q16 fx;                /* focal lengths, px, 1..16384                         */
     vt_q16 fy;
     vt_q16 cx;                /* principal point, px, within [-img, 2 img]           */
