@@ -117,7 +117,12 @@ vt_status vt_camera_box_distance(const vt_camera_cfg *cam, vt_q16 tp, const vt_b
     (void)ok_near;
     w = ((int64_t)box->right - box->left + 1) * VT_Q16_ONE;
     dw = vt__div_or((int64_t)cam->fx * cam->vehicle_width, w, VT__Q16_MAXDIST);
-    out->flags = (ok ? VT_DIST_VALID : 0) | (ok_far ? VT_DIST_FAR_VALID : 0);
+    if (box->bottom >= cam->img_h - 1) { /* the contact row is below the frame */
+        ok = 0;
+    }
+    out->flags = (ok ? VT_DIST_VALID : 0) | (ok_far ? VT_DIST_FAR_VALID : 0) |
+                 (box->bottom >= cam->img_h - 1 ? VT_DIST_BOTTOM_CLIPPED : 0) |
+                 (box->left <= 0 || box->right >= cam->img_w - 1 ? VT_DIST_SIDE_CLIPPED : 0);
     out->distance = d;
     out->dist_near = dn;
     out->dist_far = df;
@@ -163,9 +168,7 @@ vt_status vt_pitch_update(const vt_camera_cfg *cam, vt_pitch_state *st, int32_t 
         st->flag = VT_PITCH_REJECTED;
         return VT_OK;
     }
-    if (st->measured == 0) {
-        st->tan_pitch = (vt_q16)m;
-    } else if (m - st->tan_pitch > cam->pitch_max_step || st->tan_pitch - m > cam->pitch_max_step) {
+    if (m - st->tan_pitch > cam->pitch_max_step || st->tan_pitch - m > cam->pitch_max_step) {
         st->outliers += 1;
         if (st->outliers < cam->pitch_reacquire) {
             st->flag = VT_PITCH_REJECTED;
@@ -250,7 +253,8 @@ vt_status vt_range_cfg_check(const vt_range_cfg *c)
         !VT__IN((int64_t)c->ttc_margin, 0, 10 * one) || !VT__IN(c->confirm_frames, 1, 1000) ||
         !VT__IN(c->rearm_frames, 0, 100000) || !VT__IN((int64_t)c->min_closing, 0, 100 * one) ||
         !VT__IN((int64_t)c->stopped_speed, 0, 100 * one) ||
-        !VT__IN((int64_t)c->decel_thresh, 1, 100 * one)) {
+        !VT__IN((int64_t)c->decel_thresh, 1, 100 * one) || !VT__IN(c->width_min_frames, 1, 1000) ||
+        !VT__IN(c->width_window, 1, 1000) || !VT__IN((int64_t)c->rear_offset, 0, 5 * one)) {
         return VT_E_ARG;
     }
     return VT_OK;
@@ -345,6 +349,8 @@ static void vt__range_slot_open(vt_range_track *t, int32_t id)
         t->width_hist[i] = 0;
         t->rate_hist[i] = 0;
     }
+    t->width_n = 0;
+    t->width_m = 0;
     t->fcw.below = 0;
     t->fcw.warning = 0;
     t->fcw.since_end = INT32_MAX; /* no warning yet: nothing to wait for */
@@ -376,39 +382,63 @@ static void vt__range_track_step(vt_range_track *t, const vt_range_cfg *cfg,
                                  const vt_track_out *tr, vt_range_out *o)
 {
     vt_distance dist;
-    vt_q16 sig, z[1], ttc, w_now, w_old, r_now, r_old;
-    int64_t q;
-    int32_t closing, lag = cfg->scale_lag, ttc_ok, cls;
+    vt_q16 sig, z[1], ttc, w_now, w_old, r_now, r_old, d;
+    int64_t q, wpx = (int64_t)tr->box.right - tr->box.left + 1;
+    int32_t closing, lag = cfg->scale_lag, ttc_ok, cls, have, side_ok, n;
     (void)vt_camera_box_distance(cam, tp, &tr->box, &dist);
+    side_ok = !(dist.flags & VT_DIST_SIDE_CLIPPED);
     o->id = tr->id;
     o->flags = 0;
     o->fcw = 0;
-    o->distance = dist.distance;
     o->dist_width = dist.dist_width;
-    sig = dist.sigma > cfg->sigma_min ? dist.sigma : cfg->sigma_min;
-    o->sigma = sig;
-    if (dist.flags & VT_DIST_VALID) {
-        o->flags |= VT_RANGE_DIST_VALID;
-    }
     if (dist.flags & VT_DIST_WIDTH_AGREES) {
         o->flags |= VT_RANGE_WIDTH_AGREES;
     }
-    /* the filter: predict every frame, update when the row gave a distance */
+    have = 0;
+    d = dist.distance;
+    sig = dist.sigma;
+    if (dist.flags & VT_DIST_VALID) {
+        have = 1;
+        d = d > cfg->rear_offset ? d - cfg->rear_offset : 0;
+        if (side_ok) {
+            /* learn this vehicle's width, d w / fx (m), as a running mean whose weight
+             * 1/n stops falling at 1/width_window (w < img_w <= 32767 here, so
+             * d w 2^16 < 2^58) */
+            q = vt__div_or((int64_t)d * wpx * VT_Q16_ONE, cam->fx, 0) - t->width_m;
+            n = t->width_n < cfg->width_window ? t->width_n + 1 : cfg->width_window;
+            t->width_m = vt_sat_s32(t->width_m + vt__div_or(q, n, 0));
+            t->width_n = t->width_n < INT32_MAX ? t->width_n + 1 : t->width_n;
+        }
+    } else if (t->width_n >= cfg->width_min_frames && side_ok) {
+        /* the contact row is not seen (a near vehicle): its learnt width gives the
+         * distance, d = fx W / w, with the spread of +-delta px on each side */
+        have = 1;
+        d = vt_sat_s32(vt__div_or((int64_t)cam->fx * t->width_m, wpx * VT_Q16_ONE, 0));
+        sig = vt_sat_s32(vt__div_or((int64_t)d * 2 * cam->delta_px, wpx * VT_Q16_ONE, 0));
+        o->flags |= VT_RANGE_FROM_WIDTH;
+    }
+    sig = sig > cfg->sigma_min ? sig : cfg->sigma_min;
+    o->distance = d;
+    o->sigma = sig;
+    if (have) {
+        o->flags |= VT_RANGE_DIST_VALID;
+    }
+    /* the filter: predict every frame, update when there is a distance */
     if (t->updates > 0) {
         (void)vt_kf_predict(&t->kf);
-        if (dist.flags & VT_DIST_VALID) {
+        if (have) {
             t->kf.R[0][0] = (int64_t)sig * sig; /* eq. 6: R per measurement */
-            z[0] = dist.distance;
+            z[0] = d;
             if (vt_kf_update(&t->kf, z) == VT_OK && t->updates < INT32_MAX) {
                 t->updates += 1;
             }
         }
-    } else if (dist.flags & VT_DIST_VALID) {
-        vt__range_kf_start(t, cfg, dist.distance, sig);
+    } else if (have) {
+        vt__range_kf_start(t, cfg, d, sig);
         t->updates = 1;
     }
     /* the rings: box width (px) and filtered rate */
-    t->width_hist[t->head] = vt_sat_s32(((int64_t)tr->box.right - tr->box.left + 1) * VT_Q16_ONE);
+    t->width_hist[t->head] = vt_sat_s32(wpx * VT_Q16_ONE);
     t->rate_hist[t->head] = t->updates > 0 ? t->kf.x[1] : 0;
     t->head = (t->head + 1) % VT_RANGE_HIST;
     if (t->n_hist < VT_RANGE_HIST) {

@@ -30,6 +30,7 @@ import numpy as np
 from .reference import camera as rcam
 
 Q16 = 1 << 16
+PITCH_LIMIT_DEG = 3.0   # braking and load move a car's pitch by a degree or two, not more
 __all__ = ["Camera", "CameraFileError", "RangeEstimator", "camera_params", "params_to_c",
            "range_to_c", "params_from_c", "range_from_c", "q16"]
 
@@ -166,9 +167,12 @@ class Camera:
             raise ValueError("camera: 'height_m' (camera height above the road) is required for "
                              "distances; a chessboard calibration cannot give it, add it to the file")
         self.check_frame(img_w, img_h)
-        tp = math.tan(math.radians(self.pitch_deg or 0.0))
+        pitch = self.pitch_deg or 0.0
+        # the per-frame pitch may wander PITCH_LIMIT_DEG around the calibrated one
         p = rcam.CameraParams(int(img_w), int(img_h), self.fx, self.fy, self.cx, self.cy, self.height_m,
-                              tan_pitch=tp)
+                              tan_pitch=math.tan(math.radians(pitch)),
+                              tan_pitch_min=math.tan(math.radians(pitch - PITCH_LIMIT_DEG)),
+                              tan_pitch_max=math.tan(math.radians(pitch + PITCH_LIMIT_DEG)))
         p = dataclasses.replace(p, **overrides)
         return params_from_c(params_to_c(p))
 
@@ -181,8 +185,10 @@ _CAM_Q16 = ("fx", "fy", "cx", "cy", "height", "tan_pitch", "tan_pitch_min", "tan
             "pitch_max_step", "delta_px", "bottom_offset", "vehicle_width")
 _CAM_INT = ("img_w", "img_h", "pitch_alpha_q8", "pitch_reacquire", "width_tol_percent")
 _RNG_Q16 = ("frame_dt", "accel_sigma", "init_sigma_rate", "sigma_min", "ttc_max", "ttc_stopped",
-            "ttc_slower", "ttc_decel", "ttc_margin", "min_closing", "stopped_speed", "decel_thresh")
-_RNG_INT = ("min_frames", "scale_lag", "confirm_frames", "rearm_frames")
+            "ttc_slower", "ttc_decel", "ttc_margin", "min_closing", "stopped_speed", "decel_thresh",
+            "rear_offset")
+_RNG_INT = ("min_frames", "scale_lag", "confirm_frames", "rearm_frames", "width_min_frames",
+            "width_window")
 
 
 def _to_c(ctype: str, p, q16_fields, int_fields, check):
@@ -312,4 +318,5 @@ def _range_out(r, lib) -> rcam.RangeOut:
         rate=g("rate") if f & lib.VT_RANGE_FILT_VALID else None,
         ttc_dist=g("ttc_dist") if f & lib.VT_RANGE_TTC_DIST_VALID else None,
         ttc_scale=g("ttc_scale") if f & lib.VT_RANGE_TTC_SCALE_VALID else None,
-        closing=bool(f & lib.VT_RANGE_CLOSING), lead_class=int(r["lead_class"]), fcw=int(r["fcw"]))
+        closing=bool(f & lib.VT_RANGE_CLOSING), lead_class=int(r["lead_class"]), fcw=int(r["fcw"]),
+        from_width=bool(f & lib.VT_RANGE_FROM_WIDTH))

@@ -80,7 +80,7 @@ typedef struct {
  * needs its own values (pyvehtrack.camera builds them from a camera file). */
 #define VT_CAMERA_CFG_DEFAULT                                                          \
     {1242, 375, 47286695, 47286695, 39948078, 11328160, 108134, 0,                     \
-     -11556 /* tan(-10 deg) */, 11556 /* tan(10 deg) */, 1311 /* 0.02 */, 64, 5,       \
+     -3434 /* tan(-3 deg) */, 3434 /* tan(3 deg) */, 1311 /* 0.02 */, 64, 5,           \
      VT_Q16_ONE, VT_Q16_ONE / 2, 117965 /* 1.8 m */, 25}
 
 /* VT_OK if every field is in range, else VT_E_ARG (VT_E_SIZE for img_w/img_h). */
@@ -108,6 +108,10 @@ vt_status vt_camera_row_distance(const vt_camera_cfg *cam, vt_q16 tp, vt_q16 row
 #define VT_DIST_VALID 1        /* bottom row below the horizon, distance < max      */
 #define VT_DIST_FAR_VALID 2    /* row - delta is below the horizon too              */
 #define VT_DIST_WIDTH_AGREES 4 /* |dist_width - dist| <= width_tol_percent of dist  */
+#define VT_DIST_BOTTOM_CLIPPED 8 /* the box ends on the frame's last row: its contact
+                                    row is not seen, so VT_DIST_VALID is cleared     */
+#define VT_DIST_SIDE_CLIPPED 16  /* the box touches the left or right frame edge:
+                                    its width is not the vehicle's                   */
 
 /* One box's distances (metres, Q16). */
 typedef struct {
@@ -121,7 +125,9 @@ typedef struct {
 
 /* Distances of a box (inclusive pixel box of the tracker / detector) with
  * tan(pitch) = tp: the three row distances as vt_camera_row_distance, sigma rounded
- * half up, dist_width with one rounded division (saturating at VT_DIST_MAX_M).
+ * half up, dist_width with one rounded division (saturating at VT_DIST_MAX_M). A box
+ * whose bottom is at or below the last row (img_h - 1) is BOTTOM_CLIPPED and not
+ * VALID; one touching column 0 or img_w - 1 is SIDE_CLIPPED.
  * VT_E_ARG for NULL, a bad camera, |tp| > 1, or a box with right < left or
  * bottom < top. */
 vt_status vt_camera_box_distance(const vt_camera_cfg *cam, vt_q16 tp, const vt_box *box,
@@ -150,11 +156,10 @@ vt_status vt_pitch_init(const vt_camera_cfg *cam, vt_pitch_state *st);
  * if nothing was ever measured). Otherwise m = (cy - vp_row) / fy (Q16, one rounded
  * division) is:
  *   - outside [tan_pitch_min, tan_pitch_max]: REJECTED, estimate kept;
- *   - farther than pitch_max_step from the estimate: an outlier: REJECTED, kept,
- *     unless it is the pitch_reacquire-th outlier in a row, then the estimate jumps
- *     to m (MEASURED) -- a lasting change (a load, a slope) is followed;
- *   - else MEASURED: est += (m - est) * alpha / 256, rounded half away from zero; the
- *     first accepted measurement replaces the nominal pitch outright.
+ *   - farther than pitch_max_step from the estimate (the nominal pitch at first): an
+ *     outlier: REJECTED, kept, unless it is the pitch_reacquire-th outlier in a row,
+ *     then the estimate jumps to m (MEASURED) -- a lasting change (a load) is followed;
+ *   - else MEASURED: est += (m - est) * alpha / 256, rounded half away from zero.
  * VT_E_ARG for NULL, a bad camera, or vp_valid not 0/1 (state unchanged). */
 vt_status vt_pitch_update(const vt_camera_cfg *cam, vt_pitch_state *st, int32_t vp_valid,
                           vt_q16 vp_row);
@@ -198,12 +203,21 @@ typedef struct {
     vt_q16 min_closing;     /* closing only if the rate < -this, m/s, [0, 100]        */
     vt_q16 stopped_speed;   /* lead speed (ego + rate) below this: stopped, m/s       */
     vt_q16 decel_thresh;    /* lead deceleration above this: decelerating, m/s^2 (>0) */
+    int32_t width_min_frames; /* a track's own vehicle width (m) is learnt from frames
+                               with a seen contact row; after this many, a frame whose
+                               contact row is not seen (a near vehicle below the frame)
+                               is measured by its width instead, 1..1000              */
+    int32_t width_window;   /* the width is a running mean over about this many
+                               frames, 1..1000                                        */
+    vt_q16 rear_offset;     /* m subtracted from eq. 1's distance: the road contact
+                               the bottom edge shows (rear wheels, shadow) lies this
+                               far beyond the rear face, [0, 5] (0: eq. 1 as is)      */
 } vt_range_cfg;
 
 #define VT_RANGE_CFG_DEFAULT                                                            \
     {6554 /* 0.1 s */, 3 * VT_Q16_ONE, 10 * VT_Q16_ONE, 3277 /* 0.05 m */, 3, 5,        \
      20 * VT_Q16_ONE, 137626 /* 2.1 */, 131072 /* 2.0 */, 157286 /* 2.4 */,            \
-     26214 /* 0.4 */, 3, 30, 19661 /* 0.3 */, VT_Q16_ONE, VT_Q16_ONE}
+     26214 /* 0.4 */, 3, 30, 19661 /* 0.3 */, VT_Q16_ONE, VT_Q16_ONE, 3, 16, 0}
 
 /* VT_OK if every field is in range (see the comments above), else VT_E_ARG. */
 vt_status vt_range_cfg_check(const vt_range_cfg *cfg);
@@ -242,6 +256,8 @@ typedef struct {
     int32_t head;                     /* next ring index                              */
     vt_q16 width_hist[VT_RANGE_HIST]; /* box widths, px                               */
     vt_q16 rate_hist[VT_RANGE_HIST];  /* filtered rates, m/s                          */
+    int32_t width_n;                  /* frames the width estimate is made of         */
+    vt_q16 width_m;                   /* the vehicle's width learnt from d w / fx, m  */
     vt_fcw_state fcw;
     vt_kf kf;                         /* x = [d (m), rate (m/s)], z = [d]             */
 } vt_range_track;
@@ -258,6 +274,8 @@ typedef struct {
 #define VT_RANGE_TTC_SCALE_VALID 8  /* ttc_scale is a TTC (growing, <= ttc_max)       */
 #define VT_RANGE_WIDTH_AGREES 16    /* the width cross-check agrees                   */
 #define VT_RANGE_CLOSING 32         /* rate < -min_closing                            */
+#define VT_RANGE_FROM_WIDTH 64      /* this frame's distance is fx * width_m / w_px,
+                                       the contact row not being seen                 */
 
 /* Per track and frame. */
 typedef struct {
@@ -265,8 +283,9 @@ typedef struct {
     int32_t flags;       /* VT_RANGE_*                                                */
     int32_t fcw;         /* VT_FCW_* bits                                            */
     int32_t lead_class;  /* vt_lead_class used for the threshold                     */
-    vt_q16 distance;     /* measured this frame, m (eq. 1)                           */
-    vt_q16 sigma;        /* its +-delta spread (eq. 6), m: sqrt(R) of this update    */
+    vt_q16 distance;     /* measured this frame, m (eq. 1, or the learnt width)      */
+    vt_q16 sigma;        /* its +-delta spread (eq. 6; width: d 2 delta / w), m:
+                            sqrt(R) of this update                                   */
     vt_q16 dist_width;   /* width cross-check, m                                     */
     vt_q16 dist_filt;    /* filtered distance, m                                     */
     vt_q16 rate;         /* filtered range rate, m/s (negative: closing)             */
@@ -279,8 +298,11 @@ vt_status vt_range_init(vt_range_state *st);
 
 /* One frame, after vt_tracker_step. For each of tracks[0..n_tracks-1] (FREE ones are
  * skipped): find or open the slot of its id (slots of ids absent this frame are freed
- * first); distance of its box with tan(pitch) = tp; the filter predicts one frame and,
- * if the distance is valid, updates with R = max(sigma, sigma_min)^2; the width goes
+ * first); distance of its box with tan(pitch) = tp (VALID and not SIDE_CLIPPED: the
+ * width estimate learns d w / fx); if the row distance is not valid but the width has
+ * been learnt over width_min_frames and the box is not SIDE_CLIPPED, the distance is
+ * fx width_m / w (FROM_WIDTH); the filter predicts one frame and, if there is a
+ * distance, updates with R = max(sigma, sigma_min)^2; the width goes
  * into the ring; TTCs, lead class (from ego_speed, m/s; negative = unknown) and
  * vt_fcw_step. A new id starts its filter at the measured distance (or waits for a
  * valid one). Writes one vt_range_out per non-free track, in input order, up to

@@ -51,8 +51,8 @@ class CameraParams:
     cy: float
     height: float
     tan_pitch: float = 0.0
-    tan_pitch_min: float = math.tan(math.radians(-10))
-    tan_pitch_max: float = math.tan(math.radians(10))
+    tan_pitch_min: float = math.tan(math.radians(-3))
+    tan_pitch_max: float = math.tan(math.radians(3))
     pitch_max_step: float = 0.02
     pitch_alpha_q8: int = 64
     pitch_reacquire: int = 5
@@ -81,6 +81,9 @@ class RangeParams:
     min_closing: float = 0.3
     stopped_speed: float = 1.0
     decel_thresh: float = 1.0
+    width_min_frames: int = 3
+    width_window: int = 16
+    rear_offset: float = 0.0
 
 
 def row_distance(cam: CameraParams, tan_pitch: float, row: float) -> tuple[float, bool]:
@@ -109,6 +112,8 @@ class BoxDistance:
     dist_far: float
     sigma: float
     dist_width: float
+    bottom_clipped: bool = False
+    side_clipped: bool = False
 
 
 def box_distance(cam: CameraParams, tan_pitch: float, box) -> BoxDistance:
@@ -121,8 +126,11 @@ def box_distance(cam: CameraParams, tan_pitch: float, box) -> BoxDistance:
     dn, _ = row_distance(cam, tan_pitch, row + cam.delta_px)
     df, ok_far = row_distance(cam, tan_pitch, row - cam.delta_px)
     dw = min(cam.fx * cam.vehicle_width / (r - l + 1), DIST_MAX_M)
+    bottom_clipped = b >= cam.img_h - 1          # the contact row is below the frame
+    side_clipped = l <= 0 or r >= cam.img_w - 1  # the width is not the vehicle's
+    ok = ok and not bottom_clipped
     agrees = ok and abs(dw - d) * 100 <= cam.width_tol_percent * d
-    return BoxDistance(ok, ok_far, agrees, d, dn, df, (df - dn) / 2, dw)
+    return BoxDistance(ok, ok_far, agrees, d, dn, df, (df - dn) / 2, dw, bottom_clipped, side_clipped)
 
 
 class PitchEstimator:
@@ -145,9 +153,7 @@ class PitchEstimator:
         if m < c.tan_pitch_min or m > c.tan_pitch_max:
             self.flag = PITCH_REJECTED
             return self.tan_pitch
-        if self.measured == 0:
-            self.tan_pitch = m
-        elif abs(m - self.tan_pitch) > c.pitch_max_step:
+        if abs(m - self.tan_pitch) > c.pitch_max_step:
             self.outliers += 1
             if self.outliers < c.pitch_reacquire:
                 self.flag = PITCH_REJECTED
@@ -229,6 +235,7 @@ class RangeOut:
     closing: bool
     lead_class: int
     fcw: int
+    from_width: bool = False
 
     @property
     def warning(self) -> bool:
@@ -242,6 +249,8 @@ class _Slot:
     widths: list = field(default_factory=list)
     rates: list = field(default_factory=list)
     fcw: FcwState = field(default_factory=FcwState)
+    width_n: int = 0
+    width_m: float = 0.0
 
 
 class RangeTracker:
@@ -280,17 +289,32 @@ class RangeTracker:
                 self.slots[tid] = _Slot()
             s = self.slots[tid]
             bd = box_distance(self.cam, tan_pitch, box)
-            sig = max(bd.sigma, p.sigma_min)
+            l, _t, r, _b = box
+            w_px = r - l + 1
+            have, d, sig, from_width = False, bd.distance, bd.sigma, False
+            if bd.valid:
+                have = True
+                d = max(d - p.rear_offset, 0.0)
+                if not bd.side_clipped:
+                    # the vehicle's own width, d w / fx, as a running mean (window)
+                    n = min(s.width_n + 1, p.width_window)
+                    s.width_m += (d * w_px / self.cam.fx - s.width_m) / n
+                    s.width_n += 1
+            elif s.width_n >= p.width_min_frames and not bd.side_clipped:
+                # contact row not seen: distance from the learnt width
+                have, from_width = True, True
+                d = self.cam.fx * s.width_m / w_px
+                sig = d * 2 * self.cam.delta_px / w_px
+            sig = max(sig, p.sigma_min)
             if s.updates > 0:
                 s.kf.predict()
-                if bd.valid:
+                if have:
                     s.kf.R = np.array([[sig * sig]])
-                    s.kf.update(np.array([[bd.distance]]))
+                    s.kf.update(np.array([[d]]))
                     s.updates += 1
-            elif bd.valid:
-                s.kf = self._start(bd.distance, sig)
+            elif have:
+                s.kf = self._start(d, sig)
                 s.updates = 1
-            l, _t, r, _b = box
             s.widths.append(float(r - l + 1))
             rate = float(s.kf.x[1, 0]) if s.updates > 0 else 0.0
             s.rates.append(rate)
@@ -315,7 +339,7 @@ class RangeTracker:
                         if s.rates[-1] - s.rates[-1 - lag] < -p.decel_thresh * lag * p.frame_dt:
                             cls = LEAD_DECEL
             bits = fcw_step(p, s.fcw, ttc_d, closing, cls)
-            out.append(RangeOut(tid, bd.distance if bd.valid else None, sig, bd.dist_width,
+            out.append(RangeOut(tid, d if have else None, sig, bd.dist_width,
                                 bd.width_agrees, d_f, rate if s.updates > 0 else None, ttc_d, ttc_s,
-                                closing, cls, bits))
+                                closing, cls, bits, from_width))
         return out
