@@ -95,7 +95,13 @@ def run(args) -> int:
             if not found:
                 print(f"calibrate: {path}: no {cols}x{rows} board found, skipped", file=sys.stderr)
                 continue
-            corners = cv2.cornerSubPix(gray, corners, (11, 11), (-1, -1), crit)
+            # refine within a quarter of the smallest corner spacing (at most OpenCV's usual
+            # 11 px): a larger window reaches the next corner on small pictures
+            pts = corners.reshape(rows, cols, 2)
+            gap = min(np.linalg.norm(np.diff(pts, axis=0), axis=2).min(),
+                      np.linalg.norm(np.diff(pts, axis=1), axis=2).min())
+            win = int(max(2, min(11, gap // 4)))
+            corners = cv2.cornerSubPix(gray, corners, (win, win), (-1, -1), crit)
             obj.append(board)
             img_pts.append(corners)
             used.append(path)
