@@ -77,3 +77,16 @@ def test_track_camera_errors(tmp_path, capsys, changes, extra, msg):
 def test_track_options_need_camera(tmp_path, capsys):
     assert main(["track", *FRAMES[:2], "--fps", "10", "--out", str(tmp_path / "a.png")]) == 2
     assert "need --camera" in capsys.readouterr().err
+
+
+def test_detect_json_with_camera(tmp_path, capsys):
+    js = tmp_path / "d.json"
+    assert main(["detect", FRAMES[0], "--camera", _camera(tmp_path), "--json", str(js), "--no-progress"]) == 0
+    e = json.loads(js.read_text())[0]
+    assert len(e["distance_m"]) == len(e["boxes"]) >= 1
+    # eq. 1 as is (no rear offset): the contact row of the lead car, lidar 7.97 m - 0.27 + ~1-2 m
+    lead = [d for b, d in zip(e["boxes"], e["distance_m"]) if b[0] < 320 < b[2]]
+    assert lead and 7.7 < lead[0] < 11.5
+    assert main(["detect", FRAMES[0], "--camera", _camera(tmp_path, image_size=[64, 64]), "--json",
+                 str(js)]) == 2
+    assert "calibrated for 64x64" in capsys.readouterr().err
