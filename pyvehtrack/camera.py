@@ -217,7 +217,7 @@ def camera_params(cam: Camera, img_w: int, img_h: int, **kw) -> rcam.CameraParam
 _CAM_Q16 = ("fx", "fy", "cx", "cy", "height", "tan_pitch", "tan_pitch_min", "tan_pitch_max",
             "pitch_max_step", "delta_px", "bottom_offset", "vehicle_width")
 _CAM_INT = ("img_w", "img_h", "pitch_alpha_q8", "pitch_reacquire", "width_tol_percent")
-_RNG_Q16 = ("frame_dt", "accel_sigma", "init_sigma_rate", "sigma_min", "ttc_max", "ttc_stopped",
+_RNG_Q16 = ("frame_dt", "jerk_sigma", "init_sigma_rate", "init_sigma_accel", "sigma_min", "ttc_max", "ttc_stopped",
             "ttc_slower", "ttc_decel", "ttc_margin", "min_closing", "stopped_speed", "decel_thresh",
             "rear_offset")
 _RNG_INT = ("min_frames", "scale_lag", "confirm_frames", "rearm_frames", "width_min_frames",
@@ -362,6 +362,7 @@ def _range_out(r, lib) -> rcam.RangeOut:
         width_agrees=bool(f & lib.VT_RANGE_WIDTH_AGREES),
         dist_filt=g("dist_filt") if f & lib.VT_RANGE_FILT_VALID else None,
         rate=g("rate") if f & lib.VT_RANGE_FILT_VALID else None,
+        accel=g("accel") if f & lib.VT_RANGE_FILT_VALID else None,
         ttc_dist=g("ttc_dist") if f & lib.VT_RANGE_TTC_DIST_VALID else None,
         ttc_scale=g("ttc_scale") if f & lib.VT_RANGE_TTC_SCALE_VALID else None,
         closing=bool(f & lib.VT_RANGE_CLOSING), lead_class=int(r["lead_class"]), fcw=int(r["fcw"]),

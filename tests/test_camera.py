@@ -16,15 +16,15 @@ Tolerances, from the arithmetic of camera.h:
   no decision is within 16 LSB of its threshold (elsewhere they must be equal).
 - FCW: integer state machine on Q16 inputs, compared bit for bit (the oracle gets the
   same Q16 values as floats, exact).
-- Range filter: the measured distance as above (<= 1e-4 relative); the [d, rate] Kalman
-  filter in Q16 / Q31.32 rounds x + K y once per update (0.5 LSB) and Q is built through
-  Q24 intermediates (relative 2^-24 / (a dt^2) <= 4e-4 for the drawn a, dt, which moves
-  the gain by less than that); the filter is a contraction, so a rounding is remembered
+- Range filter: the measured distance as above (<= 1e-4 relative); the [d, rate, accel]
+  Kalman filter in Q16 / Q31.32 rounds x + K y once per update (0.5 LSB) and Q is built
+  through Q24 intermediates (relative 2^-24 / (j dt^3) <= 1e-3 for the drawn j, dt, which
+  moves the gain by less than that); the filter is a contraction, so a rounding is remembered
   for ~1/K frames (K >= ~0.05 here): <= ~20 LSB of distance, plus the measured distances'
   own 1e-4 relative difference filtered the same way. Tolerance 1e-3 m (65 LSB) on the
   distance and 5e-3 m/s on the rate (the rate gain is ~K/dt, dt >= 0.033 s, so a
-  distance difference of 1e-4 m moves it by ~3e-3 m/s at most). Measured over 1520
-  filtered frames: <= 5.3e-5 m (3.5 LSB) and 2.6e-4 m/s.
+  distance difference of 1e-4 m moves it by ~3e-3 m/s at most). Measured over 1920
+  filtered frames: <= 4.8e-5 m (3.1 LSB) and 3.1e-4 m/s.
 """
 from __future__ import annotations
 
@@ -210,7 +210,7 @@ def approach(n, z0, v, dt, cam, noise, rng, width=1.8, hgt=1.5):
 @settings(max_examples=40)
 def test_range_filter_matches_oracle(z0, v, dt, noise, seed, accel):
     p, c = cam_params()
-    rp, rcf = _rcfg(frame_dt=dt, accel_sigma=accel)
+    rp, rcf = _rcfg(frame_dt=dt, jerk_sigma=accel)
     rng = np.random.default_rng(seed)
     n = 40
     assume(z0 - v * n * dt > 3)
