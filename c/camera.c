@@ -252,7 +252,7 @@ vt_status vt_range_cfg_check(const vt_range_cfg *c)
         !VT__IN((int64_t)c->ttc_slower, 0, 1000 * one) ||
         !VT__IN((int64_t)c->ttc_decel, 0, 1000 * one) ||
         !VT__IN((int64_t)c->ttc_margin, 0, 10 * one) || !VT__IN(c->confirm_frames, 1, 1000) ||
-        !VT__IN(c->rearm_frames, 0, 100000) || !VT__IN((int64_t)c->min_closing, 0, 100 * one) ||
+        !VT__IN(c->rearm_frames, 0, 100000) || !VT__IN(c->release_frames, 1, 1000) || !VT__IN((int64_t)c->min_closing, 0, 100 * one) ||
         !VT__IN((int64_t)c->stopped_speed, 0, 100 * one) ||
         !VT__IN((int64_t)c->decel_thresh, 1, 100 * one) || !VT__IN(c->width_min_frames, 1, 1000) ||
         !VT__IN(c->width_window, 1, 1000) || !VT__IN((int64_t)c->rear_offset, 0, 5 * one)) {
@@ -287,8 +287,9 @@ vt_status vt_fcw_step(const vt_range_cfg *cfg, vt_fcw_state *st, int32_t ttc_val
     thr += cfg->ttc_margin;
     cond = ttc_valid && closing && (int64_t)ttc <= thr;
     st->below = cond ? (st->below < INT32_MAX ? st->below + 1 : st->below) : 0;
+    st->above = cond ? 0 : (st->above < INT32_MAX ? st->above + 1 : st->above);
     if (st->warning) {
-        if (!cond) {
+        if (st->above >= cfg->release_frames) {
             st->warning = 0;
             st->since_end = 0;
         }
@@ -366,6 +367,7 @@ static void vt__range_slot_open(vt_range_track *t, int32_t id)
     t->width_n = 0;
     t->width_m = 0;
     t->fcw.below = 0;
+    t->fcw.above = 0;
     t->fcw.warning = 0;
     t->fcw.since_end = INT32_MAX; /* no warning yet: nothing to wait for */
     t->fcw.warnings = 0;

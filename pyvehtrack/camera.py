@@ -220,7 +220,7 @@ _CAM_INT = ("img_w", "img_h", "pitch_alpha_q8", "pitch_reacquire", "width_tol_pe
 _RNG_Q16 = ("frame_dt", "jerk_sigma", "init_sigma_rate", "init_sigma_accel", "sigma_min", "ttc_max", "ttc_stopped",
             "ttc_slower", "ttc_decel", "ttc_margin", "min_closing", "stopped_speed", "decel_thresh",
             "rear_offset")
-_RNG_INT = ("min_frames", "scale_lag", "confirm_frames", "rearm_frames", "width_min_frames",
+_RNG_INT = ("min_frames", "scale_lag", "confirm_frames", "rearm_frames", "release_frames", "width_min_frames",
             "width_window")
 
 

@@ -158,9 +158,9 @@ def _rcfg(**kw):
 
 @given(st.lists(st.tuples(st.one_of(st.none(), st.floats(0.0, 6.0)), st.booleans(),
                           st.sampled_from([0, 1, 2, 3])), min_size=1, max_size=80),
-       st.integers(1, 5), st.integers(0, 12), st.floats(0, 1))
-def test_fcw_state_machine_identical(seq, confirm, rearm, margin):
-    p, c = _rcfg(confirm_frames=confirm, rearm_frames=rearm, ttc_margin=margin)
+       st.integers(1, 5), st.integers(0, 12), st.floats(0, 1), st.integers(1, 4))
+def test_fcw_state_machine_identical(seq, confirm, rearm, margin, release):
+    p, c = _rcfg(confirm_frames=confirm, rearm_frames=rearm, ttc_margin=margin, release_frames=release)
     st_c = ffi.new("vt_fcw_state *", {"since_end": 2**31 - 1})
     ref = rc.FcwState()
     for ttc, closing, cls in seq:
@@ -168,11 +168,12 @@ def test_fcw_state_machine_identical(seq, confirm, rearm, margin):
         bits = _native.fcw_step(c, st_c, 0 if ttc is None else 1, tq, int(closing), cls)
         rbits = rc.fcw_step(p, ref, None if ttc is None else tq / Q, closing, cls)
         assert bits == rbits
-        assert (st_c.below, bool(st_c.warning), st_c.warnings) == (ref.below, ref.warning, ref.warnings)
+        assert (st_c.below, st_c.above, bool(st_c.warning), st_c.warnings) == \
+            (ref.below, ref.above, ref.warning, ref.warnings)
 
 
 def test_fcw_rules():
-    p, c = _rcfg(confirm_frames=3, rearm_frames=5, ttc_margin=0.0)
+    p, c = _rcfg(confirm_frames=3, rearm_frames=5, ttc_margin=0.0, release_frames=1)
     s = ffi.new("vt_fcw_state *", {"since_end": 2**31 - 1})
     step = lambda ttc, closing=1, cls=lib.VT_LEAD_STOPPED: _native.fcw_step(  # noqa: E731
         c, s, 1, round(ttc * Q), closing, cls)

@@ -202,6 +202,9 @@ typedef struct {
     int32_t confirm_frames; /* N: TTC under threshold this many frames in a row, 1..1000 */
     int32_t rearm_frames;   /* no new warning within this many frames after the end
                                of the last one, 0..100000                             */
+    int32_t release_frames; /* a warning ends after the condition has been false this
+                               many frames in a row (a noisy TTC must not make it
+                               flicker), 1..1000                                      */
     vt_q16 min_closing;     /* closing only if the rate < -this, m/s, [0, 100]        */
     vt_q16 stopped_speed;   /* lead speed (ego + rate) below this: stopped, m/s       */
     vt_q16 decel_thresh;    /* range acceleration below -this: the lead decelerates
@@ -220,7 +223,7 @@ typedef struct {
 #define VT_RANGE_CFG_DEFAULT                                                            \
     {6554 /* 0.1 s */, 5 * VT_Q16_ONE, 10 * VT_Q16_ONE, 3 * VT_Q16_ONE,                \
      3277 /* 0.05 m */, 3, 5, 20 * VT_Q16_ONE, 137626 /* 2.1 */, 131072 /* 2.0 */,      \
-     157286 /* 2.4 */, 32768 /* 0.5 */, 3, 30, 19661 /* 0.3 */, VT_Q16_ONE, VT_Q16_ONE, 3, 16, 0}
+     157286 /* 2.4 */, 32768 /* 0.5 */, 3, 30, 5, 19661 /* 0.3 */, VT_Q16_ONE, VT_Q16_ONE, 3, 16, 0}
 
 /* VT_OK if every field is in range (see the comments above), else VT_E_ARG. */
 vt_status vt_range_cfg_check(const vt_range_cfg *cfg);
@@ -229,6 +232,7 @@ vt_status vt_range_cfg_default(vt_range_cfg *cfg);
 /* The warning state machine (one per track). */
 typedef struct {
     int32_t below;       /* consecutive frames with the condition true              */
+    int32_t above;       /* consecutive frames with the condition false             */
     int32_t warning;     /* 1 while warning                                          */
     int32_t since_end;   /* frames since the last warning ended (large: never)       */
     int32_t warnings;    /* warnings started so far (saturating)                     */
@@ -242,8 +246,8 @@ typedef struct {
 
 /* One frame of the state machine. cond = ttc_valid && closing && ttc <= threshold
  * + ttc_margin, threshold by lead class (UNKNOWN: the largest of the three).
- *   below = cond ? below + 1 : 0;
- *   warning: on -> stays on while cond, else off (since_end = 0);
+ *   below = cond ? below + 1 : 0;  above = cond ? 0 : above + 1;
+ *   warning: on -> stays on until above >= release_frames, then off (since_end = 0);
  *            off -> on when below >= confirm_frames and since_end >= rearm_frames
  *                   (else SUPPRESSED); since_end counts frames while off.
  * *out gets the VT_FCW_* bits. VT_E_ARG for NULL, a bad cfg, flags not 0/1 or a lead

@@ -86,6 +86,7 @@ typedef struct {
     vt_q16 ttc_margin;
     int32_t confirm_frames;
     int32_t rearm_frames;
+    int32_t release_frames;
     vt_q16 min_closing;
     vt_q16 stopped_speed;
     vt_q16 decel_thresh;
@@ -99,6 +100,7 @@ vt_status vt_range_cfg_default(vt_range_cfg *cfg);
 
 typedef struct {
     int32_t below;
+    int32_t above;
     int32_t warning;
     int32_t since_end;
     int32_t warnings;

@@ -22,8 +22,10 @@ are the exact time to contact of the rear face).
 FCW: the NHTSA forward-collision-warning confirmation test asks for a warning by a
 TTC of 2.1 s (lead stopped), 2.0 s (lead slower), 2.4 s (lead decelerating); the
 state machine warns when the TTC stays under the class's threshold (plus a margin for
-the confirmation frames) for N frames while closing, holds while that lasts, and
-does not warn again within a rearm time after a warning ends.
+the confirmation frames and the filter's lag) for N frames while closing, holds while
+that lasts (ending only after the condition failed release_frames frames in a row, so a
+noisy TTC does not make it flicker), and does not warn again within a rearm time after
+a warning ends.
 """
 from __future__ import annotations
 
@@ -79,6 +81,7 @@ class RangeParams:
     ttc_margin: float = 0.5
     confirm_frames: int = 3
     rearm_frames: int = 30
+    release_frames: int = 5
     min_closing: float = 0.3
     stopped_speed: float = 1.0
     decel_thresh: float = 1.0
@@ -187,6 +190,7 @@ def vanishing_row(left: tuple[float, float] | None, right: tuple[float, float] |
 @dataclass
 class FcwState:
     below: int = 0
+    above: int = 0
     warning: bool = False
     since_end: int = 2**31 - 1
     warnings: int = 0
@@ -202,9 +206,10 @@ def fcw_step(p: RangeParams, st: FcwState, ttc: float | None, closing: bool, lea
     """One frame of the warning state machine; returns the FCW_* bits."""
     cond = ttc is not None and closing and ttc <= fcw_threshold(p, lead_class)
     st.below = st.below + 1 if cond else 0
+    st.above = 0 if cond else st.above + 1
     bits = 0
     if st.warning:
-        if not cond:
+        if st.above >= p.release_frames:
             st.warning = False
             st.since_end = 0
     else:
