@@ -5,7 +5,8 @@ pixels (what a good tracker delivers), through the C range stage at 30 fps.
 Rule (the NHTSA FCW confirmation test): a warning at or before a true TTC of 2.1 s (lead
 stopped), 2.0 s (slower), 2.4 s (decelerating) -- and, so that "always warn" cannot pass, not
 before the test TTC + 1.5 s; never while following at a constant gap. The stage's FCW
-parameters (jerk 5 m/s^3, margin 0.5 s, 3 confirmation frames) were chosen on seeds 0-2;
+parameters (jerk 5 m/s^3, margin 0.7 s, 3 confirmation frames, release 10 frames) were chosen on
+seeds 0-2;
 this test uses seeds 3-5. tools/eval_synth_fcw.py runs the rendered images through the
 detector and tracker as well."""
 from __future__ import annotations

@@ -78,10 +78,10 @@ class RangeParams:
     ttc_stopped: float = 2.1
     ttc_slower: float = 2.0
     ttc_decel: float = 2.4
-    ttc_margin: float = 0.5
+    ttc_margin: float = 0.7
     confirm_frames: int = 3
     rearm_frames: int = 30
-    release_frames: int = 5
+    release_frames: int = 10
     min_closing: float = 0.3
     stopped_speed: float = 1.0
     decel_thresh: float = 1.0
