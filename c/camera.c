@@ -252,7 +252,8 @@ vt_status vt_range_cfg_check(const vt_range_cfg *c)
         !VT__IN((int64_t)c->ttc_slower, 0, 1000 * one) ||
         !VT__IN((int64_t)c->ttc_decel, 0, 1000 * one) ||
         !VT__IN((int64_t)c->ttc_margin, 0, 10 * one) || !VT__IN(c->confirm_frames, 1, 1000) ||
-        !VT__IN(c->rearm_frames, 0, 100000) || !VT__IN(c->release_frames, 1, 1000) || !VT__IN((int64_t)c->min_closing, 0, 100 * one) ||
+        !VT__IN(c->rearm_frames, 0, 100000) || !VT__IN(c->release_frames, 1, 1000) ||
+        !VT__IN((int64_t)c->min_closing, 0, 100 * one) ||
         !VT__IN((int64_t)c->stopped_speed, 0, 100 * one) ||
         !VT__IN((int64_t)c->decel_thresh, 1, 100 * one) || !VT__IN(c->width_min_frames, 1, 1000) ||
         !VT__IN(c->width_window, 1, 1000) || !VT__IN((int64_t)c->rear_offset, 0, 5 * one)) {

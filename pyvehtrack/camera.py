@@ -31,8 +31,8 @@ from .reference import camera as rcam
 
 Q16 = 1 << 16
 PITCH_LIMIT_DEG = 3.0   # braking and load move a car's pitch by a degree or two, not more
-__all__ = ["Camera", "CameraFileError", "RangeEstimator", "camera_params", "lane_vanishing_row", "params_to_c",
-           "range_to_c", "params_from_c", "range_from_c", "q16"]
+__all__ = ["Camera", "CameraFileError", "RangeEstimator", "camera_params", "lane_vanishing_row",
+           "params_to_c", "range_to_c", "params_from_c", "range_from_c", "q16"]
 
 
 class CameraFileError(ValueError):
@@ -217,11 +217,11 @@ def camera_params(cam: Camera, img_w: int, img_h: int, **kw) -> rcam.CameraParam
 _CAM_Q16 = ("fx", "fy", "cx", "cy", "height", "tan_pitch", "tan_pitch_min", "tan_pitch_max",
             "pitch_max_step", "delta_px", "bottom_offset", "vehicle_width")
 _CAM_INT = ("img_w", "img_h", "pitch_alpha_q8", "pitch_reacquire", "width_tol_percent")
-_RNG_Q16 = ("frame_dt", "jerk_sigma", "init_sigma_rate", "init_sigma_accel", "sigma_min", "ttc_max", "ttc_stopped",
-            "ttc_slower", "ttc_decel", "ttc_margin", "min_closing", "stopped_speed", "decel_thresh",
-            "rear_offset")
-_RNG_INT = ("min_frames", "scale_lag", "confirm_frames", "rearm_frames", "release_frames", "width_min_frames",
-            "width_window")
+_RNG_Q16 = ("frame_dt", "jerk_sigma", "init_sigma_rate", "init_sigma_accel", "sigma_min", "ttc_max",
+            "ttc_stopped", "ttc_slower", "ttc_decel", "ttc_margin", "min_closing", "stopped_speed",
+            "decel_thresh", "rear_offset")
+_RNG_INT = ("min_frames", "scale_lag", "confirm_frames", "rearm_frames", "release_frames",
+            "width_min_frames", "width_window")
 
 
 def _to_c(ctype: str, p, q16_fields, int_fields, check):

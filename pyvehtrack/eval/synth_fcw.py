@@ -92,7 +92,9 @@ def make_fcw_scene(kind: str, seed: int = 0, *, fps: float = 30.0, camera: synth
     """One scene (see the module doc), deterministic in its arguments."""
     if not fps > 0:
         raise ValueError(f"fps must be > 0, got {fps}")
-    rng = np.random.default_rng([int(seed), 0xFC3, sorted(NHTSA_TTC).index(kind) if kind in NHTSA_TTC else 99])
+    if kind not in NHTSA_TTC:
+        raise ValueError(f"unknown FCW scene {kind!r}; choose from {sorted(NHTSA_TTC)}")
+    rng = np.random.default_rng([int(seed), 0xFC3, sorted(NHTSA_TTC).index(kind)])
     z, closing, v_lead = _kinematics(kind, float(fps), float(end_ttc), float(follow_s), rng)
     n = len(z)
     dt = 1.0 / fps
