@@ -6,8 +6,9 @@ reference.
         tracks = trk.step(frame)          # list[Track]: id, state, box, velocity (px/frame)
 
 `step(frame, detections=...)` feeds your own detections instead (an (N, 4) array
-of inclusive [left, top, right, bottom] boxes); then detection frames are the
-frames where you pass them."""
+of inclusive [left, top, right, bottom] boxes; float coordinates are rounded to the
+nearest pixel, NaN/inf/non-numbers refused); then detection frames are the frames
+where you pass them."""
 from __future__ import annotations
 
 from dataclasses import dataclass, fields

@@ -79,6 +79,8 @@ PY_ROWS = [
      "detections"),
     ("track detections huge", lambda: Tracker().step(U8, detections=[[0, 0, 2**40, 5]]), ValueError,
      "out of range"),
+    ("track detections float", lambda: [t.box for t in Tracker().step(U8, detections=[[10.4, 20.6, 60.5, 70.0]])]
+     == [(10, 21, 60, 70)], OK, "documented: rounded to the nearest pixel (np.rint, halves to even)"),
     ("track detections inverted", lambda: Tracker().step(U8, detections=[[50, 50, 10, 10]]), VtError,
      "vt_tracker_step"),
     # numbers where integers go
@@ -209,7 +211,9 @@ def test_python_api(row, tmp_path, recwarn):
     name, thunk, expected, words = row
     if expected is OK:
         out = thunk()
-        if isinstance(out, list):               # Tracker.step: no vehicle in a blank frame
+        if isinstance(out, bool):               # the row checks its own documented result
+            assert out, name
+        elif isinstance(out, list):             # Tracker.step: no vehicle in a blank frame
             assert out == []
         elif hasattr(out, "boxes"):              # Detector.detect on a blank frame
             assert len(out.boxes) == 0
