@@ -33,6 +33,7 @@ def test_each_module_imports_first_without_loops(module):
 
 
 def test_old_import_paths_are_the_new_modules():
+    import pyvehtrack.cli.detect
     import pyvehtrack.cli.track
     import pyvehtrack.cli_track
     import pyvehtrack.eval.lanes
@@ -49,6 +50,10 @@ def test_old_import_paths_are_the_new_modules():
     assert pyvehtrack.reference.sort is pyvehtrack.eval.sort
     assert pyvehtrack.cli_track is pyvehtrack.cli.track
     from pyvehtrack.cli import CliError, IMAGE_EXTS, VIDEO_EXTS, main  # noqa: F401  (kept names)
+    from pyvehtrack.cli import (_count_frames, _frames_of, _iter_frames, detection_json,  # noqa: F401
+                                draw_detection, register_detect, run_detect)
+    from pyvehtrack.cli_track import draw_tracks, kitti_line, register_track, run_track  # noqa: F401
+    assert run_detect is pyvehtrack.cli.detect.run and run_track is pyvehtrack.cli.track.run
     from pyvehtrack.reference.sort import iou_matrix, run_sort, write_tracks_kitti  # noqa: F401
 
 
@@ -74,6 +79,13 @@ def test_a_subcommand_registers_with_one_line(tmp_path, monkeypatch, capsys):
     assert capsys.readouterr().err == "pyvehtrack hello: error: --fail: asked to fail\n"
     monkeypatch.setitem(cli.SUBCOMMANDS, "hello", "vt_hello_cmd:register")   # "module:function" form
     assert cli.main(["hello"]) == 0
+
+
+def test_old_frame_reader_api():
+    src = [("image", str(ROOT / "tests" / "data" / "kitti_0000_gray_320x96.png"))]
+    got = list(cli._iter_frames(src))
+    assert len(got) == 1 and got[0][1] == 0 and got[0][2].shape == (96, 320)
+    assert cli._count_frames(src) == 1
 
 
 def test_one_extension_list():

@@ -1,18 +1,6 @@
 #!/usr/bin/env python3
-"""Lead-vehicle detection on the 78 KITTI frames of ../shared/data/kitti-raw-sfnd-ttc.
-
-The evaluation lives in pyvehtrack.eval.kitti_lead (its docstring gives the figures and options);
-this entry script only points it at the data beside the repository.
-
-    PYTHONPATH=. python3 tools/eval_kitti_lead.py --help
-"""
-import sys
-from pathlib import Path
-
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
-
-from pyvehtrack.eval import kitti_lead  # noqa: E402
+"""Lead-vehicle detection on the 78 KITTI frames of ../shared/data/kitti-raw-sfnd-ttc: `pyvehtrack.eval.kitti_lead` (figures and options: its docstring, or --help)."""
+from _evaltool import run
 
 if __name__ == "__main__":
-    sys.exit(kitti_lead.main(default_data=ROOT.parent / "shared" / "data" / "kitti-raw-sfnd-ttc"))
+    run("kitti_lead", "kitti-raw-sfnd-ttc")

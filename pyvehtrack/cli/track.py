@@ -126,3 +126,6 @@ def run(args) -> int:
           + (f"; tracks: {args.tracks}" if args.tracks else "")
           + (f"; {len(reader.skipped)} bad frame(s) skipped" if reader.skipped else ""))
     return 0
+
+
+run_track = run                  # the name pyvehtrack.cli_track had
