@@ -376,6 +376,10 @@ CLI_ERRORS = [
                                               str(t)], "is a folder"),
     ("track --out in missing folder", lambda t: ["track", str(GOOD), "--out", str(t / "no" / "o.mp4")],
      "does not exist"),
+    ("detect --json same as --out", lambda t: ["detect", str(GOOD), "--out", str(t / "o.png"), "--json",
+                                               str(t / "o.png")], "same file"),
+    ("track --tracks same as --out", lambda t: ["track", str(GOOD), "--out", str(t / "o.avi"), "--tracks",
+                                                str(t / "o.avi")], "same file"),
     ("eval missing gt", lambda t: ["eval", "--gt", str(t / "gt.txt"), "--tracks", str(GOOD)], "no such file"),
     ("eval corrupt gt", lambda t: ["eval", "--gt", str(_garbage(t, "gt.txt", b"0 1 Car\n")), "--tracks",
                                    str(_garbage(t, "tr.txt", b""))], ":1:"),
@@ -463,6 +467,12 @@ def test_skip_bad_frames_counts_and_says(tmp_path, capsys):
     while cap.read()[0]:
         n += 1
     assert n == 3                                             # the bad frame is not drawn
+    # every frame bad: each skip is announced, then one error line, exit 2, nothing written
+    bad = _truncate(GOOD, tmp_path / "t.png")
+    assert cli_main(["detect", str(bad), "--json", str(tmp_path / "x.json"), "--skip-bad-frames"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 2 and "skipping" in err[0] and "no frame could be decoded" in err[1], err
+    assert not (tmp_path / "x.json").exists()
 
 
 def test_detect_json_without_out(tmp_path, capsys):
@@ -481,6 +491,18 @@ def test_track_thin_png(tmp_path, capsys):
     assert cli_main(["track", str(p), "--out", str(tmp_path / "o.png"), "--tracks", str(tr), "--no-progress"]) == 0
     assert tr.read_text() == ""
     assert cli_main(["detect", str(p), "--json", str(tmp_path / "d.json")]) == 0
+    capsys.readouterr()
+
+
+def test_huge_frame_cli(tmp_path, capsys):
+    """A frame over the core's maximum is downscaled (documented), boxes in input pixels."""
+    img = cv2.resize(cv2.imread(str(GOOD)), (2400, 720), interpolation=cv2.INTER_LINEAR)
+    p = tmp_path / "big.png"
+    cv2.imwrite(str(p), img)
+    js = tmp_path / "o.json"
+    assert cli_main(["detect", str(p), "--json", str(js)]) == 0
+    for b in json.loads(js.read_text())[0]["boxes"]:
+        assert 0 <= b[0] <= b[2] < 2400 and 0 <= b[1] <= b[3] < 720
     capsys.readouterr()
 
 

@@ -242,6 +242,9 @@ class Outputs:
         """Check that `path` can be written and return a temporary path beside it, with the same
         extension (OpenCV picks the format from it); CliError naming `option` otherwise."""
         final = Path(path)
+        for _tmp, other in self._pending:
+            if other.resolve() == final.resolve():
+                raise CliError(f"{option} {path}: the same file as another output")
         if final.is_dir():
             raise CliError(f"{option} {path}: is a folder")
         parent = final.parent
