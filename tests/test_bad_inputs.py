@@ -503,7 +503,8 @@ def test_huge_frame_cli(tmp_path, capsys):
     assert cli_main(["detect", str(p), "--json", str(js)]) == 0
     for b in json.loads(js.read_text())[0]["boxes"]:
         assert 0 <= b[0] <= b[2] < 2400 and 0 <= b[1] <= b[3] < 720
-    capsys.readouterr()
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("pyvehtrack detect: warning: frame 2400x720"), err
 
 
 def test_existing_output_replaced_only_on_success(tmp_path, capsys):

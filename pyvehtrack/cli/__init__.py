@@ -107,8 +107,15 @@ def main(argv: list[str] | None = None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as e:            # --help, --version (0) and usage errors (2)
         return int(e.code or 0) if not isinstance(e.code, str) else 2
+    import warnings
+
+    def one_line(message, category, *_args, **_kw):   # library warnings: one line, no source
+        print(f"pyvehtrack {args.command}: warning: {message}", file=sys.stderr)
+
     try:
-        return int(args.func(args) or 0)
+        with warnings.catch_warnings():
+            warnings.showwarning = one_line
+            return int(args.func(args) or 0)
     except CliError as e:
         print(f"pyvehtrack {args.command}: error: {e}", file=sys.stderr)
         return 2
