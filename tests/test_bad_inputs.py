@@ -160,6 +160,18 @@ PY_ROWS = [
     ("LaneDetector grad_min=1.5", lambda: LaneDetector(grad_min=1.5), ValueError, "grad_min"),
     ("LaneDetector grad_min=True", lambda: LaneDetector(grad_min=True), TypeError, "grad_min"),
     ("LaneDetector grad_min=2**40", lambda: LaneDetector(grad_min=2**40), ValueError, "grad_min"),
+    # image primitives
+    ("sobel_x None", lambda: vt.image.sobel_x(None), TypeError, "ndarray"),
+    ("sobel_x float32", lambda: vt.image.sobel_x(U8.astype(np.float32)), TypeError, "uint8"),
+    ("sobel_x 3-D", lambda: vt.image.sobel_x(np.zeros((4, 4, 3), np.uint8)), ValueError, "2-D"),
+    ("sobel_x over capacity", lambda: vt.image.sobel_x(np.zeros((4, int(lib.VT_MAX_WIDTH) + 1), np.uint8)),
+     VtError, "vt_sobel_x"),
+    ("box_sum x=1.5", lambda: vt.image.box_sum(vt.image.integral(U8), 1.5, 0, 2, 2), ValueError, "x"),
+    ("box_sum w=True", lambda: vt.image.box_sum(vt.image.integral(U8), 0, 0, True, 2), TypeError, "w"),
+    ("box_sum h=2**40", lambda: vt.image.box_sum(vt.image.integral(U8), 0, 0, 2, 2**40), ValueError, "h"),
+    ("box_sum outside", lambda: vt.image.box_sum(vt.image.integral(U8), 120, 0, 20, 2), VtError, "vt_box_sum"),
+    ("ncc shape mismatch", lambda: vt.image.ncc(U8[:4, :4], U8[:4, :5]), VtError, "vt_ncc_u8"),
+    ("sad str", lambda: vt.image.sad("a", U8), TypeError, "a"),
     # evaluation inputs
     ("iou_matrix 5 numbers", lambda: vt_eval_iou([1, 2, 3, 4, 5]), ValueError, "boxes"),
     ("read_kitti missing file", lambda: _read_kitti("no/such/file.txt"), FileNotFoundError, "file.txt"),
