@@ -35,7 +35,10 @@ register_eval = register        # the name SUBCOMMANDS used before the package
 
 def run(args) -> int:
     from ..eval.kitti import read_kitti
-    from ..eval.tracking import evaluate_kitti, format_results
+    try:
+        from ..eval.tracking import evaluate_kitti, format_results
+    except ImportError as e:                # TrackEval is installed by `make setup`
+        raise CliError(str(e).splitlines()[0]) from None
 
     if args.num_frames is not None and args.num_frames < 1:
         raise CliError(f"--num-frames {args.num_frames}: must be >= 1")
