@@ -52,8 +52,8 @@ def test_old_import_paths_are_the_new_modules():
     from pyvehtrack.cli import CliError, IMAGE_EXTS, VIDEO_EXTS, main  # noqa: F401  (kept names)
     from pyvehtrack.cli import (_count_frames, _frames_of, _iter_frames, detection_json,  # noqa: F401
                                 draw_detection, register_detect, run_detect)
-    from pyvehtrack.cli_track import draw_tracks, kitti_line, register_track, run_track  # noqa: F401
-    assert run_detect is pyvehtrack.cli.detect.run and run_track is pyvehtrack.cli.track.run
+    from pyvehtrack.cli_track import draw_tracks, kitti_line, register_track  # noqa: F401
+    assert run_detect is pyvehtrack.cli.detect.run and pyvehtrack.cli.run_track is pyvehtrack.cli.track.run
     from pyvehtrack.reference.sort import iou_matrix, run_sort, write_tracks_kitti  # noqa: F401
 
 

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 __all__ = ["CliError", "IMAGE_EXTS", "VIDEO_EXTS", "VIDEO_OUT_EXTS", "output_kind", "frame_sources",
-           "FrameReader", "read_image", "progress", "add_frame_options", "count_frames", "video_fps", "VideoOut", "Outputs", "AnnotatedOut"]
+           "FrameReader", "read_image", "progress", "count_frames", "video_fps", "VideoOut", "Outputs"]
 
 # The one list of file types. VIDEO_OUT_EXTS: the containers cv2.VideoWriter writes here
 # (.avi with MJPG, the others with mp4v).
@@ -37,13 +37,6 @@ def output_kind(path: str | os.PathLike) -> str | None:
 
 
 # ====================================================================== inputs
-def add_frame_options(p) -> None:
-    """The options every frame-reading subcommand shares: --skip-bad-frames, --no-progress."""
-    p.add_argument("--skip-bad-frames", action="store_true",
-                   help="skip (and count) frames that cannot be decoded instead of stopping with exit 2")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
-
-
 def frame_sources(inputs: list[str]) -> list[tuple[str, str]]:
     """Expand INPUT... into a list of sources: ("image", path) or ("video", path).
     Folders give their image files in sorted name order."""
@@ -322,53 +315,3 @@ class VideoOut:
     def close(self) -> None:
         if self.writer is not None:
             self.writer.release()
-
-
-class AnnotatedOut:
-    """The --out of drawn frames, through Outputs: one image (`numbered=False`), numbered
-    images NAME_00000.EXT (frame numbers in input order), or one video. Checked (and the
-    video's or single image's temporary file created) on construction, before the run."""
-
-    def __init__(self, outs: Outputs, out: str | os.PathLike, sources, numbered: bool, option: str = "--out"):
-        self.out, self.outs, self.option = Path(out), outs, option
-        self.kind = output_kind(self.out)
-        if self.kind is None:
-            raise CliError(f"{option} {out}: expected a .png/.jpg image or an .mp4/.avi video name")
-        self.numbered = numbered and self.kind == "image"
-        self.written: list[str] = []
-        self.video = self._single = None
-        if self.kind == "video":
-            self.video = VideoOut(outs.reserve(option, self.out), sources, name=str(self.out))
-        elif self.numbered:
-            outs.check(option, self.out)
-        else:
-            self._single = outs.reserve(option, self.out)
-
-    def write(self, index: int, img) -> None:
-        import cv2
-        if self.video is not None:
-            self.video.write(img)
-            if not self.written:
-                self.written.append(str(self.out))
-            return
-        path = self.out.with_name(f"{self.out.stem}_{index:05d}{self.out.suffix}") if self.numbered else self.out
-        tmp = self.outs.reserve(self.option, path) if self.numbered else self._single
-        if not cv2.imwrite(str(tmp), img):
-            raise CliError(f"{path}: cannot write")
-        self.written.append(str(path))
-
-    def where(self) -> str:
-        """What was written, for the summary line: one name, or the first .. last."""
-        w = self.written or [str(self.out)]
-        return w[0] if len(w) == 1 else f"{w[0]} .. {w[-1]}"
-
-    def close(self) -> None:
-        if self.video is not None:
-            self.video.close()
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
-        return False

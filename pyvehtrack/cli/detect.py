@@ -10,9 +10,10 @@ At least one of --out and --json. The JSON is a list with one entry per frame:
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
-from .common import (AnnotatedOut, CliError, FrameReader, Outputs, add_frame_options, count_frames,
-                     frame_sources, output_kind, progress)
+from .common import (CliError, FrameReader, Outputs, VideoOut, count_frames, frame_sources,
+                     output_kind, progress)
 
 EXAMPLES = """examples:
   pyvehtrack detect frame.png --out annotated.png
@@ -73,7 +74,9 @@ def register(sub) -> None:
                    help="the C fixed-point core (default) or the float reference")
     p.add_argument("--road", choices=("auto", "lanes", "fixed"), default="auto",
                    help="road area from the lanes (auto: fall back to a fixed trapezoid)")
-    add_frame_options(p)
+    p.add_argument("--skip-bad-frames", action="store_true",
+                   help="skip (and count) frames that cannot be decoded instead of stopping with exit 2")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
 
@@ -81,12 +84,16 @@ register_detect = register        # the name SUBCOMMANDS used before the package
 
 
 def run(args) -> int:
+    import cv2
+
     from .._native import VtError
     from ..detector import Detector
 
     if not args.out and not args.json:
         raise CliError("give --out (annotated frames) and/or --json (lanes and boxes)")
-    if args.out and output_kind(args.out) is None:
+    out = Path(args.out) if args.out else None
+    kind = output_kind(out) if out else None
+    if out and kind is None:
         raise CliError(f"--out {args.out}: expected a .png/.jpg image or an .mp4/.avi video name")
     sources = frame_sources(args.inputs)
     total = count_frames(sources)
@@ -97,32 +104,48 @@ def run(args) -> int:
         raise CliError(str(e)) from None
     with Outputs() as outs:
         json_tmp = outs.reserve("--json", args.json) if args.json else None
-        drawn = AnnotatedOut(outs, args.out, sources, numbered=multi) if args.out else None
-        entries = []
+        video = None
+        if kind == "video":
+            video = VideoOut(outs.reserve("--out", out), sources, name=str(out))
+        elif kind == "image":
+            if multi:
+                outs.check("--out", out)
+            else:
+                single_tmp = outs.reserve("--out", out)
+        entries, written = [], []
         reader = FrameReader(sources, skip_bad=args.skip_bad_frames)
+        show = not args.no_progress and multi
         try:
-            with progress(total, disable=args.no_progress or not multi) as bar:
+            with progress(total, disable=not show) as bar:
                 for i, file, frame in reader:
                     try:
                         res = det.detect(frame)
                     except (VtError, ValueError, TypeError) as e:
                         raise CliError(f"{file}: {e}") from None
                     entries.append(detection_json(i, file, res))
-                    if drawn is not None:
-                        drawn.write(i, draw_detection(frame, res))
+                    if kind == "image":
+                        path = out if not multi else out.with_name(f"{out.stem}_{i:05d}{out.suffix}")
+                        tmp = single_tmp if not multi else outs.reserve("--out", path)
+                        if not cv2.imwrite(str(tmp), draw_detection(frame, res)):
+                            raise CliError(f"{path}: cannot write")
+                        written.append(str(path))
+                    elif kind == "video":
+                        video.write(draw_detection(frame, res))
                     bar.update(1)
         finally:
-            if drawn is not None:
-                drawn.close()
+            if video is not None:
+                video.close()
         if not entries:
             raise CliError("no frame could be decoded; nothing written")
+        if kind == "video":
+            written.append(str(out))
         if json_tmp is not None:
             json_tmp.write_text("[\n" + ",\n".join(json.dumps(e) for e in entries) + "\n]\n")
         outs.commit()
     n_boxes = sum(len(e["boxes"]) for e in entries)
     parts = [f"{len(entries)} frame(s), {n_boxes} box(es)"]
-    if drawn is not None:
-        parts.append(f"annotated: {drawn.where()}")
+    if written:
+        parts.append("annotated: " + (written[0] if len(written) == 1 else f"{written[0]} .. {written[-1]}"))
     if args.json:
         parts.append(f"json: {args.json}")
     if reader.skipped:

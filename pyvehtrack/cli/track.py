@@ -11,10 +11,11 @@ so TrackEval and other tools read it as is. Frame numbers follow the input order
 from __future__ import annotations
 
 import colorsys
+from pathlib import Path
 
 from ..eval.kitti import track_line
-from .common import (AnnotatedOut, CliError, FrameReader, Outputs, add_frame_options, count_frames,
-                     frame_sources, output_kind, progress)
+from .common import (CliError, FrameReader, Outputs, VideoOut, count_frames, frame_sources,
+                     output_kind, progress)
 
 STATE_SCORE = {"confirmed": 1.0, "coasting": 0.5, "tentative": 0.25}
 
@@ -76,7 +77,9 @@ def register(sub) -> None:
                    help="road area for the detector: lanes, a fixed trapezoid, or lanes with fallback")
     p.add_argument("--all-states", action="store_true",
                    help="also write tentative tracks to --tracks (default: confirmed and coasting)")
-    add_frame_options(p)
+    p.add_argument("--skip-bad-frames", action="store_true",
+                   help="skip (and count) frames that cannot be decoded instead of stopping with exit 2")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
 
@@ -84,13 +87,17 @@ register_track = register        # the name SUBCOMMANDS used before the package
 
 
 def run(args) -> int:
+    import cv2
+
     from .._native import VtError
     from ..detector import Detector
     from ..tracker import Tracker
 
     if args.detect_every < 1:
         raise CliError(f"--detect-every {args.detect_every}: must be >= 1")
-    if output_kind(args.out) is None:
+    out = Path(args.out)
+    kind = output_kind(out)
+    if kind is None:
         raise CliError(f"--out {args.out}: expected an .mp4/.avi video (or a .png/.jpg name for frames)")
     sources = frame_sources(args.inputs)
     total = count_frames(sources)
@@ -101,31 +108,42 @@ def run(args) -> int:
         raise CliError(str(e)) from None
     with Outputs() as outs:
         tracks_tmp = outs.reserve("--tracks", args.tracks) if args.tracks else None
+        video = None
+        if kind == "video":
+            video = VideoOut(outs.reserve("--out", out), sources, name=str(out))
+        else:
+            outs.check("--out", out)
         lines, ids, n = [], set(), 0
         reader = FrameReader(sources, skip_bad=args.skip_bad_frames)
-        with AnnotatedOut(outs, args.out, sources, numbered=True) as drawn, \
-                progress(total, disable=args.no_progress) as bar:
-            for i, file, frame in reader:
-                try:
-                    tracks = trk.step(frame)
-                except (VtError, ValueError, TypeError) as e:
-                    raise CliError(f"{file}: {e}") from None
-                for t in tracks:
-                    if args.all_states or t.state != "tentative":
-                        lines.append(kitti_line(i, t))
-                        ids.add(t.id)
-                drawn.write(i, draw_tracks(frame, tracks, i, trk.last_was_detection))
-                n += 1
-                bar.update(1)
+        try:
+            with progress(total, disable=args.no_progress) as bar:
+                for i, file, frame in reader:
+                    try:
+                        tracks = trk.step(frame)
+                    except (VtError, ValueError, TypeError) as e:
+                        raise CliError(f"{file}: {e}") from None
+                    for t in tracks:
+                        if args.all_states or t.state != "tentative":
+                            lines.append(kitti_line(i, t))
+                            ids.add(t.id)
+                    img = draw_tracks(frame, tracks, i, trk.last_was_detection)
+                    if kind == "image":
+                        path = out.with_name(f"{out.stem}_{i:05d}{out.suffix}")
+                        if not cv2.imwrite(str(outs.reserve("--out", path)), img):
+                            raise CliError(f"{path}: cannot write")
+                    else:
+                        video.write(img)
+                    n += 1
+                    bar.update(1)
+        finally:
+            if video is not None:
+                video.close()
         if n == 0:
             raise CliError("no frame could be decoded; nothing written")
         if tracks_tmp is not None:
             tracks_tmp.write_text("".join(s + "\n" for s in lines))
         outs.commit()
-    print(f"{n} frame(s), {len(ids)} track(s), {len(lines)} track-frame(s); annotated: {args.out}"
+    print(f"{n} frame(s), {len(ids)} track(s), {len(lines)} track-frame(s); annotated: {out}"
           + (f"; tracks: {args.tracks}" if args.tracks else "")
           + (f"; {len(reader.skipped)} bad frame(s) skipped" if reader.skipped else ""))
     return 0
-
-
-run_track = run                  # the name pyvehtrack.cli_track had
