@@ -404,3 +404,23 @@ def test_estimator_engines_agree():
         assert abs(oa.dist_filt - ob.dist_filt) <= tol
         assert oa.warning == ob.warning
     assert abs(a.pitch_deg - b.pitch_deg) < 1e-3
+
+
+def test_vanishing_row_on_a_real_frame_both_engines():
+    """The ego lines' meeting row from the C lane stage (vt_lane_vanishing_row, Q16) and from
+    the float oracle's lines on a real highway frame: the lane stages agree to a fraction of a
+    working pixel (tests/test_lane.py), which the intersection of two lines ~45 degrees apart
+    turns into about as much: within 2 input px."""
+    from pathlib import Path
+
+    import cv2
+
+    from pyvehtrack.camera import lane_vanishing_row
+    from pyvehtrack.lane import LaneDetector
+    img = cv2.imread(str(Path(__file__).parent / "data" / "lane_udacity_solidWhiteCurve_gray_640x360.png"),
+                     cv2.IMREAD_GRAYSCALE)
+    vc = lane_vanishing_row(LaneDetector(engine="c").detect(img))
+    vr = lane_vanishing_row(LaneDetector(engine="reference").detect(img))
+    assert vc is not None and vr is not None
+    assert 150 < vc < 250                       # the horizon of this 360-row frame
+    assert abs(vc - vr) < 2.0
