@@ -20,6 +20,7 @@ SUBCOMMANDS: dict[str, str] = {
     "detect": "pyvehtrack.cli:register_detect",
     "track": "pyvehtrack.cli_track:register_track",
     "eval": "pyvehtrack.cli_track:register_eval",
+    "eval-boxes": "pyvehtrack.cli_boxes:register_eval_boxes",
 }
 
 IMAGE_EXTS = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm", ".webp"}
