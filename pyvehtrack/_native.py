@@ -432,3 +432,57 @@ def lane_line_x(line, y_q16: int) -> int:
     check("vt_lane_line_x", lib.vt_lane_line_x(line, y_q16, out), f"y {y_q16} (Q16)")
     return int(out[0])
 # ================================================================ end lane.h
+
+
+# ================================================================ windows.h
+WINDOW_DTYPE = np.dtype([("level", "<i4"), ("size", "<i4"), ("x", "<i4"), ("y", "<i4")])
+SCORED_BOX_DTYPE = np.dtype([("left", "<i4"), ("top", "<i4"), ("right", "<i4"), ("bottom", "<i4"),
+                             ("score", "<i4"), ("source", "<i4")])
+
+
+def win_cfg_default():
+    return _defaults("vt_win_cfg")
+
+
+def camera_min(fx: float, horizon_y: int, height_mm: int, hood_y: int):
+    """A checked vt_camera_min (fx in px, stored in Q4, rounded to nearest)."""
+    c = ffi.new("vt_camera_min *")
+    for name, v in (("horizon_y", horizon_y), ("height_mm", height_mm), ("hood_y", hood_y)):
+        if not isinstance(v, (int, np.integer)) or isinstance(v, bool):
+            raise TypeError(f"camera {name}: expected an int, got {type(v).__name__}")
+    if not np.isfinite(fx) or not 1 <= fx <= 2 ** 20:
+        raise ValueError(f"camera fx: expected 1..2^20 px, got {fx!r}")
+    c.fx_q4, c.horizon_y, c.height_mm, c.hood_y = int(round(fx * 16)), int(horizon_y), int(height_mm), int(hood_y)
+    check("vt_camera_min_check", lib.vt_camera_min_check(c),
+          f"horizon_y {horizon_y}, height_mm {height_mm}, hood_y {hood_y}")
+    return c
+
+
+def road_from_camera(cfg, cam, w: int, h: int):
+    r = ffi.new("vt_road_area *")
+    check("vt_road_from_camera", lib.vt_road_from_camera(cfg, cam, int(w), int(h), r), f"{w}x{h}")
+    return r
+
+
+def windows_level(cfg, cam, road, w: int, h: int, level: int) -> np.ndarray:
+    """vt_windows_level -> structured WINDOW_DTYPE array (every window of the level)."""
+    n = ffi.new("int32_t *")
+    rd = ffi.NULL if road is None else road
+    check("vt_windows_level", lib.vt_windows_level(cfg, cam, rd, int(w), int(h), int(level), ffi.NULL, 0, n),
+          f"{w}x{h} level {level}")
+    out = np.zeros(max(1, n[0]), WINDOW_DTYPE)
+    check("vt_windows_level",
+          lib.vt_windows_level(cfg, cam, rd, int(w), int(h), int(level),
+                               ffi.cast("vt_window *", out.ctypes.data), len(out), n),
+          f"{w}x{h} level {level}")
+    return out[: n[0]].copy()
+
+
+def nms(boxes: np.ndarray, iou_q8: int, contain_q8: int = 256) -> np.ndarray:
+    """vt_nms on a copy of a SCORED_BOX_DTYPE array -> the kept boxes, in order."""
+    a = np.ascontiguousarray(boxes, SCORED_BOX_DTYPE).copy()
+    n = ffi.new("int32_t *")
+    p = ffi.cast("vt_scored_box *", a.ctypes.data) if len(a) else ffi.NULL
+    check("vt_nms", lib.vt_nms(p, len(a), int(iou_q8), int(contain_q8), n), f"{len(a)} boxes")
+    return a[: n[0]].copy()
+# ================================================================ end windows.h

@@ -14,6 +14,7 @@
 #include "vehtrack/shadow.h"
 #include "vehtrack/verify.h"
 #include "vehtrack/detect.h"
+#include "vehtrack/windows.h"
 #include "vehtrack/kalman.h"
 #include "vehtrack/track_search.h"
 #include "vehtrack/tracker.h"
