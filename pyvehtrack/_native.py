@@ -486,3 +486,19 @@ def nms(boxes: np.ndarray, iou_q8: int, contain_q8: int = 256) -> np.ndarray:
     check("vt_nms", lib.vt_nms(p, len(a), int(iou_q8), int(contain_q8), n), f"{len(a)} boxes")
     return a[: n[0]].copy()
 # ================================================================ end windows.h
+
+
+# ================================================================ fulldet.h
+def fulldet_cfg_default():
+    return _defaults("vt_fulldet_cfg")
+
+
+def fulldet(st, cfg, cam, img: np.ndarray, road, scorer, out) -> np.ndarray:
+    """vt_fulldet -> the kept boxes as a SCORED_BOX_DTYPE array (a copy)."""
+    v = view(img, "img")
+    check("vt_fulldet", lib.vt_fulldet(st, cfg, cam, v, road, ffi.NULL if scorer is None else scorer, out),
+          f"img {img.shape}, {_road_detail(road)}")
+    n = out.n_boxes
+    a = np.frombuffer(ffi.buffer(out.box), SCORED_BOX_DTYPE)[:n].copy()
+    return a
+# ================================================================ end fulldet.h

@@ -15,6 +15,7 @@
 #include "vehtrack/verify.h"
 #include "vehtrack/detect.h"
 #include "vehtrack/windows.h"
+#include "vehtrack/fulldet.h"
 #include "vehtrack/kalman.h"
 #include "vehtrack/track_search.h"
 #include "vehtrack/tracker.h"
