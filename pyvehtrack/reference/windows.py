@@ -92,6 +92,7 @@ def windows_level(cfg: WindowConfig, cam: Camera, road, w: int, h: int, level: i
     the road span; rows from the first valid one every step rows, columns from 0 every
     step columns). `road` is None or (valid, y_top, y_bottom, x_left, x_right, ...)."""
     lw, lh = level_sizes(w, h, level + 1)[level]
+    road = as_road_tuple(road)
     if road is not None and not road[0]:
         road = None
     out = []
@@ -123,6 +124,15 @@ def windows_level(cfg: WindowConfig, cam: Camera, road, w: int, h: int, level: i
                     continue
                 out.append((level, s, x, y))
     return np.asarray(out, np.int64).reshape(-1, 4)
+
+
+def as_road_tuple(road):
+    """(valid, y_top, y_bottom, x_left, x_right, lane_width) from such a tuple or from a
+    RoadArea-like object (reference.shadow.RoadArea); None stays None."""
+    if road is None or isinstance(road, tuple):
+        return road
+    return (bool(getattr(road, "valid", True)), int(road.y_top), int(road.y_bottom),
+            np.asarray(road.x_left), np.asarray(road.x_right), np.asarray(road.lane_width))
 
 
 def window_box(win) -> np.ndarray:
@@ -164,4 +174,4 @@ def nms(boxes, scores, iou_max: float, contain_max: float = 1.0) -> list:
 
 
 __all__ = ["Camera", "WindowConfig", "vehicle_width_px", "row_distance_m", "level_sizes",
-           "road_from_camera", "windows_level", "window_box", "nms"]
+           "road_from_camera", "windows_level", "window_box", "nms", "as_road_tuple"]
