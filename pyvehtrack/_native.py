@@ -502,3 +502,121 @@ def fulldet(st, cfg, cam, img: np.ndarray, road, scorer, out) -> np.ndarray:
     a = np.frombuffer(ffi.buffer(out.box), SCORED_BOX_DTYPE)[:n].copy()
     return a
 # ================================================================ end fulldet.h
+
+# ================================================================ classify.h
+# (thin 1:1 wrappers; descriptors are uint16 Q15, scores int Q16; the friendly
+# API is pyvehtrack.classify.)
+def svm_model(kind: int, win_w: int, win_h: int, w_q, w_shift: int, bias_q16: int,
+              threshold_q16: int = 0):
+    """A vt_svm_model over a copy of the int16 weights; returns (model, keepalive)
+    -- keep the second alive as long as the model is used."""
+    w = np.ascontiguousarray(np.asarray(w_q), dtype=np.int16)
+    if w.ndim != 1:
+        raise ValueError(f"w_q: expected a 1-D array, got shape {w.shape}")
+    m = ffi.new("vt_svm_model *")
+    m.kind, m.win_w, m.win_h, m.dim = int(kind), int(win_w), int(win_h), int(w.shape[0])
+    m.w_shift, m.bias_q16, m.threshold_q16 = int(w_shift), int(bias_q16), int(threshold_q16)
+    buf = ffi.new("int16_t[]", max(1, w.shape[0]))
+    ffi.buffer(buf)[: w.nbytes] = w.tobytes()
+    m.w = buf
+    check("vt_svm_model_check", lib.vt_svm_model_check(m),
+          f"kind={kind} window {win_w}x{win_h} dim={w.shape[0]} w_shift={w_shift}")
+    return m, buf
+
+
+def svm_default_model(kind: int):
+    out = ffi.new("const vt_svm_model **")
+    check("vt_svm_default_model", lib.vt_svm_default_model(int(kind), out),
+          f"kind={kind} (no default model of this kind is built in)")
+    return out[0]
+
+
+def hog_ws_new():
+    return ffi.new("vt_hog_ws *")
+
+
+def gist_ws_new():
+    return ffi.new("vt_gist_ws *")
+
+
+def box_ws_new():
+    return ffi.new("vt_cls_box_ws *")
+
+
+def hog_prepare(ws, img: np.ndarray) -> None:
+    v = view(img, "img")
+    check("vt_hog_prepare", lib.vt_hog_prepare(ws, v), f"img {img.shape}")
+
+
+def gist_prepare(ws, img: np.ndarray) -> None:
+    v = view(img, "img")
+    check("vt_gist_prepare", lib.vt_gist_prepare(ws, v), f"img {img.shape}")
+
+
+def _descriptor(cname: str, ws, cx: int, cy: int, win_w: int, win_h: int) -> np.ndarray:
+    cap = int(lib.VT_CLS_MAX_DIM)
+    out = np.zeros(cap, np.uint16)
+    n = ffi.new("int32_t *")
+    check(cname, getattr(lib, cname)(ws, int(cx), int(cy), int(win_w), int(win_h),
+                                     ffi.cast("uint16_t *", out.ctypes.data), cap, n),
+          f"window {win_w}x{win_h} at cell ({cx}, {cy}) of a prepared "
+          f"{ws.cells_x}x{ws.cells_y}-cell image")
+    return out[: n[0]].copy()
+
+
+def hog_descriptor(ws, cx: int, cy: int, win_w: int, win_h: int) -> np.ndarray:
+    return _descriptor("vt_hog_descriptor", ws, cx, cy, win_w, win_h)
+
+
+def gist_descriptor(ws, cx: int, cy: int, win_w: int, win_h: int) -> np.ndarray:
+    return _descriptor("vt_gist_descriptor", ws, cx, cy, win_w, win_h)
+
+
+def hog_window_score(ws, model, cx: int, cy: int) -> int:
+    out = ffi.new("int32_t *")
+    check("vt_hog_window_score", lib.vt_hog_window_score(ws, model, int(cx), int(cy), out),
+          f"window at cell ({cx}, {cy}) of a prepared {ws.cells_x}x{ws.cells_y}-cell image")
+    return int(out[0])
+
+
+def hog_scan(ws, model, cx0: int, cy0: int, ncx: int, ncy: int) -> np.ndarray:
+    """Scores (Q16) of every window position, an (ncy, ncx) int32 array."""
+    if ncx < 1 or ncy < 1:
+        raise ValueError(f"hog_scan: ncx={ncx}, ncy={ncy} must be >= 1")
+    out = np.zeros((ncy, ncx), np.int32)
+    check("vt_hog_scan", lib.vt_hog_scan(ws, model, int(cx0), int(cy0), int(ncx), int(ncy),
+                                         ffi.cast("int32_t *", out.ctypes.data), out.size),
+          f"positions ({cx0}, {cy0}) + {ncx}x{ncy} on {ws.cells_x}x{ws.cells_y} cells")
+    return out
+
+
+def svm_decision(model, desc: np.ndarray) -> int:
+    d = np.ascontiguousarray(desc, dtype=np.uint16)
+    if d.ndim != 1:
+        raise ValueError(f"desc: expected a 1-D array, got shape {d.shape}")
+    out = ffi.new("int32_t *")
+    p = ffi.cast("uint16_t *", d.ctypes.data) if d.size else ffi.NULL
+    check("vt_svm_decision", lib.vt_svm_decision(model, p, d.shape[0], out),
+          f"descriptor of {d.shape[0]} values, model dim {model.dim if model != ffi.NULL else 'NULL'}")
+    return int(out[0])
+
+
+def resample_area(src: np.ndarray, box, out_w: int, out_h: int) -> np.ndarray:
+    v = view(src, "src")
+    b = ffi.new("vt_box *", [int(x) for x in box])
+    dst = np.zeros((max(out_h, 0), max(out_w, 0)), np.uint8)
+    vd = view(dst, "dst", writable=True)
+    vd.w, vd.h = int(out_w), int(out_h)
+    check("vt_resample_area", lib.vt_resample_area(v, b, vd),
+          f"src {src.shape}, box {list(box)}, out {out_w}x{out_h}")
+    return dst
+
+
+def classify_box(ws, model, frame: np.ndarray, box) -> int:
+    v = view(frame, "frame")
+    b = ffi.new("vt_box *", [int(x) for x in box])
+    out = ffi.new("int32_t *")
+    check("vt_classify_box", lib.vt_classify_box(ws, model, v, b, out),
+          f"frame {frame.shape}, box {list(box)}")
+    return int(out[0])
+# ================================================================ end classify.h
