@@ -256,3 +256,121 @@ vt_status vt_fulldet(vt_fulldet_state *st, const vt_fulldet_cfg *cfg, const vt_c
     }
     return VT_OK;
 }
+
+/* ---------------------------------------------------------------- HOG scorer */
+vt_status vt_hog_scorer_init(vt_hog_scorer *sc, const vt_svm_model *m)
+{
+    vt_status s;
+    if (sc == NULL) {
+        return VT_E_ARG;
+    }
+    s = vt_svm_model_check(m);
+    if (s != VT_OK) {
+        return s;
+    }
+    sc->model = m;
+    sc->px = NULL;
+    sc->level = -1;
+    sc->x0 = sc->y0 = sc->w = sc->h = 0;
+    return VT_OK;
+}
+
+/* Prepare rows y0.. and columns x0.. of the level image (as many as the HOG
+ * workspace holds). */
+static vt_status vt__hog_band(vt_hog_scorer *sc, const vt_image_u8 *img, int32_t level, int32_t x0,
+                              int32_t y0, int32_t y1)
+{
+    vt_image_u8 band;
+    vt_status s;
+    int32_t h = y1 - y0 + 1;
+    if (x0 < 0 || y0 < 0 || x0 >= img->w || y0 >= img->h || h < 1) {
+        return VT_E_ARG;
+    }
+    h = h > VT_CLS_MAX_H ? VT_CLS_MAX_H : h;
+    h = h > img->h - y0 ? img->h - y0 : h;
+    band.px = img->px + (size_t)y0 * (size_t)img->stride + (size_t)x0;
+    band.stride = img->stride;
+    band.w = img->w - x0 > VT_CLS_MAX_W ? VT_CLS_MAX_W : img->w - x0;
+    band.h = h;
+    sc->px = NULL;
+    s = vt_hog_prepare(&sc->hog, &band);
+    if (s != VT_OK) {
+        return s;
+    }
+    sc->px = img->px;
+    sc->level = level;
+    sc->x0 = x0;
+    sc->y0 = y0;
+    sc->w = band.w;
+    sc->h = band.h;
+    return VT_OK;
+}
+
+vt_status vt_hog_scorer_level(void *ctx, const vt_image_u8 *level_img, int32_t level, int32_t y0,
+                              int32_t y1)
+{
+    vt_hog_scorer *sc = (vt_hog_scorer *)ctx;
+    vt_status s;
+    if (sc == NULL || sc->model == NULL) {
+        return VT_E_ARG;
+    }
+    s = vt_image_u8_check(level_img);
+    if (s != VT_OK) {
+        return s;
+    }
+    if (y0 < 0 || y1 < y0 || y1 >= level_img->h) {
+        return VT_E_ARG;
+    }
+    if (sc->model->kind != VT_DESC_HOG || y1 - y0 + 1 < sc->model->win_h) {
+        sc->px = NULL; /* every window of this band goes through vt_classify_box */
+        return VT_OK;
+    }
+    return vt__hog_band(sc, level_img, level, 0, y0, y1);
+}
+
+vt_status vt_hog_scorer_score(void *ctx, const vt_image_u8 *level_img, const vt_window *win,
+                              int32_t *score)
+{
+    vt_hog_scorer *sc = (vt_hog_scorer *)ctx;
+    const vt_svm_model *m;
+    vt_status s;
+    vt_box b;
+    if (score == NULL) {
+        return VT_E_ARG;
+    }
+    *score = 0;
+    if (sc == NULL || sc->model == NULL || win == NULL) {
+        return VT_E_ARG;
+    }
+    s = vt_image_u8_check(level_img);
+    if (s != VT_OK) {
+        return s;
+    }
+    if (win->size < 1 || win->x < 0 || win->y < 0 || win->x + win->size > level_img->w ||
+        win->y + win->size > level_img->h) {
+        return VT_E_ARG;
+    }
+    m = sc->model;
+    if (m->kind == VT_DESC_HOG && win->size == m->win_w && win->size == m->win_h) {
+        int32_t inside = sc->px == level_img->px && sc->level == win->level &&
+                         win->x >= sc->x0 && win->y >= sc->y0 &&
+                         win->x + win->size <= sc->x0 + sc->w &&
+                         win->y + win->size <= sc->y0 + sc->h;
+        if (!inside || (win->x - sc->x0) % VT_CLS_CELL != 0 ||
+            (win->y - sc->y0) % VT_CLS_CELL != 0) {
+            /* a band that starts at this window (its cells then align) */
+            s = vt__hog_band(sc, level_img, win->level, win->x, win->y,
+                             win->y + (VT_CLS_MAX_H > win->size ? VT_CLS_MAX_H : win->size) - 1);
+            if (s != VT_OK) {
+                return s;
+            }
+        }
+        return vt_hog_window_score(&sc->hog, m, (win->x - sc->x0) / VT_CLS_CELL,
+                                   (win->y - sc->y0) / VT_CLS_CELL, score);
+    }
+    b.left = win->x;
+    b.top = win->y;
+    b.right = win->x + win->size - 1;
+    b.bottom = win->y + win->size - 1;
+    return vt_classify_box(&sc->box, m, level_img, &b, score);
+}

@@ -189,11 +189,15 @@ def draw_detection(frame, res):
 
 def detection_json(frame: int, file: str, res) -> dict:
     """One frame's entry of `detect --json`, input pixels, plain ints. Lanes are the two
-    ego lines ("left", "right"); the outer lines the lane stage may find are drawn only."""
+    ego lines ("left", "right"); the outer lines the lane stage may find are drawn only.
+    In the full-road mode a box carries its classifier score as a 5th element:
+    [left, top, right, bottom, score]."""
     return {"frame": frame, "file": file,
             "lanes": [{"side": ln.side, "points": [[int(x), int(y)] for x, y in ln.points]}
                       for ln in res.lanes if ln.side in ("left", "right")],
-            "boxes": [[int(v) for v in b] for b in res.boxes]}
+            "boxes": [[int(v) for v in b] + ([] if getattr(res, "scores", None) is None
+                                             else [round(float(res.scores[k]), 4)])
+                      for k, b in enumerate(res.boxes)]}
 
 
 # ====================================================================== detect
@@ -211,8 +215,27 @@ def register_detect(sub) -> None:
                    help="the C fixed-point core (default) or the float reference")
     p.add_argument("--road", choices=("auto", "lanes", "fixed"), default="auto",
                    help="road area from the lanes (auto: fall back to a fixed trapezoid)")
+    add_model_arg(p)
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run_detect)
+
+
+def add_model_arg(p) -> None:
+    p.add_argument("--model", metavar="MODEL.npz", default=None,
+                   help="classifier model for the full-road detector (default: the built-in model, "
+                        "if the build has one; else the ego-lane detector)")
+
+
+def make_detector(args):
+    """The Detector of `detect` and `track`, with the user's mistakes as CliError."""
+    from .detector import Detector
+    model = getattr(args, "model", None)
+    if model is not None and not Path(model).is_file():
+        raise CliError(f"--model {model}: no such file")
+    try:
+        return Detector(engine=args.engine, road=args.road, model=model)
+    except (RuntimeError, ValueError, TypeError) as e:
+        raise CliError(f"--model {model}: {e}" if model else str(e)) from None
 
 
 def run_detect(args) -> int:
@@ -220,7 +243,6 @@ def run_detect(args) -> int:
     from tqdm import tqdm
 
     from ._native import VtError
-    from .detector import Detector
 
     out = Path(args.out)
     kind = "image" if out.suffix.lower() in IMAGE_EXTS else \
@@ -234,10 +256,7 @@ def run_detect(args) -> int:
     sources = _frames_of(args.inputs)
     total = _count_frames(sources)
     show = not args.no_progress and (total is None or total > 1)
-    try:
-        det = Detector(engine=args.engine, road=args.road)
-    except (RuntimeError, ValueError) as e:
-        raise CliError(str(e)) from None
+    det = make_detector(args)
     entries, written, video = [], [], VideoOut(out, sources)
     multi = total is None or total > 1
     try:

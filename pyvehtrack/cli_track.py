@@ -15,7 +15,8 @@ import json
 import sys
 from pathlib import Path
 
-from .cli import CliError, IMAGE_EXTS, VideoOut, _count_frames, _frames_of, _iter_frames
+from .cli import (CliError, IMAGE_EXTS, VideoOut, _count_frames, _frames_of, _iter_frames, add_model_arg,
+                  make_detector)
 
 STATE_SCORE = {"confirmed": 1.0, "coasting": 0.5, "tentative": 0.25}
 
@@ -69,6 +70,7 @@ def register_track(sub) -> None:
                    help="run the detector every N frames (thesis: 10)")
     p.add_argument("--road", choices=("auto", "lanes", "fixed"), default="auto",
                    help="road area for the detector: lanes, a fixed trapezoid, or lanes with fallback")
+    add_model_arg(p)
     p.add_argument("--all-states", action="store_true",
                    help="also write tentative tracks to --tracks (default: confirmed and coasting)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -80,7 +82,6 @@ def run_track(args) -> int:
     from tqdm import tqdm
 
     from ._native import VtError
-    from .detector import Detector
     from .tracker import Tracker
 
     if args.detect_every < 1:
@@ -95,8 +96,8 @@ def run_track(args) -> int:
             raise CliError(f"{opt} {path}: folder {path.parent} does not exist")
     sources = _frames_of(args.inputs)
     total = _count_frames(sources)
+    det = make_detector(args)
     try:
-        det = Detector(engine=args.engine, road=args.road)
         trk = Tracker(engine=args.engine, detect_every=args.detect_every, detector=det)
     except (RuntimeError, ValueError) as e:
         raise CliError(str(e)) from None

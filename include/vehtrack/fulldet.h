@@ -21,6 +21,7 @@
 #define VEHTRACK_FULLDET_H
 
 #include <stdint.h>
+#include "vehtrack/classify.h"
 #include "vehtrack/config.h"
 #include "vehtrack/detect.h"
 #include "vehtrack/image.h"
@@ -129,5 +130,40 @@ vt_status vt_fulldet_cfg_check(const vt_fulldet_cfg *cfg);
 vt_status vt_fulldet(vt_fulldet_state *st, const vt_fulldet_cfg *cfg, const vt_camera_min *cam,
                      const vt_image_u8 *img, const vt_road_area *road,
                      const vt_window_scorer *scorer, vt_fulldet_result *out);
+
+/* The classify stage's HOG + linear SVM as a vt_window_scorer: pass
+ * {vt_hog_scorer_level, vt_hog_scorer_score, &sc}. level() prepares the HOG
+ * blocks of the band (rows y0..y1, at most VT_CLS_MAX_H of them, columns from 0,
+ * at most VT_CLS_MAX_W); score() reads a window of the model's size lying on the
+ * band's 8 px cell grid from the prepared blocks (vt_hog_window_score: lookups
+ * only), re-preparing a band that starts at the window when it lies outside the
+ * prepared one; any other window (another size, off the grid: the shadow boxes'
+ * windows) is scored by vt_classify_box on its level-image box (resampled to the
+ * model window, HOG on the crop alone). Scores are the model's Q16 decision
+ * values. The model must be of kind VT_DESC_HOG (GIST models: vt_classify_box on
+ * every window through the same path, slow). sizeof(vt_hog_scorer) is mostly
+ * vt_hog_ws (263 KB at 1280 x 192) and vt_cls_box_ws. */
+typedef struct {
+    const vt_svm_model *model;
+    const uint8_t *px;   /* level image the band was prepared from (NULL: none) */
+    int32_t level;
+    int32_t x0;          /* band origin in level px */
+    int32_t y0;
+    int32_t w;           /* band size */
+    int32_t h;
+    vt_hog_ws hog;
+    vt_cls_box_ws box;
+} vt_hog_scorer;
+
+/* Point sc at model m (vt_svm_model_check must pass) and forget any band. */
+vt_status vt_hog_scorer_init(vt_hog_scorer *sc, const vt_svm_model *m);
+
+/* vt_window_scorer.level for ctx = a vt_hog_scorer *. */
+vt_status vt_hog_scorer_level(void *ctx, const vt_image_u8 *level_img, int32_t level, int32_t y0,
+                              int32_t y1);
+
+/* vt_window_scorer.score for ctx = a vt_hog_scorer *. */
+vt_status vt_hog_scorer_score(void *ctx, const vt_image_u8 *level_img, const vt_window *win,
+                              int32_t *score);
 
 #endif /* VEHTRACK_FULLDET_H */

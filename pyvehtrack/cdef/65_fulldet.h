@@ -43,3 +43,20 @@ vt_status vt_fulldet_cfg_check(const vt_fulldet_cfg *cfg);
 vt_status vt_fulldet(vt_fulldet_state *st, const vt_fulldet_cfg *cfg, const vt_camera_min *cam,
                      const vt_image_u8 *img, const vt_road_area *road,
                      const vt_window_scorer *scorer, vt_fulldet_result *out);
+
+typedef struct {
+    const vt_svm_model *model;
+    const uint8_t *px;
+    int32_t level;
+    int32_t x0;
+    int32_t y0;
+    int32_t w;
+    int32_t h;
+    ...;
+} vt_hog_scorer;
+
+vt_status vt_hog_scorer_init(vt_hog_scorer *sc, const vt_svm_model *m);
+vt_status vt_hog_scorer_level(void *ctx, const vt_image_u8 *level_img, int32_t level, int32_t y0,
+                              int32_t y1);
+vt_status vt_hog_scorer_score(void *ctx, const vt_image_u8 *level_img, const vt_window *win,
+                              int32_t *score);
