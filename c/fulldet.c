@@ -36,7 +36,8 @@ vt_status vt_fulldet_cfg_check(const vt_fulldet_cfg *cfg)
     }
     if (cfg->sources < 1 || cfg->sources > 3 || (cfg->edge_check & ~1) != 0 ||
         (cfg->shadow_classify & ~1) != 0 || cfg->nms_iou_q8 < 0 || cfg->nms_iou_q8 > 256 ||
-        cfg->nms_contain_q8 < 0 || cfg->nms_contain_q8 > 256) {
+        cfg->nms_contain_q8 < 0 || cfg->nms_contain_q8 > 256 || cfg->box_height_q8 < 1 ||
+        cfg->box_height_q8 > 1024) {
         return VT_E_ARG;
     }
     return VT_OK;
@@ -68,13 +69,15 @@ static void vt__add(vt_fulldet_state *st, vt_fulldet_result *out, const vt_box *
 
 /* Input-pixel box of a window, clipped to the frame (a level's last column or row
  * may stand for fewer than 2^level input pixels). */
-static vt_box vt__win_box(const vt_window *wn, int32_t w, int32_t h)
+static vt_box vt__win_box(const vt_window *wn, int32_t w, int32_t h, int32_t height_q8)
 {
     vt_box b;
+    int32_t span = wn->size << wn->level;
+    int32_t bh = vt__max_i32(1, (span * height_q8) >> 8);
     b.left = wn->x << wn->level;
-    b.top = wn->y << wn->level;
     b.right = vt__clamp_i32(((wn->x + wn->size) << wn->level) - 1, 0, w - 1);
     b.bottom = vt__clamp_i32(((wn->y + wn->size) << wn->level) - 1, 0, h - 1);
+    b.top = vt__clamp_i32(b.bottom - bh + 1, 0, b.bottom);
     return b;
 }
 
@@ -171,7 +174,7 @@ vt_status vt_fulldet(vt_fulldet_state *st, const vt_fulldet_cfg *cfg, const vt_c
                     continue;
                 }
                 ++out->n_window_hits;
-                b = vt__win_box(&st->win[i], w, h);
+                b = vt__win_box(&st->win[i], w, h, cfg->box_height_q8);
                 if (cfg->edge_check) {
                     vt_hypothesis hy;
                     vt_box vb;

@@ -145,6 +145,7 @@ def _c_cfg(cfg: rfd.FullDetConfig):
     c.shadow_classify = int(bool(cfg.shadow_classify))
     c.shadow_score_min, c.shadow_score = int(cfg.shadow_score_min), int(cfg.shadow_score)
     c.nms_iou_q8, c.nms_contain_q8 = round(cfg.nms_iou * 256), round(cfg.nms_contain * 256)
+    c.box_height_q8 = round(cfg.box_height * 256)
     _native.check("vt_fulldet_cfg_check", lib.vt_fulldet_cfg_check(c), f"config {cfg}")
     return c
 

@@ -68,6 +68,7 @@ def c_cfg(cfg: rfd.FullDetConfig):
     c.shadow_classify, c.shadow_score_min, c.shadow_score = int(cfg.shadow_classify), cfg.shadow_score_min, \
         cfg.shadow_score
     c.nms_iou_q8, c.nms_contain_q8 = round(cfg.nms_iou * 256), round(cfg.nms_contain * 256)
+    c.box_height_q8 = round(cfg.box_height * 256)
     assert lib.vt_fulldet_cfg_check(c) == 0
     return c
 
@@ -121,8 +122,8 @@ def test_without_scorer_shadow_only():
 
 @settings(max_examples=12)
 @given(st.integers(0, 2 ** 31 - 1), st.booleans(), st.booleans(), st.booleans(), st.integers(-20, 20),
-       st.integers(0, 256), st.integers(0, 256))
-def test_random_frames_match_oracle(seed, shadow, windows, edge, smin, iou, contain):
+       st.integers(0, 256), st.integers(0, 256), st.integers(1, 1024))
+def test_random_frames_match_oracle(seed, shadow, windows, edge, smin, iou, contain, bh):
     rng = np.random.default_rng(seed)
     h, w = int(rng.integers(24, min(MAXH, 160))), int(rng.integers(24, min(MAXW, 220)))
     # blocky scene: dark rectangles (vehicle-like) on a mid-gray road with noise
@@ -136,7 +137,7 @@ def test_random_frames_match_oracle(seed, shadow, windows, edge, smin, iou, cont
     cfg = rfd.FullDetConfig(shadow_source=shadow or not windows, window_source=windows,
                             win=rw.WindowConfig(sizes=(8, 11, 16), levels=3, step=0.25),
                             edge_check=edge, window_score_min=smin, shadow_score_min=smin,
-                            nms_iou=iou / 256, nms_contain=contain / 256)
+                            nms_iou=iou / 256, nms_contain=contain / 256, box_height=bh / 256)
     got, ref, cst, rst, _ = run_both(gray, cam, cfg)
     assert cst == rst
     assert np.array_equal(got, ref)

@@ -78,15 +78,18 @@ typedef struct {
     int32_t shadow_score;     /* score of a shadow box when it is not classified       */
     int32_t nms_iou_q8;       /* vt_nms limits, 0..256                                 */
     int32_t nms_contain_q8;
+    int32_t box_height_q8;    /* a window's box keeps its bottom row and width; its
+                                 height is max(1, width * this >> 8), 1..1024        */
 } vt_fulldet_cfg;
 
 /* Defaults: both sources, windows as VT_WIN_CFG_DEFAULT, detection as
  * VT_DETECT_CFG_DEFAULT, scores >= 0 (the SVM's own boundary), edges checked,
  * shadow boxes classified with the same boundary, NMS at IoU 0.3 and 0.7 of the
- * smaller box. */
+ * smaller box, window boxes 3/4 as high as wide (the median box of
+ * tusimple-vehicles-dev TRAIN is 0.59 as high as wide: rear and side views). */
 #define VT_FULLDET_CFG_DEFAULT                                                           \
     {                                                                                    \
-        3, VT_WIN_CFG_DEFAULT, VT_DETECT_CFG_DEFAULT, 0, 1, 1, 0, 0, 77, 179             \
+        3, VT_WIN_CFG_DEFAULT, VT_DETECT_CFG_DEFAULT, 0, 1, 1, 0, 0, 77, 179, 192            \
     }
 
 typedef struct {
@@ -122,7 +125,8 @@ vt_status vt_fulldet_cfg_check(const vt_fulldet_cfg *cfg);
  *   scorer: NULL, or a scorer whose `score` is not NULL.
  * Windows are taken level by level (windows.h order) and scored on the level
  * image (level 0 is img itself; level l+1 = vt_pyr_down of level l). A window's
- * box is its input-pixel box; a shadow box is vt_verify's. Boxes past
+ * box is its input-pixel box cut to box_height_q8 of its width (bottom row kept, clipped
+ * to the frame); a shadow box is vt_verify's. Boxes past
  * VT_MAX_BOXES after NMS are not written (n_boxes is capped). Errors: NULL st,
  * cfg, cam, img, road or out -> VT_E_ARG; a bad cfg or cam as their checks; img
  * as vt_image_u8_check; a road for another height -> VT_E_SIZE; a scorer's error.

@@ -23,6 +23,7 @@ typedef struct {
     int32_t shadow_score;
     int32_t nms_iou_q8;
     int32_t nms_contain_q8;
+    int32_t box_height_q8;
 } vt_fulldet_cfg;
 
 typedef struct { ...; } vt_fulldet_state;

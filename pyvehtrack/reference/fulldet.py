@@ -5,7 +5,8 @@ The composition the IVVI paper (sec. 4/5) and the GIST paper (sec. III) describe
   2. sliding windows on each level, restricted to the flat-road width band of a
      vehicle at their bottom row (reference.windows), each scored by the classifier;
      a window scoring >= window_score_min (and, with edge_check, whose bottom edge
-     passes the thesis's vertical-edge verification) becomes a box;
+     passes the thesis's vertical-edge verification) becomes a box: the window's
+     width and bottom row, box_height of its width high;
   3. shadow hypotheses over the road area verified by vertical edges (thesis sec.
      2.4.2, reference.shadow / reference.verify); with shadow_classify, the window
      of the pyramid nearest each shadow box in width is scored and the box kept if
@@ -42,6 +43,7 @@ class FullDetConfig:
     shadow_score: int = 0
     nms_iou: float = 77 / 256
     nms_contain: float = 179 / 256
+    box_height: float = 192 / 256     # window box height / width (bottom row kept)
 
 
 def detect(gray: np.ndarray, road, cam: rw.Camera, cfg: FullDetConfig, score=None, *,
@@ -84,7 +86,9 @@ def detect(gray: np.ndarray, road, cam: rw.Camera, cfg: FullDetConfig, score=Non
                     continue
                 stats["n_window_hits"] += 1
                 l, t, r, b = rw.window_box((lv, s, x, y))
-                box = (l, t, min(r, w - 1), min(b, h - 1))
+                r, b = min(r, w - 1), min(b, h - 1)
+                bh = max(1, int(np.floor(s * 2 ** lvl * cfg.box_height)))
+                box = (l, min(max(b - bh + 1, 0), b), r, b)
                 if cfg.edge_check and rverify.verify_one(gray, (box[3], box[0], box[2]), cfg.verify) is None:
                     continue
                 add(box, sc, 2)
