@@ -176,3 +176,18 @@ def test_bad_arguments_and_scorer_error():
     with pytest.raises(VtError, match="vt_fulldet"):
         _native.fulldet(st_, cfg, cam, gray, road, sc.c, out)
     assert out.n_boxes == 0 and sc.calls == 3
+
+
+def test_c_default_config_equals_oracle_default():
+    c = _native.fulldet_cfg_default()
+    assert lib.vt_fulldet_cfg_check(c) == 0
+    cc = c_cfg(rfd.FullDetConfig())
+    for name in ("sources", "window_score_min", "edge_check", "shadow_classify", "shadow_score_min", "shadow_score",
+                 "nms_iou_q8", "nms_contain_q8", "box_height_q8"):
+        assert getattr(c, name) == getattr(cc, name), name
+    assert bytes(ffi.buffer(ffi.addressof(c, "win"))) == bytes(ffi.buffer(ffi.addressof(cc, "win")))
+    ref = rfd.FullDetConfig()
+    for f in ref.verify.__dataclass_fields__:
+        assert getattr(c.det.verify, f) == getattr(ref.verify, f), f
+    for f in ref.shadow.__dataclass_fields__:
+        assert getattr(c.det.shadow, f) == getattr(ref.shadow, f), f

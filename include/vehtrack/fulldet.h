@@ -83,13 +83,14 @@ typedef struct {
 } vt_fulldet_cfg;
 
 /* Defaults: both sources, windows as VT_WIN_CFG_DEFAULT, detection as
- * VT_DETECT_CFG_DEFAULT, scores >= 0 (the SVM's own boundary), edges checked,
+ * VT_DETECT_CFG_DEFAULT but boxes 3/4 as high as wide (verify aspect_q8 192), scores >= 0 (the SVM's own boundary), edges checked,
  * shadow boxes classified with the same boundary, NMS at IoU 0.3 and 0.7 of the
  * smaller box, window boxes 3/4 as high as wide (the median box of
  * tusimple-vehicles-dev TRAIN is 0.59 as high as wide: rear and side views). */
 #define VT_FULLDET_CFG_DEFAULT                                                           \
     {                                                                                    \
-        3, VT_WIN_CFG_DEFAULT, VT_DETECT_CFG_DEFAULT, 0, 1, 1, 0, 0, 77, 179, 192            \
+        3, VT_WIN_CFG_DEFAULT, {VT_SHADOW_CFG_DEFAULT, {6, 26, 128, 40, 64, 3, 384, 128, 192}}, \
+            0, 1, 1, 0, 0, 77, 179, 192            \
     }
 
 typedef struct {

@@ -35,7 +35,7 @@ class FullDetConfig:
     window_source: bool = True
     win: rw.WindowConfig = field(default_factory=rw.WindowConfig)
     shadow: ShadowConfig = field(default_factory=ShadowConfig)
-    verify: VerifyConfig = field(default_factory=VerifyConfig)
+    verify: VerifyConfig = field(default_factory=lambda: VerifyConfig(aspect_q8=192))
     window_score_min: int = 0
     edge_check: bool = True
     shadow_classify: bool = True
