@@ -89,7 +89,7 @@ typedef struct {
  * tusimple-vehicles-dev TRAIN is 0.59 as high as wide: rear and side views). */
 #define VT_FULLDET_CFG_DEFAULT                                                           \
     {                                                                                    \
-        3, VT_WIN_CFG_DEFAULT, {VT_SHADOW_CFG_DEFAULT, {6, 26, 128, 24, 64, 3, 384, 128, 192}}, \
+        3, VT_WIN_CFG_DEFAULT, {VT_SHADOW_CFG_DEFAULT, {6, 26, 128, 40, 64, 3, 384, 128, 192}}, \
             0, 1, 1, 0, 0, 77, 179, 192            \
     }
 

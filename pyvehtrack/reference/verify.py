@@ -36,7 +36,7 @@ class VerifyConfig:
     widen_px: int = 6              # thesis: 6 px on each side
     widen_q8: int = 26             # plus this x edge length, 0.1 (thesis: 0)
     roi_height_q8: int = 128       # thesis: half the edge length
-    vedge_threshold: int = 24      # |sobel_x| >= this (Sobel gain 4: a 6-level step)
+    vedge_threshold: int = 40      # |sobel_x| >= this (Sobel gain 4: a 10-level step)
     side_min_frac_q8: int = 64     # a side needs vertical edges on 1/4 of the ROI rows
     side_min_px: int = 3           # and on at least 3 rows
     side_contrast_q8: int = 384    # and >= 1.5 x the ROI's mean column count
