@@ -247,6 +247,12 @@ class Detector:
                 for ln in getattr(lr, "lanes", None) or []:
                     if isinstance(ln.side, str) and ln.points is not None and len(ln.points):
                         lanes.append((ln.side, np.asarray(ln.points, np.float64).reshape(-1, 2)))
+        # a video keeps the last vanishing row while the lanes are lost (the camera's
+        # pitch does not change between frames); a still image falls back to the camera's
+        if horizon is None:
+            horizon = getattr(self, "_last_horizon", None)
+        else:
+            self._last_horizon = horizon
         given = None
         if not isinstance(self.road, str):
             given = self.road(gray) if callable(self.road) else self.road
