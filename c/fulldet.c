@@ -228,12 +228,6 @@ vt_status vt_fulldet(vt_fulldet_state *st, const vt_fulldet_cfg *cfg, const vt_c
                 wn.x = vt__clamp_i32(((b->left + b->right + 1) >> (l + 1)) - wn.size / 2, 0,
                                      lv[l].w - wn.size);
                 wn.y = vt__clamp_i32(((b->bottom + 1) >> l) - wn.size, 0, lv[l].h - wn.size);
-                if (scorer->level != NULL) {
-                    s = scorer->level(scorer->ctx, &lv[l], l, wn.y, wn.y + wn.size - 1);
-                    if (s != VT_OK) {
-                        return s;
-                    }
-                }
                 s = scorer->score(scorer->ctx, &lv[l], &wn, &sc);
                 if (s != VT_OK) {
                     return s;
@@ -281,19 +275,21 @@ vt_status vt_hog_scorer_init(vt_hog_scorer *sc, const vt_svm_model *m)
 /* Prepare rows y0.. and columns x0.. of the level image (as many as the HOG
  * workspace holds). */
 static vt_status vt__hog_band(vt_hog_scorer *sc, const vt_image_u8 *img, int32_t level, int32_t x0,
-                              int32_t y0, int32_t y1)
+                              int32_t y0, int32_t w, int32_t y1)
 {
     vt_image_u8 band;
     vt_status s;
     int32_t h = y1 - y0 + 1;
-    if (x0 < 0 || y0 < 0 || x0 >= img->w || y0 >= img->h || h < 1) {
+    if (x0 < 0 || y0 < 0 || x0 >= img->w || y0 >= img->h || h < 1 || w < 1) {
         return VT_E_ARG;
     }
     h = h > VT_CLS_MAX_H ? VT_CLS_MAX_H : h;
     h = h > img->h - y0 ? img->h - y0 : h;
+    w = w > VT_CLS_MAX_W ? VT_CLS_MAX_W : w;
+    w = w > img->w - x0 ? img->w - x0 : w;
     band.px = img->px + (size_t)y0 * (size_t)img->stride + (size_t)x0;
     band.stride = img->stride;
-    band.w = img->w - x0 > VT_CLS_MAX_W ? VT_CLS_MAX_W : img->w - x0;
+    band.w = w;
     band.h = h;
     sc->px = NULL;
     s = vt_hog_prepare(&sc->hog, &band);
@@ -328,7 +324,7 @@ vt_status vt_hog_scorer_level(void *ctx, const vt_image_u8 *level_img, int32_t l
         sc->px = NULL; /* every window of this band goes through vt_classify_box */
         return VT_OK;
     }
-    return vt__hog_band(sc, level_img, level, 0, y0, y1);
+    return vt__hog_band(sc, level_img, level, 0, y0, level_img->w, y1);
 }
 
 vt_status vt_hog_scorer_score(void *ctx, const vt_image_u8 *level_img, const vt_window *win,
@@ -361,9 +357,10 @@ vt_status vt_hog_scorer_score(void *ctx, const vt_image_u8 *level_img, const vt_
                          win->y + win->size <= sc->y0 + sc->h;
         if (!inside || (win->x - sc->x0) % VT_CLS_CELL != 0 ||
             (win->y - sc->y0) % VT_CLS_CELL != 0) {
-            /* a band that starts at this window (its cells then align) */
-            s = vt__hog_band(sc, level_img, win->level, win->x, win->y,
-                             win->y + (VT_CLS_MAX_H > win->size ? VT_CLS_MAX_H : win->size) - 1);
+            /* the window alone (a shadow box's window, or one outside the band):
+             * its cells then align, and the work is one window's */
+            s = vt__hog_band(sc, level_img, win->level, win->x, win->y, win->size,
+                             win->y + win->size - 1);
             if (s != VT_OK) {
                 return s;
             }

@@ -45,11 +45,11 @@
 #define VT_FULLDET_PYR_BYTES                                                                 \
     ((VT_MAX_WIDTH) * (VT_MAX_HEIGHT) / 3 + ((VT_MAX_WIDTH) + (VT_MAX_HEIGHT) + 1) * (VT_WIN_MAX_LEVELS) + 16)
 
-/* The classifier as this stage sees it. `level` (may be NULL) is called before
- * windows of a pyramid level are scored, with the level image and the band of
- * level rows y0..y1 they cover (so a descriptor can precompute its filter
- * responses there): once for the sliding windows of the level, and once before
- * each classified shadow box (a band of one window); `score` (required) gives the decision
+/* The classifier as this stage sees it. `level` (may be NULL) is called once per
+ * pyramid level with sliding windows, before they are scored, with the level
+ * image and the band of level rows y0..y1 they cover (so a descriptor can
+ * precompute its filter responses there); a classified shadow box's window is
+ * scored without a `level` call (the scorer handles a window outside its band); `score` (required) gives the decision
  * value of one window of that level image, in the classifier's own fixed-point
  * scale (>= 0: vehicle). A negative status from either stops the frame and is
  * returned. ctx is the caller's (model and scratch). */
@@ -141,8 +141,8 @@ vt_status vt_fulldet(vt_fulldet_state *st, const vt_fulldet_cfg *cfg, const vt_c
  * blocks of the band (rows y0..y1, at most VT_CLS_MAX_H of them, columns from 0,
  * at most VT_CLS_MAX_W); score() reads a window of the model's size lying on the
  * band's 8 px cell grid from the prepared blocks (vt_hog_window_score: lookups
- * only), re-preparing a band that starts at the window when it lies outside the
- * prepared one; any other window (another size, off the grid: the shadow boxes'
+ * only), preparing the window alone when it lies outside the prepared band or
+ * off its grid; any other window (another size, off the grid: the shadow boxes'
  * windows) is scored by vt_classify_box on its level-image box (resampled to the
  * model window, HOG on the crop alone). Scores are the model's Q16 decision
  * values. The model must be of kind VT_DESC_HOG (GIST models: vt_classify_box on
