@@ -224,6 +224,8 @@ def add_model_arg(p) -> None:
     p.add_argument("--model", metavar="MODEL.npz", default=None,
                    help="classifier model for the full-road detector (default: the built-in model, "
                         "if the build has one; else the ego-lane detector)")
+    p.add_argument("--sources", nargs="+", choices=("shadow", "windows"), default=None,
+                   help="full-road hypothesis sources (default: shadow; windows = classifier sliding windows)")
 
 
 def make_detector(args):
@@ -233,7 +235,9 @@ def make_detector(args):
     if model is not None and not Path(model).is_file():
         raise CliError(f"--model {model}: no such file")
     try:
-        return Detector(engine=args.engine, road=args.road, model=model)
+        srcs = getattr(args, "sources", None)
+        return Detector(engine=args.engine, road=args.road, model=model,
+                        sources=tuple(srcs) if srcs else None)
     except (RuntimeError, ValueError, TypeError) as e:
         raise CliError(f"--model {model}: {e}" if model else str(e)) from None
 
