@@ -301,7 +301,7 @@ def _full_road(engine, model, sources, camera, score_offset):
     if isinstance(score_offset, bool) or not isinstance(score_offset, (int, float)) or \
             not np.isfinite(score_offset):
         raise TypeError(f"score_offset: expected a finite number, got {score_offset!r}")
-    if isinstance(sources, str) and sources == "ego":
+    if sources == "ego" or (isinstance(sources, tuple) and sources == ("ego",)):
         if model is not None:
             raise ValueError("model: the ego-lane mode (sources='ego') uses no classifier")
         return None
