@@ -237,7 +237,7 @@ class FullRoadDetector:
         ccam = _native.camera_min(cam.fx, cam.horizon_y, round(cam.height_m * 1000), cam.hood_y)
         if road is None:
             road_c = _native.road_from_camera(ffi.addressof(self._cfg_c, "win"), ccam, w, h)
-            road_r = rw.road_from_camera(cam, self.det_cfg.win, w, h)
+            road_r = rw.road_from_camera(cam, self.det_cfg.win, w, h) if self.engine != "c" else None
         else:
             road_c = _native.road_area(road, h)
             road_r = road
