@@ -365,6 +365,7 @@ static void vt__gist_filter(vt_gist_ws *ws, const uint8_t *lp, int32_t lw, int32
     const int16_t *fy = vt__gist_fy_q14 + o * 2 * VT_GIST_KSIZE;
     const int32_t xe = ws->cells_x * cs, ye = ws->cells_y * cs;
     uint64_t acc[VT__GCX];
+    int32_t slot[VT_GIST_KSIZE];
     int32_t next = 0, x, y, t;
     memset(acc, 0, sizeof acc);
     for (y = 0; y < ye; ++y) {
@@ -375,26 +376,31 @@ static void vt__gist_filter(vt_gist_ws *ws, const uint8_t *lp, int32_t lw, int32
             int32_t(*r)[2] = ws->rows[next % VT_GIST_KSIZE];
             for (x = 0; x < xe; ++x) {
                 int32_t re = 0, im = 0;
-                for (t = -half; t <= half; ++t) {
-                    int32_t xx = x + t;
-                    int32_t v;
-                    if (xx < 0 || xx >= lw) {
-                        xx = vt__reflect101(xx, lw);
+                if (x >= half && x + half < lw) {
+                    const uint8_t *q = p + x - half;
+                    for (t = 0; t < VT_GIST_KSIZE; ++t) {
+                        re += fx[2 * t] * q[t];
+                        im += fx[2 * t + 1] * q[t];
                     }
-                    v = p[xx];
-                    re += fx[2 * (t + half)] * v;
-                    im += fx[2 * (t + half) + 1] * v;
+                } else {
+                    for (t = -half; t <= half; ++t) {
+                        const int32_t v = p[vt__reflect101(x + t, lw)];
+                        re += fx[2 * (t + half)] * v;
+                        im += fx[2 * (t + half) + 1] * v;
+                    }
                 }
                 /* Q14 -> Q4, round half up. */
                 r[x][0] = (int32_t)vt__floor_shr64((int64_t)re + 512, 10);
                 r[x][1] = (int32_t)vt__floor_shr64((int64_t)im + 512, 10);
             }
         }
+        for (t = -half; t <= half; ++t) {
+            slot[t + half] = vt__reflect101(y + t, lh) % VT_GIST_KSIZE;
+        }
         for (x = 0; x < xe; ++x) {
             int64_t re = 0, im = 0, e;
             for (t = -half; t <= half; ++t) {
-                const int32_t yy = vt__reflect101(y + t, lh);
-                const int32_t *rv = ws->rows[yy % VT_GIST_KSIZE][x];
+                const int32_t *rv = ws->rows[slot[t + half]][x];
                 const int32_t kr = fy[2 * (t + half)], ki = fy[2 * (t + half) + 1];
                 re += (int64_t)kr * rv[0] - (int64_t)ki * rv[1];
                 im += (int64_t)kr * rv[1] + (int64_t)ki * rv[0];

@@ -20,6 +20,8 @@ SUBCOMMANDS: dict[str, str] = {
     "detect": "pyvehtrack.cli:register_detect",
     "track": "pyvehtrack.cli_track:register_track",
     "eval": "pyvehtrack.cli_track:register_eval",
+    "train": "pyvehtrack.cli_classify:register_train",
+    "classify": "pyvehtrack.cli_classify:register_classify",
 }
 
 IMAGE_EXTS = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm", ".webp"}
