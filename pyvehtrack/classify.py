@@ -3,7 +3,7 @@
     from pyvehtrack.classify import Classifier
     clf = Classifier()                    # the built-in default model (c/tables/svm_default.h)
     clf = Classifier("model.npz")         # a model written by `pyvehtrack train`
-    clf.score([img1, img2])               # SVM scores (float; > = threshold -> vehicle)
+    clf.score([img1, img2])               # scores (float; >= threshold -> vehicle)
     clf.descriptor(img)                   # the model's descriptor (floats in [0, 1])
 
 Images are gray (h, w) or BGR (h, w, 3) uint8 arrays of any size: each is resampled
@@ -50,22 +50,52 @@ class Classifier:
             raise ValueError(f"engine: expected 'c' or 'reference', got {engine!r}")
         self.engine = engine
         if model is None:
-            m = N.svm_default_model(N.lib.VT_DESC_HOG)
-            self._cmodel, self._keep = m, None
+            # The built-in model: the MLP if one is built in (better on the TEST split),
+            # else the linear HOG SVM. Only the quantised weights are built in: the float
+            # view is w_q / 2^shift.
+            self._mlp = self._builtin_mlp()
+            if self._mlp is not None:
+                m = self._mlp
+                self.model_type = "mlp"
+                self._cmodel, self._keep = m, None
+                self.w1 = np.frombuffer(N.ffi.buffer(m.w1, 2 * m.dim * m.hidden), np.int16).reshape(
+                    m.hidden, m.dim) / 2.0 ** m.w1_shift
+                self.b1 = np.frombuffer(N.ffi.buffer(m.b1_q16, 4 * m.hidden), np.int32) / 65536.0
+                self.w2 = np.frombuffer(N.ffi.buffer(m.w2, 2 * m.hidden), np.int16) / 2.0 ** m.w2_shift
+                self.b2 = m.b2_q16 / 65536.0
+            else:
+                m = N.svm_default_model(N.lib.VT_DESC_HOG)
+                self.model_type = "svm"
+                self._cmodel, self._keep = m, None
+                wq = np.frombuffer(N.ffi.buffer(m.w, 2 * m.dim), np.int16).copy()
+                self.w = wq / 2.0 ** m.w_shift
+                self.b = m.bias_q16 / 65536.0
             self.kind = _KIND_NAMES[m.kind]
             self.win_w, self.win_h = int(m.win_w), int(m.win_h)
-            wq = np.frombuffer(N.ffi.buffer(m.w, 2 * m.dim), np.int16).copy()
-            # The built-in model keeps only the quantised weights: the float view is w_q / 2^shift.
-            self.w = wq / 2.0 ** m.w_shift
-            self.b = m.bias_q16 / 65536.0
             self.threshold = m.threshold_q16 / 65536.0
         else:
             d = load_model(model)
+            self.model_type = d["model_type"]
             self._cmodel, self._keep = c_model(d)
             self.kind, self.win_w, self.win_h = d["kind"], d["win_w"], d["win_h"]
-            self.w, self.b = np.asarray(d["w"], float), float(d["b"])
+            if self.model_type == "mlp":
+                self.w1, self.b1, self.w2, self.b2 = d["w1"], d["b1"], d["w2"], d["b2"]
+            else:
+                self.w, self.b = np.asarray(d["w"], float), float(d["b"])
             self.threshold = d["threshold_q16"] / 65536.0
         self._box_ws = N.box_ws_new()
+
+    @staticmethod
+    def _builtin_mlp():
+        try:
+            return N.mlp_default_model()
+        except N.VtError:
+            return None
+
+    def _float_score(self, x: np.ndarray) -> float:
+        if self.model_type == "mlp":
+            return float(R.mlp_decision(self.w1, self.b1, self.w2, self.b2, x))
+        return float(R.svm_decision(self.w, self.b, x))
 
     def window(self, img) -> np.ndarray:
         """The image resampled to the model's window (integer area means)."""
@@ -95,10 +125,12 @@ class Classifier:
         for i, img in enumerate(images):
             g = _gray(img, f"images[{i}]")
             if self.engine == "c":
-                q = N.classify_box(self._box_ws, self._cmodel, g, (0, 0, g.shape[1] - 1, g.shape[0] - 1))
+                box = (0, 0, g.shape[1] - 1, g.shape[0] - 1)
+                fn = N.classify_box_mlp if self.model_type == "mlp" else N.classify_box
+                q = fn(self._box_ws, self._cmodel, g, box)
                 out.append(q / 65536.0)
             else:
-                out.append(float(R.svm_decision(self.w, self.b, self.descriptor(g))))
+                out.append(self._float_score(self.descriptor(g)))
         return np.array(out, float)
 
     def is_vehicle(self, scores) -> np.ndarray:

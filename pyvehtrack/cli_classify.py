@@ -1,7 +1,8 @@
 """`pyvehtrack train` and `pyvehtrack classify` (the classifier issue's commands).
 
     pyvehtrack train --vehicles DIR... --non-vehicles DIR... [--frames DIR --frames-json ANN.json]
-                     [--descriptor hog|gist] [--window N] [--C C] --out MODEL.npz [--no-progress]
+                     [--descriptor hog|gist] [--window N] [--C C] [--model-type svm|mlp [--hidden N]]
+                     --out MODEL.npz [--no-progress]
     pyvehtrack classify INPUT... --json OUT.json [--model MODEL.npz] [--engine c|reference]
 
 train prints the TEST accuracy (grouped split, see pyvehtrack.datasets) of the float
@@ -26,6 +27,9 @@ def register_train(sub) -> None:
     p.add_argument("--descriptor", choices=("hog", "gist"), default="hog")
     p.add_argument("--window", type=int, default=64, help="square window in px (default 64)")
     p.add_argument("--C", type=float, default=None, help="SVM C (default: chosen on an inner validation fold)")
+    p.add_argument("--model-type", choices=("svm", "mlp"), default="svm",
+                   help="linear SVM (default; the sliding-window scorer) or a one-hidden-layer MLP")
+    p.add_argument("--hidden", type=int, default=16, help="MLP hidden units (default 16)")
     p.add_argument("--out", required=True, metavar="MODEL.npz")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run_train)
@@ -40,18 +44,25 @@ def run_train(args) -> int:
             raise CliError(f"not a folder: {d!r}")
     if args.frames_json and not Path(args.frames_json).is_file():
         raise CliError(f"--frames-json: no such file {args.frames_json!r}")
+    if not 1 <= args.hidden <= 64:
+        raise CliError(f"--hidden: must be in 1..64, got {args.hidden}")
     if args.C is not None and not args.C > 0:
         raise CliError(f"--C: must be > 0, got {args.C}")
     try:
         d, rep = T.run(args.vehicles, args.non_vehicles, args.frames, args.frames_json,
                        kind=args.descriptor, win=args.window, C=args.C,
-                       progress=not args.no_progress, log=lambda s: print(s, file=sys.stderr))
+                       progress=not args.no_progress, log=lambda s: print(s, file=sys.stderr),
+                       model_type=args.model_type, hidden=args.hidden)
     except ValueError as e:
         raise CliError(str(e)) from e
     T.save_model(args.out, d)
     t = rep["test"]
-    print(f"model {args.out}: {args.descriptor} {args.window}x{args.window}, C={rep['C']}, "
-          f"weights int16 Q{d['w_shift']}")
+    if args.model_type == "mlp":
+        print(f"model {args.out}: {args.descriptor} {args.window}x{args.window}, MLP {d['hidden']} hidden, "
+              f"weights int16 Q{d['w1_shift']} / Q{d['w2_shift']}")
+    else:
+        print(f"model {args.out}: {args.descriptor} {args.window}x{args.window}, SVM C={rep['C']}, "
+              f"weights int16 Q{d['w_shift']}")
     print(f"TEST split ({t['n']} crops; grouped by file number, never used for fitting or C):")
     for src in sorted(k for k in t if isinstance(t[k], dict)):
         s = t[src]

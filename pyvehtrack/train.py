@@ -208,6 +208,39 @@ def quantise(w: np.ndarray, b: float) -> tuple[np.ndarray, int, int]:
     return wq, shift, bq
 
 
+def _shift_for(m: float) -> int:
+    shift = 30
+    while shift > 1 and m * 2 ** shift > 32767:
+        shift -= 1
+    return shift
+
+
+def fit_mlp(X: np.ndarray, y: np.ndarray, hidden: int, alpha: float = 1e-3, max_iter: int = 40, seed: int = 0):
+    """sklearn MLPClassifier, one ReLU layer; fixed iterations (no early stopping on a
+    random part of TRAIN: neighbouring crops are near-duplicates). Returns w1 (hidden x dim), b1, w2, b2."""
+    import warnings
+
+    from sklearn.exceptions import ConvergenceWarning
+    from sklearn.neural_network import MLPClassifier
+    clf = MLPClassifier((hidden,), alpha=alpha, max_iter=max_iter, random_state=seed)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        clf.fit(X, y)
+    return (clf.coefs_[0].T.copy(), clf.intercepts_[0].copy(), clf.coefs_[1].ravel().copy(),
+            float(clf.intercepts_[1][0]))
+
+
+def mlp_dict(kind, win_w, win_h, w1, b1, w2, b2, info) -> dict:
+    s1 = _shift_for(float(np.abs(w1).max()))
+    s2 = _shift_for(float(np.abs(w2).max()))
+    q = lambda v, s: np.clip(np.rint(v * 2 ** s), -32768, 32767).astype(np.int16)  # noqa: E731
+    q16 = lambda v: np.clip(np.rint(np.asarray(v) * 65536), -2 ** 31, 2 ** 31 - 1).astype(np.int64)  # noqa: E731
+    return {"model_type": "mlp", "kind": kind, "kind_code": KINDS[kind], "win_w": win_w, "win_h": win_h,
+            "hidden": int(w1.shape[0]), "w1": w1, "b1": b1, "w2": w2, "b2": float(b2),
+            "w1_q": q(w1, s1), "w1_shift": s1, "b1_q16": q16(b1).astype(np.int32), "w2_q": q(w2, s2),
+            "w2_shift": s2, "b2_q16": int(q16(b2)), "threshold_q16": 0, "info": json.dumps(info)}
+
+
 def fit_svm(X: np.ndarray, y: np.ndarray, C: float, standardise: bool, sample_weight=None):
     from sklearn.svm import LinearSVC
     if standardise:
@@ -226,7 +259,7 @@ def fit_svm(X: np.ndarray, y: np.ndarray, C: float, standardise: bool, sample_we
 
 def model_dict(kind, win_w, win_h, w, b, C, info) -> dict:
     wq, shift, bq = quantise(w, b)
-    return {"kind": kind, "kind_code": KINDS[kind], "win_w": win_w, "win_h": win_h,
+    return {"model_type": "svm", "kind": kind, "kind_code": KINDS[kind], "win_w": win_w, "win_h": win_h,
             "w": w.astype(np.float64), "b": float(b), "w_q": wq, "w_shift": shift,
             "bias_q16": bq, "threshold_q16": 0, "C": C, "info": json.dumps(info)}
 
@@ -240,30 +273,47 @@ def load_model(path) -> dict:
         z = np.load(path, allow_pickle=False)
     except (OSError, ValueError) as e:
         raise ValueError(f"--model: cannot read {str(path)!r} as a model .npz ({e})") from e
-    need = {"kind", "win_w", "win_h", "w", "b", "w_q", "w_shift", "bias_q16", "threshold_q16"}
+    mtype = str(z["model_type"]) if "model_type" in z.files else "svm"
+    need = {"kind", "win_w", "win_h", "threshold_q16"} | (
+        {"w", "b", "w_q", "w_shift", "bias_q16"} if mtype == "svm" else
+        {"w1", "b1", "w2", "b2", "w1_q", "w1_shift", "b1_q16", "w2_q", "w2_shift", "b2_q16"})
     missing = need - set(z.files)
     if missing:
         raise ValueError(f"--model: {str(path)!r} is not a pyvehtrack model (missing {sorted(missing)})")
     d = {k: z[k] for k in z.files}
+    d["model_type"] = mtype
     d["kind"] = str(d["kind"])
-    for k in ("win_w", "win_h", "w_shift", "bias_q16", "threshold_q16"):
-        d[k] = int(d[k])
-    d["b"] = float(d["b"])
+    for k in ("win_w", "win_h", "w_shift", "bias_q16", "threshold_q16", "w1_shift", "w2_shift", "b2_q16"):
+        if k in d:
+            d[k] = int(d[k])
+    for k in ("b", "b2"):
+        if k in d:
+            d[k] = float(d[k])
     return d
 
 
 def c_model(d: dict):
-    """(vt_svm_model, keepalive) for a model dict."""
+    """(vt_svm_model or vt_mlp_model, keepalive) for a model dict."""
     from . import _native as N
+    if d.get("model_type", "svm") == "mlp":
+        return N.mlp_model(KINDS[d["kind"]], d["win_w"], d["win_h"], d["w1_q"], d["w1_shift"], d["b1_q16"],
+                           d["w2_q"], d["w2_shift"], d["b2_q16"], d["threshold_q16"])
     return N.svm_model(KINDS[d["kind"]], d["win_w"], d["win_h"], d["w_q"], d["w_shift"],
                        d["bias_q16"], d["threshold_q16"])
+
+
+def float_scores(d: dict, X: np.ndarray) -> np.ndarray:
+    if d.get("model_type", "svm") == "mlp":
+        return R.mlp_decision(d["w1"], d["b1"], d["w2"], d["b2"], X)
+    return np.asarray(X, float) @ d["w"] + d["b"]
 
 
 def c_scores(d: dict, Xc: np.ndarray) -> np.ndarray:
     """C decisions (float, from Q16) of C descriptors."""
     from . import _native as N
     m, keep = c_model(d)
-    return np.array([N.svm_decision(m, x) for x in Xc], float) / 65536.0
+    fn = N.mlp_decision if d.get("model_type", "svm") == "mlp" else N.svm_decision
+    return np.array([fn(m, x) for x in Xc], float) / 65536.0
 
 
 # ---------------------------------------------------------------- the whole run
@@ -272,7 +322,7 @@ C_GRID = (0.01, 0.03, 0.1)
 
 def evaluate(d: dict, X: np.ndarray, Xc: np.ndarray, y: np.ndarray, src: np.ndarray, sel: np.ndarray) -> dict:
     """Float and C accuracy on the rows `sel`, per source, and the sign agreement."""
-    sf = X[sel] @ d["w"] + d["b"]
+    sf = float_scores(d, X[sel])
     sc = c_scores(d, Xc[sel])
     ys, ss = y[sel], src[sel]
     out = {"n": int(sel.sum()), "sign_agreement": float(((sf >= 0) == (sc >= 0)).mean()),
@@ -285,7 +335,8 @@ def evaluate(d: dict, X: np.ndarray, Xc: np.ndarray, y: np.ndarray, src: np.ndar
 
 
 def run(vehicles, non_vehicles, frames=None, frames_json=None, kind: str = "hog", win: int = 64,
-        C: float | None = None, progress: bool = True, log=print):
+        C: float | None = None, progress: bool = True, log=print, model_type: str = "svm",
+        hidden: int = 16):
     """Build the crops, choose C on the inner validation fold (fold 1 of TRAIN), fit on
     all of TRAIN, quantise, and score float and C models on TEST. Returns (model dict,
     report dict)."""
@@ -316,6 +367,8 @@ def run(vehicles, non_vehicles, frames=None, frames_json=None, kind: str = "hog"
     tr, te = fold != 0, fold == 0
     std = kind == "gist"
     val = {}
+    if C is None and model_type == "mlp":
+        C = 0.0  # unused by the MLP
     if C is None:
         fit, v = tr & (fold != 1), fold == 1
         for c in C_GRID:
@@ -323,11 +376,15 @@ def run(vehicles, non_vehicles, frames=None, frames_json=None, kind: str = "hog"
             val[c] = float(((X[v] @ w + b >= 0) == y[v]).mean())
             log(f"  C={c}: inner-validation accuracy {val[c]:.4f}")
         C = max(val, key=val.get)
-    w, b = fit_svm(X[tr], y[tr], C, std)
     info = {"train_crops": int(tr.sum()), "test_crops": int(te.sum()), "C": C,
             "split": "gti: blocks of 40 files, block % 5 == 0 TEST; tusimple: (NNNN // 10) % 5 == 0 TEST"}
-    d = model_dict(kind, win, win, w, b, C, info)
+    if model_type == "mlp":
+        log(f"  fitting an MLP with {hidden} hidden units on TRAIN")
+        d = mlp_dict(kind, win, win, *fit_mlp(X[tr], y[tr], hidden), info)
+    else:
+        w, b = fit_svm(X[tr], y[tr], C, std)
+        d = model_dict(kind, win, win, w, b, C, info)
     Xc = c_features(kind, crops.images, win, win)
-    rep = {"kind": kind, "window": win, "C": C, "validation": val,
+    rep = {"kind": kind, "model_type": model_type, "window": win, "C": C, "validation": val,
            "test": evaluate(d, X, Xc, y, src, te), "train": evaluate(d, X, Xc, y, src, tr)}
     return d, rep

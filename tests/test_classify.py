@@ -345,3 +345,69 @@ def test_model_struct_sizes():
     hog = ffi.sizeof("vt_hog_ws")
     assert hog >= (lib.VT_CLS_MAX_W // 8 - 1) * (lib.VT_CLS_MAX_H // 8 - 1) * 72
     assert ffi.sizeof("vt_gist_ws") > 0 and ffi.sizeof("vt_cls_box_ws") > 0
+
+
+# ---------------------------------------------------------------- MLP
+def _mlp_exact(w1q, s1, b1q, w2q, s2, b2q, x) -> int:
+    """The arithmetic of vt_mlp_decision in Python integers."""
+    out = 0
+    for j in range(w1q.shape[0]):
+        a = int(np.dot(w1q[j].astype(np.int64), x.astype(np.int64)))
+        sh = s1 - 1
+        a = ((a + (1 << (sh - 1))) >> sh) if sh > 0 else a
+        h = max(-2 ** 31, min(2 ** 31 - 1, a + int(b1q[j])))
+        if h > 0:
+            out += int(w2q[j]) * h
+    out = (out + (1 << (s2 - 1))) >> s2
+    return max(-2 ** 31, min(2 ** 31 - 1, out + b2q))
+
+
+@settings(max_examples=30)
+@given(st.integers(0, 2 ** 31), st.integers(1, 24))
+def test_mlp_decision_exact_and_close_to_float(seed, hidden):
+    """0 LSB against the stated integer arithmetic; against the float net the error is
+    bounded by the weight rounding: |dh_j| <= 2^-(s1+1) sum(x) + 2^-16 per hidden unit
+    (ReLU is 1-Lipschitz), so |dscore| <= sum_j (|w2_j| |dh_j| + 2^-(s2+1) h_j) + 2^-16."""
+    from pyvehtrack.train import mlp_dict
+    rng = np.random.default_rng(seed)
+    dim = R.hog_dim(32, 32)
+    w1 = rng.normal(0, 0.2, (hidden, dim))
+    b1 = rng.normal(0, 1, hidden)
+    w2 = rng.normal(0, 2, hidden)
+    b2 = float(rng.normal())
+    d = mlp_dict("hog", 32, 32, w1, b1, w2, b2, {})
+    m, keep = N.mlp_model(lib.VT_DESC_HOG, 32, 32, d["w1_q"], d["w1_shift"], d["b1_q16"], d["w2_q"],
+                          d["w2_shift"], d["b2_q16"])
+    x = rng.integers(0, 32769, dim).astype(np.uint16)
+    got = N.mlp_decision(m, x)
+    assert got == _mlp_exact(d["w1_q"], d["w1_shift"], d["b1_q16"], d["w2_q"], d["w2_shift"], d["b2_q16"], x)
+    xf = x / Q15
+    h = np.maximum(0, w1 @ xf + b1)
+    dh = 2.0 ** -(d["w1_shift"] + 1) * xf.sum() + 2 ** -16 + 2 ** -17
+    bound = float(np.sum(np.abs(w2) * dh + 2.0 ** -(d["w2_shift"] + 1) * (h + dh))) + 2 ** -16 + 1e-9
+    assert abs(got / 65536 - R.mlp_decision(w1, b1, w2, b2, xf)) <= bound
+
+
+def test_mlp_bad_arguments_and_box():
+    rng = np.random.default_rng(3)
+    dim = R.hog_dim(32, 32)
+    w1q = rng.integers(-100, 100, (4, dim)).astype(np.int16)
+    m, keep = N.mlp_model(lib.VT_DESC_HOG, 32, 32, w1q, 12, [0, 1, 2, 3], [5, -5, 5, -5], 10, 0)
+    out = ffi.new("int32_t *")
+    d = np.zeros(dim, np.uint16)
+    pd = ffi.cast("uint16_t *", d.ctypes.data)
+    assert lib.vt_mlp_decision(ffi.NULL, pd, dim, out) == lib.VT_E_ARG
+    assert lib.vt_mlp_decision(m, pd, dim - 1, out) == lib.VT_E_SIZE
+    with pytest.raises(VtError, match="vt_mlp_model_check"):
+        N.mlp_model(lib.VT_DESC_HOG, 32, 32, w1q[:, :-1], 12, [0] * 4, [1] * 4, 10, 0)
+    with pytest.raises(VtError, match="vt_mlp_model_check"):
+        N.mlp_model(lib.VT_DESC_HOG, 32, 32, np.zeros((65, dim), np.int16), 12, [0] * 65, [1] * 65, 10, 0)
+    img = _image(2, 70, 90, 1)
+    ws = N.box_ws_new()
+    box = (5, 6, 60, 50)
+    win = R.resample_area(img, box, 32, 32)
+    hw = N.hog_ws_new()
+    N.hog_prepare(hw, win)
+    assert N.classify_box_mlp(ws, m, img, box) == N.mlp_decision(m, N.hog_descriptor(hw, 0, 0, 32, 32))
+    with pytest.raises(VtError, match="vt_classify_box_mlp"):
+        N.classify_box_mlp(ws, m, img, (0, 0, 90, 10))

@@ -27,6 +27,8 @@ def main(argv=None) -> int:
     ap.add_argument("--descriptor", choices=("hog", "gist"), default="hog")
     ap.add_argument("--window", type=int, default=64)
     ap.add_argument("--C", type=float, default=None)
+    ap.add_argument("--model-type", choices=("svm", "mlp"), default="svm")
+    ap.add_argument("--hidden", type=int, default=16)
     ap.add_argument("--out", required=True)
     ap.add_argument("--json", default=None)
     args = ap.parse_args(argv)
@@ -34,7 +36,8 @@ def main(argv=None) -> int:
     model, rep = T.run([d / "gti-vehicles" / "vehicles"], [d / "gti-vehicles" / "non-vehicles"],
                        d / "tusimple-vehicles-dev", d / "tusimple-vehicles-dev" / "annotation.json",
                        kind=args.descriptor, win=args.window, C=args.C, progress=False,
-                       log=lambda s: print(s, file=sys.stderr))
+                       log=lambda s: print(s, file=sys.stderr), model_type=args.model_type,
+                       hidden=args.hidden)
     T.save_model(args.out, model)
     print(json.dumps(rep, indent=1))
     if args.json:

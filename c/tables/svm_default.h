@@ -165,4 +165,6 @@ static const int16_t vt__default_hog_w[1764] = {
 
 #define VT__HAVE_DEFAULT_GIST 0
 
+#define VT__HAVE_DEFAULT_MLP 0
+
 #endif /* VT_TABLES_SVM_DEFAULT_H */

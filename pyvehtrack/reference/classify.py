@@ -155,3 +155,10 @@ def resample_area(src: np.ndarray, box, out_w: int, out_h: int) -> np.ndarray:
 def svm_decision(w: np.ndarray, b: float, x: np.ndarray) -> np.ndarray:
     """w . x + b for one descriptor or a stack of them (float)."""
     return np.asarray(x, np.float64) @ np.asarray(w, np.float64) + float(b)
+
+
+def mlp_decision(w1: np.ndarray, b1: np.ndarray, w2: np.ndarray, b2: float, x: np.ndarray) -> np.ndarray:
+    """One hidden ReLU layer and a linear output (the logit of sklearn's MLPClassifier):
+    w2 . max(0, w1 x + b1) + b2, for one descriptor or a stack of them."""
+    h = np.maximum(0.0, np.asarray(x, np.float64) @ np.asarray(w1, np.float64).T + np.asarray(b1, np.float64))
+    return h @ np.asarray(w2, np.float64) + float(b2)
