@@ -365,6 +365,7 @@ static void vt__gist_filter(vt_gist_ws *ws, const uint8_t *lp, int32_t lw, int32
     const int16_t *fy = vt__gist_fy_q14 + o * 2 * VT_GIST_KSIZE;
     const int32_t xe = ws->cells_x * cs, ye = ws->cells_y * cs;
     uint64_t acc[VT__GCX];
+    int32_t slot[VT_GIST_KSIZE];
     int32_t next = 0, x, y, t;
     memset(acc, 0, sizeof acc);
     for (y = 0; y < ye; ++y) {
@@ -375,26 +376,31 @@ static void vt__gist_filter(vt_gist_ws *ws, const uint8_t *lp, int32_t lw, int32
             int32_t(*r)[2] = ws->rows[next % VT_GIST_KSIZE];
             for (x = 0; x < xe; ++x) {
                 int32_t re = 0, im = 0;
-                for (t = -half; t <= half; ++t) {
-                    int32_t xx = x + t;
-                    int32_t v;
-                    if (xx < 0 || xx >= lw) {
-                        xx = vt__reflect101(xx, lw);
+                if (x >= half && x + half < lw) {
+                    const uint8_t *q = p + x - half;
+                    for (t = 0; t < VT_GIST_KSIZE; ++t) {
+                        re += fx[2 * t] * q[t];
+                        im += fx[2 * t + 1] * q[t];
                     }
-                    v = p[xx];
-                    re += fx[2 * (t + half)] * v;
-                    im += fx[2 * (t + half) + 1] * v;
+                } else {
+                    for (t = -half; t <= half; ++t) {
+                        const int32_t v = p[vt__reflect101(x + t, lw)];
+                        re += fx[2 * (t + half)] * v;
+                        im += fx[2 * (t + half) + 1] * v;
+                    }
                 }
                 /* Q14 -> Q4, round half up. */
                 r[x][0] = (int32_t)vt__floor_shr64((int64_t)re + 512, 10);
                 r[x][1] = (int32_t)vt__floor_shr64((int64_t)im + 512, 10);
             }
         }
+        for (t = -half; t <= half; ++t) {
+            slot[t + half] = vt__reflect101(y + t, lh) % VT_GIST_KSIZE;
+        }
         for (x = 0; x < xe; ++x) {
             int64_t re = 0, im = 0, e;
             for (t = -half; t <= half; ++t) {
-                const int32_t yy = vt__reflect101(y + t, lh);
-                const int32_t *rv = ws->rows[yy % VT_GIST_KSIZE][x];
+                const int32_t *rv = ws->rows[slot[t + half]][x];
                 const int32_t kr = fy[2 * (t + half)], ki = fy[2 * (t + half) + 1];
                 re += (int64_t)kr * rv[0] - (int64_t)ki * rv[1];
                 im += (int64_t)kr * rv[1] + (int64_t)ki * rv[0];
@@ -563,23 +569,19 @@ vt_status vt_resample_area(const vt_image_u8 *src, const vt_box *box, vt_image_u
     return VT_OK;
 }
 
-vt_status vt_classify_box(vt_cls_box_ws *ws, const vt_svm_model *m, const vt_image_u8 *frame,
-                          const vt_box *box, int32_t *score_q16)
+/* The box resampled to the window and its descriptor, into ws->desc (*n values).
+ * kind, win_w and win_h come from a checked model. */
+static vt_status vt__box_descriptor(vt_cls_box_ws *ws, int32_t kind, int32_t win_w, int32_t win_h,
+                                    const vt_image_u8 *frame, const vt_box *box, int32_t *n)
 {
     vt_status s;
     vt_image_u8_mut wv;
     vt_image_u8 wr;
-    int32_t n = 0;
-    if (score_q16 != NULL) {
-        *score_q16 = 0;
-    }
-    if (ws == NULL || score_q16 == NULL || vt_svm_model_check(m) != VT_OK) {
-        return VT_E_ARG;
-    }
+    *n = 0;
     wv.px = ws->win;
-    wv.w = m->win_w;
-    wv.h = m->win_h;
-    wv.stride = m->win_w;
+    wv.w = win_w;
+    wv.h = win_h;
+    wv.stride = win_w;
     s = vt_resample_area(frame, box, &wv);
     if (s != VT_OK) {
         return s;
@@ -588,21 +590,108 @@ vt_status vt_classify_box(vt_cls_box_ws *ws, const vt_svm_model *m, const vt_ima
     wr.w = wv.w;
     wr.h = wv.h;
     wr.stride = wv.stride;
-    if (m->kind == VT_DESC_HOG) {
+    if (kind == VT_DESC_HOG) {
         vt__hog_run(&wr, wr.w / VT_CLS_CELL, wr.h / VT_CLS_CELL, &ws->hist[0][0][0],
                     VT_CLS_MAX_WIN / VT_CLS_CELL, ws->desc,
                     (size_t)(wr.w / VT_CLS_CELL - 1) * VT_HOG_BLOCK_LEN);
-        n = m->dim;
-    } else {
-        s = vt_gist_prepare(&ws->gist, &wr);
-        if (s == VT_OK) {
-            s = vt_gist_descriptor(&ws->gist, 0, 0, wr.w, wr.h, ws->desc, VT_CLS_MAX_DIM, &n);
-        }
-        if (s != VT_OK) {
-            return s;
-        }
+        *n = vt__hog_dim(win_w, win_h);
+        return VT_OK;
+    }
+    s = vt_gist_prepare(&ws->gist, &wr);
+    if (s == VT_OK) {
+        s = vt_gist_descriptor(&ws->gist, 0, 0, wr.w, wr.h, ws->desc, VT_CLS_MAX_DIM, n);
+    }
+    return s;
+}
+
+vt_status vt_classify_box(vt_cls_box_ws *ws, const vt_svm_model *m, const vt_image_u8 *frame,
+                          const vt_box *box, int32_t *score_q16)
+{
+    vt_status s;
+    int32_t n = 0;
+    if (score_q16 != NULL) {
+        *score_q16 = 0;
+    }
+    if (ws == NULL || score_q16 == NULL || vt_svm_model_check(m) != VT_OK) {
+        return VT_E_ARG;
+    }
+    s = vt__box_descriptor(ws, m->kind, m->win_w, m->win_h, frame, box, &n);
+    if (s != VT_OK) {
+        return s;
     }
     return vt_svm_decision(m, ws->desc, n, score_q16);
+}
+
+/* ------------------------------------------------------------------ MLP */
+
+static int vt__desc_ok(int32_t kind, int32_t win_w, int32_t win_h, int32_t dim)
+{
+    if (kind == VT_DESC_HOG) {
+        return vt__hog_win_ok(win_w, win_h) && dim == vt__hog_dim(win_w, win_h);
+    }
+    if (kind == VT_DESC_GIST) {
+        return win_w >= 32 && win_h >= 32 && win_w <= VT_CLS_MAX_WIN && win_h <= VT_CLS_MAX_WIN &&
+               win_w % 32 == 0 && win_h % 32 == 0 && dim == VT_GIST_DIM;
+    }
+    return 0;
+}
+
+vt_status vt_mlp_model_check(const vt_mlp_model *m)
+{
+    if (m == NULL || m->w1 == NULL || m->b1_q16 == NULL || m->w2 == NULL || m->hidden < 1 ||
+        m->hidden > VT_MLP_MAX_HIDDEN || m->w1_shift < 1 || m->w1_shift > 30 ||
+        m->w2_shift < 1 || m->w2_shift > 30 || !vt__desc_ok(m->kind, m->win_w, m->win_h, m->dim)) {
+        return VT_E_ARG;
+    }
+    return VT_OK;
+}
+
+vt_status vt_mlp_decision(const vt_mlp_model *m, const uint16_t *desc, int32_t n,
+                          int32_t *score_q16)
+{
+    int64_t out = 0;
+    int32_t j;
+    if (score_q16 != NULL) {
+        *score_q16 = 0;
+    }
+    if (vt_mlp_model_check(m) != VT_OK || desc == NULL || score_q16 == NULL) {
+        return VT_E_ARG;
+    }
+    if (n != m->dim) {
+        return VT_E_SIZE;
+    }
+    for (j = 0; j < m->hidden; ++j) {
+        const int sh = (int)m->w1_shift - 1;
+        int64_t a = vt__dot(m->w1 + (size_t)j * (size_t)m->dim, desc, n);
+        int32_t hq;
+        a = sh > 0 ? vt__floor_shr64(a + ((int64_t)1 << (sh - 1)), sh) : a;
+        hq = vt_sat_s32(a + (int64_t)m->b1_q16[j]);
+        if (hq > 0) {
+            /* |w2| < 2^15, h < 2^31, hidden <= 64: the sum stays below 2^52. */
+            out += (int64_t)m->w2[j] * hq;
+        }
+    }
+    out = vt__floor_shr64(out + ((int64_t)1 << (m->w2_shift - 1)), (int)m->w2_shift);
+    *score_q16 = vt_sat_s32(out + (int64_t)m->b2_q16);
+    return VT_OK;
+}
+
+vt_status vt_classify_box_mlp(vt_cls_box_ws *ws, const vt_mlp_model *m, const vt_image_u8 *frame,
+                              const vt_box *box, int32_t *score_q16)
+{
+    vt_status s;
+    int32_t n = 0;
+    if (score_q16 != NULL) {
+        *score_q16 = 0;
+    }
+    if (ws == NULL || score_q16 == NULL || vt_mlp_model_check(m) != VT_OK) {
+        return VT_E_ARG;
+    }
+    s = vt__box_descriptor(ws, m->kind, m->win_w, m->win_h, frame, box, &n);
+    if (s != VT_OK) {
+        return s;
+    }
+    return vt_mlp_decision(m, ws->desc, n, score_q16);
 }
 
 /* ------------------------------------------------------------------ default models */
@@ -619,6 +708,28 @@ static const vt_svm_model vt__model_gist = {
     VT__DEFAULT_GIST_W_SHIFT, VT__DEFAULT_GIST_BIAS_Q16, VT__DEFAULT_GIST_THRESHOLD_Q16,
     vt__default_gist_w};
 #endif
+
+#if VT__HAVE_DEFAULT_MLP
+static const vt_mlp_model vt__model_mlp = {
+    VT__DEFAULT_MLP_KIND, VT__DEFAULT_MLP_WIN_W, VT__DEFAULT_MLP_WIN_H, VT__DEFAULT_MLP_DIM,
+    VT__DEFAULT_MLP_HIDDEN, VT__DEFAULT_MLP_W1_SHIFT, VT__DEFAULT_MLP_W2_SHIFT,
+    VT__DEFAULT_MLP_B2_Q16, VT__DEFAULT_MLP_THRESHOLD_Q16, vt__default_mlp_w1, vt__default_mlp_b1,
+    vt__default_mlp_w2};
+#endif
+
+vt_status vt_mlp_default_model(const vt_mlp_model **m)
+{
+    if (m == NULL) {
+        return VT_E_ARG;
+    }
+    *m = NULL;
+#if VT__HAVE_DEFAULT_MLP
+    *m = &vt__model_mlp;
+    return VT_OK;
+#else
+    return VT_E_ARG;
+#endif
+}
 
 vt_status vt_svm_default_model(int32_t kind, const vt_svm_model **m)
 {

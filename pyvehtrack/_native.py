@@ -619,4 +619,47 @@ def classify_box(ws, model, frame: np.ndarray, box) -> int:
     check("vt_classify_box", lib.vt_classify_box(ws, model, v, b, out),
           f"frame {frame.shape}, box {list(box)}")
     return int(out[0])
+def mlp_model(kind: int, win_w: int, win_h: int, w1_q, w1_shift: int, b1_q16, w2_q, w2_shift: int,
+              b2_q16: int, threshold_q16: int = 0):
+    """A vt_mlp_model over copies of the arrays; returns (model, keepalive)."""
+    w1 = np.ascontiguousarray(np.asarray(w1_q), dtype=np.int16)
+    b1 = np.ascontiguousarray(np.asarray(b1_q16), dtype=np.int32).ravel()
+    w2 = np.ascontiguousarray(np.asarray(w2_q), dtype=np.int16).ravel()
+    if w1.ndim != 2 or w1.shape[0] != b1.shape[0] or w1.shape[0] != w2.shape[0]:
+        raise ValueError(f"mlp_model: w1 {w1.shape}, b1 {b1.shape}, w2 {w2.shape} disagree")
+    m = ffi.new("vt_mlp_model *")
+    m.kind, m.win_w, m.win_h, m.dim, m.hidden = int(kind), int(win_w), int(win_h), w1.shape[1], w1.shape[0]
+    m.w1_shift, m.w2_shift, m.b2_q16, m.threshold_q16 = int(w1_shift), int(w2_shift), int(b2_q16), int(threshold_q16)
+    keep = [ffi.new("int16_t[]", w1.ravel().tolist() or [0]), ffi.new("int32_t[]", b1.tolist() or [0]),
+            ffi.new("int16_t[]", w2.tolist() or [0])]
+    m.w1, m.b1_q16, m.w2 = keep
+    check("vt_mlp_model_check", lib.vt_mlp_model_check(m),
+          f"kind={kind} window {win_w}x{win_h} w1 {w1.shape} shifts {w1_shift}/{w2_shift}")
+    return m, keep
+
+
+def mlp_default_model():
+    out = ffi.new("const vt_mlp_model **")
+    check("vt_mlp_default_model", lib.vt_mlp_default_model(out), "no default MLP is built in")
+    return out[0]
+
+
+def mlp_decision(model, desc: np.ndarray) -> int:
+    d = np.ascontiguousarray(desc, dtype=np.uint16)
+    if d.ndim != 1:
+        raise ValueError(f"desc: expected a 1-D array, got shape {d.shape}")
+    out = ffi.new("int32_t *")
+    p = ffi.cast("uint16_t *", d.ctypes.data) if d.size else ffi.NULL
+    check("vt_mlp_decision", lib.vt_mlp_decision(model, p, d.shape[0], out),
+          f"descriptor of {d.shape[0]} values")
+    return int(out[0])
+
+
+def classify_box_mlp(ws, model, frame: np.ndarray, box) -> int:
+    v = view(frame, "frame")
+    b = ffi.new("vt_box *", [int(x) for x in box])
+    out = ffi.new("int32_t *")
+    check("vt_classify_box_mlp", lib.vt_classify_box_mlp(ws, model, v, b, out),
+          f"frame {frame.shape}, box {list(box)}")
+    return int(out[0])
 # ================================================================ end classify.h

@@ -21,6 +21,8 @@ SUBCOMMANDS: dict[str, str] = {
     "track": "pyvehtrack.cli_track:register_track",
     "eval": "pyvehtrack.cli_track:register_eval",
     "eval-boxes": "pyvehtrack.cli_boxes:register_eval_boxes",
+    "train": "pyvehtrack.cli_classify:register_train",
+    "classify": "pyvehtrack.cli_classify:register_classify",
 }
 
 IMAGE_EXTS = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm", ".webp"}

@@ -153,6 +153,25 @@ def render_models() -> str:
                      f"#define VT__DEFAULT_{kind.upper()}_BIAS_Q16 {int(z['bias_q16'])}\n"
                      f"#define VT__DEFAULT_{kind.upper()}_THRESHOLD_Q16 {int(z['threshold_q16'])}\n")
         parts.append(_c_array("int16_t", f"vt__default_{kind}_w", wq, 12, 6) + "\n")
+    path = ROOT / "tools" / "models" / "default_mlp.npz"
+    if not path.exists():
+        parts.append("#define VT__HAVE_DEFAULT_MLP 0\n\n")
+    else:
+        z = np.load(path)
+        hid = int(z["hidden"])
+        parts.append("#define VT__HAVE_DEFAULT_MLP 1\n")
+        parts.append(f"#define VT__DEFAULT_MLP_KIND {int(z['kind_code'])}\n"
+                     f"#define VT__DEFAULT_MLP_WIN_W {int(z['win_w'])}\n"
+                     f"#define VT__DEFAULT_MLP_WIN_H {int(z['win_h'])}\n"
+                     f"#define VT__DEFAULT_MLP_DIM {int(z['w1_q'].shape[1])}\n"
+                     f"#define VT__DEFAULT_MLP_HIDDEN {hid}\n"
+                     f"#define VT__DEFAULT_MLP_W1_SHIFT {int(z['w1_shift'])}\n"
+                     f"#define VT__DEFAULT_MLP_W2_SHIFT {int(z['w2_shift'])}\n"
+                     f"#define VT__DEFAULT_MLP_B2_Q16 {int(z['b2_q16'])}\n"
+                     f"#define VT__DEFAULT_MLP_THRESHOLD_Q16 {int(z['threshold_q16'])}\n")
+        parts.append(_c_array("int16_t", "vt__default_mlp_w1", [int(v) for v in z["w1_q"].ravel()], 12, 6))
+        parts.append(_c_array("int32_t", "vt__default_mlp_b1", [int(v) for v in z["b1_q16"]], 6, 11))
+        parts.append(_c_array("int16_t", "vt__default_mlp_w2", [int(v) for v in z["w2_q"]], 12, 6) + "\n")
     parts.append("#endif /* VT_TABLES_SVM_DEFAULT_H */\n")
     return "".join(parts)
 

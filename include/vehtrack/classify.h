@@ -59,6 +59,7 @@
 #define VT_GIST_GRID 4        /* 4x4 grid per window */
 #define VT_GIST_DIM 512       /* grid cells x filters */
 #define VT_GIST_KSIZE 11      /* Gabor kernel side (taps of each 1-D factor) */
+#define VT_MLP_MAX_HIDDEN 64  /* hidden units of vt_mlp_model */
 
 /* A linear SVM (const: may live in flash). The caller owns `w`.
  * score = w . x + b with x the Q15 descriptor; weights are Q(w_shift)
@@ -177,6 +178,45 @@ vt_status vt_resample_area(const vt_image_u8 *src, const vt_box *box, vt_image_u
  * verifier's call: GIST is affordable here, for a handful of boxes. */
 vt_status vt_classify_box(vt_cls_box_ws *ws, const vt_svm_model *m, const vt_image_u8 *frame,
                           const vt_box *box, int32_t *score_q16);
+
+/* A small multilayer perceptron on the same descriptors (the GIST paper's best
+ * classifier is an MLP): one hidden layer of `hidden` ReLU units and a linear
+ * output. Layer 1: a_j = sum_i w1[j dim + i] x[i] exactly in int64 (Q(w1_shift + 15)),
+ * converted to Q16 by rounding half up (shift w1_shift - 1), plus b1_q16[j],
+ * saturated to int32, then max(0, .). Output: sum_j w2[j] h_j exactly in int64
+ * (Q(w2_shift + 16)), rounded half up to Q16 (shift w2_shift), plus b2_q16,
+ * saturated: the logit of sklearn's MLPClassifier. Error against the float net:
+ * the weights' rounding (<= 2^-(shift+1) each) and 1 Q16 LSB per rounding,
+ * propagated through the output weights. Cost: hidden x dim multiply-adds. */
+typedef struct {
+    int32_t kind;          /* descriptor: VT_DESC_HOG or VT_DESC_GIST */
+    int32_t win_w;
+    int32_t win_h;
+    int32_t dim;
+    int32_t hidden;        /* 1..VT_MLP_MAX_HIDDEN */
+    int32_t w1_shift;      /* 1..30 */
+    int32_t w2_shift;      /* 1..30 */
+    int32_t b2_q16;
+    int32_t threshold_q16; /* vehicle if score >= threshold */
+    const int16_t *w1;     /* hidden x dim, row-major */
+    const int32_t *b1_q16; /* hidden */
+    const int16_t *w2;     /* hidden */
+} vt_mlp_model;
+
+/* VT_OK if the MLP's fields are consistent (as vt_svm_model_check, and hidden
+ * in 1..VT_MLP_MAX_HIDDEN, no NULL arrays), else VT_E_ARG. */
+vt_status vt_mlp_model_check(const vt_mlp_model *m);
+
+/* score (Q16) of the MLP on one descriptor; n must equal m->dim. */
+vt_status vt_mlp_decision(const vt_mlp_model *m, const uint16_t *desc, int32_t n,
+                          int32_t *score_q16);
+
+/* vt_classify_box with an MLP. */
+vt_status vt_classify_box_mlp(vt_cls_box_ws *ws, const vt_mlp_model *m, const vt_image_u8 *frame,
+                              const vt_box *box, int32_t *score_q16);
+
+/* The default MLP (c/tables/svm_default.h); VT_E_ARG if none is built in. */
+vt_status vt_mlp_default_model(const vt_mlp_model **m);
 
 /* The default models generated from the trained .npz files into c/tables/
  * (tools/gen_tables.py): *m is set to point at a static const model. */

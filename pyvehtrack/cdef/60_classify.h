@@ -16,6 +16,7 @@
 #define VT_CLS_MAX_DIM ...
 #define VT_GIST_MAX_W ...
 #define VT_GIST_MAX_H ...
+#define VT_MLP_MAX_HIDDEN ...
 
 typedef struct {
     int32_t kind;
@@ -49,3 +50,24 @@ vt_status vt_resample_area(const vt_image_u8 *src, const vt_box *box, vt_image_u
 vt_status vt_classify_box(vt_cls_box_ws *ws, const vt_svm_model *m, const vt_image_u8 *frame,
                           const vt_box *box, int32_t *score_q16);
 vt_status vt_svm_default_model(int32_t kind, const vt_svm_model **m);
+
+typedef struct {
+    int32_t kind;
+    int32_t win_w;
+    int32_t win_h;
+    int32_t dim;
+    int32_t hidden;
+    int32_t w1_shift;
+    int32_t w2_shift;
+    int32_t b2_q16;
+    int32_t threshold_q16;
+    const int16_t *w1;
+    const int32_t *b1_q16;
+    const int16_t *w2;
+} vt_mlp_model;
+vt_status vt_mlp_model_check(const vt_mlp_model *m);
+vt_status vt_mlp_decision(const vt_mlp_model *m, const uint16_t *desc, int32_t n,
+                          int32_t *score_q16);
+vt_status vt_classify_box_mlp(vt_cls_box_ws *ws, const vt_mlp_model *m, const vt_image_u8 *frame,
+                              const vt_box *box, int32_t *score_q16);
+vt_status vt_mlp_default_model(const vt_mlp_model **m);
