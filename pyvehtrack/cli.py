@@ -224,10 +224,11 @@ def register_detect(sub) -> None:
 
 def add_model_arg(p) -> None:
     p.add_argument("--model", metavar="MODEL.npz", default=None,
-                   help="classifier model for the full-road detector (default: the built-in model, "
-                        "if the build has one; else the ego-lane detector)")
+                   help="classifier model: detect over the whole road (shadow hypotheses over every "
+                        "lane, kept when the classifier accepts them) instead of the ego lane only")
     p.add_argument("--sources", nargs="+", choices=("shadow", "windows"), default=None,
-                   help="full-road hypothesis sources (default: shadow; windows = classifier sliding windows)")
+                   help="full-road hypothesis sources (default with --model: shadow; windows = classifier "
+                        "sliding windows); without --model the built-in classifier is used")
 
 
 def make_detector(args):

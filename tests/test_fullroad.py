@@ -105,10 +105,12 @@ def test_argument_errors():
         fullroad.Camera(height_m=float("nan"))
     with pytest.raises(TypeError, match="camera"):
         Detector(model=str(MODEL), camera="high")
+    assert Detector().full is None              # the default stays the ego-lane detector
     if fullroad.default_model() is None:
         with pytest.raises(ValueError, match="no default model"):
             fullroad.FullRoadDetector(None, sources=("windows",))
-        assert Detector().full is None          # no built-in model: the ego-lane detector
+    else:
+        assert Detector(sources=("shadow",)).full.model.path == "<built-in>"
 
 
 @pytest.mark.skipif(not BIG, reason="needs a build that takes 640x360 frames")
