@@ -34,7 +34,9 @@ def main(argv=None) -> int:
     ap.add_argument("--split", choices=("train", "test"), required=True)
     ap.add_argument("--data", default=str(DATA / "tusimple-vehicles-dev"))
     ap.add_argument("--model", default=None)
-    ap.add_argument("--sources", nargs="+", default=["shadow", "windows"])
+    ap.add_argument("--sources", nargs="+", default=None,
+                    help="shadow and/or windows (full-road), or ego; default: Detector's (full-road shadow with "
+                         "--model, else the ego-lane detector)")
     ap.add_argument("--offset", type=float, default=0.0, help="added to the model's score threshold")
     ap.add_argument("--limit", type=int, default=0)
     ap.add_argument("--out", default=None, help="write the predictions (detect --json format)")
@@ -45,12 +47,15 @@ def main(argv=None) -> int:
     frames = [e for e in ann if tusimple_split(e["file_name"]) == args.split]
     if args.limit:
         frames = frames[: args.limit]
-    det = Detector(model=args.model, sources=tuple(args.sources), score_offset=args.offset)
+    det = Detector(model=args.model, sources=tuple(args.sources) if args.sources else None,
+                   score_offset=args.offset)
     preds, t0 = [], time.time()
     for i, e in enumerate(frames):
         img = cv2.imread(str(data / e["file_name"]))
         res = det.detect(img)
-        boxes = [[int(v) for v in b] + [round(float(s), 4)] for b, s in zip(res.boxes, res.scores)]
+        scores = res.scores if res.scores is not None else [None] * len(res.boxes)
+        boxes = [[int(v) for v in b] + ([round(float(s), 4)] if s is not None else [])
+                 for b, s in zip(res.boxes, scores)]
         preds.append({"frame": i, "file": e["file_name"], "boxes": boxes})
         if args.draw:
             Path(args.draw).mkdir(parents=True, exist_ok=True)
@@ -58,7 +63,8 @@ def main(argv=None) -> int:
                 cv2.rectangle(img, (int(b["left"]), int(b["top"])), (int(b["right"]), int(b["bottom"])), (0, 0, 255), 1)
             for b in boxes:
                 cv2.rectangle(img, (b[0], b[1]), (b[2], b[3]), (0, 255, 0), 2)
-                cv2.putText(img, f"{b[4]:.2f}", (b[0], b[1] - 3), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 255, 0), 1)
+                if len(b) == 5:
+                    cv2.putText(img, f"{b[4]:.2f}", (b[0], b[1] - 3), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 255, 0), 1)
             cv2.imwrite(str(Path(args.draw) / Path(e["file_name"]).name), img)
     dt = time.time() - t0
     s = eb.score(eb.load_gt([e for e in frames]), eb.load_pred(preds))
