@@ -16,7 +16,13 @@
  * vt_detect_state. Work per frame: the pyramid (25 multiply-adds per level pixel,
  * levels 1..last level with a window), the shadow scan of the road area, one
  * scorer call per window (plus one vt_verify per accepted window when edge_check
- * is set), NMS O(candidates^2). */
+ * is set), NMS O(candidates^2).
+ * Measured (make bench, -O2, one 1280x720 frame, on a shared 2-CPU machine with a
+ * load average of 12.8, so read them as upper bounds): 53 ms for shadow + 864 HOG
+ * 32x32 windows; 12.7 ms shadow alone over the camera road, 21.6 ms with each
+ * shadow box classified; vt_hog_prepare of a 1280 x 48 band is 5.9 ms of it per
+ * level. sizeof(vt_fulldet_state) = 814,356 bytes, vt_hog_scorer 361,096,
+ * vt_fulldet_result 796 at the defaults. */
 #ifndef VEHTRACK_FULLDET_H
 #define VEHTRACK_FULLDET_H
 
