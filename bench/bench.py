@@ -411,6 +411,53 @@ def _full_detect(ctx: Ctx) -> Stage:
                  note="lane + shadow + verify; road area from the lanes")
 
 
+# ---------------------------------------------------------------- full-road detection (issue 8)
+FULLROAD_MODEL = ROOT / "tests" / "data" / "window_svm_hog32.npz"
+
+
+@register("fullroad_detect", sizes=((1280, 720),), driver=False)
+def _fullroad_detect(ctx: Ctx) -> Stage:
+    """Whole-road detection in C (vt_fulldet: pyramid, flat-road windows scored by the
+    HOG 32x32 linear SVM of tests/data, classified shadow hypotheses, NMS) against the
+    classic float way, as a Python user writes it: skimage.transform.pyramid_gaussian,
+    skimage.feature.hog on every window of the same window set, a scikit-learn LinearSVC
+    with the same weights (decision_function over all windows at once). The reference
+    column is that classic pipeline, not the oracle (reference/fulldet.py is exact
+    against C in tests/test_fulldet.py)."""
+    from skimage.feature import hog
+    from skimage.transform import pyramid_gaussian
+    from sklearn.svm import LinearSVC
+    from pyvehtrack import _native as nat
+    from pyvehtrack.fullroad import FullRoadDetector, SOURCES
+    from pyvehtrack.reference import windows as rw
+    img = ctx.frame
+    h, w = img.shape
+    det = FullRoadDetector(str(FULLROAD_MODEL), sources=SOURCES)
+    m = det.model
+    cam = det.camera_for(h, w)
+    wins = [wn for lv in range(det.det_cfg.win.levels)
+            for wn in rw.windows_level(det.det_cfg.win, cam, rw.road_from_camera(cam, det.det_cfg.win, w, h), w, h, lv)]
+    clf = LinearSVC()
+    clf.coef_ = (m.w_q.astype(np.float64) / 2 ** m.w_shift)[None, :]
+    clf.intercept_ = np.array([m.bias_q16 / 65536])
+    clf.classes_ = np.array([-1, 1])
+    last = {}
+
+    def c():
+        last["boxes"] = det.detect_gray(img)
+
+    def reference():
+        levels = list(pyramid_gaussian(img, max_layer=det.det_cfg.win.levels - 1, downscale=2))
+        feats = [hog(levels[lv][y:y + s, x:x + s], orientations=9, pixels_per_cell=(8, 8),
+                     cells_per_block=(2, 2), block_norm="L2-Hys") for lv, s, x, y in wins]
+        return clf.decision_function(np.asarray(feats)) if feats else np.zeros(0)
+
+    return Stage("fullroad_detect", c, reference, pixels=img.size, calls=1,
+                 digest=lambda: digest(last["boxes"][:, :4]) if len(last.get("boxes", [])) else 0,
+                 note=f"C: vt_fulldet (shadow + {len(wins)} windows, HOG 32x32 SVM); reference: classic "
+                      "skimage hog + sklearn LinearSVC on the same windows")
+
+
 # ---------------------------------------------------------------- the tracker (issue 4)
 @register("track_frame")
 def _track_frame(ctx: Ctx) -> Stage:

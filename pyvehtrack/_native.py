@@ -520,3 +520,232 @@ def range_step(st, cfg, cam, tp: int, ego_speed: int, tracks: np.ndarray) -> np.
           f"{n} track(s), tan_pitch={tp}, ego_speed={ego_speed} (Q16)")
     return out[: int(n_out[0])].copy()
 # ================================================================ end camera.h
+# ================================================================ windows.h
+WINDOW_DTYPE = np.dtype([("level", "<i4"), ("size", "<i4"), ("x", "<i4"), ("y", "<i4")])
+SCORED_BOX_DTYPE = np.dtype([("left", "<i4"), ("top", "<i4"), ("right", "<i4"), ("bottom", "<i4"),
+                             ("score", "<i4"), ("source", "<i4")])
+
+
+def win_cfg_default():
+    return _defaults("vt_win_cfg")
+
+
+def camera_min(fx: float, horizon_y: int, height_mm: int, hood_y: int):
+    """A checked vt_camera_min (fx in px, stored in Q4, rounded to nearest)."""
+    c = ffi.new("vt_camera_min *")
+    for name, v in (("horizon_y", horizon_y), ("height_mm", height_mm), ("hood_y", hood_y)):
+        if not isinstance(v, (int, np.integer)) or isinstance(v, bool):
+            raise TypeError(f"camera {name}: expected an int, got {type(v).__name__}")
+    if not np.isfinite(fx) or not 1 <= fx <= 2 ** 20:
+        raise ValueError(f"camera fx: expected 1..2^20 px, got {fx!r}")
+    c.fx_q4, c.horizon_y, c.height_mm, c.hood_y = int(round(fx * 16)), int(horizon_y), int(height_mm), int(hood_y)
+    check("vt_camera_min_check", lib.vt_camera_min_check(c),
+          f"horizon_y {horizon_y}, height_mm {height_mm}, hood_y {hood_y}")
+    return c
+
+
+def road_from_camera(cfg, cam, w: int, h: int):
+    r = ffi.new("vt_road_area *")
+    check("vt_road_from_camera", lib.vt_road_from_camera(cfg, cam, int(w), int(h), r), f"{w}x{h}")
+    return r
+
+
+def windows_level(cfg, cam, road, w: int, h: int, level: int) -> np.ndarray:
+    """vt_windows_level -> structured WINDOW_DTYPE array (every window of the level)."""
+    n = ffi.new("int32_t *")
+    rd = ffi.NULL if road is None else road
+    check("vt_windows_level", lib.vt_windows_level(cfg, cam, rd, int(w), int(h), int(level), ffi.NULL, 0, n),
+          f"{w}x{h} level {level}")
+    out = np.zeros(max(1, n[0]), WINDOW_DTYPE)
+    check("vt_windows_level",
+          lib.vt_windows_level(cfg, cam, rd, int(w), int(h), int(level),
+                               ffi.cast("vt_window *", out.ctypes.data), len(out), n),
+          f"{w}x{h} level {level}")
+    return out[: n[0]].copy()
+
+
+def nms(boxes: np.ndarray, iou_q8: int, contain_q8: int = 256) -> np.ndarray:
+    """vt_nms on a copy of a SCORED_BOX_DTYPE array -> the kept boxes, in order."""
+    a = np.ascontiguousarray(boxes, SCORED_BOX_DTYPE).copy()
+    n = ffi.new("int32_t *")
+    p = ffi.cast("vt_scored_box *", a.ctypes.data) if len(a) else ffi.NULL
+    check("vt_nms", lib.vt_nms(p, len(a), int(iou_q8), int(contain_q8), n), f"{len(a)} boxes")
+    return a[: n[0]].copy()
+# ================================================================ end windows.h
+
+
+# ================================================================ fulldet.h
+def fulldet_cfg_default():
+    return _defaults("vt_fulldet_cfg")
+
+
+def fulldet(st, cfg, cam, img: np.ndarray, road, scorer, out) -> np.ndarray:
+    """vt_fulldet -> the kept boxes as a SCORED_BOX_DTYPE array (a copy)."""
+    v = view(img, "img")
+    check("vt_fulldet", lib.vt_fulldet(st, cfg, cam, v, road, ffi.NULL if scorer is None else scorer, out),
+          f"img {img.shape}, {_road_detail(road)}")
+    n = out.n_boxes
+    a = np.frombuffer(ffi.buffer(out.box), SCORED_BOX_DTYPE)[:n].copy()
+    return a
+# ================================================================ end fulldet.h
+
+# ================================================================ classify.h
+# (thin 1:1 wrappers; descriptors are uint16 Q15, scores int Q16; the friendly
+# API is pyvehtrack.classify.)
+def svm_model(kind: int, win_w: int, win_h: int, w_q, w_shift: int, bias_q16: int,
+              threshold_q16: int = 0):
+    """A vt_svm_model over a copy of the int16 weights; returns (model, keepalive)
+    -- keep the second alive as long as the model is used."""
+    w = np.ascontiguousarray(np.asarray(w_q), dtype=np.int16)
+    if w.ndim != 1:
+        raise ValueError(f"w_q: expected a 1-D array, got shape {w.shape}")
+    m = ffi.new("vt_svm_model *")
+    m.kind, m.win_w, m.win_h, m.dim = int(kind), int(win_w), int(win_h), int(w.shape[0])
+    m.w_shift, m.bias_q16, m.threshold_q16 = int(w_shift), int(bias_q16), int(threshold_q16)
+    buf = ffi.new("int16_t[]", max(1, w.shape[0]))
+    ffi.buffer(buf)[: w.nbytes] = w.tobytes()
+    m.w = buf
+    check("vt_svm_model_check", lib.vt_svm_model_check(m),
+          f"kind={kind} window {win_w}x{win_h} dim={w.shape[0]} w_shift={w_shift}")
+    return m, buf
+
+
+def svm_default_model(kind: int):
+    out = ffi.new("const vt_svm_model **")
+    check("vt_svm_default_model", lib.vt_svm_default_model(int(kind), out),
+          f"kind={kind} (no default model of this kind is built in)")
+    return out[0]
+
+
+def hog_ws_new():
+    return ffi.new("vt_hog_ws *")
+
+
+def gist_ws_new():
+    return ffi.new("vt_gist_ws *")
+
+
+def box_ws_new():
+    return ffi.new("vt_cls_box_ws *")
+
+
+def hog_prepare(ws, img: np.ndarray) -> None:
+    v = view(img, "img")
+    check("vt_hog_prepare", lib.vt_hog_prepare(ws, v), f"img {img.shape}")
+
+
+def gist_prepare(ws, img: np.ndarray) -> None:
+    v = view(img, "img")
+    check("vt_gist_prepare", lib.vt_gist_prepare(ws, v), f"img {img.shape}")
+
+
+def _descriptor(cname: str, ws, cx: int, cy: int, win_w: int, win_h: int) -> np.ndarray:
+    cap = int(lib.VT_CLS_MAX_DIM)
+    out = np.zeros(cap, np.uint16)
+    n = ffi.new("int32_t *")
+    check(cname, getattr(lib, cname)(ws, int(cx), int(cy), int(win_w), int(win_h),
+                                     ffi.cast("uint16_t *", out.ctypes.data), cap, n),
+          f"window {win_w}x{win_h} at cell ({cx}, {cy}) of a prepared "
+          f"{ws.cells_x}x{ws.cells_y}-cell image")
+    return out[: n[0]].copy()
+
+
+def hog_descriptor(ws, cx: int, cy: int, win_w: int, win_h: int) -> np.ndarray:
+    return _descriptor("vt_hog_descriptor", ws, cx, cy, win_w, win_h)
+
+
+def gist_descriptor(ws, cx: int, cy: int, win_w: int, win_h: int) -> np.ndarray:
+    return _descriptor("vt_gist_descriptor", ws, cx, cy, win_w, win_h)
+
+
+def hog_window_score(ws, model, cx: int, cy: int) -> int:
+    out = ffi.new("int32_t *")
+    check("vt_hog_window_score", lib.vt_hog_window_score(ws, model, int(cx), int(cy), out),
+          f"window at cell ({cx}, {cy}) of a prepared {ws.cells_x}x{ws.cells_y}-cell image")
+    return int(out[0])
+
+
+def hog_scan(ws, model, cx0: int, cy0: int, ncx: int, ncy: int) -> np.ndarray:
+    """Scores (Q16) of every window position, an (ncy, ncx) int32 array."""
+    if ncx < 1 or ncy < 1:
+        raise ValueError(f"hog_scan: ncx={ncx}, ncy={ncy} must be >= 1")
+    out = np.zeros((ncy, ncx), np.int32)
+    check("vt_hog_scan", lib.vt_hog_scan(ws, model, int(cx0), int(cy0), int(ncx), int(ncy),
+                                         ffi.cast("int32_t *", out.ctypes.data), out.size),
+          f"positions ({cx0}, {cy0}) + {ncx}x{ncy} on {ws.cells_x}x{ws.cells_y} cells")
+    return out
+
+
+def svm_decision(model, desc: np.ndarray) -> int:
+    d = np.ascontiguousarray(desc, dtype=np.uint16)
+    if d.ndim != 1:
+        raise ValueError(f"desc: expected a 1-D array, got shape {d.shape}")
+    out = ffi.new("int32_t *")
+    p = ffi.cast("uint16_t *", d.ctypes.data) if d.size else ffi.NULL
+    check("vt_svm_decision", lib.vt_svm_decision(model, p, d.shape[0], out),
+          f"descriptor of {d.shape[0]} values, model dim {model.dim if model != ffi.NULL else 'NULL'}")
+    return int(out[0])
+
+
+def resample_area(src: np.ndarray, box, out_w: int, out_h: int) -> np.ndarray:
+    v = view(src, "src")
+    b = ffi.new("vt_box *", [int(x) for x in box])
+    dst = np.zeros((max(out_h, 0), max(out_w, 0)), np.uint8)
+    vd = view(dst, "dst", writable=True)
+    vd.w, vd.h = int(out_w), int(out_h)
+    check("vt_resample_area", lib.vt_resample_area(v, b, vd),
+          f"src {src.shape}, box {list(box)}, out {out_w}x{out_h}")
+    return dst
+
+
+def classify_box(ws, model, frame: np.ndarray, box) -> int:
+    v = view(frame, "frame")
+    b = ffi.new("vt_box *", [int(x) for x in box])
+    out = ffi.new("int32_t *")
+    check("vt_classify_box", lib.vt_classify_box(ws, model, v, b, out),
+          f"frame {frame.shape}, box {list(box)}")
+    return int(out[0])
+def mlp_model(kind: int, win_w: int, win_h: int, w1_q, w1_shift: int, b1_q16, w2_q, w2_shift: int,
+              b2_q16: int, threshold_q16: int = 0):
+    """A vt_mlp_model over copies of the arrays; returns (model, keepalive)."""
+    w1 = np.ascontiguousarray(np.asarray(w1_q), dtype=np.int16)
+    b1 = np.ascontiguousarray(np.asarray(b1_q16), dtype=np.int32).ravel()
+    w2 = np.ascontiguousarray(np.asarray(w2_q), dtype=np.int16).ravel()
+    if w1.ndim != 2 or w1.shape[0] != b1.shape[0] or w1.shape[0] != w2.shape[0]:
+        raise ValueError(f"mlp_model: w1 {w1.shape}, b1 {b1.shape}, w2 {w2.shape} disagree")
+    m = ffi.new("vt_mlp_model *")
+    m.kind, m.win_w, m.win_h, m.dim, m.hidden = int(kind), int(win_w), int(win_h), w1.shape[1], w1.shape[0]
+    m.w1_shift, m.w2_shift, m.b2_q16, m.threshold_q16 = int(w1_shift), int(w2_shift), int(b2_q16), int(threshold_q16)
+    keep = [ffi.new("int16_t[]", w1.ravel().tolist() or [0]), ffi.new("int32_t[]", b1.tolist() or [0]),
+            ffi.new("int16_t[]", w2.tolist() or [0])]
+    m.w1, m.b1_q16, m.w2 = keep
+    check("vt_mlp_model_check", lib.vt_mlp_model_check(m),
+          f"kind={kind} window {win_w}x{win_h} w1 {w1.shape} shifts {w1_shift}/{w2_shift}")
+    return m, keep
+
+
+def mlp_default_model():
+    out = ffi.new("const vt_mlp_model **")
+    check("vt_mlp_default_model", lib.vt_mlp_default_model(out), "no default MLP is built in")
+    return out[0]
+
+
+def mlp_decision(model, desc: np.ndarray) -> int:
+    d = np.ascontiguousarray(desc, dtype=np.uint16)
+    if d.ndim != 1:
+        raise ValueError(f"desc: expected a 1-D array, got shape {d.shape}")
+    out = ffi.new("int32_t *")
+    p = ffi.cast("uint16_t *", d.ctypes.data) if d.size else ffi.NULL
+    check("vt_mlp_decision", lib.vt_mlp_decision(model, p, d.shape[0], out),
+          f"descriptor of {d.shape[0]} values")
+    return int(out[0])
+
+
+def classify_box_mlp(ws, model, frame: np.ndarray, box) -> int:
+    v = view(frame, "frame")
+    b = ffi.new("vt_box *", [int(x) for x in box])
+    out = ffi.new("int32_t *")
+    check("vt_classify_box_mlp", lib.vt_classify_box_mlp(ws, model, v, b, out),
+          f"frame {frame.shape}, box {list(box)}")
+    return int(out[0])
+# ================================================================ end classify.h

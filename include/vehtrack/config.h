@@ -99,6 +99,35 @@
 #error "lane capacities out of range (see vehtrack/config.h)"
 #endif
 
+/* Classifier (vehtrack/classify.h). vt_hog_ws holds the normalised HOG blocks of
+ * one prepared image (a band of a pyramid level) of at most VT_CLS_MAX_W x
+ * VT_CLS_MAX_H pixels: 72 bytes per 8x8 cell, 263 KB at 1280 x 192. vt_gist_ws
+ * holds 32 uint32 energies per cell of at most VT_GIST_MAX_W x VT_GIST_MAX_H
+ * (GIST verifies boxes; it is not the sliding-window descriptor). Models'
+ * windows are at most VT_CLS_MAX_WIN square, descriptors VT_CLS_MAX_DIM long. */
+#ifndef VT_CLS_MAX_W
+#define VT_CLS_MAX_W 1280
+#endif
+#ifndef VT_CLS_MAX_H
+#define VT_CLS_MAX_H 192
+#endif
+#ifndef VT_CLS_MAX_WIN
+#define VT_CLS_MAX_WIN 128
+#endif
+#ifndef VT_GIST_MAX_W
+#define VT_GIST_MAX_W 128
+#endif
+#ifndef VT_GIST_MAX_H
+#define VT_GIST_MAX_H 128
+#endif
+#define VT_CLS_MAX_DIM (((VT_CLS_MAX_WIN) / 8 - 1) * ((VT_CLS_MAX_WIN) / 8 - 1) * 36 > 512 ? \
+                        ((VT_CLS_MAX_WIN) / 8 - 1) * ((VT_CLS_MAX_WIN) / 8 - 1) * 36 : 512)
+#if VT_CLS_MAX_W < 16 || VT_CLS_MAX_H < 16 || VT_CLS_MAX_W > 4096 || VT_CLS_MAX_H > 4096 || \
+    VT_CLS_MAX_WIN < 32 || VT_CLS_MAX_WIN > 256 || VT_GIST_MAX_W < VT_CLS_MAX_WIN ||         \
+    VT_GIST_MAX_H < VT_CLS_MAX_WIN || VT_GIST_MAX_W > 1024 || VT_GIST_MAX_H > 1024
+#error "classifier capacities out of range (see vehtrack/config.h)"
+#endif
+
 #if VT_MAX_WIDTH < 1 || VT_MAX_HEIGHT < 1 || VT_MAX_WIDTH > 4096 || VT_MAX_HEIGHT > 4096
 #error "VT_MAX_WIDTH and VT_MAX_HEIGHT must be in 1..4096"
 #endif

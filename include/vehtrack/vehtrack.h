@@ -14,10 +14,13 @@
 #include "vehtrack/shadow.h"
 #include "vehtrack/verify.h"
 #include "vehtrack/detect.h"
+#include "vehtrack/windows.h"
+#include "vehtrack/fulldet.h"
 #include "vehtrack/kalman.h"
 #include "vehtrack/track_search.h"
 #include "vehtrack/tracker.h"
 #include "vehtrack/camera.h"
+#include "vehtrack/classify.h"
 
 #define VT_VERSION_MAJOR 0
 #define VT_VERSION_MINOR 1

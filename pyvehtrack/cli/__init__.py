@@ -42,6 +42,9 @@ SUBCOMMANDS: dict[str, str] = {
     "track": "pyvehtrack.cli.track",
     "eval": "pyvehtrack.cli.eval",
     "calibrate": "pyvehtrack.cli.calibrate",
+    "eval-boxes": "pyvehtrack.cli_boxes:register_eval_boxes",
+    "train": "pyvehtrack.cli_classify:register_train",
+    "classify": "pyvehtrack.cli_classify:register_classify",
 }
 
 EXAMPLES = """examples:

@@ -30,6 +30,30 @@ class CliError(Exception):
     """A user-facing error: main() prints it as one line and exits with status 2."""
 
 
+def add_model_arg(p) -> None:
+    """--model / --sources of `detect` and `track` (the full-road detector)."""
+    p.add_argument("--model", metavar="MODEL.npz", default=None,
+                   help="classifier model: detect over the whole road (shadow hypotheses over every "
+                        "lane, kept when the classifier accepts them) instead of the ego lane only")
+    p.add_argument("--sources", nargs="+", choices=("shadow", "windows"), default=None,
+                   help="full-road hypothesis sources (default with --model: shadow; windows = classifier "
+                        "sliding windows); without --model the built-in classifier is used")
+
+
+def make_detector(args):
+    """The Detector of `detect` and `track`, with the user's mistakes as CliError."""
+    from ..detector import Detector
+    model = getattr(args, "model", None)
+    if model is not None and not Path(model).is_file():
+        raise CliError(f"--model {model}: no such file")
+    try:
+        srcs = getattr(args, "sources", None)
+        return Detector(engine=args.engine, road=args.road, model=model,
+                        sources=tuple(srcs) if srcs else None)
+    except (RuntimeError, ValueError, TypeError) as e:
+        raise CliError(f"--model {model}: {e}" if model else str(e)) from None
+
+
 def output_kind(path: str | os.PathLike) -> str | None:
     """"image" or "video" by the output name's extension, None for anything else."""
     suffix = Path(path).suffix.lower()

@@ -15,7 +15,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from .common import (CliError, FrameReader, Outputs, VideoOut, count_frames, frame_sources,
+from .common import (CliError, add_model_arg, make_detector, FrameReader, Outputs, VideoOut, count_frames, frame_sources,
                      output_kind, progress)
 
 EXAMPLES = """examples:
@@ -54,11 +54,15 @@ def draw_detection(frame, res):
 
 def detection_json(frame: int, file: str, res) -> dict:
     """One frame's entry of `detect --json`, input pixels, plain ints. Lanes are the two
-    ego lines ("left", "right"); the outer lines the lane stage may find are drawn only."""
+    ego lines ("left", "right"); the outer lines the lane stage may find are drawn only.
+    In the full-road mode a box carries its classifier score as a 5th element:
+    [left, top, right, bottom, score]."""
+    scores = getattr(res, "scores", None)
     return {"frame": frame, "file": file,
             "lanes": [{"side": ln.side, "points": [[int(x), int(y)] for x, y in ln.points]}
                       for ln in res.lanes if ln.side in ("left", "right")],
-            "boxes": [[int(v) for v in b] for b in res.boxes]}
+            "boxes": [[int(v) for v in b] + ([] if scores is None else [round(float(scores[k]), 4)])
+                      for k, b in enumerate(res.boxes)]}
 
 
 def register(sub) -> None:
@@ -81,6 +85,7 @@ def register(sub) -> None:
                    help="skip (and count) frames that cannot be decoded instead of stopping with exit 2")
     p.add_argument("--camera", metavar="CAMERA.json",
                    help="camera file (needs height_m): a distance per box in the JSON")
+    add_model_arg(p)
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
@@ -92,7 +97,6 @@ def run(args) -> int:
     import cv2
 
     from .._native import VtError
-    from ..detector import Detector
 
     if not args.out and not args.json:
         raise CliError("give --out (annotated frames) and/or --json (lanes and boxes)")
@@ -113,10 +117,7 @@ def run(args) -> int:
             raise CliError(f"--camera: {e}") from None
         if cam.height_m is None:
             raise CliError(f"--camera {args.camera}: 'height_m' (camera height above the road) is missing")
-    try:
-        det = Detector(engine=args.engine, road=args.road)
-    except (RuntimeError, ValueError, TypeError) as e:
-        raise CliError(str(e)) from None
+    det = make_detector(args)
     with Outputs() as outs:
         json_tmp = outs.reserve("--json", args.json) if args.json else None
         video = None

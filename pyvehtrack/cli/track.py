@@ -23,7 +23,7 @@ import colorsys
 from pathlib import Path
 
 from ..eval.kitti import track_line
-from .common import (CliError, FrameReader, Outputs, VideoOut, count_frames, frame_sources,
+from .common import (CliError, add_model_arg, make_detector, FrameReader, Outputs, VideoOut, count_frames, frame_sources,
                      output_kind, progress)
 
 STATE_SCORE = {"confirmed": 1.0, "coasting": 0.5, "tentative": 0.25}
@@ -106,6 +106,7 @@ def register(sub) -> None:
                    help="run the detector every N frames (thesis: 10)")
     p.add_argument("--road", choices=("auto", "lanes", "fixed"), default="auto",
                    help="road area for the detector: lanes, a fixed trapezoid, or lanes with fallback")
+    add_model_arg(p)
     p.add_argument("--all-states", action="store_true",
                    help="also write tentative tracks to --tracks (default: confirmed and coasting)")
     p.add_argument("--skip-bad-frames", action="store_true",
@@ -131,7 +132,6 @@ def run(args) -> int:
     import cv2
 
     from .._native import VtError
-    from ..detector import Detector
     from ..tracker import Tracker
 
     if args.detect_every < 1:
@@ -162,8 +162,8 @@ def run(args) -> int:
             raise CliError(f"--rear-offset {args.rear_offset}: must be in [0, 5] m")
     elif args.fps is not None or args.ego_speed is not None or args.rear_offset != 0.0:
         raise CliError("--fps, --ego-speed and --rear-offset need --camera")
+    det = make_detector(args)
     try:
-        det = Detector(engine=args.engine, road=args.road)
         trk = Tracker(engine=args.engine, detect_every=args.detect_every, detector=det)
     except (RuntimeError, ValueError, TypeError) as e:
         raise CliError(str(e)) from None

@@ -80,10 +80,33 @@ def inside(poly: np.ndarray, x: float, y: float) -> bool:
     return cv2.pointPolygonTest(poly.astype(np.float32).reshape(-1, 1, 2), (float(x), float(y)), False) >= 0
 
 
+def _through_mp4(frames):
+    """The frames encoded as one MP4 (OpenCV mp4v, default quality) and decoded again, or
+    None when the video lost frames: what a dashcam recording does to them."""
+    import tempfile
+    with tempfile.TemporaryDirectory() as td:
+        path = str(Path(td) / "kitti.mp4")
+        h, w = frames[0][1].shape[:2]
+        vw = cv2.VideoWriter(path, cv2.VideoWriter_fourcc(*"mp4v"), 10.0, (w, h))
+        for _, img in frames:
+            vw.write(img)
+        vw.release()
+        cap = cv2.VideoCapture(path)
+        decoded = []
+        for idx, _ in frames:
+            ok, img = cap.read()
+            if not ok:
+                return None
+            decoded.append((idx, img))
+        cap.release()
+    return decoded
+
+
 def evaluate(engine: str, frames, gt, road_mode: str, calib, cfg: DetectConfig, thr: float,
-             progress: bool):
+             progress: bool, model=None, sources=None):
     h, w = frames[0][1].shape[:2]
-    det = Detector(engine, cfg, road=road_mode, fixed_road=kitti_road(h, w, calib))
+    det = Detector(engine, cfg, road=road_mode, fixed_road=kitti_road(h, w, calib), model=model,
+                   sources=sources)
     rows, times = [], []
     for idx, img in tqdm(frames, desc=f"{engine:9s}", unit="frame", disable=not progress,
                          file=sys.stderr):
@@ -123,6 +146,10 @@ def main(argv=None, default_data: Path = DEFAULT_DATA) -> int:
     ap.add_argument("--fixed-threshold", type=int, default=None, metavar="T",
                     help="use the thesis's fixed gradient threshold T instead of the adaptive one")
     ap.add_argument("--json", type=Path, default=Path("eval_kitti_lead.json"))
+    ap.add_argument("--mp4", action="store_true",
+                    help="encode the frames as one MP4 (OpenCV mp4v, default quality) and detect on the decoded frames")
+    ap.add_argument("--model", default=None, help="classifier .npz: the full-road detector (Detector(model=...))")
+    ap.add_argument("--sources", nargs="+", default=None, help="full-road sources (shadow windows)")
     ap.add_argument("--no-progress", action="store_true")
     a = ap.parse_args(argv)
     if not (a.data / "derived_lidar_lead_box.csv").is_file():
@@ -138,14 +165,22 @@ def main(argv=None, default_data: Path = DEFAULT_DATA) -> int:
             print(f"eval_kitti_lead: cannot read {p}", file=sys.stderr)
             return 2
         frames.append((idx, img))
+    if a.mp4:
+        frames = _through_mp4(frames)
+        if frames is None:
+            print("eval_kitti_lead: the MP4 lost frames", file=sys.stderr)
+            return 2
     shadow, verify = ShadowConfig(), VerifyConfig()
     if a.fixed_threshold is not None:
         shadow = ShadowConfig(threshold_mode=0, grad_threshold=a.fixed_threshold)
     if a.aspect is not None:
         verify = VerifyConfig(aspect_q8=int(round(a.aspect * 256)))
     cfg = DetectConfig(shadow, verify)
-    results = [evaluate(e, frames, gt, a.road, calib, cfg, a.iou, not a.no_progress) for e in a.engines]
-    print(f"\nKITTI lead vehicle, {len(frames)} frames, IoU >= {a.iou}, road {a.road}, "
+    sources = tuple(a.sources) if a.sources else None
+    results = [evaluate(e, frames, gt, a.road, calib, cfg, a.iou, not a.no_progress, a.model, sources)
+               for e in a.engines]
+    print(f"\nKITTI lead vehicle, {len(frames)} frames{' (via MP4 mp4v)' if a.mp4 else ''}, IoU >= {a.iou}, "
+          f"road {a.road}, model {a.model or '-'}, "
           f"{'fixed threshold ' + str(a.fixed_threshold) if a.fixed_threshold is not None else 'adaptive threshold'}, "
           f"aspect {cfg.verify.aspect_q8 / 256:g}")
     print(f"{'engine':10s} {'found':>12s} {'other/frame':>12s} {'med IoU':>8s} {'ms/frame':>9s}  road")

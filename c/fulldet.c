@@ -1,0 +1,376 @@
+/* fulldet.c -- vehicle detection over the whole road: shadow hypotheses
+ * verified by vertical edges (thesis sec. 2.4.2) and flat-road bounded sliding
+ * windows on the Gaussian pyramid (IVVI paper sec. 4/5) scored by a classifier
+ * (GIST paper sec. III), merged by NMS. Composition only: each step is its own
+ * stage (detect.h, windows.h, image.h); see fulldet.h. */
+#include <stddef.h>
+
+#include "vehtrack/fulldet.h"
+#include "internal.h"
+
+vt_status vt_fulldet_cfg_default(vt_fulldet_cfg *cfg)
+{
+    static const vt_fulldet_cfg def = VT_FULLDET_CFG_DEFAULT;
+    if (cfg == NULL) {
+        return VT_E_ARG;
+    }
+    *cfg = def;
+    return VT_OK;
+}
+
+vt_status vt_fulldet_cfg_check(const vt_fulldet_cfg *cfg)
+{
+    vt_status s;
+    if (cfg == NULL) {
+        return VT_E_ARG;
+    }
+    s = vt_win_cfg_check(&cfg->win);
+    if (s == VT_OK) {
+        s = vt_shadow_cfg_check(&cfg->det.shadow);
+    }
+    if (s == VT_OK) {
+        s = vt_verify_cfg_check(&cfg->det.verify);
+    }
+    if (s != VT_OK) {
+        return s;
+    }
+    if (cfg->sources < 1 || cfg->sources > 3 || (cfg->edge_check & ~1) != 0 ||
+        (cfg->shadow_classify & ~1) != 0 || cfg->nms_iou_q8 < 0 || cfg->nms_iou_q8 > 256 ||
+        cfg->nms_contain_q8 < 0 || cfg->nms_contain_q8 > 256 || cfg->box_height_q8 < 1 ||
+        cfg->box_height_q8 > 1024) {
+        return VT_E_ARG;
+    }
+    return VT_OK;
+}
+
+/* Add a candidate; when full, it replaces the lowest-scoring one if it scores higher. */
+static void vt__add(vt_fulldet_state *st, vt_fulldet_result *out, const vt_box *b, int32_t score,
+                    int32_t source)
+{
+    int32_t i, lo = 0;
+    if (out->n_cand < VT_FULLDET_MAX_CAND) {
+        i = out->n_cand++;
+    } else {
+        for (i = 1; i < VT_FULLDET_MAX_CAND; ++i) {
+            if (st->cand[i].score < st->cand[lo].score) {
+                lo = i;
+            }
+        }
+        ++out->n_cand_dropped;
+        if (st->cand[lo].score >= score) {
+            return;
+        }
+        i = lo;
+    }
+    st->cand[i].box = *b;
+    st->cand[i].score = score;
+    st->cand[i].source = source;
+}
+
+/* Input-pixel box of a window, clipped to the frame (a level's last column or row
+ * may stand for fewer than 2^level input pixels). */
+static vt_box vt__win_box(const vt_window *wn, int32_t w, int32_t h, int32_t height_q8)
+{
+    vt_box b;
+    int32_t span = wn->size << wn->level;
+    int32_t bh = vt__max_i32(1, (span * height_q8) >> 8);
+    b.left = wn->x << wn->level;
+    b.right = vt__clamp_i32(((wn->x + wn->size) << wn->level) - 1, 0, w - 1);
+    b.bottom = vt__clamp_i32(((wn->y + wn->size) << wn->level) - 1, 0, h - 1);
+    b.top = vt__clamp_i32(b.bottom - bh + 1, 0, b.bottom);
+    return b;
+}
+
+vt_status vt_fulldet(vt_fulldet_state *st, const vt_fulldet_cfg *cfg, const vt_camera_min *cam,
+                     const vt_image_u8 *img, const vt_road_area *road,
+                     const vt_window_scorer *scorer, vt_fulldet_result *out)
+{
+    vt_image_u8 lv[VT_WIN_MAX_LEVELS];
+    int32_t l, i, n_lv, w, h, use_pyr;
+    size_t off = 0;
+    vt_status s;
+    if (out == NULL) {
+        return VT_E_ARG;
+    }
+    out->n_boxes = out->n_windows = out->n_windows_dropped = out->n_window_hits = 0;
+    out->n_shadow = out->n_cand = out->n_cand_dropped = 0;
+    if (st == NULL || cam == NULL || road == NULL ||
+        (scorer != NULL && scorer->score == NULL)) {
+        return VT_E_ARG;
+    }
+    s = vt_fulldet_cfg_check(cfg);
+    if (s != VT_OK) {
+        return s;
+    }
+    s = vt_camera_min_check(cam);
+    if (s != VT_OK) {
+        return s;
+    }
+    s = vt_image_u8_check(img);
+    if (s != VT_OK) {
+        return s;
+    }
+    w = img->w;
+    h = img->h;
+    if (road->valid && road->height != h) {
+        return VT_E_SIZE;
+    }
+    /* the pyramid, only when a classifier will look at it */
+    use_pyr = scorer != NULL && ((cfg->sources & VT_FULLDET_WINDOWS) != 0 ||
+                                 ((cfg->sources & VT_FULLDET_SHADOW) != 0 && cfg->shadow_classify));
+    n_lv = use_pyr ? cfg->win.levels : 1;
+    lv[0] = *img;
+    for (l = 1; l < n_lv; ++l) {
+        vt_image_u8_mut d;
+        d.w = (lv[l - 1].w + 1) / 2;
+        d.h = (lv[l - 1].h + 1) / 2;
+        d.stride = d.w;
+        d.px = st->pyr + off;
+        off += (size_t)d.w * (size_t)d.h;   /* <= VT_FULLDET_PYR_BYTES, see fulldet.h */
+        s = vt_pyr_down(&lv[l - 1], &d);
+        if (s != VT_OK) {
+            return s;
+        }
+        lv[l].px = d.px;
+        lv[l].w = d.w;
+        lv[l].h = d.h;
+        lv[l].stride = d.stride;
+    }
+    /* windows */
+    if ((cfg->sources & VT_FULLDET_WINDOWS) != 0) {
+        for (l = 0; l < cfg->win.levels; ++l) {
+            int32_t n, y0 = INT32_MAX, y1 = -1;
+            s = vt_windows_level(&cfg->win, cam, road, w, h, l, st->win, VT_FULLDET_MAX_WINDOWS,
+                                 &n);
+            if (s != VT_OK) {
+                return s;
+            }
+            out->n_windows += n;
+            if (n > VT_FULLDET_MAX_WINDOWS) {
+                out->n_windows_dropped += n - VT_FULLDET_MAX_WINDOWS;
+                n = VT_FULLDET_MAX_WINDOWS;
+            }
+            if (n == 0 || scorer == NULL) {
+                continue;
+            }
+            for (i = 0; i < n; ++i) {
+                y0 = st->win[i].y < y0 ? st->win[i].y : y0;
+                y1 = vt__max_i32(y1, st->win[i].y + st->win[i].size - 1);
+            }
+            if (scorer->level != NULL) {
+                s = scorer->level(scorer->ctx, &lv[l], l, y0, y1);
+                if (s != VT_OK) {
+                    return s;
+                }
+            }
+            for (i = 0; i < n; ++i) {
+                int32_t sc = 0;
+                vt_box b;
+                s = scorer->score(scorer->ctx, &lv[l], &st->win[i], &sc);
+                if (s != VT_OK) {
+                    return s;
+                }
+                if (sc < cfg->window_score_min) {
+                    continue;
+                }
+                ++out->n_window_hits;
+                b = vt__win_box(&st->win[i], w, h, cfg->box_height_q8);
+                if (cfg->edge_check) {
+                    vt_hypothesis hy;
+                    vt_box vb;
+                    int32_t nv = 0;
+                    hy.row = b.bottom;
+                    hy.x_start = b.left;
+                    hy.x_end = b.right;
+                    s = vt_verify(&st->det.verify, &cfg->det.verify, img, &hy, 1, &vb, 1, &nv);
+                    if (s != VT_OK) {
+                        return s;
+                    }
+                    if (nv == 0) {
+                        continue;
+                    }
+                }
+                vt__add(st, out, &b, sc, VT_SRC_WINDOW);
+            }
+        }
+    }
+    /* shadow hypotheses over the road, verified by vertical edges */
+    if ((cfg->sources & VT_FULLDET_SHADOW) != 0 && road->valid) {
+        s = vt_detect(&st->det, &cfg->det, img, road, &st->dres);
+        if (s != VT_OK) {
+            return s;
+        }
+        out->n_shadow = st->dres.n_boxes;
+        for (i = 0; i < st->dres.n_boxes; ++i) {
+            const vt_box *b = &st->dres.box[i];
+            int32_t sc = cfg->shadow_score;
+            if (use_pyr && cfg->shadow_classify) {
+                /* the window (level, size) whose input width is nearest the box's */
+                int32_t bw = b->right - b->left + 1, best = INT32_MAX, k;
+                vt_window wn;
+                wn.level = -1;
+                wn.size = 0;
+                for (l = 0; l < n_lv; ++l) {
+                    for (k = 0; k < cfg->win.n_sizes; ++k) {
+                        int32_t sz = cfg->win.size[k];
+                        int32_t d = vt__abs_i32((sz << l) - bw);
+                        if (sz <= lv[l].w && sz <= lv[l].h && d < best) {
+                            best = d;
+                            wn.level = l;
+                            wn.size = sz;
+                        }
+                    }
+                }
+                if (wn.level < 0) {
+                    continue;
+                }
+                l = wn.level;
+                wn.x = vt__clamp_i32(((b->left + b->right + 1) >> (l + 1)) - wn.size / 2, 0,
+                                     lv[l].w - wn.size);
+                wn.y = vt__clamp_i32(((b->bottom + 1) >> l) - wn.size, 0, lv[l].h - wn.size);
+                s = scorer->score(scorer->ctx, &lv[l], &wn, &sc);
+                if (s != VT_OK) {
+                    return s;
+                }
+                if (sc < cfg->shadow_score_min) {
+                    continue;
+                }
+            }
+            vt__add(st, out, b, sc, VT_SRC_SHADOW);
+        }
+    }
+    /* merge */
+    {
+        int32_t kept = 0;
+        s = vt_nms(st->cand, out->n_cand, cfg->nms_iou_q8, cfg->nms_contain_q8, &kept);
+        if (s != VT_OK) {
+            return s;
+        }
+        out->n_boxes = kept < VT_MAX_BOXES ? kept : VT_MAX_BOXES;
+        for (i = 0; i < out->n_boxes; ++i) {
+            out->box[i] = st->cand[i];
+        }
+    }
+    return VT_OK;
+}
+
+/* ---------------------------------------------------------------- HOG scorer */
+vt_status vt_hog_scorer_init(vt_hog_scorer *sc, const vt_svm_model *m)
+{
+    vt_status s;
+    if (sc == NULL) {
+        return VT_E_ARG;
+    }
+    s = vt_svm_model_check(m);
+    if (s != VT_OK) {
+        return s;
+    }
+    sc->model = m;
+    sc->px = NULL;
+    sc->level = -1;
+    sc->x0 = sc->y0 = sc->w = sc->h = 0;
+    return VT_OK;
+}
+
+/* Prepare rows y0.. and columns x0.. of the level image (as many as the HOG
+ * workspace holds). */
+static vt_status vt__hog_band(vt_hog_scorer *sc, const vt_image_u8 *img, int32_t level, int32_t x0,
+                              int32_t y0, int32_t w, int32_t y1)
+{
+    vt_image_u8 band;
+    vt_status s;
+    int32_t h = y1 - y0 + 1;
+    if (x0 < 0 || y0 < 0 || x0 >= img->w || y0 >= img->h || h < 1 || w < 1) {
+        return VT_E_ARG;
+    }
+    h = h > VT_CLS_MAX_H ? VT_CLS_MAX_H : h;
+    h = h > img->h - y0 ? img->h - y0 : h;
+    w = w > VT_CLS_MAX_W ? VT_CLS_MAX_W : w;
+    w = w > img->w - x0 ? img->w - x0 : w;
+    band.px = img->px + (size_t)y0 * (size_t)img->stride + (size_t)x0;
+    band.stride = img->stride;
+    band.w = w;
+    band.h = h;
+    sc->px = NULL;
+    s = vt_hog_prepare(&sc->hog, &band);
+    if (s != VT_OK) {
+        return s;
+    }
+    sc->px = img->px;
+    sc->level = level;
+    sc->x0 = x0;
+    sc->y0 = y0;
+    sc->w = band.w;
+    sc->h = band.h;
+    return VT_OK;
+}
+
+vt_status vt_hog_scorer_level(void *ctx, const vt_image_u8 *level_img, int32_t level, int32_t y0,
+                              int32_t y1)
+{
+    vt_hog_scorer *sc = (vt_hog_scorer *)ctx;
+    vt_status s;
+    if (sc == NULL || sc->model == NULL) {
+        return VT_E_ARG;
+    }
+    s = vt_image_u8_check(level_img);
+    if (s != VT_OK) {
+        return s;
+    }
+    if (y0 < 0 || y1 < y0 || y1 >= level_img->h) {
+        return VT_E_ARG;
+    }
+    if (sc->model->kind != VT_DESC_HOG || y1 - y0 + 1 < sc->model->win_h) {
+        sc->px = NULL; /* every window of this band goes through vt_classify_box */
+        return VT_OK;
+    }
+    return vt__hog_band(sc, level_img, level, 0, y0, level_img->w, y1);
+}
+
+vt_status vt_hog_scorer_score(void *ctx, const vt_image_u8 *level_img, const vt_window *win,
+                              int32_t *score)
+{
+    vt_hog_scorer *sc = (vt_hog_scorer *)ctx;
+    const vt_svm_model *m;
+    vt_status s;
+    vt_box b;
+    if (score == NULL) {
+        return VT_E_ARG;
+    }
+    *score = 0;
+    if (sc == NULL || sc->model == NULL || win == NULL) {
+        return VT_E_ARG;
+    }
+    s = vt_image_u8_check(level_img);
+    if (s != VT_OK) {
+        return s;
+    }
+    if (win->size < 1 || win->x < 0 || win->y < 0 || win->x + win->size > level_img->w ||
+        win->y + win->size > level_img->h) {
+        return VT_E_ARG;
+    }
+    m = sc->model;
+    if (m->kind == VT_DESC_HOG && win->size == m->win_w && win->size == m->win_h) {
+        int32_t inside = sc->px == level_img->px && sc->level == win->level &&
+                         win->x >= sc->x0 && win->y >= sc->y0 &&
+                         win->x + win->size <= sc->x0 + sc->w &&
+                         win->y + win->size <= sc->y0 + sc->h;
+        if (!inside || (win->x - sc->x0) % VT_CLS_CELL != 0 ||
+            (win->y - sc->y0) % VT_CLS_CELL != 0) {
+            /* the window alone (a shadow box's window, or one outside the band):
+             * its cells then align, and the work is one window's */
+            s = vt__hog_band(sc, level_img, win->level, win->x, win->y, win->size,
+                             win->y + win->size - 1);
+            if (s != VT_OK) {
+                return s;
+            }
+        }
+        return vt_hog_window_score(&sc->hog, m, (win->x - sc->x0) / VT_CLS_CELL,
+                                   (win->y - sc->y0) / VT_CLS_CELL, score);
+    }
+    b.left = win->x;
+    b.top = win->y;
+    b.right = win->x + win->size - 1;
+    b.bottom = win->y + win->size - 1;
+    return vt_classify_box(&sc->box, m, level_img, &b, score);
+}

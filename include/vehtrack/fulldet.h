@@ -1,0 +1,180 @@
+/* vehtrack/fulldet.h -- vehicle detection over the whole road: shadow hypotheses
+ * over the road area (thesis sec. 2.4.2.1) verified by vertical edges (sec.
+ * 2.4.2.2), and sliding windows on a Gaussian pyramid bounded by flat-road
+ * geometry (IVVI paper sec. 4/5, windows.h) scored by a window classifier (GIST
+ * paper sec. III); the boxes of both sources merged by non-maximum suppression.
+ *
+ * The classifier is reached through vt_window_scorer (two function pointers and
+ * the caller's context), so this stage does not depend on one descriptor or model
+ * kind: the classify stage provides the functions, a test may provide its own.
+ * Without a scorer the window source finds nothing and the shadow boxes keep the
+ * score cfg->shadow_score.
+ *
+ * Cost: sizeof(vt_fulldet_state) = the pyramid levels 1.. of a VT_MAX_WIDTH x
+ * VT_MAX_HEIGHT frame (~1/3 of a frame: 691 KB at 1920x1080), VT_FULLDET_MAX_WINDOWS
+ * windows (16 B each), VT_FULLDET_MAX_CAND candidate boxes (24 B each) and
+ * vt_detect_state. Work per frame: the pyramid (25 multiply-adds per level pixel,
+ * levels 1..last level with a window), the shadow scan of the road area, one
+ * scorer call per window (plus one vt_verify per accepted window when edge_check
+ * is set), NMS O(candidates^2).
+ * Measured (make bench, -O2, one 1280x720 frame, on a shared 2-CPU machine with a
+ * load average of 12.8, so read them as upper bounds): 53 ms for shadow + 864 HOG
+ * 32x32 windows; 12.7 ms shadow alone over the camera road, 21.6 ms with each
+ * shadow box classified; vt_hog_prepare of a 1280 x 48 band is 5.9 ms of it per
+ * level. sizeof(vt_fulldet_state) = 814,356 bytes, vt_hog_scorer 361,096,
+ * vt_fulldet_result 796 at the defaults. */
+#ifndef VEHTRACK_FULLDET_H
+#define VEHTRACK_FULLDET_H
+
+#include <stdint.h>
+#include "vehtrack/classify.h"
+#include "vehtrack/config.h"
+#include "vehtrack/detect.h"
+#include "vehtrack/image.h"
+#include "vehtrack/road.h"
+#include "vehtrack/status.h"
+#include "vehtrack/windows.h"
+
+/* Windows handled per pyramid level; more are counted in n_windows_dropped. */
+#ifndef VT_FULLDET_MAX_WINDOWS
+#define VT_FULLDET_MAX_WINDOWS 4096
+#endif
+/* Candidate boxes before NMS; past this the lowest-scoring one is replaced. */
+#ifndef VT_FULLDET_MAX_CAND
+#define VT_FULLDET_MAX_CAND 1024
+#endif
+#if VT_FULLDET_MAX_WINDOWS < 1 || VT_FULLDET_MAX_CAND < 1 || VT_FULLDET_MAX_CAND > VT_MAX_NMS_BOXES
+#error "fulldet capacities out of range (see vehtrack/fulldet.h)"
+#endif
+/* Bytes of pyramid levels 1..VT_WIN_MAX_LEVELS-1 of the largest frame: each level
+ * is at most (W/2^l + 1) x (H/2^l + 1). */
+#define VT_FULLDET_PYR_BYTES                                                                 \
+    ((VT_MAX_WIDTH) * (VT_MAX_HEIGHT) / 3 + ((VT_MAX_WIDTH) + (VT_MAX_HEIGHT) + 1) * (VT_WIN_MAX_LEVELS) + 16)
+
+/* The classifier as this stage sees it. `level` (may be NULL) is called once per
+ * pyramid level with sliding windows, before they are scored, with the level
+ * image and the band of level rows y0..y1 they cover (so a descriptor can
+ * precompute its filter responses there); a classified shadow box's window is
+ * scored without a `level` call (the scorer handles a window outside its band); `score` (required) gives the decision
+ * value of one window of that level image, in the classifier's own fixed-point
+ * scale (>= 0: vehicle). A negative status from either stops the frame and is
+ * returned. ctx is the caller's (model and scratch). */
+typedef struct {
+    vt_status (*level)(void *ctx, const vt_image_u8 *level_img, int32_t level, int32_t y0,
+                       int32_t y1);
+    vt_status (*score)(void *ctx, const vt_image_u8 *level_img, const vt_window *win,
+                       int32_t *score);
+    void *ctx;
+} vt_window_scorer;
+
+/* Hypothesis sources (bits of vt_fulldet_cfg.sources). */
+#define VT_FULLDET_SHADOW 1
+#define VT_FULLDET_WINDOWS 2
+
+typedef struct {
+    int32_t sources;          /* VT_FULLDET_SHADOW | VT_FULLDET_WINDOWS, 1..3          */
+    vt_win_cfg win;           /* window rules (windows.h)                              */
+    vt_detect_cfg det;        /* shadow + vertical-edge verification (detect.h)       */
+    int32_t window_score_min; /* a window is a vehicle when score >= this              */
+    int32_t edge_check;       /* 1: an accepted window must also pass vt_verify on its
+                                 bottom edge (vertical edges at its sides), 0: not     */
+    int32_t shadow_classify;  /* 1 (with a scorer): a shadow box is kept only if the
+                                 window nearest to it scores >= shadow_score_min       */
+    int32_t shadow_score_min;
+    int32_t shadow_score;     /* score of a shadow box when it is not classified       */
+    int32_t nms_iou_q8;       /* vt_nms limits, 0..256                                 */
+    int32_t nms_contain_q8;
+    int32_t box_height_q8;    /* a window's box keeps its bottom row and width; its
+                                 height is max(1, width * this >> 8), 1..1024        */
+} vt_fulldet_cfg;
+
+/* Defaults: both sources, windows as VT_WIN_CFG_DEFAULT, detection as
+ * VT_DETECT_CFG_DEFAULT but boxes 3/4 as high as wide (verify aspect_q8 192), scores >= 0 (the SVM's own boundary), edges checked,
+ * shadow boxes classified with the same boundary, NMS at IoU 0.3 and 0.7 of the
+ * smaller box, window boxes 3/4 as high as wide (the median box of
+ * tusimple-vehicles-dev TRAIN is 0.59 as high as wide: rear and side views). */
+#define VT_FULLDET_CFG_DEFAULT                                                           \
+    {                                                                                    \
+        3, VT_WIN_CFG_DEFAULT, {VT_SHADOW_CFG_DEFAULT, {6, 26, 128, 40, 64, 3, 384, 128, 192}}, \
+            0, 1, 1, 0, 0, 77, 179, 192            \
+    }
+
+typedef struct {
+    vt_detect_state det;
+    vt_detect_result dres;
+    vt_window win[VT_FULLDET_MAX_WINDOWS];
+    vt_scored_box cand[VT_FULLDET_MAX_CAND];
+    uint8_t pyr[VT_FULLDET_PYR_BYTES];
+} vt_fulldet_state;
+
+typedef struct {
+    int32_t n_boxes;                 /* boxes after NMS, highest score first           */
+    vt_scored_box box[VT_MAX_BOXES];
+    int32_t n_windows;               /* windows generated (all levels)                 */
+    int32_t n_windows_dropped;       /* past VT_FULLDET_MAX_WINDOWS, not scored        */
+    int32_t n_window_hits;           /* windows scoring >= window_score_min            */
+    int32_t n_shadow;                /* shadow boxes (verified by vertical edges)      */
+    int32_t n_cand;                  /* candidates into NMS                            */
+    int32_t n_cand_dropped;          /* candidates replaced for lack of room           */
+} vt_fulldet_result;
+
+/* *cfg = VT_FULLDET_CFG_DEFAULT. */
+vt_status vt_fulldet_cfg_default(vt_fulldet_cfg *cfg);
+
+/* VT_OK if sources is 1..3, the window, shadow and verify configurations pass
+ * their checks, edge_check and shadow_classify are 0/1 and the NMS limits are in
+ * 0..256; else that check's status (VT_E_ARG / VT_E_CAPACITY). */
+vt_status vt_fulldet_cfg_check(const vt_fulldet_cfg *cfg);
+
+/* Detect vehicles in one gray frame.
+ *   road: the road area (lanes or vt_road_from_camera), made for img's height;
+ *   cam:  the flat-road camera (windows.h);
+ *   scorer: NULL, or a scorer whose `score` is not NULL.
+ * Windows are taken level by level (windows.h order) and scored on the level
+ * image (level 0 is img itself; level l+1 = vt_pyr_down of level l). A window's
+ * box is its input-pixel box cut to box_height_q8 of its width (bottom row kept, clipped
+ * to the frame); a shadow box is vt_verify's. Boxes past
+ * VT_MAX_BOXES after NMS are not written (n_boxes is capped). Errors: NULL st,
+ * cfg, cam, img, road or out -> VT_E_ARG; a bad cfg or cam as their checks; img
+ * as vt_image_u8_check; a road for another height -> VT_E_SIZE; a scorer's error.
+ * On error out->n_boxes is 0 (if out is not NULL). */
+vt_status vt_fulldet(vt_fulldet_state *st, const vt_fulldet_cfg *cfg, const vt_camera_min *cam,
+                     const vt_image_u8 *img, const vt_road_area *road,
+                     const vt_window_scorer *scorer, vt_fulldet_result *out);
+
+/* The classify stage's HOG + linear SVM as a vt_window_scorer: pass
+ * {vt_hog_scorer_level, vt_hog_scorer_score, &sc}. level() prepares the HOG
+ * blocks of the band (rows y0..y1, at most VT_CLS_MAX_H of them, columns from 0,
+ * at most VT_CLS_MAX_W); score() reads a window of the model's size lying on the
+ * band's 8 px cell grid from the prepared blocks (vt_hog_window_score: lookups
+ * only), preparing the window alone when it lies outside the prepared band or
+ * off its grid; any other window (another size, off the grid: the shadow boxes'
+ * windows) is scored by vt_classify_box on its level-image box (resampled to the
+ * model window, HOG on the crop alone). Scores are the model's Q16 decision
+ * values. The model must be of kind VT_DESC_HOG (GIST models: vt_classify_box on
+ * every window through the same path, slow). sizeof(vt_hog_scorer) is mostly
+ * vt_hog_ws (263 KB at 1280 x 192) and vt_cls_box_ws. */
+typedef struct {
+    const vt_svm_model *model;
+    const uint8_t *px;   /* level image the band was prepared from (NULL: none) */
+    int32_t level;
+    int32_t x0;          /* band origin in level px */
+    int32_t y0;
+    int32_t w;           /* band size */
+    int32_t h;
+    vt_hog_ws hog;
+    vt_cls_box_ws box;
+} vt_hog_scorer;
+
+/* Point sc at model m (vt_svm_model_check must pass) and forget any band. */
+vt_status vt_hog_scorer_init(vt_hog_scorer *sc, const vt_svm_model *m);
+
+/* vt_window_scorer.level for ctx = a vt_hog_scorer *. */
+vt_status vt_hog_scorer_level(void *ctx, const vt_image_u8 *level_img, int32_t level, int32_t y0,
+                              int32_t y1);
+
+/* vt_window_scorer.score for ctx = a vt_hog_scorer *. */
+vt_status vt_hog_scorer_score(void *ctx, const vt_image_u8 *level_img, const vt_window *win,
+                              int32_t *score);
+
+#endif /* VEHTRACK_FULLDET_H */

@@ -1,0 +1,63 @@
+/* fulldet.h: shadow + classifier-window detection over the whole road, NMS. */
+#define VT_FULLDET_MAX_WINDOWS ...
+#define VT_FULLDET_MAX_CAND ...
+#define VT_FULLDET_SHADOW ...
+#define VT_FULLDET_WINDOWS ...
+
+typedef struct {
+    vt_status (*level)(void *ctx, const vt_image_u8 *level_img, int32_t level, int32_t y0,
+                       int32_t y1);
+    vt_status (*score)(void *ctx, const vt_image_u8 *level_img, const vt_window *win,
+                       int32_t *score);
+    void *ctx;
+} vt_window_scorer;
+
+typedef struct {
+    int32_t sources;
+    vt_win_cfg win;
+    vt_detect_cfg det;
+    int32_t window_score_min;
+    int32_t edge_check;
+    int32_t shadow_classify;
+    int32_t shadow_score_min;
+    int32_t shadow_score;
+    int32_t nms_iou_q8;
+    int32_t nms_contain_q8;
+    int32_t box_height_q8;
+} vt_fulldet_cfg;
+
+typedef struct { ...; } vt_fulldet_state;
+
+typedef struct {
+    int32_t n_boxes;
+    vt_scored_box box[...];
+    int32_t n_windows;
+    int32_t n_windows_dropped;
+    int32_t n_window_hits;
+    int32_t n_shadow;
+    int32_t n_cand;
+    int32_t n_cand_dropped;
+} vt_fulldet_result;
+
+vt_status vt_fulldet_cfg_default(vt_fulldet_cfg *cfg);
+vt_status vt_fulldet_cfg_check(const vt_fulldet_cfg *cfg);
+vt_status vt_fulldet(vt_fulldet_state *st, const vt_fulldet_cfg *cfg, const vt_camera_min *cam,
+                     const vt_image_u8 *img, const vt_road_area *road,
+                     const vt_window_scorer *scorer, vt_fulldet_result *out);
+
+typedef struct {
+    const vt_svm_model *model;
+    const uint8_t *px;
+    int32_t level;
+    int32_t x0;
+    int32_t y0;
+    int32_t w;
+    int32_t h;
+    ...;
+} vt_hog_scorer;
+
+vt_status vt_hog_scorer_init(vt_hog_scorer *sc, const vt_svm_model *m);
+vt_status vt_hog_scorer_level(void *ctx, const vt_image_u8 *level_img, int32_t level, int32_t y0,
+                              int32_t y1);
+vt_status vt_hog_scorer_score(void *ctx, const vt_image_u8 *level_img, const vt_window *win,
+                              int32_t *score);

@@ -1,0 +1,65 @@
+"""`pyvehtrack eval-boxes`: score `detect --json` boxes against tusimple-vehicles-dev
+style ground truth (pyvehtrack.eval_boxes does the scoring).
+
+    pyvehtrack eval-boxes --gt annotation.json --pred found.json [--image-size 1280x720]
+                          [--json scores.json]
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from .cli import CliError
+
+
+def register_eval_boxes(sub) -> None:
+    p = sub.add_parser("eval-boxes", help="recall/precision/AP50 of detected boxes against labelled boxes",
+                       description="Recall and precision at IoU >= 0.5 (all vehicles, >= 32 px and >= 64 px "
+                       "wide, the lead vehicle) and COCO AP50 (pycocotools) of `detect --json` output "
+                       "against a tusimple-vehicles-dev style annotation.json. Only frames present in "
+                       "--pred are scored.")
+    p.add_argument("--gt", required=True, metavar="ANNOTATION.json",
+                   help="[{file_name, bbox: [{left, top, right, bottom}, ...]}, ...]")
+    p.add_argument("--pred", required=True, metavar="FOUND.json", help="as written by `pyvehtrack detect --json`")
+    p.add_argument("--image-size", default="1280x720", metavar="WxH",
+                   help="frame size that places the bottom centre for the lead vehicle (default 1280x720)")
+    p.add_argument("--json", metavar="OUT.json", help="also write the scores as JSON")
+    p.set_defaults(func=run_eval_boxes)
+
+
+def _read_json(path: str, flag: str):
+    p = Path(path)
+    if not p.is_file():
+        raise CliError(f"{flag} {path}: no such file")
+    try:
+        return json.loads(p.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise CliError(f"{flag} {path}: not readable as JSON ({e})") from None
+
+
+def run_eval_boxes(args) -> int:
+    from . import eval_boxes as eb
+    try:
+        w, h = (int(v) for v in args.image_size.lower().split("x"))
+        if w <= 0 or h <= 0:
+            raise ValueError
+    except ValueError:
+        raise CliError(f"--image-size {args.image_size}: expected WxH with positive integers") from None
+    if args.json and not Path(args.json).parent.exists():
+        raise CliError(f"--json {args.json}: folder {Path(args.json).parent} does not exist")
+    try:
+        gt = eb.load_gt(_read_json(args.gt, "--gt"))
+    except ValueError as e:
+        raise CliError(f"--gt {args.gt}: {e}") from None
+    try:
+        pred = eb.load_pred(_read_json(args.pred, "--pred"))
+    except ValueError as e:
+        raise CliError(f"--pred {args.pred}: {e}") from None
+    try:
+        s = eb.score(gt, pred, (w, h))
+    except ValueError as e:
+        raise CliError(str(e)) from None
+    print(eb.format_scores(s))
+    if args.json:
+        Path(args.json).write_text(json.dumps(s.as_dict(), indent=1) + "\n")
+    return 0

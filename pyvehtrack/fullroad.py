@@ -1,0 +1,261 @@
+"""Vehicle detection over the whole road (IVVI paper sec. 4/5 road restriction, GIST paper
+sec. III window classification, thesis sec. 2.4.2 shadow hypotheses), from the C core
+(c/fulldet.c) or from its float oracle (reference/fulldet.py).
+
+    from pyvehtrack.fullroad import FullRoadDetector, Camera
+    det = FullRoadDetector(model="model.npz")          # or model=None: the built-in default
+    boxes = det.detect_gray(gray)                      # (N, 6) [l, t, r, b, score, source]
+
+A box's score is the classifier's decision value (float, the SVM margin; >= the model's
+threshold means vehicle); source 1 = shadow hypothesis, 2 = classifier window.
+
+Model files (.npz, written by `pyvehtrack train` or tools/train_window_svm.py) hold:
+kind ("hog"/"gist" or 1/2), win_w, win_h, w_q (int16 weights), w_shift, bias_q16 and
+optionally threshold_q16.
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from . import _native
+from ._native import ffi, lib
+from .reference import fulldet as rfd
+from .reference import windows as rw
+
+SOURCES = ("shadow", "windows")
+# What Detector(model=...) uses when no sources are given: with the HOG 32x32 window
+# model of tools/train_window_svm.py the windows add many false boxes for little recall
+# on tusimple TRAIN frames (frames 200-280: precision >= 32 px 60% -> 5%, recall 27% ->
+# 28%), so they are opt-in until a stronger window model exists.
+DEFAULT_SOURCES = ("shadow",)
+_KINDS = {"hog": 1, "gist": 2, 1: 1, 2: 2}
+
+
+@dataclass(frozen=True)
+class Camera:
+    """The flat-road camera in frame-relative terms, so one setting serves any
+    resolution: horizon row and first hood row as fractions of the frame height (the
+    horizon is replaced by the lanes' vanishing row when the lane stage finds one),
+    camera height in metres, focal length as a multiple of the frame width.
+    Defaults: the horizon fitted on the TRAIN part of tusimple-vehicles-dev (row 330 of
+    720, from the boxes' bottom rows and heights), TuSimple's 1.8 m camera height and
+    714 px focal length at 1280 px, the hood from row 0.93 h."""
+    horizon_frac: float = 330 / 720
+    hood_frac: float = 0.93
+    height_m: float = 1.8
+    fx_per_width: float = 714.15 / 1280
+
+    def __post_init__(self):
+        for name, lo, hi in (("horizon_frac", -1.0, 1.0), ("hood_frac", 0.05, 2.0), ("height_m", 0.1, 20.0),
+                             ("fx_per_width", 0.05, 20.0)):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
+                raise TypeError(f"camera {name}: expected a finite number, got {v!r}")
+            if not lo <= v <= hi:
+                raise ValueError(f"camera {name}: expected {lo}..{hi}, got {v}")
+
+    def for_frame(self, h: int, w: int, horizon_y: int | None = None) -> rw.Camera:
+        hy = int(round(self.horizon_frac * h)) if horizon_y is None else int(horizon_y)
+        return rw.Camera(fx=self.fx_per_width * w, horizon_y=hy, height_m=self.height_m,
+                         hood_y=max(1, int(round(self.hood_frac * h))))
+
+
+@dataclass
+class SvmModel:
+    kind: int
+    win_w: int
+    win_h: int
+    w_q: np.ndarray
+    w_shift: int
+    bias_q16: int
+    threshold_q16: int = 0
+    path: str = "<built-in>"
+
+    def score_float(self, desc_q15: np.ndarray) -> float:
+        """The model's decision value (real units) for a Q15 descriptor, in float."""
+        w = self.w_q.astype(np.float64) / 2 ** self.w_shift
+        return float(w @ (np.asarray(desc_q15, np.float64) / 32768) + self.bias_q16 / 65536)
+
+
+def load_model(path) -> SvmModel:
+    """A model from an .npz file (see the module doc); ValueError naming the problem."""
+    p = os.fspath(path)
+    if not os.path.isfile(p):
+        raise ValueError(f"model: no such file: {p}")
+    try:
+        z = np.load(p, allow_pickle=False)
+    except Exception as e:  # noqa: BLE001  (any unreadable file is the same user error)
+        raise ValueError(f"model: {p} is not a readable .npz file ({e})") from None
+    need = ("kind", "win_w", "win_h", "w_q", "w_shift", "bias_q16")
+    miss = [k for k in need if k not in z.files]
+    if miss:
+        raise ValueError(f"model: {p} lacks {', '.join(miss)} (expected the keys {', '.join(need)})")
+    kind = z["kind"].item()
+    kind = _KINDS.get(kind.lower() if isinstance(kind, str) else int(kind))
+    if kind is None:
+        raise ValueError(f"model: {p}: kind must be 'hog' or 'gist', got {z['kind'].item()!r}")
+    w = np.asarray(z["w_q"])
+    if w.ndim != 1 or not np.issubdtype(w.dtype, np.integer) or (np.abs(w.astype(np.int64)) > 32767).any():
+        raise ValueError(f"model: {p}: w_q must be a 1-D array of int16 values")
+    m = SvmModel(kind, int(z["win_w"]), int(z["win_h"]), w.astype(np.int16), int(z["w_shift"]),
+                 int(z["bias_q16"]), int(z["threshold_q16"]) if "threshold_q16" in z.files else 0, p)
+    _c_model(m)   # validates window, dim and shift against the C core
+    return m
+
+
+def default_model() -> SvmModel | None:
+    """The model built into the C core (c/tables/), or None if the build has none."""
+    out = ffi.new("const vt_svm_model **")
+    if lib.vt_svm_default_model(1, out) != 0:
+        return None
+    m = out[0]
+    w = np.frombuffer(ffi.buffer(m.w, 2 * m.dim), np.int16).copy()
+    return SvmModel(m.kind, m.win_w, m.win_h, w, m.w_shift, m.bias_q16, m.threshold_q16)
+
+
+def _c_model(m: SvmModel):
+    return _native.svm_model(m.kind, m.win_w, m.win_h, m.w_q, m.w_shift, m.bias_q16, m.threshold_q16)
+
+
+@dataclass(frozen=True)
+class FullRoadConfig:
+    """Everything but the camera and the model: the oracle's FullDetConfig fields
+    (windows, shadow/verify stages, thresholds, NMS); `score_offset` (float, the SVM's
+    units) is added to the model's own threshold for windows and shadow boxes."""
+    det: rfd.FullDetConfig = field(default_factory=rfd.FullDetConfig)
+    score_offset: float = 0.0
+
+
+def _c_cfg(cfg: rfd.FullDetConfig):
+    c = _native.fulldet_cfg_default()
+    c.sources = (1 if cfg.shadow_source else 0) | (2 if cfg.window_source else 0)
+    w = cfg.win
+    if len(w.sizes) > int(lib.VT_WIN_MAX_SIZES) or w.levels > int(lib.VT_WIN_MAX_LEVELS):
+        raise ValueError(f"cfg.win: at most {int(lib.VT_WIN_MAX_SIZES)} sizes and "
+                         f"{int(lib.VT_WIN_MAX_LEVELS)} levels in this build")
+    c.win.veh_w_min_mm, c.win.veh_w_max_mm = round(w.veh_w_min_m * 1000), round(w.veh_w_max_m * 1000)
+    c.win.n_sizes = len(w.sizes)
+    for i, s in enumerate(w.sizes):
+        c.win.size[i] = int(s)
+    c.win.step_q8, c.win.levels = round(w.step * 256), int(w.levels)
+    c.win.lane_w_mm, c.win.top_margin = round(w.lane_w_m * 1000), int(w.top_margin)
+    for f in cfg.shadow.__dataclass_fields__:
+        setattr(c.det.shadow, f, int(getattr(cfg.shadow, f)))
+    for f in cfg.verify.__dataclass_fields__:
+        setattr(c.det.verify, f, int(getattr(cfg.verify, f)))
+    c.window_score_min, c.edge_check = int(cfg.window_score_min), int(bool(cfg.edge_check))
+    c.shadow_classify = int(bool(cfg.shadow_classify))
+    c.shadow_score_min, c.shadow_score = int(cfg.shadow_score_min), int(cfg.shadow_score)
+    c.nms_iou_q8, c.nms_contain_q8 = round(cfg.nms_iou * 256), round(cfg.nms_contain * 256)
+    c.box_height_q8 = round(cfg.box_height * 256)
+    _native.check("vt_fulldet_cfg_check", lib.vt_fulldet_cfg_check(c), f"config {cfg}")
+    return c
+
+
+class FullRoadDetector:
+    """Shadow hypotheses and classifier windows over the whole road, merged by NMS.
+
+    model: path to an .npz model, an SvmModel, or None for the core's built-in model
+    (if the build has none, the window source is unavailable: ValueError when asked for).
+    sources: a subset of ("shadow", "windows").
+    camera: a Camera (frame-relative flat-road camera).
+    engine: "c" or "reference" (the float oracle; the classifier is the C one in both,
+    its own oracle lives with the classify stage)."""
+
+    def __init__(self, model=None, *, sources=SOURCES, camera: Camera | None = None,
+                 cfg: FullRoadConfig | None = None, engine: str = "c"):
+        if engine not in ("c", "reference"):
+            raise ValueError(f"engine: expected 'c' or 'reference', got {engine!r}")
+        if isinstance(sources, str):
+            sources = (sources,)
+        sources = tuple(sources)
+        bad = [s for s in sources if s not in SOURCES]
+        if bad or not sources:
+            raise ValueError(f"sources: expected a non-empty subset of {SOURCES}, got {sources!r}")
+        if model is None:
+            self.model = default_model()
+        elif isinstance(model, SvmModel):
+            self.model = model
+        elif isinstance(model, (str, os.PathLike)):
+            self.model = load_model(model)
+        else:
+            raise TypeError(f"model: expected a path, an SvmModel or None, got {type(model).__name__}")
+        if self.model is None and "windows" in sources:
+            raise ValueError("sources: 'windows' needs a classifier model, and this build has no default "
+                             "model: pass model=PATH.npz (see `pyvehtrack train`)")
+        self.camera = camera if camera is not None else Camera()
+        if not isinstance(self.camera, Camera):
+            raise TypeError(f"camera: expected a Camera, got {type(self.camera).__name__}")
+        cfg = cfg if cfg is not None else FullRoadConfig()
+        if not isinstance(cfg, FullRoadConfig):
+            raise TypeError(f"cfg: expected a FullRoadConfig, got {type(cfg).__name__}")
+        det = cfg.det
+        thr = 0
+        if self.model is not None:
+            thr = self.model.threshold_q16 + int(round(cfg.score_offset * 65536))
+            if det.win.sizes != (self.model.win_w,) and self.model.win_w == self.model.win_h:
+                det = replace(det, win=replace(det.win, sizes=(self.model.win_w,), step=8 / self.model.win_w))
+        det = replace(det, shadow_source="shadow" in sources, window_source="windows" in sources,
+                      window_score_min=thr, shadow_score_min=thr,
+                      shadow_classify=det.shadow_classify and self.model is not None)
+        self.cfg, self.det_cfg, self.sources, self.engine = cfg, det, sources, engine
+        self._cfg_c = _c_cfg(det)
+        self._state = ffi.new("vt_fulldet_state *")
+        self._out = ffi.new("vt_fulldet_result *")
+        self._scorer = None
+        if self.model is not None:
+            self._m, self._keep = _c_model(self.model)
+            self._hog = ffi.new("vt_hog_scorer *")
+            _native.check("vt_hog_scorer_init", lib.vt_hog_scorer_init(self._hog, self._m))
+            self._scorer = ffi.new("vt_window_scorer *")
+            self._scorer.level = ffi.addressof(lib, "vt_hog_scorer_level")
+            self._scorer.score = ffi.addressof(lib, "vt_hog_scorer_score")
+            self._scorer.ctx = self._hog
+        self.last_stats: dict = {}
+
+    def camera_for(self, h: int, w: int, horizon_y: int | None = None) -> rw.Camera:
+        return self.camera.for_frame(h, w, horizon_y)
+
+    def _score_py(self, img, level, s, x, y):
+        """The C classifier on one window, for the reference engine."""
+        win = ffi.new("vt_window *", [level, s, x, y])
+        out = ffi.new("int32_t *")
+        v = _native.view(np.ascontiguousarray(img), "level_img")
+        _native.check("vt_hog_scorer_score", lib.vt_hog_scorer_score(self._hog, v, win, out))
+        return int(out[0])
+
+    def detect_gray(self, gray: np.ndarray, road=None, horizon_y: int | None = None) -> np.ndarray:
+        """Boxes (N, 6) float [left, top, right, bottom, score, source] in the pixels of
+        `gray` (uint8 (h, w), within the core's maximum size), highest score first.
+        road: a RoadArea-like restriction, or None for the camera road (all columns
+        between the horizon and the hood). Scores are in the model's units (Q16 / 65536)."""
+        h, w = gray.shape
+        cam = self.camera_for(h, w, horizon_y)
+        ccam = _native.camera_min(cam.fx, cam.horizon_y, round(cam.height_m * 1000), cam.hood_y)
+        if road is None:
+            road_c = _native.road_from_camera(ffi.addressof(self._cfg_c, "win"), ccam, w, h)
+            road_r = rw.road_from_camera(cam, self.det_cfg.win, w, h) if self.engine != "c" else None
+        else:
+            road_c = _native.road_area(road, h)
+            road_r = road
+        if self.engine == "c":
+            a = _native.fulldet(self._state, self._cfg_c, ccam, gray, road_c, self._scorer, self._out)
+            self.last_stats = {k: int(getattr(self._out, k)) for k in
+                               ("n_windows", "n_windows_dropped", "n_window_hits", "n_shadow", "n_cand",
+                                "n_cand_dropped")}
+            arr = np.stack([a[k] for k in ("left", "top", "right", "bottom", "score", "source")], 1)
+        else:
+            arr, self.last_stats = rfd.detect(
+                gray, road_r, cam, self.det_cfg, self._score_py if self._scorer is not None else None,
+                max_windows=int(lib.VT_FULLDET_MAX_WINDOWS), max_cand=int(lib.VT_FULLDET_MAX_CAND),
+                max_boxes=int(lib.VT_MAX_BOXES), max_hyp=int(lib.VT_MAX_HYPOTHESES))
+        out = np.asarray(arr, np.float64).reshape(-1, 6)
+        out[:, 4] /= 65536.0
+        return out
+
+
+__all__ = ["Camera", "SvmModel", "FullRoadConfig", "FullRoadDetector", "load_model", "default_model", "SOURCES",
+           "DEFAULT_SOURCES"]

@@ -1,0 +1,128 @@
+"""Float reference for detection over the whole road, twin of c/fulldet.c.
+
+The composition the IVVI paper (sec. 4/5) and the GIST paper (sec. III) describe:
+  1. a Gaussian pyramid of the frame (cv2.pyrDown, as the C vt_pyr_down);
+  2. sliding windows on each level, restricted to the flat-road width band of a
+     vehicle at their bottom row (reference.windows), each scored by the classifier;
+     a window scoring >= window_score_min (and, with edge_check, whose bottom edge
+     passes the thesis's vertical-edge verification) becomes a box: the window's
+     width and bottom row, box_height of its width high;
+  3. shadow hypotheses over the road area verified by vertical edges (thesis sec.
+     2.4.2, reference.shadow / reference.verify); with shadow_classify, the window
+     of the pyramid nearest each shadow box in width is scored and the box kept if
+     it scores >= shadow_score_min;
+  4. greedy NMS of all boxes (reference.windows.nms).
+The classifier is any function score(level_image, level, size, x, y) -> int (the
+same scale as the C scorer), so C and oracle can share one.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import shadow as rshadow
+from . import verify as rverify
+from . import windows as rw
+from .image import pyr_down
+from .shadow import ShadowConfig
+from .verify import VerifyConfig
+
+
+@dataclass(frozen=True)
+class FullDetConfig:
+    shadow_source: bool = True
+    window_source: bool = True
+    win: rw.WindowConfig = field(default_factory=rw.WindowConfig)
+    shadow: ShadowConfig = field(default_factory=ShadowConfig)
+    verify: VerifyConfig = field(default_factory=lambda: VerifyConfig(aspect_q8=192))
+    window_score_min: int = 0
+    edge_check: bool = True
+    shadow_classify: bool = True
+    shadow_score_min: int = 0
+    shadow_score: int = 0
+    nms_iou: float = 77 / 256
+    nms_contain: float = 179 / 256
+    box_height: float = 192 / 256     # window box height / width (bottom row kept)
+
+
+def detect(gray: np.ndarray, road, cam: rw.Camera, cfg: FullDetConfig, score=None, *,
+           max_windows: int = 4096, max_cand: int = 1024, max_boxes: int = 32,
+           max_hyp: int = 32, max_shadow_active: int = 64, max_shadow_cand: int = 64):
+    """Boxes (N, 6) int [left, top, right, bottom, score, source] after NMS, highest
+    score first (source 1 shadow, 2 window), and counters as the C result has them."""
+    gray = np.asarray(gray, np.uint8)
+    h, w = gray.shape
+    stats = dict(n_windows=0, n_windows_dropped=0, n_window_hits=0, n_shadow=0, n_cand=0,
+                 n_cand_dropped=0)
+    use_pyr = score is not None and (cfg.window_source or (cfg.shadow_source and cfg.shadow_classify))
+    levels = [gray]
+    if use_pyr:
+        for _ in range(cfg.win.levels - 1):
+            levels.append(pyr_down(levels[-1]))
+    cands = []   # [l, t, r, b, score, source]
+
+    def add(box, sc, src):
+        if len(cands) < max_cand:
+            cands.append([*box, sc, src])
+            return
+        stats["n_cand_dropped"] += 1
+        lo = min(range(len(cands)), key=lambda i: cands[i][4])   # first lowest
+        if cands[lo][4] < sc:
+            cands[lo] = [*box, sc, src]
+
+    if cfg.window_source:
+        for lvl in range(cfg.win.levels):
+            wins = rw.windows_level(cfg.win, cam, road, w, h, lvl)
+            stats["n_windows"] += len(wins)
+            if len(wins) > max_windows:
+                stats["n_windows_dropped"] += len(wins) - max_windows
+                wins = wins[:max_windows]
+            if score is None or not len(wins):
+                continue
+            for lv, s, x, y in wins:
+                sc = int(score(levels[lvl], int(lv), int(s), int(x), int(y)))
+                if sc < cfg.window_score_min:
+                    continue
+                stats["n_window_hits"] += 1
+                l, t, r, b = rw.window_box((lv, s, x, y))
+                r, b = min(r, w - 1), min(b, h - 1)
+                bh = max(1, int(np.floor(s * 2 ** lvl * cfg.box_height)))
+                box = (l, min(max(b - bh + 1, 0), b), r, b)
+                if cfg.edge_check and rverify.verify_one(gray, (box[3], box[0], box[2]), cfg.verify) is None:
+                    continue
+                add(box, sc, 2)
+    road_t = rw.as_road_tuple(road)
+    if cfg.shadow_source and road_t is not None and road_t[0]:
+        area = rshadow.RoadArea(road_t[1], road_t[2], road_t[3], road_t[4], road_t[5], True)
+        res = rshadow.find_hypotheses(gray, area, cfg.shadow, max_active=max_shadow_active,
+                                      max_cand=max_shadow_cand, max_out=max_hyp)
+        boxes = rverify.verify(gray, res.hypotheses, cfg.verify, max_out=max_boxes)
+        stats["n_shadow"] = len(boxes)
+        for bx in boxes:
+            l, t, r, b = (int(v) for v in bx)
+            sc = cfg.shadow_score
+            if use_pyr and cfg.shadow_classify:
+                bw, best, pick = r - l + 1, None, None
+                for lvl, img in enumerate(levels):
+                    for s in cfg.win.sizes:
+                        d = abs(s * 2 ** lvl - bw)
+                        if s <= img.shape[1] and s <= img.shape[0] and (best is None or d < best):
+                            best, pick = d, (lvl, s)
+                if pick is None:
+                    continue
+                lvl, s = pick
+                lh, lw = levels[lvl].shape
+                x = min(max(((l + r + 1) >> (lvl + 1)) - s // 2, 0), lw - s)
+                y = min(max(((b + 1) >> lvl) - s, 0), lh - s)
+                sc = int(score(levels[lvl], lvl, s, x, y))
+                if sc < cfg.shadow_score_min:
+                    continue
+            add((l, t, r, b), sc, 1)
+    stats["n_cand"] = len(cands)
+    keep = rw.nms([c[:4] for c in cands], [c[4] for c in cands], cfg.nms_iou, cfg.nms_contain)
+    out = np.array([cands[i] for i in keep], np.int64).reshape(-1, 6)[:max_boxes]
+    return out, stats
+
+
+__all__ = ["FullDetConfig", "detect"]

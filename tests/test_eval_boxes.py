@@ -1,0 +1,119 @@
+"""eval-boxes: box matching, size classes, the lead vehicle and COCO AP50 on a tiny
+hand-made annotation whose answers are worked out below, and bad input."""
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from pyvehtrack import eval_boxes as eb
+from pyvehtrack.cli import main as cli_main
+
+# Two 100x100 frames. Frame a: a 40-px car at the bottom centre (the lead), a 20-px far
+# car, a 70-px car on the right. Frame b: one 80-px lead car.
+GT = [
+    {"file_name": "supp_img/0001.jpg", "bbox": [
+        {"left": 30, "top": 60, "right": 69, "bottom": 99},     # 40 px, lead
+        {"left": 10, "top": 10, "right": 29, "bottom": 29},     # 20 px
+        {"left": 0, "top": 0, "right": 69, "bottom": 20}]},     # 70 px (top-left, far from bottom)
+    {"file_name": "supp_img/0002.jpg", "bbox": [
+        {"left": 10, "top": 19, "right": 89, "bottom": 98}]},   # 80 px, lead
+]
+PRED = [
+    # frame a: the lead exactly (0.9), the far car shifted by 2 px (IoU 18*20/(2*400-360) =
+    # 0.818, 0.8), a false 40-px box (0.95), nothing on the 70-px car.
+    {"frame": 0, "file": "/x/supp_img/0001.jpg", "boxes": [[30, 60, 69, 99, 0.9], [12, 10, 31, 29, 0.8],
+                                                         [50, 30, 89, 69, 0.95]]},
+    # frame b: the lead shifted by 30 px: IoU 50*80 / (2*6400 - 4000) = 0.4545 -> a miss and a
+    # false positive; it is still the frame's predicted lead, and wrong.
+    {"frame": 1, "file": "0002.jpg", "boxes": [[40, 19, 119, 98, 0.5]]},
+]
+
+
+def test_scores_by_hand():
+    s = eb.score(eb.load_gt(GT), eb.load_pred(PRED), image_size=(100, 100))
+    assert s.frames == 2 and s.unscored_gt_frames == 0
+    a = s.classes["all"]
+    # 4 gt, 2 matched; 4 predictions, 2 right
+    assert (a["gt"], a["pred"]) == (4, 4)
+    assert a["recall"] == pytest.approx(2 / 4) and a["precision"] == pytest.approx(2 / 4)
+    c32 = s.classes[">=32px"]
+    # gt >= 32: lead a, 70-px, lead b -> 1 matched. preds: lead a (TP), false 40 (FP), b (80 px, FP);
+    # the 20-px box matched a 20-px gt: left out of this class.
+    assert (c32["gt"], c32["pred"]) == (3, 3)
+    assert c32["recall"] == pytest.approx(1 / 3) and c32["precision"] == pytest.approx(1 / 3)
+    c64 = s.classes[">=64px"]
+    assert (c64["gt"], c64["pred"]) == (2, 1)
+    assert c64["recall"] == 0 and c64["precision"] == 0
+    ld = s.lead
+    assert (ld["frames"], ld["pred_frames"]) == (2, 2)
+    assert ld["recall"] == pytest.approx(0.5) and ld["precision"] == pytest.approx(0.5)
+    # COCO AP50, by hand: detections by score 0.95 FP, 0.9 TP, 0.8 TP, 0.5 FP over 4 gt;
+    # precision envelope up to recall 0.5 is 2/3; 101-point interpolation: recall points
+    # 0..0.50 (51 of 101) at 2/3, the rest 0.
+    assert s.ap50 == pytest.approx(51 / 101 * 2 / 3, abs=1e-9)
+
+
+def test_iou_inclusive():
+    assert eb.box_iou_matrix([[0, 0, 9, 9]], [[0, 0, 9, 9]])[0, 0] == 1.0
+    assert eb.box_iou_matrix([[0, 0, 9, 9]], [[5, 0, 14, 9]])[0, 0] == pytest.approx(50 / 150)
+    assert eb.box_iou_matrix([[0, 0, 9, 9]], [[10, 0, 19, 9]])[0, 0] == 0.0
+
+
+def test_no_score_and_empty():
+    pred = [{"frame": 0, "file": "0001.jpg", "boxes": [[30, 60, 69, 99]]}]
+    s = eb.score(eb.load_gt(GT), eb.load_pred(pred), image_size=(100, 100))
+    assert s.frames == 1 and s.unscored_gt_frames == 1
+    assert s.classes["all"]["recall"] == pytest.approx(1 / 3) and s.classes["all"]["precision"] == 1.0
+    s = eb.score(eb.load_gt(GT), eb.load_pred([{"frame": 0, "file": "0002.jpg", "boxes": []}]),
+                 image_size=(100, 100))
+    assert s.classes["all"]["recall"] == 0 and math.isnan(s.classes["all"]["precision"])
+    assert s.ap50 == 0.0
+
+
+@pytest.mark.parametrize("pred, msg", [
+    ({"file": "x"}, "JSON list"),
+    ([{"file": "0001.jpg"}], "needs 'file' and 'boxes'"),
+    ([{"file": "0003.jpg", "boxes": []}], "matches 0 ground-truth"),
+    ([{"file": "0001.jpg", "boxes": [[1, 2, 3]]}], "box 0"),
+    ([{"file": "0001.jpg", "boxes": [[5, 2, 3, 9]]}], "right < left"),
+    ([{"file": "0001.jpg", "boxes": [[1, 2, 3, "a"]]}], "non-numeric"),
+    ([{"file": "0001.jpg", "boxes": [[1, 2, 3, 4, float("nan")]]}], "non-finite"),
+    ([{"file": "0001.jpg", "boxes": [[1, 2, 3, 4, 0.5], [1, 2, 3, 4]]}], "some boxes carry a score"),
+    ([{"file": "0001.jpg", "boxes": []}, {"file": "a/0001.jpg", "boxes": []}], "two entries"),
+])
+def test_bad_pred(pred, msg):
+    with pytest.raises(ValueError, match=msg):
+        eb.score(eb.load_gt(GT), eb.load_pred(pred))
+
+
+def test_cli(tmp_path, capsys):
+    gt, pred, out = tmp_path / "gt.json", tmp_path / "pred.json", tmp_path / "s.json"
+    gt.write_text(json.dumps(GT))
+    pred.write_text(json.dumps(PRED))
+    assert cli_main(["eval-boxes", "--gt", str(gt), "--pred", str(pred), "--image-size", "100x100",
+                     "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "COCO AP50" in text and ">=32px" in text and "lead" in text
+    d = json.loads(out.read_text())
+    assert d["classes"]["all"]["recall"] == pytest.approx(0.5)
+    assert np.isclose(d["coco_ap50"], 51 / 101 * 2 / 3)
+
+
+@pytest.mark.parametrize("args, msg", [
+    (["--gt", "MISSING", "--pred", "P"], "--gt MISSING: no such file"),
+    (["--gt", "G", "--pred", "P", "--image-size", "0x5"], "--image-size"),
+    (["--gt", "BAD", "--pred", "P"], "not readable as JSON"),
+    (["--gt", "G", "--pred", "BADP"], "--pred"),
+])
+def test_cli_errors(tmp_path, capsys, args, msg):
+    (tmp_path / "G").write_text(json.dumps(GT))
+    (tmp_path / "P").write_text(json.dumps(PRED))
+    (tmp_path / "BAD").write_text("{")
+    (tmp_path / "BADP").write_text(json.dumps([{"file": "0001.jpg", "boxes": [[1]]}]))
+    args = [str(tmp_path / a) if a in ("G", "P", "BAD", "BADP", "MISSING") else a for a in args]
+    assert cli_main(["eval-boxes"] + args) == 2
+    err = capsys.readouterr().err
+    assert msg.replace("MISSING", str(tmp_path / "MISSING")) in err

@@ -1,0 +1,80 @@
+#!/usr/bin/env python3
+"""Score full-frame vehicle detection on tusimple-vehicles-dev, one split at a time.
+
+    python tools/eval_tusimple_boxes.py --split test|train [--model M.npz] [--sources shadow windows]
+                                        [--offset F] [--limit N] [--out pred.json] [--draw DIR]
+
+The split is pyvehtrack.datasets.tusimple_split (TEST: (NNNN // 10) % 5 == 0, 102 frames).
+Tune on --split train only; report --split test. Prints eval_boxes' table (recall and
+precision at IoU >= 0.5 by size, lead vehicle, COCO AP50 by pycocotools). Detection runs
+through pyvehtrack.detector.Detector in its full-road mode, as `pyvehtrack detect` does.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import cv2
+
+_ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(_ROOT))
+from pyvehtrack import eval_boxes as eb  # noqa: E402
+from pyvehtrack.datasets import tusimple_split  # noqa: E402
+from pyvehtrack.detector import Detector  # noqa: E402
+
+DATA = next((p for p in (_ROOT.parent / "shared" / "data", _ROOT.parent.parent / "shared" / "data")
+             if p.is_dir()), _ROOT.parent / "shared" / "data")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--split", choices=("train", "test"), required=True)
+    ap.add_argument("--data", default=str(DATA / "tusimple-vehicles-dev"))
+    ap.add_argument("--model", default=None)
+    ap.add_argument("--sources", nargs="+", default=None,
+                    help="shadow and/or windows (full-road), or ego; default: Detector's (full-road shadow with "
+                         "--model, else the ego-lane detector)")
+    ap.add_argument("--offset", type=float, default=0.0, help="added to the model's score threshold")
+    ap.add_argument("--limit", type=int, default=0)
+    ap.add_argument("--out", default=None, help="write the predictions (detect --json format)")
+    ap.add_argument("--draw", default=None, help="folder for annotated frames (green: found, red: truth)")
+    args = ap.parse_args(argv)
+    data = Path(args.data)
+    ann = json.loads((data / "annotation.json").read_text())
+    frames = [e for e in ann if tusimple_split(e["file_name"]) == args.split]
+    if args.limit:
+        frames = frames[: args.limit]
+    det = Detector(model=args.model, sources=tuple(args.sources) if args.sources else None,
+                   score_offset=args.offset)
+    preds, t0 = [], time.time()
+    for i, e in enumerate(frames):
+        img = cv2.imread(str(data / e["file_name"]))
+        res = det.detect(img)
+        scores = res.scores if res.scores is not None else [None] * len(res.boxes)
+        boxes = [[int(v) for v in b] + ([round(float(s), 4)] if s is not None else [])
+                 for b, s in zip(res.boxes, scores)]
+        preds.append({"frame": i, "file": e["file_name"], "boxes": boxes})
+        if args.draw:
+            Path(args.draw).mkdir(parents=True, exist_ok=True)
+            for b in e["bbox"]:
+                cv2.rectangle(img, (int(b["left"]), int(b["top"])), (int(b["right"]), int(b["bottom"])), (0, 0, 255), 1)
+            for b in boxes:
+                cv2.rectangle(img, (b[0], b[1]), (b[2], b[3]), (0, 255, 0), 2)
+                if len(b) == 5:
+                    cv2.putText(img, f"{b[4]:.2f}", (b[0], b[1] - 3), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 255, 0), 1)
+            cv2.imwrite(str(Path(args.draw) / Path(e["file_name"]).name), img)
+    dt = time.time() - t0
+    s = eb.score(eb.load_gt([e for e in frames]), eb.load_pred(preds))
+    print(f"split {args.split}: {len(frames)} frames, model {args.model or 'default'}, sources {args.sources}, "
+          f"offset {args.offset}  ({1000 * dt / max(1, len(frames)):.0f} ms/frame in Python)")
+    print(eb.format_scores(s))
+    if args.out:
+        Path(args.out).write_text(json.dumps(preds))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

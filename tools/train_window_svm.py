@@ -1,0 +1,185 @@
+#!/usr/bin/env python3
+"""Train the sliding-window HOG + linear SVM the full-road detector scores windows with
+(an interim trainer for the detection stage; `pyvehtrack train` on wip/classify is the
+user-facing one and writes the same .npz keys).
+
+    python tools/train_window_svm.py --out /tmp/win32.npz [--win 32] [--rounds 2] [--C 0.01]
+
+Data, TRAIN parts only (pyvehtrack.datasets splits; never the tusimple TEST frames):
+  * positives: every box >= 20 px wide of the tusimple-vehicles-dev TRAIN frames, as a
+    square of the box's width standing on its bottom edge (the detector's windows are
+    squares bottom-aligned on the road), plus mirror images; GTI vehicles (TRAIN blocks);
+  * negatives: GTI non-vehicles (TRAIN blocks); windows of the detector's own window grid
+    on tusimple TRAIN frames that overlap no box (IoU < 0.2 and no box centre inside);
+    then `--rounds` rounds of hard negatives: the windows the current model accepts on
+    TRAIN frames that match no box.
+Descriptors are the C core's fixed-point HOG (vt_hog_prepare/vt_hog_descriptor on the
+crop resized to the window, cv2.INTER_AREA); the SVM is scikit-learn's LinearSVC; the
+weights are quantised to int16 with the largest shift that fits (w_shift), the bias to
+Q16.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+from sklearn.svm import LinearSVC
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from pyvehtrack import _native  # noqa: E402
+from pyvehtrack.datasets import gti_sorted, gti_split, tusimple_split  # noqa: E402
+from pyvehtrack.eval_boxes import box_iou_matrix  # noqa: E402
+from pyvehtrack.fullroad import FullRoadConfig, FullRoadDetector, SvmModel  # noqa: E402
+from pyvehtrack.reference import fulldet as rfd  # noqa: E402
+from pyvehtrack.reference import windows as rw  # noqa: E402
+
+_ROOT = Path(__file__).resolve().parent.parent
+DATA = next((p for p in (_ROOT.parent / "shared" / "data", _ROOT.parent.parent / "shared" / "data")
+             if p.is_dir()), _ROOT.parent / "shared" / "data")
+TUS = DATA / "tusimple-vehicles-dev"
+GTI = DATA / "gti-vehicles"
+
+
+def hog(ws, crop: np.ndarray, win: int) -> np.ndarray:
+    if crop.shape != (win, win):
+        crop = cv2.resize(crop, (win, win), interpolation=cv2.INTER_AREA)
+    _native.hog_prepare(ws, np.ascontiguousarray(crop))
+    return _native.hog_descriptor(ws, 0, 0, win, win).astype(np.float32) / 32768
+
+
+def square_on_bottom(b, w_img, h_img):
+    l, t, r, bt = b
+    s = r - l + 1
+    top = bt - s + 1
+    if top < 0 or l < 0 or r >= w_img or bt >= h_img:
+        return None
+    return int(l), int(top), int(r), int(bt)
+
+
+def gti_files(kind: str):
+    out = []
+    for sub in sorted((GTI / kind).iterdir()):
+        if sub.is_dir():
+            files = gti_sorted(sub)
+            out += [p for i, p in enumerate(files) if gti_split(i) == "train"]
+    return out
+
+
+def quantise(w: np.ndarray, b: float):
+    shift = 1
+    while shift < 30 and np.abs(w).max() * 2 ** (shift + 1) < 32767:
+        shift += 1
+    wq = np.round(w * 2 ** shift).astype(np.int16)
+    return wq, shift, int(round(b * 65536))
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--win", type=int, default=32)
+    ap.add_argument("--rounds", type=int, default=2)
+    ap.add_argument("--C", type=float, default=0.01)
+    ap.add_argument("--neg-per-frame", type=int, default=40)
+    ap.add_argument("--max-frames", type=int, default=0, help="use only the first N TRAIN frames (0: all)")
+    ap.add_argument("--no-gti", action="store_true")
+    args = ap.parse_args(argv)
+    t0 = time.time()
+    win = args.win
+    ws = _native.hog_ws_new()
+    rng = np.random.default_rng(0)
+    ann = json.loads((TUS / "annotation.json").read_text())
+    train = [e for e in ann if tusimple_split(e["file_name"]) == "train"]
+    if args.max_frames:
+        train = train[: args.max_frames]
+    frames = []
+    for e in train:
+        g = cv2.imread(str(TUS / e["file_name"]), cv2.IMREAD_GRAYSCALE)
+        gt = np.array([[b["left"], b["top"], b["right"], b["bottom"]] for b in e["bbox"]], np.float64).reshape(-1, 4)
+        frames.append((e["file_name"], g, np.round(gt).astype(np.int64)))
+    pos, neg = [], []
+    for _, g, gt in frames:
+        h, w = g.shape
+        for b in gt:
+            if b[2] - b[0] + 1 < 20:
+                continue
+            sq = square_on_bottom(b, w, h)
+            if sq is None:
+                continue
+            crop = g[sq[1]:sq[3] + 1, sq[0]:sq[2] + 1]
+            pos.append(hog(ws, crop, win))
+            pos.append(hog(ws, np.ascontiguousarray(crop[:, ::-1]), win))
+    n_tus_pos = len(pos)
+    if not args.no_gti:
+        for p in gti_files("vehicles"):
+            pos.append(hog(ws, cv2.imread(str(p), cv2.IMREAD_GRAYSCALE), win))
+        for p in gti_files("non-vehicles"):
+            neg.append(hog(ws, cv2.imread(str(p), cv2.IMREAD_GRAYSCALE), win))
+    n_gti_neg = len(neg)
+    # random windows of the detector's grid that hold no vehicle
+    wcfg = rw.WindowConfig(sizes=(win,), step=8 / win)
+    from pyvehtrack.fullroad import Camera
+    camspec = Camera()
+
+    def free(box, gt):
+        if not len(gt):
+            return True
+        if box_iou_matrix(np.asarray(box)[None], gt).max() >= 0.2:
+            return False
+        cx, cy = (gt[:, 0] + gt[:, 2]) / 2, (gt[:, 1] + gt[:, 3]) / 2
+        return not ((cx >= box[0]) & (cx <= box[2]) & (cy >= box[1]) & (cy <= box[3])).any()
+
+    for _, g, gt in frames:
+        h, w = g.shape
+        cam = camspec.for_frame(h, w)
+        road = rw.road_from_camera(cam, wcfg, w, h)
+        cands = []
+        for lvl in range(wcfg.levels):
+            for wn in rw.windows_level(wcfg, cam, road, w, h, lvl):
+                cands.append(rw.window_box(wn))
+        rng.shuffle(cands)
+        k = 0
+        for box in cands:
+            if k >= args.neg_per_frame:
+                break
+            box = [int(box[0]), int(box[1]), min(int(box[2]), w - 1), min(int(box[3]), h - 1)]
+            if free(box, gt):
+                neg.append(hog(ws, g[box[1]:box[3] + 1, box[0]:box[2] + 1], win))
+                k += 1
+    print(f"positives: {n_tus_pos} tusimple (with mirrors) + {len(pos) - n_tus_pos} GTI; negatives: "
+          f"{n_gti_neg} GTI + {len(neg) - n_gti_neg} road windows  [{time.time() - t0:.0f}s]", flush=True)
+    model = None
+    for rnd in range(args.rounds + 1):
+        X = np.vstack(pos + neg)
+        y = np.r_[np.ones(len(pos)), -np.ones(len(neg))]
+        clf = LinearSVC(C=args.C, class_weight="balanced", max_iter=20000)
+        clf.fit(X, y)
+        acc = (clf.predict(X) == y).mean()
+        wq, shift, bq = quantise(clf.coef_[0], float(clf.intercept_[0]))
+        model = SvmModel(1, win, win, wq, shift, bq, 0)
+        print(f"round {rnd}: {len(pos)} pos, {len(neg)} neg, training accuracy {acc:.4f}, w_shift {shift}  "
+              f"[{time.time() - t0:.0f}s]", flush=True)
+        if rnd == args.rounds:
+            break
+        det = FullRoadDetector(model, sources=("windows",), cfg=FullRoadConfig(det=rfd.FullDetConfig(edge_check=False)))
+        added = 0
+        for _, g, gt in frames:
+            boxes = det.detect_gray(g)
+            for b in boxes:
+                bb = [int(v) for v in b[:4]]
+                if free(bb, gt) and added < 40 * len(frames):
+                    neg.append(hog(ws, g[bb[1]:bb[3] + 1, bb[0]:bb[2] + 1], win))
+                    added += 1
+        print(f"  hard negatives added: {added}", flush=True)
+    np.savez(args.out, kind="hog", win_w=win, win_h=win, w_q=model.w_q, w_shift=model.w_shift,
+             bias_q16=model.bias_q16, threshold_q16=0)
+    print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
