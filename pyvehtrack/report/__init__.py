@@ -1,0 +1,70 @@
+"""`pyvehtrack report`: run a recording once and write a self-contained HTML page.
+
+    from pyvehtrack.report import make_report
+    page = make_report("tests/data/kitti_clip", "r/", truth=["tests/data/kitti_clip/lead_boxes.csv"])
+
+records.py: the per-frame records (the `track --json` schema) and the Python adapter over
+the existing stages; render.py: the plots and the page."""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from .records import (FrameInfo, PythonPipeline, Truth, load_truth, read_camera, read_records,  # noqa: F401
+                      recording_frames, track_record, write_records)
+from .render import MAX_THUMBS, annotate, pick_thumbs, render_html, thumbnail, write_page
+
+
+def make_report(inputs, out_dir, *, truth=(), camera=None, engine: str = "c", detect_every: int = 10,
+                progress: bool = True, records_json: bool = True, fps: float = 10.0) -> Path:
+    """Run the pipeline over one recording (a video, a folder of frames or an image) and
+    write out_dir/index.html (and out_dir/tracks.json, the records, when records_json).
+    truth: truth file paths (see records.load_truth); camera: a camera JSON path or dict.
+    fps: frame rate for the truth TTC (the KITTI clips are 10 Hz). Returns the page path.
+    ValueError naming the argument for bad input."""
+    from tqdm import tqdm
+
+    out_dir = Path(out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise ValueError(f"out_dir {out_dir}: exists and is not a folder")
+    if not fps > 0:
+        raise ValueError(f"fps must be > 0, got {fps}")
+    cam = read_camera(camera) if isinstance(camera, (str, Path)) else camera
+    if cam is not None and not isinstance(cam, dict):
+        raise TypeError(f"camera: expected a path or a dict, got {type(cam).__name__}")
+    tr = load_truth(list(truth or ()), dt=1.0 / fps)
+    total, frames = recording_frames(inputs)
+    pipe = PythonPipeline(engine=engine, detect_every=detect_every, camera=cam)
+    want = set(pick_thumbs(total)) if total is not None else None
+    stride, kept = 1, {}
+    records, infos = [], []
+    with tqdm(total=total, unit="frame", disable=not progress, file=sys.stderr, desc="report") as bar:
+        for k, (file, frame) in enumerate(frames):
+            rec, info = pipe.step(frame, file)
+            records.append(rec)
+            infos.append(info)
+            if want is not None:
+                if k in want:
+                    kept[k] = thumbnail(annotate(frame, rec, info))
+            elif k % stride == 0:       # unknown length: keep every stride-th, doubling the stride
+                kept[k] = thumbnail(annotate(frame, rec, info))
+                if len(kept) > 2 * MAX_THUMBS:
+                    stride *= 2
+                    kept = {j: v for j, v in kept.items() if j % stride == 0}
+            bar.update(1)
+    if want is None and kept:
+        pick = {sorted(kept)[i] for i in pick_thumbs(len(kept))}
+        kept = {j: v for j, v in kept.items() if j in pick}
+    if records and kept and (len(records) - 1) not in kept and want is None:
+        pass  # the last frame of a video of unknown length is not kept: fine for a contact sheet
+    h, w = (frame.shape[:2] if records else (0, 0))
+    meta = {"input": str(inputs), "frames": f"{len(records)} ({w}x{h})", "engine": engine,
+            "detect every": f"{detect_every} frames (lanes and tracking every frame)",
+            "camera": (str(camera) if isinstance(camera, (str, Path)) else "given") if cam else "none",
+            "truth": ", ".join(str(t) for t in truth) if truth else "none"}
+    page = render_html(records, infos, sorted(kept.items()), title=f"pyvehtrack report: {Path(inputs).name}",
+                       meta=meta, truth=tr)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    if records_json:
+        write_records(out_dir / "tracks.json", records)
+    return write_page(out_dir, page)
