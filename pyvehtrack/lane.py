@@ -249,7 +249,7 @@ def _rescale(res: LaneResult, f: float, w0: int, h0: int) -> None:
 def tusimple_lanes(res: LaneResult, h_samples, width: int, sides=("left", "right")) -> list:
     """The result's lanes of the given sides as TuSimple lane lists (x per h_sample, -2
     where the lane has no point)."""
-    from .eval_lanes import sample_points
+    from .eval.lanes import sample_points
     return [sample_points(ln.points, h_samples, width) for ln in res.lanes if ln.side in sides]
 
 

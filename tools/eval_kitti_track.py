@@ -43,7 +43,7 @@ def load(data: Path):
 
 def run(engine: str, files, boxes, detect_every: int, progress: bool) -> dict:
     from pyvehtrack.detector import Detector
-    from pyvehtrack.evaluate import evaluate_kitti
+    from pyvehtrack.eval.tracking import evaluate_kitti
     from pyvehtrack.tracker import Tracker
 
     trk = Tracker(engine=engine, detect_every=detect_every, detector=Detector(engine=engine))

@@ -25,9 +25,9 @@ from tqdm import tqdm
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from pyvehtrack import evaluate as ev  # noqa: E402
-from pyvehtrack import synth  # noqa: E402
-from pyvehtrack.reference.sort import run_sort  # noqa: E402
+from pyvehtrack.eval import tracking as ev  # noqa: E402
+from pyvehtrack.eval import synth  # noqa: E402
+from pyvehtrack.eval.sort import run_sort  # noqa: E402
 
 
 def run_ours(seq, dets, every: int, engine: str = "c"):

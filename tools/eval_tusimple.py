@@ -30,7 +30,7 @@ import numpy as np
 from tqdm import tqdm
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-from pyvehtrack import eval_lanes  # noqa: E402
+from pyvehtrack.eval import lanes as eval_lanes  # noqa: E402
 from pyvehtrack.lane import LaneDetector, tusimple_lanes  # noqa: E402
 
 DEFAULT_DATA = Path(__file__).resolve().parent.parent.parent / "shared" / "data" / "tusimple-lane-test100"
