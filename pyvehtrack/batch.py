@@ -185,7 +185,7 @@ def warm_worker() -> None:
     from . import _native, cli  # noqa: F401
     from .report import records  # noqa: F401
     try:
-        from . import evaluate  # noqa: F401
+        from .eval import tracking  # noqa: F401
     except ImportError:
         pass
     cli.build_parser()
@@ -206,6 +206,8 @@ def process_recording(rec: str, out_dir: str, opts: dict, fp: str) -> dict:
         src = frames_path(rec)
         argv = ["track", src, "--out", str(out / "annotated.mp4"), "--tracks", str(out / "tracks.txt"),
                 "--engine", opts["engine"], "--detect-every", str(opts["detect_every"]), "--no-progress"]
+        if opts.get("skip_bad_frames"):
+            argv.append("--skip-bad-frames")
         native_json = _track_parser_has("--json")
         if native_json:
             argv += ["--json", str(out / "tracks.json")]
@@ -225,7 +227,7 @@ def process_recording(rec: str, out_dir: str, opts: dict, fp: str) -> dict:
         row["fps"] = round(row["frames"] / row["seconds"], 1) if row["frames"] and row["seconds"] else ""
         gt = [t for t in comp["truth"] if _has_ids(t)]
         if gt:
-            from .evaluate import evaluate_kitti
+            from .eval.tracking import evaluate_kitti
             res = evaluate_kitti(gt[0], str(out / "tracks.txt"), num_frames=row["frames"] or None)
             row.update({k: round(float(res[k]), 4) for k in ("HOTA", "MOTA", "IDF1")})
             row["IDSW"] = int(res["IDSW"])
@@ -277,7 +279,7 @@ def _is_recording(p: Path) -> bool:
 
 def run_batch(recordings, out, *, scheduler: str | None = None, workers: int = 2, reports: bool = False,
               engine: str = "c", detect_every: int = 10, retry_failed: bool = False,
-              progress: bool = True) -> BatchSummary:
+              skip_bad_frames: bool = False, progress: bool = True) -> BatchSummary:
     """Run every recording (see the module doc); returns the table rows and figures.
     ValueError / TypeError naming the argument for bad arguments; a bad recording is a
     failed row, never an exception."""
@@ -298,7 +300,8 @@ def run_batch(recordings, out, *, scheduler: str | None = None, workers: int = 2
     if out.exists() and not out.is_dir():
         raise ValueError(f"out {out}: exists and is not a folder")
     out.mkdir(parents=True, exist_ok=True)
-    opts = {"engine": engine, "detect_every": detect_every, "reports": bool(reports)}
+    opts = {"engine": engine, "detect_every": detect_every, "reports": bool(reports),
+            "skip_bad_frames": bool(skip_bad_frames)}
     t_start = time.perf_counter()
     rows: dict = {}
     todo = []
@@ -379,7 +382,7 @@ def aggregate(rows, out: Path, recordings) -> dict:
         if gt and tr.is_file():
             pairs.append((gt[0], str(tr), int(r["frames"]) if r.get("frames") else None))
     if pairs:
-        from .evaluate import evaluate_many
+        from .eval.tracking import evaluate_many
         try:
             res = evaluate_many([p if p[2] else p[:2] for p in pairs])
             agg.update({k: round(float(res[k]), 4) for k in ("HOTA", "MOTA", "IDF1")})

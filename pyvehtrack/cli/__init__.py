@@ -41,12 +41,16 @@ SUBCOMMANDS: dict[str, str] = {
     "detect": "pyvehtrack.cli.detect",
     "track": "pyvehtrack.cli.track",
     "eval": "pyvehtrack.cli.eval",
+    "report": "pyvehtrack.cli.report",
+    "batch": "pyvehtrack.cli.batch",
 }
 
 EXAMPLES = """examples:
   pyvehtrack detect frame.png --out annotated.png --json detections.json
   pyvehtrack track drive.mp4 --out annotated.mp4 --tracks tracks.txt
   pyvehtrack eval --gt gt.txt --tracks tracks.txt
+  pyvehtrack report tests/data/kitti_clip --out r/
+  pyvehtrack batch recordings/* --out results/ --workers 2
   pyvehtrack COMMAND --help     (each command's options and examples)"""
 
 

@@ -118,7 +118,7 @@ def ego_vanishing_row(lanes):
     if len(fits) != 2:
         return None
     (al, bl), (ar, br) = fits["left"], fits["right"]
-    if al - ar <= 1e-9:        # left must move right (and right left) going up
+    if al - ar >= -1e-9:       # going up (y falling) the left line must move right, the right left
         return None
     return float((br - bl) / (al - ar))
 
@@ -179,8 +179,8 @@ class PythonPipeline:
                     info.lane_width_px, info.lane_width_row = float(lr.lane_width[row]), row
             info.vanishing_row = ego_vanishing_row(info.lanes)
             f, cy = _cam_f_cy(self.camera)
-            if f and cy is not None and lr.vanishing_row is not None:
-                info.pitch_deg = math.degrees(math.atan2(cy - lr.vanishing_row, f))
+            if f and cy is not None and info.vanishing_row is not None:
+                info.pitch_deg = math.degrees(math.atan2(cy - info.vanishing_row, f))
         rec = track_record(self.k, tracks, detections=dets, geometry=self.geometry)
         self.k += 1
         return rec, info
@@ -236,7 +236,7 @@ def load_truth(paths, dt: float = 0.1) -> Truth:
                 tr.boxes[int(r["frame"])] = [float(r[k]) for k in ("left", "top", "right", "bottom")]
             tr.sources.append(f"{p.name}: one-object (lead car) boxes")
         else:
-            from ..evaluate import read_kitti
+            from ..eval.kitti import read_kitti
             try:
                 lab = read_kitti(p)
             except (ValueError, IndexError) as e:
@@ -272,8 +272,7 @@ def read_records(path) -> list:
 
 
 # ====================================================================== input
-IMAGE_EXTS = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm", ".webp"}
-VIDEO_EXTS = {".mp4", ".avi", ".mov", ".mkv", ".webm", ".m4v", ".mpg", ".mpeg"}
+from ..cli.common import IMAGE_EXTS, VIDEO_EXTS  # noqa: E402  (the one list of file types)
 
 
 def recording_frames(path):

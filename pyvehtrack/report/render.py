@@ -286,7 +286,9 @@ def plot_lane_pitch(infos):
         a1.set_xlabel("frame")
     elif pitch:
         a2.plot(*zip(*pitch), ".-", color="#8172b3", lw=1.2, ms=3)
-        a2.set_ylabel("pitch (deg, nose down +)")
+        a2.set_ylabel("pitch (deg)")
+        a2.set_title("atan((cy - vanishing row) / fy): camera axis below the horizon is +, nose down",
+                     fontsize=9, loc="left")
     elif vr:
         a2.plot(*zip(*vr), ".-", color="#8172b3", lw=1.2, ms=3)
         a2.set_ylabel("vanishing row (px)")
@@ -361,7 +363,7 @@ def tracking_figures(records, truth: Truth):
     tr = np.array([[r["frame"], t["id"], *t["box"], 1.0 if t["state"] == "confirmed" else 0.5]
                    for r in records for t in r["tracks"] if t["state"] != "tentative"], float).reshape(-1, 7)
     if truth.labels is not None:
-        from ..evaluate import evaluate_kitti
+        from ..eval.tracking import evaluate_kitti
         res = evaluate_kitti(truth.labels, tr, num_frames=max(n, int(truth.labels["frame"].max()) + 1
                                                              if len(truth.labels) else n))
         rows += [("HOTA", f"{res['HOTA']:.1%}"), ("MOTA", f"{res['MOTA']:.1%}"), ("IDF1", f"{res['IDF1']:.1%}"),
@@ -370,7 +372,7 @@ def tracking_figures(records, truth: Truth):
         notes.append("Tracking figures: TrackEval (KITTI rules, class Car) of the confirmed and coasting "
                      "tracks against the KITTI labels.")
     if truth.boxes:
-        from ..evaluate import evaluate_kitti
+        from ..eval.tracking import evaluate_kitti
         counts: dict = {}
         for r in records:
             b = truth.boxes.get(r["frame"])
