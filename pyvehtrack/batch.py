@@ -47,7 +47,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .report.records import IMAGE_EXTS, VIDEO_EXTS
+from .report.records import IMAGE_EXTS, VIDEO_EXTS, companion_files
 
 MARK_DONE, MARK_FAILED = "DONE", "FAILED"
 COLUMNS = ("recording", "status", "this_run", "frames", "tracks", "track_frames", "seconds", "fps",
@@ -55,23 +55,6 @@ COLUMNS = ("recording", "status", "this_run", "frames", "tracks", "track_frames"
 
 
 # ====================================================================== naming rule
-def companion_files(rec) -> dict:
-    """{'truth': [paths], 'camera': path or None} for a recording, by the naming rule."""
-    p = Path(rec)
-    inside = p if p.is_dir() else None
-    stem = p.name if p.is_dir() else p.stem
-    beside = p.parent
-    truth: list = []
-    if inside is not None:
-        truth += [q for q in [inside / "gt.txt"] if q.is_file()]
-        truth += sorted(q for q in inside.glob("truth*") if q.suffix in (".txt", ".csv") and q.is_file())
-    truth += sorted(q for q in beside.glob(f"{glob_escape(stem)}.truth*")
-                    if q.suffix in (".txt", ".csv") and q.is_file())
-    cams = ([inside / "camera.json"] if inside is not None else []) + [beside / f"{stem}.camera.json"]
-    cam = next((q for q in cams if q.is_file()), None)
-    return {"truth": [str(q) for q in truth], "camera": str(cam) if cam else None}
-
-
 def frames_path(rec) -> str:
     """What `track` is given for a recording: the folder itself, or REC/frames/ when REC
     holds no image file but that subfolder exists; a video as is."""
@@ -80,10 +63,6 @@ def frames_path(rec) -> str:
             and (p / "frames").is_dir():
         return str(p / "frames")
     return str(p)
-
-
-def glob_escape(s: str) -> str:
-    return re.sub(r"([\[\]*?])", r"[\1]", s)
 
 
 def fingerprint(rec, opts: dict) -> str:

@@ -22,6 +22,7 @@ from pyvehtrack.report.records import LIDAR_BEHIND_CAMERA_M, Truth, ego_vanishin
 
 DATA = Path(__file__).parent / "data"
 CLIP = DATA / "kitti_clip"
+CAMERA = DATA / "kitti_clip.camera.json"
 TRACK_KEYS = {"id", "box", "state", "velocity_px", "distance_m", "ttc_s", "warning", "source"}
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 # Chromium's own background services (update checks, time, accounts) show up in its net
@@ -33,8 +34,8 @@ _BROWSER_HOSTS = re.compile(r"^https?://([a-z0-9-]+\.)*(google\.com|googleapis\.
 @pytest.fixture(scope="module")
 def clip_report(tmp_path_factory):
     out = tmp_path_factory.mktemp("report")
-    page = make_report(CLIP, out, truth=[CLIP / "lead_boxes.csv", CLIP / "lidar_lead_distance.csv"],
-                       camera={"fy": 721.5377, "cy": 54.854}, progress=False)
+    page = make_report(CLIP, out, truth=[CLIP / "lead_boxes.csv", CLIP / "truth_lidar_range.csv"],
+                       camera=CAMERA, progress=False)
     return page, read_records(out / "tracks.json")
 
 
@@ -49,8 +50,11 @@ def test_records_follow_the_track_json_schema(clip_report):
         assert t["state"] in ("tentative", "confirmed", "coasting")
         assert len(t["box"]) == 4 and t["box"][0] < t["box"][2] and t["box"][1] < t["box"][3]
         assert t["source"] in ("detection", "search")
-        # this build has no geometry stage: unknown, so null (never a made-up number)
-        assert t["distance_m"] is None and t["ttc_s"] is None and t["warning"] is None
+        # the geometry stage (pyvehtrack.camera) with the clip's camera: a distance for the lead
+        # car from the first frame, no warning at 7-8 m and a 10 s TTC; TTC needs a few frames
+        assert 3.0 < t["distance_m"] < 15.0 and t["warning"] is False
+    assert all(t["ttc_s"] is None or 0 < t["ttc_s"] < 60 for t in tracks)
+    assert sum(t["ttc_s"] is not None for t in tracks) >= 10
     # detection frames (0 and 10) carry the detector's confirmation, the others the search
     assert {t["source"] for t in recs[0]["tracks"]} == {"detection"}
     assert {t["source"] for t in recs[5]["tracks"]} == {"search"}
@@ -65,23 +69,33 @@ def test_page_is_self_contained_and_has_every_section(clip_report):
     assert not re.search(r"""(src|href)\s*=\s*["']?\s*(https?:)?//""", html, re.I)
     assert "<script" not in html.lower() and "@import" not in html
     assert len(re.findall(r'src="data:image/(png|jpeg);base64,', html)) >= 12 + 4
-    # the truth gave lead-car figures; the missing geometry stage is said, not drawn empty
+    # the truth gave lead-car figures and distance / TTC errors
     assert "lead id kept (IoU &gt;= 0.5)" in html
-    assert "No distance or TTC estimate" in html
-    assert "no distance estimate (geometry stage absent)" not in html  # that text is inside the PNG
+    assert "<td>distance MAE</td>" in html and "<td>TTC MAE</td>" in html
     # the lead-car id is kept on 18 of the 20 frames (frames 0-1 are tentative: 3 hits to confirm)
     assert re.search(r"<td>lead id kept \(IoU &gt;= 0.5\)</td><td>(9\d\.\d|100\.0)% of 20", html)
 
 
 def test_pipeline_fills_lane_width_vanishing_row_pitch_and_timings():
-    pipe = PythonPipeline(camera={"fy": 721.5377, "cy": 54.854})
-    infos = [pipe.step(cv2.imread(str(CLIP / f"{k:06d}.png"), cv2.IMREAD_GRAYSCALE))[1] for k in range(3)]
+    cam = json.loads(CAMERA.read_text())
+    frames = [cv2.imread(str(CLIP / f"{k:06d}.png"), cv2.IMREAD_GRAYSCALE) for k in range(3)]
+    # without the geometry stage's height: the pitch from the vanishing row and the camera's fy, cy
+    pipe = PythonPipeline(camera={k: cam[k] for k in ("fx", "fy", "cx", "cy")})
+    infos = [pipe.step(f)[1] for f in frames]
+    assert any("height_m" in n for n in pipe.notes)
     for i in infos:
         assert set(i.timing_ms) >= {"lanes", "track"} and all(v >= 0 for v in i.timing_ms.values())
+        assert "geometry" not in i.timing_ms
         assert i.lane_width_px is not None and 300 < i.lane_width_px < 640
         assert i.vanishing_row is not None and 0 < i.vanishing_row < 120    # near the crop's horizon
         assert i.pitch_deg == pytest.approx(np.degrees(np.arctan2(54.854 - i.vanishing_row, 721.5377)))
     assert "detect" in infos[0].timing_ms and "detect" not in infos[1].timing_ms
+    # with the whole camera file: the geometry stage's own (gated) pitch, within its +-3 deg
+    pipe = PythonPipeline(camera=cam)
+    infos = [pipe.step(f)[1] for f in frames]
+    assert pipe.notes == [] and all("geometry" in i.timing_ms and abs(i.pitch_deg) <= 3.0 for i in infos)
+    with pytest.raises(ValueError, match="fx"):
+        PythonPipeline(camera={"fy": 700.0, "cy": 50.0})           # the camera file format's rule
 
 
 def test_vanishing_row_is_where_the_fitted_lines_meet():
@@ -94,9 +108,9 @@ def test_vanishing_row_is_where_the_fitted_lines_meet():
 
 
 def test_truth_readers(tmp_path):
-    tr = load_truth([CLIP / "lidar_lead_distance.csv", CLIP / "lead_boxes.csv"])
+    tr = load_truth([CLIP / "truth_lidar_range.csv", CLIP / "lead_boxes.csv"])
     assert sorted(tr.ranges) == list(range(20)) and sorted(tr.boxes) == list(range(20))
-    assert tr.ranges[0] == pytest.approx(7.979 - LIDAR_BEHIND_CAMERA_M)
+    assert tr.ranges[0] == pytest.approx(7.974 - LIDAR_BEHIND_CAMERA_M)    # ego_lane_min_x_m of frame 0
     # TTC from a range closing at a constant 5 m/s (0.5 m per 0.1 s frame): exactly d / 5
     t = Truth(ranges={k: 20.0 - 0.5 * k for k in range(10)}, dt=0.1)
     ttc = t.ttc()
@@ -133,11 +147,21 @@ def test_no_data_sections_say_so(tmp_path):
         cv2.imwrite(str(rec / f"{k:06d}.png"), np.full((120, 160), 90, np.uint8))
     page = make_report(rec, tmp_path / "out", progress=False).read_text()
     assert "No track was started" in page
-    assert "No range truth given" in page and "No distance or TTC estimate" in page
+    assert "No range truth given" in page and "No camera file (--camera)" in page
     assert "found no ego lane pair" in page
     assert "No box truth given" in page
     # the timeline and range sections have no image; the contact sheet (3) and run time (1) do
     assert len(re.findall(r'src="data:image/', page)) == 3 + 1
+
+
+def test_naming_rule_finds_the_clip_camera_and_range_truth(tmp_path):
+    assert main(["report", str(CLIP), "--out", str(tmp_path / "r"), "--no-progress"]) == 0
+    page = (tmp_path / "r" / "index.html").read_text()
+    assert "kitti_clip.camera.json" in page and "truth_lidar_range.csv" in page
+    assert "<td>distance MAE</td>" in page
+    assert main(["report", str(CLIP), "--out", str(tmp_path / "n"), "--no-progress", "--no-find"]) == 0
+    page = (tmp_path / "n" / "index.html").read_text()
+    assert "No camera file" in page and "distance MAE" not in page
 
 
 def test_bad_arguments(tmp_path):

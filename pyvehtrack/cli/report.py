@@ -12,7 +12,7 @@ from .common import CliError
 EXAMPLES = """examples:
   pyvehtrack report tests/data/kitti_clip --out r/
   pyvehtrack report tests/data/kitti_clip --out r/ --truth tests/data/kitti_clip/lead_boxes.csv \\
-      --truth tests/data/kitti_clip/lidar_lead_distance.csv
+      --truth tests/data/kitti_clip/truth_lidar_range.csv --camera tests/data/kitti_clip.camera.json
   pyvehtrack report drive.mp4 --out r/ --camera camera.json --truth label_02/0000.txt
 then open r/index.html (one file: no script, no network)."""
 
@@ -27,10 +27,15 @@ def register(sub) -> None:
                        epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("input", metavar="INPUT", help="a video, a folder of frames or an image")
     p.add_argument("--out", required=True, metavar="REPORT_DIR", help="folder for index.html (created)")
-    p.add_argument("--camera", metavar="CAMERA.json", help="camera file (fy, cy: pitch from the lanes)")
-    p.add_argument("--truth", action="append", default=[], metavar="TRUTH",
+    p.add_argument("--camera", metavar="CAMERA.json",
+                   help="camera file (pyvehtrack.camera format: fx, fy, cx, cy, height_m); default: "
+                        "INPUT/camera.json or INPUT.camera.json when there is one")
+    p.add_argument("--truth", action="append", metavar="TRUTH",
                    help="truth: KITTI tracking labels, a frame,left,top,right,bottom CSV (one car) or "
-                        "the kitti-raw-sfnd-ttc lidar range CSV; repeat for several")
+                        "the kitti-raw-sfnd-ttc lidar range CSV; repeat for several; default: "
+                        "INPUT/gt.txt, INPUT/truth*.{txt,csv}, INPUT.truth*.{txt,csv}")
+    p.add_argument("--no-find", action="store_true",
+                   help="do not look for a camera or truth file by name")
     p.add_argument("--engine", choices=("c", "reference"), default="c",
                    help="the C core (default) or the float reference")
     p.add_argument("--detect-every", type=int, default=10, metavar="N",
@@ -55,11 +60,13 @@ def run(args) -> int:
         raise CliError(f"--out {args.out}: folder {out.parent} does not exist")
     if args.camera and not Path(args.camera).is_file():
         raise CliError(f"--camera {args.camera}: no such file")
-    for t in args.truth:
+    for t in args.truth or []:
         if not Path(t).is_file():
             raise CliError(f"--truth {t}: no such file")
     try:
-        page = make_report(args.input, out, truth=args.truth, camera=args.camera, engine=args.engine,
+        auto = None if args.no_find else "auto"
+        page = make_report(args.input, out, truth=args.truth or (auto or ()), camera=args.camera or auto,
+                           engine=args.engine,
                            detect_every=args.detect_every, progress=not args.no_progress, fps=args.fps)
     except (ValueError, TypeError, VtError) as e:
         raise CliError(str(e)) from None

@@ -10,18 +10,19 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from .records import (FrameInfo, PythonPipeline, Truth, load_truth, read_camera, read_records,  # noqa: F401
-                      recording_frames, track_record, write_records)
+from .records import (FrameInfo, PythonPipeline, Truth, companion_files, load_truth, read_camera,  # noqa: F401
+                      read_records, recording_frames, track_record, write_records)
 from .render import MAX_THUMBS, annotate, pick_thumbs, render_html, thumbnail, write_page
 
 
-def make_report(inputs, out_dir, *, truth=(), camera=None, engine: str = "c", detect_every: int = 10,
+def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "c", detect_every: int = 10,
                 progress: bool = True, records_json: bool = True, fps: float = 10.0) -> Path:
     """Run the pipeline over one recording (a video, a folder of frames or an image) and
     write out_dir/index.html (and out_dir/tracks.json, the records, when records_json).
-    truth: truth file paths (see records.load_truth); camera: a camera JSON path or dict.
-    fps: frame rate for the truth TTC (the KITTI clips are 10 Hz). Returns the page path.
-    ValueError naming the argument for bad input."""
+    truth: truth file paths (see records.load_truth), or "auto": the files the naming rule
+    finds (records.companion_files); camera: a camera JSON path or dict, None, or "auto".
+    fps: frame rate (the range stage's time step, the truth TTC; KITTI clips are 10 Hz).
+    Returns the page path. ValueError / TypeError naming the argument for bad input."""
     from tqdm import tqdm
 
     out_dir = Path(out_dir)
@@ -29,12 +30,20 @@ def make_report(inputs, out_dir, *, truth=(), camera=None, engine: str = "c", de
         raise ValueError(f"out_dir {out_dir}: exists and is not a folder")
     if not fps > 0:
         raise ValueError(f"fps must be > 0, got {fps}")
+    found = companion_files(inputs) if Path(inputs).exists() else {"truth": [], "camera": None}
+    auto = []
+    if isinstance(truth, str) and truth == "auto":
+        truth = found["truth"]
+        auto += [f"truth {t}" for t in truth]
+    if isinstance(camera, str) and camera == "auto":
+        camera = found["camera"]
+        auto += [f"camera {camera}"] if camera else []
     cam = read_camera(camera) if isinstance(camera, (str, Path)) else camera
     if cam is not None and not isinstance(cam, dict):
         raise TypeError(f"camera: expected a path or a dict, got {type(cam).__name__}")
     tr = load_truth(list(truth or ()), dt=1.0 / fps)
     total, frames = recording_frames(inputs)
-    pipe = PythonPipeline(engine=engine, detect_every=detect_every, camera=cam)
+    pipe = PythonPipeline(engine=engine, detect_every=detect_every, camera=cam, fps=fps)
     want = set(pick_thumbs(total)) if total is not None else None
     stride, kept = 1, {}
     records, infos = [], []
@@ -55,15 +64,16 @@ def make_report(inputs, out_dir, *, truth=(), camera=None, engine: str = "c", de
     if want is None and kept:
         pick = {sorted(kept)[i] for i in pick_thumbs(len(kept))}
         kept = {j: v for j, v in kept.items() if j in pick}
-    if records and kept and (len(records) - 1) not in kept and want is None:
-        pass  # the last frame of a video of unknown length is not kept: fine for a contact sheet
     h, w = (frame.shape[:2] if records else (0, 0))
     meta = {"input": str(inputs), "frames": f"{len(records)} ({w}x{h})", "engine": engine,
             "detect every": f"{detect_every} frames (lanes and tracking every frame)",
             "camera": (str(camera) if isinstance(camera, (str, Path)) else "given") if cam else "none",
             "truth": ", ".join(str(t) for t in truth) if truth else "none"}
+    if auto:
+        meta["found by name"] = "; ".join(auto)
     page = render_html(records, infos, sorted(kept.items()), title=f"pyvehtrack report: {Path(inputs).name}",
-                       meta=meta, truth=tr)
+                       meta=meta, truth=tr, stage_notes=pipe.notes,
+                       pitch_source=pipe.pitch_source)
     out_dir.mkdir(parents=True, exist_ok=True)
     if records_json:
         write_records(out_dir / "tracks.json", records)

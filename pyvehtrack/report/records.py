@@ -23,6 +23,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import re
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -32,7 +33,7 @@ import numpy as np
 # The lidar sits about 0.27 m behind the camera along x (kitti-raw-sfnd-ttc README): lidar
 # ranges are moved to the camera by this much before they are compared with a camera range.
 LIDAR_BEHIND_CAMERA_M = 0.27
-STAGES = ("lanes", "detect", "track")
+STAGES = ("lanes", "detect", "track", "geometry")
 
 
 @dataclass
@@ -123,26 +124,77 @@ def ego_vanishing_row(lanes):
     return float((br - bl) / (al - ar))
 
 
-class PythonPipeline:
-    """lanes (every frame) -> detector (every `detect_every` frames) -> tracker, each timed.
+def lane_vanishing_row(lr) -> float | None:
+    """The vanishing row the camera stage's pitch uses: vt_lane_vanishing_row on the C
+    lane result (the geometry stage's helper) when this build has it, else the straight
+    fit of ego_vanishing_row. Input pixels."""
+    from .. import _native
+    raw = getattr(lr, "raw", None)
+    if hasattr(_native, "lane_vanishing_row") and raw is not None and hasattr(raw, "shift"):
+        h_seen = max(int(round(lr.x_left.shape[0] * lr.input_scale)), int(raw.h) << int(raw.shift))
+        try:
+            row, ok = _native.lane_vanishing_row(raw, h_seen)
+        except _native.VtError:
+            return None
+        return ((row / 65536.0) + 0.5) / lr.input_scale - 0.5 if ok else None
+    return None
 
-    step(frame) -> (record, FrameInfo). camera: the dict of --camera (used for the pitch
-    from the vanishing row: pitch = atan((cy - row) / fy), positive nose down)."""
+
+def camera_stage():
+    """(Camera, RangeEstimator) of the geometry stage (pyvehtrack.camera), or None when
+    this build does not have it."""
+    try:
+        from ..camera import Camera, RangeEstimator
+    except ImportError:
+        return None
+    return Camera, RangeEstimator
+
+
+class PythonPipeline:
+    """lanes (every frame) -> detector (every `detect_every` frames) -> tracker ->
+    (with a camera and the geometry stage) distance, TTC, warning; each stage timed.
+
+    step(frame) -> (record, FrameInfo). camera: the --camera JSON as a dict. With the
+    geometry stage (pyvehtrack.camera) and a camera with height_m, its RangeEstimator
+    gives distance_m (the filtered range, else this frame's), ttc_s (from the range rate,
+    else from the scale change), warning (the FCW bit) and the pitch; without it, those
+    stay null and the pitch is atan((cy - vanishing row) / fy) when the camera has fy, cy.
+    `notes` collects what the page should say about missing stages."""
 
     def __init__(self, engine: str = "c", detect_every: int = 10, camera: dict | None = None,
-                 geometry=None):
+                 fps: float = 10.0, geometry=None):
         from ..detector import Detector
         from ..lane import LaneDetector
         from ..tracker import Tracker
         if int(detect_every) < 1:
             raise ValueError(f"detect_every must be >= 1, got {detect_every}")
+        self.engine = engine
         self.lanes = LaneDetector(engine=engine)
         self._cache = _CachedLanes(self.lanes)
         self.detector = Detector(engine=engine, road="auto", lane_detector=self._cache)
         self.tracker = Tracker(engine=engine, detect_every=int(detect_every), detector=None)
         self.detect_every = int(detect_every)
         self.camera = camera
+        self.fps = float(fps)
         self.geometry = geometry
+        self.notes: list = []
+        self._cam = None            # the geometry stage's Camera, when usable
+        self.pitch_source = "atan((cy - vanishing row) / fy) of the camera file"
+        self._rng = None
+        stage = camera_stage()
+        if camera is not None and stage is not None and geometry is None:
+            cam = stage[0].from_dict(camera)        # CameraFileError (a ValueError) names the key
+            if cam.height_m is None:
+                self.notes.append("The camera file has no height_m: the geometry stage cannot give distances.")
+            else:
+                self._cam = cam
+                self.pitch_source = ("the geometry stage's pitch (vt_pitch: the lanes' vanishing row, "
+                                     "filtered and gated around the camera's nominal pitch)")
+        elif camera is None:
+            self.notes.append("No camera file (--camera): no distance, TTC or warning.")
+        elif stage is None:
+            self.notes.append("This build has no geometry stage (pyvehtrack.camera): no distance, TTC "
+                              "or warning.")
         self.k = 0
 
     def step(self, frame, file: str = ""):
@@ -177,11 +229,32 @@ class PythonPipeline:
                 row = int(lr.road_y_bottom)
                 if 0 <= row < len(lr.lane_width) and lr.lane_width[row] > 0:
                     info.lane_width_px, info.lane_width_row = float(lr.lane_width[row]), row
-            info.vanishing_row = ego_vanishing_row(info.lanes)
+        vp_stage = lane_vanishing_row(lr) if lr is not None else None
+        info.vanishing_row = vp_stage if vp_stage is not None else ego_vanishing_row(info.lanes)
+        geometry = self.geometry
+        if self._cam is not None:
+            t3 = time.perf_counter()
+            if self._rng is None:
+                self._rng = camera_stage()[1](self._cam, (gray.shape[1], gray.shape[0]), self.fps,
+                                              engine=self.engine)
+            self._rng.update_pitch(vp_stage)
+            outs = {o.id: o for o in self._rng.step(tracks)}
+            info.timing_ms["geometry"] = (time.perf_counter() - t3) * 1e3
+            info.pitch_deg = float(self._rng.pitch_deg)
+
+            def geometry(t, outs=outs):
+                o = outs.get(t.id)
+                if o is None:
+                    return {}
+                d = o.dist_filt if o.dist_filt is not None else o.distance
+                ttc = o.ttc_dist if o.ttc_dist is not None else o.ttc_scale
+                return {"distance_m": None if d is None else round(float(d), 3),
+                        "ttc_s": None if ttc is None else round(float(ttc), 3), "warning": bool(o.warning)}
+        else:
             f, cy = _cam_f_cy(self.camera)
             if f and cy is not None and info.vanishing_row is not None:
                 info.pitch_deg = math.degrees(math.atan2(cy - info.vanishing_row, f))
-        rec = track_record(self.k, tracks, detections=dets, geometry=self.geometry)
+        rec = track_record(self.k, tracks, detections=dets, geometry=geometry)
         self.k += 1
         return rec, info
 
@@ -197,16 +270,17 @@ class Truth:
     sources: list = field(default_factory=list)
     dt: float = 0.1
 
-    def ttc(self, half_window: int = 2) -> dict:
-        """TTC from the ranges: d / (-dd/dt), dd/dt a central difference over +-half_window
-        frames (a one-frame difference of lidar ranges is mostly noise); None where the
-        range does not shrink."""
+    def ttc(self, half_window: int = 2, min_closing: float = 0.1) -> dict:
+        """TTC from the ranges: d / -rate, the rate the slope of a least-squares line through
+        the 2 * half_window + 1 ranges around the frame (a one-frame difference of lidar
+        ranges is mostly noise; as tools/eval_kitti_range.py does); None where the range
+        closes slower than min_closing m/s."""
         out = {}
         for k, d in self.ranges.items():
-            a, b = k - half_window, k + half_window
-            if a in self.ranges and b in self.ranges:
-                rate = (self.ranges[b] - self.ranges[a]) / ((b - a) * self.dt)
-                out[k] = d / -rate if rate < -1e-6 else None
+            ks = list(range(k - half_window, k + half_window + 1))
+            if all(j in self.ranges for j in ks):
+                rate = float(np.polyfit(np.array(ks) * self.dt, [self.ranges[j] for j in ks], 1)[0])
+                out[k] = d / -rate if rate < -min_closing else None
         return out
 
 
@@ -222,7 +296,7 @@ def load_truth(paths, dt: float = 0.1) -> Truth:
         first = text.splitlines()[0] if text.strip() else ""
         if "ego_lane_" in first and "frame" in first:
             rows = list(csv.DictReader(text.splitlines()))
-            col = "ego_lane_median_of_20_closest_x_m"
+            col = "ego_lane_min_x_m"       # the geometry stage's evaluation uses the same column
             if col not in rows[0]:
                 col = next(c for c in rows[0] if c.startswith("ego_lane_") and c.endswith("_m"))
             for r in rows:
@@ -272,6 +346,30 @@ def read_records(path) -> list:
 
 
 # ====================================================================== input
+def companion_files(rec) -> dict:
+    """{'truth': [paths], 'camera': path or None} for a recording, by the naming rule:
+    folder REC: REC/gt.txt, REC/truth*.txt|csv, then REC.truth*.txt|csv beside it; camera
+    REC/camera.json, else REC.camera.json beside it. Video DIR/S.ext: DIR/S.truth*.txt|csv
+    and DIR/S.camera.json."""
+    p = Path(rec)
+    inside = p if p.is_dir() else None
+    stem = p.name if p.is_dir() else p.stem
+    beside = p.parent
+    truth: list = []
+    if inside is not None:
+        truth += [q for q in [inside / "gt.txt"] if q.is_file()]
+        truth += sorted(q for q in inside.glob("truth*") if q.suffix in (".txt", ".csv") and q.is_file())
+    truth += sorted(q for q in beside.glob(f"{glob_escape(stem)}.truth*")
+                    if q.suffix in (".txt", ".csv") and q.is_file())
+    cams = ([inside / "camera.json"] if inside is not None else []) + [beside / f"{stem}.camera.json"]
+    cam = next((q for q in cams if q.is_file()), None)
+    return {"truth": [str(q) for q in truth], "camera": str(cam) if cam else None}
+
+
+def glob_escape(s: str) -> str:
+    return re.sub(r"([\[\]*?])", r"[\1]", s)
+
+
 from ..cli.common import IMAGE_EXTS, VIDEO_EXTS  # noqa: E402  (the one list of file types)
 
 
@@ -283,6 +381,9 @@ def recording_frames(path):
     p = Path(path)
     if not p.exists():
         raise ValueError(f"{path}: no such file or directory")
+    if p.is_dir() and (p / "frames").is_dir() and not any(
+            q.suffix.lower() in IMAGE_EXTS for q in p.iterdir() if q.is_file()):
+        p = p / "frames"                # the layout pyvehtrack.synth.write_kitti writes
     if p.is_dir():
         files = sorted(q for q in p.iterdir() if q.is_file() and q.suffix.lower() in IMAGE_EXTS)
         if not files:

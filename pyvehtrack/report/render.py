@@ -21,7 +21,7 @@ STATE_COLOURS = {"tentative": "#b0b0b0", "confirmed": "#2a9d3a", "coasting": "#e
 # BGR for OpenCV drawing, hex for the legend: one colour per box source.
 SOURCE_COLOURS = {"detection": ((60, 200, 40), "#28c83c"), "search": ((255, 160, 0), "#00a0ff"),
                   "detector box": ((200, 0, 220), "#dc00c8")}
-STAGE_COLOURS = {"lanes": "#4c72b0", "detect": "#dd8452", "track": "#55a868"}
+STAGE_COLOURS = {"lanes": "#4c72b0", "detect": "#dd8452", "track": "#55a868", "geometry": "#8172b3"}
 MAX_THUMBS = 12
 
 
@@ -208,15 +208,14 @@ def _shade_warnings(ax, records, tid=None):
     return True
 
 
-def plot_range_ttc(records, truth: Truth, lead_of_frame: dict):
+def plot_range_ttc(records, truth: Truth, lead_of_frame: dict, stage_notes=()):
     """Distance and TTC over time per track (estimates), with the truth overlaid on the
     lead car's track and the warning intervals shaded. Returns (uri or None, notes)."""
     dist, ttc = _series(records, "distance_m"), _series(records, "ttc_s")
     t_ttc = truth.ttc() if truth.ranges else {}
     notes = []
     if not dist and not ttc:
-        notes.append("No distance or TTC estimate in these records: they come from the camera geometry "
-                     "stage (camera.c), which this build does not have (or no --camera was given).")
+        notes += list(stage_notes) or ["No distance or TTC estimate in these records."]
     if not truth.ranges:
         notes.append("No range truth given (--truth with a lidar range CSV overlays it here).")
     if not dist and not ttc and not truth.ranges:
@@ -240,10 +239,10 @@ def plot_range_ttc(records, truth: Truth, lead_of_frame: dict):
     a2.set_ylabel("TTC (s)")
     a2.set_xlabel("frame")
     if not dist:
-        a1.text(0.5, 0.92, "no distance estimate (geometry stage absent)", transform=a1.transAxes,
+        a1.text(0.5, 0.92, "no distance estimate (see the note above)", transform=a1.transAxes,
                 ha="center", color="#a00", fontsize=10)
     if not ttc:
-        a2.text(0.5, 0.92, "no TTC estimate (geometry stage absent)", transform=a2.transAxes,
+        a2.text(0.5, 0.92, "no TTC estimate (see the note above)", transform=a2.transAxes,
                 ha="center", color="#a00", fontsize=10)
     for a in (a1, a2):
         if a.get_legend_handles_labels()[0]:
@@ -255,7 +254,7 @@ def plot_range_ttc(records, truth: Truth, lead_of_frame: dict):
     return _png_data_uri(fig), notes
 
 
-def plot_lane_pitch(infos):
+def plot_lane_pitch(infos, pitch_source: str = ""):
     lw = [(i.frame, i.lane_width_px) for i in infos if i.lane_width_px is not None]
     vr = [(i.frame, i.vanishing_row) for i in infos if i.vanishing_row is not None]
     pitch = [(i.frame, i.pitch_deg) for i in infos if i.pitch_deg is not None]
@@ -286,9 +285,8 @@ def plot_lane_pitch(infos):
         a1.set_xlabel("frame")
     elif pitch:
         a2.plot(*zip(*pitch), ".-", color="#8172b3", lw=1.2, ms=3)
-        a2.set_ylabel("pitch (deg)")
-        a2.set_title("atan((cy - vanishing row) / fy): camera axis below the horizon is +, nose down",
-                     fontsize=9, loc="left")
+        a2.set_ylabel("pitch (deg, + = down)")
+        a2.set_title(pitch_source, fontsize=9, loc="left")
     elif vr:
         a2.plot(*zip(*vr), ".-", color="#8172b3", lw=1.2, ms=3)
         a2.set_ylabel("vanishing row (px)")
@@ -431,7 +429,9 @@ def range_figures(records, truth: Truth, lead: dict):
           and est[k].get("ttc_s") is not None]
     if tp:
         d = np.array(tp)
-        rows += [("TTC: frames compared", len(d)), ("TTC MAE", f"{np.mean(np.abs(d[:, 1] - d[:, 0])):.2f} s")]
+        e = np.abs(d[:, 1] - d[:, 0])
+        rows += [("TTC: frames compared", len(d)), ("TTC MAE", f"{np.mean(e):.2f} s"),
+                 ("TTC median |rel. error|", f"{np.median(e / d[:, 0]):.1%}")]
     elif pairs:
         notes.append("No TTC estimate on the lead car's track: no TTC error.")
     return rows, notes
@@ -448,7 +448,8 @@ td,th{border:1px solid #ddd;padding:3px 10px;text-align:left}th{background:#f3f3
 .sheet img{width:100%;display:block;border:1px solid #ccc}.sheet figcaption{font-size:12px;color:#555}
 img.plot{max-width:100%;display:block}.legend span{display:inline-block;margin-right:16px;font-size:13px}
 .sw{display:inline-block;width:12px;height:12px;margin-right:5px;vertical-align:-1px;border:1px solid #999}
-.cols{display:flex;gap:28px;flex-wrap:wrap}
+.cols{display:flex;gap:28px;flex-wrap:wrap;align-items:flex-start}.cols>div{flex:1 1 400px}
+.cols table{width:100%}
 """
 
 
@@ -457,7 +458,7 @@ def _swatch(col: str, label: str) -> str:
 
 
 def render_html(records, infos, thumbs, *, title: str, meta: dict, truth: Truth | None = None,
-                extra_notes=()) -> str:
+                extra_notes=(), stage_notes=(), pitch_source: str = "") -> str:
     """The page as a string. thumbs: [(frame, BGR annotated image)]; meta: label -> value."""
     truth = truth or Truth()
     lead = lead_ids(records, truth)
@@ -487,8 +488,10 @@ def render_html(records, infos, thumbs, *, title: str, meta: dict, truth: Truth 
         tr_rows, tr_notes = [], [f"Tracking figures not computed: {e}"]
     rg_rows, rg_notes = range_figures(records, truth, lead)
     if truth.sources:
-        rows.append(("truth", "; ".join(truth.sources)))
-    parts.append("<h2>Summary</h2>" + _table(("what", "value"), rows + tr_rows + rg_rows))
+        tr_rows.insert(0, ("truth", "; ".join(truth.sources)))
+    right = (_table(("against the truth", ""), tr_rows + rg_rows) if tr_rows or rg_rows else "")
+    parts.append("<h2>Summary</h2>" + f'<div class="cols"><div>{_table(("this run", ""), rows)}</div>'
+                 f"<div>{right}</div></div>")
     notes += tr_notes + rg_notes
     parts += [_note(x) for x in notes]
 
@@ -511,8 +514,8 @@ def render_html(records, infos, thumbs, *, title: str, meta: dict, truth: Truth 
 
     # ---- plots
     for head, (uri, nts) in (("Track timeline", _one(plot_timeline(records))),
-                             ("Distance and time to collision", plot_range_ttc(records, truth, lead)),
-                             ("Lane width and pitch", plot_lane_pitch(infos) if infos else (None, ["No frames."])),
+                             ("Distance and time to collision", plot_range_ttc(records, truth, lead, stage_notes)),
+                             ("Lane width and pitch", plot_lane_pitch(infos, pitch_source) if infos else (None, ["No frames."])),
                              ("Run time per frame and stage", plot_runtime(infos))):
         parts.append(f"<h2>{head}</h2>")
         parts += [_note(x) for x in nts]
