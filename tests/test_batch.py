@@ -94,6 +94,14 @@ def test_rerun_does_no_work_and_resumes_a_changed_recording(first_run, recording
     assert s.submitted == 1 and s.rows[0]["this_run"] == "ran" and s.rows[0]["status"] == "ok"
 
 
+def test_reports_use_the_recordings_truth(recordings, cluster, tmp_path):
+    s = run_batch(recordings[:1], tmp_path, scheduler=cluster, reports=True, progress=False)
+    assert s.rows[0]["status"] == "ok", s.rows[0]
+    page = (tmp_path / "rec0" / "report" / "index.html").read_text()
+    assert "gt.txt: KITTI tracking labels" in page and "<td>HOTA</td>" in page
+    assert s.aggregate["scored"] == 1 and "HOTA" in s.aggregate
+
+
 def test_naming_rule(tmp_path):
     rec = tmp_path / "drive"
     (rec / "frames").mkdir(parents=True)
