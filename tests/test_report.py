@@ -217,3 +217,33 @@ def test_page_renders_in_chromium_without_network(clip_report, tmp_path):
     ctl.write_text('<!DOCTYPE html><html><body><img src="http://example.com/x.png"></body></html>')
     _, requested = _chromium(ctl.as_uri(), tmp_path, "control")
     assert requested == {"http://example.com/x.png"}
+
+
+def test_render_with_estimates_warnings_and_labels():
+    """Records as the full pipeline will give them (distance, TTC, warnings) with KITTI labels:
+    the warning note goes, the errors are the ones the numbers imply."""
+    from pyvehtrack.report.records import FrameInfo
+    from pyvehtrack.report.render import render_html
+    recs, infos, labels = [], [], []
+    for k in range(12):
+        d = 20.0 - 0.5 * k                           # closing at 5 m/s (dt 0.1 s): TTC = d / 5
+        warn = k >= 8
+        recs.append({"frame": k, "tracks": [
+            {"id": 4, "box": [100, 50, 160, 100], "state": "confirmed" if k >= 2 else "tentative",
+             "velocity_px": [0.0, 0.1], "distance_m": d + 1.0, "ttc_s": d / 5 + 0.5, "warning": warn,
+             "source": "search"}]})
+        infos.append(FrameInfo(frame=k, timing_ms={"lanes": 0.3, "track": 0.1}))
+        labels.append(f"{k} 1 Car 0 0 -10 100 50 160 100 -1 -1 -1 -1000 -1000 -1000 -10")
+    import tempfile
+    with tempfile.TemporaryDirectory() as tmp:
+        gt = Path(tmp) / "gt.txt"
+        gt.write_text("\n".join(labels) + "\n")
+        truth = load_truth([gt])
+    truth.ranges = {k: 20.0 - 0.5 * k for k in range(12)}
+    page = render_html(recs, infos, [], title="t", meta={}, truth=truth)
+    assert "No forward-collision warning" not in page
+    assert "<td>warnings (frames with a warning)</td><td>4</td>" in page
+    assert "<td>distance MAE</td><td>1.00 m</td>" in page and "<td>distance bias</td><td>+1.00 m</td>" in page
+    assert "<td>TTC MAE</td><td>0.50 s</td>" in page
+    assert "<td>MOTA</td><td>83.3%</td>" in page   # frames 0-1 tentative (not scored): 2 misses of 12
+    assert "No frame in this recording." in page            # no thumbnails given
