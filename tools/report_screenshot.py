@@ -33,8 +33,10 @@ def main() -> int:
     clip = ROOT / "tests" / "data" / "kitti_clip"
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        if cli(["report", str(clip), "--out", str(tmp / "r"), "--truth", str(clip / "lead_boxes.csv"),
-                "--truth", str(clip / "truth_lidar_range.csv"), "--no-progress"]) != 0:
+        os.chdir(ROOT)                  # relative paths on the page
+        rel = clip.relative_to(ROOT)
+        if cli(["report", str(rel), "--out", str(tmp / "r"), "--truth", str(rel / "lead_boxes.csv"),
+                "--truth", str(rel / "truth_lidar_range.csv"), "--no-progress"]) != 0:
             raise SystemExit("report failed")
         env = {k: v for k, v in os.environ.items() if k not in ("LD_PRELOAD", "ASAN_OPTIONS")}
         shot = tmp / "full.png"
@@ -47,7 +49,7 @@ def main() -> int:
         rows = np.where((np.asarray(im) < 250).any(axis=(1, 2)))[0]
         im = im.crop((0, 0, im.width, int(rows.max()) + 16))
         im = im.resize((round(im.width * a.scale), round(im.height * a.scale)), Image.LANCZOS)
-        im = im.quantize(colors=256, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE)
+        im = im.quantize(colors=256, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE)
         Path(a.out).parent.mkdir(parents=True, exist_ok=True)
         im.save(a.out, optimize=True)
     print(f"{a.out}: {im.width}x{im.height}, {Path(a.out).stat().st_size // 1024} KB")

@@ -444,6 +444,7 @@ h1{font-size:24px;margin:0 0 4px}h2{font-size:18px;margin:28px 0 8px;border-bott
 .meta{color:#555;font-size:13px;margin:0}.note{background:#fff6e0;border-left:4px solid #e0a000;padding:6px 10px;
 font-size:13px;margin:6px 0}table{border-collapse:collapse;font-size:13px;margin:6px 0}
 td,th{border:1px solid #ddd;padding:3px 10px;text-align:left}th{background:#f3f3f3}
+td:first-child{white-space:nowrap}
 .sheet{display:grid;grid-template-columns:repeat(3,1fr);gap:8px}.sheet figure{margin:0}
 .sheet img{width:100%;display:block;border:1px solid #ccc}.sheet figcaption{font-size:12px;color:#555}
 img.plot{max-width:100%;display:block}.legend span{display:inline-block;margin-right:16px;font-size:13px}
@@ -488,7 +489,7 @@ def render_html(records, infos, thumbs, *, title: str, meta: dict, truth: Truth 
         tr_rows, tr_notes = [], [f"Tracking figures not computed: {e}"]
     rg_rows, rg_notes = range_figures(records, truth, lead)
     if truth.sources:
-        tr_rows.insert(0, ("truth", "; ".join(truth.sources)))
+        notes.append("Truth: " + "; ".join(truth.sources) + ".")
     right = (_table(("against the truth", ""), tr_rows + rg_rows) if tr_rows or rg_rows else "")
     parts.append("<h2>Summary</h2>" + f'<div class="cols"><div>{_table(("this run", ""), rows)}</div>'
                  f"<div>{right}</div></div>")
