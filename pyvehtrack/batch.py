@@ -15,7 +15,8 @@ Per recording, RESULTS/<name>/ holds
     annotated.mp4   the annotated video (`track --out`)
     tracks.json     per-frame records in the `track --json` schema
     report/         index.html (reports=True)
-    result.json     this recording's row of the results table
+    result.json     this recording's row of the results table (error.txt: a traceback when
+                    the failure was not one of track's own one-line errors)
     DONE | FAILED   the marker, written last: the input's fingerprint (file names, sizes,
                     modification times, options)
 A rerun skips every recording whose marker matches its fingerprint (a completed one, and a
@@ -218,7 +219,9 @@ def process_recording(rec: str, out_dir: str, opts: dict, fp: str) -> dict:
     except TrackFailed as e:
         row["error"] = f"track: {e}"
     except Exception as e:                       # a failing recording is a row, not a crash
-        row["error"] = f"{type(e).__name__}: {e}"
+        import traceback
+        row["error"] = f"{type(e).__name__}: {e} (traceback in {out / 'error.txt'})"
+        (out / "error.txt").write_text(traceback.format_exc())
         row.setdefault("seconds", round(time.perf_counter() - t0, 3))
     (out / "result.json").write_text(json.dumps(row, indent=1) + "\n")
     marker = MARK_DONE if row["status"] == "ok" else MARK_FAILED

@@ -155,11 +155,17 @@ def test_no_data_sections_say_so(tmp_path):
 
 
 def test_naming_rule_finds_the_clip_camera_and_range_truth(tmp_path):
-    assert main(["report", str(CLIP), "--out", str(tmp_path / "r"), "--no-progress"]) == 0
+    rec = tmp_path / "clip4"                         # the first 4 frames, laid out as the shipped clip
+    rec.mkdir()
+    for k in range(4):
+        shutil.copy(CLIP / f"{k:06d}.png", rec)
+    shutil.copy(CLIP / "truth_lidar_range.csv", rec)
+    shutil.copy(CAMERA, tmp_path / "clip4.camera.json")
+    assert main(["report", str(rec), "--out", str(tmp_path / "r"), "--no-progress"]) == 0
     page = (tmp_path / "r" / "index.html").read_text()
-    assert "kitti_clip.camera.json" in page and "truth_lidar_range.csv" in page
-    assert "<td>distance MAE</td>" in page
-    assert main(["report", str(CLIP), "--out", str(tmp_path / "n"), "--no-progress", "--no-find"]) == 0
+    assert "clip4.camera.json" in page and "truth_lidar_range.csv" in page
+    assert "<td>distance: frames compared</td><td>2</td>" in page      # frames 2-3: the track is confirmed
+    assert main(["report", str(rec), "--out", str(tmp_path / "n"), "--no-progress", "--no-find"]) == 0
     page = (tmp_path / "n" / "index.html").read_text()
     assert "No camera file" in page and "distance MAE" not in page
 
