@@ -176,7 +176,7 @@ def process_recording(rec: str, out_dir: str, opts: dict, fp: str) -> dict:
     marker (last). Never raises for a bad recording: the row says status 'failed' and why."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    for m in (MARK_DONE, MARK_FAILED):
+    for m in (MARK_DONE, MARK_FAILED, "error.txt"):
         (out / m).unlink(missing_ok=True)
     comp = companion_files(rec)
     row = {"recording": rec, "status": "failed", "this_run": "ran", "truth": ";".join(comp["truth"]),
