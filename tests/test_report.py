@@ -180,6 +180,10 @@ def test_bad_arguments(tmp_path):
         make_report(CLIP, tmp_path / "o", fps=0, progress=False)
     with pytest.raises(TypeError, match="camera"):
         make_report(CLIP, tmp_path / "o", camera=3, progress=False)
+    with pytest.raises(TypeError, match="detect_every"):
+        make_report(CLIP, tmp_path / "o", detect_every=2.5, progress=False)
+    with pytest.raises(ValueError, match="engine"):
+        make_report(CLIP, tmp_path / "o", engine="gpu", progress=False)
     cam = tmp_path / "cam.json"
     cam.write_text("[1, 2")
     with pytest.raises(ValueError, match="cam.json"):

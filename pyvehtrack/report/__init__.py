@@ -28,8 +28,8 @@ def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "
     out_dir = Path(out_dir)
     if out_dir.exists() and not out_dir.is_dir():
         raise ValueError(f"out_dir {out_dir}: exists and is not a folder")
-    if not fps > 0:
-        raise ValueError(f"fps must be > 0, got {fps}")
+    if isinstance(fps, bool) or not isinstance(fps, (int, float)) or not fps > 0 or fps == float("inf"):
+        raise ValueError(f"fps must be a number > 0, got {fps!r}")
     found = companion_files(inputs) if Path(inputs).exists() else {"truth": [], "camera": None}
     auto = []
     if isinstance(truth, str) and truth == "auto":

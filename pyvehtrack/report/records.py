@@ -4,8 +4,8 @@ recording, kept in the `track --json` schema
     {"frame": int, "tracks": [{"id", "box", "state", "velocity_px", "distance_m", "ttc_s",
                                "warning", "source"}]}
 
-(null where a stage that would fill a field is not in this build: distance, TTC and
-warnings come from the geometry stage, camera.c), plus what the page draws besides the
+(null where unknown: distance, TTC and warning come from the geometry stage,
+pyvehtrack.camera / camera.c, given a camera file), plus what the page draws besides the
 tracks (`FrameInfo`: lanes, road area, detector boxes, lane width, vanishing row, the
 per-stage run time measured here with time.perf_counter).
 
@@ -16,7 +16,8 @@ frame. When `pyvehtrack.Pipeline` (vt_pipeline) lands, its FrameResult maps onto
 record and this adapter is the only thing to replace.
 
 Truth files (`load_truth`): the lidar lead-distance CSV of kitti-raw-sfnd-ttc
-(`derived_lidar_lead_distance.csv`), a one-object box CSV (`frame,left,top,right,bottom`,
+(`derived_lidar_lead_distance.csv`, its ego_lane_min_x_m column as the geometry stage's
+evaluation uses it), a one-object box CSV (`frame,left,top,right,bottom`,
 e.g. tests/data/kitti_clip/lead_boxes.csv) or KITTI tracking labels (`frame id type ...`)."""
 from __future__ import annotations
 
@@ -166,8 +167,12 @@ class PythonPipeline:
         from ..detector import Detector
         from ..lane import LaneDetector
         from ..tracker import Tracker
-        if int(detect_every) < 1:
+        if isinstance(detect_every, bool) or not isinstance(detect_every, (int, np.integer)):
+            raise TypeError(f"detect_every must be an int, got {type(detect_every).__name__}")
+        if detect_every < 1:
             raise ValueError(f"detect_every must be >= 1, got {detect_every}")
+        if isinstance(fps, bool) or not isinstance(fps, (int, float)) or not math.isfinite(fps) or fps <= 0:
+            raise ValueError(f"fps must be a number > 0, got {fps!r}")
         self.engine = engine
         self.lanes = LaneDetector(engine=engine)
         self._cache = _CachedLanes(self.lanes)
