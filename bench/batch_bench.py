@@ -42,7 +42,7 @@ def startup(workers: int) -> float:
     from pyvehtrack.batch import warm_worker
     t = time.perf_counter()
     with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-                      silence_logs=logging.ERROR) as c, Client(c) as cl:
+                      silence_logs=logging.CRITICAL) as c, Client(c) as cl:
         cl.run(warm_worker)
         return time.perf_counter() - t
 
@@ -56,6 +56,7 @@ def main() -> int:
     w, h = (int(v) for v in a.size.split("x"))
     from pyvehtrack.batch import run_batch
     rows = []
+    load0 = os.getloadavg()[0]
     with tempfile.TemporaryDirectory() as tmp:
         recs = make_recordings(Path(tmp) / "recs", 8, a.frames, w, h)
         for workers in (1, 2):
@@ -76,7 +77,9 @@ def main() -> int:
     lines = [f"# pyvehtrack batch: wall time, 8 synthetic recordings ({a.frames} frames of {w}x{h}) + 1 corrupt",
              "", f"`PYTHONPATH=. python3 bench/batch_bench.py --frames {a.frames} --size {a.size}`; "
              f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores (shared), "
-             f"Python {platform.python_version()}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}.", "",
+             f"Python {platform.python_version()}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; "
+             f"1-minute load average {load0:.1f} at the start, {os.getloadavg()[0]:.1f} at the end "
+             "(the machine is shared: above 2 the workers compete with other jobs for the 2 cores).", "",
              "| workers | wall s | of which cluster start + imports s | sum of task s | frames | ok | failed "
              "| rerun: recordings run | rerun wall s |", "|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for wk, wall, su, tasks, ok, bad, sub, rerun, frames in rows:

@@ -25,7 +25,7 @@ def cluster():
 
     from dask.distributed import LocalCluster
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
-                      silence_logs=logging.ERROR) as c:
+                      silence_logs=logging.CRITICAL) as c:
         yield c.scheduler_address
 
 
