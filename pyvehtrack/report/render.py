@@ -524,6 +524,10 @@ def render_html(records, infos, thumbs, *, title: str, meta: dict, truth: Truth 
             parts.append(_img(uri, head))
         if head.startswith("Run time") and infos:
             parts.append(runtime_table(infos))
+            parts.append('<p class="meta">Wall time of this Python process around each stage\'s call '
+                         "(binding and conversions included): a lone tall bar is usually another "
+                         "process taking the CPU; the median is the figure to read. `make bench` "
+                         "measures the stages properly.</p>")
     body = "\n".join(parts)
     return (f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
             f"<title>{html.escape(title)}</title><style>{CSS}</style></head>\n<body>\n{body}\n"
