@@ -41,7 +41,7 @@ def startup(workers: int) -> float:
 
     from pyvehtrack.batch import warm_worker
     t = time.perf_counter()
-    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
                       silence_logs=logging.CRITICAL) as c, Client(c) as cl:
         cl.run(warm_worker)
         return time.perf_counter() - t

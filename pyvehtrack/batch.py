@@ -326,7 +326,7 @@ def _submit_all(todo, opts, rows, scheduler, workers, progress, tqdm):
                 raise ValueError(f"scheduler {scheduler}: cannot connect ({e})") from None
         else:
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                   dashboard_address=None, silence_logs=logging.CRITICAL)
+                                   dashboard_address=":0", silence_logs=logging.CRITICAL)
             client = Client(cluster)
         with client:
             client.run(warm_worker)

@@ -24,7 +24,7 @@ def cluster():
     import logging
 
     from dask.distributed import LocalCluster
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0",
                       silence_logs=logging.CRITICAL) as c:
         yield c.scheduler_address
 
@@ -100,6 +100,13 @@ def test_reports_use_the_recordings_truth(recordings, cluster, tmp_path):
     page = (tmp_path / "rec0" / "report" / "index.html").read_text()
     assert "gt.txt: KITTI tracking labels" in page and "<td>HOTA</td>" in page
     assert s.aggregate["scored"] == 1 and "HOTA" in s.aggregate
+
+
+def test_default_local_cluster(recordings, tmp_path):
+    """Without --scheduler, run_batch starts (and closes) its own LocalCluster."""
+    s = run_batch(recordings[1:2], tmp_path, workers=1, progress=False)
+    assert s.submitted == 1 and s.rows[0]["status"] == "ok"
+    assert (tmp_path / "rec1" / "tracks.txt").is_file() and (tmp_path / "rec1" / "DONE").is_file()
 
 
 def test_naming_rule(tmp_path):

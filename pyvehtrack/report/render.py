@@ -526,7 +526,7 @@ def render_html(records, infos, thumbs, *, title: str, meta: dict, truth: Truth 
             parts.append(runtime_table(infos))
             parts.append('<p class="meta">Wall time of this Python process around each stage\'s call '
                          "(binding and conversions included): a lone tall bar is usually another "
-                         "process taking the CPU; the median is the figure to read. `make bench` "
+                         "process taking the CPU; the median is the figure to read. <code>make bench</code> "
                          "measures the stages properly.</p>")
     body = "\n".join(parts)
     return (f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
