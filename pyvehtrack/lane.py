@@ -21,7 +21,7 @@ from dataclasses import dataclass, field, fields, replace
 import cv2
 import numpy as np
 
-from . import _native
+from . import _check, _native
 from .frames import to_gray
 from .reference import lane as _ref
 
@@ -77,7 +77,7 @@ def default_config() -> _ref.LaneConfig:
 def _to_c_cfg(cfg: _ref.LaneConfig):
     c = _native.ffi.new("vt_lane_cfg *")
     for f in fields(_ref.LaneConfig):
-        setattr(c, f.name, int(getattr(cfg, f.name)))
+        setattr(c, f.name, _check.integer(getattr(cfg, f.name), f.name))
     return c
 
 

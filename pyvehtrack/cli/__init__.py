@@ -54,6 +54,34 @@ EXAMPLES = """examples:
   pyvehtrack COMMAND --help     (each command's options and examples)"""
 
 
+# Names the single-file cli.py / cli_track.py had, kept for code written against them.
+_frames_of, _count_frames, _video_fps = frame_sources, count_frames, video_fps
+
+
+def _iter_frames(sources):
+    """The old reader: (file, frame index within its file, frame); new code uses FrameReader."""
+    last, k = None, 0
+    for _i, path, img in FrameReader(sources):
+        k = k + 1 if path == last else 0
+        last = path
+        yield path, k, img
+
+
+_MOVED = {"draw_detection": ("detect", "draw_detection"), "detection_json": ("detect", "detection_json"),
+          "register_detect": ("detect", "register"), "run_detect": ("detect", "run"),
+          "draw_tracks": ("track", "draw_tracks"), "id_colour": ("track", "id_colour"),
+          "kitti_line": ("track", "kitti_line"), "register_track": ("track", "register"),
+          "run_track": ("track", "run"), "register_eval": ("eval", "register"), "run_eval": ("eval", "run")}
+
+
+def __getattr__(name):
+    """pyvehtrack.cli.draw_detection etc. (formerly in cli.py), loaded from their module on use."""
+    if name in _MOVED:
+        mod, attr = _MOVED[name]
+        return getattr(importlib.import_module(f"{__name__}.{mod}"), attr)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
 class _Parser(argparse.ArgumentParser):
     """argparse with one-line errors (exit status 2): `pyvehtrack CMD: error: ...`."""
 
@@ -83,8 +111,15 @@ def main(argv: list[str] | None = None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as e:            # --help, --version (0) and usage errors (2)
         return int(e.code or 0) if not isinstance(e.code, str) else 2
+    import warnings
+
+    def one_line(message, category, *_args, **_kw):   # library warnings: one line, no source
+        print(f"pyvehtrack {args.command}: warning: {message}", file=sys.stderr)
+
     try:
-        return int(args.func(args) or 0)
+        with warnings.catch_warnings():
+            warnings.showwarning = one_line
+            return int(args.func(args) or 0)
     except CliError as e:
         print(f"pyvehtrack {args.command}: error: {e}", file=sys.stderr)
         return 2

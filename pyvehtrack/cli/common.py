@@ -12,11 +12,12 @@ from __future__ import annotations
 import os
 import sys
 import tempfile
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
 __all__ = ["CliError", "IMAGE_EXTS", "VIDEO_EXTS", "VIDEO_OUT_EXTS", "output_kind", "frame_sources",
-           "FrameReader", "read_image", "count_frames", "video_fps", "VideoOut", "Outputs"]
+           "FrameReader", "read_image", "progress", "count_frames", "video_fps", "VideoOut", "Outputs"]
 
 # The one list of file types. VIDEO_OUT_EXTS: the containers cv2.VideoWriter writes here
 # (.avi with MJPG, the others with mp4v).
@@ -56,11 +57,18 @@ def frame_sources(inputs: list[str]) -> list[tuple[str, str]]:
     return out
 
 
+# Formats whose decoder in OpenCV fails on truncated or corrupt data by itself (it returns
+# None): PNG (libpng checks chunk lengths and CRCs), BMP, PGM/PPM. Everything else -- JPEG
+# above all, which OpenCV decodes cut short with only a warning and the rest of the frame
+# grey -- is decoded by Pillow first, which refuses truncated data.
+_SELF_CHECKING = (b"\x89PNG\r\n\x1a\n", b"BM", b"P5", b"P6")
+
+
 def read_image(path: str):
     """A uint8 image (gray, BGR or BGRA) read from `path`; CliError naming the file when it is
-    missing, unreadable, empty, truncated or corrupt. OpenCV decodes a JPEG cut short with only a
-    warning on stderr (the rest of the frame grey), so Pillow, which refuses truncated data, decodes
-    it first as a check; OpenCV's decoding is the one used, as before."""
+    missing, unreadable, empty, truncated or corrupt. OpenCV's decoding is the one used, as
+    before; Pillow only checks the formats OpenCV would accept truncated (see _SELF_CHECKING).
+    Costs one extra decode per JPEG frame, none per PNG frame."""
     import io
 
     import cv2
@@ -73,16 +81,18 @@ def read_image(path: str):
         raise CliError(f"{path}: cannot read ({e.strerror})") from None
     if not data:
         raise CliError(f"{path}: empty file")
-    try:
-        with Image.open(io.BytesIO(data)) as im:
-            im.load()
-    except UnidentifiedImageError:
-        pass                                    # a type Pillow does not know: OpenCV decides
-    except (OSError, SyntaxError, ValueError, EOFError, Image.DecompressionBombError) as e:
-        raise CliError(f"{path}: corrupt or truncated image ({e})") from None
-    img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+    if not data.startswith(_SELF_CHECKING):
+        try:
+            with Image.open(io.BytesIO(data)) as im:
+                im.load()
+        except UnidentifiedImageError:
+            pass                                # a type Pillow does not know: OpenCV decides
+        except (OSError, SyntaxError, ValueError, EOFError, Image.DecompressionBombError) as e:
+            raise CliError(f"{path}: corrupt or truncated image ({e})") from None
+    with _quiet_fd2():                          # libpng prints its own error on fd 2
+        img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
     if img is None:
-        raise CliError(f"{path}: cannot read as an image")
+        raise CliError(f"{path}: cannot read as an image (corrupt, truncated or not an image)")
     if img.dtype != np.uint8:
         if img.dtype != np.uint16:
             raise CliError(f"{path}: unsupported pixel type {img.dtype}")
@@ -120,8 +130,8 @@ class FrameReader:
                     yield i, path, img
                 i += 1
                 continue
-            cap = cv2.VideoCapture(path)
-            if not cap.isOpened():
+            cap = open_video(path)
+            if cap is None:
                 raise CliError(f"{path}: cannot open as a video")
             declared = int(cap.get(cv2.CAP_PROP_FRAME_COUNT))
             k = 0
@@ -143,6 +153,38 @@ class FrameReader:
                 i += declared - k
 
 
+@contextmanager
+def _quiet_fd2():
+    """Silence what C libraries print on fd 2 (OpenCV's AVI parser, FFmpeg) while a video is
+    opened: a file that cannot be opened is reported once, as a CliError line."""
+    try:
+        sys.stderr.flush()
+        saved = os.dup(2)
+    except (OSError, ValueError):           # no real fd 2 (embedded use): nothing to silence
+        yield
+        return
+    null = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(null, 2)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+        os.close(null)
+
+
+def open_video(path: str):
+    """cv2.VideoCapture on `path`, opened quietly; None when it cannot be opened."""
+    import cv2
+    os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")     # FFmpeg: quiet (read at open)
+    with _quiet_fd2():
+        cap = cv2.VideoCapture(path)
+    if not cap.isOpened():
+        cap.release()
+        return None
+    return cap
+
+
 def count_frames(sources) -> int | None:
     """The number of frames, or None when a video does not declare its length."""
     import cv2
@@ -151,9 +193,10 @@ def count_frames(sources) -> int | None:
         if kind == "image":
             n += 1
         else:
-            cap = cv2.VideoCapture(path)
-            c = int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) if cap.isOpened() else 0
-            cap.release()
+            cap = open_video(path)
+            c = int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) if cap is not None else 0
+            if cap is not None:
+                cap.release()
             if c <= 0:
                 return None
             n += c
@@ -165,12 +208,28 @@ def video_fps(sources) -> float:
     import cv2
     for kind, path in sources:
         if kind == "video":
-            cap = cv2.VideoCapture(path)
-            fps = cap.get(cv2.CAP_PROP_FPS) if cap.isOpened() else 0
-            cap.release()
+            cap = open_video(path)
+            fps = cap.get(cv2.CAP_PROP_FPS) if cap is not None else 0
+            if cap is not None:
+                cap.release()
             if fps and fps > 0:
                 return float(fps)
     return 10.0
+
+
+@contextmanager
+def progress(total: int | None, disable: bool):
+    """A tqdm frame counter on stderr that erases itself when the run fails, so the error
+    is the one line left on the screen."""
+    from tqdm import tqdm
+    bar = tqdm(total=total, unit="frame", disable=disable, file=sys.stderr)
+    try:
+        yield bar
+    except BaseException:
+        bar.leave = False
+        raise
+    finally:
+        bar.close()
 
 
 # ====================================================================== outputs
@@ -185,6 +244,9 @@ class Outputs:
         """Check that `path` can be written and return a temporary path beside it, with the same
         extension (OpenCV picks the format from it); CliError naming `option` otherwise."""
         final = Path(path)
+        for _tmp, other in self._pending:
+            if other.resolve() == final.resolve():
+                raise CliError(f"{option} {path}: the same file as another output")
         if final.is_dir():
             raise CliError(f"{option} {path}: is a folder")
         parent = final.parent

@@ -10,10 +10,10 @@ At least one of --out and --json. The JSON is a list with one entry per frame:
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
-from .common import CliError, FrameReader, Outputs, VideoOut, count_frames, frame_sources, output_kind
+from .common import (CliError, FrameReader, Outputs, VideoOut, count_frames, frame_sources,
+                     output_kind, progress)
 
 EXAMPLES = """examples:
   pyvehtrack detect frame.png --out annotated.png
@@ -85,7 +85,6 @@ register_detect = register        # the name SUBCOMMANDS used before the package
 
 def run(args) -> int:
     import cv2
-    from tqdm import tqdm
 
     from .._native import VtError
     from ..detector import Detector
@@ -117,7 +116,7 @@ def run(args) -> int:
         reader = FrameReader(sources, skip_bad=args.skip_bad_frames)
         show = not args.no_progress and multi
         try:
-            with tqdm(total=total, unit="frame", disable=not show, file=sys.stderr) as bar:
+            with progress(total, disable=not show) as bar:
                 for i, file, frame in reader:
                     try:
                         res = det.detect(frame)

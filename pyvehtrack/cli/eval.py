@@ -34,7 +34,11 @@ register_eval = register        # the name SUBCOMMANDS used before the package
 
 
 def run(args) -> int:
-    from ..eval.tracking import evaluate_kitti, format_results
+    from ..eval.kitti import read_kitti
+    try:
+        from ..eval.tracking import evaluate_kitti, format_results
+    except ImportError as e:                # TrackEval is installed by `make setup`
+        raise CliError(str(e).splitlines()[0]) from None
 
     if args.num_frames is not None and args.num_frames < 1:
         raise CliError(f"--num-frames {args.num_frames}: must be >= 1")
@@ -43,13 +47,18 @@ def run(args) -> int:
             raise CliError(f"{path}: no such file")
     with Outputs() as outs:
         json_tmp = outs.reserve("--json", args.json) if args.json else None
+        try:
+            gt = read_kitti(args.gt)
+        except (ValueError, OSError) as e:
+            raise CliError(f"--gt {e}" if str(e).startswith(args.gt) else f"--gt {args.gt}: {e}") from None
         results = {}
         for tr in args.tracks:
             try:
-                results[tr] = evaluate_kitti(args.gt, tr, num_frames=args.num_frames,
+                tracks = read_kitti(tr)
+                results[tr] = evaluate_kitti(gt, tracks, num_frames=args.num_frames,
                                              preproc="none" if args.no_preproc else "kitti")
-            except (ValueError, OSError, UnicodeDecodeError) as e:
-                raise CliError(f"{tr}: {e}") from None
+            except (ValueError, OSError) as e:
+                raise CliError(f"--tracks {e}" if str(e).startswith(tr) else f"--tracks {tr}: {e}") from None
         print(format_results(results))
         if json_tmp is not None:
             json_tmp.write_text(json.dumps(results, indent=2, default=float) + "\n")

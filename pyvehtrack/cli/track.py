@@ -11,11 +11,11 @@ so TrackEval and other tools read it as is. Frame numbers follow the input order
 from __future__ import annotations
 
 import colorsys
-import sys
 from pathlib import Path
 
 from ..eval.kitti import track_line
-from .common import CliError, FrameReader, Outputs, VideoOut, count_frames, frame_sources, output_kind
+from .common import (CliError, FrameReader, Outputs, VideoOut, count_frames, frame_sources,
+                     output_kind, progress)
 
 STATE_SCORE = {"confirmed": 1.0, "coasting": 0.5, "tentative": 0.25}
 
@@ -88,7 +88,6 @@ register_track = register        # the name SUBCOMMANDS used before the package
 
 def run(args) -> int:
     import cv2
-    from tqdm import tqdm
 
     from .._native import VtError
     from ..detector import Detector
@@ -117,7 +116,7 @@ def run(args) -> int:
         lines, ids, n = [], set(), 0
         reader = FrameReader(sources, skip_bad=args.skip_bad_frames)
         try:
-            with tqdm(total=total, unit="frame", disable=args.no_progress, file=sys.stderr) as bar:
+            with progress(total, disable=args.no_progress) as bar:
                 for i, file, frame in reader:
                     try:
                         tracks = trk.step(frame)

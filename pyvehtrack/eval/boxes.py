@@ -22,11 +22,17 @@ def from_inclusive(boxes) -> np.ndarray:
     return b
 
 
+def _boxes(x, name: str) -> np.ndarray:
+    a = np.asarray(x, np.float64)
+    if a.size % 4:
+        raise ValueError(f"{name}: expected boxes of 4 numbers [l, t, r, b], got shape {a.shape}")
+    return a.reshape(-1, 4)
+
+
 def iou_matrix(a, b) -> np.ndarray:
     """IoU of every box in a (N, 4) with every box in b (M, 4): an (N, M) float64 array.
     Empty or inverted boxes have area 0; a pair with zero union has IoU 0."""
-    a = np.asarray(a, np.float64).reshape(-1, 4)
-    b = np.asarray(b, np.float64).reshape(-1, 4)
+    a, b = _boxes(a, "a"), _boxes(b, "b")
     lt = np.maximum(a[:, None, :2], b[None, :, :2])
     rb = np.minimum(a[:, None, 2:], b[None, :, 2:])
     inter = np.prod(np.clip(rb - lt, 0, None), axis=2)

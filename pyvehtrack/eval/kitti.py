@@ -20,27 +20,39 @@ LABEL_DTYPE = np.dtype([("frame", "i4"), ("id", "i4"), ("cls", "U16"), ("truncat
 # ---------------------------------------------------------------------------------------------------------
 # loading
 
+def _int_field(text: str) -> int:
+    """An integer column: "12" or "12.0" (some tools write floats), never "12.5"."""
+    v = float(text)
+    if v != int(v):
+        raise ValueError(f"{text!r} is not an integer")
+    return int(v)
+
+
 def read_kitti(path: str | os.PathLike) -> np.ndarray:
-    """Read a KITTI tracking label/result file into a LABEL_DTYPE array (score NaN where absent)."""
+    """Read a KITTI tracking label/result file into a LABEL_DTYPE array (score NaN where absent).
+    ValueError naming the file and line for anything that is not a KITTI line."""
+    try:
+        lines = open(os.fspath(path), encoding="utf-8").read().splitlines()
+    except UnicodeDecodeError:
+        raise ValueError(f"{path}: not a text file (KITTI labels are text)") from None
     rows = []
-    with open(os.fspath(path)) as fh:
-        for n, line in enumerate(fh, 1):
-            parts = line.split()
-            if not parts or parts[0].startswith('#'):
-                continue
-            if len(parts) < 10:
-                raise ValueError(f"{path}:{n}: expected at least 10 columns (frame id type trunc occ alpha l t r b), "
-                                 f"got {len(parts)}")
-            try:
-                frame, tid = int(float(parts[0])), int(float(parts[1]))
-                trunc, occ = int(float(parts[3])), int(float(parts[4]))
-                l, t, r, b = (float(x) for x in parts[6:10])
-                score = float(parts[17]) if len(parts) > 17 else np.nan
-            except ValueError as exc:
-                raise ValueError(f"{path}:{n}: cannot parse {line.strip()!r}: {exc}") from None
-            if frame < 0:
-                raise ValueError(f"{path}:{n}: negative frame number {frame}")
-            rows.append((frame, tid, parts[2], trunc, occ, l, t, r, b, score))
+    for n, line in enumerate(lines, 1):
+        parts = line.split()
+        if not parts or parts[0].startswith('#'):
+            continue
+        if len(parts) < 10:
+            raise ValueError(f"{path}:{n}: expected at least 10 columns (frame id type trunc occ alpha l t r b), "
+                             f"got {len(parts)}")
+        try:
+            frame, tid = _int_field(parts[0]), _int_field(parts[1])
+            trunc, occ = _int_field(parts[3]), _int_field(parts[4])
+            l, t, r, b = (float(x) for x in parts[6:10])
+            score = float(parts[17]) if len(parts) > 17 else np.nan
+        except (ValueError, OverflowError) as exc:
+            raise ValueError(f"{path}:{n}: cannot parse {line.strip()!r}: {exc}") from None
+        if frame < 0:
+            raise ValueError(f"{path}:{n}: negative frame number {frame}")
+        rows.append((frame, tid, parts[2], trunc, occ, l, t, r, b, score))
     return np.array(rows, dtype=LABEL_DTYPE) if rows else np.zeros(0, LABEL_DTYPE)
 
 
