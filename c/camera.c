@@ -243,15 +243,17 @@ vt_status vt_range_cfg_check(const vt_range_cfg *c)
     if (c == NULL) {
         return VT_E_ARG;
     }
-    if (!VT__IN((int64_t)c->frame_dt, 1, one) || !VT__IN((int64_t)c->accel_sigma, 1, 20 * one) ||
+    if (!VT__IN((int64_t)c->frame_dt, 1, one) || !VT__IN((int64_t)c->jerk_sigma, 1, 50 * one) ||
         !VT__IN((int64_t)c->init_sigma_rate, 1, 100 * one) ||
+        !VT__IN((int64_t)c->init_sigma_accel, 1, 100 * one) ||
         !VT__IN((int64_t)c->sigma_min, 1, 100 * one) || !VT__IN(c->min_frames, 1, 1000) ||
         !VT__IN(c->scale_lag, 1, VT_RANGE_HIST - 1) || !VT__IN((int64_t)c->ttc_max, 1, 1000 * one) ||
         !VT__IN((int64_t)c->ttc_stopped, 0, 1000 * one) ||
         !VT__IN((int64_t)c->ttc_slower, 0, 1000 * one) ||
         !VT__IN((int64_t)c->ttc_decel, 0, 1000 * one) ||
         !VT__IN((int64_t)c->ttc_margin, 0, 10 * one) || !VT__IN(c->confirm_frames, 1, 1000) ||
-        !VT__IN(c->rearm_frames, 0, 100000) || !VT__IN((int64_t)c->min_closing, 0, 100 * one) ||
+        !VT__IN(c->rearm_frames, 0, 100000) || !VT__IN(c->release_frames, 1, 1000) ||
+        !VT__IN((int64_t)c->min_closing, 0, 100 * one) ||
         !VT__IN((int64_t)c->stopped_speed, 0, 100 * one) ||
         !VT__IN((int64_t)c->decel_thresh, 1, 100 * one) || !VT__IN(c->width_min_frames, 1, 1000) ||
         !VT__IN(c->width_window, 1, 1000) || !VT__IN((int64_t)c->rear_offset, 0, 5 * one)) {
@@ -286,8 +288,9 @@ vt_status vt_fcw_step(const vt_range_cfg *cfg, vt_fcw_state *st, int32_t ttc_val
     thr += cfg->ttc_margin;
     cond = ttc_valid && closing && (int64_t)ttc <= thr;
     st->below = cond ? (st->below < INT32_MAX ? st->below + 1 : st->below) : 0;
+    st->above = cond ? 0 : (st->above < INT32_MAX ? st->above + 1 : st->above);
     if (st->warning) {
-        if (!cond) {
+        if (st->above >= cfg->release_frames) {
             st->warning = 0;
             st->since_end = 0;
         }
@@ -317,25 +320,39 @@ vt_status vt_fcw_step(const vt_range_cfg *cfg, vt_fcw_state *st, int32_t ttc_val
 /* Start a slot's filter at distance d (Q16 m) with measurement std sig (Q16 m). */
 static void vt__range_kf_start(vt_range_track *t, const vt_range_cfg *cfg, vt_q16 d, vt_q16 sig)
 {
-    /* Piecewise-constant white acceleration (filterpy Q_discrete_white_noise, dim 2):
-     * a^2 [[dt^4/4, dt^3/2], [dt^3/2, dt^2]]. u = a dt^2 and s = a dt go through Q24
-     * (rounded half up) so their squares stay in int64 for a <= 20, dt <= 1. */
-    int64_t a = cfg->accel_sigma, dt = cfg->frame_dt;
-    int64_t u24 = vt__floor_shr64(a * dt * dt + ((int64_t)1 << 23), 24);
-    int64_t s24 = vt__floor_shr64(a * dt + (1 << 7), 8);
-    int64_t r = cfg->init_sigma_rate;
-    (void)vt_kf_init(&t->kf, 2, 1);
-    t->kf.F[0][1] = dt * VT_Q16_ONE; /* Q16 s -> Q32 */
+    /* Constant acceleration, x = [d, d', d''], F = [[1, dt, dt^2/2], [0, 1, dt], [0, 0, 1]];
+     * the acceleration changes by a white step of std s = jerk dt per frame (filterpy
+     * Q_discrete_white_noise, dim 3, var = s^2):
+     *   Q = s^2 [[dt^4/4, dt^3/2, dt^2/2], [dt^3/2, dt^2, dt], [dt^2/2, dt, 1]].
+     * s, u = s dt and w = s dt^2 go through Q24 (rounded half up) so that their products
+     * (Q48, < 2^60 for jerk <= 50, dt <= 1) stay in int64; each entry is one product
+     * rounded half up to Q32. */
+    int64_t j = cfg->jerk_sigma, dt = cfg->frame_dt, dt32 = (int64_t)cfg->frame_dt * VT_Q16_ONE;
+    int64_t s24 = vt__floor_shr64(j * dt + (1 << 7), 8);
+    int64_t u24 = vt__floor_shr64(s24 * dt + (1 << 15), 16);
+    int64_t w24 = vt__floor_shr64(u24 * dt + (1 << 15), 16);
+    int64_t r = cfg->init_sigma_rate, a = cfg->init_sigma_accel;
+    (void)vt_kf_init(&t->kf, 3, 1);
+    t->kf.F[0][1] = dt32; /* Q16 s -> Q32 */
+    t->kf.F[1][2] = dt32;
+    t->kf.F[0][2] = vt__floor_shr64((int64_t)dt * dt + 1, 1); /* dt^2 / 2: Q32 */
     t->kf.H[0][0] = VT_Q32_ONE;
-    t->kf.Q[0][0] = vt__floor_shr64(u24 * u24 + ((int64_t)1 << 17), 18);
-    t->kf.Q[0][1] = vt__floor_shr64(u24 * s24 + ((int64_t)1 << 16), 17);
+    t->kf.Q[0][0] = vt__floor_shr64(w24 * w24 + ((int64_t)1 << 17), 18);
+    t->kf.Q[0][1] = vt__floor_shr64(u24 * w24 + ((int64_t)1 << 16), 17);
+    t->kf.Q[0][2] = vt__floor_shr64(s24 * w24 + ((int64_t)1 << 16), 17);
+    t->kf.Q[1][1] = vt__floor_shr64(u24 * u24 + ((int64_t)1 << 15), 16);
+    t->kf.Q[1][2] = vt__floor_shr64(s24 * u24 + ((int64_t)1 << 15), 16);
+    t->kf.Q[2][2] = vt__floor_shr64(s24 * s24 + ((int64_t)1 << 15), 16);
     t->kf.Q[1][0] = t->kf.Q[0][1];
-    t->kf.Q[1][1] = vt__floor_shr64(s24 * s24 + ((int64_t)1 << 15), 16);
+    t->kf.Q[2][0] = t->kf.Q[0][2];
+    t->kf.Q[2][1] = t->kf.Q[1][2];
     t->kf.P[0][0] = (int64_t)sig * sig;
     t->kf.P[1][1] = r * r;
+    t->kf.P[2][2] = a * a;
     t->kf.R[0][0] = (int64_t)sig * sig;
     t->kf.x[0] = d;
     t->kf.x[1] = 0;
+    t->kf.x[2] = 0;
 }
 
 static void vt__range_slot_open(vt_range_track *t, int32_t id)
@@ -347,11 +364,11 @@ static void vt__range_slot_open(vt_range_track *t, int32_t id)
     t->head = 0;
     for (i = 0; i < VT_RANGE_HIST; i++) {
         t->width_hist[i] = 0;
-        t->rate_hist[i] = 0;
     }
     t->width_n = 0;
     t->width_m = 0;
     t->fcw.below = 0;
+    t->fcw.above = 0;
     t->fcw.warning = 0;
     t->fcw.since_end = INT32_MAX; /* no warning yet: nothing to wait for */
     t->fcw.warnings = 0;
@@ -366,7 +383,7 @@ vt_status vt_range_init(vt_range_state *st)
     st->frame = 0;
     for (i = 0; i < VT_MAX_TRACKS; i++) {
         vt__range_slot_open(&st->t[i], 0);
-        (void)vt_kf_init(&st->t[i].kf, 2, 1);
+        (void)vt_kf_init(&st->t[i].kf, 3, 1);
     }
     return VT_OK;
 }
@@ -382,7 +399,7 @@ static void vt__range_track_step(vt_range_track *t, const vt_range_cfg *cfg,
                                  const vt_track_out *tr, vt_range_out *o)
 {
     vt_distance dist;
-    vt_q16 sig, z[1], ttc, w_now, w_old, r_now, r_old, d;
+    vt_q16 sig, z[1], ttc, w_now, w_old, d;
     int64_t q, wpx = (int64_t)tr->box.right - tr->box.left + 1;
     int32_t closing, lag = cfg->scale_lag, ttc_ok, cls, have, side_ok, n;
     (void)vt_camera_box_distance(cam, tp, &tr->box, &dist);
@@ -439,13 +456,13 @@ static void vt__range_track_step(vt_range_track *t, const vt_range_cfg *cfg,
     }
     /* the rings: box width (px) and filtered rate */
     t->width_hist[t->head] = vt_sat_s32(wpx * VT_Q16_ONE);
-    t->rate_hist[t->head] = t->updates > 0 ? t->kf.x[1] : 0;
     t->head = (t->head + 1) % VT_RANGE_HIST;
     if (t->n_hist < VT_RANGE_HIST) {
         t->n_hist += 1;
     }
     o->dist_filt = t->updates > 0 ? t->kf.x[0] : 0;
     o->rate = t->updates > 0 ? t->kf.x[1] : 0;
+    o->accel = t->updates > 0 ? t->kf.x[2] : 0;
     o->ttc_dist = 0;
     o->ttc_scale = 0;
     if (t->updates > 0) {
@@ -480,23 +497,17 @@ static void vt__range_track_step(vt_range_track *t, const vt_range_cfg *cfg,
             }
         }
     }
-    /* the lead's class for the NHTSA threshold: its speed is ego + rate; it is
-     * decelerating when the rate fell by more than decel_thresh * lag dt over lag
-     * frames (the ego speed taken as constant, as in the test). */
+    /* the lead's class for the NHTSA threshold: its speed is ego + rate, its
+     * acceleration the range acceleration (the ego speed taken as constant, as in the
+     * test) */
     cls = VT_LEAD_UNKNOWN;
     if (ego_speed >= 0 && t->updates > 0) {
         if ((int64_t)ego_speed + o->rate < cfg->stopped_speed) {
             cls = VT_LEAD_STOPPED;
+        } else if (t->updates > lag && o->accel < -cfg->decel_thresh) {
+            cls = VT_LEAD_DECEL;
         } else {
             cls = VT_LEAD_SLOWER;
-            if (t->n_hist > lag && t->updates > lag) {
-                r_now = vt__ring(t->rate_hist, t->head, 0);
-                r_old = vt__ring(t->rate_hist, t->head, lag);
-                if (((int64_t)r_now - r_old) * VT_Q16_ONE <
-                    -(int64_t)cfg->decel_thresh * ((int64_t)lag * cfg->frame_dt)) {
-                    cls = VT_LEAD_DECEL;
-                }
-            }
         }
     }
     o->lead_class = cls;

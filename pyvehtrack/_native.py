@@ -438,7 +438,7 @@ def lane_line_x(line, y_q16: int) -> int:
 # Thin 1:1 wrappers (raw fixed-point ints; the friendly API is pyvehtrack.camera).
 RANGE_OUT_DTYPE = np.dtype([("id", np.int32), ("flags", np.int32), ("fcw", np.int32),
                             ("lead_class", np.int32), ("distance", np.int32), ("sigma", np.int32),
-                            ("dist_width", np.int32), ("dist_filt", np.int32), ("rate", np.int32),
+                            ("dist_width", np.int32), ("dist_filt", np.int32), ("rate", np.int32), ("accel", np.int32),
                             ("ttc_dist", np.int32), ("ttc_scale", np.int32)])
 
 

@@ -31,8 +31,8 @@ from .reference import camera as rcam
 
 Q16 = 1 << 16
 PITCH_LIMIT_DEG = 3.0   # braking and load move a car's pitch by a degree or two, not more
-__all__ = ["Camera", "CameraFileError", "RangeEstimator", "camera_params", "params_to_c",
-           "range_to_c", "params_from_c", "range_from_c", "q16"]
+__all__ = ["Camera", "CameraFileError", "RangeEstimator", "camera_params", "lane_vanishing_row",
+           "params_to_c", "range_to_c", "params_from_c", "range_from_c", "q16"]
 
 
 class CameraFileError(ValueError):
@@ -155,6 +155,19 @@ class Camera:
         Path(path).write_text(json.dumps(self.to_dict(), indent=2) + "\n")
 
     # -- use ----------------------------------------------------------------------------
+    def undistort_box(self, box) -> list:
+        """The box with its corners moved as OpenCV's undistortion moves them (no-op without
+        "dist"): distances assume a pinhole, so the rows and widths must be undistorted ones."""
+        if self.dist is None:
+            return [int(v) for v in box]
+        import cv2
+        l, t, r, b = (float(v) for v in box)
+        k = np.array([[self.fx, 0, self.cx], [0, self.fy, self.cy], [0, 0, 1]], np.float64)
+        pts = np.array([[[l, b]], [[r, b]], [[(l + r) / 2, t]], [[(l + r) / 2, b]]], np.float64)
+        u = cv2.undistortPoints(pts, k, np.asarray(self.dist, np.float64), P=k).reshape(-1, 2)
+        return [int(round(min(u[0, 0], u[1, 0]))), int(round(u[2, 1])), int(round(max(u[0, 0], u[1, 0]))),
+                int(round(u[3, 1]))]
+
     def check_frame(self, w: int, h: int) -> None:
         if self.image_size is not None and tuple(self.image_size) != (int(w), int(h)):
             raise ValueError(f"camera: calibrated for {self.image_size[0]}x{self.image_size[1]} frames, "
@@ -177,6 +190,26 @@ class Camera:
         return params_from_c(params_to_c(p))
 
 
+def lane_vanishing_row(lanes) -> float | None:
+    """Input row where the two ego lane lines meet, from a pyvehtrack.lane.LaneResult: on the
+    C engine the refined lines' intersection (vt_lane_vanishing_row, sub-pixel); otherwise the
+    result's own vanishing_row (None when the lanes do not give one)."""
+    from . import _native
+    raw = getattr(lanes, "raw", None)
+    if raw is None or not hasattr(raw, "shift") or not hasattr(raw, "lines"):
+        return lanes.vanishing_row
+    f = float(lanes.input_scale)
+    h_seen = int(raw.h) << int(raw.shift)
+    # the frame the lane stage saw: its height is h << shift plus the rows the downscale dropped
+    h_full = int(round(len(lanes.x_left) * f))
+    if (h_full >> int(raw.shift)) == int(raw.h):
+        h_seen = h_full
+    row, ok = _native.lane_vanishing_row(raw, h_seen)
+    if not ok:
+        return None
+    return ((row / Q16) + 0.5) / f - 0.5
+
+
 def camera_params(cam: Camera, img_w: int, img_h: int, **kw) -> rcam.CameraParams:
     return cam.params(img_w, img_h, **kw)
 
@@ -184,11 +217,11 @@ def camera_params(cam: Camera, img_w: int, img_h: int, **kw) -> rcam.CameraParam
 _CAM_Q16 = ("fx", "fy", "cx", "cy", "height", "tan_pitch", "tan_pitch_min", "tan_pitch_max",
             "pitch_max_step", "delta_px", "bottom_offset", "vehicle_width")
 _CAM_INT = ("img_w", "img_h", "pitch_alpha_q8", "pitch_reacquire", "width_tol_percent")
-_RNG_Q16 = ("frame_dt", "accel_sigma", "init_sigma_rate", "sigma_min", "ttc_max", "ttc_stopped",
-            "ttc_slower", "ttc_decel", "ttc_margin", "min_closing", "stopped_speed", "decel_thresh",
-            "rear_offset")
-_RNG_INT = ("min_frames", "scale_lag", "confirm_frames", "rearm_frames", "width_min_frames",
-            "width_window")
+_RNG_Q16 = ("frame_dt", "jerk_sigma", "init_sigma_rate", "init_sigma_accel", "sigma_min", "ttc_max",
+            "ttc_stopped", "ttc_slower", "ttc_decel", "ttc_margin", "min_closing", "stopped_speed",
+            "decel_thresh", "rear_offset")
+_RNG_INT = ("min_frames", "scale_lag", "confirm_frames", "rearm_frames", "release_frames",
+            "width_min_frames", "width_window")
 
 
 def _to_c(ctype: str, p, q16_fields, int_fields, check):
@@ -285,6 +318,19 @@ class RangeEstimator:
             self._pitch_ref.update(None if vp_row is None else float(vp_row))
         return self.tan_pitch
 
+    def box_distance(self, box) -> rcam.BoxDistance:
+        """One box's distances with the current pitch, no filter (for single pictures)."""
+        box = [int(v) for v in box]
+        if self.engine == "reference":
+            return rcam.box_distance(self.cam, self._pitch_ref.tan_pitch, box)
+        d = self._n.camera_box_distance(self._ccam, int(self._pitch.tan_pitch), box)
+        L = self._n.lib
+        return rcam.BoxDistance(bool(d.flags & L.VT_DIST_VALID), bool(d.flags & L.VT_DIST_FAR_VALID),
+                                bool(d.flags & L.VT_DIST_WIDTH_AGREES), d.distance / Q16,
+                                d.dist_near / Q16, d.dist_far / Q16, d.sigma / Q16, d.dist_width / Q16,
+                                bool(d.flags & L.VT_DIST_BOTTOM_CLIPPED),
+                                bool(d.flags & L.VT_DIST_SIDE_CLIPPED))
+
     def step(self, tracks, ego_speed: float | None = None) -> list[rcam.RangeOut]:
         """tracks: pyvehtrack.tracker.Track objects (or (id, box) pairs), boxes in input px."""
         pairs = []
@@ -316,6 +362,7 @@ def _range_out(r, lib) -> rcam.RangeOut:
         width_agrees=bool(f & lib.VT_RANGE_WIDTH_AGREES),
         dist_filt=g("dist_filt") if f & lib.VT_RANGE_FILT_VALID else None,
         rate=g("rate") if f & lib.VT_RANGE_FILT_VALID else None,
+        accel=g("accel") if f & lib.VT_RANGE_FILT_VALID else None,
         ttc_dist=g("ttc_dist") if f & lib.VT_RANGE_TTC_DIST_VALID else None,
         ttc_scale=g("ttc_scale") if f & lib.VT_RANGE_TTC_SCALE_VALID else None,
         closing=bool(f & lib.VT_RANGE_CLOSING), lead_class=int(r["lead_class"]), fcw=int(r["fcw"]),

@@ -38,11 +38,10 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from pyvehtrack.camera import Camera, RangeEstimator  # noqa: E402
+from pyvehtrack.camera import Camera, RangeEstimator, lane_vanishing_row  # noqa: E402
 from pyvehtrack.detector import Detector  # noqa: E402
 from pyvehtrack.lane import LaneDetector  # noqa: E402
 from pyvehtrack.tracker import Tracker  # noqa: E402
-from pyvehtrack import _native  # noqa: E402
 
 DEFAULT_DATA = Path("/work/shared/data/kitti-raw-sfnd-ttc")
 LIDAR_BEHIND_CAMERA_M = 0.27
@@ -57,25 +56,6 @@ def kitti_camera(data: Path, w: int, h: int) -> Camera:
             return Camera(fx=v[0], fy=v[5], cx=v[2], cy=v[6], height_m=CAM_HEIGHT_M, pitch_deg=0.0,
                           image_size=(w, h))
     raise SystemExit("no P_rect_00 in the calibration file")
-
-
-def vanishing_row(lanes) -> float | None:
-    """The ego lines' meeting row from the C lane result (vt_lane_vanishing_row), in input px."""
-    raw = lanes.raw
-    if raw is None or not hasattr(raw, "shift"):
-        return lanes.vanishing_row
-    h_work_in = int(raw.h) << int(raw.shift)
-    # the frame the lane stage saw may have been downscaled to fit the core
-    h_seen = int(round((lanes.x_left.shape[0]) * lanes.input_scale))
-    h_seen = max(h_seen, h_work_in)
-    try:
-        row, ok = _native.lane_vanishing_row(raw, h_seen)
-    except _native.VtError:
-        return None
-    if not ok:
-        return None
-    f = lanes.input_scale
-    return ((row / 65536.0) + 0.5) / f - 0.5
 
 
 def iou(box, gt) -> float:
@@ -120,7 +100,7 @@ def collect(data: Path, engine: str):
     frames = []
     for i, p in enumerate(files):
         img = cv2.imread(str(p), cv2.IMREAD_COLOR)
-        vp = vanishing_row(lanes.detect(img))
+        vp = lane_vanishing_row(lanes.detect(img))
         tracks = trk.step(img)
         best, best_iou = None, 0.5
         for t in tracks:

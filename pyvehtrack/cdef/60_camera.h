@@ -73,8 +73,9 @@ typedef enum { VT_LEAD_UNKNOWN, VT_LEAD_STOPPED, VT_LEAD_SLOWER, VT_LEAD_DECEL, 
 
 typedef struct {
     vt_q16 frame_dt;
-    vt_q16 accel_sigma;
+    vt_q16 jerk_sigma;
     vt_q16 init_sigma_rate;
+    vt_q16 init_sigma_accel;
     vt_q16 sigma_min;
     int32_t min_frames;
     int32_t scale_lag;
@@ -85,6 +86,7 @@ typedef struct {
     vt_q16 ttc_margin;
     int32_t confirm_frames;
     int32_t rearm_frames;
+    int32_t release_frames;
     vt_q16 min_closing;
     vt_q16 stopped_speed;
     vt_q16 decel_thresh;
@@ -98,6 +100,7 @@ vt_status vt_range_cfg_default(vt_range_cfg *cfg);
 
 typedef struct {
     int32_t below;
+    int32_t above;
     int32_t warning;
     int32_t since_end;
     int32_t warnings;
@@ -112,7 +115,6 @@ typedef struct {
     int32_t n_hist;
     int32_t head;
     vt_q16 width_hist[...];
-    vt_q16 rate_hist[...];
     int32_t width_n;
     vt_q16 width_m;
     vt_fcw_state fcw;
@@ -134,6 +136,7 @@ typedef struct {
     vt_q16 dist_width;
     vt_q16 dist_filt;
     vt_q16 rate;
+    vt_q16 accel;
     vt_q16 ttc_dist;
     vt_q16 ttc_scale;
 } vt_range_out;

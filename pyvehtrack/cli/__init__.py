@@ -43,6 +43,7 @@ SUBCOMMANDS: dict[str, str] = {
     "eval": "pyvehtrack.cli.eval",
     "report": "pyvehtrack.cli.report",
     "batch": "pyvehtrack.cli.batch",
+    "calibrate": "pyvehtrack.cli.calibrate",
 }
 
 EXAMPLES = """examples:

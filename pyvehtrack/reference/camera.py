@@ -22,8 +22,10 @@ are the exact time to contact of the rear face).
 FCW: the NHTSA forward-collision-warning confirmation test asks for a warning by a
 TTC of 2.1 s (lead stopped), 2.0 s (lead slower), 2.4 s (lead decelerating); the
 state machine warns when the TTC stays under the class's threshold (plus a margin for
-the confirmation frames) for N frames while closing, holds while that lasts, and
-does not warn again within a rearm time after a warning ends.
+the confirmation frames and the filter's lag) for N frames while closing, holds while
+that lasts (ending only after the condition failed release_frames frames in a row, so a
+noisy TTC does not make it flicker), and does not warn again within a rearm time after
+a warning ends.
 """
 from __future__ import annotations
 
@@ -66,8 +68,9 @@ class CameraParams:
 class RangeParams:
     """The float twin of vt_range_cfg."""
     frame_dt: float = 0.1
-    accel_sigma: float = 3.0
+    jerk_sigma: float = 5.0
     init_sigma_rate: float = 10.0
+    init_sigma_accel: float = 3.0
     sigma_min: float = 0.05
     min_frames: int = 3
     scale_lag: int = 5
@@ -75,9 +78,10 @@ class RangeParams:
     ttc_stopped: float = 2.1
     ttc_slower: float = 2.0
     ttc_decel: float = 2.4
-    ttc_margin: float = 0.4
+    ttc_margin: float = 0.7
     confirm_frames: int = 3
     rearm_frames: int = 30
+    release_frames: int = 10
     min_closing: float = 0.3
     stopped_speed: float = 1.0
     decel_thresh: float = 1.0
@@ -186,6 +190,7 @@ def vanishing_row(left: tuple[float, float] | None, right: tuple[float, float] |
 @dataclass
 class FcwState:
     below: int = 0
+    above: int = 0
     warning: bool = False
     since_end: int = 2**31 - 1
     warnings: int = 0
@@ -201,9 +206,10 @@ def fcw_step(p: RangeParams, st: FcwState, ttc: float | None, closing: bool, lea
     """One frame of the warning state machine; returns the FCW_* bits."""
     cond = ttc is not None and closing and ttc <= fcw_threshold(p, lead_class)
     st.below = st.below + 1 if cond else 0
+    st.above = 0 if cond else st.above + 1
     bits = 0
     if st.warning:
-        if not cond:
+        if st.above >= p.release_frames:
             st.warning = False
             st.since_end = 0
     else:
@@ -236,6 +242,7 @@ class RangeOut:
     lead_class: int
     fcw: int
     from_width: bool = False
+    accel: float | None = None  # m/s^2, range acceleration
 
     @property
     def warning(self) -> bool:
@@ -254,8 +261,9 @@ class _Slot:
 
 
 class RangeTracker:
-    """Per tracker id: a [d, d'] Kalman filter (filterpy) with R = sigma^2 per
-    measurement, both TTCs, the lead class and the FCW state machine."""
+    """Per tracker id: a [d, d', d''] Kalman filter (filterpy, constant relative
+    acceleration) with R = sigma^2 per measurement, both TTCs, the lead class and the FCW
+    state machine."""
 
     def __init__(self, cam: CameraParams, params: RangeParams | None = None, max_tracks: int = 16):
         self.cam = cam
@@ -265,13 +273,15 @@ class RangeTracker:
 
     def _start(self, d: float, sig: float) -> KalmanFilter:
         p = self.p
-        kf = KalmanFilter(dim_x=2, dim_z=1)
-        kf.F = np.array([[1.0, p.frame_dt], [0.0, 1.0]])
-        kf.H = np.array([[1.0, 0.0]])
-        kf.Q = Q_discrete_white_noise(dim=2, dt=p.frame_dt, var=p.accel_sigma ** 2)
-        kf.P = np.diag([sig * sig, p.init_sigma_rate ** 2])
+        dt = p.frame_dt
+        kf = KalmanFilter(dim_x=3, dim_z=1)
+        kf.F = np.array([[1.0, dt, dt * dt / 2], [0.0, 1.0, dt], [0.0, 0.0, 1.0]])
+        kf.H = np.array([[1.0, 0.0, 0.0]])
+        # the relative acceleration changes by a white step of std jerk * dt per frame
+        kf.Q = Q_discrete_white_noise(dim=3, dt=dt, var=(p.jerk_sigma * dt) ** 2)
+        kf.P = np.diag([sig * sig, p.init_sigma_rate ** 2, p.init_sigma_accel ** 2])
         kf.R = np.array([[sig * sig]])
-        kf.x = np.array([[d], [0.0]])
+        kf.x = np.array([[d], [0.0], [0.0]])
         return kf
 
     def step(self, tracks, tan_pitch: float, ego_speed: float | None = None) -> list[RangeOut]:
@@ -329,17 +339,17 @@ class RangeTracker:
                 if w_now > w_old > 0:
                     v = lag * p.frame_dt * w_old / (w_now - w_old)
                     ttc_s = v if v <= p.ttc_max else None
+            accel = float(s.kf.x[2, 0]) if s.updates > 0 else None
             cls = LEAD_UNKNOWN
             if ego_speed is not None and ego_speed >= 0 and s.updates > 0:
                 if ego_speed + rate < p.stopped_speed:
                     cls = LEAD_STOPPED
+                elif s.updates > lag and accel < -p.decel_thresh:
+                    cls = LEAD_DECEL
                 else:
                     cls = LEAD_SLOWER
-                    if len(s.rates) > lag and s.updates > lag:
-                        if s.rates[-1] - s.rates[-1 - lag] < -p.decel_thresh * lag * p.frame_dt:
-                            cls = LEAD_DECEL
             bits = fcw_step(p, s.fcw, ttc_d, closing, cls)
             out.append(RangeOut(tid, d if have else None, sig, bd.dist_width,
                                 bd.width_agrees, d_f, rate if s.updates > 0 else None, ttc_d, ttc_s,
-                                closing, cls, bits, from_width))
+                                closing, cls, bits, from_width, accel))
         return out
