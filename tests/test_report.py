@@ -49,15 +49,12 @@ def test_records_follow_the_track_json_schema(clip_report):
         assert set(t) == TRACK_KEYS
         assert t["state"] in ("tentative", "confirmed", "coasting")
         assert len(t["box"]) == 4 and t["box"][0] < t["box"][2] and t["box"][1] < t["box"][3]
-        assert t["source"] in ("detection", "search")
+        assert t["source"] == "shadow"          # the one detector the Tracker's tracks come from
         # the geometry stage (pyvehtrack.camera) with the clip's camera: a distance for the lead
         # car from the first frame, no warning at 7-8 m and a 10 s TTC; TTC needs a few frames
         assert 3.0 < t["distance_m"] < 15.0 and t["warning"] is False
     assert all(t["ttc_s"] is None or 0 < t["ttc_s"] < 60 for t in tracks)
     assert sum(t["ttc_s"] is not None for t in tracks) >= 10
-    # detection frames (0 and 10) carry the detector's confirmation, the others the search
-    assert {t["source"] for t in recs[0]["tracks"]} == {"detection"}
-    assert {t["source"] for t in recs[5]["tracks"]} == {"search"}
 
 
 def test_page_is_self_contained_and_has_every_section(clip_report):
@@ -127,14 +124,16 @@ def test_truth_readers(tmp_path):
         load_truth([tmp_path / "missing.csv"])
 
 
-def test_track_record_nulls_and_sources():
+def test_track_record_nulls_and_matches():
     from pyvehtrack.tracker import Track
     t = Track(3, "confirmed", (10, 20, 50, 60), (0.5, -0.25))
-    r = track_record(7, [t], detections=np.array([[11, 21, 50, 60]]))
+    r = track_record(7, [t])
     assert r == {"frame": 7, "tracks": [{"id": 3, "box": [10, 20, 50, 60], "state": "confirmed",
                                          "velocity_px": [0.5, -0.25], "distance_m": None, "ttc_s": None,
-                                         "warning": None, "source": "detection"}]}
-    assert track_record(7, [t])["tracks"][0]["source"] == "search"
+                                         "warning": None, "source": "shadow"}]}
+    from pyvehtrack.report.records import _matched_ids
+    assert _matched_ids([t], np.array([[11, 21, 50, 60]])) == {3}
+    assert _matched_ids([t], np.array([[60, 21, 90, 60]])) == set() and _matched_ids([t], None) == set()
     g = track_record(7, [t], geometry=lambda _t: {"distance_m": 12.5, "ttc_s": 3.0, "warning": True})
     assert g["tracks"][0]["distance_m"] == 12.5 and g["tracks"][0]["warning"] is True
 
@@ -241,7 +240,7 @@ def test_render_with_estimates_warnings_and_labels():
         recs.append({"frame": k, "tracks": [
             {"id": 4, "box": [100, 50, 160, 100], "state": "confirmed" if k >= 2 else "tentative",
              "velocity_px": [0.0, 0.1], "distance_m": d + 1.0, "ttc_s": d / 5 + 0.5, "warning": warn,
-             "source": "search"}]})
+             "source": "shadow"}]})
         infos.append(FrameInfo(frame=k, timing_ms={"lanes": 0.3, "track": 0.1}))
         labels.append(f"{k} 1 Car 0 0 -10 100 50 160 100 -1 -1 -1 -1000 -1000 -1000 -10")
     import tempfile

@@ -50,21 +50,27 @@ class FrameInfo:
     vanishing_row: float | None = None               # where the ego lines meet (input row)
     pitch_deg: float | None = None                   # from the camera stage (or vanishing row + camera)
     timing_ms: dict = field(default_factory=dict)    # stage -> milliseconds
+    matched: set = field(default_factory=set)        # track ids a detector box confirmed this frame
 
 
-def track_record(frame: int, tracks, *, detections=None, geometry=None) -> dict:
+def _matched_ids(tracks, dets) -> set:
+    """Ids of the tracks a detector box overlaps (IoU >= 0.5) on a detection frame."""
+    from ..reference.tracker import box_iou
+    if dets is None:
+        return set()
+    return {t.id for t in tracks if any(box_iou(t.box, d) >= 0.5 for d in dets)}
+
+
+def track_record(frame: int, tracks, *, geometry=None) -> dict:
     """One frame's record in the `track --json` schema from Tracker tracks.
 
-    source: "detection" when the frame ran the detector and a detector box overlaps the
-    track (IoU >= 0.5), else "search" (the tracker's own ROI search). geometry: an
-    optional callable(track) -> dict with distance_m / ttc_s / warning (the camera stage);
-    without it those fields are null."""
-    from ..reference.tracker import box_iou
+    source: the detector the track's box came from, as the pipeline names them ("shadow",
+    "classifier", "flow", "model"); the Tracker's tracks all start from the shadow
+    detector today. geometry: an optional callable(track) -> dict with distance_m /
+    ttc_s / warning (the camera stage); without it those fields are null (unknown)."""
     out = []
     for t in tracks:
-        src = "search"
-        if detections is not None and any(box_iou(t.box, d) >= 0.5 for d in detections):
-            src = "detection"
+        src = getattr(t, "source", None) or "shadow"
         g = geometry(t) if geometry is not None else {}
         out.append({"id": int(t.id), "box": [int(v) for v in t.box], "state": t.state,
                     "velocity_px": [round(float(t.velocity[0]), 3), round(float(t.velocity[1]), 3)],
@@ -129,6 +135,12 @@ def lane_vanishing_row(lr) -> float | None:
     """The vanishing row the camera stage's pitch uses: vt_lane_vanishing_row on the C
     lane result (the geometry stage's helper) when this build has it, else the straight
     fit of ego_vanishing_row. Input pixels."""
+    try:
+        from ..camera import lane_vanishing_row as stage_vp
+    except ImportError:
+        stage_vp = None
+    if stage_vp is not None:
+        return stage_vp(lr)
     from .. import _native
     raw = getattr(lr, "raw", None)
     if hasattr(_native, "lane_vanishing_row") and raw is not None and hasattr(raw, "shift"):
@@ -157,8 +169,8 @@ class PythonPipeline:
 
     step(frame) -> (record, FrameInfo). camera: the --camera JSON as a dict. With the
     geometry stage (pyvehtrack.camera) and a camera with height_m, its RangeEstimator
-    gives distance_m (the filtered range, else this frame's), ttc_s (from the range rate,
-    else from the scale change), warning (the FCW bit) and the pitch; without it, those
+    gives distance_m (the filtered range), ttc_s (from it and its rate), warning (the FCW
+    bit) and the pitch, as `pyvehtrack track --camera --json` does; without it, those
     stay null and the pitch is atan((cy - vanishing row) / fy) when the camera has fy, cy.
     `notes` collects what the page should say about missing stages."""
 
@@ -243,7 +255,7 @@ class PythonPipeline:
                 self._rng = camera_stage()[1](self._cam, (gray.shape[1], gray.shape[0]), self.fps,
                                               engine=self.engine)
             self._rng.update_pitch(vp_stage)
-            outs = {o.id: o for o in self._rng.step(tracks)}
+            outs = {o.id: o for o in self._rng.step([(t.id, self._cam.undistort_box(t.box)) for t in tracks])}
             info.timing_ms["geometry"] = (time.perf_counter() - t3) * 1e3
             info.pitch_deg = float(self._rng.pitch_deg)
 
@@ -251,15 +263,16 @@ class PythonPipeline:
                 o = outs.get(t.id)
                 if o is None:
                     return {}
-                d = o.dist_filt if o.dist_filt is not None else o.distance
-                ttc = o.ttc_dist if o.ttc_dist is not None else o.ttc_scale
-                return {"distance_m": None if d is None else round(float(d), 3),
-                        "ttc_s": None if ttc is None else round(float(ttc), 3), "warning": bool(o.warning)}
+                # as `track --json` writes them: the filtered distance, the TTC from it and its rate
+                return {"distance_m": None if o.dist_filt is None else round(float(o.dist_filt), 3),
+                        "ttc_s": None if o.ttc_dist is None else round(float(o.ttc_dist), 3),
+                        "warning": bool(o.warning)}
         else:
             f, cy = _cam_f_cy(self.camera)
             if f and cy is not None and info.vanishing_row is not None:
                 info.pitch_deg = math.degrees(math.atan2(cy - info.vanishing_row, f))
-        rec = track_record(self.k, tracks, detections=dets, geometry=geometry)
+        info.matched = _matched_ids(tracks, dets)
+        rec = track_record(self.k, tracks, geometry=geometry)
         self.k += 1
         return rec, info
 

@@ -18,9 +18,12 @@ import numpy as np
 from .records import STAGES, Truth
 
 STATE_COLOURS = {"tentative": "#b0b0b0", "confirmed": "#2a9d3a", "coasting": "#e08a00"}
-# BGR for OpenCV drawing, hex for the legend: one colour per box source.
-SOURCE_COLOURS = {"detection": ((60, 200, 40), "#28c83c"), "search": ((255, 160, 0), "#00a0ff"),
-                  "detector box": ((200, 0, 220), "#dc00c8")}
+# BGR for OpenCV drawing, hex for the legend: one colour per box source (the pipeline's
+# names), and the raw detector boxes of detection frames.
+SOURCE_COLOURS = {"shadow": ((60, 200, 40), "#28c83c"), "classifier": ((255, 160, 0), "#00a0ff"),
+                  "flow": ((0, 140, 255), "#ff8c00"), "model": ((255, 255, 0), "#00ffff"),
+                  "other": ((200, 200, 200), "#c8c8c8")}
+DETECTOR_BOX = ((200, 0, 220), "#dc00c8")
 STAGE_COLOURS = {"lanes": "#4c72b0", "detect": "#dd8452", "track": "#55a868", "geometry": "#8172b3"}
 MAX_THUMBS = 12
 
@@ -97,7 +100,8 @@ def _id_hex(track_id: int) -> str:
 def annotate(frame, record: dict, info) -> np.ndarray:
     """A BGR copy of the frame with the road area (translucent yellow), lanes (ego lines
     thick; left blue, right red), detector boxes (thin magenta) and tracks (coloured by
-    source, dashed look when coasting, thin when tentative, '#id' labels)."""
+    source, dashed when coasting, thin when tentative, '#id' labels, a '*' when a detector
+    box confirmed the track on this frame)."""
     import cv2
     img = cv2.cvtColor(frame, cv2.COLOR_GRAY2BGR) if frame.ndim == 2 else frame[:, :, :3].copy()
     img = np.ascontiguousarray(img)
@@ -114,10 +118,10 @@ def annotate(frame, record: dict, info) -> np.ndarray:
         cv2.polylines(img, [np.asarray(pts, np.int32)], False, col, (2 if ego else 1) * th, cv2.LINE_AA)
     if info is not None and info.detections is not None:
         for l, t, r, b in info.detections:
-            cv2.rectangle(img, (int(l), int(t)), (int(r), int(b)), SOURCE_COLOURS["detector box"][0], 1)
+            cv2.rectangle(img, (int(l), int(t)), (int(r), int(b)), DETECTOR_BOX[0], 1)
     for t in record["tracks"]:
         l, tp, r, b = (int(v) for v in t["box"])
-        col = SOURCE_COLOURS.get(t.get("source") or "search", SOURCE_COLOURS["search"])[0]
+        col = SOURCE_COLOURS.get(t.get("source") or "other", SOURCE_COLOURS["other"])[0]
         thick = 1 if t["state"] == "tentative" else 2 * th
         if t["state"] == "coasting":   # dashed: every other 6 px segment
             for x in range(l, r, 12):
@@ -128,7 +132,7 @@ def annotate(frame, record: dict, info) -> np.ndarray:
                 cv2.line(img, (r, y), (r, min(y + 6, b)), col, thick)
         else:
             cv2.rectangle(img, (l, tp), (r, b), col, thick, cv2.LINE_AA)
-        label = f"#{t['id']}"
+        label = f"#{t['id']}" + ("*" if info is not None and t["id"] in info.matched else "")
         if t.get("distance_m") is not None:
             label += f" {t['distance_m']:.1f}m"
         if t.get("warning"):
@@ -498,12 +502,14 @@ def render_html(records, infos, thumbs, *, title: str, meta: dict, truth: Truth 
 
     # ---- contact sheet
     parts.append("<h2>Contact sheet</h2>")
-    parts.append('<div class="legend">' + _swatch(SOURCE_COLOURS["detection"][1], "track, box confirmed by the detector")
-                 + _swatch(SOURCE_COLOURS["search"][1], "track, box from the tracker's ROI search")
-                 + _swatch(SOURCE_COLOURS["detector box"][1], "detector box")
+    sources = sorted({t.get("source") or "other" for r in records for t in r["tracks"]})
+    parts.append('<div class="legend">' + "".join(
+                     _swatch(SOURCE_COLOURS.get(s, SOURCE_COLOURS["other"])[1], f"track from {s}") for s in sources)
+                 + _swatch(DETECTOR_BOX[1], "detector box (detection frames)")
                  + _swatch("#ffc800", "road area") + _swatch("#005aff", "left lane line")
                  + _swatch("#ff0000", "right lane line")
-                 + "<span>thin: tentative; dashed: coasting</span></div>")
+                 + "<span>thin: tentative; dashed: coasting; #id*: a detector box confirmed it "
+                   "on this frame</span></div>")
     if thumbs:
         det = {i.frame for i in infos if i.detections is not None}
         figs = "".join(f'<figure><img src="{_jpeg_data_uri(thumbnail(img))}" alt="frame {k}">'
