@@ -40,7 +40,9 @@ def register(sub) -> None:
                    help="the C core (default) or the float reference")
     p.add_argument("--detect-every", type=int, default=10, metavar="N",
                    help="run the detector every N frames (thesis: 10)")
-    p.add_argument("--fps", type=float, default=10.0, help="frame rate, for the truth TTC (default 10, KITTI)")
+    p.add_argument("--fps", type=float, default=None,
+                   help="frame rate: the range stage's time step and the truth TTC's (default: a video's "
+                        "own, else 10 as KITTI)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
@@ -51,7 +53,7 @@ def run(args) -> int:
 
     if args.detect_every < 1:
         raise CliError(f"--detect-every {args.detect_every}: must be >= 1")
-    if not args.fps > 0:
+    if args.fps is not None and not args.fps > 0:
         raise CliError(f"--fps {args.fps}: must be > 0")
     out = Path(args.out)
     if out.exists() and not out.is_dir():

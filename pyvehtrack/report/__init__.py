@@ -15,19 +15,36 @@ from .records import (FrameInfo, PythonPipeline, Truth, companion_files, load_tr
 from .render import MAX_THUMBS, annotate, pick_thumbs, render_html, thumbnail, write_page
 
 
+def _video_fps(path) -> float:
+    """A video's frame rate from its container, else 10 (KITTI's 10 Hz)."""
+    from .records import VIDEO_EXTS
+    p = Path(path)
+    if p.is_file() and p.suffix.lower() in VIDEO_EXTS:
+        import cv2
+        cap = cv2.VideoCapture(str(p))
+        fps = cap.get(cv2.CAP_PROP_FPS) if cap.isOpened() else 0.0
+        cap.release()
+        if fps and 0 < fps < 1000:
+            return float(fps)
+    return 10.0
+
+
 def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "c", detect_every: int = 10,
-                progress: bool = True, records_json: bool = True, fps: float = 10.0) -> Path:
+                progress: bool = True, records_json: bool = True, fps: float | None = None) -> Path:
     """Run the pipeline over one recording (a video, a folder of frames or an image) and
     write out_dir/index.html (and out_dir/tracks.json, the records, when records_json).
     truth: truth file paths (see records.load_truth), or "auto": the files the naming rule
     finds (records.companion_files); camera: a camera JSON path or dict, None, or "auto".
-    fps: frame rate (the range stage's time step, the truth TTC; KITTI clips are 10 Hz).
+    fps: frame rate (the range stage's time step, the truth TTC's); None: a video's own
+    frame rate, else 10 (KITTI's).
     Returns the page path. ValueError / TypeError naming the argument for bad input."""
     from tqdm import tqdm
 
     out_dir = Path(out_dir)
     if out_dir.exists() and not out_dir.is_dir():
         raise ValueError(f"out_dir {out_dir}: exists and is not a folder")
+    if fps is None:
+        fps = _video_fps(inputs)
     if isinstance(fps, bool) or not isinstance(fps, (int, float)) or not fps > 0 or fps == float("inf"):
         raise ValueError(f"fps must be a number > 0, got {fps!r}")
     found = companion_files(inputs) if Path(inputs).exists() else {"truth": [], "camera": None}
