@@ -82,7 +82,7 @@ def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "
         pick = {sorted(kept)[i] for i in pick_thumbs(len(kept))}
         kept = {j: v for j, v in kept.items() if j in pick}
     h, w = (frame.shape[:2] if records else (0, 0))
-    meta = {"input": str(inputs), "frames": f"{len(records)} ({w}x{h})", "engine": engine,
+    meta = {"input": str(inputs), "frames": f"{len(records)} ({w}x{h}, {fps:g} Hz)", "engine": engine,
             "detect every": f"{detect_every} frames (lanes and tracking every frame)",
             "camera": (str(camera) if isinstance(camera, (str, Path)) else "given") if cam else "none",
             "truth": ", ".join(str(t) for t in truth) if truth else "none"}
