@@ -124,6 +124,21 @@ def test_truth_readers(tmp_path):
         load_truth([tmp_path / "missing.csv"])
 
 
+def test_plot_helpers_break_lines_at_gaps_and_name_what_is_off_the_axis():
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from pyvehtrack.report.render import _axis_limit, _gapped
+    fx, vy = _gapped([1, 2, 5, 6], [1.0, 2.0, 3.0, 4.0])
+    assert fx == [1, 2, 4.5, 5, 6] and np.isnan(vy[2]) and vy[:2] == [1.0, 2.0] and vy[3:] == [3.0, 4.0]
+    fig, ax = plt.subplots()
+    _axis_limit(ax, {"#1": [5.0, 9.0], "#2": [220.0, 40.0], "truth": [7.0]}, 12.0, "m")
+    assert ax.get_ylim() == (0.0, 12.0)
+    assert [t.get_text() for t in ax.texts] == ["above the axis: #2 up to 220 m"]
+    plt.close(fig)
+
+
 def test_track_record_nulls_and_matches():
     from pyvehtrack.tracker import Track
     t = Track(3, "confirmed", (10, 20, 50, 60), (0.5, -0.25))

@@ -90,6 +90,19 @@ def _series(records, key):
     return out
 
 
+def _gapped(frames, values):
+    """The series with NaN between non-consecutive frames, so a line is not drawn across
+    frames where the value is unknown."""
+    fx, vy = [], []
+    for k, (f, v) in enumerate(zip(frames, values)):
+        if k and f != frames[k - 1] + 1:
+            fx.append(f - 0.5)
+            vy.append(float("nan"))
+        fx.append(f)
+        vy.append(v)
+    return fx, vy
+
+
 def _id_hex(track_id: int) -> str:
     import colorsys
     r, g, b = colorsys.hsv_to_rgb((track_id * 0.6180339887) % 1.0, 0.8, 0.85)
@@ -212,6 +225,19 @@ def _shade_warnings(ax, records, tid=None):
     return True
 
 
+TTC_AXIS_MAX_S = 30.0   # a warning acts below a few seconds: longer TTCs are drawn off the axis
+
+
+def _axis_limit(ax, series: dict, ymax: float, unit: str) -> None:
+    """y from 0 to ymax; the curves that go above it are named on the axes with their
+    maximum (so nothing leaves the plot unsaid)."""
+    ax.set_ylim(0, ymax)
+    over = [f"{lab} up to {max(v):.0f} {unit}" for lab, v in series.items() if v and max(v) > ymax]
+    if over:
+        ax.text(0.99, 0.97, "above the axis: " + ", ".join(over), transform=ax.transAxes, ha="right",
+                va="top", fontsize=8, color="#555")
+
+
 def plot_range_ttc(records, truth: Truth, lead_of_frame: dict, stage_notes=()):
     """Distance and TTC over time per track (estimates), with the truth overlaid on the
     lead car's track and the warning intervals shaded. Returns (uri or None, notes)."""
@@ -229,15 +255,31 @@ def plot_range_ttc(records, truth: Truth, lead_of_frame: dict, stage_notes=()):
     for tid in ids:
         c = _id_hex(tid)
         if tid in dist:
-            a1.plot(*dist[tid], "-", color=c, lw=1.6, label=f"#{tid}")
+            a1.plot(*_gapped(*dist[tid]), "-", color=c, lw=1.6, label=f"#{tid}")
         if tid in ttc:
-            a2.plot(*ttc[tid], "-", color=c, lw=1.6, label=f"#{tid}")
+            a2.plot(*_gapped(*ttc[tid]), "-", color=c, lw=1.6, label=f"#{tid}")
     if truth.ranges:
         f = sorted(truth.ranges)
-        a1.plot(f, [truth.ranges[k] for k in f], "--", color="black", lw=1.3, label="truth (lidar, lead car)")
-        tf = [k for k in sorted(t_ttc) if t_ttc[k] is not None and 0 < t_ttc[k] < 60]
+        a1.plot(*_gapped(f, [truth.ranges[k] for k in f]), "--", color="black", lw=1.3,
+                label="truth (lidar, lead car)")
+        tf = [k for k in sorted(t_ttc) if t_ttc[k] is not None and t_ttc[k] > 0]
         if tf:
-            a2.plot(tf, [t_ttc[k] for k in tf], "--", color="black", lw=1.3, label="truth (lidar, lead car)")
+            a2.plot(*_gapped(tf, [t_ttc[k] for k in tf]), "--", color="black", lw=1.3,
+                    label="truth (lidar, lead car)")
+    # axes sized for the lead car (truth and the lead's track), not for a far, short-lived track
+    dvals = {f"#{i}": dist[i][1] for i in ids if i in dist}
+    tvals = {f"#{i}": ttc[i][1] for i in ids if i in ttc}
+    if truth.ranges:
+        dvals["truth"] = list(truth.ranges.values())
+        tvals["truth"] = [v for v in t_ttc.values() if v is not None]
+    lead = set(lead_of_frame.values())
+    core = [v for lab, vs in dvals.items() if lab == "truth" or int(lab[1:]) in lead for v in vs]
+    core = core or [v for vs in dvals.values() for v in vs]
+    if core:
+        _axis_limit(a1, dvals, max(5.0, 1.25 * float(np.percentile(core, 95))), "m")
+    allt = [v for vs in tvals.values() for v in vs]
+    if allt:
+        _axis_limit(a2, tvals, min(TTC_AXIS_MAX_S, max(5.0, 1.1 * max(allt))), "s")
     warned = _shade_warnings(a1, records) | _shade_warnings(a2, records)
     a1.set_ylabel("distance (m)")
     a2.set_ylabel("TTC (s)")
