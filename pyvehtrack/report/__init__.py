@@ -88,7 +88,7 @@ def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "
             "truth": ", ".join(str(t) for t in truth) if truth else "none"}
     if auto:
         meta["found by name"] = "; ".join(auto)
-    page = render_html(records, infos, sorted(kept.items()), title=f"pyvehtrack report: {Path(inputs).name}",
+    page = render_html(records, infos, sorted(kept.items()), title="pyvehtrack report: " + "/".join(Path(inputs).parts[-3:]),
                        meta=meta, truth=tr, stage_notes=pipe.notes,
                        pitch_source=pipe.pitch_source)
     out_dir.mkdir(parents=True, exist_ok=True)
