@@ -32,12 +32,12 @@ $(BUILD)/libvehtrack.a: $(CORE_SRCS) $(CORE_HDRS)
 	@echo "strict C99 build: OK ($(words $(CORE_SRCS)) sources)"
 
 # System packages: the ARM toolchain and QEMU for the firmware proof, valgrind for
-# `make bench`. Python: the build backend first, then the package in editable mode
+# `make bench`, chromium for the report page test. Python: the build backend first, then the package in editable mode
 # (meson-python rebuilds the C on import, so it needs no build isolation).
-APT_PKGS := gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm valgrind
+APT_PKGS := gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm valgrind chromium
 SUDO     := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 setup:
-	@missing=""; for t in arm-none-eabi-gcc qemu-system-arm valgrind; do \
+	@missing=""; for t in arm-none-eabi-gcc qemu-system-arm valgrind chromium; do \
 	  command -v $$t >/dev/null || missing="$$missing $$t"; done; \
 	if [ -n "$$missing" ]; then echo "installing system packages for:$$missing"; \
 	  $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq \

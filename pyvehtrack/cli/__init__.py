@@ -41,6 +41,8 @@ SUBCOMMANDS: dict[str, str] = {
     "detect": "pyvehtrack.cli.detect",
     "track": "pyvehtrack.cli.track",
     "eval": "pyvehtrack.cli.eval",
+    "report": "pyvehtrack.cli.report",
+    "batch": "pyvehtrack.cli.batch",
     "calibrate": "pyvehtrack.cli.calibrate",
     "eval-boxes": "pyvehtrack.cli_boxes:register_eval_boxes",
     "train": "pyvehtrack.cli_classify:register_train",
@@ -51,6 +53,8 @@ EXAMPLES = """examples:
   pyvehtrack detect frame.png --out annotated.png --json detections.json
   pyvehtrack track drive.mp4 --out annotated.mp4 --tracks tracks.txt
   pyvehtrack eval --gt gt.txt --tracks tracks.txt
+  pyvehtrack report tests/data/kitti_clip --out r/
+  pyvehtrack batch recordings/* --out results/ --workers 2
   pyvehtrack COMMAND --help     (each command's options and examples)"""
 
 

@@ -1,0 +1,76 @@
+"""`pyvehtrack report`: run a recording once and write a self-contained HTML page.
+
+    pyvehtrack report INPUT --out REPORT_DIR [--camera CAMERA.json] [--truth TRUTH ...]
+                      [--engine c|reference] [--detect-every N] [--fps F] [--no-progress]
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+from .common import CliError
+
+EXAMPLES = """examples:
+  pyvehtrack report tests/data/kitti_clip --out r/
+  pyvehtrack report tests/data/kitti_clip --out r/ --truth tests/data/kitti_clip/lead_boxes.csv \\
+      --truth tests/data/kitti_clip/truth_lidar_range.csv --camera tests/data/kitti_clip.camera.json
+  pyvehtrack report drive.mp4 --out r/ --camera camera.json --truth label_02/0000.txt
+then open r/index.html (one file: no script, no network)."""
+
+
+def register(sub) -> None:
+    import argparse
+    p = sub.add_parser("report", help="run a recording once and write an HTML report with plots",
+                       description="Lanes, detection and tracking over one recording; writes "
+                       "REPORT_DIR/index.html (contact sheet, track timeline, distance/TTC against "
+                       "the truth, lane width and pitch, run time per stage, summary figures) and "
+                       "REPORT_DIR/tracks.json (the per-frame records).",
+                       epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("input", metavar="INPUT", help="a video, a folder of frames or an image")
+    p.add_argument("--out", required=True, metavar="REPORT_DIR", help="folder for index.html (created)")
+    p.add_argument("--camera", metavar="CAMERA.json",
+                   help="camera file (pyvehtrack.camera format: fx, fy, cx, cy, height_m); default: "
+                        "INPUT/camera.json or INPUT.camera.json when there is one")
+    p.add_argument("--truth", action="append", metavar="TRUTH",
+                   help="truth: KITTI tracking labels, a frame,left,top,right,bottom CSV (one car) or "
+                        "the kitti-raw-sfnd-ttc lidar range CSV; repeat for several; default: "
+                        "INPUT/gt.txt, INPUT/truth*.{txt,csv}, INPUT.truth*.{txt,csv}")
+    p.add_argument("--no-find", action="store_true",
+                   help="do not look for a camera or truth file by name")
+    p.add_argument("--engine", choices=("c", "reference"), default="c",
+                   help="the C core (default) or the float reference")
+    p.add_argument("--detect-every", type=int, default=10, metavar="N",
+                   help="run the detector every N frames (thesis: 10)")
+    p.add_argument("--fps", type=float, default=None,
+                   help="frame rate: the range stage's time step and the truth TTC's (default: a video's "
+                        "own, else 10 as KITTI)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from .._native import VtError
+    from ..report import make_report
+
+    if args.detect_every < 1:
+        raise CliError(f"--detect-every {args.detect_every}: must be >= 1")
+    if args.fps is not None and not args.fps > 0:
+        raise CliError(f"--fps {args.fps}: must be > 0")
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise CliError(f"--out {args.out}: exists and is not a folder")
+    if not out.parent.exists():
+        raise CliError(f"--out {args.out}: folder {out.parent} does not exist")
+    if args.camera and not Path(args.camera).is_file():
+        raise CliError(f"--camera {args.camera}: no such file")
+    for t in args.truth or []:
+        if not Path(t).is_file():
+            raise CliError(f"--truth {t}: no such file")
+    try:
+        auto = None if args.no_find else "auto"
+        page = make_report(args.input, out, truth=args.truth or (auto or ()), camera=args.camera or auto,
+                           engine=args.engine,
+                           detect_every=args.detect_every, progress=not args.no_progress, fps=args.fps)
+    except (ValueError, TypeError, VtError) as e:
+        raise CliError(str(e)) from None
+    print(f"report: {page}")
+    return 0

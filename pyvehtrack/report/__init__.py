@@ -1,0 +1,97 @@
+"""`pyvehtrack report`: run a recording once and write a self-contained HTML page.
+
+    from pyvehtrack.report import make_report
+    page = make_report("tests/data/kitti_clip", "r/", truth=["tests/data/kitti_clip/lead_boxes.csv"])
+
+records.py: the per-frame records (the `track --json` schema) and the Python adapter over
+the existing stages; render.py: the plots and the page."""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from .records import (FrameInfo, PythonPipeline, Truth, companion_files, load_truth, read_camera,  # noqa: F401
+                      read_records, recording_frames, track_record, write_records)
+from .render import MAX_THUMBS, annotate, pick_thumbs, render_html, thumbnail, write_page
+
+
+def _video_fps(path) -> float:
+    """A video's frame rate from its container, else 10 (KITTI's 10 Hz)."""
+    from .records import VIDEO_EXTS
+    p = Path(path)
+    if p.is_file() and p.suffix.lower() in VIDEO_EXTS:
+        import cv2
+        cap = cv2.VideoCapture(str(p))
+        fps = cap.get(cv2.CAP_PROP_FPS) if cap.isOpened() else 0.0
+        cap.release()
+        if fps and 0 < fps < 1000:
+            return float(fps)
+    return 10.0
+
+
+def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "c", detect_every: int = 10,
+                progress: bool = True, records_json: bool = True, fps: float | None = None) -> Path:
+    """Run the pipeline over one recording (a video, a folder of frames or an image) and
+    write out_dir/index.html (and out_dir/tracks.json, the records, when records_json).
+    truth: truth file paths (see records.load_truth), or "auto": the files the naming rule
+    finds (records.companion_files); camera: a camera JSON path or dict, None, or "auto".
+    fps: frame rate (the range stage's time step, the truth TTC's); None: a video's own
+    frame rate, else 10 (KITTI's).
+    Returns the page path. ValueError / TypeError naming the argument for bad input."""
+    from tqdm import tqdm
+
+    out_dir = Path(out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise ValueError(f"out_dir {out_dir}: exists and is not a folder")
+    if fps is None:
+        fps = _video_fps(inputs)
+    if isinstance(fps, bool) or not isinstance(fps, (int, float)) or not fps > 0 or fps == float("inf"):
+        raise ValueError(f"fps must be a number > 0, got {fps!r}")
+    found = companion_files(inputs) if Path(inputs).exists() else {"truth": [], "camera": None}
+    auto = []
+    if isinstance(truth, str) and truth == "auto":
+        truth = found["truth"]
+        auto += [f"truth {t}" for t in truth]
+    if isinstance(camera, str) and camera == "auto":
+        camera = found["camera"]
+        auto += [f"camera {camera}"] if camera else []
+    cam = read_camera(camera) if isinstance(camera, (str, Path)) else camera
+    if cam is not None and not isinstance(cam, dict):
+        raise TypeError(f"camera: expected a path or a dict, got {type(cam).__name__}")
+    tr = load_truth(list(truth or ()), dt=1.0 / fps)
+    total, frames = recording_frames(inputs)
+    pipe = PythonPipeline(engine=engine, detect_every=detect_every, camera=cam, fps=fps)
+    want = set(pick_thumbs(total)) if total is not None else None
+    stride, kept = 1, {}
+    records, infos = [], []
+    with tqdm(total=total, unit="frame", disable=not progress, file=sys.stderr, desc="report") as bar:
+        for k, (file, frame) in enumerate(frames):
+            rec, info = pipe.step(frame, file)
+            records.append(rec)
+            infos.append(info)
+            if want is not None:
+                if k in want:
+                    kept[k] = thumbnail(annotate(frame, rec, info))
+            elif k % stride == 0:       # unknown length: keep every stride-th, doubling the stride
+                kept[k] = thumbnail(annotate(frame, rec, info))
+                if len(kept) > 2 * MAX_THUMBS:
+                    stride *= 2
+                    kept = {j: v for j, v in kept.items() if j % stride == 0}
+            bar.update(1)
+    if want is None and kept:
+        pick = {sorted(kept)[i] for i in pick_thumbs(len(kept))}
+        kept = {j: v for j, v in kept.items() if j in pick}
+    h, w = (frame.shape[:2] if records else (0, 0))
+    meta = {"input": str(inputs), "frames": f"{len(records)} ({w}x{h}, {fps:g} Hz)", "engine": engine,
+            "detect every": f"{detect_every} frames (lanes and tracking every frame)",
+            "camera": (str(camera) if isinstance(camera, (str, Path)) else "given") if cam else "none",
+            "truth": ", ".join(str(t) for t in truth) if truth else "none"}
+    if auto:
+        meta["found by name"] = "; ".join(auto)
+    page = render_html(records, infos, sorted(kept.items()), title="pyvehtrack report: " + "/".join(Path(inputs).parts[-3:]),
+                       meta=meta, truth=tr, stage_notes=pipe.notes,
+                       pitch_source=pipe.pitch_source)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    if records_json:
+        write_records(out_dir / "tracks.json", records)
+    return write_page(out_dir, page)

@@ -1,0 +1,152 @@
+"""`pyvehtrack batch` (issue 12, item 2) on a 2-worker dask LocalCluster (one per module):
+synthetic recordings plus a corrupt one give the same per-recording outputs as `track` run
+alone, the corrupt one is listed failed, and a rerun does no work."""
+from __future__ import annotations
+
+import csv
+import json
+import os
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from pyvehtrack import synth
+from pyvehtrack.batch import companion_files, frames_path, output_names, run_batch
+from pyvehtrack.cli import main
+
+N_REC, N_FRAMES, W, H = 3, 12, 320, 240
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    import logging
+
+    from dask.distributed import LocalCluster
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0",
+                      silence_logs=logging.CRITICAL) as c:
+        yield c.scheduler_address
+
+
+@pytest.fixture(scope="module")
+def recordings(tmp_path_factory):
+    root = tmp_path_factory.mktemp("recs")
+    recs = []
+    for i, seq in enumerate(synth.make_set(N_REC, seed=11, camera=synth.Camera(W, H), n_frames=N_FRAMES)):
+        synth.write_kitti(seq, root / f"rec{i}")          # rec{i}/frames/*.png + rec{i}/gt.txt
+        recs.append(str(root / f"rec{i}"))
+    bad = root / "corrupt"                              # a PNG signature and then garbage
+    bad.mkdir()
+    for k in range(2):
+        (bad / f"{k:06d}.png").write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(range(64)))
+    return recs + [str(bad)]
+
+
+@pytest.fixture(scope="module")
+def first_run(cluster, recordings, tmp_path_factory):
+    out = tmp_path_factory.mktemp("results")
+    return out, run_batch(recordings, out, scheduler=cluster, progress=False)
+
+
+def test_batch_matches_track_alone_and_lists_the_corrupt_one(first_run, recordings, tmp_path):
+    out, s = first_run
+    assert s.submitted == len(recordings)
+    rows = {Path(r["recording"]).name: r for r in s.rows}
+    assert rows["corrupt"]["status"] == "failed" and "cannot read as an image" in rows["corrupt"]["error"]
+    assert not (out / "corrupt" / "DONE").exists() and (out / "corrupt" / "FAILED").exists()
+    for rec in recordings[:-1]:
+        name = Path(rec).name
+        r = rows[name]
+        assert r["status"] == "ok", r
+        alone = tmp_path / f"{name}.txt"
+        assert main(["track", frames_path(rec), "--out", str(tmp_path / f"{name}.mp4"), "--tracks", str(alone),
+                     "--no-progress"]) == 0
+        assert (out / name / "tracks.txt").read_text() == alone.read_text()
+        assert r["frames"] == N_FRAMES
+        assert (out / name / "annotated.mp4").stat().st_size > 0
+        recs = json.loads((out / name / "tracks.json").read_text())
+        assert [x["frame"] for x in recs] == list(range(N_FRAMES))
+        n_lines = len(alone.read_text().splitlines())
+        assert sum(len(x["tracks"]) for x in recs) == n_lines == r["track_frames"]
+        assert 0.0 <= r["HOTA"] <= 1.0            # scored against the recording's gt.txt
+        assert (out / name / "DONE").exists()
+    table = list(csv.DictReader(open(out / "results.csv")))
+    assert [t["recording"] for t in table] == recordings + ["ALL"]
+    assert table[-1]["status"] == f"{len(recordings) - 1} ok, 1 failed"
+    md = (out / "results.md").read_text()
+    assert "| failed |" in md and "## All recordings" in md
+
+
+def test_rerun_does_no_work_and_resumes_a_changed_recording(first_run, recordings, cluster):
+    out, _ = first_run
+    stamp = {p: p.stat().st_mtime_ns for p in out.rglob("*") if p.is_file() and p.parent != out}
+    s = run_batch(recordings, out, scheduler=cluster, progress=False)
+    assert s.submitted == 0
+    assert {r["this_run"] for r in s.rows} == {"skipped (complete)", "skipped (failed before)"}
+    assert stamp == {p: p.stat().st_mtime_ns for p in out.rglob("*") if p.is_file() and p.parent != out}
+    # the command too: nothing to do, so no cluster is even started; exit 1 = a recording failed
+    assert main(["batch", *recordings, "--out", str(out), "--no-progress"]) == 1
+    # a changed recording (one frame rewritten) is the only one run again
+    f0 = Path(recordings[0]) / "frames" / "000000.png"
+    os.utime(f0, ns=(f0.stat().st_atime_ns, f0.stat().st_mtime_ns + 10**9))
+    s = run_batch(recordings, out, scheduler=cluster, progress=False)
+    assert s.submitted == 1 and s.rows[0]["this_run"] == "ran" and s.rows[0]["status"] == "ok"
+
+
+def test_reports_use_the_recordings_truth(recordings, cluster, tmp_path):
+    s = run_batch(recordings[:1], tmp_path, scheduler=cluster, reports=True, progress=False)
+    assert s.rows[0]["status"] == "ok", s.rows[0]
+    page = (tmp_path / "rec0" / "report" / "index.html").read_text()
+    assert "gt.txt: KITTI tracking labels" in page and "<td>HOTA</td>" in page
+    assert s.aggregate["scored"] == 1 and "HOTA" in s.aggregate
+
+
+def test_default_local_cluster(recordings, tmp_path):
+    """Without --scheduler, run_batch starts (and closes) its own LocalCluster."""
+    s = run_batch(recordings[1:2], tmp_path, workers=1, progress=False)
+    assert s.submitted == 1 and s.rows[0]["status"] == "ok"
+    assert (tmp_path / "rec1" / "tracks.txt").is_file() and (tmp_path / "rec1" / "DONE").is_file()
+
+
+def test_naming_rule(tmp_path):
+    rec = tmp_path / "drive"
+    (rec / "frames").mkdir(parents=True)
+    cv2.imwrite(str(rec / "frames" / "000000.png"), np.zeros((8, 8), np.uint8))
+    (rec / "gt.txt").write_text("")
+    (rec / "truth_lidar.csv").write_text("")
+    (rec / "camera.json").write_text("{}")
+    (tmp_path / "drive.truth.csv").write_text("")
+    video = tmp_path / "run 1.mp4"
+    video.write_bytes(b"")
+    (tmp_path / "run 1.truth.txt").write_text("")
+    (tmp_path / "run 1.camera.json").write_text("{}")
+    c = companion_files(rec)
+    assert [Path(p).name for p in c["truth"]] == ["gt.txt", "truth_lidar.csv", "drive.truth.csv"]
+    assert Path(c["camera"]).name == "camera.json"
+    assert frames_path(rec) == str(rec / "frames")
+    c = companion_files(video)
+    assert [Path(p).name for p in c["truth"]] == ["run 1.truth.txt"]
+    assert Path(c["camera"]).name == "run 1.camera.json"
+    assert output_names([str(rec), str(video), str(tmp_path / "x" / "drive")])[1] == "run_1"
+    a, _, b = output_names([str(rec), str(video), str(tmp_path / "x" / "drive")])
+    assert a != b and a.startswith("drive-") and b.startswith("drive-")
+
+
+def test_bad_arguments(tmp_path):
+    with pytest.raises(TypeError, match="recordings"):
+        run_batch("rec", tmp_path)
+    with pytest.raises(ValueError, match="recordings"):
+        run_batch([], tmp_path)
+    with pytest.raises(ValueError, match="workers"):
+        run_batch(["a"], tmp_path, workers=0)
+    with pytest.raises(ValueError, match="detect_every"):
+        run_batch(["a"], tmp_path, detect_every=0)
+    (tmp_path / "file").write_text("")
+    with pytest.raises(ValueError, match="not a folder"):
+        run_batch(["a"], tmp_path / "file")
+    # a missing recording is a failed row (no cluster needed when nothing is left to run)
+    s = run_batch([str(tmp_path / "missing")], tmp_path / "out", progress=False)
+    assert s.submitted == 0 and s.rows[0]["status"] == "failed" and "no such file" in s.rows[0]["error"]
+    assert main(["batch", "x", "--out", str(tmp_path / "o"), "--workers", "0"]) == 2
+    assert main(["batch", "x", "--out", str(tmp_path / "o"), "--scheduler", "nowhere"]) == 2

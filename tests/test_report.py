@@ -1,0 +1,273 @@
+"""`pyvehtrack report` (issue 12, item 1): the per-frame records, the truth readers, the page.
+
+The page is rendered in Debian's chromium (headless): the screenshot must not be blank and
+the browser's own network log (--log-net-log) must show no request made by the page; a
+control page with one http:// image proves that check can fail."""
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from pyvehtrack.cli import main
+from pyvehtrack.report import PythonPipeline, load_truth, make_report, track_record
+from pyvehtrack.report.records import LIDAR_BEHIND_CAMERA_M, Truth, ego_vanishing_row, read_records
+
+DATA = Path(__file__).parent / "data"
+CLIP = DATA / "kitti_clip"
+CAMERA = DATA / "kitti_clip.camera.json"
+TRACK_KEYS = {"id", "box", "state", "velocity_px", "distance_m", "ttc_s", "warning", "source"}
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+# Chromium's own background services (update checks, time, accounts) show up in its net
+# log whatever the page holds; everything else would be the page's.
+_BROWSER_HOSTS = re.compile(r"^https?://([a-z0-9-]+\.)*(google\.com|googleapis\.com|gstatic\.com|"
+                            r"gvt1\.com|googleusercontent\.com)(/|:|$)")
+
+
+@pytest.fixture(scope="module")
+def clip_report(tmp_path_factory):
+    out = tmp_path_factory.mktemp("report")
+    page = make_report(CLIP, out, truth=[CLIP / "lead_boxes.csv", CLIP / "truth_lidar_range.csv"],
+                       camera=CAMERA, progress=False)
+    return page, read_records(out / "tracks.json")
+
+
+def test_records_follow_the_track_json_schema(clip_report):
+    page, recs = clip_report
+    assert [r["frame"] for r in recs] == list(range(20))
+    assert all(set(r) == {"frame", "tracks"} for r in recs)
+    tracks = [t for r in recs for t in r["tracks"]]
+    assert tracks, "the lead car is tracked on this clip"
+    for t in tracks:
+        assert set(t) == TRACK_KEYS
+        assert t["state"] in ("tentative", "confirmed", "coasting")
+        assert len(t["box"]) == 4 and t["box"][0] < t["box"][2] and t["box"][1] < t["box"][3]
+        assert t["source"] == "shadow"          # the one detector the Tracker's tracks come from
+        # the geometry stage (pyvehtrack.camera) with the clip's camera: a distance for the lead
+        # car from the first frame, no warning at 7-8 m and a 10 s TTC; TTC needs a few frames
+        assert 3.0 < t["distance_m"] < 15.0 and t["warning"] is False
+    assert all(t["ttc_s"] is None or 0 < t["ttc_s"] < 60 for t in tracks)
+    assert sum(t["ttc_s"] is not None for t in tracks) >= 10
+
+
+def test_page_is_self_contained_and_has_every_section(clip_report):
+    page, _ = clip_report
+    html = page.read_text()
+    for head in ("Summary", "Contact sheet", "Track timeline", "Distance and time to collision",
+                 "Lane width and pitch", "Run time per frame and stage"):
+        assert f"<h2>{head}</h2>" in html
+    assert not re.search(r"""(src|href)\s*=\s*["']?\s*(https?:)?//""", html, re.I)
+    assert "<script" not in html.lower() and "@import" not in html
+    assert len(re.findall(r'src="data:image/(png|jpeg);base64,', html)) >= 12 + 4
+    # the truth gave lead-car figures and distance / TTC errors
+    assert "lead id kept (IoU &gt;= 0.5)" in html
+    assert "<td>distance MAE</td>" in html and "<td>TTC MAE</td>" in html
+    # the lead-car id is kept on 18 of the 20 frames (frames 0-1 are tentative: 3 hits to confirm)
+    assert re.search(r"<td>lead id kept \(IoU &gt;= 0.5\)</td><td>(9\d\.\d|100\.0)% of 20", html)
+
+
+def test_pipeline_fills_lane_width_vanishing_row_pitch_and_timings():
+    cam = json.loads(CAMERA.read_text())
+    frames = [cv2.imread(str(CLIP / f"{k:06d}.png"), cv2.IMREAD_GRAYSCALE) for k in range(3)]
+    # without the geometry stage's height: the pitch from the vanishing row and the camera's fy, cy
+    pipe = PythonPipeline(camera={k: cam[k] for k in ("fx", "fy", "cx", "cy")})
+    infos = [pipe.step(f)[1] for f in frames]
+    assert any("height_m" in n for n in pipe.notes)
+    for i in infos:
+        assert set(i.timing_ms) >= {"lanes", "track"} and all(v >= 0 for v in i.timing_ms.values())
+        assert "geometry" not in i.timing_ms
+        assert i.lane_width_px is not None and 300 < i.lane_width_px < 640
+        assert i.vanishing_row is not None and 0 < i.vanishing_row < 120    # near the crop's horizon
+        assert i.pitch_deg == pytest.approx(np.degrees(np.arctan2(54.854 - i.vanishing_row, 721.5377)))
+    assert "detect" in infos[0].timing_ms and "detect" not in infos[1].timing_ms
+    # with the whole camera file: the geometry stage's own (gated) pitch, within its +-3 deg
+    pipe = PythonPipeline(camera=cam)
+    infos = [pipe.step(f)[1] for f in frames]
+    assert pipe.notes == [] and all("geometry" in i.timing_ms and abs(i.pitch_deg) <= 3.0 for i in infos)
+    with pytest.raises(ValueError, match="fx"):
+        PythonPipeline(camera={"fy": 700.0, "cy": 50.0})           # the camera file format's rule
+
+
+def test_vanishing_row_is_where_the_fitted_lines_meet():
+    ys = np.arange(100, 200)
+    left = np.stack([300 - 2 * (ys - 50), ys], 1)      # x = 300 at row 50, moving left downwards
+    right = np.stack([300 + 3 * (ys - 50), ys], 1)     # and right
+    assert ego_vanishing_row([("left", left), ("right", right)]) == pytest.approx(50.0)
+    assert ego_vanishing_row([("left", left)]) is None
+    assert ego_vanishing_row([("left", right), ("right", left)]) is None   # diverging upwards
+
+
+def test_truth_readers(tmp_path):
+    tr = load_truth([CLIP / "truth_lidar_range.csv", CLIP / "lead_boxes.csv"])
+    assert sorted(tr.ranges) == list(range(20)) and sorted(tr.boxes) == list(range(20))
+    assert tr.ranges[0] == pytest.approx(7.974 - LIDAR_BEHIND_CAMERA_M)    # ego_lane_min_x_m of frame 0
+    # TTC from a range closing at a constant 5 m/s (0.5 m per 0.1 s frame): exactly d / 5
+    t = Truth(ranges={k: 20.0 - 0.5 * k for k in range(10)}, dt=0.1)
+    ttc = t.ttc()
+    assert set(ttc) == set(range(2, 8)) and all(ttc[k] == pytest.approx((20 - 0.5 * k) / 5) for k in ttc)
+    assert Truth(ranges={k: 10.0 for k in range(6)}).ttc()[3] is None      # not closing: no TTC
+    kitti = tmp_path / "gt.txt"
+    kitti.write_text("0 1 Car 0 0 -10 10 20 50 60 -1 -1 -1 -1000 -1000 -1000 -10\n")
+    assert load_truth([kitti]).labels["id"].tolist() == [1]
+    bad = tmp_path / "bad.txt"
+    bad.write_text("hello world\n")
+    with pytest.raises(ValueError, match="bad.txt"):
+        load_truth([bad])
+    with pytest.raises(ValueError, match="no such file"):
+        load_truth([tmp_path / "missing.csv"])
+
+
+def test_plot_helpers_break_lines_at_gaps_and_name_what_is_off_the_axis():
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from pyvehtrack.report.render import _axis_limit, _gapped
+    fx, vy = _gapped([1, 2, 5, 6], [1.0, 2.0, 3.0, 4.0])
+    assert fx == [1, 2, 4.5, 5, 6] and np.isnan(vy[2]) and vy[:2] == [1.0, 2.0] and vy[3:] == [3.0, 4.0]
+    fig, ax = plt.subplots()
+    _axis_limit(ax, {"#1": [5.0, 9.0], "#2": [220.0, 40.0], "truth": [7.0]}, 12.0, "m")
+    assert ax.get_ylim() == (0.0, 12.0)
+    assert [t.get_text() for t in ax.texts] == ["above the axis: #2 up to 220 m"]
+    plt.close(fig)
+
+
+def test_track_record_nulls_and_matches():
+    from pyvehtrack.tracker import Track
+    t = Track(3, "confirmed", (10, 20, 50, 60), (0.5, -0.25))
+    r = track_record(7, [t])
+    assert r == {"frame": 7, "tracks": [{"id": 3, "box": [10, 20, 50, 60], "state": "confirmed",
+                                         "velocity_px": [0.5, -0.25], "distance_m": None, "ttc_s": None,
+                                         "warning": None, "source": "shadow"}]}
+    from pyvehtrack.report.records import _matched_ids
+    assert _matched_ids([t], np.array([[11, 21, 50, 60]])) == {3}
+    assert _matched_ids([t], np.array([[60, 21, 90, 60]])) == set() and _matched_ids([t], None) == set()
+    g = track_record(7, [t], geometry=lambda _t: {"distance_m": 12.5, "ttc_s": 3.0, "warning": True})
+    assert g["tracks"][0]["distance_m"] == 12.5 and g["tracks"][0]["warning"] is True
+
+
+def test_no_data_sections_say_so(tmp_path):
+    """A recording where nothing is found: every plot section explains itself."""
+    rec = tmp_path / "flat"
+    rec.mkdir()
+    for k in range(3):
+        cv2.imwrite(str(rec / f"{k:06d}.png"), np.full((120, 160), 90, np.uint8))
+    page = make_report(rec, tmp_path / "out", progress=False).read_text()
+    assert "No track was started" in page
+    assert "No range truth given" in page and "No camera file (--camera)" in page
+    assert "found no ego lane pair" in page
+    assert "No box truth given" in page
+    # the timeline and range sections have no image; the contact sheet (3) and run time (1) do
+    assert len(re.findall(r'src="data:image/', page)) == 3 + 1
+
+
+def test_naming_rule_finds_the_clip_camera_and_range_truth(tmp_path):
+    rec = tmp_path / "clip4"                         # the first 4 frames, laid out as the shipped clip
+    rec.mkdir()
+    for k in range(4):
+        shutil.copy(CLIP / f"{k:06d}.png", rec)
+    shutil.copy(CLIP / "truth_lidar_range.csv", rec)
+    shutil.copy(CAMERA, tmp_path / "clip4.camera.json")
+    assert main(["report", str(rec), "--out", str(tmp_path / "r"), "--no-progress"]) == 0
+    page = (tmp_path / "r" / "index.html").read_text()
+    assert "clip4.camera.json" in page and "truth_lidar_range.csv" in page
+    assert "<td>distance: frames compared</td><td>2</td>" in page      # frames 2-3: the track is confirmed
+    assert main(["report", str(rec), "--out", str(tmp_path / "n"), "--no-progress", "--no-find"]) == 0
+    page = (tmp_path / "n" / "index.html").read_text()
+    assert "No camera file" in page and "distance MAE" not in page
+
+
+def test_bad_arguments(tmp_path):
+    with pytest.raises(ValueError, match="no such file"):
+        make_report(tmp_path / "nothing", tmp_path / "o", progress=False)
+    (tmp_path / "f.txt").write_text("x")
+    with pytest.raises(ValueError, match="out_dir"):
+        make_report(CLIP, tmp_path / "f.txt", progress=False)
+    with pytest.raises(ValueError, match="fps"):
+        make_report(CLIP, tmp_path / "o", fps=0, progress=False)
+    with pytest.raises(TypeError, match="camera"):
+        make_report(CLIP, tmp_path / "o", camera=3, progress=False)
+    with pytest.raises(TypeError, match="detect_every"):
+        make_report(CLIP, tmp_path / "o", detect_every=2.5, progress=False)
+    with pytest.raises(ValueError, match="engine"):
+        make_report(CLIP, tmp_path / "o", engine="gpu", progress=False)
+    cam = tmp_path / "cam.json"
+    cam.write_text("[1, 2")
+    with pytest.raises(ValueError, match="cam.json"):
+        make_report(CLIP, tmp_path / "o", camera=cam, progress=False)
+    # the command: one line, exit 2
+    assert main(["report", str(tmp_path / "nothing"), "--out", str(tmp_path / "o")]) == 2
+    assert main(["report", str(CLIP), "--out", str(tmp_path / "o"), "--truth", str(tmp_path / "no.csv")]) == 2
+    assert main(["report", str(CLIP), "--out", str(tmp_path / "o"), "--detect-every", "0"]) == 2
+
+
+def _chromium(url: str, tmp: Path, name: str):
+    """Screenshot (as an array) and the URLs of the page's own network requests."""
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("LD_PRELOAD", "ASAN_OPTIONS", "UBSAN_OPTIONS")}   # make check SAN=1 preloads ASan
+    shot, netlog = tmp / f"{name}.png", tmp / f"{name}.netlog.json"
+    subprocess.run([CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+                    "--disable-component-update", "--disable-sync", "--no-first-run",
+                    f"--user-data-dir={tmp / (name + '.profile')}", "--proxy-server=127.0.0.1:9",
+                    "--hide-scrollbars", f"--log-net-log={netlog}", f"--screenshot={shot}",
+                    "--window-size=1200,2000", url],
+                   env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, timeout=120, check=False)
+    assert shot.is_file(), "chromium wrote no screenshot"
+    urls = set(re.findall(r'"url":"([^"]+)"', netlog.read_text(errors="replace"))) if netlog.is_file() else None
+    requested = None if urls is None else {u for u in urls if re.match(r"^(https?|wss?|ftp)://", u)
+                                           and not _BROWSER_HOSTS.match(u)}
+    return cv2.imread(str(shot)), requested
+
+
+@pytest.mark.skipif(CHROMIUM is None, reason="chromium is not installed (make setup installs it)")
+def test_page_renders_in_chromium_without_network(clip_report, tmp_path):
+    page, _ = clip_report
+    img, requested = _chromium(page.resolve().as_uri(), tmp_path, "page")
+    assert img is not None and img.shape[:2] == (2000, 1200)
+    gray = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
+    assert np.mean(gray < 230) > 0.15, "the screenshot is (nearly) blank"
+    assert len(np.unique(img.reshape(-1, 3), axis=0)) > 500, "no photo or plot rendered"
+    assert requested is not None, "chromium wrote no net log"
+    assert requested == set(), f"the page requested {sorted(requested)}"
+    # control: the same check sees a page that loads one external image
+    ctl = tmp_path / "control.html"
+    ctl.write_text('<!DOCTYPE html><html><body><img src="http://example.com/x.png"></body></html>')
+    _, requested = _chromium(ctl.as_uri(), tmp_path, "control")
+    assert requested == {"http://example.com/x.png"}
+
+
+def test_render_with_estimates_warnings_and_labels():
+    """Records as the full pipeline will give them (distance, TTC, warnings) with KITTI labels:
+    the warning note goes, the errors are the ones the numbers imply."""
+    from pyvehtrack.report.records import FrameInfo
+    from pyvehtrack.report.render import render_html
+    recs, infos, labels = [], [], []
+    for k in range(12):
+        d = 20.0 - 0.5 * k                           # closing at 5 m/s (dt 0.1 s): TTC = d / 5
+        warn = k >= 8
+        recs.append({"frame": k, "tracks": [
+            {"id": 4, "box": [100, 50, 160, 100], "state": "confirmed" if k >= 2 else "tentative",
+             "velocity_px": [0.0, 0.1], "distance_m": d + 1.0, "ttc_s": d / 5 + 0.5, "warning": warn,
+             "source": "shadow"}]})
+        infos.append(FrameInfo(frame=k, timing_ms={"lanes": 0.3, "track": 0.1}))
+        labels.append(f"{k} 1 Car 0 0 -10 100 50 160 100 -1 -1 -1 -1000 -1000 -1000 -10")
+    import tempfile
+    with tempfile.TemporaryDirectory() as tmp:
+        gt = Path(tmp) / "gt.txt"
+        gt.write_text("\n".join(labels) + "\n")
+        truth = load_truth([gt])
+    truth.ranges = {k: 20.0 - 0.5 * k for k in range(12)}
+    page = render_html(recs, infos, [], title="t", meta={}, truth=truth)
+    assert "No forward-collision warning" not in page
+    assert "<td>warnings (frames with a warning)</td><td>4</td>" in page
+    assert "<td>distance MAE</td><td>1.00 m</td>" in page and "<td>distance bias</td><td>+1.00 m</td>" in page
+    assert "<td>TTC MAE</td><td>0.50 s</td>" in page
+    assert "<td>MOTA</td><td>83.3%</td>" in page   # frames 0-1 tentative (not scored): 2 misses of 12
+    assert "No frame in this recording." in page            # no thumbnails given
