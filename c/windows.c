@@ -56,7 +56,7 @@ vt_status vt_camera_min_check(const vt_camera_min *cam)
     return VT_OK;
 }
 
-vt_status vt_camera_row_distance(const vt_camera_min *cam, int32_t row, int32_t *mm)
+vt_status vt_camera_min_row_distance(const vt_camera_min *cam, int32_t row, int32_t *mm)
 {
     int64_t d, z;
     if (mm == NULL) {

@@ -143,10 +143,10 @@ def test_nms_cases():
 def test_camera_distance():
     cam = _native.camera_min(714.15, 376, 1800, 720)
     d = ffi.new("int32_t *")
-    assert lib.vt_camera_row_distance(cam, 376 + 36, d) == 0
+    assert lib.vt_camera_min_row_distance(cam, 376 + 36, d) == 0
     assert d[0] == round(round(714.15 * 16) * 1800 / 16 / 36)
-    assert lib.vt_camera_row_distance(cam, 376, d) == lib.VT_E_ARG and d[0] == 0
-    assert lib.vt_camera_row_distance(ffi.NULL, 400, d) == lib.VT_E_ARG
+    assert lib.vt_camera_min_row_distance(cam, 376, d) == lib.VT_E_ARG and d[0] == 0
+    assert lib.vt_camera_min_row_distance(ffi.NULL, 400, d) == lib.VT_E_ARG
 
 
 def test_bad_arguments():

@@ -106,7 +106,7 @@ vt_status vt_camera_min_check(const vt_camera_min *cam);
 /* Distance along the road (mm) of the road point at input row `row`:
  * fx * H / (row - horizon), rounded half up, saturated to INT32_MAX. VT_E_ARG if
  * row <= horizon (no road point there). Exact int64 arithmetic. */
-vt_status vt_camera_row_distance(const vt_camera_min *cam, int32_t row, int32_t *mm);
+vt_status vt_camera_min_row_distance(const vt_camera_min *cam, int32_t row, int32_t *mm);
 
 /* The road area when no lanes are found: every column of rows
  * max(0, horizon + top_margin) .. min(h, hood_y) - 1 (valid = 0 if that is

@@ -29,7 +29,7 @@ typedef struct { vt_box box; int32_t score; int32_t source; } vt_scored_box;
 vt_status vt_win_cfg_default(vt_win_cfg *cfg);
 vt_status vt_win_cfg_check(const vt_win_cfg *cfg);
 vt_status vt_camera_min_check(const vt_camera_min *cam);
-vt_status vt_camera_row_distance(const vt_camera_min *cam, int32_t row, int32_t *mm);
+vt_status vt_camera_min_row_distance(const vt_camera_min *cam, int32_t row, int32_t *mm);
 vt_status vt_road_from_camera(const vt_win_cfg *cfg, const vt_camera_min *cam, int32_t w,
                               int32_t h, vt_road_area *road);
 vt_status vt_windows_level(const vt_win_cfg *cfg, const vt_camera_min *cam,
