@@ -432,3 +432,89 @@ def lane_line_x(line, y_q16: int) -> int:
     check("vt_lane_line_x", lib.vt_lane_line_x(line, y_q16, out), f"y {y_q16} (Q16)")
     return int(out[0])
 # ================================================================ end lane.h
+
+
+# ================================================================ flow.h
+FLOW_HYP_DTYPE = np.dtype([("left", np.int32), ("top", np.int32), ("right", np.int32),
+                           ("bottom", np.int32), ("side", np.int32), ("kind", np.int32),
+                           ("id", np.int32), ("cells", np.int32), ("flow_x", np.int32),
+                           ("flow_y", np.int32)])
+
+
+def flow_cfg_default():
+    return _defaults("vt_flow_cfg")
+
+
+def flow_cfg_check(cfg) -> None:
+    check("vt_flow_cfg_check", lib.vt_flow_cfg_check(cfg), _flow_cfg_detail(cfg))
+
+
+def _flow_cfg_detail(cfg) -> str:
+    names = [f for f, _ in ffi.typeof("vt_flow_cfg").fields]
+    return "cfg " + ", ".join(f"{n}={getattr(cfg, n)}" for n in names)
+
+
+def flow_new():
+    """A vt_flow_state owned by Python (about 3 * VT_FLOW_MAX_PIXELS bytes)."""
+    st = ffi.new("vt_flow_state *")
+    check("vt_flow_init", lib.vt_flow_init(st))
+    return st
+
+
+def flow_reset(st) -> None:
+    check("vt_flow_reset", lib.vt_flow_reset(st))
+
+
+def flow_step(st, cfg, img: np.ndarray):
+    """One frame: (ready, hypotheses as FLOW_HYP_DTYPE (flow in Q16 input px),
+    counters dict)."""
+    v = view(img, "frame")
+    out = ffi.new("vt_flow_result *")
+    check("vt_flow_step", lib.vt_flow_step(st, cfg, v, out),
+          f"frame {img.shape}, previous {st.h}x{st.w} (have_prev={st.have_prev}); "
+          + _flow_cfg_detail(cfg))
+    n = int(out.n)
+    hyps = np.zeros(n, FLOW_HYP_DTYPE)
+    for k in range(n):
+        hp = out.hyp[k]
+        hyps[k] = (hp.box.left, hp.box.top, hp.box.right, hp.box.bottom, hp.side, hp.kind,
+                   hp.id, hp.cells, hp.flow_x, hp.flow_y)
+    stats = {"dropped": int(out.dropped), "cells_total": int(out.cells_total),
+             "cells_computed": int(out.cells_computed), "cells_accepted": int(out.cells_accepted)}
+    return bool(out.ready), hyps, stats
+
+
+def flow_field(st, side: int):
+    """The cell grid of lateral area `side` (0 left, 1 right) from the last step:
+    (x0, y0, dx, dy, flag, sad) with (gh, gw) arrays, copies."""
+    if side not in (0, 1):
+        raise ValueError(f"side: expected 0 (left) or 1 (right), got {side!r}")
+    gw, gh = int(st.gw[side]), int(st.gh[side])
+    k = gw * gh
+
+    off = side * int(lib.VT_FLOW_MAX_CELLS)
+
+    def grab(arr, dt):
+        size = np.dtype(dt).itemsize
+        raw = ffi.buffer(ffi.addressof(arr, off), k * size) if k else b""
+        return np.frombuffer(raw, dt).reshape(gh, gw).copy()
+
+    return (int(st.x0[side]), int(st.y0[side]), grab(st.dx, np.int8), grab(st.dy, np.int8),
+            grab(st.flag, np.uint8), grab(st.sad, np.uint32))
+
+
+def flow_seed(st, cfg, box) -> int:
+    b = ffi.new("vt_box *")
+    vals = [int(v) for v in box]
+    if len(vals) != 4 or any(abs(v) > 2**30 for v in vals):
+        raise ValueError(f"box: expected [left, top, right, bottom] ints, got {box!r}")
+    b.left, b.top, b.right, b.bottom = vals
+    out = ffi.new("int32_t *")
+    check("vt_flow_seed", lib.vt_flow_seed(st, cfg, b, out),
+          f"box {vals} in a {st.w}x{st.h} frame (have_prev={st.have_prev})")
+    return int(out[0])
+
+
+def flow_unseed(st, tid: int) -> None:
+    check("vt_flow_unseed", lib.vt_flow_unseed(st, int(tid)), f"id {tid}")
+# ================================================================ end flow.h

@@ -153,7 +153,8 @@ typedef struct {
 /* The state: two level images (ping-pong: prev_index says which holds the
  * previous frame), the scratch level-1 image for level 2, and per lateral area
  * (index 0 left, 1 right) the cell grid of the last frame: gw x gh cells starting
- * at level column x0 / row y0, vectors dx/dy and VT_FLOW_CELL_* flags, row-major. */
+ * at level column x0 / row y0, vectors dx/dy, best SAD and VT_FLOW_CELL_* flags,
+ * row-major from index side * VT_FLOW_MAX_CELLS. */
 typedef struct {
     int32_t have_prev;
     int32_t prev_index;
@@ -164,10 +165,10 @@ typedef struct {
     uint8_t img[2][VT_FLOW_MAX_PIXELS];
     uint8_t scratch[VT_FLOW_MAX_PIXELS];
     int32_t gw[2], gh[2], x0[2], y0[2];
-    int8_t dx[2][VT_FLOW_MAX_CELLS];
-    int8_t dy[2][VT_FLOW_MAX_CELLS];
-    uint8_t flag[2][VT_FLOW_MAX_CELLS];
-    uint32_t sad[2][VT_FLOW_MAX_CELLS];
+    int8_t dx[2 * VT_FLOW_MAX_CELLS]; /* side s, cell c at [s * VT_FLOW_MAX_CELLS + c] */
+    int8_t dy[2 * VT_FLOW_MAX_CELLS];
+    uint8_t flag[2 * VT_FLOW_MAX_CELLS];
+    uint32_t sad[2 * VT_FLOW_MAX_CELLS];
     int32_t parent[VT_FLOW_MAX_CELLS];
     int32_t count[VT_FLOW_MAX_CELLS];
     vt_flow_seed_track seeds[VT_FLOW_MAX_SEEDS];
