@@ -34,7 +34,7 @@ vt_status vt_flow_cfg_check(const vt_flow_cfg *c)
         !vt__in(c->diff_thresh, 0, 255) || !vt__in(c->diff_min_percent, 0, 100) ||
         !vt__in(c->min_inward, 0, 64) || !vt__in(c->max_mag, 0, 128) ||
         !vt__in(c->max_sad_per_px, 0, 255) || !vt__in(c->min_blob_cells, 1, VT_FLOW_MAX_CELLS) ||
-        !vt__in(c->seed_min_visible, 0, 100)) {
+        !vt__in(c->seed_min_visible, 0, 100) || !vt__in(c->min_texture, 0, 255)) {
         return VT_E_ARG;
     }
     return VT_OK;
@@ -163,6 +163,21 @@ static int32_t vt__changed(const uint8_t *a, const uint8_t *b, int32_t lw, int32
     return cnt;
 }
 
+/* Sum of |I(x+1) - I(x)| over the pairs inside the n x n block at (x, y):
+ * at most 32 * 31 * 255, exact. */
+static int32_t vt__texture(const uint8_t *a, int32_t lw, int32_t x, int32_t y, int32_t n)
+{
+    int32_t s = 0, i, j;
+    for (j = 0; j < n; j++) {
+        const uint8_t *p = a + (size_t)(y + j) * (size_t)lw + (size_t)x;
+        for (i = 0; i + 1 < n; i++) {
+            int32_t d = (int32_t)p[i + 1] - (int32_t)p[i];
+            s += d < 0 ? -d : d;
+        }
+    }
+    return s;
+}
+
 /* Union-find with path halving; roots are the smallest cell index of their set. */
 static int32_t vt__find(int32_t *parent, int32_t i)
 {
@@ -234,6 +249,12 @@ static void vt__area_flow(vt_flow_state *st, const vt_flow_cfg *cfg, int32_t sid
             out->cells_total++;
             /* The paper's speed-up: no search where (almost) nothing changed. */
             if (100 * vt__changed(cur, prev, lw, x, y, n, cfg->diff_thresh) < need) {
+                continue;
+            }
+            /* Without horizontal texture the best dx is arbitrary (aperture problem):
+             * the flat band under a car would pass the direction filter by chance. */
+            if (vt__texture(cur, lw, x, y, n) < cfg->min_texture * n * (n - 1)) {
+                flag[c] = VT_FLOW_CELL_FLAT;
                 continue;
             }
             vt__search(cur, prev, lw, lh, x, y, n, cfg->search_x, cfg->search_y, &dx, &dy, &s);

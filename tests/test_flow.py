@@ -73,7 +73,8 @@ def scenes(draw):
         search_x=draw(st.integers(0, 4)), search_y=draw(st.integers(0, 2)),
         diff_thresh=draw(st.integers(0, 40)), diff_min_percent=draw(st.integers(0, 60)),
         min_inward=draw(st.integers(0, 2)), max_mag=draw(st.integers(0, 8)),
-        max_sad_per_px=draw(st.integers(0, 80)), min_blob_cells=draw(st.integers(1, 4)))
+        max_sad_per_px=draw(st.integers(0, 80)), min_blob_cells=draw(st.integers(1, 4)),
+        min_texture=draw(st.sampled_from([0, 0, 1, 3, 8])))
     return f0, f1, cfg
 
 
@@ -111,6 +112,7 @@ def test_flow_vectors_and_blobs_exact(scene):
         np.testing.assert_array_equal(dy, ar.dy)
         np.testing.assert_array_equal(sad, ar.sad)
     assert stats["cells_accepted"] == sum(int(((a.flag & 2) > 0).sum()) for a in ref.areas)
+    assert stats["cells_computed"] == sum(int(((a.flag & 1) > 0).sum()) for a in ref.areas)
     assert _hyps_c(hyps) == _hyps_ref(r_hyps)
 
 

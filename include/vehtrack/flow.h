@@ -87,6 +87,7 @@
 /* Cell flags in vt_flow_state.flag[side][cell]. */
 #define VT_FLOW_CELL_COMPUTED 1 /* the change gate passed: a vector was searched */
 #define VT_FLOW_CELL_ACCEPTED 2 /* the vector passed range, direction and SAD   */
+#define VT_FLOW_CELL_FLAT 4     /* changed, but too little texture to search    */
 
 typedef struct {
     int32_t level;            /* pyramid level 0..2 the flow runs on              */
@@ -105,14 +106,18 @@ typedef struct {
     int32_t min_blob_cells;   /* area threshold of a blob, cells, >= 1            */
     int32_t seed_min_visible; /* hand-over track dropped when fewer columns than  */
                               /* this % of its width are still in the frame       */
+    int32_t min_texture;      /* mean |I(x+1) - I(x)| in a cell below this: no    */
+                              /* search (dx is undefined on flat or horizontal-  */
+                              /* edge cells: the aperture problem), 0..255        */
 } vt_flow_cfg;
 
 /* Defaults for a 640x480..1280x720 camera at level 1: 30 % strips over the
  * lower 60 % of the frame, 8x8 cells, +-6 x +-3 px search (+-12 x +-6 input px
  * per frame), a change of 12 grey levels in a quarter of a cell, inward motion of
- * at least 1 px at the level, blobs of 4 cells (16x16 level px). */
+ * at least 1 px at the level, blobs of 4 cells (16x16 level px), cells with a
+ * mean horizontal difference of at least 3 grey levels. */
 #define VT_FLOW_CFG_DEFAULT \
-    { 1, VT_FLOW_SIDE_LEFT, 30, 40, 100, 8, 6, 3, 12, 25, 1, 9, 24, 4, 25 }
+    { 1, VT_FLOW_SIDE_LEFT, 30, 40, 100, 8, 6, 3, 12, 25, 1, 9, 24, 4, 25, 3 }
 
 /* One hypothesis: box in input pixels (inclusive, as vt_box), the side it is on
  * (VT_FLOW_SIDE_LEFT/RIGHT; for a hand-over track the side its centre is on),

@@ -10,6 +10,7 @@
 #define VT_FLOW_KIND_HANDOVER ...
 #define VT_FLOW_CELL_COMPUTED ...
 #define VT_FLOW_CELL_ACCEPTED ...
+#define VT_FLOW_CELL_FLAT ...
 
 typedef struct {
     int32_t level;
@@ -27,6 +28,7 @@ typedef struct {
     int32_t max_sad_per_px;
     int32_t min_blob_cells;
     int32_t seed_min_visible;
+    int32_t min_texture;
 } vt_flow_cfg;
 
 typedef struct {

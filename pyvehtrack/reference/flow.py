@@ -23,7 +23,7 @@ import numpy as np
 
 LEFT, RIGHT = 1, 2
 KIND_OVERTAKING, KIND_HANDOVER = 1, 2
-COMPUTED, ACCEPTED = 1, 2
+COMPUTED, ACCEPTED, FLAT = 1, 2, 4
 
 
 @dataclass
@@ -107,6 +107,10 @@ def area_flow(cfg, cur: np.ndarray, prev: np.ndarray, side: int, level: int, w: 
             x, y = ar.x0 + i * n, ar.y0 + j * n
             changed = int(diff[y:y + n, x:x + n].sum())
             if 100 * changed < cfg.diff_min_percent * n * n:   # the paper's speed-up
+                continue
+            block = cur[y:y + n, x:x + n].astype(np.int64)
+            if np.abs(np.diff(block, axis=1)).sum() < cfg.min_texture * n * (n - 1):
+                ar.flag[j, i] = FLAT      # no horizontal texture: dx would be arbitrary
                 continue
             dx, dy, s = best_match(cur, prev, x, y, n, cfg.search_x, cfg.search_y)
             ar.dx[j, i], ar.dy[j, i], ar.sad[j, i] = dx, dy, s
