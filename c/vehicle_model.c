@@ -367,7 +367,7 @@ static int32_t vt__fitness(const vt_model_cfg *c, const vt_model_ws *ws, const v
     /* Segments {xa, ya, xb, yb}: 4 vertical (body sides, slanted cabin sides,
      * scored on |gx|), then 4 horizontal (roof, windshield, bumper, bottom, |gy|). */
     int32_t seg[8][4];
-    int32_t e, k, j, sum_g = 0, sum_d = 0, sum_s = 0, sh_b = 0, sh_a = 0;
+    int32_t e, k, j, sum_g = 0, sum_d = 0, sum_s = 0, sum_in = 0, sh_b = 0, sh_a = 0;
     int32_t sym, grad, dist, shadow, xc, half, b;
     seg[0][0] = L;     seg[0][1] = S; seg[0][2] = L;     seg[0][3] = B;
     seg[1][0] = R;     seg[1][1] = S; seg[1][2] = R;     seg[1][3] = B;
@@ -401,6 +401,7 @@ static int32_t vt__fitness(const vt_model_cfg *c, const vt_model_ws *ws, const v
             int32_t a = row[vt__clamp_i32(xc - d, 0, lw - 1)];
             int32_t bb = row[vt__clamp_i32(xc + d, 0, lw - 1)];
             sum_s += vt__abs_i32(a - bb);
+            sum_in += a + bb;
         }
     }
     sym = 255 - sum_s / (VT__S * VT__S);
@@ -413,7 +414,12 @@ static int32_t vt__fitness(const vt_model_cfg *c, const vt_model_ws *ws, const v
         sh_a += img[(size_t)b * (size_t)st + (size_t)cx];
         sh_a += img[(size_t)vt__clamp_i32(b - 1, 0, lh - 1) * (size_t)st + (size_t)cx];
     }
-    shadow = vt__clamp_i32((sh_b - sh_a) / (2 * VT__S), 0, 255);
+    /* The shadow is the darkest part: darker than the road below it and than the
+     * vehicle above it (so a rear window over a bright body does not pass). */
+    sh_b /= 2 * VT__S;
+    sh_a /= 2 * VT__S;
+    sum_in /= 2 * VT__S * VT__S;
+    shadow = vt__clamp_i32(sh_b - sh_a < sum_in - sh_a ? sh_b - sh_a : sum_in - sh_a, 0, 255);
     return c->w_sym * sym + c->w_grad * grad + c->w_dist * dist + c->w_shadow * shadow;
 }
 
@@ -465,7 +471,7 @@ vt_status vt_model_fit(const vt_image_u8 *frame, const vt_model_cfg *cfg,
     vt__geom g;
     vt_status s;
     uint32_t rs;
-    int32_t mode, level, i, k, gen, evals = 0, have_best = 0;
+    int32_t mode, level, i, k, gen, evals = 0, have_best = 0, cur = 0, n_prev = 0;
     vt_model_params best;
     if (out != NULL) {
         memset(out, 0, sizeof *out);
@@ -496,21 +502,23 @@ vt_status vt_model_fit(const vt_image_u8 *frame, const vt_model_cfg *cfg,
         const int32_t P = cfg->pop[mode][level];
         const int32_t G = cfg->gens[mode][level];
         const int32_t jit = 2 << level;
-        int32_t cur = 0;
+        /* A finer level starts from the coarser level's last generation: its best
+         * as is (elitism), the others jittered (the levels exchange their
+         * detections, paper sec. 6); extra individuals start afresh. */
+        const int32_t nb = have_best ? 1 - cur : cur;
+        const vt_model_params *prev = ws->pop + cur * VT_MODEL_MAX_POP;
         vt_model_params *pop;
         int32_t *fit;
         s = vt_model_prepare(frame, cfg, search, level, ws);
         if (s != VT_OK) {
             return s;
         }
-        pop = ws->pop[cur];
-        fit = ws->fit[cur];
+        pop = ws->pop + nb * VT_MODEL_MAX_POP;
+        fit = ws->fit + nb * VT_MODEL_MAX_POP;
         for (i = 0; i < P; i++) {
             vt_model_params *p = &pop[i];
-            if (have_best) {
-                /* A finer level starts from the coarser level's best and its jittered
-                 * copies (the levels exchange their detections, paper sec. 6). */
-                *p = best;
+            if (have_best && i < n_prev) {
+                *p = i == 0 ? best : prev[i];
                 if (i > 0) {
                     for (k = 0; k < VT__GENES; k++) {
                         *vt__gene(p, k) += vt__rand_pm(&rs, k < 4 ? jit : 5);
@@ -535,13 +543,14 @@ vt_status vt_model_fit(const vt_image_u8 *frame, const vt_model_cfg *cfg,
             fit[i] = vt__fitness(cfg, ws, p);
             evals++;
         }
+        cur = nb;
         for (gen = 0; gen < G; gen++) {
             const int32_t nxt = 1 - cur;
-            vt_model_params *np_ = ws->pop[nxt];
-            int32_t *nf = ws->fit[nxt];
-            int32_t e = vt__best(ws->fit[cur], P);
-            pop = ws->pop[cur];
-            fit = ws->fit[cur];
+            vt_model_params *np_ = ws->pop + nxt * VT_MODEL_MAX_POP;
+            int32_t *nf = ws->fit + nxt * VT_MODEL_MAX_POP;
+            int32_t e = vt__best(ws->fit + cur * VT_MODEL_MAX_POP, P);
+            pop = ws->pop + cur * VT_MODEL_MAX_POP;
+            fit = ws->fit + cur * VT_MODEL_MAX_POP;
             np_[0] = pop[e]; /* elitism */
             nf[0] = fit[e];
             for (i = 1; i < P; i++) {
@@ -564,11 +573,12 @@ vt_status vt_model_fit(const vt_image_u8 *frame, const vt_model_cfg *cfg,
             }
             cur = nxt;
         }
-        pop = ws->pop[cur];
-        fit = ws->fit[cur];
+        pop = ws->pop + cur * VT_MODEL_MAX_POP;
+        fit = ws->fit + cur * VT_MODEL_MAX_POP;
         i = vt__best(fit, P);
         best = pop[i];
         have_best = 1;
+        n_prev = P;
         ws->cur = cur;
         ws->n = P;
         out->fitness = fit[i];

@@ -20,8 +20,10 @@
  * + w_dist   * distance  (mean of 255 (cap - min(D, cap)) / cap at the same points, D
  *                         the exact city-block distance to the nearest edge pixel,
  *                         |Sobel x| + |Sobel y| > edge_thresh)
- * + w_shadow * shadow    (mean grey of the two rows below the bottom minus the two rows
- *                         ending at it, over VT_MODEL_SAMPLES columns, clamped 0..255).
+ * + w_shadow * shadow    (the darkest part: the mean grey of the two rows ending at the
+ *                         bottom, over VT_MODEL_SAMPLES columns, below both the mean of
+ *                         the two rows under it (road) and the mean of the symmetry
+ *                         samples (the vehicle); the smaller margin, clamped 0..255).
  * Every mean is a sum divided by its count, truncated; all terms are exact integers.
  *
  * Search: a GA per pyramid level, coarsest first (levels - 1 .. 0), with population
@@ -30,8 +32,10 @@
  * coarsest to the finest level). Detection initialises uniformly inside the
  * constraints and the search rows; tracking initialises around a prediction, each
  * gene offset by a sum of three uniform draws in [-sigma, sigma] (standard deviation
- * sigma, never beyond 3 sigma). A finer level starts from the best individual so
- * far (kept as is: elitism) and jittered copies of it. A generation: the elite,
+ * sigma, never beyond 3 sigma). A finer level starts from the coarser level's
+ * last generation: its best kept as is (elitism), the others jittered by +-2^(l+1)
+ * px (+-5 % for the shape genes); individuals beyond the coarser population's size
+ * start afresh (uniform or around the prediction). A generation: the elite,
  * then children of two binary-tournament parents, uniform crossover, per-gene
  * mutation with probability mut_percent, repaired into the constraints.
  * Random numbers: xorshift32 seeded with cfg.seed at every vt_model_fit (a zero
@@ -132,8 +136,8 @@ typedef struct {
     int16_t gx[VT_MODEL_MAX_ROI_PIXELS];
     int16_t gy[VT_MODEL_MAX_ROI_PIXELS];
     uint8_t dist[VT_MODEL_MAX_ROI_PIXELS];
-    vt_model_params pop[2][VT_MODEL_MAX_POP];
-    int32_t fit[2][VT_MODEL_MAX_POP];
+    vt_model_params pop[2 * VT_MODEL_MAX_POP]; /* population c at [c * VT_MODEL_MAX_POP] */
+    int32_t fit[2 * VT_MODEL_MAX_POP];
     int32_t cur;              /* which population holds the last generation       */
     int32_t n;                /* its size                                         */
     uint32_t rng;             /* the generator's state after the search           */
@@ -183,7 +187,8 @@ vt_status vt_model_fitness(const vt_image_u8 *frame, const vt_model_cfg *cfg,
  * ROI that misses the frame or is smaller than 8x8; VT_E_CAPACITY for an ROI over
  * VT_MODEL_MAX_ROI_PIXELS or a population over VT_MODEL_MAX_POP; VT_E_SINGULAR
  * when no model fits the constraints inside the ROI (e.g. the expected width
- * exceeds it). ws->pop[ws->cur][0..ws->n) holds the last generation. */
+ * exceeds it). ws->pop[ws->cur * VT_MODEL_MAX_POP + i], i < ws->n, holds the last
+ * generation and ws->fit the same way its fitnesses. */
 vt_status vt_model_fit(const vt_image_u8 *frame, const vt_model_cfg *cfg,
                        const vt_model_search *search, vt_model_ws *ws, vt_model_result *out);
 

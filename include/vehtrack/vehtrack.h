@@ -18,6 +18,7 @@
 #include "vehtrack/track_search.h"
 #include "vehtrack/tracker.h"
 #include "vehtrack/flow.h"
+#include "vehtrack/vehicle_model.h"
 
 #define VT_VERSION_MAJOR 0
 #define VT_VERSION_MINOR 1
