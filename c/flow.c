@@ -34,7 +34,8 @@ vt_status vt_flow_cfg_check(const vt_flow_cfg *c)
         !vt__in(c->diff_thresh, 0, 255) || !vt__in(c->diff_min_percent, 0, 100) ||
         !vt__in(c->min_inward, 0, 64) || !vt__in(c->max_mag, 0, 128) ||
         !vt__in(c->max_sad_per_px, 0, 255) || !vt__in(c->min_blob_cells, 1, VT_FLOW_MAX_CELLS) ||
-        !vt__in(c->seed_min_visible, 0, 100) || !vt__in(c->min_texture, 0, 255)) {
+        !vt__in(c->seed_min_visible, 0, 100) || !vt__in(c->min_texture, 0, 255) ||
+        !vt__in(c->min_age, 1, 1000)) {
         return VT_E_ARG;
     }
     return VT_OK;
@@ -54,6 +55,7 @@ vt_status vt_flow_init(vt_flow_state *st)
     st->next_id = 1;
     st->gw[0] = st->gw[1] = st->gh[0] = st->gh[1] = 0;
     st->x0[0] = st->x0[1] = st->y0[0] = st->y0[1] = 0;
+    st->n_blobs[0] = st->n_blobs[1] = 0;
     memset(st->seeds, 0, sizeof st->seeds);
     return VT_OK;
 }
@@ -65,6 +67,7 @@ vt_status vt_flow_reset(vt_flow_state *st)
     }
     st->have_prev = 0;
     st->gw[0] = st->gw[1] = st->gh[0] = st->gh[1] = 0;
+    st->n_blobs[0] = st->n_blobs[1] = 0;
     memset(st->seeds, 0, sizeof st->seeds);
     return VT_OK;
 }
@@ -231,8 +234,9 @@ static void vt__area_flow(vt_flow_state *st, const vt_flow_cfg *cfg, int32_t sid
     uint32_t *vsad = st->sad + side * VT_FLOW_MAX_CELLS;
     int32_t *parent = st->parent;
     int32_t *count = st->count;
-    int32_t first = out->n;
-    int32_t sum_dx[VT_FLOW_MAX_HYPS], sum_dy[VT_FLOW_MAX_HYPS];
+    int32_t nb = 0;
+    int32_t sum_dx[VT_FLOW_MAX_BLOBS], sum_dy[VT_FLOW_MAX_BLOBS];
+    vt_flow_hyp blob[VT_FLOW_MAX_BLOBS];
     int32_t i, j, k;
 
     for (j = 0; j < gh; j++) {
@@ -291,26 +295,23 @@ static void vt__area_flow(vt_flow_state *st, const vt_flow_cfg *cfg, int32_t sid
         }
         if (count[k] < cfg->min_blob_cells) {
             count[k] = 0;
-        } else if (out->n >= VT_FLOW_MAX_HYPS) {
+        } else if (nb >= VT_FLOW_MAX_BLOBS) {
             out->dropped++;
             count[k] = 0;
         } else {
-            vt_flow_hyp *hp = &out->hyp[out->n];
+            vt_flow_hyp *hp = &blob[nb];
             hp->box.left = hp->box.top = INT32_MAX;
             hp->box.right = hp->box.bottom = -1;
             hp->side = side == 0 ? VT_FLOW_SIDE_LEFT : VT_FLOW_SIDE_RIGHT;
             hp->kind = VT_FLOW_KIND_OVERTAKING;
             hp->id = 0;
             hp->cells = 0;
-            sum_dx[out->n - first] = sum_dy[out->n - first] = 0;
-            out->n++;
-            count[k] = -out->n;
+            sum_dx[nb] = sum_dy[nb] = 0;
+            nb++;
+            count[k] = -nb;
         }
     }
-    if (out->n == first) {
-        return;
-    }
-    for (k = 0; k < gw * gh; k++) {
+    for (k = 0; k < gw * gh && nb > 0; k++) {
         int32_t r, slot;
         vt_flow_hyp *hp;
         if (!(flag[k] & VT_FLOW_CELL_ACCEPTED)) {
@@ -321,7 +322,7 @@ static void vt__area_flow(vt_flow_state *st, const vt_flow_cfg *cfg, int32_t sid
             continue;
         }
         slot = -count[r] - 1;
-        hp = &out->hyp[slot];
+        hp = &blob[slot];
         i = k % gw;
         j = k / gw;
         /* Box in cells for now; converted to input pixels below. */
@@ -330,19 +331,43 @@ static void vt__area_flow(vt_flow_state *st, const vt_flow_cfg *cfg, int32_t sid
         hp->box.top = j < hp->box.top ? j : hp->box.top;
         hp->box.bottom = j > hp->box.bottom ? j : hp->box.bottom;
         hp->cells++;
-        sum_dx[slot - first] += vdx[k];
-        sum_dy[slot - first] += vdy[k];
+        sum_dx[slot] += vdx[k];
+        sum_dy[slot] += vdy[k];
     }
-    for (k = first; k < out->n; k++) {
-        vt_flow_hyp *hp = &out->hyp[k];
+    for (k = 0; k < nb; k++) {
+        vt_flow_hyp *hp = &blob[k];
         const int32_t lv = st->level;
+        int32_t q, age = 0;
         hp->box.left = (x0 + hp->box.left * n) << lv;
         hp->box.top = (y0 + hp->box.top * n) << lv;
         hp->box.right = vt__clamp_i32(((x0 + (hp->box.right + 1) * n) << lv) - 1, 0, st->w - 1);
         hp->box.bottom = vt__clamp_i32(((y0 + (hp->box.bottom + 1) * n) << lv) - 1, 0, st->h - 1);
-        hp->flow_x = vt__mean_q16(sum_dx[k - first], hp->cells, lv);
-        hp->flow_y = vt__mean_q16(sum_dy[k - first], hp->cells, lv);
+        hp->flow_x = vt__mean_q16(sum_dx[k], hp->cells, lv);
+        hp->flow_y = vt__mean_q16(sum_dy[k], hp->cells, lv);
+        /* Persistence: a vehicle's blob overlaps one of the previous frame's;
+         * texture that matches by chance (foliage, glare) rarely does twice. */
+        for (q = 0; q < st->n_blobs[side]; q++) {
+            const vt_box *pb = &st->blob_box[side * VT_FLOW_MAX_BLOBS + q];
+            if (pb->left <= hp->box.right && hp->box.left <= pb->right &&
+                pb->top <= hp->box.bottom && hp->box.top <= pb->bottom) {
+                age = vt__max_i32(age, st->blob_age[side * VT_FLOW_MAX_BLOBS + q]);
+            }
+        }
+        hp->age = age < INT32_MAX ? age + 1 : age;
     }
+    for (k = 0; k < nb; k++) {
+        st->blob_box[side * VT_FLOW_MAX_BLOBS + k] = blob[k].box;
+        st->blob_age[side * VT_FLOW_MAX_BLOBS + k] = blob[k].age;
+        if (blob[k].age < cfg->min_age) {
+            continue;
+        }
+        if (out->n < VT_FLOW_MAX_HYPS) {
+            out->hyp[out->n++] = blob[k];
+        } else {
+            out->dropped++;
+        }
+    }
+    st->n_blobs[side] = nb;
 }
 
 /* Moves one hand-over track by the mean vector of the cells inside its box
@@ -402,6 +427,7 @@ static int vt__seed_step(vt_flow_state *st, const vt_flow_cfg *cfg, vt_flow_seed
                                                                     : VT_FLOW_SIDE_RIGHT;
     hp->kind = VT_FLOW_KIND_HANDOVER;
     hp->id = sd->id;
+    hp->age = ++sd->age;
     hp->cells = cnt;
     hp->flow_x = mx;
     hp->flow_y = my;
@@ -485,6 +511,7 @@ vt_status vt_flow_step(vt_flow_state *st, const vt_flow_cfg *cfg, const vt_image
         st->lh = lh;
         st->level = cfg->level;
         st->gw[0] = st->gw[1] = st->gh[0] = st->gh[1] = 0;
+        st->n_blobs[0] = st->n_blobs[1] = 0;
         memset(st->seeds, 0, sizeof st->seeds);
         return VT_OK;
     }
@@ -543,6 +570,7 @@ vt_status vt_flow_seed(vt_flow_state *st, const vt_flow_cfg *cfg, const vt_box *
         sd->left = vt_q16_from_int(box->left);
         sd->top = vt_q16_from_int(box->top);
         sd->width = box->right - box->left + 1;
+        sd->age = 0;
         sd->height = box->bottom - box->top + 1;
         *id = sd->id;
         return VT_OK;

@@ -438,7 +438,7 @@ def lane_line_x(line, y_q16: int) -> int:
 FLOW_HYP_DTYPE = np.dtype([("left", np.int32), ("top", np.int32), ("right", np.int32),
                            ("bottom", np.int32), ("side", np.int32), ("kind", np.int32),
                            ("id", np.int32), ("cells", np.int32), ("flow_x", np.int32),
-                           ("flow_y", np.int32)])
+                           ("flow_y", np.int32), ("age", np.int32)])
 
 
 def flow_cfg_default():
@@ -478,7 +478,7 @@ def flow_step(st, cfg, img: np.ndarray):
     for k in range(n):
         hp = out.hyp[k]
         hyps[k] = (hp.box.left, hp.box.top, hp.box.right, hp.box.bottom, hp.side, hp.kind,
-                   hp.id, hp.cells, hp.flow_x, hp.flow_y)
+                   hp.id, hp.cells, hp.flow_x, hp.flow_y, hp.age)
     stats = {"dropped": int(out.dropped), "cells_total": int(out.cells_total),
              "cells_computed": int(out.cells_computed), "cells_accepted": int(out.cells_accepted)}
     return bool(out.ready), hyps, stats

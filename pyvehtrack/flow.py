@@ -34,6 +34,7 @@ class FlowHyp:
     id: int             # hand-over id, 0 for overtaking blobs
     cells: int          # blob size in cells (hand-over: matched cells)
     flow: tuple         # mean motion (dx, dy), input px/frame
+    age: int            # frames in a row it was seen (reported from cfg.min_age on)
 
 
 @dataclass(frozen=True)
@@ -89,7 +90,7 @@ class OvertakingDetector:
         else:
             ns = SimpleNamespace(**{f: int(getattr(self.cfg, f)) for f in CFG_FIELDS})
             self._ref = rflow.FlowOracle(ns, int(_native.lib.VT_FLOW_MAX_HYPS),
-                                         int(_native.lib.VT_FLOW_MAX_SEEDS))
+                                         int(_native.lib.VT_FLOW_MAX_SEEDS), int(_native.lib.VT_FLOW_MAX_BLOBS))
 
     def reset(self) -> None:
         if self.engine == "c":
@@ -103,12 +104,12 @@ class OvertakingDetector:
             ready, hyps, _ = _native.flow_step(self._st, self.cfg, g)
             out = [FlowHyp((int(h["left"]), int(h["top"]), int(h["right"]), int(h["bottom"])),
                            SIDE_NAMES[int(h["side"])], KIND_NAMES[int(h["kind"])], int(h["id"]),
-                           int(h["cells"]), (h["flow_x"] / 65536.0, h["flow_y"] / 65536.0))
+                           int(h["cells"]), (h["flow_x"] / 65536.0, h["flow_y"] / 65536.0), int(h["age"]))
                    for h in hyps]
             return FlowResult(ready, out)
         ready, hyps = self._ref.step(g)
         return FlowResult(ready, [FlowHyp(h.box, SIDE_NAMES[h.side], KIND_NAMES[h.kind], h.id,
-                                          h.cells, h.flow) for h in hyps])
+                                          h.cells, h.flow, h.age) for h in hyps])
 
     def seed(self, box) -> int:
         """Hand a vehicle over (box in the last frame's pixels); returns its id."""

@@ -46,10 +46,8 @@ def scenes(draw):
     seed = draw(st.integers(0, 2**32 - 1))
     rng = np.random.default_rng(seed)
     smooth = draw(st.integers(0, 2))
-    bg = _texture(rng, h + 16, w + 16, smooth)
+    bg = _texture(rng, h + 24, w + 24, smooth)
     bdx, bdy = draw(st.integers(-4, 4)), draw(st.integers(-2, 2))
-    f0 = bg[8:8 + h, 8:8 + w].copy()
-    f1 = bg[8 - bdy:8 - bdy + h, 8 - bdx:8 - bdx + w].copy()
     # A patch that moves against the background (the "overtaking vehicle").
     ph, pw = draw(st.integers(h // 4, h // 2 + 2)), draw(st.integers(w // 4, w // 2 + 2))
     # mostly at a border, where the lateral areas are
@@ -57,14 +55,16 @@ def scenes(draw):
     py = draw(st.integers(0, h - ph))
     pdx, pdy = draw(st.integers(-4, 4)), draw(st.integers(-2, 2))
     patch = _texture(rng, ph, pw, smooth)
-    f0[py:py + ph, px:px + pw] = patch
-    qx, qy = min(max(px + pdx, 0), w - pw), min(max(py + pdy, 0), h - ph)
-    f1[qy:qy + ph, qx:qx + pw] = patch
-    if draw(st.booleans()):  # noise on top, so the change gate has work to do
-        f1 = np.clip(f1.astype(np.int16) + rng.integers(-6, 7, f1.shape), 0, 255).astype(np.uint8)
-    pads = draw(st.integers(0, 5)), draw(st.integers(0, 5))
-    f0 = padded_copy(f0, pads[0]) if pads[0] else f0
-    f1 = padded_copy(f1, pads[1]) if pads[1] else f1
+    noisy = draw(st.booleans())   # noise on top, so the change gate has work to do
+    frames = []
+    for t in range(3):
+        f = bg[12 - t * bdy:12 - t * bdy + h, 12 - t * bdx:12 - t * bdx + w].copy()
+        qx, qy = min(max(px + t * pdx, 0), w - pw), min(max(py + t * pdy, 0), h - ph)
+        f[qy:qy + ph, qx:qx + pw] = patch
+        if noisy:
+            f = np.clip(f.astype(np.int16) + rng.integers(-6, 7, f.shape), 0, 255).astype(np.uint8)
+        pad = draw(st.integers(0, 5))
+        frames.append(padded_copy(f, pad) if pad else f)
     cfg = dict(
         # level 0 most often: a 67 px frame has only 17 px left at level 2
         level=draw(st.sampled_from([0, 0, 0, 1, 2])), sides=draw(st.integers(1, 3)),
@@ -74,46 +74,48 @@ def scenes(draw):
         diff_thresh=draw(st.integers(0, 40)), diff_min_percent=draw(st.integers(0, 60)),
         min_inward=draw(st.integers(0, 2)), max_mag=draw(st.integers(0, 8)),
         max_sad_per_px=draw(st.integers(0, 80)), min_blob_cells=draw(st.integers(1, 4)),
-        min_texture=draw(st.sampled_from([0, 0, 1, 3, 8])))
-    return f0, f1, cfg
+        min_texture=draw(st.sampled_from([0, 0, 1, 3, 8])), min_age=draw(st.integers(1, 3)))
+    return frames, cfg
 
 
 def _hyps_c(hyps):
     return [((int(h["left"]), int(h["top"]), int(h["right"]), int(h["bottom"])), int(h["side"]),
-             int(h["kind"]), int(h["id"]), int(h["cells"]), int(h["flow_x"]), int(h["flow_y"]))
+             int(h["kind"]), int(h["id"]), int(h["cells"]), int(h["flow_x"]), int(h["flow_y"]), int(h["age"]))
             for h in hyps]
 
 
 def _hyps_ref(hyps):
-    return [(h.box, h.side, h.kind, h.id, h.cells, round(h.flow[0] * 65536), round(h.flow[1] * 65536))
+    return [(h.box, h.side, h.kind, h.id, h.cells, round(h.flow[0] * 65536), round(h.flow[1] * 65536), h.age)
             for h in hyps]
 
 
 @settings(max_examples=60)
 @given(scene=scenes())
 def test_flow_vectors_and_blobs_exact(scene):
-    f0, f1, kw = scene
+    frames, kw = scene
     cfg = F.make_cfg(**kw)
     st_ = _native.flow_new()
-    ref = rflow.FlowOracle(_ns(cfg), int(_native.lib.VT_FLOW_MAX_HYPS), int(_native.lib.VT_FLOW_MAX_SEEDS))
-    ready, hyps, _ = _native.flow_step(st_, cfg, f0)
+    ref = rflow.FlowOracle(_ns(cfg), int(_native.lib.VT_FLOW_MAX_HYPS), int(_native.lib.VT_FLOW_MAX_SEEDS),
+                           int(_native.lib.VT_FLOW_MAX_BLOBS))
+    ready, hyps, _ = _native.flow_step(st_, cfg, frames[0])
     assert not ready and len(hyps) == 0          # first frame: a documented no-op
-    r_ready, r_hyps = ref.step(np.ascontiguousarray(f0))
+    r_ready, r_hyps = ref.step(np.ascontiguousarray(frames[0]))
     assert not r_ready and r_hyps == []
-    ready, hyps, stats = _native.flow_step(st_, cfg, f1)
-    r_ready, r_hyps = ref.step(np.ascontiguousarray(f1))
-    assert ready and r_ready
-    for side in (0, 1):
-        x0, y0, dx, dy, flag, sad = _native.flow_field(st_, side)
-        ar = ref.areas[side]
-        assert (dx.shape, x0, y0) == (ar.dx.shape, ar.x0, ar.y0) or ar.dx.size == dx.size == 0
-        np.testing.assert_array_equal(flag, ar.flag)
-        np.testing.assert_array_equal(dx, ar.dx)
-        np.testing.assert_array_equal(dy, ar.dy)
-        np.testing.assert_array_equal(sad, ar.sad)
-    assert stats["cells_accepted"] == sum(int(((a.flag & 2) > 0).sum()) for a in ref.areas)
-    assert stats["cells_computed"] == sum(int(((a.flag & 1) > 0).sum()) for a in ref.areas)
-    assert _hyps_c(hyps) == _hyps_ref(r_hyps)
+    for f in frames[1:]:
+        ready, hyps, stats = _native.flow_step(st_, cfg, f)
+        r_ready, r_hyps = ref.step(np.ascontiguousarray(f))
+        assert ready and r_ready
+        for side in (0, 1):
+            x0, y0, dx, dy, flag, sad = _native.flow_field(st_, side)
+            ar = ref.areas[side]
+            assert (dx.shape, x0, y0) == (ar.dx.shape, ar.x0, ar.y0) or ar.dx.size == dx.size == 0
+            np.testing.assert_array_equal(flag, ar.flag)
+            np.testing.assert_array_equal(dx, ar.dx)
+            np.testing.assert_array_equal(dy, ar.dy)
+            np.testing.assert_array_equal(sad, ar.sad)
+        assert stats["cells_accepted"] == sum(int(((a.flag & 2) > 0).sum()) for a in ref.areas)
+        assert stats["cells_computed"] == sum(int(((a.flag & 1) > 0).sum()) for a in ref.areas)
+        assert _hyps_c(hyps) == _hyps_ref(r_hyps)
 
 
 def _moving_scene(n, h=64, w=96, step=3, seed=0):
@@ -135,7 +137,8 @@ def test_handover_exact_and_follows_the_box():
     frames = _moving_scene(8)
     cfg = F.make_cfg(level=1, cell=4, search_x=4, search_y=2, seed_min_visible=10)
     st_ = _native.flow_new()
-    ref = rflow.FlowOracle(_ns(cfg), int(_native.lib.VT_FLOW_MAX_HYPS), int(_native.lib.VT_FLOW_MAX_SEEDS))
+    ref = rflow.FlowOracle(_ns(cfg), int(_native.lib.VT_FLOW_MAX_HYPS), int(_native.lib.VT_FLOW_MAX_SEEDS),
+                            int(_native.lib.VT_FLOW_MAX_BLOBS))
     _native.flow_step(st_, cfg, frames[0])
     ref.step(frames[0])
     tid = _native.flow_seed(st_, cfg, (2, 30, 21, 53))
@@ -158,16 +161,19 @@ def test_overtaking_detected_background_rejected():
     background alone is not (direction filter)."""
     frames = _moving_scene(4)
     det = F.OvertakingDetector(level=0, cell=4, search_x=5, search_y=2)
-    det.step(frames[0])
-    res = det.step(frames[1])
+    assert det.step(frames[0]).hyps == []
+    assert det.step(frames[1]).hyps == []       # age 1, 2: not yet (min_age 3)
+    assert det.step(frames[2]).hyps == []
+    res = det.step(frames[3])
     assert res.ready and len(res.hyps) >= 1
     h = res.hyps[0]
+    assert h.age == 3
     assert h.side == "left" and h.kind == "overtaking" and h.flow[0] > 0
     assert h.box[0] <= 8 and h.box[2] >= 12 and 24 <= h.box[1] <= 36
     # background only: no car
     rng = np.random.default_rng(3)
     bg = _texture(rng, 64, 120, 1)
-    det2 = F.OvertakingDetector(level=0, cell=4, search_x=5, search_y=2)
+    det2 = F.OvertakingDetector(level=0, cell=4, search_x=5, search_y=2, min_age=1)
     det2.step(bg[:, 0:96].copy())
     assert det2.step(bg[:, 2:98].copy()).hyps == []
 

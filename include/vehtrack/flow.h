@@ -66,12 +66,17 @@
 #ifndef VT_FLOW_MAX_HYPS
 #define VT_FLOW_MAX_HYPS 16
 #endif
+/* Blobs over the area threshold kept per lateral area and frame (for the
+ * persistence check). */
+#ifndef VT_FLOW_MAX_BLOBS
+#define VT_FLOW_MAX_BLOBS 32
+#endif
 /* Hand-over tracks (vehicles the ego car overtakes) followed at once. */
 #ifndef VT_FLOW_MAX_SEEDS
 #define VT_FLOW_MAX_SEEDS 4
 #endif
 #if VT_FLOW_MAX_PIXELS < 1 || VT_FLOW_MAX_CELLS < 1 || VT_FLOW_MAX_CELLS > 1048576 || \
-    VT_FLOW_MAX_HYPS < 1 || VT_FLOW_MAX_SEEDS < 1
+    VT_FLOW_MAX_HYPS < 1 || VT_FLOW_MAX_SEEDS < 1 || VT_FLOW_MAX_BLOBS < 1
 #error "flow capacities out of range (see vehtrack/flow.h)"
 #endif
 
@@ -109,15 +114,18 @@ typedef struct {
     int32_t min_texture;      /* mean |I(x+1) - I(x)| in a cell below this: no    */
                               /* search (dx is undefined on flat or horizontal-  */
                               /* edge cells: the aperture problem), 0..255        */
+    int32_t min_age;          /* frames in a row a blob must be seen (overlapping */
+                              /* the previous frame's blob) to be reported, >= 1  */
 } vt_flow_cfg;
 
 /* Defaults for a 640x480..1280x720 camera at level 1: 30 % strips over the
  * lower 60 % of the frame, 8x8 cells, +-6 x +-3 px search (+-12 x +-6 input px
  * per frame), a change of 12 grey levels in a quarter of a cell, inward motion of
  * at least 1 px at the level, blobs of 4 cells (16x16 level px), cells with a
- * mean horizontal difference of at least 3 grey levels. */
+ * mean horizontal difference of at least 3 grey levels, blobs seen in 3 frames
+ * in a row. */
 #define VT_FLOW_CFG_DEFAULT \
-    { 1, VT_FLOW_SIDE_LEFT, 30, 40, 100, 8, 6, 3, 12, 25, 1, 9, 24, 4, 25, 3 }
+    { 1, VT_FLOW_SIDE_LEFT, 30, 40, 100, 8, 6, 3, 12, 25, 1, 9, 24, 4, 25, 3, 3 }
 
 /* One hypothesis: box in input pixels (inclusive, as vt_box), the side it is on
  * (VT_FLOW_SIDE_LEFT/RIGHT; for a hand-over track the side its centre is on),
@@ -132,6 +140,7 @@ typedef struct {
     int32_t cells;
     vt_q16 flow_x;
     vt_q16 flow_y;
+    int32_t age;    /* frames in a row this blob (or hand-over track) was seen */
 } vt_flow_hyp;
 
 typedef struct {
@@ -153,6 +162,7 @@ typedef struct {
     vt_q16 top;
     int32_t width;
     int32_t height;
+    int32_t age;
 } vt_flow_seed_track;
 
 /* The state: two level images (ping-pong: prev_index says which holds the
@@ -177,6 +187,10 @@ typedef struct {
     int32_t parent[VT_FLOW_MAX_CELLS];
     int32_t count[VT_FLOW_MAX_CELLS];
     vt_flow_seed_track seeds[VT_FLOW_MAX_SEEDS];
+    /* The last frame's blobs per area (boxes, ages), side s at [s * VT_FLOW_MAX_BLOBS]. */
+    int32_t n_blobs[2];
+    vt_box blob_box[2 * VT_FLOW_MAX_BLOBS];
+    int32_t blob_age[2 * VT_FLOW_MAX_BLOBS];
 } vt_flow_state;
 
 /* Fill *cfg with VT_FLOW_CFG_DEFAULT. */
@@ -197,8 +211,11 @@ vt_status vt_flow_reset(vt_flow_state *st);
  * image exceeds VT_FLOW_MAX_PIXELS or a lateral area VT_FLOW_MAX_CELLS cells
  * (state untouched). A change of cfg.level between calls restarts from a first
  * frame. On error *out is zeroed (n = 0, ready = 0). Blobs over the area
- * threshold are reported in order of their first cell (left area first, then
- * raster order); those past VT_FLOW_MAX_HYPS are counted in out->dropped.
+ * threshold are kept in order of their first cell (left area first, then
+ * raster order; past VT_FLOW_MAX_BLOBS per area they are counted in
+ * out->dropped); each gets an age, 1 + the largest age of the previous frame's
+ * blobs on that side whose box it overlaps, and is reported once its age
+ * reaches cfg.min_age (past VT_FLOW_MAX_HYPS: counted in out->dropped).
  * Hand-over tracks follow the blobs. */
 vt_status vt_flow_step(vt_flow_state *st, const vt_flow_cfg *cfg, const vt_image_u8 *frame,
                        vt_flow_result *out);

@@ -3,6 +3,7 @@
 #define VT_FLOW_MAX_CELLS ...
 #define VT_FLOW_MAX_HYPS ...
 #define VT_FLOW_MAX_SEEDS ...
+#define VT_FLOW_MAX_BLOBS ...
 #define VT_FLOW_SIDE_LEFT ...
 #define VT_FLOW_SIDE_RIGHT ...
 #define VT_FLOW_SIDE_BOTH ...
@@ -29,6 +30,7 @@ typedef struct {
     int32_t min_blob_cells;
     int32_t seed_min_visible;
     int32_t min_texture;
+    int32_t min_age;
 } vt_flow_cfg;
 
 typedef struct {
@@ -39,6 +41,7 @@ typedef struct {
     int32_t cells;
     vt_q16 flow_x;
     vt_q16 flow_y;
+    int32_t age;
 } vt_flow_hyp;
 
 typedef struct {
@@ -58,6 +61,7 @@ typedef struct {
     vt_q16 top;
     int32_t width;
     int32_t height;
+    int32_t age;
 } vt_flow_seed_track;
 
 typedef struct {

@@ -34,6 +34,7 @@ class Hyp:
     id: int
     cells: int
     flow: tuple[float, float]       # mean motion, input px/frame
+    age: int = 1                    # frames in a row the blob (or hand-over track) was seen
 
 
 @dataclass
@@ -46,6 +47,7 @@ class Area:
     dy: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), np.int64))
     flag: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), np.uint8))
     sad: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), np.int64))
+    dropped: int = 0
 
 
 def level_image(frame: np.ndarray, level: int) -> np.ndarray:
@@ -91,8 +93,10 @@ def _q16_mean(total: int, count: int, level: int) -> float:
     return math.copysign(math.floor(abs(q) + 0.5), q) / 65536
 
 
-def area_flow(cfg, cur: np.ndarray, prev: np.ndarray, side: int, level: int, w: int, h: int):
-    """Vectors, flags and overtaking blobs of one lateral area."""
+def area_flow(cfg, cur: np.ndarray, prev: np.ndarray, side: int, level: int, w: int, h: int,
+              max_blobs: int = 32):
+    """Vectors, flags and the blobs over the area threshold of one lateral area (at most
+    max_blobs, in the order of their first cell; the rest are counted as dropped)."""
     lh, lw = cur.shape
     ar = lateral_area(cfg, lw, lh, side)
     n = cfg.cell
@@ -129,7 +133,9 @@ def area_flow(cfg, cur: np.ndarray, prev: np.ndarray, side: int, level: int, w: 
                 continue
             first = int(min(jj * ar.gw + ii))
             blobs.append((first, jj, ii))
-        for _, jj, ii in sorted(blobs, key=lambda b: b[0]):
+        blobs = sorted(blobs, key=lambda b: b[0])
+        ar.dropped = max(0, len(blobs) - max_blobs)
+        for _, jj, ii in blobs[:max_blobs]:
             sdx, sdy = int(ar.dx[jj, ii].sum()), int(ar.dy[jj, ii].sum())
             box = ((ar.x0 + ii.min() * n) << level, (ar.y0 + jj.min() * n) << level,
                    min(((ar.x0 + (ii.max() + 1) * n) << level) - 1, w - 1),
@@ -147,15 +153,21 @@ class Seed:
     top: float
     width: int
     height: int
+    age: int = 0
+
+
+def _overlap(a, b) -> bool:
+    return a[0] <= b[2] and b[0] <= a[2] and a[1] <= b[3] and b[1] <= a[3]
 
 
 class FlowOracle:
     """Per-frame overtaking detection with the state the C stage keeps: the
     previous level image and the hand-over tracks."""
 
-    def __init__(self, cfg, max_hyps: int = 16, max_seeds: int = 4):
+    def __init__(self, cfg, max_hyps: int = 16, max_seeds: int = 4, max_blobs: int = 32):
         self.cfg = cfg
-        self.max_hyps, self.max_seeds = max_hyps, max_seeds
+        self.max_hyps, self.max_seeds, self.max_blobs = max_hyps, max_seeds, max_blobs
+        self.blobs: list[list[Hyp]] = [[], []]      # the last frame's blobs per side
         self.prev = None
         self.size = None
         self.level = None
@@ -165,6 +177,7 @@ class FlowOracle:
 
     def reset(self):
         self.prev, self.size, self.seeds, self.areas = None, None, [], []
+        self.blobs = [[], []]
 
     def step(self, frame: np.ndarray):
         """(ready, hypotheses); a first frame only stores its level image."""
@@ -176,15 +189,21 @@ class FlowOracle:
         cur = level_image(frame, cfg.level)
         if self.prev is None or self.level != cfg.level:
             self.prev, self.size, self.level, self.seeds, self.areas = cur, (w, h), cfg.level, [], []
+            self.blobs = [[], []]
             return False, []
         hyps, self.areas = [], []
         for side in (0, 1):
             if cfg.sides & (1 << side):
-                ar, hs = area_flow(cfg, cur, self.prev, side, cfg.level, w, h)
+                ar, hs = area_flow(cfg, cur, self.prev, side, cfg.level, w, h, self.max_blobs)
             else:
                 ar, hs = Area(0, 0, 0, 0), []
             self.areas.append(ar)
-            hyps += hs
+            # persistence: 1 + the age of the previous frame's overlapping blobs on this side
+            for b in hs:
+                ages = [p.age for p in self.blobs[side] if _overlap(p.box, b.box)]
+                b.age = 1 + max(ages, default=0)
+            self.blobs[side] = hs
+            hyps += [b for b in hs if b.age >= cfg.min_age]
         hyps = hyps[: self.max_hyps]
         kept = []
         for sd in self.seeds:
@@ -208,7 +227,7 @@ class FlowOracle:
             raise ValueError("seed: all hand-over slots are in use")
         sid = self.next_id
         self.next_id += 1
-        self.seeds.append(Seed(sid, float(l), float(t), r - l + 1, b - t + 1))
+        self.seeds.append(Seed(sid, float(l), float(t), r - l + 1, b - t + 1, 0))
         return sid
 
     def _seed_step(self, sd: Seed, cur: np.ndarray, prev: np.ndarray):
@@ -241,4 +260,5 @@ class FlowOracle:
         box = (min(max(left, 0), w - 1), min(max(top, 0), h - 1),
                min(max(left + sd.width - 1, 0), w - 1), min(max(top + sd.height - 1, 0), h - 1))
         side = LEFT if box[0] + box[2] < w - 1 else RIGHT
-        return Hyp(box, side, KIND_HANDOVER, sd.id, len(vecs), (mx, my))
+        sd.age += 1
+        return Hyp(box, side, KIND_HANDOVER, sd.id, len(vecs), (mx, my), sd.age)
