@@ -35,7 +35,8 @@ vt_status vt_flow_cfg_check(const vt_flow_cfg *c)
         !vt__in(c->min_inward, 0, 64) || !vt__in(c->max_mag, 0, 128) ||
         !vt__in(c->max_sad_per_px, 0, 255) || !vt__in(c->min_blob_cells, 1, VT_FLOW_MAX_CELLS) ||
         !vt__in(c->seed_min_visible, 0, 100) || !vt__in(c->min_texture, 0, 255) ||
-        !vt__in(c->min_age, 1, 1000)) {
+        !vt__in(c->min_age, 1, 1000) ||
+        !vt__in(c->back_tol, -1, 32)) {
         return VT_E_ARG;
     }
     return VT_OK;
@@ -181,6 +182,22 @@ static int32_t vt__texture(const uint8_t *a, int32_t lw, int32_t x, int32_t y, i
     return s;
 }
 
+/* Forward-backward check: the previous frame's block the cell matched, searched
+ * back in the current frame, must land on the cell within back_tol px (a match
+ * in repetitive or changing texture, such as foliage, usually does not). */
+static int vt__consistent(const vt_flow_cfg *cfg, const uint8_t *cur, const uint8_t *prev,
+                          int32_t lw, int32_t lh, int32_t x, int32_t y, int32_t dx, int32_t dy)
+{
+    int32_t rdx = 0, rdy = 0;
+    uint32_t s = 0;
+    if (cfg->back_tol < 0) {
+        return 1;
+    }
+    vt__search(prev, cur, lw, lh, x - dx, y - dy, cfg->cell, cfg->search_x, cfg->search_y, &rdx,
+               &rdy, &s);
+    return vt__abs_i32(rdx + dx) <= cfg->back_tol && vt__abs_i32(rdy + dy) <= cfg->back_tol;
+}
+
 /* Union-find with path halving; roots are the smallest cell index of their set. */
 static int32_t vt__find(int32_t *parent, int32_t i)
 {
@@ -270,7 +287,8 @@ static void vt__area_flow(vt_flow_state *st, const vt_flow_cfg *cfg, int32_t sid
             mag = vt__abs_i32(dx) + vt__abs_i32(dy);
             /* Range rejects noise (too small) and mismatches (too large); direction
              * rejects the background, which flows outward as the ego car passes it. */
-            if (s <= max_sad && inward * dx >= cfg->min_inward && mag <= cfg->max_mag) {
+            if (s <= max_sad && inward * dx >= cfg->min_inward && mag <= cfg->max_mag &&
+                vt__consistent(cfg, cur, prev, lw, lh, x, y, dx, dy)) {
                 flag[c] |= VT_FLOW_CELL_ACCEPTED;
                 out->cells_accepted++;
                 if (i > 0 && (flag[c - 1] & VT_FLOW_CELL_ACCEPTED)) {

@@ -74,7 +74,8 @@ def scenes(draw):
         diff_thresh=draw(st.integers(0, 40)), diff_min_percent=draw(st.integers(0, 60)),
         min_inward=draw(st.integers(0, 2)), max_mag=draw(st.integers(0, 8)),
         max_sad_per_px=draw(st.integers(0, 80)), min_blob_cells=draw(st.integers(1, 4)),
-        min_texture=draw(st.sampled_from([0, 0, 1, 3, 8])), min_age=draw(st.integers(1, 3)))
+        min_texture=draw(st.sampled_from([0, 0, 1, 3, 8])), min_age=draw(st.integers(1, 3)),
+        back_tol=draw(st.integers(-1, 2)))
     return frames, cfg
 
 

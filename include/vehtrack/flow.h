@@ -6,11 +6,16 @@
  * top..bottom %) is cut into square cells of cfg.cell px; a cell's motion vector
  * is searched by the sum of absolute differences (SAD) against the previous level
  * image, but only where enough of the cell's pixels changed since the previous
- * frame (the paper's speed-up); the vectors are filtered by range (magnitude),
+ * frame (the paper's speed-up); cells without horizontal texture are skipped
+ * (dx is undefined there); the vectors are filtered by range (magnitude),
  * direction (an overtaking vehicle moves *inward*, against the outward flow of
- * the background it passes) and blob size (4-connected components of accepted
- * cells, two-pass union-find in a fixed table); a blob of at least
- * cfg.min_blob_cells cells becomes an overtaking hypothesis (box, side, mean flow).
+ * the background it passes), a forward-backward check and blob size
+ * (4-connected components of accepted cells, two-pass union-find in a fixed
+ * table); a blob of at least cfg.min_blob_cells cells that overlaps blobs of the
+ * previous cfg.min_age - 1 frames becomes an overtaking hypothesis (box, side,
+ * mean flow). The texture gate, the backward check and the persistence are not
+ * in the paper: they were added because foliage and the flat band under a car
+ * gave false overtakes (README: what each bought).
  *
  * Which side overtakes depends on the country (paper sec. 2): with right-hand
  * traffic (continental Europe, where the paper's vehicle drives; the Americas)
@@ -40,8 +45,9 @@
  * bytes (vectors, labels): 1.8 MB at the defaults (1920x1080, level >= 1);
  * a firmware build sets VT_MAX_WIDTH/HEIGHT (or VT_FLOW_MAX_PIXELS) to its
  * camera. Work: the pyramid (13 instructions per input pixel per level), then
- * per computed cell cell^2 * (2 sx + 1) * (2 sy + 1) absolute differences, per
- * lateral cell cell^2 for the change gate; the union-find is linear in cells.
+ * per computed cell cell^2 * (2 sx + 1) * (2 sy + 1) absolute differences (twice
+ * for the cells the backward check runs on), per lateral cell 2 cell^2 for the
+ * change and texture gates; the union-find is linear in cells.
  * Stack: < 4 KB (vt_pyr_down's row). */
 #ifndef VEHTRACK_FLOW_H
 #define VEHTRACK_FLOW_H
@@ -116,6 +122,8 @@ typedef struct {
                               /* edge cells: the aperture problem), 0..255        */
     int32_t min_age;          /* frames in a row a blob must be seen (overlapping */
                               /* the previous frame's blob) to be reported, >= 1  */
+    int32_t back_tol;         /* forward-backward check: the matched block, searched */
+                              /* back, must return within this many px; -1 off     */
 } vt_flow_cfg;
 
 /* Defaults for a 640x480..1280x720 camera at level 1: 30 % strips over the
@@ -123,9 +131,9 @@ typedef struct {
  * per frame), a change of 12 grey levels in a quarter of a cell, inward motion of
  * at least 1 px at the level, blobs of 4 cells (16x16 level px), cells with a
  * mean horizontal difference of at least 3 grey levels, blobs seen in 3 frames
- * in a row. */
+ * in a row, vectors that the backward search confirms within 1 px. */
 #define VT_FLOW_CFG_DEFAULT \
-    { 1, VT_FLOW_SIDE_LEFT, 30, 40, 100, 8, 6, 3, 12, 25, 1, 9, 24, 4, 25, 3, 3 }
+    { 1, VT_FLOW_SIDE_LEFT, 30, 40, 100, 8, 6, 3, 12, 25, 1, 9, 24, 4, 25, 3, 3, 1 }
 
 /* One hypothesis: box in input pixels (inclusive, as vt_box), the side it is on
  * (VT_FLOW_SIDE_LEFT/RIGHT; for a hand-over track the side its centre is on),

@@ -31,6 +31,7 @@ typedef struct {
     int32_t seed_min_visible;
     int32_t min_texture;
     int32_t min_age;
+    int32_t back_tol;
 } vt_flow_cfg;
 
 typedef struct {

@@ -86,6 +86,15 @@ def best_match(cur: np.ndarray, prev: np.ndarray, x: int, y: int, n: int, sx: in
     return best[1], best[2], best[0]
 
 
+def consistent(cfg, cur, prev, x, y, dx, dy) -> bool:
+    """Forward-backward check: the matched block of `prev`, searched back in `cur`, returns to
+    the cell within back_tol px (-1: no check)."""
+    if cfg.back_tol < 0:
+        return True
+    rdx, rdy, _ = best_match(prev, cur, x - dx, y - dy, cfg.cell, cfg.search_x, cfg.search_y)
+    return abs(rdx + dx) <= cfg.back_tol and abs(rdy + dy) <= cfg.back_tol
+
+
 def _q16_mean(total: int, count: int, level: int) -> float:
     """Mean in input px, quantised as the C result is (Q16, half away from zero);
     the quotient is exact enough in float64 (see tests/test_flow.py)."""
@@ -120,7 +129,7 @@ def area_flow(cfg, cur: np.ndarray, prev: np.ndarray, side: int, level: int, w: 
             ar.dx[j, i], ar.dy[j, i], ar.sad[j, i] = dx, dy, s
             ar.flag[j, i] = COMPUTED
             if (s <= cfg.max_sad_per_px * n * n and inward * dx >= cfg.min_inward
-                    and abs(dx) + abs(dy) <= cfg.max_mag):
+                    and abs(dx) + abs(dy) <= cfg.max_mag and consistent(cfg, cur, prev, x, y, dx, dy)):
                 ar.flag[j, i] |= ACCEPTED
     acc = ((ar.flag & ACCEPTED) > 0).astype(np.uint8)
     hyps = []
