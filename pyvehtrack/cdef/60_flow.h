@@ -78,6 +78,7 @@ typedef struct {
     uint8_t flag[...];
     uint32_t sad[...];
     vt_flow_seed_track seeds[...];
+    int32_t n_blobs[2];
     ...;
 } vt_flow_state;
 
