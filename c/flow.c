@@ -255,7 +255,7 @@ static void vt__area_flow(vt_flow_state *st, const vt_flow_cfg *cfg, int32_t sid
     int32_t *parent = st->parent;
     int32_t *count = st->count;
     int32_t nb = 0;
-    int32_t sum_dx[VT_FLOW_MAX_BLOBS], sum_dy[VT_FLOW_MAX_BLOBS];
+    int32_t sum_dx[VT_FLOW_MAX_BLOBS], sum_dy[VT_FLOW_MAX_BLOBS], sum_j[VT_FLOW_MAX_BLOBS];
     vt_flow_hyp blob[VT_FLOW_MAX_BLOBS];
     int32_t i, j, k;
 
@@ -327,7 +327,7 @@ static void vt__area_flow(vt_flow_state *st, const vt_flow_cfg *cfg, int32_t sid
             hp->kind = VT_FLOW_KIND_OVERTAKING;
             hp->id = 0;
             hp->cells = 0;
-            sum_dx[nb] = sum_dy[nb] = 0;
+            sum_dx[nb] = sum_dy[nb] = sum_j[nb] = 0;
             nb++;
             count[k] = -nb;
         }
@@ -354,6 +354,7 @@ static void vt__area_flow(vt_flow_state *st, const vt_flow_cfg *cfg, int32_t sid
         hp->cells++;
         sum_dx[slot] += vdx[k];
         sum_dy[slot] += vdy[k];
+        sum_j[slot] += j;
     }
     for (k = 0; k < nb; k++) {
         vt_flow_hyp *hp = &blob[k];
@@ -365,6 +366,8 @@ static void vt__area_flow(vt_flow_state *st, const vt_flow_cfg *cfg, int32_t sid
         hp->box.bottom = vt__clamp_i32(((y0 + (hp->box.bottom + 1) * n) << lv) - 1, 0, st->h - 1);
         hp->flow_x = vt__mean_q16(sum_dx[k], hp->cells, lv);
         hp->flow_y = vt__mean_q16(sum_dy[k], hp->cells, lv);
+        /* Row of the blob's centre of gravity (cell centres), truncated. */
+        hp->cy = (y0 + n * (2 * sum_j[k] + hp->cells) / (2 * hp->cells)) << lv;
         /* Persistence: a vehicle's blob overlaps one of the previous frame's;
          * texture that matches by chance (foliage, glare) rarely does twice. */
         for (q = 0; q < st->n_blobs[side]; q++) {
@@ -447,6 +450,7 @@ static int vt__seed_step(vt_flow_state *st, const vt_flow_cfg *cfg, vt_flow_seed
     hp->side = 2 * (hp->box.left + hp->box.right) < 2 * (st->w - 1) ? VT_FLOW_SIDE_LEFT
                                                                     : VT_FLOW_SIDE_RIGHT;
     hp->kind = VT_FLOW_KIND_HANDOVER;
+    hp->cy = (hp->box.top + hp->box.bottom) / 2;
     hp->id = sd->id;
     hp->age = ++sd->age;
     hp->cells = cnt;

@@ -438,7 +438,7 @@ def lane_line_x(line, y_q16: int) -> int:
 FLOW_HYP_DTYPE = np.dtype([("left", np.int32), ("top", np.int32), ("right", np.int32),
                            ("bottom", np.int32), ("side", np.int32), ("kind", np.int32),
                            ("id", np.int32), ("cells", np.int32), ("flow_x", np.int32),
-                           ("flow_y", np.int32), ("age", np.int32)])
+                           ("flow_y", np.int32), ("age", np.int32), ("cy", np.int32)])
 
 
 def flow_cfg_default():
@@ -478,7 +478,7 @@ def flow_step(st, cfg, img: np.ndarray):
     for k in range(n):
         hp = out.hyp[k]
         hyps[k] = (hp.box.left, hp.box.top, hp.box.right, hp.box.bottom, hp.side, hp.kind,
-                   hp.id, hp.cells, hp.flow_x, hp.flow_y, hp.age)
+                   hp.id, hp.cells, hp.flow_x, hp.flow_y, hp.age, hp.cy)
     stats = {"dropped": int(out.dropped), "cells_total": int(out.cells_total),
              "cells_computed": int(out.cells_computed), "cells_accepted": int(out.cells_accepted)}
     return bool(out.ready), hyps, stats
@@ -608,6 +608,19 @@ def model_fit(img: np.ndarray, cfg, search, ws) -> dict:
           f"rows {search.y_min}..{search.y_max}, tracking {search.tracking}")
     return {"best": _p_tuple(out.best), "fitness": int(out.fitness), "evaluations": int(out.evaluations),
             "box": (int(out.box.left), int(out.box.top), int(out.box.right), int(out.box.bottom))}
+
+
+def model_search_from_flow(hyp) -> "ffi.CData":
+    """vt_model_search_from_flow on a FLOW_HYP_DTYPE record (or any object with box fields
+    left/top/right/bottom and cy)."""
+    h = ffi.new("vt_flow_hyp *")
+    for k in ("left", "top", "right", "bottom"):
+        setattr(h.box, k, int(hyp[k]))
+    h.cy = int(hyp["cy"])
+    s = ffi.new("vt_model_search *")
+    check("vt_model_search_from_flow", lib.vt_model_search_from_flow(h, s),
+          f"box {[int(hyp[k]) for k in ('left', 'top', 'right', 'bottom')]}")
+    return s
 
 
 def model_population(ws) -> tuple[list, list]:

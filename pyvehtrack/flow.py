@@ -35,6 +35,7 @@ class FlowHyp:
     cells: int          # blob size in cells (hand-over: matched cells)
     flow: tuple         # mean motion (dx, dy), input px/frame
     age: int            # frames in a row it was seen (reported from cfg.min_age on)
+    cy: int             # row of its centre of gravity, input px (the model's upper y bound)
 
 
 @dataclass(frozen=True)
@@ -104,12 +105,13 @@ class OvertakingDetector:
             ready, hyps, _ = _native.flow_step(self._st, self.cfg, g)
             out = [FlowHyp((int(h["left"]), int(h["top"]), int(h["right"]), int(h["bottom"])),
                            SIDE_NAMES[int(h["side"])], KIND_NAMES[int(h["kind"])], int(h["id"]),
-                           int(h["cells"]), (h["flow_x"] / 65536.0, h["flow_y"] / 65536.0), int(h["age"]))
+                           int(h["cells"]), (h["flow_x"] / 65536.0, h["flow_y"] / 65536.0), int(h["age"]),
+                           int(h["cy"]))
                    for h in hyps]
             return FlowResult(ready, out)
         ready, hyps = self._ref.step(g)
         return FlowResult(ready, [FlowHyp(h.box, SIDE_NAMES[h.side], KIND_NAMES[h.kind], h.id,
-                                          h.cells, h.flow, h.age) for h in hyps])
+                                          h.cells, h.flow, h.age, h.cy) for h in hyps])
 
     def seed(self, box) -> int:
         """Hand a vehicle over (box in the last frame's pixels); returns its id."""

@@ -104,3 +104,11 @@ class VehicleModel:
             return ModelFit(r["best"], r["box"], r["fitness"], r["evaluations"])
         r = rvm.fit(frame, oracle_cfg(self.cfg), oracle_search(roi, y_min, y_max, prediction, sigma))
         return ModelFit(tuple(r.best), r.box, r.fitness, r.evaluations)
+
+    def fit_flow(self, frame: np.ndarray, hyp) -> ModelFit:
+        """Detect the vehicle behind an overtaking hypothesis (pyvehtrack.flow.FlowHyp): the ROI and
+        the bottom-row range come from its box and centre of gravity (vt_model_search_from_flow)."""
+        l, t, r, b = (int(v) for v in hyp.box)
+        s = _native.model_search_from_flow({"left": l, "top": t, "right": r, "bottom": b, "cy": int(hyp.cy)})
+        roi = (s.roi.left, s.roi.top, s.roi.right, s.roi.bottom)
+        return self.fit(frame, roi, y_range=(s.y_min, s.y_max))

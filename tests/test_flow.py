@@ -81,12 +81,13 @@ def scenes(draw):
 
 def _hyps_c(hyps):
     return [((int(h["left"]), int(h["top"]), int(h["right"]), int(h["bottom"])), int(h["side"]),
-             int(h["kind"]), int(h["id"]), int(h["cells"]), int(h["flow_x"]), int(h["flow_y"]), int(h["age"]))
+             int(h["kind"]), int(h["id"]), int(h["cells"]), int(h["flow_x"]), int(h["flow_y"]), int(h["age"]),
+             int(h["cy"]))
             for h in hyps]
 
 
 def _hyps_ref(hyps):
-    return [(h.box, h.side, h.kind, h.id, h.cells, round(h.flow[0] * 65536), round(h.flow[1] * 65536), h.age)
+    return [(h.box, h.side, h.kind, h.id, h.cells, round(h.flow[0] * 65536), round(h.flow[1] * 65536), h.age, h.cy)
             for h in hyps]
 
 

@@ -260,3 +260,13 @@ def test_expected_width_and_road():
     ocfg = V.oracle_cfg(cfg)
     for y in (-5, 80, 81, 150, 333, 10**6):
         assert rvm.expected_width(ocfg, y) == _native.model_expected_width(cfg, y)
+
+
+def test_search_from_flow():
+    hyp = {"left": 10, "top": 100, "right": 49, "bottom": 139, "cy": 120}
+    s = _native.model_search_from_flow(hyp)
+    assert (s.roi.left, s.roi.top, s.roi.right, s.roi.bottom) == (-10, 80, 69, 149)
+    assert (s.y_min, s.y_max, s.tracking) == (120, 139, 0)
+    with pytest.raises(VtError, match="vt_model_search_from_flow"):
+        _native.model_search_from_flow({"left": 50, "top": 100, "right": 49, "bottom": 139, "cy": 120})
+    assert _native.lib.vt_model_search_from_flow(_native.ffi.NULL, s) == _native.lib.VT_E_ARG

@@ -149,6 +149,9 @@ typedef struct {
     vt_q16 flow_x;
     vt_q16 flow_y;
     int32_t age;    /* frames in a row this blob (or hand-over track) was seen */
+    int32_t cy;     /* row of its centre of gravity, input px: level row
+                       y0 + cell (2 sum(j) + cells) / (2 cells), times 2^level
+                       (hand-over: the box's middle row)                     */
 } vt_flow_hyp;
 
 typedef struct {

@@ -60,6 +60,7 @@
 #include "vehtrack/image.h"
 #include "vehtrack/status.h"
 #include "vehtrack/verify.h"
+#include "vehtrack/flow.h"
 
 /* Largest search ROI (input pixels, width x height). */
 #ifndef VT_MODEL_MAX_ROI_PIXELS
@@ -195,5 +196,13 @@ vt_status vt_model_fitness(const vt_image_u8 *frame, const vt_model_cfg *cfg,
  * generation and ws->fit the same way its fitnesses. */
 vt_status vt_model_fit(const vt_image_u8 *frame, const vt_model_cfg *cfg,
                        const vt_model_search *search, vt_model_ws *ws, vt_model_result *out);
+
+/* A detection search from a flow hypothesis (paper sec. 6: the overtaking
+ * module's blob limits the model's y between the blob's lowest row and its
+ * centre of gravity): y_min = h->cy, y_max = h->box.bottom, ROI = the blob's
+ * box widened by half its width on each side, half its height above and a
+ * quarter below (vt_model_fit clips it to the frame). VT_E_ARG for NULLs or an
+ * empty box. */
+vt_status vt_model_search_from_flow(const vt_flow_hyp *h, vt_model_search *search);
 
 #endif /* VEHTRACK_VEHICLE_MODEL_H */

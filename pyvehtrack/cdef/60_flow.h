@@ -43,6 +43,7 @@ typedef struct {
     vt_q16 flow_x;
     vt_q16 flow_y;
     int32_t age;
+    int32_t cy;
 } vt_flow_hyp;
 
 typedef struct {

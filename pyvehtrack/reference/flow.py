@@ -35,6 +35,7 @@ class Hyp:
     cells: int
     flow: tuple[float, float]       # mean motion, input px/frame
     age: int = 1                    # frames in a row the blob (or hand-over track) was seen
+    cy: int = 0                     # row of the centre of gravity of its cells (input px)
 
 
 @dataclass
@@ -149,9 +150,10 @@ def area_flow(cfg, cur: np.ndarray, prev: np.ndarray, side: int, level: int, w: 
             box = ((ar.x0 + ii.min() * n) << level, (ar.y0 + jj.min() * n) << level,
                    min(((ar.x0 + (ii.max() + 1) * n) << level) - 1, w - 1),
                    min(((ar.y0 + (jj.max() + 1) * n) << level) - 1, h - 1))
+            cy = (ar.y0 + n * (2 * int(jj.sum()) + len(jj)) // (2 * len(jj))) << level
             hyps.append(Hyp(tuple(int(v) for v in box), LEFT if side == 0 else RIGHT,
                             KIND_OVERTAKING, 0, len(jj),
-                            (_q16_mean(sdx, len(jj), level), _q16_mean(sdy, len(jj), level))))
+                            (_q16_mean(sdx, len(jj), level), _q16_mean(sdy, len(jj), level)), 1, cy))
     return ar, hyps
 
 
@@ -270,4 +272,4 @@ class FlowOracle:
                min(max(left + sd.width - 1, 0), w - 1), min(max(top + sd.height - 1, 0), h - 1))
         side = LEFT if box[0] + box[2] < w - 1 else RIGHT
         sd.age += 1
-        return Hyp(box, side, KIND_HANDOVER, sd.id, len(vecs), (mx, my), sd.age)
+        return Hyp(box, side, KIND_HANDOVER, sd.id, len(vecs), (mx, my), sd.age, (box[1] + box[3]) // 2)
