@@ -445,24 +445,27 @@ vt_status vt_model_fitness(const vt_image_u8 *frame, const vt_model_cfg *cfg,
     return VT_OK;
 }
 
-vt_status vt_model_search_from_flow(const vt_flow_hyp *h, vt_model_search *search)
+vt_status vt_model_search_from_flow(const vt_model_cfg *cfg, const vt_flow_hyp *h,
+                                    vt_model_search *search)
 {
     const int32_t lim = 4 * (VT_MAX_WIDTH > VT_MAX_HEIGHT ? VT_MAX_WIDTH : VT_MAX_HEIGHT);
-    int32_t bw, bh;
-    if (h == NULL || search == NULL || h->box.left > h->box.right || h->box.top > h->box.bottom ||
+    int32_t W;
+    if (search != NULL) {
+        memset(search, 0, sizeof *search);
+    }
+    if (h == NULL || search == NULL || vt_model_cfg_check(cfg) != VT_OK ||
+        h->box.left > h->box.right || h->box.top > h->box.bottom ||
         !vt__in(h->box.left, -lim, lim) || !vt__in(h->box.right, -lim, lim) ||
         !vt__in(h->box.top, -lim, lim) || !vt__in(h->box.bottom, -lim, lim)) {
         return VT_E_ARG;
     }
-    memset(search, 0, sizeof *search);
-    bw = h->box.right - h->box.left + 1;
-    bh = h->box.bottom - h->box.top + 1;
-    search->roi.left = h->box.left - bw / 2;
-    search->roi.right = h->box.right + bw / 2;
-    search->roi.top = h->box.top - bh / 2;
-    search->roi.bottom = h->box.bottom + bh / 4;
+    W = vt__max_i32(vt__expected_width(cfg, h->box.bottom), h->box.right - h->box.left + 1);
+    search->roi.left = h->box.left - W;
+    search->roi.right = h->box.right + W;
+    search->roi.top = h->box.bottom - W * cfg->aspect_max_percent / 100 - W / 4;
+    search->roi.bottom = h->box.bottom + W / 4;
     search->y_min = vt__clamp_i32(h->cy, h->box.top, h->box.bottom);
-    search->y_max = h->box.bottom;
+    search->y_max = h->box.bottom + W / 8;
     return VT_OK;
 }
 

@@ -610,7 +610,7 @@ def model_fit(img: np.ndarray, cfg, search, ws) -> dict:
             "box": (int(out.box.left), int(out.box.top), int(out.box.right), int(out.box.bottom))}
 
 
-def model_search_from_flow(hyp) -> "ffi.CData":
+def model_search_from_flow(cfg, hyp) -> "ffi.CData":
     """vt_model_search_from_flow on a FLOW_HYP_DTYPE record (or any object with box fields
     left/top/right/bottom and cy)."""
     h = ffi.new("vt_flow_hyp *")
@@ -618,7 +618,7 @@ def model_search_from_flow(hyp) -> "ffi.CData":
         setattr(h.box, k, int(hyp[k]))
     h.cy = int(hyp["cy"])
     s = ffi.new("vt_model_search *")
-    check("vt_model_search_from_flow", lib.vt_model_search_from_flow(h, s),
+    check("vt_model_search_from_flow", lib.vt_model_search_from_flow(cfg, h, s),
           f"box {[int(hyp[k]) for k in ('left', 'top', 'right', 'bottom')]}")
     return s
 

@@ -109,6 +109,6 @@ class VehicleModel:
         """Detect the vehicle behind an overtaking hypothesis (pyvehtrack.flow.FlowHyp): the ROI and
         the bottom-row range come from its box and centre of gravity (vt_model_search_from_flow)."""
         l, t, r, b = (int(v) for v in hyp.box)
-        s = _native.model_search_from_flow({"left": l, "top": t, "right": r, "bottom": b, "cy": int(hyp.cy)})
+        s = _native.model_search_from_flow(self.cfg, {"left": l, "top": t, "right": r, "bottom": b, "cy": int(hyp.cy)})
         roi = (s.roi.left, s.roi.top, s.roi.right, s.roi.bottom)
         return self.fit(frame, roi, y_range=(s.y_min, s.y_max))

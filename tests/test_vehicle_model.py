@@ -263,10 +263,14 @@ def test_expected_width_and_road():
 
 
 def test_search_from_flow():
+    cfg = V.make_cfg(road=(100, 20, 300, 220))      # horizon row 80, 1 px of width per row
     hyp = {"left": 10, "top": 100, "right": 49, "bottom": 139, "cy": 120}
-    s = _native.model_search_from_flow(hyp)
-    assert (s.roi.left, s.roi.top, s.roi.right, s.roi.bottom) == (-10, 80, 69, 149)
-    assert (s.y_min, s.y_max, s.tracking) == (120, 139, 0)
+    s = _native.model_search_from_flow(cfg, hyp)
+    W = 139 - 80                                     # expected width at the blob's lowest row
+    assert (s.roi.left, s.roi.right) == (10 - W, 49 + W)
+    assert (s.roi.top, s.roi.bottom) == (139 - W * int(cfg.aspect_max_percent) // 100 - W // 4, 139 + W // 4)
+    assert (s.y_min, s.y_max, s.tracking) == (120, 139 + W // 8, 0)
     with pytest.raises(VtError, match="vt_model_search_from_flow"):
-        _native.model_search_from_flow({"left": 50, "top": 100, "right": 49, "bottom": 139, "cy": 120})
-    assert _native.lib.vt_model_search_from_flow(_native.ffi.NULL, s) == _native.lib.VT_E_ARG
+        _native.model_search_from_flow(cfg, {"left": 50, "top": 100, "right": 49, "bottom": 139, "cy": 120})
+    assert _native.lib.vt_model_search_from_flow(cfg, _native.ffi.NULL, s) == _native.lib.VT_E_ARG
+    assert _native.lib.vt_model_search_from_flow(_native.ffi.NULL, _native.ffi.NULL, s) == _native.lib.VT_E_ARG

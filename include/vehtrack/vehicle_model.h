@@ -199,10 +199,15 @@ vt_status vt_model_fit(const vt_image_u8 *frame, const vt_model_cfg *cfg,
 
 /* A detection search from a flow hypothesis (paper sec. 6: the overtaking
  * module's blob limits the model's y between the blob's lowest row and its
- * centre of gravity): y_min = h->cy, y_max = h->box.bottom, ROI = the blob's
- * box widened by half its width on each side, half its height above and a
- * quarter below (vt_model_fit clips it to the frame). VT_E_ARG for NULLs or an
+ * centre of gravity). The blob covers only the moving, textured part of the
+ * vehicle, so the ROI is sized by the road instead: with W the expected width at
+ * the blob's lowest row (at least the blob's width), columns from left - W to
+ * right + W, rows from bottom - W * aspect_max_percent / 100 - W / 4 to
+ * bottom + W / 4; y_min = h->cy, y_max = bottom + W / 8 (the flat band under the
+ * car gives no vectors, so the true bottom can lie a little below the blob).
+ * vt_model_fit clips the ROI to the frame. VT_E_ARG for NULLs, a bad cfg or an
  * empty box. */
-vt_status vt_model_search_from_flow(const vt_flow_hyp *h, vt_model_search *search);
+vt_status vt_model_search_from_flow(const vt_model_cfg *cfg, const vt_flow_hyp *h,
+                                    vt_model_search *search);
 
 #endif /* VEHTRACK_VEHICLE_MODEL_H */

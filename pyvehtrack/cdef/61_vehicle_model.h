@@ -74,4 +74,5 @@ vt_status vt_model_fitness(const vt_image_u8 *frame, const vt_model_cfg *cfg,
                            const vt_model_params *p, int32_t *fitness);
 vt_status vt_model_fit(const vt_image_u8 *frame, const vt_model_cfg *cfg,
                        const vt_model_search *search, vt_model_ws *ws, vt_model_result *out);
-vt_status vt_model_search_from_flow(const vt_flow_hyp *h, vt_model_search *search);
+vt_status vt_model_search_from_flow(const vt_model_cfg *cfg, const vt_flow_hyp *h,
+                                    vt_model_search *search);
