@@ -48,9 +48,11 @@
  * (VT_MODEL_SAMPLES = 8: < 300 reads); with Table 1, 5,632 evaluations detecting and
  * 1,472 tracking. Per level: Sobel x/y and a two-pass distance transform of the ROI
  * at that level (about 25 operations per ROI pixel, summed over levels < 1.34 x the
- * ROI). Memory: sizeof(vt_model_ws) = 6.6 * VT_MODEL_MAX_ROI_PIXELS bytes (two
- * pyramid levels, gradients, distances) + the populations: 520 KB at the default
- * 320x240 ROI. Stack: < 1 KB plus vt_pyr_down's row. */
+ * ROI). Memory: sizeof(vt_model_ws) = 5.3 * VT_MODEL_MAX_ROI_PIXELS bytes (two
+ * pyramid levels, gradients, distances) + the populations: 416,760 bytes at the
+ * default 320x240 ROI. Stack: < 1 KB plus vt_pyr_down's row. Measured (`make
+ * bench`, a 173x99 ROI in a 640x480 frame): detection 42.2 M instructions (5,588
+ * evaluations, ~6.4 k each), tracking 8.8 M (882 evaluations). */
 #ifndef VEHTRACK_VEHICLE_MODEL_H
 #define VEHTRACK_VEHICLE_MODEL_H
 
