@@ -496,6 +496,108 @@ def _track_frame(ctx: Ctx) -> Stage:
                  note="2 tracks; oracle copies its tracker each run")
 
 
+# ---------------------------------------------------------------- motion (issue 9)
+FLOW_SHIFT = 4   # px: the previous frame is the bench frame moved 4 px left (content moves right)
+
+
+def _flow_prev(img: np.ndarray) -> np.ndarray:
+    """prev[y, x] = img[y, min(x + 4, w - 1)], as bench/callgrind_main.c builds it."""
+    w = img.shape[1]
+    return np.ascontiguousarray(img[:, np.minimum(np.arange(w) + FLOW_SHIFT, w - 1)])
+
+
+@register("flow")
+def _flow(ctx: Ctx) -> Stage:
+    """One flow frame (vt_flow_step) on both lateral areas: the state holds the previous frame
+    (restored each run by resetting two ints), the frame's whole content moved 4 px inward on the
+    left, so every textured left cell is searched, checked backward and blobbed (the worst case)."""
+    from types import SimpleNamespace
+
+    from pyvehtrack import _native
+    from pyvehtrack.flow import CFG_FIELDS, make_cfg
+    from pyvehtrack.reference import flow as rflow
+    img = ctx.frame
+    prev = _flow_prev(img)
+    cfg = make_cfg(sides="both")
+    st = _native.flow_new()
+    _native.flow_step(st, cfg, prev)
+    pi = int(st.prev_index)
+    ns = SimpleNamespace(**{f: int(getattr(cfg, f)) for f in CFG_FIELDS})
+    last = {}
+
+    def c():
+        st.prev_index = pi
+        st.n_blobs[0] = st.n_blobs[1] = 0
+        last["hyps"] = _native.flow_step(st, cfg, img)[1]
+
+    def reference():
+        o = rflow.FlowOracle(ns)
+        o.step(prev)
+        return o.step(img)
+
+    def dig():
+        hy = last["hyps"]
+        return digest(np.stack([hy["left"], hy["top"], hy["right"], hy["bottom"], hy["cells"]], 1)) if len(hy) else 0
+
+    return Stage("flow", c, reference, pixels=img.size, digest=dig, calls=1,
+                 note="both lateral areas, level 1, worst case (all left cells move)")
+
+
+def _model_setup(ctx: Ctx):
+    """The left car of the bench frame: ROI around it, road through its bottom (86 px wide at row
+    328 of 640x480, horizon near row 240), scaled to the frame as the tracker bench does."""
+    from pyvehtrack import _native
+    from pyvehtrack.vehicle_model import make_cfg
+    h, w = ctx.frame.shape
+    car = (370 * w // 640, 270 * h // 480, 456 * w // 640, 328 * h // 480)
+    cw, ch = car[2] - car[0] + 1, car[3] - car[1] + 1
+    roi = (car[0] - cw // 2, car[1] - (4 * ch) // 10, car[2] + cw // 2, car[3] + (3 * ch) // 10)
+    cfg = make_cfg(road=(288 * h // 480, 47 * w // 640, 328 * h // 480, 86 * w // 640))
+    if w < 160:  # the quick bench's tiny frame: a small GA, so the oracle takes well under a second
+        for m, (pops, gens) in enumerate((((16, 8, 8), (4, 1, 1)), ((8, 8, 8), (2, 1, 1)))):
+            for lv in range(3):
+                cfg.pop[m][lv], cfg.gens[m][lv] = pops[lv], gens[lv]
+    pred = ((car[0] + car[2] + 1) // 2, car[3], cw, ch, 40, 20, 10)
+    return _native, cfg, roi, pred
+
+
+def _model_stage(ctx: Ctx, name: str, tracking: bool) -> Stage:
+    from pyvehtrack.vehicle_model import oracle_cfg, oracle_search
+    from pyvehtrack.reference import vehicle_model as rvm
+    nat, cfg, roi, pred = _model_setup(ctx)
+    img = ctx.frame
+    sigma = (3, 3, 3, 3, 8, 8, 5)
+    s = nat.model_search(roi, roi[1], roi[3], tracking, pred if tracking else None, sigma if tracking else None)
+    ws = nat.model_ws_new()
+    ocfg = oracle_cfg(cfg)
+    osr = oracle_search(roi, roi[1], roi[3], pred if tracking else None, sigma if tracking else None)
+    last = {}
+
+    def c():
+        last["r"] = nat.model_fit(img, cfg, s, ws)
+
+    def dig():
+        r = last["r"]
+        return digest(np.array(list(r["best"]) + [r["fitness"], r["evaluations"]], np.int64))
+
+    mode = 1 if tracking else 0
+    evals = sum(int(cfg.pop[mode][l]) * (int(cfg.gens[mode][l]) + 1) for l in range(int(cfg.levels)))
+    return Stage(name, c, lambda: rvm.fit(img, ocfg, osr), pixels=img.size, digest=dig, calls=1,
+                 note=f"GA {'tracking' if tracking else 'detection'}, "
+                      f"{'Table 1' if img.shape[1] >= 160 else 'small GA (quick frame)'}, ROI "
+                      f"{roi[2] - roi[0] + 1}x{roi[3] - roi[1] + 1}, <= {evals} evaluations (pop x (gens + 1))")
+
+
+@register("model_detect")
+def _model_detect(ctx: Ctx) -> Stage:
+    return _model_stage(ctx, "model_detect", False)
+
+
+@register("model_track")
+def _model_track(ctx: Ctx) -> Stage:
+    return _model_stage(ctx, "model_track", True)
+
+
 # ---------------------------------------------------------------- frames
 def load_frame(w: int, h: int, quick: bool) -> tuple[np.ndarray, str]:
     """The gray bench frame of size w x h (quick: an eighth of each side, at least

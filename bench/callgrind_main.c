@@ -477,6 +477,145 @@ static uint32_t bench_digest_track_frame(const bench_ctx *ctx)
     return digest_u32(v, 5u * (size_t)g_track_n);
 }
 
+/* ---- motion (issue 9): one flow frame on both lateral areas, the previous frame
+ * being the bench frame moved 4 px left (prev[y][x] = frame[y][min(x + 4, w - 1)]);
+ * the state is restored each run by resetting prev_index and the blob lists, as
+ * bench.py does. */
+static vt_flow_state g_flow;
+static vt_flow_cfg g_flow_cfg;
+static vt_flow_result g_flow_out;
+static int32_t g_flow_prev_index;
+static uint8_t g_flow_prev[VT_MAX_WIDTH * VT_MAX_HEIGHT];
+
+static void bench_setup_flow(bench_ctx *ctx)
+{
+    vt_image_u8 pv;
+    vt_flow_result tmp;
+    int32_t x, y, w = ctx->frame.w;
+    for (y = 0; y < ctx->frame.h; ++y) {
+        for (x = 0; x < w; ++x) {
+            int32_t sx = x + 4 < w ? x + 4 : w - 1;
+            g_flow_prev[(size_t)y * (size_t)w + (size_t)x] = ctx->frame.px[(size_t)y * (size_t)ctx->frame.stride + (size_t)sx];
+        }
+    }
+    pv.px = g_flow_prev;
+    pv.w = w;
+    pv.h = ctx->frame.h;
+    pv.stride = w;
+    note_status(ctx, vt_flow_cfg_default(&g_flow_cfg));
+    g_flow_cfg.sides = VT_FLOW_SIDE_BOTH;
+    note_status(ctx, vt_flow_init(&g_flow));
+    note_status(ctx, vt_flow_step(&g_flow, &g_flow_cfg, &pv, &tmp));
+    g_flow_prev_index = g_flow.prev_index;
+}
+
+static void bench_run_flow(bench_ctx *ctx)
+{
+    g_flow.prev_index = g_flow_prev_index;
+    g_flow.n_blobs[0] = g_flow.n_blobs[1] = 0;
+    note_status(ctx, vt_flow_step(&g_flow, &g_flow_cfg, &ctx->frame, &g_flow_out));
+}
+
+static uint32_t bench_digest_flow(const bench_ctx *ctx)
+{
+    uint32_t v[VT_FLOW_MAX_HYPS * 5];
+    int32_t i;
+    (void)ctx;
+    for (i = 0; i < g_flow_out.n; ++i) {
+        v[5 * i] = (uint32_t)g_flow_out.hyp[i].box.left;
+        v[5 * i + 1] = (uint32_t)g_flow_out.hyp[i].box.top;
+        v[5 * i + 2] = (uint32_t)g_flow_out.hyp[i].box.right;
+        v[5 * i + 3] = (uint32_t)g_flow_out.hyp[i].box.bottom;
+        v[5 * i + 4] = (uint32_t)g_flow_out.hyp[i].cells;
+    }
+    return digest_u32(v, 5u * (size_t)g_flow_out.n);
+}
+
+/* ---- the vehicle model GA (Table 1) on the left car of the bench frame, as
+ * bench.py's _model_setup: ROI around it, road through its bottom. */
+static vt_model_cfg g_model_cfg;
+static vt_model_search g_model_search;
+static vt_model_ws g_model_ws;
+static vt_model_result g_model_out;
+
+static void model_setup(bench_ctx *ctx, int32_t tracking)
+{
+    const int32_t w = ctx->frame.w, h = ctx->frame.h;
+    const int32_t l = 370 * w / 640, t = 270 * h / 480, r = 456 * w / 640, b = 328 * h / 480;
+    const int32_t cw = r - l + 1, ch = b - t + 1;
+    note_status(ctx, vt_model_cfg_default(&g_model_cfg));
+    note_status(ctx, vt_model_cfg_road(&g_model_cfg, 288 * h / 480, 47 * w / 640, 328 * h / 480, 86 * w / 640));
+    if (w < 160) {
+        /* The quick bench's tiny frame: the small GA bench.py uses there. */
+        static const int32_t pops[2][3] = {{16, 8, 8}, {8, 8, 8}}, gens[2][3] = {{4, 1, 1}, {2, 1, 1}};
+        int32_t m, lv;
+        for (m = 0; m < 2; ++m) {
+            for (lv = 0; lv < 3; ++lv) {
+                g_model_cfg.pop[m][lv] = pops[m][lv];
+                g_model_cfg.gens[m][lv] = gens[m][lv];
+            }
+        }
+    }
+    memset(&g_model_search, 0, sizeof g_model_search);
+    g_model_search.roi.left = l - cw / 2;
+    g_model_search.roi.top = t - (4 * ch) / 10;
+    g_model_search.roi.right = r + cw / 2;
+    g_model_search.roi.bottom = b + (3 * ch) / 10;
+    g_model_search.y_min = g_model_search.roi.top;
+    g_model_search.y_max = g_model_search.roi.bottom;
+    g_model_search.tracking = tracking;
+    if (tracking) {
+        g_model_search.pred.x = (l + r + 1) / 2;
+        g_model_search.pred.y = b;
+        g_model_search.pred.w = cw;
+        g_model_search.pred.h = ch;
+        g_model_search.pred.wind = 40;
+        g_model_search.pred.bump = 20;
+        g_model_search.pred.roof = 10;
+        g_model_search.sigma.x = g_model_search.sigma.y = 3;
+        g_model_search.sigma.w = g_model_search.sigma.h = 3;
+        g_model_search.sigma.wind = g_model_search.sigma.bump = 8;
+        g_model_search.sigma.roof = 5;
+    }
+}
+
+static void bench_setup_model_detect(bench_ctx *ctx)
+{
+    model_setup(ctx, 0);
+}
+
+static void bench_setup_model_track(bench_ctx *ctx)
+{
+    model_setup(ctx, 1);
+}
+
+static void bench_run_model_detect(bench_ctx *ctx)
+{
+    note_status(ctx, vt_model_fit(&ctx->frame, &g_model_cfg, &g_model_search, &g_model_ws, &g_model_out));
+}
+
+static void bench_run_model_track(bench_ctx *ctx)
+{
+    note_status(ctx, vt_model_fit(&ctx->frame, &g_model_cfg, &g_model_search, &g_model_ws, &g_model_out));
+}
+
+static uint32_t bench_digest_model(const bench_ctx *ctx)
+{
+    const vt_model_params *p = &g_model_out.best;
+    uint32_t v[9];
+    (void)ctx;
+    v[0] = (uint32_t)p->x;
+    v[1] = (uint32_t)p->y;
+    v[2] = (uint32_t)p->w;
+    v[3] = (uint32_t)p->h;
+    v[4] = (uint32_t)p->wind;
+    v[5] = (uint32_t)p->bump;
+    v[6] = (uint32_t)p->roof;
+    v[7] = (uint32_t)g_model_out.fitness;
+    v[8] = (uint32_t)g_model_out.evaluations;
+    return digest_u32(v, 9);
+}
+
 /* The registry. Default units match bench.py's full run. */
 static const bench_stage stages[] = {
     {"filter_h101", 1, bench_setup_filter_h101, bench_run_filter_h101, digest_s16},
@@ -494,6 +633,9 @@ static const bench_stage stages[] = {
     {"lane", 1, bench_setup_lane, bench_run_lane, bench_digest_lane},
     {"full_detect", 1, bench_setup_lane, bench_run_full_detect, bench_digest_detect},
     {"track_frame", 1, bench_setup_track_frame, bench_run_track_frame, bench_digest_track_frame},
+    {"flow", 1, bench_setup_flow, bench_run_flow, bench_digest_flow},
+    {"model_detect", 1, bench_setup_model_detect, bench_run_model_detect, bench_digest_model},
+    {"model_track", 1, bench_setup_model_track, bench_run_model_track, bench_digest_model},
 };
 #define N_STAGES (sizeof stages / sizeof stages[0])
 

@@ -749,3 +749,198 @@ def classify_box_mlp(ws, model, frame: np.ndarray, box) -> int:
           f"frame {frame.shape}, box {list(box)}")
     return int(out[0])
 # ================================================================ end classify.h
+# ================================================================ flow.h
+FLOW_HYP_DTYPE = np.dtype([("left", np.int32), ("top", np.int32), ("right", np.int32),
+                           ("bottom", np.int32), ("side", np.int32), ("kind", np.int32),
+                           ("id", np.int32), ("cells", np.int32), ("flow_x", np.int32),
+                           ("flow_y", np.int32), ("age", np.int32), ("cy", np.int32)])
+
+
+def flow_cfg_default():
+    return _defaults("vt_flow_cfg")
+
+
+def flow_cfg_check(cfg) -> None:
+    check("vt_flow_cfg_check", lib.vt_flow_cfg_check(cfg), _flow_cfg_detail(cfg))
+
+
+def _flow_cfg_detail(cfg) -> str:
+    names = [f for f, _ in ffi.typeof("vt_flow_cfg").fields]
+    return "cfg " + ", ".join(f"{n}={getattr(cfg, n)}" for n in names)
+
+
+def flow_new():
+    """A vt_flow_state owned by Python (about 3 * VT_FLOW_MAX_PIXELS bytes)."""
+    st = ffi.new("vt_flow_state *")
+    check("vt_flow_init", lib.vt_flow_init(st))
+    return st
+
+
+def flow_reset(st) -> None:
+    check("vt_flow_reset", lib.vt_flow_reset(st))
+
+
+def flow_step(st, cfg, img: np.ndarray):
+    """One frame: (ready, hypotheses as FLOW_HYP_DTYPE (flow in Q16 input px),
+    counters dict)."""
+    v = view(img, "frame")
+    out = ffi.new("vt_flow_result *")
+    check("vt_flow_step", lib.vt_flow_step(st, cfg, v, out),
+          f"frame {img.shape}, previous {st.h}x{st.w} (have_prev={st.have_prev}); "
+          + _flow_cfg_detail(cfg))
+    n = int(out.n)
+    hyps = np.zeros(n, FLOW_HYP_DTYPE)
+    for k in range(n):
+        hp = out.hyp[k]
+        hyps[k] = (hp.box.left, hp.box.top, hp.box.right, hp.box.bottom, hp.side, hp.kind,
+                   hp.id, hp.cells, hp.flow_x, hp.flow_y, hp.age, hp.cy)
+    stats = {"dropped": int(out.dropped), "cells_total": int(out.cells_total),
+             "cells_computed": int(out.cells_computed), "cells_accepted": int(out.cells_accepted)}
+    return bool(out.ready), hyps, stats
+
+
+def flow_field(st, side: int):
+    """The cell grid of lateral area `side` (0 left, 1 right) from the last step:
+    (x0, y0, dx, dy, flag, sad) with (gh, gw) arrays, copies."""
+    if side not in (0, 1):
+        raise ValueError(f"side: expected 0 (left) or 1 (right), got {side!r}")
+    gw, gh = int(st.gw[side]), int(st.gh[side])
+    k = gw * gh
+
+    off = side * int(lib.VT_FLOW_MAX_CELLS)
+
+    def grab(arr, dt):
+        size = np.dtype(dt).itemsize
+        raw = ffi.buffer(ffi.addressof(arr, off), k * size) if k else b""
+        return np.frombuffer(raw, dt).reshape(gh, gw).copy()
+
+    return (int(st.x0[side]), int(st.y0[side]), grab(st.dx, np.int8), grab(st.dy, np.int8),
+            grab(st.flag, np.uint8), grab(st.sad, np.uint32))
+
+
+def flow_seed(st, cfg, box) -> int:
+    b = ffi.new("vt_box *")
+    vals = [int(v) for v in box]
+    if len(vals) != 4 or any(abs(v) > 2**30 for v in vals):
+        raise ValueError(f"box: expected [left, top, right, bottom] ints, got {box!r}")
+    b.left, b.top, b.right, b.bottom = vals
+    out = ffi.new("int32_t *")
+    check("vt_flow_seed", lib.vt_flow_seed(st, cfg, b, out),
+          f"box {vals} in a {st.w}x{st.h} frame (have_prev={st.have_prev})")
+    return int(out[0])
+
+
+def flow_unseed(st, tid: int) -> None:
+    check("vt_flow_unseed", lib.vt_flow_unseed(st, int(tid)), f"id {tid}")
+# ================================================================ end flow.h
+
+
+# ================================================================ vehicle_model.h
+MODEL_GENES = ("x", "y", "w", "h", "wind", "bump", "roof")
+
+
+def model_cfg_default():
+    return _defaults("vt_model_cfg")
+
+
+def model_cfg_check(cfg) -> None:
+    check("vt_model_cfg_check", lib.vt_model_cfg_check(cfg), "see vt_model_cfg's ranges in vehicle_model.h")
+
+
+def model_cfg_road(cfg, y0: int, w0: int, y1: int, w1: int) -> None:
+    check("vt_model_cfg_road", lib.vt_model_cfg_road(cfg, int(y0), int(w0), int(y1), int(w1)),
+          f"width {w0} px at row {y0}, {w1} px at row {y1}")
+
+
+def model_expected_width(cfg, y: int) -> int:
+    out = ffi.new("int32_t *")
+    check("vt_model_expected_width", lib.vt_model_expected_width(cfg, int(y), out), f"row {y}")
+    return int(out[0])
+
+
+def model_ws_new():
+    """A vt_model_ws owned by Python."""
+    return ffi.new("vt_model_ws *")
+
+
+def _params(p, name: str, out) -> None:
+    vals = list(p)
+    if len(vals) != 7:
+        raise ValueError(f"{name}: expected 7 values {MODEL_GENES}, got {len(vals)}")
+    for k, v in zip(MODEL_GENES, vals):
+        if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)):
+            raise TypeError(f"{name}.{k}: expected an int, got {type(v).__name__}")
+        if not -2**31 <= int(v) < 2**31:
+            raise ValueError(f"{name}.{k}: {v} out of the int32 range")
+        setattr(out, k, int(v))
+
+
+def model_search(roi, y_min: int, y_max: int, tracking: bool = False, pred=None, sigma=None):
+    """A vt_model_search: roi (left, top, right, bottom) inclusive input px, bottom rows
+    y_min..y_max, and for tracking the prediction and per-gene sigmas (7-tuples)."""
+    s = ffi.new("vt_model_search *")
+    r = [int(v) for v in roi]
+    if len(r) != 4 or any(abs(v) > 2**30 for v in r):
+        raise ValueError(f"roi: expected (left, top, right, bottom) ints, got {roi!r}")
+    s.roi.left, s.roi.top, s.roi.right, s.roi.bottom = r
+    s.y_min, s.y_max = int(y_min), int(y_max)
+    s.tracking = 1 if tracking else 0
+    if tracking:
+        if pred is None or sigma is None:
+            raise ValueError("tracking: pred and sigma are required")
+        _params(pred, "pred", s.pred)
+        _params(sigma, "sigma", s.sigma)
+    return s
+
+
+def _p_tuple(p) -> tuple:
+    return tuple(int(getattr(p, k)) for k in MODEL_GENES)
+
+
+def model_prepare(img: np.ndarray, cfg, search, level: int, ws) -> None:
+    v = view(img, "frame")
+    check("vt_model_prepare", lib.vt_model_prepare(v, cfg, search, int(level), ws),
+          f"frame {img.shape}, roi {(search.roi.left, search.roi.top, search.roi.right, search.roi.bottom)}, "
+          f"level {level}")
+
+
+def model_fitness(img: np.ndarray, cfg, search, level: int, ws, params) -> int:
+    v = view(img, "frame")
+    p = ffi.new("vt_model_params *")
+    _params(params, "params", p)
+    out = ffi.new("int32_t *")
+    check("vt_model_fitness", lib.vt_model_fitness(v, cfg, search, int(level), ws, p, out),
+          f"params {tuple(params)} at level {level} (prepared level {ws.level})")
+    return int(out[0])
+
+
+def model_fit(img: np.ndarray, cfg, search, ws) -> dict:
+    """The GA: {'best': 7-tuple, 'fitness', 'evaluations', 'box': (l, t, r, b)}."""
+    v = view(img, "frame")
+    out = ffi.new("vt_model_result *")
+    check("vt_model_fit", lib.vt_model_fit(v, cfg, search, ws, out),
+          f"frame {img.shape}, roi {(search.roi.left, search.roi.top, search.roi.right, search.roi.bottom)}, "
+          f"rows {search.y_min}..{search.y_max}, tracking {search.tracking}")
+    return {"best": _p_tuple(out.best), "fitness": int(out.fitness), "evaluations": int(out.evaluations),
+            "box": (int(out.box.left), int(out.box.top), int(out.box.right), int(out.box.bottom))}
+
+
+def model_search_from_flow(cfg, hyp) -> "ffi.CData":
+    """vt_model_search_from_flow on a FLOW_HYP_DTYPE record (or any object with box fields
+    left/top/right/bottom and cy)."""
+    h = ffi.new("vt_flow_hyp *")
+    for k in ("left", "top", "right", "bottom"):
+        setattr(h.box, k, int(hyp[k]))
+    h.cy = int(hyp["cy"])
+    s = ffi.new("vt_model_search *")
+    check("vt_model_search_from_flow", lib.vt_model_search_from_flow(cfg, h, s),
+          f"box {[int(hyp[k]) for k in ('left', 'top', 'right', 'bottom')]}")
+    return s
+
+
+def model_population(ws) -> tuple[list, list]:
+    """The last generation of the last vt_model_fit: ([7-tuples], [fitness])."""
+    base = int(ws.cur) * int(lib.VT_MODEL_MAX_POP)
+    n = int(ws.n)
+    return ([_p_tuple(ws.pop[base + i]) for i in range(n)], [int(ws.fit[base + i]) for i in range(n)])
+# ================================================================ end vehicle_model.h

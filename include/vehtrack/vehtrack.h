@@ -21,6 +21,8 @@
 #include "vehtrack/tracker.h"
 #include "vehtrack/camera.h"
 #include "vehtrack/classify.h"
+#include "vehtrack/flow.h"
+#include "vehtrack/vehicle_model.h"
 
 #define VT_VERSION_MAJOR 0
 #define VT_VERSION_MINOR 1
