@@ -122,6 +122,11 @@ vt_status vt_tracker_cfg_default(vt_tracker_cfg *cfg)
     return VT_OK;
 }
 
+vt_status vt_tracker_cfg_check(const vt_tracker_cfg *cfg)
+{
+    return cfg == NULL ? VT_E_ARG : vt__check_cfg(cfg);
+}
+
 /* A successful measurement: lifecycle and template. */
 static void vt__hit(vt_track *t, const vt_tracker_cfg *cfg, const vt_image_u8 *img)
 {

@@ -98,6 +98,10 @@ vt_status vt_tracker_init(vt_tracker *tr);
 /* Fill *cfg with VT_TRACKER_CFG_DEFAULT. VT_E_ARG for NULL. */
 vt_status vt_tracker_cfg_default(vt_tracker_cfg *cfg);
 
+/* VT_OK if every field is in its domain (the checks vt_tracker_step makes),
+ * else VT_E_ARG (also for NULL). */
+vt_status vt_tracker_cfg_check(const vt_tracker_cfg *cfg);
+
 /* One frame. Every live track: predict, search its ROI in `img`, update when
  * found (else it coasts). If `detection_frame` is non-zero, `dets[0..n_dets-1]`
  * are this frame's detections (n_dets may be 0; dets may be NULL only then):
