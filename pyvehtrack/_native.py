@@ -432,3 +432,46 @@ def lane_line_x(line, y_q16: int) -> int:
     check("vt_lane_line_x", lib.vt_lane_line_x(line, y_q16, out), f"y {y_q16} (Q16)")
     return int(out[0])
 # ================================================================ end lane.h
+
+
+# ================================================================ pipeline.h
+def pipeline_cfg_default():
+    return _defaults("vt_pipeline_cfg")
+
+
+def pipeline_cfg_check(cfg) -> None:
+    check("vt_pipeline_cfg_check", lib.vt_pipeline_cfg_check(cfg),
+          "a stage configuration or policy is out of range (see vt_pipeline_cfg_check)")
+
+
+def pipeline_new(cfg):
+    """A vt_pipeline owned by Python, initialised with cfg (camera and model off)."""
+    p = ffi.new("vt_pipeline *")
+    check("vt_pipeline_init", lib.vt_pipeline_init(p, cfg, ffi.NULL, ffi.NULL),
+          "a stage configuration or policy is out of range (see vt_pipeline_cfg_check)")
+    return p
+
+
+def pipeline_step(p, img: np.ndarray, out) -> int:
+    """vt_pipeline_step into out (a vt_frame_out *); returns the status (VT_OK, or
+    VT_E_CAPACITY when more tracks were live than out holds); raises on errors."""
+    v = view(img, "img")
+    s = lib.vt_pipeline_step(p, v, out)
+    if s != lib.VT_E_CAPACITY:
+        check("vt_pipeline_step", s, f"img {img.shape}")
+    return int(s)
+
+
+def pipeline_work_size(w: int, h: int, max_w: int, max_h: int) -> tuple[int, int]:
+    ww, wh = ffi.new("int32_t *"), ffi.new("int32_t *")
+    check("vt_pipeline_work_size", lib.vt_pipeline_work_size(w, h, max_w, max_h, ww, wh),
+          f"{w}x{h} into {max_w}x{max_h}")
+    return int(ww[0]), int(wh[0])
+
+
+def fixed_road_area(fr, w: int, h: int):
+    """A new vt_road_area holding the fixed trapezoid of a w x h frame."""
+    road = ffi.new("vt_road_area *")
+    check("vt_fixed_road_area", lib.vt_fixed_road_area(fr, w, h, road), f"frame {w}x{h}")
+    return road
+# ================================================================ end pipeline.h

@@ -151,42 +151,50 @@ class LaneDetector:
 
     # ------------------------------------------------------------------
     def _detect_c(self, gray: np.ndarray) -> LaneResult:
-        ffi = _native.ffi
         _native.lane_detect(self._ccfg, self._st, gray, self._res, self._road)
-        r = self._res
-        lines = []
-        for k in range(int(_native.lib.VT_LANE_SLOTS)):
-            ln = r.lines[k]
-            if ln.state == 0:
-                continue
-            n = ln.n_verts
-            vy = [int(ln.vy[i]) for i in range(n)]
-            vx = [ln.vx[i] / 65536.0 for i in range(n)]
-            lines.append((k, int(ln.state), int(ln.votes), int(ln.theta), int(ln.rho),
-                          int(ln.y_top), vy, vx))
-        road = self._road
-        h = gray.shape[0]
-        arrs = [np.frombuffer(ffi.buffer(getattr(road, nm)), np.int16)[:h].astype(np.int32)
-                for nm in ("x_left", "x_right", "lane_width")]
-        # Copies: the next call overwrites the core's buffers.
-        raw = ffi.new("vt_lane_result *", r[0])
-        return _build(gray.shape, int(r.shift), int(r.w), int(r.h), lines,
-                      int(r.vp_y) if r.vp_known else None, bool(road.valid), int(road.y_top),
-                      int(road.y_bottom), arrs, raw)
+        return from_c(self._res, self._road, gray.shape)
 
     def _detect_ref(self, gray: np.ndarray) -> LaneResult:
-        fr = self._ref.detect(gray)
-        lines = []
-        for k, ln in enumerate(fr.lines):
-            if ln is None:
-                continue
-            lines.append((k, ln.state, ln.votes, ln.theta_qdeg, ln.rho, ln.y_top,
-                          [v[0] for v in ln.verts], [v[1] for v in ln.verts]))
-        road = fr.road
-        h = gray.shape[0]
-        arrs = [np.asarray(road[nm][:h], np.int32) for nm in ("x_left", "x_right", "lane_width")]
-        return _build(gray.shape, fr.shift, fr.W, fr.H, lines, fr.vp_y if fr.vp_known else None,
-                      bool(road["valid"]), int(road["y_top"]), int(road["y_bottom"]), arrs, fr)
+        return from_reference(self._ref.detect(gray), gray.shape)
+
+
+def from_c(r, road, shape) -> LaneResult:
+    """The LaneResult of a C vt_lane_result * and vt_road_area * for a frame of
+    `shape` (h, w) (the pixels the core saw; no rescaling). Copies everything."""
+    ffi = _native.ffi
+    lines = []
+    for k in range(int(_native.lib.VT_LANE_SLOTS)):
+        ln = r.lines[k]
+        if ln.state == 0:
+            continue
+        n = ln.n_verts
+        vy = [int(ln.vy[i]) for i in range(n)]
+        vx = [ln.vx[i] / 65536.0 for i in range(n)]
+        lines.append((k, int(ln.state), int(ln.votes), int(ln.theta), int(ln.rho),
+                      int(ln.y_top), vy, vx))
+    h = shape[0]
+    arrs = [np.frombuffer(ffi.buffer(getattr(road, nm)), np.int16)[:h].astype(np.int32)
+            for nm in ("x_left", "x_right", "lane_width")]
+    # Copies: the next call overwrites the core's buffers.
+    raw = ffi.new("vt_lane_result *", r[0])
+    return _build(shape, int(r.shift), int(r.w), int(r.h), lines,
+                  int(r.vp_y) if r.vp_known else None, bool(road.valid), int(road.y_top),
+                  int(road.y_bottom), arrs, raw)
+
+
+def from_reference(fr, shape) -> LaneResult:
+    """The LaneResult of the oracle's LaneFrame for a frame of `shape` (h, w)."""
+    lines = []
+    for k, ln in enumerate(fr.lines):
+        if ln is None:
+            continue
+        lines.append((k, ln.state, ln.votes, ln.theta_qdeg, ln.rho, ln.y_top,
+                      [v[0] for v in ln.verts], [v[1] for v in ln.verts]))
+    road = fr.road
+    h = shape[0]
+    arrs = [np.asarray(road[nm][:h], np.int32) for nm in ("x_left", "x_right", "lane_width")]
+    return _build(shape, fr.shift, fr.W, fr.H, lines, fr.vp_y if fr.vp_known else None,
+                  bool(road["valid"]), int(road["y_top"]), int(road["y_bottom"]), arrs, fr)
 
 
 def _build(shape, s, W, H, lines, vp_y, road_valid, y_top, y_bottom, arrs, raw) -> LaneResult:

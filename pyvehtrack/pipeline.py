@@ -1,0 +1,232 @@
+"""The whole system, one call per frame: lanes -> road area -> vehicle hypotheses ->
+verification -> tracker [-> camera geometry], on the C core (vt_pipeline_step) or on
+the float oracle (pyvehtrack.reference.pipeline), which compose the stages in the
+same order.
+
+    from pyvehtrack import Pipeline
+    pipe = Pipeline()                       # engine="c"; Pipeline(detect_every=5, road="fixed")
+    for frame in frames:                    # gray (h, w) or BGR (h, w, 3) uint8
+        res = pipe.step(frame)
+        for t in res.tracks:
+            print(t.id, t.state, t.box, t.velocity, t.distance, t.ttc, t.warning)
+
+Coordinates in a result are the INPUT frame's pixels, boxes inclusive. The one
+downscale rule of the library lives here: a frame larger than the core's
+compile-time maximum (pyvehtrack.MAX_WIDTH x MAX_HEIGHT) is resampled (cv2
+INTER_AREA) to the size vt_pipeline_work_size gives (same aspect ratio, the limiting
+side at its maximum), a warning says so once, and results are mapped back
+(x_in = floor((x + 0.5) * sx) for box corners, velocities times sx, sy).
+
+Distance, TTC and warning are None until a camera stage is plugged in (camera=...);
+box scores are None for the shadow source, which has no confidence.
+"""
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from . import _native
+from . import config as _config
+from . import lane as _lane
+from ._native import ffi, lib
+from .config import PipelineConfig
+from .frames import to_gray
+
+ENGINES = ("c", "reference")
+STATES = {1: "tentative", 2: "confirmed", 3: "coasting"}
+ROAD_SOURCES = {0: "none", 1: "lanes", 2: "fixed"}
+SOURCE_NAMES = {1: "shadow", 2: "classifier", 4: "flow", 8: "model"}
+
+
+@dataclass(frozen=True)
+class Box:
+    box: tuple                 # (left, top, right, bottom), inclusive, input pixels
+    source: str                # "shadow" (others as their stages plug in)
+    score: float | None = None  # the source's confidence, None if it has none
+
+
+@dataclass(frozen=True)
+class Track:
+    id: int
+    state: str                 # "tentative" | "confirmed" | "coasting"
+    box: tuple                 # (left, top, right, bottom), inclusive, input pixels
+    velocity: tuple            # (vx, vy) of the bottom edge, input px/frame
+    distance: float | None = None  # metres, None while unknown (no camera stage)
+    ttc: float | None = None       # seconds, None while unknown
+    warning: str | None = None     # forward-collision warning level, None while unknown
+
+
+@dataclass
+class FrameResult:
+    frame: int                     # index of the frame in this run (0 first)
+    detection_frame: bool          # detection ran on this frame
+    lanes: object                  # pyvehtrack.lane.LaneResult when the lane stage ran, else None
+    road: np.ndarray               # (N, 2) int outline of the road area used; (0, 2) if none
+    road_source: str               # "lanes", "fixed" or "none"
+    hypotheses: np.ndarray         # (N, 3) int [row, x_start, x_end], nearest first
+    boxes: list                    # [Box]: the detections handed to the tracker
+    tracks: list                   # [Track]
+    scale: float = 1.0             # input pixels per processed pixel (max of x, y)
+    stats: dict = field(default_factory=dict)  # shadow stage statistics (detection frames)
+
+    @property
+    def box_array(self) -> np.ndarray:
+        """The boxes as an (N, 4) int64 array."""
+        return np.array([b.box for b in self.boxes], np.int64).reshape(-1, 4)
+
+
+def _polygon(x_left, x_right, y_top, y_bottom) -> np.ndarray:
+    ys = np.arange(y_top, y_bottom + 1)
+    return np.concatenate([np.stack([np.asarray(x_left)[ys], ys], 1),
+                           np.stack([np.asarray(x_right)[ys[::-1]], ys[::-1]], 1)]).astype(np.int64)
+
+
+class Pipeline:
+    """Frame-by-frame detection and tracking of one video.
+
+    engine: "c" (the fixed-point core) or "reference" (the float oracle).
+    camera, model: the camera geometry and classifier stages (not built in yet:
+    pass None). cfg: a pyvehtrack.config.PipelineConfig (default: the core's);
+    keyword arguments replace its top-level fields, e.g. Pipeline(detect_every=5,
+    road="fixed", tracker=TrackerConfig(confirm_hits=2))."""
+
+    def __init__(self, engine: str = "c", camera=None, model=None,
+                 cfg: PipelineConfig | None = None, **config):
+        if engine not in ENGINES:
+            raise ValueError(f"engine: expected one of {ENGINES}, got {engine!r}")
+        if camera is not None:
+            raise ValueError("camera: the camera geometry stage is not built into this version; pass None")
+        if model is not None:
+            raise ValueError("model: the classifier stage is not built into this version; pass None")
+        self.engine = engine
+        self.cfg = _config.from_kwargs(cfg, **config)
+        self._ccfg = _config.to_c(self.cfg)  # checks the whole config once, for both engines
+        self.max_w, self.max_h = int(lib.VT_MAX_WIDTH), int(lib.VT_MAX_HEIGHT)
+        self._warned = False
+        self.reset()
+
+    def reset(self) -> None:
+        """Start a new run: every stage empty, track ids from 1, frame 0 next."""
+        if self.engine == "c":
+            self._p = _native.pipeline_new(self._ccfg)
+            self._out = ffi.new("vt_frame_out *")
+        else:
+            from .reference import pipeline as rpipe  # noqa: PLC0415  (the reference engine only)
+            self._ref = rpipe.Pipeline(_config.to_reference(self.cfg), _config.reference_capacities())
+
+    @property
+    def frame_index(self) -> int:
+        """Frames stepped so far."""
+        return int(self._p.frame) if self.engine == "c" else int(self._ref.frame)
+
+    # ------------------------------------------------------------------ the one downscale rule
+    def work_size(self, w: int, h: int) -> tuple[int, int]:
+        """The (w, h) a w x h frame is processed at (vt_pipeline_work_size)."""
+        return _native.pipeline_work_size(int(w), int(h), self.max_w, self.max_h)
+
+    def prepare(self, frame) -> tuple[np.ndarray, tuple[float, float]]:
+        """The gray frame the core processes and (sx, sy), input pixels per processed pixel."""
+        gray = to_gray(frame)
+        h, w = gray.shape
+        pw, ph = self.work_size(w, h)
+        if (pw, ph) != (w, h):
+            if not self._warned:
+                warnings.warn(f"frame {w}x{h} is larger than the core's maximum "
+                              f"{self.max_w}x{self.max_h}: downscaled to {pw}x{ph}", stacklevel=3)
+                self._warned = True
+            gray = cv2.resize(gray, (pw, ph), interpolation=cv2.INTER_AREA)
+        return gray, (w / pw, h / ph)
+
+    # ------------------------------------------------------------------ step
+    def step(self, frame) -> FrameResult:
+        """One frame (gray or BGR uint8); the result in input pixels."""
+        gray, (sx, sy) = self.prepare(frame)
+        res = self.step_gray(gray)
+        if sx != 1.0 or sy != 1.0:
+            res = _rescale(res, sx, sy, frame.shape[0], frame.shape[1])
+        return res
+
+    def step_gray(self, gray: np.ndarray) -> FrameResult:
+        """One frame already at the working size (see prepare); the result in its pixels."""
+        if self.engine == "c":
+            return self._step_c(gray)
+        return self._step_ref(gray)
+
+    def _step_c(self, gray: np.ndarray) -> FrameResult:
+        o = self._out
+        _native.pipeline_step(self._p, gray, o)
+        h = gray.shape[0]
+        lanes = None
+        if o.lanes_ran and o.lane_status == lib.VT_OK:
+            lanes = _lane.from_c(ffi.addressof(o, "lanes"), ffi.addressof(o, "road"), gray.shape)
+        road = np.zeros((0, 2), np.int64)
+        if o.road.valid:
+            arrs = [np.frombuffer(ffi.buffer(getattr(o.road, nm)), np.int16)[:h].astype(np.int64)
+                    for nm in ("x_left", "x_right")]
+            road = _polygon(arrs[0], arrs[1], int(o.road.y_top), int(o.road.y_bottom))
+        hyp = np.array([(o.hyp[i].row, o.hyp[i].x_start, o.hyp[i].x_end) for i in range(o.n_hyp)],
+                       np.int64).reshape(-1, 3)
+        boxes = [Box((int(b.box.left), int(b.box.top), int(b.box.right), int(b.box.bottom)),
+                     SOURCE_NAMES.get(int(b.source), "unknown"),
+                     None if b.score == lib.VT_UNKNOWN else float(b.score))
+                 for b in (o.boxes[i] for i in range(o.n_boxes))]
+        tracks = [Track(int(t.id), STATES[int(t.state)],
+                        (int(t.box.left), int(t.box.top), int(t.box.right), int(t.box.bottom)),
+                        (t.vx / 65536, t.vy / 65536),
+                        None if t.distance_mm == lib.VT_UNKNOWN else t.distance_mm / 1000,
+                        None if t.ttc_ms == lib.VT_UNKNOWN else t.ttc_ms / 1000,
+                        None if t.warning == lib.VT_FCW_UNKNOWN else str(int(t.warning)))
+                  for t in (o.tracks[i] for i in range(o.n_tracks))]
+        stats = {}
+        if o.detection_frame:
+            s = self._p.detect.shadow
+            stats = {"median": int(s.median), "mad": int(s.mad), "dark_limit": int(s.dark_limit),
+                     "n_runs": int(s.n_runs), "n_dropped": int(s.n_dropped)}
+        return FrameResult(int(o.frame), bool(o.detection_frame), lanes, road,
+                           ROAD_SOURCES[int(o.road_source)], hyp, boxes, tracks, 1.0, stats)
+
+    def _step_ref(self, gray: np.ndarray) -> FrameResult:
+        r = self._ref.step(gray)
+        lanes = _lane.from_reference(r.lanes, gray.shape) if r.lanes_ok else None
+        road = np.zeros((0, 2), np.int64)
+        if r.road is not None:
+            road = _polygon(r.road.x_left, r.road.x_right, r.road.y_top, r.road.y_bottom)
+        boxes = [Box(tuple(int(v) for v in b), s) for b, s in zip(r.boxes, r.box_source)]
+        tracks = [Track(int(i), STATES[int(s)], b, (float(vx), float(vy)), d, ttc, wn)
+                  for i, s, b, vx, vy, d, ttc, wn in r.tracks]
+        return FrameResult(r.frame, r.detection_frame, lanes, road, r.road_source,
+                           np.asarray(r.hypotheses, np.int64).reshape(-1, 3), boxes, tracks, 1.0,
+                           dict(r.stats))
+
+
+def _rescale(res: FrameResult, sx: float, sy: float, h0: int, w0: int) -> FrameResult:
+    """Map a result computed on the working frame back to the input frame."""
+    def mx(x):
+        return np.floor((np.asarray(x, np.float64) + 0.5) * sx).astype(np.int64)
+
+    def my(y):
+        return np.floor((np.asarray(y, np.float64) + 0.5) * sy).astype(np.int64)
+
+    def box(b):
+        return (int(mx(b[0])), int(my(b[1])), int(mx(b[2])), int(my(b[3])))
+
+    hyp = res.hypotheses
+    if len(hyp):
+        hyp = np.stack([my(hyp[:, 0]), mx(hyp[:, 1]), mx(hyp[:, 2])], 1)
+    road = res.road
+    if len(road):
+        road = np.stack([mx(road[:, 0]), my(road[:, 1])], 1)
+    if res.lanes is not None:
+        _lane._rescale(res.lanes, 1.0 / sx, w0, h0)
+        res.lanes.input_scale = 1.0 / sx
+    return FrameResult(res.frame, res.detection_frame, res.lanes, road, res.road_source, hyp,
+                       [Box(box(b.box), b.source, b.score) for b in res.boxes],
+                       [Track(t.id, t.state, box(t.box), (t.velocity[0] * sx, t.velocity[1] * sy),
+                              t.distance, t.ttc, t.warning) for t in res.tracks],
+                       float(max(sx, sy)), res.stats)
+
+
+__all__ = ["Pipeline", "FrameResult", "Box", "Track", "PipelineConfig"]
