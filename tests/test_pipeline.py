@@ -1,0 +1,368 @@
+"""vt_pipeline_step (c/pipeline.c) against reference.pipeline end to end, frame by frame.
+
+Tolerances, from the arithmetic:
+- The fixed road (vt_fixed_road_area) is exact rational arithmetic in C and float64 in
+  the oracle (reference.shadow.trapezoid_road): they agree except where a float rounding
+  of a value that is exactly an integer or a .5 tie flips a floor/ceil, so each x and
+  y_top may differ by 1 px (measured on 500 random geometries: equal everywhere but such
+  ties).
+- With road="fixed" every later stage sees identical inputs on frames where the fixed
+  roads agree, and shadow, verify and tracker are integer-exact twins (their own tests),
+  so hypotheses, boxes, track ids, states and boxes must be EQUAL; velocities are the
+  Kalman state in Q16 against float64: within 0.05 px/frame (tests/test_tracker.py).
+- With road="auto" the road comes from the lane stage, whose C and oracle lines agree to
+  about 1 px (tests/test_lane.py), so the road outline may differ by 2 px per row (a
+  rounding of each boundary) and by 2 rows at its top. Where the two roads are
+  identical everything downstream must be equal as above; where they differ, a shadow
+  run at the road's edge can gain or lose a pixel, so boxes may differ by 2 px and
+  nothing more (ids and states equal). Measured when written: 2866 frames of 300
+  random sequences, 68 frames with a road difference (max 2 px), no box or track
+  difference at all.
+"""
+from __future__ import annotations
+
+import ctypes
+import dataclasses
+import warnings
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+import pyvehtrack as vt
+from pyvehtrack import _native, synth
+from pyvehtrack._native import VtError, ffi, lib
+from pyvehtrack.config import (FixedRoad, PipelineConfig, ShadowConfig, TrackerConfig,
+                               to_c)
+from pyvehtrack.pipeline import Pipeline
+from pyvehtrack.reference import pipeline as rpipe
+from pyvehtrack.reference.shadow import trapezoid_road
+
+CLIP = Path(__file__).parent / "data" / "kitti_clip"
+
+
+def _compare(ra, rb, exact: bool, where: str):
+    assert ra.frame == rb.frame and ra.detection_frame == rb.detection_frame, where
+    assert ra.road_source == rb.road_source, where
+    road_equal = ra.road.shape == rb.road.shape and np.array_equal(ra.road, rb.road)
+    if exact:
+        assert road_equal, where
+    elif not road_equal and len(ra.road) and len(rb.road):
+        assert abs(len(ra.road) - len(rb.road)) <= 4, where  # 2 rows each side
+    box_tol = 0 if road_equal else 2
+    assert len(ra.boxes) == len(rb.boxes), where
+    for a, b in zip(ra.boxes, rb.boxes):
+        assert a.source == b.source == "shadow", where
+        assert max(abs(x - y) for x, y in zip(a.box, b.box)) <= box_tol, where
+    if road_equal:
+        assert np.array_equal(ra.hypotheses, rb.hypotheses), where
+    assert [(t.id, t.state) for t in ra.tracks] == [(t.id, t.state) for t in rb.tracks], where
+    for a, b in zip(ra.tracks, rb.tracks):
+        assert max(abs(x - y) for x, y in zip(a.box, b.box)) <= box_tol, where
+        if box_tol == 0:
+            assert abs(a.velocity[0] - b.velocity[0]) <= 0.05, where
+            assert abs(a.velocity[1] - b.velocity[1]) <= 0.05, where
+        assert a.distance is None and a.ttc is None and a.warning is None  # no camera stage yet
+        assert b.distance is None and b.ttc is None and b.warning is None
+
+
+def _fixed_roads_agree(h, w, fr: FixedRoad) -> bool:
+    c = fr.make(h, w)
+    ref = rpipe.FixedRoadRef(fr.vp, fr.bottom, fr.lane_bottom, fr.top_margin).make(h, w)
+    xl = np.frombuffer(ffi.buffer(c.x_left), np.int16)[:h]
+    xr = np.frombuffer(ffi.buffer(c.x_right), np.int16)[:h]
+    return c.y_top == ref.y_top and np.array_equal(xl, ref.x_left) and np.array_equal(xr, ref.x_right)
+
+
+@settings(max_examples=12)
+@given(scenario=st.sampled_from(sorted(synth.SCENARIOS)), seed=st.integers(0, 999),
+       w=st.integers(64, 320), h=st.integers(48, 240), n=st.integers(3, 12),
+       detect_every=st.integers(1, 4), road=st.sampled_from(["auto", "fixed", "lanes"]),
+       lanes_every_frame=st.booleans())
+def test_c_matches_reference_on_synthetic_sequences(scenario, seed, w, h, n, detect_every, road,
+                                                    lanes_every_frame):
+    seq = synth.make_sequence(scenario, seed=seed, camera=synth.Camera(w, h), n_frames=n)
+    kw = dict(detect_every=detect_every, road=road, lanes_every_frame=lanes_every_frame)
+    a, b = Pipeline("c", **kw), Pipeline("reference", **kw)
+    exact = road == "fixed" and _fixed_roads_agree(h, w, a.cfg.fixed_road)
+    for f in range(n):
+        _compare(a.step(seq.frames[f]), b.step(seq.frames[f]), exact, f"{scenario} {seed} {w}x{h} frame {f}")
+
+
+def _clip():
+    return [cv2.imread(str(p), cv2.IMREAD_GRAYSCALE) for p in sorted(CLIP.glob("*.png"))]
+
+
+@pytest.mark.parametrize("detect_every,road", [(10, "auto"), (1, "auto"), (3, "fixed")])
+def test_c_matches_reference_on_kitti_clip(detect_every, road):
+    frames = _clip()
+    assert len(frames) == 20
+    a = Pipeline("c", detect_every=detect_every, road=road)
+    b = Pipeline("reference", detect_every=detect_every, road=road)
+    h, w = frames[0].shape
+    exact = road == "fixed" and _fixed_roads_agree(h, w, a.cfg.fixed_road)
+    results = []
+    for i, f in enumerate(frames):
+        ra, rb = a.step(f), b.step(f)
+        _compare(ra, rb, exact, f"kitti frame {i}")
+        results.append(ra)
+    # With the lanes' road the lead car (tests/test_tracker_real.py) is track 1 from
+    # frame 0 to the end and the only track. (The fixed trapezoid does not fit this
+    # cropped clip: its tracks come and go, the same in both engines.)
+    assert results[0].detection_frame and results[0].boxes
+    if road == "auto":
+        assert {t.id for r in results for t in r.tracks} == {1}
+        assert results[-1].tracks[0].state == "confirmed"
+
+
+def test_kitti_clip_tracks_equal_the_tracker_view():
+    """The pipeline with the Tracker's policy gives the Tracker's tracks (same figures)."""
+    from pyvehtrack.detector import Detector
+    from pyvehtrack.tracker import Tracker
+    frames = _clip()
+    trk = Tracker(engine="c", detector=Detector(engine="c"))
+    pipe = Pipeline("c")
+    for i, f in enumerate(frames):
+        old = trk.step(f)
+        new = pipe.step(f).tracks
+        assert [(t.id, t.state, t.box) for t in old] == [(t.id, t.state, t.box) for t in new], i
+
+
+# ---------------------------------------------------------------- the downscale rule
+@given(w=st.integers(1, 5000), h=st.integers(1, 5000), mw=st.integers(1, 4096), mh=st.integers(1, 4096))
+def test_work_size_rule(w, h, mw, mh):
+    ww, wh = _native.pipeline_work_size(w, h, mw, mh)
+    assert (ww, wh) == rpipe.work_size(w, h, mw, mh)
+    assert 1 <= ww <= mw and 1 <= wh <= mh
+    if w <= mw and h <= mh:
+        assert (ww, wh) == (w, h)
+    else:
+        assert ww == mw or wh == mh
+        # aspect ratio kept to within the rounding of the scaled side
+        assert abs(ww * h - wh * w) <= max(w, h)
+
+
+def test_large_frame_downscaled_once_and_mapped_back():
+    mw, mh = int(lib.VT_MAX_WIDTH), int(lib.VT_MAX_HEIGHT)
+    clip = _clip()[:3]
+    scale = 1
+    while clip[0].shape[1] * scale <= mw and clip[0].shape[0] * scale <= mh:
+        scale += 1
+    big = [cv2.resize(f, None, fx=scale, fy=scale, interpolation=cv2.INTER_NEAREST) for f in clip]
+    a = Pipeline("c", detect_every=1)
+    b = Pipeline("reference", detect_every=1)
+    with warnings.catch_warnings(record=True) as rec:
+        warnings.simplefilter("always")
+        res = [(a.step(f), b.step(f)) for f in big]
+    assert sum("downscaled" in str(r.message) for r in rec) == 2  # once per Pipeline
+    H, W = big[0].shape
+    for i, (ra, rb) in enumerate(res):
+        assert ra.scale > 1
+        _compare(ra, rb, False, f"big frame {i}")
+        for t in ra.tracks:
+            assert 0 <= t.box[0] <= t.box[2] < W + ra.scale and 0 <= t.box[3] < H + ra.scale
+
+
+# ---------------------------------------------------------------- fixed road
+@settings(max_examples=60)
+@given(w=st.integers(1, 700), h=st.integers(1, 500), vx=st.integers(0, 1000), vy=st.integers(0, 1000),
+       bl=st.integers(0, 1000), br=st.integers(0, 1000), lb=st.integers(0, 1000), tm=st.integers(0, 50))
+def test_fixed_road_matches_trapezoid(w, h, vx, vy, bl, br, lb, tm):
+    bl, br = min(bl, br), max(bl, br)
+    fr = FixedRoad((vx / 1000, vy / 1000), (bl / 1000, br / 1000), lb / 1000, tm)
+    c = fr.make(h, w)
+    ref = trapezoid_road(h, w, vp=fr.vp, bottom=fr.bottom, lane_bottom=fr.lane_bottom, top_margin=tm)
+    assert c.valid == 1 and c.height == h and c.y_bottom == h - 1 == ref.y_bottom
+    assert abs(c.y_top - ref.y_top) <= 1  # float ceil of an exact integer (see module doc)
+    for name in ("x_left", "x_right", "lane_width"):
+        got = np.frombuffer(ffi.buffer(getattr(c, name)), np.int16)[:h].astype(np.int64)
+        assert np.abs(got - np.asarray(getattr(ref, name), np.int64)).max() <= 1, name
+
+
+# ---------------------------------------------------------------- C-level arguments
+def _cfg():
+    return _native.pipeline_cfg_default()
+
+
+def _frame(h=40, w=60):
+    img = np.full((h, w), 120, np.uint8)
+    v = ffi.new("vt_image_u8 *", [ffi.from_buffer("uint8_t[]", img), w, h, w])
+    return img, v
+
+
+def test_step_rejects_bad_arguments_and_leaves_state():
+    p = _native.pipeline_new(_cfg())
+    out = ffi.new("vt_frame_out *")
+    img, v = _frame()
+    assert lib.vt_pipeline_step(ffi.NULL, v, out) == lib.VT_E_ARG
+    assert lib.vt_pipeline_step(p, ffi.NULL, out) == lib.VT_E_ARG
+    assert lib.vt_pipeline_step(p, v, ffi.NULL) == lib.VT_E_ARG
+    for w, h, stride in [(0, 10, 10), (10, 0, 10), (10, 10, 9), (-1, 10, 10),
+                         (int(lib.VT_MAX_WIDTH) + 1, 10, int(lib.VT_MAX_WIDTH) + 1),
+                         (10, int(lib.VT_MAX_HEIGHT) + 1, 10)]:
+        bad = ffi.new("vt_image_u8 *", [v.px, w, h, stride])
+        assert lib.vt_pipeline_step(p, bad, out) == lib.VT_E_SIZE, (w, h, stride)
+    nullpx = ffi.new("vt_image_u8 *", [ffi.NULL, 10, 10, 10])
+    assert lib.vt_pipeline_step(p, nullpx, out) == lib.VT_E_ARG
+    assert p.frame == 0  # nothing ran
+    zero = ffi.new("vt_pipeline *")  # never initialised
+    assert lib.vt_pipeline_step(zero, v, out) == lib.VT_E_ARG
+
+
+def test_tiny_frames_fall_back_to_the_fixed_road():
+    """Below the lane stage's 16x16 the lanes fail (reported, not fatal)."""
+    p = _native.pipeline_new(_cfg())
+    out = ffi.new("vt_frame_out *")
+    for h, w in [(1, 1), (5, 3), (15, 40), (40, 15)]:
+        img, v = _frame(h, w)
+        assert lib.vt_pipeline_step(p, v, out) == lib.VT_OK
+        if out.lanes_ran:
+            assert out.lane_status == lib.VT_E_SIZE
+            assert out.road_source == lib.VT_ROAD_SRC_FIXED
+
+
+def test_output_guard_bytes():
+    """Nothing is written outside the vt_frame_out given."""
+    n = ffi.sizeof("vt_frame_out")
+    g = 64
+    buf = ffi.new("uint8_t[]", n + 2 * g)
+    ctypes.memset(int(ffi.cast("uintptr_t", buf)), 0xA5, n + 2 * g)
+    out = ffi.cast("vt_frame_out *", buf + g)
+    p = _native.pipeline_new(_cfg())
+    frames = _clip()[:3]
+    for f in frames:
+        _native.pipeline_step(p, f, out)
+    raw = bytes(ffi.buffer(buf))
+    assert raw[:g] == b"\xa5" * g and raw[g + n:] == b"\xa5" * g
+    assert out.n_tracks <= int(lib.VT_MAX_TRACKS) and out.n_boxes <= int(lib.VT_MAX_BOXES)
+
+
+@pytest.mark.parametrize("field,value", [
+    ("detect_every", 0), ("detect_every", -3), ("road_policy", 3), ("road_policy", -1),
+    ("lanes_every_frame", 2), ("sources", 0), ("sources", 2), ("sources", 16)])
+def test_cfg_check_rejects_policies(field, value):
+    c = _cfg()
+    setattr(c, field, value)
+    assert lib.vt_pipeline_cfg_check(c) == lib.VT_E_ARG
+    p = ffi.new("vt_pipeline *")
+    assert lib.vt_pipeline_init(p, c, ffi.NULL, ffi.NULL) == lib.VT_E_ARG
+    assert p.frame == 0 and p.cfg.detect_every == 0  # untouched
+
+
+@pytest.mark.parametrize("path,value", [
+    ("fixed_road.vp_x_permille", 1001), ("fixed_road.bottom_left_permille", -1),
+    ("fixed_road.top_margin", -1), ("lane.work_width_max", 0), ("detect.shadow.min_run", 0),
+    ("detect.verify.aspect_q8", 0), ("tracker.confirm_hits", 0)])
+def test_cfg_check_rejects_stage_configs(path, value):
+    c = _cfg()
+    obj = c
+    *head, last = path.split(".")
+    for k in head:
+        obj = getattr(obj, k)
+    setattr(obj, last, value)
+    assert lib.vt_pipeline_cfg_check(c) < 0
+
+
+def test_fixed_road_policy_skips_the_lane_check():
+    c = _cfg()
+    c.lane.work_width_max = 0
+    c.road_policy = lib.VT_ROAD_FIXED
+    assert lib.vt_pipeline_cfg_check(c) == lib.VT_OK
+
+
+def test_init_rejects_stages_not_built_and_nulls():
+    p = ffi.new("vt_pipeline *")
+    c = _cfg()
+    dummy = ffi.new("uint8_t[64]")
+    assert lib.vt_pipeline_init(ffi.NULL, c, ffi.NULL, ffi.NULL) == lib.VT_E_ARG
+    assert lib.vt_pipeline_init(p, ffi.NULL, ffi.NULL, ffi.NULL) == lib.VT_E_ARG
+    assert lib.vt_pipeline_init(p, c, ffi.cast("struct vt_camera *", dummy), ffi.NULL) == lib.VT_E_ARG
+    assert lib.vt_pipeline_init(p, c, ffi.NULL, ffi.cast("struct vt_svm_model *", dummy)) == lib.VT_E_ARG
+    assert lib.vt_pipeline_cfg_default(ffi.NULL) == lib.VT_E_ARG
+    assert lib.vt_pipeline_cfg_check(ffi.NULL) == lib.VT_E_ARG
+
+
+def test_work_size_and_fixed_road_arguments():
+    o = ffi.new("int32_t *")
+    assert lib.vt_pipeline_work_size(10, 10, 5, 5, ffi.NULL, o) == lib.VT_E_ARG
+    for args in [(0, 10, 5, 5), (10, -1, 5, 5), (10, 10, 0, 5), (10, 10, 5, 0)]:
+        assert lib.vt_pipeline_work_size(*args, o, o) == lib.VT_E_SIZE
+    fr = _cfg().fixed_road
+    road = ffi.new("vt_road_area *")
+    assert lib.vt_fixed_road_area(ffi.NULL, 10, 10, road) == lib.VT_E_ARG
+    assert lib.vt_fixed_road_area(ffi.addressof(fr), 10, 10, ffi.NULL) == lib.VT_E_ARG
+    for w, h in [(0, 10), (10, 0), (int(lib.VT_MAX_WIDTH) + 1, 10), (10, int(lib.VT_MAX_HEIGHT) + 1)]:
+        assert lib.vt_fixed_road_area(ffi.addressof(fr), w, h, road) == lib.VT_E_SIZE
+    bad = ffi.new("vt_fixed_road *", fr)
+    bad.bottom_left_permille, bad.bottom_right_permille = 600, 400
+    assert lib.vt_fixed_road_area(bad, 10, 10, road) == lib.VT_E_ARG
+
+
+# ---------------------------------------------------------------- Python arguments
+def test_python_bad_arguments():
+    with pytest.raises(ValueError, match="engine"):
+        Pipeline("gpu")
+    with pytest.raises(ValueError, match="camera"):
+        Pipeline(camera=object())
+    with pytest.raises(ValueError, match="model"):
+        Pipeline(model=object())
+    with pytest.raises(TypeError, match="unknown pipeline config"):
+        Pipeline(detect_evry=3)
+    with pytest.raises(ValueError, match="detect_every"):
+        Pipeline(detect_every=0)
+    with pytest.raises(TypeError, match="detect_every"):
+        Pipeline(detect_every=2.5)
+    with pytest.raises(ValueError, match="road"):
+        Pipeline(road="sky")
+    with pytest.raises(ValueError, match="sources"):
+        Pipeline(sources=("flow",))
+    with pytest.raises(ValueError, match="sources"):
+        Pipeline(sources=())
+    with pytest.raises(TypeError, match="lanes_every_frame"):
+        Pipeline(lanes_every_frame=1)
+    with pytest.raises(ValueError, match="thousandth"):
+        Pipeline(fixed_road=FixedRoad(vp=(0.5, 0.4505)))
+    with pytest.raises(ValueError, match="fixed_road.bottom"):
+        Pipeline(fixed_road=FixedRoad(bottom=(0.9, 0.1)))
+    with pytest.raises(TypeError, match="shadow.min_run"):
+        Pipeline(shadow=ShadowConfig(min_run=3.0))
+    with pytest.raises(VtError, match="vt_shadow_cfg_check"):
+        Pipeline(shadow=ShadowConfig(min_run=0))
+    with pytest.raises(ValueError, match="keep_ncc"):
+        Pipeline(tracker=TrackerConfig(keep_ncc=1.5))
+    with pytest.raises(TypeError, match="cfg"):
+        Pipeline(cfg={"detect_every": 3})
+    p = Pipeline()
+    with pytest.raises(TypeError, match="dtype"):
+        p.step(np.zeros((20, 20), np.float32))
+    with pytest.raises(ValueError, match="empty"):
+        p.step(np.zeros((0, 20), np.uint8))
+    with pytest.raises(TypeError, match="ndarray"):
+        p.step([[1, 2], [3, 4]])
+    assert p.frame_index == 0
+
+
+def test_config_defaults_come_from_c():
+    c = _native.pipeline_cfg_default()
+    cfg = PipelineConfig()
+    back = to_c(cfg)
+    assert bytes(ffi.buffer(back)) == bytes(ffi.buffer(c))
+    assert cfg.detect_every == c.detect_every and cfg.road == "auto" and cfg.sources == ("shadow",)
+    assert cfg.shadow.min_run == c.detect.shadow.min_run
+    # a replaced field reaches C, the others stay
+    c2 = to_c(dataclasses.replace(cfg, detect_every=7))
+    assert c2.detect_every == 7 and c2.tracker.confirm_hits == c.tracker.confirm_hits
+
+
+def test_bgr_frames_and_reset():
+    frames = _clip()[:4]
+    p = Pipeline("c", detect_every=2)
+    first = [p.step(cv2.cvtColor(f, cv2.COLOR_GRAY2BGR)) for f in frames]
+    assert p.frame_index == 4
+    p.reset()
+    again = [p.step(f) for f in frames]
+    assert [[(t.id, t.box) for t in r.tracks] for r in first] == \
+        [[(t.id, t.box) for t in r.tracks] for r in again]
+    assert [r.detection_frame for r in again] == [True, False, True, False]
