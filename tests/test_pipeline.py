@@ -289,7 +289,8 @@ def test_work_size_and_fixed_road_arguments():
     assert lib.vt_pipeline_work_size(10, 10, 5, 5, ffi.NULL, o) == lib.VT_E_ARG
     for args in [(0, 10, 5, 5), (10, -1, 5, 5), (10, 10, 0, 5), (10, 10, 5, 0)]:
         assert lib.vt_pipeline_work_size(*args, o, o) == lib.VT_E_SIZE
-    fr = _cfg().fixed_road
+    cfg = _cfg()  # keeps the struct fr points into alive
+    fr = cfg.fixed_road
     road = ffi.new("vt_road_area *")
     assert lib.vt_fixed_road_area(ffi.NULL, 10, 10, road) == lib.VT_E_ARG
     assert lib.vt_fixed_road_area(ffi.addressof(fr), 10, 10, ffi.NULL) == lib.VT_E_ARG
