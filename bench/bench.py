@@ -653,6 +653,10 @@ def struct_sizes() -> list[dict]:
         for n in names:
             if not n.startswith("$"):
                 t = ffi.typeof(f"{kind} {n}")
+                try:
+                    ffi.sizeof(t)
+                except ffi.error:  # opaque (a stage's slot not built in: struct vt_camera)
+                    continue
                 rows.append({"type": f"{kind} {n}", "sizeof": ffi.sizeof(t), "alignof": ffi.alignof(t)})
     return rows
 
