@@ -40,7 +40,7 @@ vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg)
     }
     if (cfg->detect_every < 1 || cfg->road_policy < VT_ROAD_AUTO ||
         cfg->road_policy > VT_ROAD_FIXED || (cfg->lanes_every_frame != 0 && cfg->lanes_every_frame != 1) ||
-        cfg->sources == 0 || (cfg->sources & ~VT_SRC_BUILT) != 0) {
+        (cfg->track != 0 && cfg->track != 1) || (cfg->sources & ~VT_SRC_BUILT) != 0) {
         return VT_E_ARG;
     }
     s = vt__fixed_road_check(&cfg->fixed_road);
@@ -161,10 +161,11 @@ vt_status vt_fixed_road_area(const vt_fixed_road *fr, int32_t w, int32_t h, vt_r
     return VT_OK;
 }
 
-/* The road area of this frame per the policy (the lane stage wrote out->road when
- * it ran and found one). */
-static void vt__road(const vt_pipeline *p, const vt_image_u8 *frame, vt_frame_out *out,
-                     int32_t lanes_ok)
+/* The road area of a detection frame per the policy: the lanes' (written to
+ * out->road by the lane stage) when found, else the caller's road or the fixed
+ * trapezoid (none with VT_ROAD_LANES). */
+static void vt__road(const vt_pipeline *p, const vt_image_u8 *frame, const vt_road_area *given,
+                     vt_frame_out *out, int32_t lanes_ok)
 {
     if (lanes_ok && out->road.valid) {
         out->road_source = VT_ROAD_SRC_LANES;
@@ -172,8 +173,15 @@ static void vt__road(const vt_pipeline *p, const vt_image_u8 *frame, vt_frame_ou
     }
     out->road.valid = 0;
     out->road_source = VT_ROAD_SRC_NONE;
-    if (p->cfg.road_policy != VT_ROAD_LANES &&
-        vt_fixed_road_area(&p->cfg.fixed_road, frame->w, frame->h, &out->road) == VT_OK) {
+    if (p->cfg.road_policy == VT_ROAD_LANES) {
+        return;
+    }
+    if (given != NULL) {
+        if (given->valid) {
+            out->road = *given;
+            out->road_source = VT_ROAD_SRC_FIXED;
+        }
+    } else if (vt_fixed_road_area(&p->cfg.fixed_road, frame->w, frame->h, &out->road) == VT_OK) {
         out->road_source = VT_ROAD_SRC_FIXED;
     }
 }
@@ -204,24 +212,32 @@ static void vt__out_tracks(const vt_pipeline *p, int32_t n, vt_frame_out *out)
     out->n_tracks = i;
 }
 
-vt_status vt_pipeline_step(vt_pipeline *p, const vt_image_u8 *frame, vt_frame_out *out)
+/* The step behind the three entry points. road: the caller's fallback road (or
+ * NULL); dets/n_dets: the caller's detections when ext is 1. */
+static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_road_area *road,
+                          const vt_box *dets, int32_t n_dets, int32_t ext, vt_frame_out *out)
 {
     vt_status s;
     int32_t det_frame, run_lanes, lanes_ok = 0, n_boxes = 0, n_tracks = 0, i;
-    if (p == NULL || frame == NULL || out == NULL || frame->px == NULL) {
+    const vt_box *boxes = p->det.box;
+    if (frame->px == NULL) {
         return VT_E_ARG;
     }
     s = vt__check_dims(frame->w, frame->h, frame->stride, VT_MAX_WIDTH, VT_MAX_HEIGHT);
     if (s != VT_OK) {
         return s;
     }
+    if (road != NULL && road->valid && road->height != frame->h) {
+        return VT_E_SIZE;
+    }
     /* A pipeline that was never initialised (or was corrupted) has no valid
      * configuration: refuse rather than run stages on garbage. */
     if (vt_pipeline_cfg_check(&p->cfg) != VT_OK || p->frame < 0) {
         return VT_E_ARG;
     }
-    det_frame = (p->frame % p->cfg.detect_every) == 0;
-    run_lanes = p->cfg.road_policy != VT_ROAD_FIXED && (det_frame || p->cfg.lanes_every_frame);
+    det_frame = ext || (p->cfg.sources != 0 && (p->frame % p->cfg.detect_every) == 0);
+    run_lanes = !ext && p->cfg.road_policy != VT_ROAD_FIXED &&
+                ((det_frame && p->cfg.sources != 0) || p->cfg.lanes_every_frame);
 
     out->frame = p->frame;
     out->detection_frame = det_frame;
@@ -239,8 +255,17 @@ vt_status vt_pipeline_step(vt_pipeline *p, const vt_image_u8 *frame, vt_frame_ou
         out->lane_status = vt_lane_detect(&p->cfg.lane, &p->lane, frame, &out->lanes, &out->road);
         lanes_ok = out->lane_status == VT_OK;
     }
-    if (det_frame) {
-        vt__road(p, frame, out, lanes_ok);
+    if (ext) {
+        boxes = dets;
+        n_boxes = n_dets;
+        for (i = 0; i < n_dets; ++i) {
+            out->boxes[i].box = dets[i];
+            out->boxes[i].source = VT_SRC_EXTERNAL;
+            out->boxes[i].score = VT_UNKNOWN;
+        }
+        out->n_boxes = n_dets;
+    } else if (det_frame) {
+        vt__road(p, frame, road, out, lanes_ok);
         p->det.n_hyp = 0;
         p->det.n_boxes = 0;
         if (out->road_source != VT_ROAD_SRC_NONE) {
@@ -266,12 +291,44 @@ vt_status vt_pipeline_step(vt_pipeline *p, const vt_image_u8 *frame, vt_frame_ou
     } else {
         out->road.valid = 0;
     }
-    s = vt_tracker_step(&p->tracker, &p->cfg.tracker, frame, det_frame, p->det.box, n_boxes,
-                        p->tracks, VT_MAX_TRACKS, &n_tracks);
+    s = VT_OK;
+    if (p->cfg.track) {
+        s = vt_tracker_step(&p->tracker, &p->cfg.tracker, frame, det_frame, boxes, n_boxes,
+                            p->tracks, VT_MAX_TRACKS, &n_tracks);
+    }
     p->frame = vt__next_frame(p->frame);
     if (s != VT_OK && s != VT_E_CAPACITY) {
         return s;
     }
     vt__out_tracks(p, n_tracks, out);
     return s;
+}
+
+vt_status vt_pipeline_step(vt_pipeline *p, const vt_image_u8 *frame, vt_frame_out *out)
+{
+    if (p == NULL || frame == NULL || out == NULL) {
+        return VT_E_ARG;
+    }
+    return vt__step(p, frame, NULL, NULL, 0, 0, out);
+}
+
+vt_status vt_pipeline_step_road(vt_pipeline *p, const vt_image_u8 *frame,
+                                const vt_road_area *road, vt_frame_out *out)
+{
+    if (p == NULL || frame == NULL || out == NULL) {
+        return VT_E_ARG;
+    }
+    return vt__step(p, frame, road, NULL, 0, 0, out);
+}
+
+vt_status vt_pipeline_step_dets(vt_pipeline *p, const vt_image_u8 *frame, const vt_box *dets,
+                                int32_t n_dets, vt_frame_out *out)
+{
+    if (p == NULL || frame == NULL || out == NULL || n_dets < 0 || (dets == NULL && n_dets > 0)) {
+        return VT_E_ARG;
+    }
+    if (n_dets > VT_MAX_BOXES) {
+        return VT_E_CAPACITY;
+    }
+    return vt__step(p, frame, NULL, dets, n_dets, 1, out);
 }

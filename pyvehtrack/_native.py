@@ -452,13 +452,22 @@ def pipeline_new(cfg):
     return p
 
 
-def pipeline_step(p, img: np.ndarray, out) -> int:
-    """vt_pipeline_step into out (a vt_frame_out *); returns the status (VT_OK, or
-    VT_E_CAPACITY when more tracks were live than out holds); raises on errors."""
+def pipeline_step(p, img: np.ndarray, out, road=None, dets=None) -> int:
+    """vt_pipeline_step into out (a vt_frame_out *); with road (a vt_road_area *)
+    vt_pipeline_step_road, with dets (an (N, 4) box array, N may be 0)
+    vt_pipeline_step_dets. Returns the status (VT_OK, or VT_E_CAPACITY when more
+    tracks were live than out holds); raises VtError on errors."""
     v = view(img, "img")
-    s = lib.vt_pipeline_step(p, v, out)
-    if s != lib.VT_E_CAPACITY:
-        check("vt_pipeline_step", s, f"img {img.shape}")
+    if dets is not None:
+        boxes = _boxes_i32(dets, "dets")
+        pd = ffi.cast("vt_box *", boxes.ctypes.data) if len(boxes) else ffi.NULL
+        name, s = "vt_pipeline_step_dets", lib.vt_pipeline_step_dets(p, v, pd, len(boxes), out)
+    elif road is not None:
+        name, s = "vt_pipeline_step_road", lib.vt_pipeline_step_road(p, v, road, out)
+    else:
+        name, s = "vt_pipeline_step", lib.vt_pipeline_step(p, v, out)
+    if s != lib.VT_E_CAPACITY or dets is not None:
+        check(name, s, f"img {img.shape}" + ("" if dets is None else f", {len(dets)} detections"))
     return int(s)
 
 

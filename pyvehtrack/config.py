@@ -113,7 +113,7 @@ def _policy_defaults():
     c = _native.pipeline_cfg_default()
     road = next(k for k, v in ROAD_POLICIES.items() if getattr(lib, v) == c.road_policy)
     src = tuple(k for k, v in SOURCES.items() if c.sources & getattr(lib, v))
-    return int(c.detect_every), road, bool(c.lanes_every_frame), src
+    return int(c.detect_every), road, bool(c.lanes_every_frame), src, bool(c.track)
 
 
 _PD = _policy_defaults()
@@ -125,7 +125,8 @@ class PipelineConfig:
     policies. detect_every: detection on frames 0, N, 2N, ...; road: "auto" (lanes,
     else the fixed trapezoid), "lanes" or "fixed"; lanes_every_frame: run the lane
     stage on every frame (else on detection frames only); sources: hypothesis
-    sources (only "shadow" is built today)."""
+    sources (only "shadow" is built today; () for none: detections only from the
+    caller); track: run the tracker (False: detection only)."""
     lane: LaneConfig = field(default_factory=LaneConfig)
     shadow: ShadowConfig = field(default_factory=ShadowConfig)
     verify: VerifyConfig = field(default_factory=VerifyConfig)
@@ -135,6 +136,7 @@ class PipelineConfig:
     road: str = _PD[1]
     lanes_every_frame: bool = _PD[2]
     sources: tuple = _PD[3]
+    track: bool = _PD[4]
 
     def replace(self, **changes) -> "PipelineConfig":
         return dataclasses.replace(self, **changes)
@@ -242,9 +244,12 @@ def to_c(cfg: PipelineConfig):
     if not isinstance(cfg.lanes_every_frame, (bool, np.bool_)):
         raise TypeError(f"lanes_every_frame: expected a bool, got {type(cfg.lanes_every_frame).__name__}")
     c.lanes_every_frame = int(bool(cfg.lanes_every_frame))
+    if not isinstance(cfg.track, (bool, np.bool_)):
+        raise TypeError(f"track: expected a bool, got {type(cfg.track).__name__}")
+    c.track = int(bool(cfg.track))
     src = tuple(cfg.sources) if isinstance(cfg.sources, (tuple, list)) else None
-    if not src or any(s not in SOURCES for s in src):
-        raise ValueError(f"sources: expected a non-empty tuple of {sorted(SOURCES)}, got {cfg.sources!r}")
+    if src is None or any(s not in SOURCES for s in src):
+        raise ValueError(f"sources: expected a tuple of {sorted(SOURCES)}, got {cfg.sources!r}")
     c.sources = 0
     for s in src:
         c.sources |= getattr(lib, SOURCES[s])
@@ -280,14 +285,16 @@ def from_c(c) -> PipelineConfig:
                              (fr.bottom_left_permille / 1000, fr.bottom_right_permille / 1000),
                              fr.lane_bottom_permille / 1000, int(fr.top_margin)),
         detect_every=int(c.detect_every), road=road, lanes_every_frame=bool(c.lanes_every_frame),
-        sources=tuple(k for k, v in SOURCES.items() if c.sources & getattr(lib, v)))
+        sources=tuple(k for k, v in SOURCES.items() if c.sources & getattr(lib, v)),
+        track=bool(c.track))
 
 
 # ---------------------------------------------------------------- to the oracle
-def to_reference(cfg: PipelineConfig):
+def to_reference(cfg: PipelineConfig, quantize: bool = True):
     """The oracle's configuration (reference.pipeline.PipelineRefConfig) with the values
     C actually runs: the Kalman model rounded to Q15.16 and keep_ncc to Q1.14, so both
-    engines start from the same numbers. Validates through to_c first."""
+    engines start from the same numbers (quantize=False: the float values as given,
+    as the Tracker's reference engine always had them). Validates through to_c first."""
     from .reference import lane as rlane  # noqa: PLC0415  (the reference engine only)
     from .reference import pipeline as rpipe  # noqa: PLC0415
     from .reference import shadow as rshadow  # noqa: PLC0415
@@ -299,7 +306,7 @@ def to_reference(cfg: PipelineConfig):
 
     def conv(obj, ref_cls):
         return ref_cls(**{f.name: getattr(obj, f.name) for f in fields(ref_cls)})
-    t = q.tracker
+    t = q.tracker if quantize else cfg.tracker
     tracker = rtrk.TrackerCfg(search=conv(t.search, rts.SearchCfg),
                               model=rtrk.ModelCfg(**dataclasses.asdict(t.model)),
                               keep_ncc=t.keep_ncc,
@@ -311,7 +318,7 @@ def to_reference(cfg: PipelineConfig):
         lane=conv(q.lane, rlane.LaneConfig), shadow=conv(q.shadow, rshadow.ShadowConfig),
         verify=conv(q.verify, rverify.VerifyConfig), tracker=tracker, fixed_road=fr,
         detect_every=q.detect_every, road_policy=q.road, lanes_every_frame=q.lanes_every_frame,
-        sources=q.sources)
+        sources=q.sources, track=q.track)
 
 
 def reference_capacities():

@@ -38,7 +38,18 @@ from .frames import to_gray
 ENGINES = ("c", "reference")
 STATES = {1: "tentative", 2: "confirmed", 3: "coasting"}
 ROAD_SOURCES = {0: "none", 1: "lanes", 2: "fixed"}
-SOURCE_NAMES = {1: "shadow", 2: "classifier", 4: "flow", 8: "model"}
+SOURCE_NAMES = {1: "shadow", 2: "classifier", 4: "flow", 8: "model", 16: "external"}
+
+
+class _NoRoad:
+    """A road argument meaning "no road on this frame" (see Pipeline.step)."""
+    valid = False
+
+    def __repr__(self) -> str:
+        return "NO_ROAD"
+
+
+NO_ROAD = _NoRoad()
 
 
 @dataclass(frozen=True)
@@ -141,23 +152,39 @@ class Pipeline:
         return gray, (w / pw, h / ph)
 
     # ------------------------------------------------------------------ step
-    def step(self, frame) -> FrameResult:
-        """One frame (gray or BGR uint8); the result in input pixels."""
+    def step(self, frame, *, road=None, detections=None) -> FrameResult:
+        """One frame (gray or BGR uint8); the result in input pixels.
+
+        road: a road area (an object with y_top, y_bottom, x_left, x_right, lane_width
+        per row and valid, e.g. reference RoadArea) in the pixels of the PROCESSED frame
+        (see prepare), replacing the fixed trapezoid: the road of road="fixed" and the
+        fallback of road="auto"; NO_ROAD for none. detections: an (N, 4) array of
+        [left, top, right, bottom] input-pixel boxes making this a detection frame with
+        them (lanes and hypothesis stages do not run)."""
         gray, (sx, sy) = self.prepare(frame)
-        res = self.step_gray(gray)
+        if detections is not None:
+            d = _native._boxes_i32(detections, "detections").astype(np.float64)
+            if sx != 1.0 or sy != 1.0:
+                d = np.floor(d / np.array([sx, sy, sx, sy]))
+            detections = d.astype(np.int32).reshape(-1, 4)
+        res = self.step_gray(gray, road=road, detections=detections)
         if sx != 1.0 or sy != 1.0:
-            res = _rescale(res, sx, sy, frame.shape[0], frame.shape[1])
+            res = _rescale(res, sx, sy, int(round(gray.shape[0] * sy)), int(round(gray.shape[1] * sx)))
         return res
 
-    def step_gray(self, gray: np.ndarray) -> FrameResult:
-        """One frame already at the working size (see prepare); the result in its pixels."""
+    def step_gray(self, gray: np.ndarray, *, road=None, detections=None) -> FrameResult:
+        """One frame already at the working size (see prepare); road, detections and the
+        result in its pixels."""
         if self.engine == "c":
-            return self._step_c(gray)
-        return self._step_ref(gray)
+            return self._step_c(gray, road, detections)
+        return self._step_ref(gray, road, detections)
 
-    def _step_c(self, gray: np.ndarray) -> FrameResult:
+    def _step_c(self, gray: np.ndarray, road, detections) -> FrameResult:
         o = self._out
-        _native.pipeline_step(self._p, gray, o)
+        croad = None
+        if road is not None and detections is None:
+            croad = _native.road_area(None if road is NO_ROAD else road, gray.shape[0])
+        _native.pipeline_step(self._p, gray, o, road=croad, dets=detections)
         h = gray.shape[0]
         lanes = None
         if o.lanes_ran and o.lane_status == lib.VT_OK:
@@ -188,8 +215,8 @@ class Pipeline:
         return FrameResult(int(o.frame), bool(o.detection_frame), lanes, road,
                            ROAD_SOURCES[int(o.road_source)], hyp, boxes, tracks, 1.0, stats)
 
-    def _step_ref(self, gray: np.ndarray) -> FrameResult:
-        r = self._ref.step(gray)
+    def _step_ref(self, gray: np.ndarray, road, detections) -> FrameResult:
+        r = self._ref.step(gray, road=road, detections=detections)
         lanes = _lane.from_reference(r.lanes, gray.shape) if r.lanes_ok else None
         road = np.zeros((0, 2), np.int64)
         if r.road is not None:
@@ -229,4 +256,4 @@ def _rescale(res: FrameResult, sx: float, sy: float, h0: int, w0: int) -> FrameR
                        float(max(sx, sy)), res.stats)
 
 
-__all__ = ["Pipeline", "FrameResult", "Box", "Track", "PipelineConfig"]
+__all__ = ["Pipeline", "FrameResult", "Box", "Track", "PipelineConfig", "NO_ROAD"]

@@ -241,7 +241,7 @@ def test_output_guard_bytes():
 
 @pytest.mark.parametrize("field,value", [
     ("detect_every", 0), ("detect_every", -3), ("road_policy", 3), ("road_policy", -1),
-    ("lanes_every_frame", 2), ("sources", 0), ("sources", 2), ("sources", 16)])
+    ("lanes_every_frame", 2), ("track", 2), ("track", -1), ("sources", 2), ("sources", 16)])
 def test_cfg_check_rejects_policies(field, value):
     c = _cfg()
     setattr(c, field, value)
@@ -320,7 +320,9 @@ def test_python_bad_arguments():
     with pytest.raises(ValueError, match="sources"):
         Pipeline(sources=("flow",))
     with pytest.raises(ValueError, match="sources"):
-        Pipeline(sources=())
+        Pipeline(sources="shadow")
+    with pytest.raises(TypeError, match="track"):
+        Pipeline(track=1)
     with pytest.raises(TypeError, match="lanes_every_frame"):
         Pipeline(lanes_every_frame=1)
     with pytest.raises(ValueError, match="thousandth"):

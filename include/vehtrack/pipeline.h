@@ -36,6 +36,7 @@ struct vt_camera;    /* flat-road camera geometry (camera) */
 #define VT_SRC_CLASSIFIER 2 /* classifier windows (needs a model) */
 #define VT_SRC_FLOW 4       /* overtaking vehicles from lateral SAD flow */
 #define VT_SRC_MODEL 8      /* the 7-parameter vehicle model fitted by a GA */
+#define VT_SRC_EXTERNAL 16  /* the caller's detections (vt_pipeline_step_dets); not a policy bit */
 #define VT_SRC_BUILT (VT_SRC_SHADOW)
 
 /* Where the road area of a frame came from (vt_frame_out.road_source) and which
@@ -81,13 +82,15 @@ typedef struct {
     int32_t road_policy;     /* VT_ROAD_AUTO / _LANES / _FIXED                          */
     int32_t lanes_every_frame; /* 1: lanes on every frame; 0: on detection frames only
                                   (the road area is needed only there)                 */
-    int32_t sources;         /* VT_SRC_* mask of hypothesis sources                     */
+    int32_t sources;         /* VT_SRC_* mask of hypothesis sources; 0: none (detections
+                                come only from the caller, vt_pipeline_step_dets)        */
+    int32_t track;           /* 1: the tracker runs; 0: detection only (no tracks)       */
 } vt_pipeline_cfg;
 
 #define VT_PIPELINE_CFG_DEFAULT                                                            \
     {                                                                                      \
         VT_LANE_CFG_DEFAULT, VT_DETECT_CFG_DEFAULT, VT_TRACKER_CFG_DEFAULT,                \
-            VT_FIXED_ROAD_DEFAULT, 10, VT_ROAD_AUTO, 0, VT_SRC_SHADOW                      \
+            VT_FIXED_ROAD_DEFAULT, 10, VT_ROAD_AUTO, 0, VT_SRC_SHADOW, 1                   \
     }
 
 /* Everything the pipeline keeps. Caller-owned (static storage on firmware);
@@ -148,7 +151,7 @@ vt_status vt_pipeline_cfg_default(vt_pipeline_cfg *cfg);
 /* VT_OK if every stage's configuration and every policy is valid: the lane, shadow,
  * verify and tracker checks (their codes), the fixed road (permille 0..1000,
  * bottom_left <= bottom_right, top_margin 0..4096), detect_every >= 1, a known
- * road policy, lanes_every_frame 0/1, sources a non-empty subset of the built ones
+ * road policy, lanes_every_frame and track 0/1, sources a subset of the built ones
  * (VT_E_ARG otherwise). */
 vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg);
 
@@ -159,8 +162,9 @@ vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
                            const struct vt_camera *camera, const struct vt_svm_model *model);
 
 /* One frame: lanes (every frame or detection frames, per the policy) -> road area
- * (lanes, else the fixed trapezoid, per the policy) -> on detection frames
- * hypotheses and verification -> tracker -> geometry. frame: 1x1 ..
+ * (lanes, else the fixed trapezoid, per the policy) -> on detection frames (every
+ * detect_every-th, when a hypothesis source is on) hypotheses and verification ->
+ * tracker (if on) -> geometry. frame: 1x1 ..
  * VT_MAX_WIDTH x VT_MAX_HEIGHT (VT_E_SIZE otherwise; see vt_pipeline_work_size for
  * bringing a larger frame within it). A lane-stage error (e.g. a frame below its
  * 16x16 minimum) is not fatal: it is reported in out->lane_status and the road
@@ -168,6 +172,23 @@ vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
  * (out then holds what ran before them); on VT_E_ARG / VT_E_SIZE nothing changes
  * and the frame counter does not advance. */
 vt_status vt_pipeline_step(vt_pipeline *p, const vt_image_u8 *frame, vt_frame_out *out);
+
+/* vt_pipeline_step with the caller's road area in place of the fixed trapezoid: it
+ * is the road of VT_ROAD_FIXED and the fallback of VT_ROAD_AUTO (the lanes' area
+ * still wins when found). An invalid road (valid == 0) means "no road": no
+ * detection on this frame unless the lanes find one. road NULL: the built-in
+ * trapezoid, as vt_pipeline_step. VT_E_SIZE if a valid road was made for another
+ * frame height (road->height != frame->h). */
+vt_status vt_pipeline_step_road(vt_pipeline *p, const vt_image_u8 *frame,
+                                const vt_road_area *road, vt_frame_out *out);
+
+/* vt_pipeline_step where this frame is a detection frame with the caller's boxes
+ * (dets[0..n_dets-1], inclusive pixels; NULL only if n_dets is 0), whatever the
+ * cadence: the lane and hypothesis stages do not run; the boxes go to the tracker
+ * with source VT_SRC_EXTERNAL. VT_E_ARG for n_dets < 0 or dets NULL with n_dets >
+ * 0; VT_E_CAPACITY for n_dets > VT_MAX_BOXES (nothing changes then). */
+vt_status vt_pipeline_step_dets(vt_pipeline *p, const vt_image_u8 *frame, const vt_box *dets,
+                                int32_t n_dets, vt_frame_out *out);
 
 /* The working size of a w x h frame for a core of max_w x max_h: unchanged if it
  * fits, else the largest size with the same aspect ratio that fits (each side

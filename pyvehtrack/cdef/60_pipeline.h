@@ -3,6 +3,7 @@
 #define VT_SRC_CLASSIFIER ...
 #define VT_SRC_FLOW ...
 #define VT_SRC_MODEL ...
+#define VT_SRC_EXTERNAL ...
 #define VT_SRC_BUILT ...
 #define VT_ROAD_SRC_NONE ...
 #define VT_ROAD_SRC_LANES ...
@@ -35,6 +36,7 @@ typedef struct {
     int32_t road_policy;
     int32_t lanes_every_frame;
     int32_t sources;
+    int32_t track;
 } vt_pipeline_cfg;
 
 typedef struct {
@@ -85,6 +87,10 @@ vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg);
 vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
                            const struct vt_camera *camera, const struct vt_svm_model *model);
 vt_status vt_pipeline_step(vt_pipeline *p, const vt_image_u8 *frame, vt_frame_out *out);
+vt_status vt_pipeline_step_road(vt_pipeline *p, const vt_image_u8 *frame,
+                                const vt_road_area *road, vt_frame_out *out);
+vt_status vt_pipeline_step_dets(vt_pipeline *p, const vt_image_u8 *frame, const vt_box *dets,
+                                int32_t n_dets, vt_frame_out *out);
 vt_status vt_pipeline_work_size(int32_t w, int32_t h, int32_t max_w, int32_t max_h,
                                 int32_t *work_w, int32_t *work_h);
 vt_status vt_fixed_road_area(const vt_fixed_road *fr, int32_t w, int32_t h, vt_road_area *road);

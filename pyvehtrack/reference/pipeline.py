@@ -66,6 +66,7 @@ class PipelineRefConfig:
     road_policy: str = ROAD_AUTO
     lanes_every_frame: bool = False
     sources: tuple = (SRC_SHADOW,)
+    track: bool = True
 
 
 @dataclass
@@ -112,21 +113,28 @@ class Pipeline:
             raise ValueError(f"detect_every must be >= 1, got {self.cfg.detect_every}")
         if self.cfg.road_policy not in (ROAD_AUTO, ROAD_LANES, ROAD_FIXED):
             raise ValueError(f"road_policy: expected 'auto', 'lanes' or 'fixed', got {self.cfg.road_policy!r}")
-        if tuple(self.cfg.sources) != (SRC_SHADOW,):
-            raise ValueError(f"sources: only ('shadow',) is built, got {self.cfg.sources!r}")
+        if tuple(self.cfg.sources) not in ((SRC_SHADOW,), ()):
+            raise ValueError(f"sources: only ('shadow',) or () is built, got {self.cfg.sources!r}")
         self.lane = rlane.LaneDetector(self.cfg.lane, max_height=self.caps.max_height,
                                        max_verts=self.caps.max_verts)
         self.tracker = rtrk.Tracker(self.cfg.tracker, max_tracks=self.caps.max_tracks)
         self.frame = 0
 
-    def step(self, gray: np.ndarray) -> RefFrame:
+    def step(self, gray: np.ndarray, road=None, detections=None) -> RefFrame:
+        """One frame. road: a RoadArea (or one with valid False: no road) replacing the
+        fixed trapezoid (the fallback of "auto", the road of "fixed"). detections: an
+        (N, 4) box array making this a detection frame with those boxes (the lane and
+        hypothesis stages do not run), as c/pipeline.c's step_road / step_dets."""
         c = self.cfg
         gray = np.asarray(gray, np.uint8)
         h, w = gray.shape
         if not (1 <= w <= self.caps.max_width and 1 <= h <= self.caps.max_height):
             raise ValueError(f"frame {w}x{h} outside 1x1..{self.caps.max_width}x{self.caps.max_height}")
-        det_frame = self.frame % c.detect_every == 0
-        run_lanes = c.road_policy != ROAD_FIXED and (det_frame or c.lanes_every_frame)
+        ext = detections is not None
+        det_frame = ext or (bool(c.sources) and self.frame % c.detect_every == 0)
+        run_lanes = not ext and c.road_policy != ROAD_FIXED and \
+            ((det_frame and bool(c.sources)) or c.lanes_every_frame)
+        given = road
         lanes, lanes_ok, road, source = None, False, None, "none"
         if run_lanes and _lane_fits(h, w, c.lane):
             lanes = self.lane.detect(gray)
@@ -135,11 +143,18 @@ class Pipeline:
         hyp = np.zeros((0, 3), np.int64)
         boxes = np.zeros((0, 4), np.int64)
         stats = {}
-        if det_frame:
+        box_source = SRC_SHADOW
+        if ext:
+            boxes = np.asarray(detections, np.int64).reshape(-1, 4)
+            box_source = "external"
+        elif det_frame:
             if lane_road is not None:
                 road, source = lane_road, "lanes"
             elif c.road_policy != ROAD_LANES:
-                road, source = c.fixed_road.make(h, w), "fixed"
+                if given is None:
+                    road, source = c.fixed_road.make(h, w), "fixed"
+                elif getattr(given, "valid", True):
+                    road, source = given, "fixed"
             if road is not None:
                 res = rshadow.find_hypotheses(gray, road, c.shadow,
                                               max_active=self.caps.max_shadow_active,
@@ -151,11 +166,11 @@ class Pipeline:
                 boxes = rverify.verify(gray, hyp, c.verify, max_out=self.caps.max_boxes)
         elif lane_road is not None:
             road, source = lane_road, "lanes"
-        rows = self.tracker.step(gray, det_frame, boxes)
+        rows = self.tracker.step(gray, det_frame, boxes) if c.track else []
         tracks = [(i, s, tuple(int(v) for v in b), vx, vy, None, None, None)
                   for i, s, b, vx, vy in rows]
         out = RefFrame(self.frame, det_frame, bool(run_lanes), lanes_ok, lanes, source, road,
-                       np.asarray(hyp, np.int64).reshape(-1, 3), boxes, [SRC_SHADOW] * len(boxes),
+                       np.asarray(hyp, np.int64).reshape(-1, 3), boxes, [box_source] * len(boxes),
                        tracks, stats)
         self.frame = self.frame + 1 if self.frame < 2**31 - 1 else 0
         return out
