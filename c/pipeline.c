@@ -248,6 +248,7 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
     out->road.height = frame->h;
     out->n_hyp = 0;
     out->n_boxes = 0;
+    out->n_boxes_in = 0;
     out->n_tracks = 0;
     memset(&out->lanes, 0, sizeof(out->lanes));
 
@@ -258,12 +259,12 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
     if (ext) {
         boxes = dets;
         n_boxes = n_dets;
-        for (i = 0; i < n_dets; ++i) {
+        for (i = 0; i < n_dets && i < VT_MAX_BOXES; ++i) {
             out->boxes[i].box = dets[i];
             out->boxes[i].source = VT_SRC_EXTERNAL;
             out->boxes[i].score = VT_UNKNOWN;
         }
-        out->n_boxes = n_dets;
+        out->n_boxes = i;
     } else if (det_frame) {
         vt__road(p, frame, road, out, lanes_ok);
         p->det.n_hyp = 0;
@@ -291,6 +292,7 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
     } else {
         out->road.valid = 0;
     }
+    out->n_boxes_in = n_boxes;
     s = VT_OK;
     if (p->cfg.track) {
         s = vt_tracker_step(&p->tracker, &p->cfg.tracker, frame, det_frame, boxes, n_boxes,
@@ -326,9 +328,6 @@ vt_status vt_pipeline_step_dets(vt_pipeline *p, const vt_image_u8 *frame, const 
 {
     if (p == NULL || frame == NULL || out == NULL || n_dets < 0 || (dets == NULL && n_dets > 0)) {
         return VT_E_ARG;
-    }
-    if (n_dets > VT_MAX_BOXES) {
-        return VT_E_CAPACITY;
     }
     return vt__step(p, frame, NULL, dets, n_dets, 1, out);
 }

@@ -102,10 +102,12 @@ class Pipeline:
     camera, model: the camera geometry and classifier stages (not built in yet:
     pass None). cfg: a pyvehtrack.config.PipelineConfig (default: the core's);
     keyword arguments replace its top-level fields, e.g. Pipeline(detect_every=5,
-    road="fixed", tracker=TrackerConfig(confirm_hits=2))."""
+    road="fixed", tracker=TrackerConfig(confirm_hits=2)). reference_quantized: the
+    reference engine runs the Kalman model and keep_ncc rounded as C holds them
+    (default) or as given."""
 
     def __init__(self, engine: str = "c", camera=None, model=None,
-                 cfg: PipelineConfig | None = None, **config):
+                 cfg: PipelineConfig | None = None, *, reference_quantized: bool = True, **config):
         if engine not in ENGINES:
             raise ValueError(f"engine: expected one of {ENGINES}, got {engine!r}")
         if camera is not None:
@@ -113,6 +115,7 @@ class Pipeline:
         if model is not None:
             raise ValueError("model: the classifier stage is not built into this version; pass None")
         self.engine = engine
+        self._ref_quantized = bool(reference_quantized)
         self.cfg = _config.from_kwargs(cfg, **config)
         self._ccfg = _config.to_c(self.cfg)  # checks the whole config once, for both engines
         self.max_w, self.max_h = int(lib.VT_MAX_WIDTH), int(lib.VT_MAX_HEIGHT)
@@ -126,7 +129,8 @@ class Pipeline:
             self._out = ffi.new("vt_frame_out *")
         else:
             from .reference import pipeline as rpipe  # noqa: PLC0415  (the reference engine only)
-            self._ref = rpipe.Pipeline(_config.to_reference(self.cfg), _config.reference_capacities())
+            self._ref = rpipe.Pipeline(_config.to_reference(self.cfg, self._ref_quantized),
+                                       _config.reference_capacities())
 
     @property
     def frame_index(self) -> int:

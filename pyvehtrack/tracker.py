@@ -12,7 +12,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, fields
 
-import cv2
 import numpy as np
 
 from . import _native
@@ -47,18 +46,37 @@ def cfg_to_c(cfg: rtrk.TrackerCfg):
     return c
 
 
+def tracker_config(cfg: rtrk.TrackerCfg):
+    """The pyvehtrack.config.TrackerConfig of a reference TrackerCfg (same fields)."""
+    from . import config  # noqa: PLC0415
+    if not isinstance(cfg, rtrk.TrackerCfg):
+        raise TypeError(f"cfg: expected a TrackerCfg, got {type(cfg).__name__}")
+    return config.TrackerConfig(
+        search=config.SearchConfig(**{f.name: getattr(cfg.search, f.name) for f in fields(cfg.search)}),
+        model=ModelConfig(**vars(cfg.model)), keep_ncc=cfg.keep_ncc,
+        **{f.name: getattr(cfg, f.name) for f in fields(cfg) if f.name not in ("search", "model", "keep_ncc")})
+
+
 class Tracker:
     """Vehicle tracker. engine="c" runs the fixed-point core, "reference" the float oracle.
 
     detector: an object with .detect(gray) -> result with .boxes (N, 4), used every
     `detect_every` frames when step() is not given detections. Frames larger than the
-    core's compile-time maximum are downscaled by an integer factor (boxes are scaled
-    back to input pixels), never clipped."""
+    core's compile-time maximum are downscaled by the pipeline's one rule (boxes are
+    scaled back to input pixels), never clipped.
+
+    A view onto pyvehtrack.Pipeline: with a pyvehtrack Detector of the same engine
+    (and its own lane stage) the whole frame, detection included, is one pipeline
+    step; any other detector's boxes, and boxes passed to step(), enter the pipeline
+    as the frame's detections."""
 
     def __init__(self, engine: str = "c", cfg: rtrk.TrackerCfg | None = None,
                  detect_every: int = 10, detector=None):
+        from .pipeline import Pipeline  # noqa: PLC0415  (pipeline imports this module's users)
         if engine not in ("c", "reference"):
             raise ValueError(f"engine must be 'c' or 'reference', got {engine!r}")
+        if isinstance(detect_every, bool) or not isinstance(detect_every, (int, np.integer)):
+            raise TypeError(f"detect_every must be an int, got {type(detect_every).__name__}")
         if int(detect_every) < 1:
             raise ValueError(f"detect_every must be >= 1, got {detect_every}")
         self.engine = engine
@@ -67,43 +85,34 @@ class Tracker:
         self.detector = detector
         self.frame_index = 0
         self.last_was_detection = False  # whether the last step() had detections
-        if engine == "c":
-            self._ccfg = cfg_to_c(self.cfg)
-            self._tr = _native.tracker_new()
+        over = {}
+        own = getattr(detector, "pipeline_overrides", None)
+        self._own = callable(own) and getattr(detector, "engine", None) == engine and own() is not None
+        if self._own:
+            over = dict(own())
         else:
-            self._ref = rtrk.Tracker(self.cfg, max_tracks=int(_native.lib.VT_MAX_TRACKS))
+            over["sources"] = ()   # detections come from step() or the detector object
+        self.pipeline = Pipeline(engine, tracker=tracker_config(self.cfg), detect_every=self.detect_every,
+                                 reference_quantized=False, **over)
 
-    def _scale(self, gray: np.ndarray) -> int:
-        h, w = gray.shape
-        f = 1
-        while w // f > _native.lib.VT_MAX_WIDTH or h // f > _native.lib.VT_MAX_HEIGHT:
-            f += 1
-        return f
+    @property
+    def _tr(self):
+        """The C engine's vt_tracker inside the pipeline (for inspection)."""
+        return self.pipeline._p.tracker
 
     def step(self, frame: np.ndarray, detections=None) -> list[Track]:
         gray = to_gray(frame)
-        if gray.size == 0:
-            raise ValueError("empty frame")
-        f = self._scale(gray)
-        small = cv2.resize(gray, (gray.shape[1] // f, gray.shape[0] // f),
-                           interpolation=cv2.INTER_AREA) if f > 1 else gray
+        dets = None
+        road = None
         if detections is not None:
-            det_frame, dets = True, _native._boxes_i32(detections, "detections")
+            dets = _native._boxes_i32(detections, "detections")
         elif self.detector is not None and self.frame_index % self.detect_every == 0:
-            det_frame, dets = True, np.asarray(self.detector.detect(frame).boxes).reshape(-1, 4)
-        else:
-            det_frame, dets = False, np.zeros((0, 4), np.int32)
-        self.last_was_detection = det_frame
-        if f > 1 and len(dets):
-            dets = np.asarray(dets) // f
+            if self._own:
+                h, w = self.pipeline.work_size(gray.shape[1], gray.shape[0])[::-1]
+                road = self.detector.fallback_road(h, w)
+            else:
+                dets = np.asarray(self.detector.detect(frame).boxes).reshape(-1, 4)
         self.frame_index += 1
-        if self.engine == "c":
-            rows = _native.tracker_step(self._tr, self._ccfg, small, det_frame, dets)
-            out = [Track(int(r["id"]), STATES[int(r["state"])],
-                         tuple(int(r[k]) * f for k in ("left", "top", "right", "bottom")),
-                         (r["vx"] / 65536 * f, r["vy"] / 65536 * f)) for r in rows]
-        else:
-            rows = self._ref.step(small, det_frame, dets)
-            out = [Track(i, STATES[s], tuple(int(v) * f for v in b), (vx * f, vy * f))
-                   for i, s, b, vx, vy in rows]
-        return out
+        res = self.pipeline.step(gray, road=road, detections=dets)
+        self.last_was_detection = res.detection_frame
+        return [Track(t.id, t.state, t.box, t.velocity) for t in res.tracks]

@@ -139,7 +139,9 @@ typedef struct {
     vt_road_area road;       /* the road area used (valid = 0 if none)               */
     int32_t n_hyp;           /* shadow hypotheses (nearest first)                    */
     vt_hypothesis hyp[VT_MAX_HYPOTHESES];
-    int32_t n_boxes;         /* boxes handed to the tracker                          */
+    int32_t n_boxes;         /* boxes handed to the tracker (the first VT_MAX_BOXES)  */
+    int32_t n_boxes_in;      /* all of them: more than n_boxes only when the caller's
+                                detections (vt_pipeline_step_dets) exceed VT_MAX_BOXES */
     vt_pipe_box boxes[VT_MAX_BOXES];
     int32_t n_tracks;        /* live tracks                                          */
     vt_pipe_track tracks[VT_MAX_TRACKS];
@@ -184,9 +186,10 @@ vt_status vt_pipeline_step_road(vt_pipeline *p, const vt_image_u8 *frame,
 
 /* vt_pipeline_step where this frame is a detection frame with the caller's boxes
  * (dets[0..n_dets-1], inclusive pixels; NULL only if n_dets is 0), whatever the
- * cadence: the lane and hypothesis stages do not run; the boxes go to the tracker
- * with source VT_SRC_EXTERNAL. VT_E_ARG for n_dets < 0 or dets NULL with n_dets >
- * 0; VT_E_CAPACITY for n_dets > VT_MAX_BOXES (nothing changes then). */
+ * cadence: the lane and hypothesis stages do not run; all the boxes go to the
+ * tracker (which has its own limit and checks each box), the first VT_MAX_BOXES
+ * are copied to out->boxes with source VT_SRC_EXTERNAL. VT_E_ARG for n_dets < 0
+ * or dets NULL with n_dets > 0 (nothing changes then). */
 vt_status vt_pipeline_step_dets(vt_pipeline *p, const vt_image_u8 *frame, const vt_box *dets,
                                 int32_t n_dets, vt_frame_out *out);
 

@@ -77,6 +77,7 @@ typedef struct {
     int32_t n_hyp;
     vt_hypothesis hyp[...];
     int32_t n_boxes;
+    int32_t n_boxes_in;
     vt_pipe_box boxes[...];
     int32_t n_tracks;
     vt_pipe_track tracks[...];
