@@ -402,8 +402,7 @@ def _full_detect(ctx: Ctx) -> Stage:
         last["boxes"] = nat.detect(dst, dcfg, img, road, dres)[1]
 
     def reference():
-        if ref.lane_detector is not None:
-            ref.lane_detector.reset()
+        ref.reset()
         return ref.detect(img)
 
     return Stage("full_detect", c, reference, pixels=img.size, calls=3,

@@ -170,6 +170,12 @@ class Detector:
         over["road"] = self.road if self._lanes_inside else "fixed"
         self.pipeline = Pipeline(engine, detect_every=1, track=False, **over)
 
+    def reset(self) -> None:
+        """Forget the lane tracker's lines (call between unrelated frames or videos)."""
+        self.pipeline.reset()
+        if self.lane_detector is not None and hasattr(self.lane_detector, "reset"):
+            self.lane_detector.reset()
+
     def _stage_overrides(self) -> dict:
         from . import config  # noqa: PLC0415
         return {"shadow": config.ShadowConfig(**{f.name: getattr(self.cfg.shadow, f.name)
