@@ -369,3 +369,62 @@ def test_bgr_frames_and_reset():
     assert [[(t.id, t.box) for t in r.tracks] for r in first] == \
         [[(t.id, t.box) for t in r.tracks] for r in again]
     assert [r.detection_frame for r in again] == [True, False, True, False]
+
+
+# ---------------------------------------------------------------- the caller's road and detections
+def test_step_dets_and_road_match_reference():
+    """The caller's detections (step_dets) and road (step_road) go the same way in both
+    engines; with the fixed policy and a given road the inputs are identical, so the
+    outputs must be equal."""
+    frames = _clip()[:6]
+    h, w = frames[0].shape
+    road = rpipe.FixedRoadRef(bottom=(0.2, 0.8)).make(h, w)
+    a = Pipeline("c", road="fixed", detect_every=2)
+    b = Pipeline("reference", road="fixed", detect_every=2)
+    dets = np.array([[255, 35, 395, 175], [10, 10, 40, 40]])
+    for i, f in enumerate(frames):
+        kw = {"detections": dets} if i == 1 else {"road": road}
+        ra, rb = a.step(f, **kw), b.step(f, **kw)
+        _compare_external(ra, rb, i)
+        if i == 1:
+            assert ra.detection_frame and [x.source for x in ra.boxes] == ["external"] * 2
+            assert [x.box for x in ra.boxes] == [tuple(d) for d in dets]
+    # No road on a detection frame: no hypotheses, no boxes, road source none.
+    from pyvehtrack.pipeline import NO_ROAD
+    for p in (Pipeline("c", road="fixed"), Pipeline("reference", road="fixed")):
+        r = p.step(frames[0], road=NO_ROAD)
+        assert r.detection_frame and r.road_source == "none" and not r.boxes and not r.tracks
+
+
+def _compare_external(ra, rb, i):
+    assert ra.detection_frame == rb.detection_frame and ra.road_source == rb.road_source, i
+    assert [(x.box, x.source) for x in ra.boxes] == [(x.box, x.source) for x in rb.boxes], i
+    assert np.array_equal(ra.road, rb.road), i
+    assert [(t.id, t.state, t.box) for t in ra.tracks] == [(t.id, t.state, t.box) for t in rb.tracks], i
+
+
+def test_step_dets_and_road_arguments():
+    p = _native.pipeline_new(_cfg())
+    out = ffi.new("vt_frame_out *")
+    img, v = _frame()
+    box = ffi.new("vt_box[1]", [[1, 1, 5, 5]])
+    assert lib.vt_pipeline_step_dets(ffi.NULL, v, box, 1, out) == lib.VT_E_ARG
+    assert lib.vt_pipeline_step_dets(p, v, ffi.NULL, 1, out) == lib.VT_E_ARG
+    assert lib.vt_pipeline_step_dets(p, v, box, -1, out) == lib.VT_E_ARG
+    assert lib.vt_pipeline_step_dets(p, v, box, 1, ffi.NULL) == lib.VT_E_ARG
+    assert p.frame == 0
+    assert lib.vt_pipeline_step_dets(p, v, ffi.NULL, 0, out) == lib.VT_OK  # zero boxes is fine
+    assert out.detection_frame == 1 and out.n_boxes == 0 and p.frame == 1
+    bad = ffi.new("vt_box[1]", [[5, 5, 1, 1]])  # left > right: the tracker rejects it
+    assert lib.vt_pipeline_step_dets(p, v, bad, 1, out) == lib.VT_E_ARG
+    # More detections than out holds: all reach the tracker, the first VT_MAX_BOXES are shown.
+    n = int(lib.VT_MAX_BOXES) + 3
+    many = ffi.new("vt_box[]", [[2 * k, 0, 2 * k + 1, 1] for k in range(n)])
+    assert lib.vt_pipeline_step_dets(p, v, many, n, out) in (lib.VT_OK, lib.VT_E_CAPACITY)
+    assert out.n_boxes == int(lib.VT_MAX_BOXES) and out.n_boxes_in == n
+    road = ffi.new("vt_road_area *")
+    assert lib.vt_fixed_road_area(ffi.addressof(p.cfg.fixed_road), 60, 41, road) == lib.VT_OK
+    assert lib.vt_pipeline_step_road(p, v, road, out) == lib.VT_E_SIZE  # made for 41 rows, frame has 40
+    assert lib.vt_pipeline_step_road(ffi.NULL, v, road, out) == lib.VT_E_ARG
+    road.valid = 0  # an invalid road is "no road", whatever its height
+    assert lib.vt_pipeline_step_road(p, v, road, out) == lib.VT_OK
