@@ -68,6 +68,19 @@ static int32_t vt__max_range(const int32_t *v, int32_t lo, int32_t hi)
     return m;
 }
 
+vt_status vt_track_search_cfg_check(const vt_track_search_cfg *cfg)
+{
+    if (cfg == NULL ||
+        (cfg->polarity != VT_EDGE_DARK_ABOVE && cfg->polarity != VT_EDGE_DARK_BELOW) ||
+        cfg->h_thresh < 1 || cfg->v_thresh < 1 || cfg->min_h_percent < 0 ||
+        cfg->min_h_percent > 100 || cfg->min_v_percent < 0 || cfg->min_v_percent > 100 ||
+        cfg->bottom_percent < 1 || cfg->bottom_percent > 100 ||
+        (cfg->side_mode != VT_SIDES_TWO_THRESHOLD && cfg->side_mode != VT_SIDES_LARGEST)) {
+        return VT_E_ARG;
+    }
+    return VT_OK;
+}
+
 vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg,
                           const vt_box *roi, vt_track_sides *sides,
                           vt_track_search_ws *ws, vt_box *meas, int32_t *found)
@@ -80,11 +93,7 @@ vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg
     if (cfg == NULL || roi == NULL || ws == NULL || meas == NULL || found == NULL) {
         return VT_E_ARG;
     }
-    if ((cfg->polarity != VT_EDGE_DARK_ABOVE && cfg->polarity != VT_EDGE_DARK_BELOW) ||
-        cfg->h_thresh < 1 || cfg->v_thresh < 1 || cfg->min_h_percent < 0 ||
-        cfg->min_h_percent > 100 || cfg->min_v_percent < 0 || cfg->min_v_percent > 100 ||
-        cfg->bottom_percent < 1 || cfg->bottom_percent > 100 ||
-        (cfg->side_mode != VT_SIDES_TWO_THRESHOLD && cfg->side_mode != VT_SIDES_LARGEST)) {
+    if (vt_track_search_cfg_check(cfg) != VT_OK) {
         return VT_E_ARG;
     }
     *found = 0;
