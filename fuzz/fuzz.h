@@ -121,6 +121,13 @@ static inline int32_t fz_edge(fz *f, int32_t cap)
     }
 }
 
+/* base + an offset in [lo, hi], clamped to int32 (so edges stay edges). */
+static inline int32_t fz_near(fz *f, int32_t base, int32_t lo, int32_t hi)
+{
+    int64_t v = (int64_t)base + fz_range(f, lo, hi);
+    return (int32_t)(v > INT32_MAX ? INT32_MAX : (v < INT32_MIN ? INT32_MIN : v));
+}
+
 /* A size: mostly 1..small (fast inputs), sometimes an edge of 1..cap. */
 static inline int32_t fz_size(fz *f, int32_t small, int32_t cap)
 {
