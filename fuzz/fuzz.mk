@@ -4,7 +4,8 @@
 #                    (UB fatal) and run each for FUZZ_SECONDS (default 20) from a
 #                    copy of its seed corpus fuzz/corpus/NAME/; fails on any crash.
 #   make fuzz-long   each harness for FUZZ_RUNS executions (default 10 M), one at a
-#                    time at nice 19; logs and final stats in build/fuzz/NAME-long.log.
+#                    time at nice 19 (FUZZ_LONG_SECONDS caps each); logs and final
+#                    stats in build/fuzz/NAME-long.log.
 #   make fuzz-NAME   one harness, FUZZ_SECONDS.
 # A crash leaves its input in build/fuzz/crash-NAME-*; replay it with
 # build/fuzz/fuzz_NAME <file>. Adding a harness is adding fuzz/fuzz_NAME.c (and
@@ -13,6 +14,9 @@
 FUZZ_CC      ?= clang
 FUZZ_SECONDS ?= 20
 FUZZ_RUNS    ?= 10000000
+# fuzz-long stops a harness after FUZZ_LONG_SECONDS too when set (0: no limit), for a
+# shared machine; the report then states the executions actually reached.
+FUZZ_LONG_SECONDS ?= 0
 FUZZ_FLAGS   := -std=c99 -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
                 -fno-omit-frame-pointer -Wall -Wextra -Werror -Wno-unused-function
 FUZZ_OUT     := $(BUILD)/fuzz
@@ -33,26 +37,25 @@ $(FUZZ_OUT)/fuzz_%: fuzz/fuzz_%.c fuzz/fuzz.h $(CORE_SRCS) $(CORE_HDRS)
 
 fuzz-build: $(FUZZ_BINS)
 
-# One harness: a scratch copy of the seeds (new inputs never touch the checked-in
-# corpus), then libFuzzer for FUZZ_SECONDS; artifacts (crashes) in $(FUZZ_OUT).
-define fuzz_one
-	@rm -rf $(FUZZ_OUT)/work-$(1) && mkdir -p $(FUZZ_OUT)/work-$(1)
-	@echo "== fuzz $(1): $(2) =="
-	@cd $(FUZZ_OUT) && $(FUZZ_ENV) $(3) ./fuzz_$(1) $(FUZZ_OPTS) $(2) -artifact_prefix=crash-$(1)- \
-	  work-$(1) $(CURDIR)/fuzz/corpus/$(1) > $(1)$(4).log 2>&1 || \
-	  { tail -40 $(1)$(4).log; echo "fuzz $(1): FAILED (see $(FUZZ_OUT)/$(1)$(4).log)" >&2; exit 1; }
-	@grep -E "stat::number_of_executed_units|Done [0-9]+ runs" $(FUZZ_OUT)/$(1)$(4).log | tr '\n' ' '; echo
-endef
+# One harness ($$n): a scratch copy of the seeds (new inputs never touch the
+# checked-in corpus), then libFuzzer with the options in $$opts; crashes land in
+# $(FUZZ_OUT)/crash-NAME-*. Used by every target below.
+FUZZ_RUN_ONE = rm -rf $(FUZZ_OUT)/work-$$n && mkdir -p $(FUZZ_OUT)/work-$$n && \
+  echo "== fuzz $$n: $$opts ==" && \
+  ( cd $(FUZZ_OUT) && $(FUZZ_ENV) $$pre ./fuzz_$$n $(FUZZ_OPTS) $$opts -artifact_prefix=crash-$$n- \
+      work-$$n $(CURDIR)/fuzz/corpus/$$n > $$n$$suf.log 2>&1 ) || \
+  { tail -40 $(FUZZ_OUT)/$$n$$suf.log; echo "fuzz $$n: FAILED (see $(FUZZ_OUT)/$$n$$suf.log)" >&2; exit 1; }; \
+  grep -E "stat::number_of_executed_units|Done [0-9]+ runs" $(FUZZ_OUT)/$$n$$suf.log | tr '\n' ' '; echo
 
 $(addprefix fuzz-,$(FUZZ_NAMES)): fuzz-%: $(FUZZ_OUT)/fuzz_%
-	$(call fuzz_one,$*,-max_total_time=$(FUZZ_SECONDS),,)
+	@n=$*; opts="-max_total_time=$(FUZZ_SECONDS)"; pre=""; suf=""; $(FUZZ_RUN_ONE)
 
 fuzz: $(FUZZ_BINS)
-	$(foreach n,$(FUZZ_NAMES),$(call fuzz_one,$(n),-max_total_time=$(FUZZ_SECONDS),,)
-	)
+	@set -e; for n in $(FUZZ_NAMES); do opts="-max_total_time=$(FUZZ_SECONDS)"; pre=""; suf=""; \
+	  $(FUZZ_RUN_ONE); done
 	@echo "fuzz: $(words $(FUZZ_NAMES)) harnesses x $(FUZZ_SECONDS) s, no crash"
 
 fuzz-long: $(FUZZ_BINS)
-	$(foreach n,$(FUZZ_NAMES),$(call fuzz_one,$(n),-runs=$(FUZZ_RUNS),nice -n 19,-long)
-	)
-	@echo "fuzz-long: $(words $(FUZZ_NAMES)) harnesses x $(FUZZ_RUNS) runs, no crash"
+	@set -e; for n in $(FUZZ_NAMES); do opts="-runs=$(FUZZ_RUNS) -max_total_time=$(FUZZ_LONG_SECONDS)"; \
+	  pre="nice -n 19"; suf="-long"; $(FUZZ_RUN_ONE); done
+	@echo "fuzz-long: $(words $(FUZZ_NAMES)) harnesses, up to $(FUZZ_RUNS) runs each, no crash"
