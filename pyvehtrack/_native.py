@@ -466,8 +466,14 @@ def pipeline_step(p, img: np.ndarray, out, road=None, dets=None) -> int:
         name, s = "vt_pipeline_step_road", lib.vt_pipeline_step_road(p, v, road, out)
     else:
         name, s = "vt_pipeline_step", lib.vt_pipeline_step(p, v, out)
+    detail = f"img {img.shape}"
+    if dets is not None:
+        # The caller's boxes go to the tracker stage as they are; it is the one that
+        # refuses a bad box, so the message names it.
+        detail += (f", {len(dets)} detections (the tracker stage, vt_tracker_step, refuses a box "
+                   f"with left > right, top > bottom or coordinates beyond +-2^30)")
     if s != lib.VT_E_CAPACITY or dets is not None:
-        check(name, s, f"img {img.shape}" + ("" if dets is None else f", {len(dets)} detections"))
+        check(name, s, detail)
     return int(s)
 
 

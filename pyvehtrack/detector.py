@@ -24,7 +24,7 @@ from dataclasses import dataclass, field, fields
 import cv2
 import numpy as np
 
-from . import _native
+from . import _check, _native
 from ._native import ffi, lib
 from .reference import shadow as rshadow
 from .reference import verify as rverify
@@ -105,9 +105,9 @@ def fit_size(h: int, w: int, max_h: int, max_w: int) -> tuple[int, int]:
 def _cfg_to_c(cfg: DetectConfig):
     c = _native.detect_cfg_default()
     for f in fields(ShadowConfig):
-        setattr(c.shadow, f.name, int(getattr(cfg.shadow, f.name)))
+        setattr(c.shadow, f.name, _check.integer(getattr(cfg.shadow, f.name), f"ShadowConfig.{f.name}"))
     for f in fields(VerifyConfig):
-        setattr(c.verify, f.name, int(getattr(cfg.verify, f.name)))
+        setattr(c.verify, f.name, _check.integer(getattr(cfg.verify, f.name), f"VerifyConfig.{f.name}"))
     _native.check("vt_shadow_cfg_check", lib.vt_shadow_cfg_check(ffi.addressof(c, "shadow")),
                   f"shadow config {cfg.shadow}")
     _native.check("vt_verify_cfg_check", lib.vt_verify_cfg_check(ffi.addressof(c, "verify")),
@@ -144,8 +144,17 @@ class Detector:
             raise TypeError(f"cfg: expected a DetectConfig, got {type(self.cfg).__name__}")
         self._cfg_c = _cfg_to_c(self.cfg)  # validates the config for both engines
         self.fixed_road = fixed_road if fixed_road is not None else FixedRoad()
+        if not callable(getattr(self.fixed_road, "make", None)):
+            raise TypeError(f"fixed_road: expected a FixedRoad, got {type(fixed_road).__name__}")
         if isinstance(road, str) and road not in ("auto", "lanes", "fixed"):
             raise ValueError(f"road: expected 'auto', 'lanes', 'fixed', a road area or a callable, got {road!r}")
+        if not isinstance(road, str) and not callable(road) and not all(
+                hasattr(road, a) for a in ("y_top", "y_bottom", "x_left", "x_right", "lane_width")):
+            raise TypeError(f"road: expected 'auto', 'lanes', 'fixed', a RoadArea-like object (y_top, "
+                            f"y_bottom, x_left, x_right, lane_width) or a callable, got {type(road).__name__}")
+        if lane_detector is not None and not callable(getattr(lane_detector, "detect", None)):
+            raise TypeError(f"lane_detector: expected an object with a detect(frame) method, "
+                            f"got {type(lane_detector).__name__}")
         self.road = road
         self.lane_detector = lane_detector
         self._own_lanes = False

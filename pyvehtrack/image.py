@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import _native
+from . import _check, _native
 
 Q14_ONE = 1 << 14
 
@@ -62,6 +62,7 @@ def integral(img: np.ndarray) -> np.ndarray:
 
 def box_sum(ii: np.ndarray, x: int, y: int, w: int, h: int) -> int:
     """Sum of the source pixels in [x, x+w) x [y, y+h) from an integral image."""
+    x, y, w, h = (_check.integer(v, n) for v, n in ((x, "x"), (y, "y"), (w, "w"), (h, "h")))
     return _native.box_sum(ii, x, y, w, h)
 
 

@@ -9,7 +9,8 @@ Properties x, P, F, H, Q, R (and read-only K, y, S) are float NumPy copies
 converted from the C fixed-point fields (vectors Q15.16, matrices Q31.32);
 assigning one converts back, rounding to nearest. Values outside the C range
 (|x| >= 32768 px, |matrix entry| >= 2^31) raise ValueError rather than being
-clipped silently. Errors of the core arrive as `pyvehtrack.VtError`.
+clipped silently; P, Q and R must be symmetric positive semi-definite (ValueError
+otherwise). Errors of the core arrive as `pyvehtrack.VtError`.
 Unlike filterpy, x is a 1-D array of shape (dim_x,); a column (dim_x, 1) is
 accepted on assignment.
 """
@@ -20,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import _native
+from . import _check, _native
 from ._native import ffi, lib
 
 Q16_ONE = 1 << 16
@@ -32,9 +33,7 @@ _CFG_FIELDS = ("dt", "accel_x", "accel_y", "p_max", "p_zero", "meas_sigma_x", "m
 
 
 def _to_fixed(values, scale: int, lo: int, hi: int, name: str) -> np.ndarray:
-    a = np.asarray(values, dtype=np.float64)
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"{name}: values must be finite")
+    a = _check.real_array(values, name)     # no str, bool, NaN or inf
     q = np.rint(a * scale)
     if np.any(q < lo) or np.any(q > hi):
         raise ValueError(f"{name}: values must lie in [{lo / scale:g}, {hi / scale:g}] "
@@ -109,8 +108,10 @@ class KalmanFilter:
     The C struct is `self.c` (a cffi `vt_kf *`), for passing to other C calls."""
 
     def __init__(self, dim_x: int, dim_z: int):
+        dim_x = _check.integer(dim_x, "dim_x")     # the core checks the range (VtError)
+        dim_z = _check.integer(dim_z, "dim_z")
         self.c = _native.kf_new()
-        _native.kf_init(self.c, int(dim_x), int(dim_z))
+        _native.kf_init(self.c, dim_x, dim_z)
 
     # ---- models
     @classmethod
@@ -145,7 +146,7 @@ class KalmanFilter:
         (a dropout), as filterpy."""
         if z is None:
             return
-        zq = to_q16(np.asarray(z, dtype=np.float64).reshape(-1), "z")
+        zq = to_q16(_check.real_array(z, "z").reshape(-1), "z")
         if zq.size != self.dim_z:
             raise ValueError(f"z: expected {self.dim_z} values, got {zq.size}")
         _native.kf_update(self.c, zq.tolist())
@@ -174,12 +175,14 @@ class KalmanFilter:
 
     def _set(self, name: str, value) -> None:
         dst = self._raw(name)
-        v = np.asarray(value, dtype=np.float64)
+        v = _check.real_array(value, name)
         if name == "x" and v.shape == (self.dim_x, 1):
             v = v.reshape(-1)
         if v.shape != dst.shape:
             raise ValueError(f"{name}: expected shape {dst.shape}, got {v.shape}")
         q = to_q16(v, name) if name == "x" else to_q32(v, name)
+        if name in ("P", "Q", "R"):     # covariances: symmetric PSD, within one Q31.32 step
+            _check.covariance(v, name, 1.0 / Q32_ONE)
         dst[...] = q
 
     @property

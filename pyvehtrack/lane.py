@@ -21,7 +21,7 @@ from dataclasses import dataclass, field, fields, replace
 import cv2
 import numpy as np
 
-from . import _native
+from . import _check, _native
 from .frames import to_gray
 from .reference import lane as _ref
 
@@ -77,7 +77,7 @@ def default_config() -> _ref.LaneConfig:
 def _to_c_cfg(cfg: _ref.LaneConfig):
     c = _native.ffi.new("vt_lane_cfg *")
     for f in fields(_ref.LaneConfig):
-        setattr(c, f.name, int(getattr(cfg, f.name)))
+        setattr(c, f.name, _check.integer(getattr(cfg, f.name), f.name))
     return c
 
 
@@ -246,7 +246,7 @@ def _rescale(res: LaneResult, f: float, w0: int, h0: int) -> None:
 def tusimple_lanes(res: LaneResult, h_samples, width: int, sides=("left", "right")) -> list:
     """The result's lanes of the given sides as TuSimple lane lists (x per h_sample, -2
     where the lane has no point)."""
-    from .eval_lanes import sample_points
+    from .eval.lanes import sample_points
     return [sample_points(ln.points, h_samples, width) for ln in res.lanes if ln.side in sides]
 
 

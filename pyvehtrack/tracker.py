@@ -6,15 +6,16 @@ reference.
         tracks = trk.step(frame)          # list[Track]: id, state, box, velocity (px/frame)
 
 `step(frame, detections=...)` feeds your own detections instead (an (N, 4) array
-of inclusive [left, top, right, bottom] boxes); then detection frames are the
-frames where you pass them."""
+of inclusive [left, top, right, bottom] boxes; float coordinates are rounded to the
+nearest pixel, NaN/inf/non-numbers refused); then detection frames are the frames
+where you pass them."""
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
 
 import numpy as np
 
-from . import _native
+from . import _check, _native
 from .frames import to_gray
 from .kalman import ModelConfig
 from .reference import tracker as rtrk
@@ -32,17 +33,21 @@ class Track:
 
 def cfg_to_c(cfg: rtrk.TrackerCfg):
     """The C struct for a TrackerCfg: Q16 for model values, Q14 for the NCC threshold
-    (each rounded to nearest)."""
+    (each rounded to nearest). TypeError / ValueError naming the field for a value that is
+    not an integer (or a number in [-1, 1] for keep_ncc); the C core checks the ranges."""
+    if not isinstance(cfg, rtrk.TrackerCfg):
+        raise TypeError(f"cfg: expected a TrackerCfg, got {type(cfg).__name__}")
     c = _native.ffi.new("vt_tracker_cfg *")
     for f in fields(cfg.search):
-        setattr(c.search, f.name, int(getattr(cfg.search, f.name)))
+        setattr(c.search, f.name, _check.integer(getattr(cfg.search, f.name), f"cfg.search.{f.name}"))
     c.model = ModelConfig(**vars(cfg.model)).to_c()[0]  # Q16, checked, as the Kalman API does
     for f in fields(cfg):
         if f.name not in ("search", "model", "keep_ncc"):
-            setattr(c, f.name, int(getattr(cfg, f.name)))
-    if not -1.0 <= cfg.keep_ncc <= 1.0:
-        raise ValueError(f"keep_ncc={cfg.keep_ncc} must be in [-1, 1]")
-    c.keep_ncc = int(round(cfg.keep_ncc * 16384))
+            setattr(c, f.name, _check.integer(getattr(cfg, f.name), f"cfg.{f.name}"))
+    keep = _check.real(cfg.keep_ncc, "cfg.keep_ncc")
+    if not -1.0 <= keep <= 1.0:
+        raise ValueError(f"cfg.keep_ncc: {cfg.keep_ncc} must be in [-1, 1]")
+    c.keep_ncc = int(round(keep * 16384))
     return c
 
 
@@ -55,6 +60,44 @@ def tracker_config(cfg: rtrk.TrackerCfg):
         search=config.SearchConfig(**{f.name: getattr(cfg.search, f.name) for f in fields(cfg.search)}),
         model=ModelConfig(**vars(cfg.model)), keep_ncc=cfg.keep_ncc,
         **{f.name: getattr(cfg, f.name) for f in fields(cfg) if f.name not in ("search", "model", "keep_ncc")})
+
+
+def _c_accepts(c) -> bool:
+    """Whether the core accepts a tracker config. The C tracker checks its config at every
+    step (there is no separate check function), so step a fresh tracker once on a blank
+    16x16 frame: nothing else in that call can fail."""
+    st = _native.ffi.new("vt_tracker *")
+    _native.lib.vt_tracker_init(st)
+    img = np.zeros((16, 16), np.uint8)
+    try:
+        _native.tracker_step(st, c, img, False)
+    except _native.VtError:
+        return False
+    return True
+
+
+def check_cfg(cfg: rtrk.TrackerCfg):
+    """The C struct of a config the core accepts; ValueError naming the offending field(s)
+    otherwise (found by trying each field alone on top of the C defaults)."""
+    c = cfg_to_c(cfg)
+    if _c_accepts(c):
+        return c
+    default = _native.tracker_cfg_default()
+    bad = []
+    for f in fields(cfg):
+        if f.name in ("search", "model"):
+            for g in fields(getattr(cfg, f.name)):
+                t = _native.ffi.new("vt_tracker_cfg *", default[0])
+                setattr(getattr(t, f.name), g.name, getattr(getattr(c, f.name), g.name))
+                if not _c_accepts(t):
+                    bad.append(f"cfg.{f.name}.{g.name}={getattr(getattr(cfg, f.name), g.name)!r}")
+        else:
+            t = _native.ffi.new("vt_tracker_cfg *", default[0])
+            setattr(t, f.name, getattr(c, f.name))
+            if not _c_accepts(t):
+                bad.append(f"cfg.{f.name}={getattr(cfg, f.name)!r}")
+    what = ", ".join(bad) if bad else "a combination of fields"
+    raise ValueError(f"tracker config refused by the core: {what} out of range")
 
 
 class Tracker:
@@ -73,15 +116,14 @@ class Tracker:
     def __init__(self, engine: str = "c", cfg: rtrk.TrackerCfg | None = None,
                  detect_every: int = 10, detector=None):
         from .pipeline import Pipeline  # noqa: PLC0415  (pipeline imports this module's users)
-        if engine not in ("c", "reference"):
-            raise ValueError(f"engine must be 'c' or 'reference', got {engine!r}")
-        if isinstance(detect_every, bool) or not isinstance(detect_every, (int, np.integer)):
-            raise TypeError(f"detect_every must be an int, got {type(detect_every).__name__}")
-        if int(detect_every) < 1:
-            raise ValueError(f"detect_every must be >= 1, got {detect_every}")
+        _check.choice(engine, "engine", ("c", "reference"))
+        self.detect_every = _check.integer(detect_every, "detect_every", lo=1)
+        if detector is not None and not callable(getattr(detector, "detect", None)):
+            raise TypeError(f"detector: expected an object with a detect(frame) method, "
+                            f"got {type(detector).__name__}")
         self.engine = engine
-        self.cfg = cfg or rtrk.TrackerCfg()
-        self.detect_every = int(detect_every)
+        self.cfg = cfg if cfg is not None else rtrk.TrackerCfg()
+        check_cfg(self.cfg)             # both engines: errors now, naming the field
         self.detector = detector
         self.frame_index = 0
         self.last_was_detection = False  # whether the last step() had detections

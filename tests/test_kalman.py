@@ -485,6 +485,8 @@ def test_python_properties_round_trip():
     for name, shape in (("x", (3,)), ("P", (3, 3)), ("F", (3, 3)), ("Q", (3, 3)), ("H", (2, 3)),
                         ("R", (2, 2))):
         v = rng.uniform(-100, 100, shape)
+        if name in ("P", "Q", "R"):  # covariances must be symmetric PSD (ValueError otherwise)
+            v = v @ v.T / 100.0
         setattr(kf, name, v)
         lsb = 1 / Q16 if name == "x" else LSB_P
         assert np.abs(getattr(kf, name) - v).max() <= lsb / 2 + 1e-15

@@ -258,8 +258,7 @@ def test_python_tracker_bad_input():
         tr.step(np.zeros((10, 10), np.uint8), detections=np.zeros((2, 3)))
     with pytest.raises(ValueError):
         tr.step(np.zeros((10, 10), np.uint8), detections=[[0, 0, np.nan, 1]])
-    # The Tracker is a view onto the pipeline: its step reports the error.
-    with pytest.raises(vt.VtError, match="vt_pipeline_step_dets"):
+    with pytest.raises(vt.VtError, match="vt_tracker_step"):
         tr.step(np.zeros((10, 10), np.uint8), detections=[[5, 5, 1, 1]])
     assert tr.step(np.zeros((1, 1), np.uint8)) == []
     big = np.zeros((vt.MAX_HEIGHT * 2 + 1, vt.MAX_WIDTH * 2 + 3, 3), np.uint8)

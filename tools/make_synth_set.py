@@ -26,9 +26,9 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from pyvehtrack import evaluate as ev  # noqa: E402
-from pyvehtrack import synth  # noqa: E402
-from pyvehtrack.reference.sort import run_sort, write_tracks_kitti  # noqa: E402
+from pyvehtrack.eval import tracking as ev  # noqa: E402
+from pyvehtrack.eval import synth  # noqa: E402
+from pyvehtrack.eval.sort import run_sort, write_tracks_kitti  # noqa: E402
 
 # name -> gt_detections keyword arguments
 SETTINGS = {

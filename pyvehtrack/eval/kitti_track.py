@@ -1,0 +1,103 @@
+"""Track the lead car through the 78 KITTI frames of ../shared/data/kitti-raw-sfnd-ttc
+and score it against the lidar-derived lead-car box (derived_lidar_lead_box.csv).
+
+    python tools/eval_kitti_track.py [--data DIR] [--engine c|reference|both] [--json OUT]
+
+Figures (the tracking issue's targets: one id through >= 95% of the frames, IoU >= 0.6
+in >= 90%):
+  - lead id: the track id that overlaps the lidar box (IoU >= 0.5) in the most frames;
+  - id share: frames where the lead id's box overlaps the lidar box with IoU >= 0.5,
+    over all 78 frames (so a switch to a new id, or a lost track, counts against it);
+  - IoU>=0.6 share: frames where the lead id's box has IoU >= 0.6 with the lidar box;
+  - TrackEval HOTA/MOTA/IDF1 of all confirmed tracks against the one-object lidar GT
+    (no KITTI preprocessing: every box counts, so other vehicles are false positives
+    there -- read HOTA as the lead car's, with that caveat).
+The lidar box is good to about +-10 px at the sides (its README)."""
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+from tqdm import tqdm
+
+from .boxes import from_inclusive, iou as box_iou
+
+# Where the project's data sit beside the repository (tools/eval_kitti_track.py's default).
+DEFAULT_DATA = Path(__file__).resolve().parents[3] / "shared" / "data" / "kitti-raw-sfnd-ttc"
+
+
+def iou(box, gt) -> float:
+    """IoU of an inclusive track box with a continuous lidar box (pyvehtrack.eval.boxes)."""
+    return box_iou(from_inclusive(box), gt)
+
+
+def load(data: Path):
+    rows = list(csv.DictReader(open(data / "derived_lidar_lead_box.csv")))
+    boxes = {int(r["frame"]): [float(r[k]) for k in ("left", "top", "right", "bottom")] for r in rows}
+    files = sorted((data / "image_02" / "data").glob("*.png"))
+    return files, boxes
+
+
+def run(engine: str, files, boxes, detect_every: int, progress: bool) -> dict:
+    from ..detector import Detector
+    from ..tracker import Tracker
+    from .tracking import evaluate_kitti
+
+    trk = Tracker(engine=engine, detect_every=detect_every, detector=Detector(engine=engine))
+    per_frame = []
+    for f in tqdm(files, desc=f"track ({engine})", unit="frame", disable=not progress, file=sys.stderr):
+        per_frame.append([t for t in trk.step(cv2.imread(str(f))) if t.state != "tentative"])
+    n = len(files)
+    counts: dict[int, int] = {}
+    for k, tracks in enumerate(per_frame):
+        for t in tracks:
+            if iou(t.box, boxes[k]) >= 0.5:
+                counts[t.id] = counts.get(t.id, 0) + 1
+    lead = max(counts, key=counts.get) if counts else None
+    ious = []
+    for k, tracks in enumerate(per_frame):
+        best = [iou(t.box, boxes[k]) for t in tracks if t.id == lead]
+        ious.append(best[0] if best else 0.0)
+    ious = np.array(ious)
+    gt = np.array([(k, 1, *boxes[k]) for k in range(n)], float)
+    tr = np.array([(k, t.id, *t.box, 1.0) for k, ts in enumerate(per_frame) for t in ts], float).reshape(-1, 7)
+    te = evaluate_kitti(gt, tr, num_frames=n, preproc="none")
+    return {"engine": engine, "frames": n, "lead_id": lead,
+            "id_share": float((ious >= 0.5).mean()), "iou06_share": float((ious >= 0.6).mean()),
+            "mean_iou_lead": float(ious.mean()), "ids_over_lead": len(counts),
+            "HOTA": te["HOTA"], "MOTA": te["MOTA"], "IDF1": te["IDF1"], "IDSW": te["IDSW"],
+            "tracks_per_frame": float(np.mean([len(t) for t in per_frame]))}
+
+
+def main(argv=None, default_data: Path = DEFAULT_DATA) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", type=Path, default=default_data)
+    ap.add_argument("--engine", choices=("c", "reference", "both"), default="both")
+    ap.add_argument("--detect-every", type=int, default=10)
+    ap.add_argument("--json", type=Path)
+    ap.add_argument("--no-progress", action="store_true")
+    a = ap.parse_args(argv)
+    if not (a.data / "derived_lidar_lead_box.csv").is_file():
+        print(f"error: {a.data} does not hold derived_lidar_lead_box.csv", file=sys.stderr)
+        return 2
+    files, boxes = load(a.data)
+    engines = ("c", "reference") if a.engine == "both" else (a.engine,)
+    res = [run(e, files, boxes, a.detect_every, not a.no_progress) for e in engines]
+    print(f"{'engine':<10}{'lead id':>8}{'id share':>10}{'IoU>=0.6':>10}{'mean IoU':>10}"
+          f"{'HOTA':>8}{'MOTA':>8}{'IDF1':>8}{'IDSW':>6}{'trk/frm':>8}")
+    for r in res:
+        print(f"{r['engine']:<10}{str(r['lead_id']):>8}{r['id_share']:>10.1%}{r['iou06_share']:>10.1%}"
+              f"{r['mean_iou_lead']:>10.3f}{r['HOTA']:>8.3f}{r['MOTA']:>8.3f}{r['IDF1']:>8.3f}"
+              f"{r['IDSW']:>6}{r['tracks_per_frame']:>8.2f}")
+    if a.json:
+        a.json.write_text(json.dumps(res, indent=2) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,148 @@
+"""The house around the core: the CLI package (registry, one-module-per-subcommand, no
+import loops, old import paths) and the eval package (one IoU, KITTI track lines)."""
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pyvehtrack import cli
+from pyvehtrack.eval import boxes, kitti
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _fresh_python(code: str) -> subprocess.CompletedProcess:
+    import os
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
+
+
+# The CLI modules are the ones that imported each other before the package; the eval
+# modules only import .boxes / .kitti (TrackEval and filterpy take seconds to load, so
+# they are covered by test_old_import_paths_are_the_new_modules instead).
+@pytest.mark.parametrize("module", ["pyvehtrack.cli.track", "pyvehtrack.cli.detect", "pyvehtrack.cli.eval",
+                                    "pyvehtrack.cli.common", "pyvehtrack.cli_track", "pyvehtrack.synth"])
+def test_each_module_imports_first_without_loops(module):
+    """Imported first in a fresh interpreter, each module loads (an import loop would fail)."""
+    r = _fresh_python(f"import {module}")
+    assert r.returncode == 0, r.stderr
+
+
+def test_old_import_paths_are_the_new_modules():
+    import pyvehtrack.cli.detect
+    import pyvehtrack.cli.track
+    import pyvehtrack.cli_track
+    import pyvehtrack.eval.lanes
+    import pyvehtrack.eval.sort
+    import pyvehtrack.eval.synth
+    import pyvehtrack.eval.tracking
+    import pyvehtrack.eval_lanes
+    import pyvehtrack.evaluate
+    import pyvehtrack.reference.sort
+    import pyvehtrack.synth
+    assert pyvehtrack.synth is pyvehtrack.eval.synth
+    assert pyvehtrack.evaluate is pyvehtrack.eval.tracking
+    assert pyvehtrack.eval_lanes is pyvehtrack.eval.lanes
+    assert pyvehtrack.reference.sort is pyvehtrack.eval.sort
+    assert pyvehtrack.cli_track is pyvehtrack.cli.track
+    from pyvehtrack.cli import CliError, IMAGE_EXTS, VIDEO_EXTS, main  # noqa: F401  (kept names)
+    from pyvehtrack.cli import (_count_frames, _frames_of, _iter_frames, detection_json,  # noqa: F401
+                                draw_detection, register_detect, run_detect)
+    from pyvehtrack.cli_track import draw_tracks, kitti_line, register_track  # noqa: F401
+    assert run_detect is pyvehtrack.cli.detect.run and pyvehtrack.cli.run_track is pyvehtrack.cli.track.run
+    from pyvehtrack.reference.sort import iou_matrix, run_sort, write_tracks_kitti  # noqa: F401
+
+
+def test_a_subcommand_registers_with_one_line(tmp_path, monkeypatch, capsys):
+    """The documented way to add a command: a module with register(subparsers), one line in
+    SUBCOMMANDS; its CliError becomes one line and exit status 2."""
+    mod = tmp_path / "vt_hello_cmd.py"
+    mod.write_text(
+        "from pyvehtrack.cli.common import CliError\n"
+        "def register(sub):\n"
+        "    p = sub.add_parser('hello', help='say hello', epilog='examples:\\n  pyvehtrack hello')\n"
+        "    p.add_argument('--fail', action='store_true')\n"
+        "    p.set_defaults(func=run)\n"
+        "def run(args):\n"
+        "    if args.fail:\n"
+        "        raise CliError('--fail: asked to fail')\n"
+        "    print('hello')\n"
+        "    return 0\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setitem(cli.SUBCOMMANDS, "hello", "vt_hello_cmd")
+    assert cli.main(["hello"]) == 0 and capsys.readouterr().out == "hello\n"
+    assert cli.main(["hello", "--fail"]) == 2
+    assert capsys.readouterr().err == "pyvehtrack hello: error: --fail: asked to fail\n"
+    monkeypatch.setitem(cli.SUBCOMMANDS, "hello", "vt_hello_cmd:register")   # "module:function" form
+    assert cli.main(["hello"]) == 0
+
+
+def test_old_frame_reader_api():
+    src = [("image", str(ROOT / "tests" / "data" / "kitti_0000_gray_320x96.png"))]
+    got = list(cli._iter_frames(src))
+    assert len(got) == 1 and got[0][1] == 0 and got[0][2].shape == (96, 320)
+    assert cli._count_frames(src) == 1
+
+
+def test_one_extension_list():
+    from pyvehtrack.cli import common
+    assert common.VIDEO_OUT_EXTS <= common.VIDEO_EXTS
+    assert not common.IMAGE_EXTS & common.VIDEO_EXTS
+    assert common.output_kind("a.PNG") == "image" and common.output_kind("a.mp4") == "video"
+    assert common.output_kind("a.webm") is None          # readable, but no writer here
+    assert common.output_kind("a.txt") is None
+
+
+# ---------------------------------------------------------------- eval: one IoU
+def test_iou_continuous_convention():
+    # two 10x10 boxes overlapping in a 5x10 strip: 50 / 150
+    assert boxes.iou([0, 0, 10, 10], [5, 0, 15, 10]) == pytest.approx(50 / 150)
+    assert boxes.iou([0, 0, 10, 10], [10, 0, 20, 10]) == 0.0         # touching edges do not overlap
+    assert boxes.iou([0, 0, 0, 0], [0, 0, 0, 0]) == 0.0              # empty boxes: no union
+    m = boxes.iou_matrix(np.zeros((0, 4)), [[0, 0, 1, 1]])
+    assert m.shape == (0, 1)
+
+
+def test_inclusive_boxes_convert_once():
+    # an inclusive [0, 0, 9, 9] box covers pixels 0..9, i.e. the continuous [0, 10)
+    np.testing.assert_array_equal(boxes.from_inclusive([0, 0, 9, 9]), [0, 0, 10, 10])
+    np.testing.assert_array_equal(boxes.from_inclusive([[1, 2, 3, 4]] * 2), [[1, 2, 4, 5]] * 2)
+    # the same pixels described both ways give IoU 1
+    assert boxes.iou(boxes.from_inclusive([3, 4, 20, 30]), [3, 4, 21, 31]) == 1.0
+
+
+def test_iou_matches_reference_tracker_on_inclusive_boxes():
+    """The oracle's integer IoU (reference.tracker.box_iou, inclusive boxes, mirroring C) and
+    eval.boxes on the converted boxes are the same number: one convention, two arithmetics."""
+    from pyvehtrack.reference.tracker import box_iou
+    rng = np.random.default_rng(1)
+    for _ in range(200):
+        a = np.sort(rng.integers(0, 50, (2, 2)), axis=0).T.reshape(-1)[[0, 2, 1, 3]]
+        b = np.sort(rng.integers(0, 50, (2, 2)), axis=0).T.reshape(-1)[[0, 2, 1, 3]]
+        assert boxes.iou(boxes.from_inclusive(a), boxes.from_inclusive(b)) == pytest.approx(box_iou(a, b))
+
+
+# ---------------------------------------------------------------- eval: KITTI lines
+def test_track_lines_round_trip(tmp_path):
+    per_frame = [[(1, 10.5, 20.25, 30.0, 40.0, 0.5)], [], [(2, 0, 0, 5, 5)]]
+    p = tmp_path / "t.txt"
+    kitti.write_tracks_kitti(per_frame, p)
+    lab = kitti.read_kitti(p)
+    assert list(lab["frame"]) == [0, 2] and list(lab["id"]) == [1, 2]
+    np.testing.assert_allclose(lab["left"], [10.5, 0]) and np.testing.assert_allclose(lab["score"], [0.5, 1.0])
+    line = kitti.track_line(3, 7, (1, 2, 3, 4), 1.0)
+    assert line == "3 7 Car -1 -1 -10 1.00 2.00 3.00 4.00 -1 -1 -1 -1000 -1000 -1000 -10 1.00"
+    assert len(line.split()) == 18
+
+
+def test_kitti_reader_refuses_fractional_frame(tmp_path):
+    p = tmp_path / "l.txt"
+    p.write_text("1.5 1 Car 0 0 0 1 2 3 4\n")
+    with pytest.raises(ValueError, match=":1:"):
+        kitti.read_kitti(p)
+    p.write_text("2.0 1 Car 0 0 0 1 2 3 4\n")       # an integer written as a float is fine
+    assert kitti.read_kitti(p)["frame"][0] == 2
