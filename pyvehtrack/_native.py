@@ -434,6 +434,94 @@ def lane_line_x(line, y_q16: int) -> int:
 # ================================================================ end lane.h
 
 
+# ================================================================ camera.h
+# Thin 1:1 wrappers (raw fixed-point ints; the friendly API is pyvehtrack.camera).
+RANGE_OUT_DTYPE = np.dtype([("id", np.int32), ("flags", np.int32), ("fcw", np.int32),
+                            ("lead_class", np.int32), ("distance", np.int32), ("sigma", np.int32),
+                            ("dist_width", np.int32), ("dist_filt", np.int32), ("rate", np.int32), ("accel", np.int32),
+                            ("ttc_dist", np.int32), ("ttc_scale", np.int32)])
+
+
+def camera_cfg_default():
+    return _defaults("vt_camera_cfg")
+
+
+def camera_cfg_check(cam) -> None:
+    check("vt_camera_cfg_check", lib.vt_camera_cfg_check(cam),
+          "a camera field is out of range (see vt_camera_cfg_check in vehtrack/camera.h)")
+
+
+def camera_row_distance(cam, tp: int, row: int) -> tuple[int, int]:
+    d, ok = ffi.new("vt_q16 *"), ffi.new("int32_t *")
+    check("vt_camera_row_distance", lib.vt_camera_row_distance(cam, tp, row, d, ok),
+          f"tan_pitch={tp}, row={row} (Q16)")
+    return int(d[0]), int(ok[0])
+
+
+def camera_box_distance(cam, tp: int, box):
+    b = ffi.new("vt_box *", [int(v) for v in box])
+    out = ffi.new("vt_distance *")
+    check("vt_camera_box_distance", lib.vt_camera_box_distance(cam, tp, b, out),
+          f"tan_pitch={tp} (Q16), box={list(box)}")
+    return out
+
+
+def pitch_new(cam):
+    st = ffi.new("vt_pitch_state *")
+    check("vt_pitch_init", lib.vt_pitch_init(cam, st), "camera config")
+    return st
+
+
+def pitch_update(cam, st, vp_valid: int, vp_row: int) -> None:
+    check("vt_pitch_update", lib.vt_pitch_update(cam, st, vp_valid, vp_row),
+          f"vp_valid={vp_valid}, vp_row={vp_row} (Q16)")
+
+
+def lane_vanishing_row(res, img_h: int) -> tuple[int, int]:
+    row, ok = ffi.new("vt_q16 *"), ffi.new("int32_t *")
+    check("vt_lane_vanishing_row", lib.vt_lane_vanishing_row(res, img_h, row, ok),
+          f"img_h={img_h}, lane result {res.w}x{res.h} shift {res.shift}")
+    return int(row[0]), int(ok[0])
+
+
+def range_cfg_default():
+    return _defaults("vt_range_cfg")
+
+
+def range_cfg_check(cfg) -> None:
+    check("vt_range_cfg_check", lib.vt_range_cfg_check(cfg),
+          "a range field is out of range (see vt_range_cfg_check in vehtrack/camera.h)")
+
+
+def fcw_step(cfg, st, ttc_valid: int, ttc: int, closing: int, lead_class: int) -> int:
+    out = ffi.new("int32_t *")
+    check("vt_fcw_step", lib.vt_fcw_step(cfg, st, ttc_valid, ttc, closing, lead_class, out),
+          f"ttc_valid={ttc_valid}, ttc={ttc} (Q16), closing={closing}, lead_class={lead_class}")
+    return int(out[0])
+
+
+def range_new():
+    st = ffi.new("vt_range_state *")
+    check("vt_range_init", lib.vt_range_init(st))
+    return st
+
+
+def range_step(st, cfg, cam, tp: int, ego_speed: int, tracks: np.ndarray) -> np.ndarray:
+    """tracks: a TRACK_OUT_DTYPE array (as tracker_step returns). Returns RANGE_OUT_DTYPE."""
+    tr = np.ascontiguousarray(tracks, dtype=TRACK_OUT_DTYPE)
+    n = len(tr)
+    ptr = ffi.cast("vt_track_out *", tr.ctypes.data) if n else ffi.NULL
+    cap = max(n, 1)
+    out = np.zeros(cap, RANGE_OUT_DTYPE)
+    n_out = ffi.new("int32_t *")
+    check("vt_range_step", lib.vt_range_step(st, cfg, cam, tp, ego_speed, ptr, n,
+                                             ffi.cast("vt_range_out *", out.ctypes.data), cap,
+                                             n_out),
+          f"{n} track(s), tan_pitch={tp}, ego_speed={ego_speed} (Q16)")
+    return out[: int(n_out[0])].copy()
+# ================================================================ end camera.h
+
+
 # ================================================================ pipeline.h
 def pipeline_cfg_default():
     return _defaults("vt_pipeline_cfg")

@@ -17,6 +17,7 @@
 #include "vehtrack/kalman.h"
 #include "vehtrack/track_search.h"
 #include "vehtrack/tracker.h"
+#include "vehtrack/camera.h"
 #include "vehtrack/pipeline.h"
 
 #define VT_VERSION_MAJOR 0
