@@ -1,7 +1,8 @@
 /* pipeline.c -- the per-frame order of the whole system (thesis fig. 4.1 for
  * detection, ch. 3 for tracking): lanes and the road area (sec. 2.4.1), shadow
  * hypotheses and their verification (sec. 2.4.2) every detect_every frames, the
- * tracker on every frame (sec. 3.5-3.6). It only composes the stages through
+ * tracker on every frame (sec. 3.5-3.6), and with a camera the distance, TTC and
+ * warning per track (IVVI paper sec. 4, c/camera.c). It only composes the stages through
  * their public functions; the firmware, the bench driver and Python all call
  * vt_pipeline_step, so the order is written once. */
 #include "vehtrack/pipeline.h"
@@ -60,13 +61,19 @@ vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg)
 }
 
 vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
-                           const struct vt_camera *camera, const struct vt_svm_model *model)
+                           const vt_camera_cfg *camera, const struct vt_svm_model *model)
 {
     vt_status s;
-    if (p == NULL || cfg == NULL || camera != NULL || model != NULL) {
-        return VT_E_ARG; /* camera and classifier stages are not built in yet */
+    if (p == NULL || cfg == NULL || model != NULL) {
+        return VT_E_ARG; /* the classifier stage is not built in yet */
     }
     s = vt_pipeline_cfg_check(cfg);
+    if (s == VT_OK && camera != NULL) {
+        s = vt_camera_cfg_check(camera);
+        if (s == VT_OK) {
+            s = vt_range_cfg_check(&cfg->range);
+        }
+    }
     if (s != VT_OK) {
         return s;
     }
@@ -75,6 +82,16 @@ vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
     p->model = model;
     p->camera = camera;
     p->frame = 0;
+    p->ego_speed = -VT_Q16_ONE;
+    memset(&p->pitch, 0, sizeof(p->pitch));
+    memset(p->ranges, 0, sizeof(p->ranges));
+    s = vt_range_init(&p->range);
+    if (s == VT_OK && camera != NULL) {
+        s = vt_pitch_init(camera, &p->pitch);
+    }
+    if (s != VT_OK) {
+        return s;
+    }
     memset(&p->detect, 0, sizeof(p->detect));
     memset(&p->det, 0, sizeof(p->det));
     memset(p->tracks, 0, sizeof(p->tracks));
@@ -83,6 +100,15 @@ vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
         s = vt_tracker_init(&p->tracker);
     }
     return s;
+}
+
+vt_status vt_pipeline_set_ego_speed(vt_pipeline *p, vt_q16 speed)
+{
+    if (p == NULL) {
+        return VT_E_ARG;
+    }
+    p->ego_speed = speed < 0 ? -VT_Q16_ONE : speed;
+    return VT_OK;
 }
 
 vt_status vt_pipeline_work_size(int32_t w, int32_t h, int32_t max_w, int32_t max_h,
@@ -193,9 +219,17 @@ static int32_t vt__next_frame(int32_t f)
     return f < INT32_MAX ? f + 1 : 0;
 }
 
-static void vt__out_tracks(const vt_pipeline *p, int32_t n, vt_frame_out *out)
+/* Q16 seconds or metres -> thousandths, rounded half up, saturated to int32
+ * (VT_UNKNOWN is never produced for a known value: it saturates to INT32_MIN + 1). */
+static int32_t vt__q16_milli(vt_q16 v)
 {
-    int32_t i;
+    int64_t m = ((int64_t)v * 1000 + 32768) >> 16;
+    return m > INT32_MAX ? INT32_MAX : (m <= INT32_MIN ? INT32_MIN + 1 : (int32_t)m);
+}
+
+static void vt__out_tracks(const vt_pipeline *p, int32_t n, int32_t n_ranges, vt_frame_out *out)
+{
+    int32_t i, k;
     for (i = 0; i < n && i < VT_MAX_TRACKS; ++i) {
         const vt_track_out *t = &p->tracks[i];
         vt_pipe_track *o = &out->tracks[i];
@@ -204,12 +238,45 @@ static void vt__out_tracks(const vt_pipeline *p, int32_t n, vt_frame_out *out)
         o->box = t->box;
         o->vx = t->vx;
         o->vy = t->vy;
-        /* The camera stage's slot: nothing is known without it. */
         o->distance_mm = VT_UNKNOWN;
         o->ttc_ms = VT_UNKNOWN;
-        o->warning = VT_FCW_UNKNOWN;
+        o->warning = p->camera != NULL ? VT_FCW_NONE : VT_FCW_UNKNOWN;
+        for (k = 0; k < n_ranges; ++k) {
+            const vt_range_out *r = &p->ranges[k];
+            if (r->id != t->id) {
+                continue;
+            }
+            if (r->flags & VT_RANGE_FILT_VALID) {
+                o->distance_mm = vt__q16_milli(r->dist_filt);
+            }
+            if (r->flags & VT_RANGE_TTC_DIST_VALID) {
+                o->ttc_ms = vt__q16_milli(r->ttc_dist);
+            }
+            o->warning = r->fcw;
+            break;
+        }
     }
     out->n_tracks = i;
+}
+
+/* The camera stage after the tracker: the pitch from this frame's lanes (when they
+ * ran and both ego lines meet), then the range filters of the tracks. */
+static vt_status vt__geometry(vt_pipeline *p, const vt_image_u8 *frame, const vt_frame_out *out,
+                              int32_t lanes_ok, int32_t n_tracks, int32_t *n_ranges)
+{
+    vt_q16 vp_row = 0;
+    int32_t vp_valid = 0;
+    vt_status s;
+    *n_ranges = 0;
+    if (lanes_ok && vt_lane_vanishing_row(&out->lanes, frame->h, &vp_row, &vp_valid) != VT_OK) {
+        vp_valid = 0;
+    }
+    s = vt_pitch_update(p->camera, &p->pitch, vp_valid, vp_valid ? vp_row : 0);
+    if (s == VT_OK) {
+        s = vt_range_step(&p->range, &p->cfg.range, p->camera, p->pitch.tan_pitch, p->ego_speed,
+                          p->tracks, n_tracks, p->ranges, VT_MAX_TRACKS, n_ranges);
+    }
+    return s;
 }
 
 /* The step behind the three entry points. road: the caller's fallback road (or
@@ -218,7 +285,7 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
                           const vt_box *dets, int32_t n_dets, int32_t ext, vt_frame_out *out)
 {
     vt_status s;
-    int32_t det_frame, run_lanes, lanes_ok = 0, n_boxes = 0, n_tracks = 0, i;
+    int32_t det_frame, run_lanes, lanes_ok = 0, n_boxes = 0, n_tracks = 0, n_ranges = 0, i;
     const vt_box *boxes = p->det.box;
     if (frame->px == NULL) {
         return VT_E_ARG;
@@ -227,7 +294,8 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
     if (s != VT_OK) {
         return s;
     }
-    if (road != NULL && road->valid && road->height != frame->h) {
+    if ((road != NULL && road->valid && road->height != frame->h) ||
+        (p->camera != NULL && (p->camera->img_w != frame->w || p->camera->img_h != frame->h))) {
         return VT_E_SIZE;
     }
     /* A pipeline that was never initialised (or was corrupted) has no valid
@@ -302,7 +370,14 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
     if (s != VT_OK && s != VT_E_CAPACITY) {
         return s;
     }
-    vt__out_tracks(p, n_tracks, out);
+    if (p->camera != NULL && p->cfg.track) {
+        vt_status sg = vt__geometry(p, frame, out, lanes_ok, n_tracks, &n_ranges);
+        if (sg != VT_OK && sg != VT_E_CAPACITY) {
+            n_ranges = 0;
+            s = sg;
+        }
+    }
+    vt__out_tracks(p, n_tracks, n_ranges, out);
     return s;
 }
 

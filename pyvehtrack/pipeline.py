@@ -17,8 +17,11 @@ INTER_AREA) to the size vt_pipeline_work_size gives (same aspect ratio, the limi
 side at its maximum), a warning says so once, and results are mapped back
 (x_in = floor((x + 0.5) * sx) for box corners, velocities times sx, sy).
 
-Distance, TTC and warning are None until a camera stage is plugged in (camera=...);
-box scores are None for the shadow source, which has no confidence.
+With a camera (pyvehtrack.camera.Camera, and the frame rate: Pipeline(camera=cam,
+fps=10)) each track gets its filtered distance (m), the TTC from it and its rate (s)
+and the forward-collision warning (c/camera.c: pitch from the lanes' vanishing row,
+a [d, rate, accel] filter per track, NHTSA thresholds); without one they are None.
+Box scores are None for the shadow source, which has no confidence.
 """
 from __future__ import annotations
 
@@ -65,9 +68,9 @@ class Track:
     state: str                 # "tentative" | "confirmed" | "coasting"
     box: tuple                 # (left, top, right, bottom), inclusive, input pixels
     velocity: tuple            # (vx, vy) of the bottom edge, input px/frame
-    distance: float | None = None  # metres, None while unknown (no camera stage)
-    ttc: float | None = None       # seconds, None while unknown
-    warning: str | None = None     # forward-collision warning level, None while unknown
+    distance: float | None = None  # filtered distance, m (camera stage); None while unknown
+    ttc: float | None = None       # time to collision from it and its rate, s; None if unknown
+    warning: bool | None = None    # forward-collision warning; None without a camera
 
 
 @dataclass
@@ -107,11 +110,24 @@ class Pipeline:
     (default) or as given."""
 
     def __init__(self, engine: str = "c", camera=None, model=None,
-                 cfg: PipelineConfig | None = None, *, reference_quantized: bool = True, **config):
+                 cfg: PipelineConfig | None = None, *, fps: float | None = None,
+                 ego_speed: float | None = None, reference_quantized: bool = True, **config):
         if engine not in ENGINES:
             raise ValueError(f"engine: expected one of {ENGINES}, got {engine!r}")
         if camera is not None:
-            raise ValueError("camera: the camera geometry stage is not built into this version; pass None")
+            from .camera import Camera  # noqa: PLC0415
+            if not isinstance(camera, Camera):
+                raise TypeError(f"camera: expected a pyvehtrack.camera.Camera, got {type(camera).__name__}")
+            if camera.height_m is None:
+                raise ValueError("camera: 'height_m' (camera height above the road) is required")
+            if isinstance(fps, bool) or not isinstance(fps, (int, float)) or not np.isfinite(fps) or fps < 1:
+                raise ValueError(f"fps: a camera needs the frame rate, a number >= 1; got {fps!r}")
+        elif fps is not None or ego_speed is not None:
+            raise ValueError("fps and ego_speed are for the camera stage: pass camera= too")
+        self.camera, self.fps = camera, fps
+        self._geom = None          # (input w, h) the camera stage was set up for
+        self.ego_speed = None
+        self.set_ego_speed(ego_speed)
         if model is not None:
             raise ValueError("model: the classifier stage is not built into this version; pass None")
         self.engine = engine
@@ -122,15 +138,54 @@ class Pipeline:
         self._warned = False
         self.reset()
 
+    def set_ego_speed(self, speed: float | None) -> None:
+        """The ego vehicle's speed (m/s, >= 0) for the next frames, or None (unknown):
+        the camera stage's lead class and so its warning threshold."""
+        if speed is not None and (isinstance(speed, bool) or not isinstance(speed, (int, float, np.number))
+                                  or not np.isfinite(speed) or speed < 0):
+            raise ValueError(f"ego_speed: expected a speed >= 0 m/s or None, got {speed!r}")
+        self.ego_speed = None if speed is None else float(speed)
+        if getattr(self, "_p", None) is not None:
+            from .camera import q16  # noqa: PLC0415
+            _native.check("vt_pipeline_set_ego_speed", lib.vt_pipeline_set_ego_speed(
+                self._p, -65536 if speed is None else q16(speed, "ego_speed")))
+        if getattr(self, "_ref", None) is not None:
+            self._ref.ego_speed = self.ego_speed
+
+    def _setup_camera(self, w0: int, h0: int, pw: int, ph: int) -> None:
+        """The camera stage for input frames of w0 x h0 processed at pw x ph: the
+        intrinsics mapped to the processed pixels, the range filter at 1/fps."""
+        from .camera import params_to_c, range_to_c, range_from_c  # noqa: PLC0415
+        from .reference import camera as rcam  # noqa: PLC0415  (parameter records only)
+        import dataclasses  # noqa: PLC0415
+        cp = self.camera.params(w0, h0)
+        if (pw, ph) != (w0, h0):
+            sx, sy = w0 / pw, h0 / ph
+            cp = dataclasses.replace(cp, img_w=pw, img_h=ph, fx=cp.fx / sx, fy=cp.fy / sy,
+                                     cx=(cp.cx + 0.5) / sx - 0.5, cy=(cp.cy + 0.5) / sy - 0.5)
+        self._ccam = params_to_c(cp)
+        crng = range_to_c(rcam.RangeParams(frame_dt=1.0 / float(self.fps)))
+        self._ccfg.range = crng[0]
+        from .camera import params_from_c  # noqa: PLC0415
+        self._cam_params = params_from_c(self._ccam)   # the values C holds, for the oracle too
+        self._range_params = range_from_c(crng)
+        self._geom = (w0, h0)
+        self.reset()
+
     def reset(self) -> None:
         """Start a new run: every stage empty, track ids from 1, frame 0 next."""
         if self.engine == "c":
-            self._p = _native.pipeline_new(self._ccfg)
+            self._p = ffi.new("vt_pipeline *")
+            cam = self._ccam if self._geom is not None else ffi.NULL
+            _native.check("vt_pipeline_init", lib.vt_pipeline_init(self._p, self._ccfg, cam, ffi.NULL),
+                          "a stage configuration, policy or the camera is out of range")
             self._out = ffi.new("vt_frame_out *")
         else:
             from .reference import pipeline as rpipe  # noqa: PLC0415  (the reference engine only)
+            geom = (self._cam_params, self._range_params) if self._geom is not None else None
             self._ref = rpipe.Pipeline(_config.to_reference(self.cfg, self._ref_quantized),
-                                       _config.reference_capacities())
+                                       _config.reference_capacities(), camera=geom)
+        self.set_ego_speed(self.ego_speed)
 
     @property
     def frame_index(self) -> int:
@@ -166,19 +221,36 @@ class Pipeline:
         [left, top, right, bottom] input-pixel boxes making this a detection frame with
         them (lanes and hypothesis stages do not run)."""
         gray, (sx, sy) = self.prepare(frame)
+        self._camera_for(int(round(gray.shape[1] * sx)), int(round(gray.shape[0] * sy)), gray)
         if detections is not None:
             d = _native._boxes_i32(detections, "detections").astype(np.float64)
             if sx != 1.0 or sy != 1.0:
                 d = np.floor(d / np.array([sx, sy, sx, sy]))
             detections = d.astype(np.int32).reshape(-1, 4)
-        res = self.step_gray(gray, road=road, detections=detections)
+        res = self._run(gray, road, detections)
         if sx != 1.0 or sy != 1.0:
             res = _rescale(res, sx, sy, int(round(gray.shape[0] * sy)), int(round(gray.shape[1] * sx)))
         return res
 
+    def _camera_for(self, w0: int, h0: int, gray: np.ndarray) -> None:
+        if self.camera is None:
+            return
+        if self._geom is None:
+            if self.frame_index != 0:
+                raise RuntimeError("the camera stage must be set up on the first frame")
+            self._setup_camera(w0, h0, gray.shape[1], gray.shape[0])
+        elif self._geom != (w0, h0):
+            raise ValueError(f"frame {w0}x{h0}: the camera stage was set up for "
+                             f"{self._geom[0]}x{self._geom[1]} frames (reset() or a new Pipeline "
+                             f"for another size)")
+
     def step_gray(self, gray: np.ndarray, *, road=None, detections=None) -> FrameResult:
         """One frame already at the working size (see prepare); road, detections and the
         result in its pixels."""
+        self._camera_for(gray.shape[1], gray.shape[0], gray)
+        return self._run(gray, road, detections)
+
+    def _run(self, gray: np.ndarray, road, detections) -> FrameResult:
         if self.engine == "c":
             return self._step_c(gray, road, detections)
         return self._step_ref(gray, road, detections)
@@ -209,7 +281,7 @@ class Pipeline:
                         (t.vx / 65536, t.vy / 65536),
                         None if t.distance_mm == lib.VT_UNKNOWN else t.distance_mm / 1000,
                         None if t.ttc_ms == lib.VT_UNKNOWN else t.ttc_ms / 1000,
-                        None if t.warning == lib.VT_FCW_UNKNOWN else str(int(t.warning)))
+                        None if t.warning == lib.VT_FCW_UNKNOWN else bool(t.warning & lib.VT_FCW_WARNING))
                   for t in (o.tracks[i] for i in range(o.n_tracks))]
         stats = {}
         if o.detection_frame:

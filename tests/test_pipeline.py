@@ -64,7 +64,7 @@ def _compare(ra, rb, exact: bool, where: str):
         if box_tol == 0:
             assert abs(a.velocity[0] - b.velocity[0]) <= 0.05, where
             assert abs(a.velocity[1] - b.velocity[1]) <= 0.05, where
-        assert a.distance is None and a.ttc is None and a.warning is None  # no camera stage yet
+        assert a.distance is None and a.ttc is None and a.warning is None  # no camera given
         assert b.distance is None and b.ttc is None and b.warning is None
 
 
@@ -278,7 +278,9 @@ def test_init_rejects_stages_not_built_and_nulls():
     dummy = ffi.new("uint8_t[64]")
     assert lib.vt_pipeline_init(ffi.NULL, c, ffi.NULL, ffi.NULL) == lib.VT_E_ARG
     assert lib.vt_pipeline_init(p, ffi.NULL, ffi.NULL, ffi.NULL) == lib.VT_E_ARG
-    assert lib.vt_pipeline_init(p, c, ffi.cast("struct vt_camera *", dummy), ffi.NULL) == lib.VT_E_ARG
+    bad_cam = ffi.new("vt_camera_cfg *")  # all zero: fails vt_camera_cfg_check (its code)
+    assert lib.vt_pipeline_init(p, c, bad_cam, ffi.NULL) == lib.vt_camera_cfg_check(bad_cam) < 0
+    assert p.cfg.detect_every == 0  # untouched
     assert lib.vt_pipeline_init(p, c, ffi.NULL, ffi.cast("struct vt_svm_model *", dummy)) == lib.VT_E_ARG
     assert lib.vt_pipeline_cfg_default(ffi.NULL) == lib.VT_E_ARG
     assert lib.vt_pipeline_cfg_check(ffi.NULL) == lib.VT_E_ARG
@@ -305,8 +307,8 @@ def test_work_size_and_fixed_road_arguments():
 def test_python_bad_arguments():
     with pytest.raises(ValueError, match="engine"):
         Pipeline("gpu")
-    with pytest.raises(ValueError, match="camera"):
-        Pipeline(camera=object())
+    with pytest.raises(TypeError, match="camera"):
+        Pipeline(camera=object(), fps=10)
     with pytest.raises(ValueError, match="model"):
         Pipeline(model=object())
     with pytest.raises(TypeError, match="unknown pipeline config"):
@@ -428,3 +430,78 @@ def test_step_dets_and_road_arguments():
     assert lib.vt_pipeline_step_road(ffi.NULL, v, road, out) == lib.VT_E_ARG
     road.valid = 0  # an invalid road is "no road", whatever its height
     assert lib.vt_pipeline_step_road(p, v, road, out) == lib.VT_OK
+
+
+# ---------------------------------------------------------------- the camera stage
+# The KITTI clip's camera (tests/test_track_camera.py: the 640x256 crop's intrinsics).
+CAM = {"fx": 721.5377, "fy": 721.5377, "cx": 309.5593, "cy": 54.854, "height_m": 1.65,
+       "pitch_deg": 0.0, "image_size": [640, 256]}
+
+
+def test_camera_stage_c_matches_reference_on_kitti_clip():
+    """Distance, TTC and warning per track, C (vt_range_step inside vt_pipeline_step)
+    against the oracle (reference.camera inside reference.pipeline). Tolerances: the
+    filtered distance within 1e-3 m (tests/test_camera.py's bound for the [d, rate,
+    accel] filter; the two engines' vanishing rows come from lanes that agree here, so
+    the pitch adds nothing measurable); the TTC d / -rate within its relative error
+    |d rate| / |rate| + |d d| / d with |d rate| <= 5e-3 m/s (test_camera.py's bound) and
+    |rate| >= 0.25 m/s on this clip: 2.1 %. Measured when written: 1 mm and 0.2 %."""
+    from pyvehtrack.camera import Camera
+    cam = Camera.from_dict(CAM)
+    frames = _clip()
+    a = Pipeline("c", camera=cam, fps=10)
+    b = Pipeline("reference", camera=cam, fps=10)
+    dist = []
+    for i, f in enumerate(frames):
+        ra, rb = a.step(f), b.step(f)
+        _compare_tracks_geometry(ra, rb, i)
+        lead = [t for t in ra.tracks if t.id == 1]
+        assert lead and lead[0].distance is not None and lead[0].warning is False, i
+        dist.append(lead[0].distance)
+    # The lead car comes closer over the clip (the lidar says 7.97 m -> 6.73 m; the
+    # flat-road distance is biased by the rear offset, tests/test_track_camera.py).
+    assert dist[-1] < dist[0] - 1.0
+
+
+def _compare_tracks_geometry(ra, rb, i):
+    assert [(t.id, t.state, t.box) for t in ra.tracks] == [(t.id, t.state, t.box) for t in rb.tracks], i
+    for x, y in zip(ra.tracks, rb.tracks):
+        assert (x.distance is None) == (y.distance is None) and (x.ttc is None) == (y.ttc is None), i
+        if x.distance is not None:
+            assert abs(x.distance - y.distance) <= 1e-3 + 5e-4, (i, x.distance, y.distance)  # + mm rounding
+        if x.ttc is not None:
+            assert abs(x.ttc - y.ttc) <= 0.021 * y.ttc + 5e-4, (i, x.ttc, y.ttc)
+        assert x.warning == y.warning, i
+
+
+def test_camera_stage_arguments():
+    from pyvehtrack.camera import Camera
+    cam = Camera.from_dict(CAM)
+    with pytest.raises(ValueError, match="fps"):
+        Pipeline(camera=cam)
+    with pytest.raises(ValueError, match="fps"):
+        Pipeline(camera=cam, fps=0.5)
+    with pytest.raises(TypeError, match="camera"):
+        Pipeline(camera=CAM, fps=10)
+    with pytest.raises(ValueError, match="camera"):
+        Pipeline(fps=10)
+    with pytest.raises(ValueError, match="height_m"):
+        Pipeline(camera=Camera.from_dict({k: v for k, v in CAM.items() if k != "height_m"}), fps=10)
+    with pytest.raises(ValueError, match="ego_speed"):
+        Pipeline(camera=cam, fps=10, ego_speed=-3)
+    p = Pipeline(camera=cam, fps=10, ego_speed=12.5)
+    f = _clip()[0]
+    p.step(f)
+    with pytest.raises(ValueError, match="set up for 640x256"):
+        p.step(f[:200])
+    # C level: a frame of another size than the camera's is VT_E_SIZE, nothing runs.
+    out = ffi.new("vt_frame_out *")
+    img, v = _frame()
+    n = p._p.frame
+    assert lib.vt_pipeline_step(p._p, v, out) == lib.VT_E_SIZE and p._p.frame == n
+    assert lib.vt_pipeline_set_ego_speed(ffi.NULL, 0) == lib.VT_E_ARG
+    cfg = _cfg()
+    cfg.range.frame_dt = 0  # a bad range config is refused only with a camera
+    q = ffi.new("vt_pipeline *")
+    assert lib.vt_pipeline_init(q, cfg, ffi.NULL, ffi.NULL) == lib.VT_OK
+    assert lib.vt_pipeline_init(q, cfg, p._ccam, ffi.NULL) == lib.VT_E_ARG

@@ -17,6 +17,7 @@
 #define VEHTRACK_PIPELINE_H
 
 #include <stdint.h>
+#include "vehtrack/camera.h"
 #include "vehtrack/config.h"
 #include "vehtrack/detect.h"
 #include "vehtrack/image.h"
@@ -25,10 +26,10 @@
 #include "vehtrack/status.h"
 #include "vehtrack/tracker.h"
 
-/* Stages that other modules provide and plug in here. Only pointers are held, so
- * the pipeline compiles without them; a NULL pointer means "stage off". */
-struct vt_svm_model; /* the classifier's quantised weights (classify) */
-struct vt_camera;    /* flat-road camera geometry (camera) */
+/* Stages that other modules provide and plug in here, by pointer; NULL means
+ * "stage off". The classifier (its quantised weights) is not built in yet, so only
+ * its slot exists; the camera (vehtrack/camera.h) is. */
+struct vt_svm_model;
 
 /* Hypothesis sources (bit mask in vt_pipeline_cfg.sources). Only the shadow
  * source is built today; asking for another one is VT_E_ARG at init. */
@@ -49,11 +50,12 @@ struct vt_camera;    /* flat-road camera geometry (camera) */
 #define VT_ROAD_LANES 1 /* the lanes' road area only (no detection without it) */
 #define VT_ROAD_FIXED 2 /* always the fixed trapezoid (the lane stage does not run) */
 
-/* "Not known": the value of every distance/TTC field while no camera stage is
- * plugged in or when the geometry cannot say (e.g. a box above the horizon). */
+/* "Not known": the value of every distance/TTC field without a camera, or when
+ * the geometry cannot say (no filtered distance yet, opening, beyond ttc_max). */
 #define VT_UNKNOWN INT32_MIN
 
-/* Forward-collision warning levels (vt_pipe_track.warning). */
+/* vt_pipe_track.warning: VT_FCW_UNKNOWN without a camera, else the VT_FCW_* bits
+ * of vehtrack/camera.h (0: no warning). */
 #define VT_FCW_UNKNOWN (-1)
 #define VT_FCW_NONE 0
 
@@ -77,6 +79,8 @@ typedef struct {
     vt_lane_cfg lane;
     vt_detect_cfg detect;
     vt_tracker_cfg tracker;
+    vt_range_cfg range;      /* the camera stage's range filter, TTC and FCW (used only
+                                with a camera)                                           */
     vt_fixed_road fixed_road;
     int32_t detect_every;    /* detection on frames 0, N, 2N, ... (N >= 1)              */
     int32_t road_policy;     /* VT_ROAD_AUTO / _LANES / _FIXED                          */
@@ -90,7 +94,7 @@ typedef struct {
 #define VT_PIPELINE_CFG_DEFAULT                                                            \
     {                                                                                      \
         VT_LANE_CFG_DEFAULT, VT_DETECT_CFG_DEFAULT, VT_TRACKER_CFG_DEFAULT,                \
-            VT_FIXED_ROAD_DEFAULT, 10, VT_ROAD_AUTO, 0, VT_SRC_SHADOW, 1                   \
+            VT_RANGE_CFG_DEFAULT, VT_FIXED_ROAD_DEFAULT, 10, VT_ROAD_AUTO, 0, VT_SRC_SHADOW, 1                   \
     }
 
 /* Everything the pipeline keeps. Caller-owned (static storage on firmware);
@@ -98,13 +102,17 @@ typedef struct {
 typedef struct {
     vt_pipeline_cfg cfg; /* a checked copy */
     const struct vt_svm_model *model;
-    const struct vt_camera *camera;
-    int32_t frame; /* frames stepped so far */
+    const vt_camera_cfg *camera; /* NULL: no geometry */
+    int32_t frame;    /* frames stepped so far */
+    vt_q16 ego_speed; /* m/s, negative = unknown (vt_pipeline_set_ego_speed) */
     vt_lane_state lane;
     vt_detect_state detect;
     vt_detect_result det;
     vt_tracker tracker;
     vt_track_out tracks[VT_MAX_TRACKS];
+    vt_pitch_state pitch;  /* camera stage: pitch from the lanes' vanishing row */
+    vt_range_state range;  /* camera stage: per-track range filter and FCW state */
+    vt_range_out ranges[VT_MAX_TRACKS];
 } vt_pipeline;
 
 /* A detected box and the source that proposed it. score: the source's confidence
@@ -115,8 +123,10 @@ typedef struct {
     int32_t score;
 } vt_pipe_box;
 
-/* A track with its geometry. distance_mm, ttc_ms: VT_UNKNOWN until a camera stage
- * says otherwise; warning: VT_FCW_UNKNOWN likewise. */
+/* A track with its geometry (camera stage, vt_range_step): distance_mm the filtered
+ * distance, ttc_ms the TTC from it and its rate, both rounded half up from Q16 and
+ * VT_UNKNOWN when not known (no camera, no filtered distance yet, not closing);
+ * warning the VT_FCW_* bits (VT_FCW_UNKNOWN without a camera). */
 typedef struct {
     int32_t id;
     int32_t state; /* vt_track_state */
@@ -157,11 +167,18 @@ vt_status vt_pipeline_cfg_default(vt_pipeline_cfg *cfg);
  * (VT_E_ARG otherwise). */
 vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg);
 
-/* Check cfg once and start a run: copy it, empty every stage, frame 0 next.
- * camera and model may be NULL (stage off); a non-NULL one is VT_E_ARG while the
- * stage is not built in. On error *p is left unchanged. */
+/* Check cfg once and start a run: copy it, empty every stage, frame 0 next, ego
+ * speed unknown. camera: NULL (no geometry) or a camera passing vt_camera_cfg_check
+ * (kept by pointer: it must outlive the pipeline; may live in flash), whose img_w x
+ * img_h every frame must then have (VT_E_SIZE at the step otherwise); with it the
+ * range configuration must pass vt_range_cfg_check. model: NULL (a non-NULL one is
+ * VT_E_ARG while the classifier is not built in). On error *p is left unchanged. */
 vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
-                           const struct vt_camera *camera, const struct vt_svm_model *model);
+                           const vt_camera_cfg *camera, const struct vt_svm_model *model);
+
+/* The ego vehicle's speed for the next steps (the camera stage's lead class), Q16
+ * m/s; negative = unknown. VT_E_ARG for NULL. */
+vt_status vt_pipeline_set_ego_speed(vt_pipeline *p, vt_q16 speed);
 
 /* One frame: lanes (every frame or detection frames, per the policy) -> road area
  * (lanes, else the fixed trapezoid, per the policy) -> on detection frames (every

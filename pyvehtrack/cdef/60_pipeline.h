@@ -16,7 +16,6 @@
 #define VT_FCW_NONE ...
 
 struct vt_svm_model;
-struct vt_camera;
 
 typedef struct {
     int32_t vp_x_permille;
@@ -31,6 +30,7 @@ typedef struct {
     vt_lane_cfg lane;
     vt_detect_cfg detect;
     vt_tracker_cfg tracker;
+    vt_range_cfg range;
     vt_fixed_road fixed_road;
     int32_t detect_every;
     int32_t road_policy;
@@ -42,10 +42,13 @@ typedef struct {
 typedef struct {
     vt_pipeline_cfg cfg;
     int32_t frame;
+    vt_q16 ego_speed;
     vt_lane_state lane;
     vt_detect_state detect;
     vt_detect_result det;
     vt_tracker tracker;
+    vt_pitch_state pitch;
+    vt_range_state range;
     ...;
 } vt_pipeline;
 
@@ -86,7 +89,8 @@ typedef struct {
 vt_status vt_pipeline_cfg_default(vt_pipeline_cfg *cfg);
 vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg);
 vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
-                           const struct vt_camera *camera, const struct vt_svm_model *model);
+                           const vt_camera_cfg *camera, const struct vt_svm_model *model);
+vt_status vt_pipeline_set_ego_speed(vt_pipeline *p, vt_q16 speed);
 vt_status vt_pipeline_step(vt_pipeline *p, const vt_image_u8 *frame, vt_frame_out *out);
 vt_status vt_pipeline_step_road(vt_pipeline *p, const vt_image_u8 *frame,
                                 const vt_road_area *road, vt_frame_out *out);

@@ -7,7 +7,8 @@ frame by frame end to end.
       -> shadow hypotheses (reference.shadow) -> verification (reference.verify)
                                           on frames 0, N, 2N, ...
       -> tracker (reference.tracker)      every frame
-      -> geometry                         (no camera stage yet: every distance unknown)
+      -> geometry (reference.camera)      with a camera: pitch from the lanes' vanishing
+                                          row, range filter, TTC and FCW per track
 
 Plain NumPy/OpenCV, never calling C. Capacities (VT_MAX_*) are passed in, so the
 oracle drops what C drops.
@@ -18,6 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import camera as rcam
 from . import lane as rlane
 from . import shadow as rshadow
 from . import tracker as rtrk
@@ -106,9 +108,17 @@ def _road_from_lane_frame(fr) -> RoadArea | None:
 class Pipeline:
     """One run over a video: step(gray) per frame, in order."""
 
-    def __init__(self, cfg: PipelineRefConfig | None = None, caps: Capacities | None = None):
+    def __init__(self, cfg: PipelineRefConfig | None = None, caps: Capacities | None = None,
+                 camera=None):
+        """camera: None, or (reference.camera.CameraParams, RangeParams) for frames of
+        exactly the camera's img_w x img_h."""
         self.cfg = cfg or PipelineRefConfig()
         self.caps = caps or Capacities()
+        self.camera = camera
+        self.ego_speed = None      # m/s or None (unknown)
+        if camera is not None:
+            self.pitch = rcam.PitchEstimator(camera[0])
+            self.ranges = rcam.RangeTracker(camera[0], camera[1], self.caps.max_tracks)
         if int(self.cfg.detect_every) < 1:
             raise ValueError(f"detect_every must be >= 1, got {self.cfg.detect_every}")
         if self.cfg.road_policy not in (ROAD_AUTO, ROAD_LANES, ROAD_FIXED):
@@ -130,6 +140,8 @@ class Pipeline:
         h, w = gray.shape
         if not (1 <= w <= self.caps.max_width and 1 <= h <= self.caps.max_height):
             raise ValueError(f"frame {w}x{h} outside 1x1..{self.caps.max_width}x{self.caps.max_height}")
+        if self.camera is not None and (w, h) != (self.camera[0].img_w, self.camera[0].img_h):
+            raise ValueError(f"frame {w}x{h}: the camera is for {self.camera[0].img_w}x{self.camera[0].img_h}")
         ext = detections is not None
         det_frame = ext or (bool(c.sources) and self.frame % c.detect_every == 0)
         run_lanes = not ext and c.road_policy != ROAD_FIXED and \
@@ -167,13 +179,32 @@ class Pipeline:
         elif lane_road is not None:
             road, source = lane_road, "lanes"
         rows = self.tracker.step(gray, det_frame, boxes) if c.track else []
-        tracks = [(i, s, tuple(int(v) for v in b), vx, vy, None, None, None)
+        geo = {}
+        if self.camera is not None and c.track:
+            geo = self._geometry(lanes if lanes_ok else None, rows)
+        tracks = [(i, s, tuple(int(v) for v in b), vx, vy) + geo.get(i, (None, None, None))
                   for i, s, b, vx, vy in rows]
         out = RefFrame(self.frame, det_frame, bool(run_lanes), lanes_ok, lanes, source, road,
                        np.asarray(hyp, np.int64).reshape(-1, 3), boxes, [box_source] * len(boxes),
                        tracks, stats)
         self.frame = self.frame + 1 if self.frame < 2**31 - 1 else 0
         return out
+
+
+    def _geometry(self, lane_frame, rows) -> dict:
+        """The camera stage after the tracker (c/pipeline.c's vt__geometry): the pitch from
+        the two ego lines' vanishing row when the lanes ran, then the range filters.
+        id -> (filtered distance m, TTC s, warning) with None where C says VT_UNKNOWN."""
+        vp = None
+        if lane_frame is not None:
+            left, right = lane_frame.lines[rlane.LEFT], lane_frame.lines[rlane.RIGHT]
+            vp = rcam.vanishing_row(None if left is None else (left.xb, left.slope),
+                                    None if right is None else (right.xb, right.slope),
+                                    lane_frame.H, lane_frame.shift)
+        self.pitch.update(vp)
+        outs = self.ranges.step([(int(i), [int(v) for v in b]) for i, _s, b, _vx, _vy in rows],
+                                self.pitch.tan_pitch, self.ego_speed)
+        return {r.id: (r.dist_filt, r.ttc_dist, r.warning) for r in outs}
 
 
 def work_size(w: int, h: int, max_w: int, max_h: int) -> tuple[int, int]:
