@@ -654,7 +654,7 @@ def struct_sizes() -> list[dict]:
                 t = ffi.typeof(f"{kind} {n}")
                 try:
                     ffi.sizeof(t)
-                except ffi.error:  # opaque (a stage's slot not built in: struct vt_camera)
+                except ffi.error:  # opaque (a stage's slot not built in: struct vt_svm_model)
                     continue
                 rows.append({"type": f"{kind} {n}", "sizeof": ffi.sizeof(t), "alignof": ffi.alignof(t)})
     return rows

@@ -60,8 +60,8 @@ def render(rows: list[dict]) -> str:
              "(status 0 = VT_OK; lane status -3 would mean the lane capacities are too small "
              "for that frame).", "",
              "| build | max frame | tracks | vt_pipeline | KiB | lane state | tracker | detect "
-             "scratch + result | vt_frame_out | frame run | status / lane / boxes / tracks |",
-             "|---|---|---:|---:|---:|---:|---:|---:|---:|---|---|"]
+             "scratch + result | camera (range) | vt_frame_out | frame run | status / lane / boxes / tracks |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---|"]
     for r in rows:
         frame = r.get("frame", "—")
         st = (f"{r['status']} / {r['lane_status']} / {r['boxes']} / {r['tracks']}"
@@ -70,9 +70,10 @@ def render(rows: list[dict]) -> str:
             f"| {r['build']} | {r['max_width']}x{r['max_height']} | {r['max_tracks']} | "
             f"{r['vt_pipeline']:,} | {r['vt_pipeline'] / kib:.1f} | {r['vt_lane_state']:,} | "
             f"{r['vt_tracker']:,} | {r['vt_detect_state'] + r['vt_detect_result']:,} | "
-            f"{r['vt_frame_out']:,} | {frame} | {st} |")
+            f"{r['vt_range_state']:,} | {r['vt_frame_out']:,} | {frame} | {st} |")
     lines += ["", "Builds:"] + [f"- {r['build']}: {NOTES.get(r['build'], '')}" for r in rows]
-    lines += ["", "Stack: the high-water mark of one `vt_pipeline_step` is measured by stack "
+    lines += ["", "The camera stage's state (per-track range filters) is in vt_pipeline whether or "
+              "not a camera is given.", "", "Stack: the high-water mark of one `vt_pipeline_step` is measured by stack "
               "painting in the firmware image (`make firmware-run`, line `stack step`)."]
     return "\n".join(lines) + "\n"
 
