@@ -42,6 +42,7 @@ static uint32_t g_ii[(H + 1) * (W + 1)];
 /* The whole vehicle system's state, in .bss: its configuration, the pipeline
  * (every stage's configuration copy and state) and one frame's output. */
 static vt_pipeline_cfg g_pipe_cfg;
+static vt_camera_cfg g_cam;
 static vt_pipeline g_pipe;
 static vt_frame_out g_out;
 
@@ -532,6 +533,9 @@ static uint32_t hash_frame_out(uint32_t h, vt_status s, const vt_frame_out *o)
         line_box(&t->box);
         line_sp(t->vx);
         line_sp(t->vy);
+        line_sp(t->distance_mm);
+        line_sp(t->ttc_ms);
+        line_sp(t->warning);
         fw_line_end();
     }
     return h;
@@ -545,8 +549,9 @@ static const char *const g_out_names[FW_CLIP_N] = {"frame_out0", "frame_out1", "
 
 /* The whole system through its one call: a static vt_pipeline with the default
  * configuration but lanes on every frame (as a detector keeps its lane tracker
- * fed), so over the 3-frame clip detection runs on frame 0 in the lanes' road and
- * the tracker follows on frames 1 and 2. Each frame's vt_frame_out is hashed into
+ * fed), and the clip's camera, so over the 3-frame clip detection runs on frame 0
+ * in the lanes' road, the tracker follows on frames 1 and 2, and every track gets
+ * its distance, TTC and warning. Each frame's vt_frame_out is hashed into
  * its own checksum line and all of them, after the init statuses, into
  * `checksum pipeline`; `checksum all` stays the primitives' alone. The stack
  * high-water mark of one step is measured by painting the stack right before
@@ -572,7 +577,15 @@ static void run_pipeline(void)
 
     h = fnv_status(FNV_BASIS, vt_pipeline_cfg_default(&g_pipe_cfg));
     g_pipe_cfg.lanes_every_frame = 1;
-    h = fnv_status(h, vt_pipeline_init(&g_pipe, &g_pipe_cfg, NULL, NULL));
+    /* The clip's camera: KITTI's (the default camera) with the principal point moved
+     * by the crop (x 300, y 118 of the 1242x375 frames); 10 frames/s is the range
+     * configuration's default frame_dt. */
+    h = fnv_status(h, vt_camera_cfg_default(&g_cam));
+    g_cam.img_w = FW_CLIP_W;
+    g_cam.img_h = FW_CLIP_H;
+    g_cam.cx -= 300 * VT_Q16_ONE;
+    g_cam.cy -= 118 * VT_Q16_ONE;
+    h = fnv_status(h, vt_pipeline_init(&g_pipe, &g_pipe_cfg, &g_cam, NULL));
     img.w = FW_CLIP_W;
     img.h = FW_CLIP_H;
     img.stride = FW_CLIP_W;
@@ -634,6 +647,7 @@ int main(void)
     print_size("ram pipeline.lane", (uint32_t)sizeof g_pipe.lane);
     print_size("ram pipeline.detect", (uint32_t)(sizeof g_pipe.detect + sizeof g_pipe.det));
     print_size("ram pipeline.tracker", (uint32_t)sizeof g_pipe.tracker);
+    print_size("ram pipeline.range", (uint32_t)sizeof g_pipe.range);
     print_size("ram pipeline.cfg", (uint32_t)sizeof g_pipe.cfg);
     print_size("ram frame_out", (uint32_t)sizeof g_out);
     print_size("ram pipeline_cfg", (uint32_t)sizeof g_pipe_cfg);

@@ -11,7 +11,8 @@ primitives are exact integer functions, so any difference is a portability bug
 
 Then the whole vehicle system over three 640x256 clip frames in flash through its
 one call, vt_pipeline_step on a static vt_pipeline (lanes on every frame, detection
-on the first in the lanes' road area, the tracker on all three). The image prints
+on the first in the lanes' road area, the tracker on all three, the camera stage's
+distance, TTC and warning per track). The image prints
 every frame's road area (lane status, valid, rows, source), boxes and tracks (box
 and Q16 velocity) and a checksum of every vt_frame_out; `host_pipeline()` repeats
 it and every line must be equal, again with no tolerance (the Kalman filter is
@@ -278,8 +279,13 @@ def host_pipeline(frames: list[np.ndarray]) -> tuple[list[str], list[tuple[str, 
     cfg = ffi.new("vt_pipeline_cfg *")
     total = fnv_s32(FNV_BASIS, lib.vt_pipeline_cfg_default(cfg))
     cfg.lanes_every_frame = 1
+    cam = ffi.new("vt_camera_cfg *")  # the clip's camera, as main.c builds it
+    total = fnv_s32(total, lib.vt_camera_cfg_default(cam))
+    cam.img_w, cam.img_h = w_, h_
+    cam.cx -= 300 * 65536
+    cam.cy -= 118 * 65536
     p = ffi.new("vt_pipeline *")  # zeroed, as main.c's .bss one
-    total = fnv_s32(total, lib.vt_pipeline_init(p, cfg, ffi.NULL, ffi.NULL))
+    total = fnv_s32(total, lib.vt_pipeline_init(p, cfg, cam, ffi.NULL))
     o = ffi.new("vt_frame_out *")
     for f, frame in enumerate(frames):
         s = lib.vt_pipeline_step(p, view(frame, "frame"), o)
@@ -317,7 +323,8 @@ def host_pipeline(frames: list[np.ndarray]) -> tuple[list[str], list[tuple[str, 
             h = _fnv_box(fnv_s32(fnv_s32(h, t.id), t.state), t.box)
             for v in (t.vx, t.vy, t.distance_mm, t.ttc_ms, t.warning):
                 h = fnv_s32(h, v)
-            lines.append(f"track {f} {t.id} {t.state} {_box_line(t.box)} {t.vx} {t.vy}")
+            lines.append(f"track {f} {t.id} {t.state} {_box_line(t.box)} {t.vx} {t.vy} "
+                         f"{t.distance_mm} {t.ttc_ms} {t.warning}")
         sums.append((f"frame_out{f}", h))
         total = fnv_u32(total, h)
     sums.append(("pipeline", total))
@@ -434,6 +441,12 @@ def test_pipeline_detects_in_the_lane_road(pipeline):
         assert road[6] == str(int(lib.VT_ROAD_SRC_LANES)), (f, road)
     last = [ln.split() for ln in lines if ln.startswith(f"track {len(CLIP) - 1} ")]
     assert any(int(t[3]) == int(lib.VT_TRACK_CONFIRMED) for t in last), lines
+    # The camera stage ran: every track has a filtered distance (mm), plausible for the
+    # lead car about 8-10 m ahead (lidar 7.8-8.0 m; the flat-road distance has no rear offset).
+    for ln in lines:
+        if ln.startswith("track "):
+            d = int(ln.split()[10])
+            assert d != int(lib.VT_UNKNOWN) and 5000 < d < 15000, ln
 
 
 def test_host_recipe_sees_error_statuses():
