@@ -400,6 +400,7 @@ static void vt__range_track_step(vt_range_track *t, const vt_range_cfg *cfg,
 {
     vt_distance dist;
     vt_q16 sig, z[1], ttc, w_now, w_old, d;
+    vt_q32 r[1];
     int64_t q, wpx = (int64_t)tr->box.right - tr->box.left + 1;
     int32_t closing, lag = cfg->scale_lag, ttc_ok, cls, have, side_ok, n;
     (void)vt_camera_box_distance(cam, tp, &tr->box, &dist);
@@ -444,9 +445,9 @@ static void vt__range_track_step(vt_range_track *t, const vt_range_cfg *cfg,
     if (t->updates > 0) {
         (void)vt_kf_predict(&t->kf);
         if (have) {
-            t->kf.R[0][0] = (int64_t)sig * sig; /* eq. 6: R per measurement */
+            r[0] = (int64_t)sig * sig; /* eq. 6: R per measurement */
             z[0] = d;
-            if (vt_kf_update(&t->kf, z) == VT_OK && t->updates < INT32_MAX) {
+            if (vt_kf_update_r(&t->kf, z, r) == VT_OK && t->updates < INT32_MAX) {
                 t->updates += 1;
             }
         }

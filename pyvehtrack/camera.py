@@ -196,9 +196,15 @@ def lane_vanishing_row(lanes) -> float | None:
     result's own vanishing_row (None when the lanes do not give one)."""
     from . import _native
     raw = getattr(lanes, "raw", None)
+    f = float(lanes.input_scale)
+    if raw is not None and hasattr(raw, "H") and hasattr(raw, "lines"):
+        # the float oracle's LaneFrame: the same intersection in floats
+        ln = raw.lines
+        left, right = (None if k >= len(ln) or ln[k] is None else (ln[k].xb, ln[k].slope) for k in (1, 2))
+        row = rcam.vanishing_row(left, right, int(raw.H), int(raw.shift))
+        return None if row is None else (row + 0.5) / f - 0.5
     if raw is None or not hasattr(raw, "shift") or not hasattr(raw, "lines"):
         return lanes.vanishing_row
-    f = float(lanes.input_scale)
     h_seen = int(raw.h) << int(raw.shift)
     # the frame the lane stage saw: its height is h << shift plus the rows the downscale dropped
     h_full = int(round(len(lanes.x_left) * f))

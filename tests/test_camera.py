@@ -404,3 +404,72 @@ def test_estimator_engines_agree():
         assert abs(oa.dist_filt - ob.dist_filt) <= tol
         assert oa.warning == ob.warning
     assert abs(a.pitch_deg - b.pitch_deg) < 1e-3
+
+
+def test_vanishing_row_on_a_real_frame_both_engines():
+    """The ego lines' meeting row from the C lane stage (vt_lane_vanishing_row, Q16) and from
+    the float oracle's lines on a real highway frame: the lane stages agree to a fraction of a
+    working pixel (tests/test_lane.py), which the intersection of two lines ~45 degrees apart
+    turns into about as much: within 2 input px."""
+    from pathlib import Path
+
+    import cv2
+
+    from pyvehtrack.camera import lane_vanishing_row
+    from pyvehtrack.lane import LaneDetector
+    img = cv2.imread(str(Path(__file__).parent / "data" / "lane_udacity_solidWhiteCurve_gray_640x360.png"),
+                     cv2.IMREAD_GRAYSCALE)
+    vc = lane_vanishing_row(LaneDetector(engine="c").detect(img))
+    vr = lane_vanishing_row(LaneDetector(engine="reference").detect(img))
+    assert vc is not None and vr is not None
+    assert 150 < vc < 250                       # the horizon of this 360-row frame
+    assert abs(vc - vr) < 2.0
+
+
+@given(st.lists(st.tuples(st.floats(-50, 50), st.floats(0.01, 30)), min_size=1, max_size=30))
+@settings(max_examples=60)
+def test_kf_update_r_matches_filterpy(meas):
+    """vt_kf_update_r = set R then update: against filterpy's update(z, R=r) on a 1-D
+    constant-velocity filter, with the same tolerance as plain updates (tests/test_kalman.py:
+    0.01 px on the state, here with R between 1e-4 and 900)."""
+    from filterpy.kalman import KalmanFilter as FKF
+    kf = _native.kf_new()
+    _native.kf_init(kf, 2, 1)
+    kf.F[0][1] = 1 << 32
+    kf.H[0][0] = 1 << 32
+    kf.Q[0][0] = 0                # vt_kf_init starts from Q = I, as filterpy
+    kf.Q[1][1] = 1 << 28          # 1/16
+    kf.P[0][0] = kf.P[1][1] = 100 << 32
+    ref = FKF(dim_x=2, dim_z=1)
+    ref.F = np.array([[1.0, 1.0], [0.0, 1.0]])
+    ref.H = np.array([[1.0, 0.0]])
+    ref.Q = np.diag([0.0, 1 / 16])
+    ref.P = np.diag([100.0, 100.0])
+    ref.x = np.zeros((2, 1))
+    for z, sig in meas:
+        r = round(sig * sig * 2**32)
+        _native.kf_predict(kf)
+        zq = round(z * Q)
+        assert lib.vt_kf_update_r(kf, ffi.new("vt_q16[]", [zq]), ffi.new("vt_q32[]", [r])) == lib.VT_OK
+        ref.predict()
+        ref.update(np.array([[zq / Q]]), R=np.array([[r / 2**32]]))
+        assert kf.R[0][0] == r
+        assert abs(kf.x[0] / Q - ref.x[0, 0]) <= 0.01 and abs(kf.x[1] / Q - ref.x[1, 0]) <= 0.01
+
+
+def test_kf_update_r_bad_r_leaves_filter_unchanged():
+    kf = _native.kf_new()
+    _native.kf_init(kf, 2, 2)
+    before = bytes(ffi.buffer(kf))
+    z = ffi.new("vt_q16[]", [0, 0])
+    for r in ([-1, 0, 0, 1], [1, 2, 3, 1]):           # negative variance; not symmetric
+        assert lib.vt_kf_update_r(kf, z, ffi.new("vt_q32[]", r)) == lib.VT_E_ARG
+    assert lib.vt_kf_update_r(kf, z, ffi.NULL) == lib.VT_E_ARG
+    assert lib.vt_kf_update_r(ffi.NULL, z, ffi.new("vt_q32[]", 4)) == lib.VT_E_ARG
+    # a singular S (H = 0, R = 0) fails in the update: R is put back (x, P, K were never
+    # changed; y and S hold the failed measurement's values, as vt_kf_update documents)
+    x, p, k, r0 = list(kf.x), [list(v) for v in kf.P], [list(v) for v in kf.K], [list(v) for v in kf.R]
+    assert lib.vt_kf_update_r(kf, z, ffi.new("vt_q32[]", [0, 0, 0, 0])) == lib.VT_E_SINGULAR
+    assert (list(kf.x), [list(v) for v in kf.P], [list(v) for v in kf.K], [list(v) for v in kf.R]) == \
+        (x, p, k, r0)
+    assert bytes(ffi.buffer(kf))[:8] == before[:8]

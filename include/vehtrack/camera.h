@@ -17,8 +17,9 @@
  *     rate, TTC from the box's scale change, and the forward-collision warning state
  *     machine (vt_fcw_step). It is updated from vt_tracker_step's outputs.
  *
- * Cost: sizeof(vt_range_state) = VT_MAX_TRACKS * (sizeof(vt_kf) + ~120) bytes
- * (about 40 KB at the defaults, 38 KB of it the 16 filters); vt_pitch_state 16 bytes.
+ * Cost: sizeof(vt_range_state) = 8 + VT_MAX_TRACKS * sizeof(vt_range_track) (2,472 bytes
+ * each on x86-64, 2,360 of it the vt_kf): 39,560 bytes at the defaults; vt_pitch_state 16
+ * bytes, vt_camera_cfg 68, vt_range_cfg 84 (both const, may live in flash).
  * Work per track and frame: one 3-state Kalman predict + update (about 150 multiplies),
  * 3 divisions for the distances, 2 for the TTCs. No frame access.
  *
@@ -54,7 +55,7 @@
 #endif
 
 /* Camera (pixels of the input frame). vt_camera_cfg_check() states the ranges. */
-typedef struct {
+typedef struct vt_camera_cfg {
     int32_t img_w;            /* frame size the intrinsics are for, 1..32767 (the    */
     int32_t img_h;            /* camera reads no pixels, so any frame size is fine)  */
     vt_q16 fx;                /* focal lengths, px, 1..16384                         */
@@ -115,7 +116,7 @@ vt_status vt_camera_row_distance(const vt_camera_cfg *cam, vt_q16 tp, vt_q16 row
                                     its width is not the vehicle's                   */
 
 /* One box's distances (metres, Q16). */
-typedef struct {
+typedef struct vt_distance {
     int32_t flags;       /* VT_DIST_* */
     vt_q16 distance;     /* eq. 1 at the contact row bottom + bottom_offset           */
     vt_q16 dist_near;    /* eq. 3: at contact row + delta                              */
@@ -143,7 +144,7 @@ typedef enum {
                               outlier): last good pitch kept                          */
 } vt_pitch_flag;
 
-typedef struct {
+typedef struct vt_pitch_state {
     vt_q16 tan_pitch;      /* the estimate to use this frame                         */
     int32_t flag;          /* vt_pitch_flag of the last update                       */
     int32_t outliers;      /* consecutive outliers within the limits                 */
@@ -184,7 +185,7 @@ typedef enum {
     VT_LEAD_DECEL = 3
 } vt_lead_class;
 
-typedef struct {
+typedef struct vt_range_cfg {
     vt_q16 frame_dt;        /* s per frame, (0, 1]                                    */
     vt_q16 jerk_sigma;      /* process noise of the [d, rate, accel] filter: the std
                                of the relative acceleration's change, m/s^3, (0, 50]  */
@@ -232,7 +233,7 @@ vt_status vt_range_cfg_check(const vt_range_cfg *cfg);
 vt_status vt_range_cfg_default(vt_range_cfg *cfg);
 
 /* The warning state machine (one per track). */
-typedef struct {
+typedef struct vt_fcw_state {
     int32_t below;       /* consecutive frames with the condition true              */
     int32_t above;       /* consecutive frames with the condition false             */
     int32_t warning;     /* 1 while warning                                          */
@@ -258,7 +259,7 @@ vt_status vt_fcw_step(const vt_range_cfg *cfg, vt_fcw_state *st, int32_t ttc_val
                       int32_t closing, int32_t lead_class, int32_t *out);
 
 /* Per-track range memory (private; public for its size). */
-typedef struct {
+typedef struct vt_range_track {
     int32_t id;                       /* tracker id, 0 = free slot                    */
     int32_t updates;                  /* distance measurements filtered               */
     int32_t n_hist;                   /* entries in the rings (<= VT_RANGE_HIST)      */
@@ -270,7 +271,7 @@ typedef struct {
     vt_kf kf;                         /* x = [d (m), rate (m/s), accel (m/s^2)], z = [d] */
 } vt_range_track;
 
-typedef struct {
+typedef struct vt_range_state {
     int32_t frame;
     vt_range_track t[VT_MAX_TRACKS];
 } vt_range_state;
@@ -286,7 +287,7 @@ typedef struct {
                                        the contact row not being seen                 */
 
 /* Per track and frame. */
-typedef struct {
+typedef struct vt_range_out {
     int32_t id;
     int32_t flags;       /* VT_RANGE_*                                                */
     int32_t fcw;         /* VT_FCW_* bits                                            */

@@ -45,6 +45,7 @@ typedef struct {
 vt_status vt_kf_init(vt_kf *kf, int32_t dim_x, int32_t dim_z);
 vt_status vt_kf_predict(vt_kf *kf);
 vt_status vt_kf_update(vt_kf *kf, const vt_q16 *z);
+vt_status vt_kf_update_r(vt_kf *kf, const vt_q16 *z, const vt_q32 *r);
 vt_status vt_kf_accel_var(vt_q16 accel, vt_q16 p_max, vt_q16 p_zero, vt_q32 *var);
 vt_status vt_kf_model_cfg_default(vt_kf_model_cfg *cfg);
 vt_status vt_kf_model_cfg_check(const vt_kf_model_cfg *cfg);

@@ -17,7 +17,7 @@
 #define VT_RANGE_CLOSING ...
 #define VT_RANGE_FROM_WIDTH ...
 
-typedef struct {
+typedef struct vt_camera_cfg {
     int32_t img_w;
     int32_t img_h;
     vt_q16 fx;
@@ -42,7 +42,7 @@ vt_status vt_camera_cfg_default(vt_camera_cfg *cam);
 vt_status vt_camera_row_distance(const vt_camera_cfg *cam, vt_q16 tp, vt_q16 row, vt_q16 *dist,
                                  int32_t *valid);
 
-typedef struct {
+typedef struct vt_distance {
     int32_t flags;
     vt_q16 distance;
     vt_q16 dist_near;
@@ -56,7 +56,7 @@ vt_status vt_camera_box_distance(const vt_camera_cfg *cam, vt_q16 tp, const vt_b
 
 typedef enum { VT_PITCH_NOMINAL, VT_PITCH_MEASURED, VT_PITCH_HELD, VT_PITCH_REJECTED, ... } vt_pitch_flag;
 
-typedef struct {
+typedef struct vt_pitch_state {
     vt_q16 tan_pitch;
     int32_t flag;
     int32_t outliers;
@@ -71,7 +71,7 @@ vt_status vt_lane_vanishing_row(const vt_lane_result *res, int32_t img_h, vt_q16
 
 typedef enum { VT_LEAD_UNKNOWN, VT_LEAD_STOPPED, VT_LEAD_SLOWER, VT_LEAD_DECEL, ... } vt_lead_class;
 
-typedef struct {
+typedef struct vt_range_cfg {
     vt_q16 frame_dt;
     vt_q16 jerk_sigma;
     vt_q16 init_sigma_rate;
@@ -98,7 +98,7 @@ typedef struct {
 vt_status vt_range_cfg_check(const vt_range_cfg *cfg);
 vt_status vt_range_cfg_default(vt_range_cfg *cfg);
 
-typedef struct {
+typedef struct vt_fcw_state {
     int32_t below;
     int32_t above;
     int32_t warning;
@@ -109,7 +109,7 @@ typedef struct {
 vt_status vt_fcw_step(const vt_range_cfg *cfg, vt_fcw_state *st, int32_t ttc_valid, vt_q16 ttc,
                       int32_t closing, int32_t lead_class, int32_t *out);
 
-typedef struct {
+typedef struct vt_range_track {
     int32_t id;
     int32_t updates;
     int32_t n_hist;
@@ -121,12 +121,12 @@ typedef struct {
     vt_kf kf;
 } vt_range_track;
 
-typedef struct {
+typedef struct vt_range_state {
     int32_t frame;
     vt_range_track t[...];
 } vt_range_state;
 
-typedef struct {
+typedef struct vt_range_out {
     int32_t id;
     int32_t flags;
     int32_t fcw;
