@@ -21,12 +21,9 @@ from dataclasses import dataclass, field, fields, make_dataclass
 
 import numpy as np
 
-from . import _native
+from . import _check, _native
 from ._native import ffi, lib
 from .kalman import ModelConfig, Q16_ONE
-
-_I32 = (-(1 << 31), (1 << 31) - 1)
-
 
 def _int_config(name: str, ctype: str, doc: str, c=None):
     """A frozen dataclass with one int field per field of C struct `ctype`, in the
@@ -162,11 +159,8 @@ def from_kwargs(cfg: PipelineConfig | None = None, **overrides) -> PipelineConfi
 
 # ---------------------------------------------------------------- to C
 def _int(v, name: str) -> int:
-    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)):
-        raise TypeError(f"{name}: expected an int, got {type(v).__name__} {v!r}")
-    if not _I32[0] <= int(v) <= _I32[1]:
-        raise ValueError(f"{name}: {v} is outside int32")
-    return int(v)
+    """An int32 field (the project's one integer check, pyvehtrack._check)."""
+    return _check.integer(v, name)
 
 
 def _expect(obj, cls, name: str):

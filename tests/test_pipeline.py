@@ -315,8 +315,10 @@ def test_python_bad_arguments():
         Pipeline(detect_evry=3)
     with pytest.raises(ValueError, match="detect_every"):
         Pipeline(detect_every=0)
-    with pytest.raises(TypeError, match="detect_every"):
+    with pytest.raises(ValueError, match="detect_every"):
         Pipeline(detect_every=2.5)
+    with pytest.raises(TypeError, match="detect_every"):
+        Pipeline(detect_every="3")
     with pytest.raises(ValueError, match="road"):
         Pipeline(road="sky")
     with pytest.raises(ValueError, match="sources"):
@@ -331,8 +333,8 @@ def test_python_bad_arguments():
         Pipeline(fixed_road=FixedRoad(vp=(0.5, 0.4505)))
     with pytest.raises(ValueError, match="fixed_road.bottom"):
         Pipeline(fixed_road=FixedRoad(bottom=(0.9, 0.1)))
-    with pytest.raises(TypeError, match="shadow.min_run"):
-        Pipeline(shadow=ShadowConfig(min_run=3.0))
+    with pytest.raises(ValueError, match="shadow.min_run"):
+        Pipeline(shadow=ShadowConfig(min_run=3.5))
     with pytest.raises(VtError, match="vt_shadow_cfg_check"):
         Pipeline(shadow=ShadowConfig(min_run=0))
     with pytest.raises(ValueError, match="keep_ncc"):
