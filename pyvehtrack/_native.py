@@ -944,3 +944,61 @@ def model_population(ws) -> tuple[list, list]:
     n = int(ws.n)
     return ([_p_tuple(ws.pop[base + i]) for i in range(n)], [int(ws.fit[base + i]) for i in range(n)])
 # ================================================================ end vehicle_model.h
+
+
+# ================================================================ pipeline.h
+def pipeline_cfg_default():
+    return _defaults("vt_pipeline_cfg")
+
+
+def pipeline_cfg_check(cfg) -> None:
+    check("vt_pipeline_cfg_check", lib.vt_pipeline_cfg_check(cfg),
+          "a stage configuration or policy is out of range (see vt_pipeline_cfg_check)")
+
+
+def pipeline_new(cfg):
+    """A vt_pipeline owned by Python, initialised with cfg (camera and model off)."""
+    p = ffi.new("vt_pipeline *")
+    check("vt_pipeline_init", lib.vt_pipeline_init(p, cfg, ffi.NULL, ffi.NULL),
+          "a stage configuration or policy is out of range (see vt_pipeline_cfg_check)")
+    return p
+
+
+def pipeline_step(p, img: np.ndarray, out, road=None, dets=None) -> int:
+    """vt_pipeline_step into out (a vt_frame_out *); with road (a vt_road_area *)
+    vt_pipeline_step_road, with dets (an (N, 4) box array, N may be 0)
+    vt_pipeline_step_dets. Returns the status (VT_OK, or VT_E_CAPACITY when more
+    tracks were live than out holds); raises VtError on errors."""
+    v = view(img, "img")
+    if dets is not None:
+        boxes = _boxes_i32(dets, "dets")
+        pd = ffi.cast("vt_box *", boxes.ctypes.data) if len(boxes) else ffi.NULL
+        name, s = "vt_pipeline_step_dets", lib.vt_pipeline_step_dets(p, v, pd, len(boxes), out)
+    elif road is not None:
+        name, s = "vt_pipeline_step_road", lib.vt_pipeline_step_road(p, v, road, out)
+    else:
+        name, s = "vt_pipeline_step", lib.vt_pipeline_step(p, v, out)
+    detail = f"img {img.shape}"
+    if dets is not None:
+        # The caller's boxes go to the tracker stage as they are; it is the one that
+        # refuses a bad box, so the message names it.
+        detail += (f", {len(dets)} detections (the tracker stage, vt_tracker_step, refuses a box "
+                   f"with left > right, top > bottom or coordinates beyond +-2^30)")
+    if s != lib.VT_E_CAPACITY or dets is not None:
+        check(name, s, detail)
+    return int(s)
+
+
+def pipeline_work_size(w: int, h: int, max_w: int, max_h: int) -> tuple[int, int]:
+    ww, wh = ffi.new("int32_t *"), ffi.new("int32_t *")
+    check("vt_pipeline_work_size", lib.vt_pipeline_work_size(w, h, max_w, max_h, ww, wh),
+          f"{w}x{h} into {max_w}x{max_h}")
+    return int(ww[0]), int(wh[0])
+
+
+def fixed_road_area(fr, w: int, h: int):
+    """A new vt_road_area holding the fixed trapezoid of a w x h frame."""
+    road = ffi.new("vt_road_area *")
+    check("vt_fixed_road_area", lib.vt_fixed_road_area(fr, w, h, road), f"frame {w}x{h}")
+    return road
+# ================================================================ end pipeline.h

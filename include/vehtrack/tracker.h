@@ -61,7 +61,7 @@ typedef struct {
 /* One track. Public so that callers can inspect and save it; change it only
  * through the functions below. */
 typedef struct {
-    int32_t id;           /* > 0, never reused within a run */
+    int32_t id;           /* 1..INT32_MAX-1, never reused within a run */
     int32_t state;        /* vt_track_state */
     int32_t hits;         /* successful measurements so far */
     int32_t misses;       /* consecutive frames without a measurement */
@@ -76,9 +76,10 @@ typedef struct {
 } vt_track;
 
 typedef struct {
-    int32_t next_id;
-    int32_t frame;          /* frames stepped so far */
-    int32_t dropped_full;   /* detections not started because every slot was used */
+    int32_t next_id;        /* INT32_MAX: every id given out, no track starts */
+    int32_t frame;          /* frames stepped so far (saturates at INT32_MAX) */
+    int32_t dropped_full;   /* detections not started because every slot (or every
+                               id) was used; saturates, as hits, misses and age */
     vt_track tracks[VT_MAX_TRACKS];
     vt_track_search_ws ws;
 } vt_tracker;
@@ -91,6 +92,19 @@ typedef struct {
     vt_q16 vx; /* px/frame */
     vt_q16 vy;
 } vt_track_out;
+
+/* Largest confirm_hits and max_coast, frames (a minute at 30 fps): a longer
+ * coast only lets the covariance saturate. */
+#define VT_TRACK_MAX_FRAMES_CFG 1800
+
+/* VT_OK if every field of *cfg is in its domain: search as
+ * vt_track_search_cfg_check, model as vt_kf_model_cfg_check, 0 <= roi_margin_min
+ * <= VT_MAX_WIDTH, roi_margin_percent, gate_percent, gate_bottom_percent in
+ * 0..400, 1 <= confirm_hits <= VT_TRACK_MAX_FRAMES_CFG, 0 <= max_coast <=
+ * VT_TRACK_MAX_FRAMES_CFG, match_iou_percent in 1..100, keep_ncc in [-1, 1]
+ * (Q14), 0 <= init_max_change <= VT_MAX_WIDTH. VT_E_ARG otherwise and for NULL.
+ * vt_tracker_step checks the same before touching the tracker. */
+vt_status vt_tracker_cfg_check(const vt_tracker_cfg *cfg);
 
 /* Empty the tracker (ids restart at 1). VT_E_ARG for NULL. */
 vt_status vt_tracker_init(vt_tracker *tr);
@@ -106,7 +120,8 @@ vt_status vt_tracker_cfg_default(vt_tracker_cfg *cfg);
  * second measurement (counted as its hit when the search failed); a track no detection matched survives only if its template
  * correlates with the same box in `img` at >= keep_ncc; an unmatched detection
  * that overlaps no track starts a tentative track (or, when every slot is used,
- * is counted in dropped_full: the defined behaviour when full).
+ * is counted in dropped_full: the defined behaviour when full; likewise once
+ * every id 1..INT32_MAX-1 was given out, so an id is never reused).
  * Writes up to out_cap live tracks to out (all states but FREE) and their count
  * to *n_out; VT_E_CAPACITY if more were live than out_cap (out is still filled).
  * VT_E_ARG / VT_E_SIZE for bad arguments (then the tracker is unchanged). */

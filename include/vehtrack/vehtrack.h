@@ -23,6 +23,7 @@
 #include "vehtrack/classify.h"
 #include "vehtrack/flow.h"
 #include "vehtrack/vehicle_model.h"
+#include "vehtrack/pipeline.h"
 
 #define VT_VERSION_MAJOR 0
 #define VT_VERSION_MINOR 1
