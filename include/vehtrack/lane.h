@@ -5,8 +5,8 @@
  * Cost: sizeof(vt_lane_state) = 85,652 bytes on x86-64 at the default capacities: the
  * Hough accumulator (VT_LANE_ACC_CELLS * 2 bytes) is 64 KB of it, marking centres 8 KB,
  * row buffers and per-row indices 4.4 KB, the extension histogram 3.8 KB; no frame
- * buffer: the frame is read once, one working row at a time. vt_lane_result is 980
- * bytes, vt_road_area 6.5 KB. Work per frame, W x H the working frame (the input
+ * buffer: the frame is read once, one working row at a time. vt_lane_result is 2,908
+ * bytes (1.9 KB of it lines_all), vt_road_area 6.5 KB. Work per frame, W x H the working frame (the input
  * box-downscaled by 2^s so that W <= work_width_max, H <= work_height_max; 320 x 240
  * by default):
  *   - 4^s adds per working pixel below roi_top (downscale), then ~6 operations per
@@ -151,6 +151,15 @@ typedef struct {
     int32_t n_marks;       /* marking centres kept                                   */
     int32_t rows_dropped;  /* rows dropped as texture or for lack of room            */
     vt_lane_line lines[VT_LANE_SLOTS];
+    /* Every lane line found, left to right by x at the bottom row (xb): the slot lines
+     * above (FOUND or HELD) and, when the ego pair gives a vanishing point, every
+     * further candidate of a half that passes through it and lies further out than
+     * that half's ego line (FOUND, not tracked). lines_all_slot[i] is the slot of
+     * lines_all[i] (vt_lane_side) or -1 for a further line. */
+    int32_t n_lines_all;
+    int32_t lines_all_dropped; /* further lines left out for VT_LANE_MAX_LINES */
+    int32_t lines_all_slot[VT_LANE_MAX_LINES];
+    vt_lane_line lines_all[VT_LANE_MAX_LINES];
 } vt_lane_result;
 
 /* A Hough candidate (internal, in the state for its size). */
@@ -229,6 +238,17 @@ vt_status vt_lane_reset(vt_lane_state *st);
  * left untouched and the tracker is unchanged. */
 vt_status vt_lane_detect(const vt_lane_cfg *cfg, vt_lane_state *st, const vt_image_u8 *img,
                          vt_lane_result *res, vt_road_area *road);
+
+/* The road area over all lanes (issue 8): between lines_all[0] and
+ * lines_all[n_lines_all - 1] of res, with the same rules as the ego road area of
+ * vt_lane_detect (rows from the lower of the two top rows down, x clamped to the
+ * frame, ends above the first crossing row); lane_width = the span divided by
+ * n_lines_all - 1 (the mean lane width). img_w x img_h: the input frame res was made
+ * from (1..VT_MAX_WIDTH x 1..VT_MAX_HEIGHT, else VT_E_SIZE). valid = 0 with fewer than
+ * two lines. VT_E_ARG for NULL pointers or a result whose counts or shift are out of
+ * range. */
+vt_status vt_lane_road_all(const vt_lane_result *res, int32_t img_w, int32_t img_h,
+                           vt_road_area *road);
 
 /* x (Q16, working px) of a line's polyline at working row y (Q16): linear between
  * vertices, the end segments extended beyond them. VT_E_ARG if the line has no

@@ -368,7 +368,19 @@ def select_lines(kl: list[LaneLine], kr: list[LaneLine], W: int, H: int, cfg: La
     for i, ln in enumerate(out):
         if ln is not None:
             ln.side = i
-    return out
+    if best is None:
+        return out, []
+    return out, further(kl, 0, le, lo) + further(kr, 1, re, ro)
+
+
+def further(kept: list[LaneLine], half: int, ego, outer) -> list[LaneLine]:
+    """The further lines of one half (issue 8, all lanes): the lines through the
+    vanishing point (kept, already filtered) that are in no slot and further out than
+    the half's ego line (a line inside the ego lane is no lane line); strongest first."""
+    if ego is None:
+        return []
+    sgn = 1 if half == 0 else -1
+    return [ln for ln in kept if ln is not ego and ln is not outer and sgn * ln.xb < sgn * ego.xb]
 
 
 def refine(line: LaneLine, marks, W: int, H: int, cfg: LaneConfig) -> None:
@@ -492,6 +504,9 @@ class LaneFrame:
     lines: list                      # LaneLine or None per slot
     road: dict | None = None         # valid, y_top, y_bottom, height, x_left, x_right, lane_width
     accs: tuple = ()                 # ((acc, bin0) left, (acc, bin0) right)
+    lines_all: list = field(default_factory=list)  # every line, left to right by xb
+    lines_all_slot: list = field(default_factory=list)  # its slot, -1 for a further line
+    lines_all_dropped: int = 0       # further lines left out for max_lines
 
 
 def polyline_x(verts, yw: float) -> float:
@@ -518,14 +533,30 @@ def road_area(lines, frame_w: int, frame_h: int, s: int, max_height: int) -> dic
     """The road area in input pixels (vt_road_area): between the inner-most found line on
     each side (ego line, else the outer one), from where both lines exist down to the
     bottom row; lane_width = ego lane width (the span / number of lanes it covers)."""
+    lft = lines[LEFT] or lines[LEFT_MOST]
+    rgt = lines[RIGHT] or lines[RIGHT_MOST]
+    gaps = 1 + (lines[LEFT] is None) + (lines[RIGHT] is None)
+    return road_between(lft, rgt, gaps, frame_w, frame_h, s, max_height)
+
+
+def road_area_all(lines_all, frame_w: int, frame_h: int, s: int, max_height: int) -> dict:
+    """The road area over all lanes (vt_lane_road_all): between the left-most and the
+    right-most of all lines; lane_width = the span / (number of lines - 1)."""
+    if len(lines_all) < 2:
+        return road_between(None, None, 1, frame_w, frame_h, s, max_height)
+    return road_between(lines_all[0], lines_all[-1], len(lines_all) - 1, frame_w, frame_h, s,
+                        max_height)
+
+
+def road_between(lft, rgt, gaps: int, frame_w: int, frame_h: int, s: int,
+                 max_height: int) -> dict:
+    """The area between lines lft and rgt (either None: not valid), lane width per row
+    = their distance // gaps."""
     road = dict(valid=0, y_top=0, y_bottom=0, height=frame_h,
                 x_left=np.zeros(max_height, np.int64), x_right=np.zeros(max_height, np.int64),
                 lane_width=np.zeros(max_height, np.int64))
-    lft = lines[LEFT] or lines[LEFT_MOST]
-    rgt = lines[RIGHT] or lines[RIGHT_MOST]
     if lft is None or rgt is None:
         return road
-    gaps = 1 + (lines[LEFT] is None) + (lines[RIGHT] is None)
     n = 1 << s
     top_w = max(lft.y_top, rgt.y_top)
     y_first = max(0, math.ceil((top_w + 0.5) * n - 0.5))
@@ -549,8 +580,10 @@ def road_area(lines, frame_w: int, frame_h: int, s: int, max_height: int) -> dic
 class LaneDetector:
     """Reference lane detector; its state is the previous frame's lines (the tracker)."""
 
-    def __init__(self, cfg: LaneConfig = DEFAULT, max_height: int = 1080, max_verts: int = 24):
+    def __init__(self, cfg: LaneConfig = DEFAULT, max_height: int = 1080, max_verts: int = 24,
+                 max_lines: int = 8):
         self.cfg = cfg
+        self.max_lines = max_lines      # C: VT_LANE_MAX_LINES
         self.max_height = max_height    # C: VT_MAX_HEIGHT (length of the road arrays)
         self.max_verts = max_verts      # C: VT_LANE_MAX_VERTS
         self.reset()
@@ -590,7 +623,7 @@ class LaneDetector:
         marks = all_marks(work, cfg)
         kl, accl, b0l = candidates(marks, W, H, 0, cfg)
         kr, accr, b0r = candidates(marks, W, H, 1, cfg)
-        found = select_lines(kl, kr, W, H, cfg)
+        found, extra = select_lines(kl, kr, W, H, cfg)
         lines = [self._track(i, found[i], W, H) for i in range(4)]
         known, y_v = vanishing_row(lines[LEFT], lines[RIGHT], H, cfg)
         for ln in lines:
@@ -598,5 +631,21 @@ class LaneDetector:
                 extend(ln, marks, W, H, known, y_v, cfg, self.max_verts)
         self.prev = lines
         road = road_area(lines, w, h, s, self.max_height)
-        return LaneFrame(s, W, H, roi_top, band_top, known, y_v, lines, road,
-                         ((accl, b0l), (accr, b0r)))
+        # Every line: slots first, then the further lines while there is room; sorted
+        # left to right by xb, stable.
+        all_ = [(ln, i) for i, ln in enumerate(lines) if ln is not None]
+        room = self.max_lines - len(all_)
+        for ln in extra[:max(room, 0)]:
+            ln = replace(ln, side=-1)
+            ln.xb = min(max(ln.xb, -16384.0), 16384.0)
+            extend(ln, marks, W, H, known, y_v, cfg, self.max_verts)
+            all_.append((ln, -1))
+        all_.sort(key=lambda t: t[0].xb)
+        fr = LaneFrame(s, W, H, roi_top, band_top, known, y_v, lines, road,
+                       ((accl, b0l), (accr, b0r)), [t[0] for t in all_], [t[1] for t in all_],
+                       max(0, len(extra) - max(room, 0)))
+        return fr
+
+    def road_all(self, frame: LaneFrame, frame_w: int, frame_h: int) -> dict:
+        """The road area over all lanes of a frame this detector returned."""
+        return road_area_all(frame.lines_all, frame_w, frame_h, frame.shift, self.max_height)
