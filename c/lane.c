@@ -142,7 +142,8 @@ vt_status vt_lane_cfg_check(const vt_lane_cfg *c)
         !VT__IN(c->win_bottom_permille, 0, 1000) || !VT__IN(c->win_top, 0, 4096) ||
         !VT__IN(c->vp_margin, 0, 4096) || !VT__IN(c->top_margin_permille, 0, 1000) ||
         !VT__IN(c->track_alpha_q8, 0, 256) || !VT__IN(c->track_hold, 0, 1000000) ||
-        !VT__IN(c->track_gate_permille, 0, 1000)) {
+        !VT__IN(c->track_gate_permille, 0, 1000) ||
+        !VT__IN(c->solo_vote_permille, 1000, 10000)) {
         return VT_E_ARG;
     }
     if (c->max_peaks > VT_LANE_MAX_PEAKS || nt > VT_LANE_MAX_THETA) {
@@ -509,6 +510,15 @@ static void vt__refine(const vt_lane_state *st, const vt_lane_cfg *cfg, const vt
     }
 }
 
+/* A peak needs at least this many votes: max(vote_min, band rows * vote_min_permille
+ * / 1000, 1). */
+static int32_t vt__vote_floor(const vt_lane_cfg *cfg, const vt__geom *g)
+{
+    int32_t vmin = (g->H - g->band_top) * cfg->vote_min_permille / 1000;
+    vmin = vmin < cfg->vote_min ? cfg->vote_min : vmin;
+    return vmin < 1 ? 1 : vmin;
+}
+
 /* Peaks of one half into st->cand[half] (strongest first, at most max_peaks), each
  * refined, lines on one marking merged into the stronger. */
 static void vt__candidates(vt_lane_state *st, const vt_lane_cfg *cfg, const vt__geom *g,
@@ -516,9 +526,7 @@ static void vt__candidates(vt_lane_state *st, const vt_lane_cfg *cfg, const vt__
 {
     vt_lane_cand peaks[VT_LANE_MAX_PEAKS];
     int32_t np = 0, k, i, j, nk = 0;
-    int32_t vmin = (g->H - g->band_top) * cfg->vote_min_permille / 1000;
-    vmin = vmin < cfg->vote_min ? cfg->vote_min : vmin;
-    vmin = vmin < 1 ? 1 : vmin;
+    int32_t vmin = vt__vote_floor(cfg, g);
     vt__vote(st, cfg, g, half, nt);
     for (k = 0; k < nt; ++k) {
         int32_t lo = st->acc_lo[k], n = st->acc_off[k + 1] - st->acc_off[k], b;
@@ -657,7 +665,7 @@ static void vt__select(const vt_lane_state *st, const vt_lane_cfg *cfg, const vt
                        const vt_lane_cand *extra[2 * VT_LANE_MAX_PEAKS], int32_t *n_extra)
 {
     const vt_lane_cand *L = st->cand[0], *R = st->cand[1];
-    int32_t nl = st->n_cand[0], nr = st->n_cand[1], i, j, best = -1, le, lo, re, ro;
+    int32_t nl = st->n_cand[0], nr = st->n_cand[1], i, j, best = -1, le, lo, re, ro, vmin;
     int64_t best_d = 0, best_xv = 0;
     uint8_t okl[VT_LANE_MAX_PEAKS], okr[VT_LANE_MAX_PEAKS];
     for (i = 0; i < nl; ++i) {
@@ -689,13 +697,19 @@ static void vt__select(const vt_lane_state *st, const vt_lane_cfg *cfg, const vt
             }
         }
     }
+    /* Without a pair meeting at a plausible vanishing point nothing confirms a line's
+     * geometry (night, faded markings): it must then be solo_vote_permille times as
+     * strong as the vote floor. votes < 2^16, floor < 2^16: products < 2^31. */
+    vmin = vt__vote_floor(cfg, g);
     for (i = 0; i < nl; ++i) {
-        okl[i] = (uint8_t)(best < 0 || vt__through(&L[i], best_d, best_xv, g->W,
-                                                    cfg->vp_tol_permille, cfg->vp_tol_min));
+        okl[i] = (uint8_t)(best < 0 ? (int64_t)L[i].votes * 1000 >= (int64_t)vmin * cfg->solo_vote_permille
+                                    : vt__through(&L[i], best_d, best_xv, g->W,
+                                                  cfg->vp_tol_permille, cfg->vp_tol_min));
     }
     for (i = 0; i < nr; ++i) {
-        okr[i] = (uint8_t)(best < 0 || vt__through(&R[i], best_d, best_xv, g->W,
-                                                    cfg->vp_tol_permille, cfg->vp_tol_min));
+        okr[i] = (uint8_t)(best < 0 ? (int64_t)R[i].votes * 1000 >= (int64_t)vmin * cfg->solo_vote_permille
+                                    : vt__through(&R[i], best_d, best_xv, g->W,
+                                                  cfg->vp_tol_permille, cfg->vp_tol_min));
     }
     vt__select_half(L, nl, okl, cfg, 0, &le, &lo);
     vt__select_half(R, nr, okr, cfg, 1, &re, &ro);

@@ -284,3 +284,60 @@ def test_road_all_guard_bytes():
     assert road.valid == 1
     assert bytes(ffi.buffer(rbuf + n, 64)) == b"\xa5" * 64
     assert bytes(ffi.buffer(dbuf + m, 64)) == b"\xa5" * 64
+
+
+# ------------------------------------------------------------------ night
+def night_frame(img, dark, seed):
+    """A daylight frame as at night: scaled to `dark` of its brightness, except for the
+    headlights' reach (brightest at the bottom centre, a smooth Gaussian falloff
+    sideways that widens toward the car, fading out at 55% of the height), plus
+    Gaussian sensor noise (sigma 3 gray levels)."""
+    h, w = img.shape
+    yy, xx = np.mgrid[0:h, 0:w].astype(float)
+    t = np.clip((yy - 0.55 * h) / (0.45 * h), 0, 1)
+    sigma = 0.05 * w + 0.3 * w * t
+    gain = dark + (0.8 - dark) * t * np.exp(-0.5 * ((xx - w / 2) / sigma) ** 2)
+    rng = np.random.default_rng(seed)
+    out = img * gain + rng.normal(0, 3.0, img.shape)
+    return np.clip(np.round(out), 0, 255).astype(np.uint8)
+
+
+def _night_cases():
+    import json
+    labs = json.loads((DATA / "lane_tusimple_ego_labels_640x360.json").read_text())
+    return labs
+
+
+@pytest.mark.parametrize("dark", [0.1, 0.2])
+@pytest.mark.parametrize("seed", [2, 3])
+def test_night_reports_visible_markings_or_none(dark, seed):
+    # Issue 8: at night, with only the headlights' reach visible, the stage reports the
+    # markings that are visible or none, never a wrong line. Every row of a reported ego
+    # line where the label has a point must be within TuSimple's threshold of it
+    # (20 px / cos(angle) at 1280 px: half that in these 640-px frames). Not all of
+    # the labelled lane need be reported (its far part is dark). The frames are the
+    # four labelled tests/data frames; solo_vote_permille was chosen on these night
+    # frames with noise seed 1 (seeds 2 and 3 here were not looked at before).
+    from pyvehtrack.eval import lanes as ev
+    n_pairs = 0
+    for lab in _night_cases():
+        img = night_frame(cv2.imread(str(DATA / lab["file"]), cv2.IMREAD_GRAYSCALE), dark, seed)
+        hs, gt = lab["h_samples"], lab["ego_lanes"]
+        engines = ("c", "reference") if seed == 2 and dark == 0.1 else ("c",)
+        for eng in engines:
+            res = LaneDetector(eng).detect(img)
+            found = 0
+            for side, g in zip(("left", "right"), gt):
+                ln = res.lane(side)
+                if ln is None:
+                    continue
+                found += 1
+                pred = ev.sample_points(ln.points, hs, img.shape[1])
+                thr = ev.PIXEL_THRESH / 2 / np.cos(ev._angle(np.array(g, float), np.array(hs)))
+                both = [(p, q) for p, q in zip(pred, g) if p >= 0 and q >= 0]
+                assert both, (lab["file"], side)
+                bad = [(p, q) for p, q in both if abs(p - q) >= thr]
+                assert not bad, (eng, lab["file"], side, dark, bad)
+            n_pairs += found == 2
+    # Not vacuous: the markings in the headlights' reach are still found somewhere.
+    assert n_pairs >= 2

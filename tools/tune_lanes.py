@@ -40,6 +40,7 @@ GRID = {
     "top_margin_permille": [25, 31, 37, 43, 50],
     "win_bottom_permille": [15, 20, 25, 30],
     "seg_count_permille": [100, 150, 200],
+    "solo_vote_permille": [1000, 1250, 1500, 2000, 2500, 3000],
 }
 
 
@@ -72,6 +73,8 @@ def main():
     ap.add_argument("--data", type=Path, default=ROOT.parent / "shared" / "data" / "tusimple-lane-test100")
     ap.add_argument("--tune", choices=("A", "B"), default="A")
     ap.add_argument("--rounds", type=int, default=2)
+    ap.add_argument("--only", nargs="*", default=None,
+                    help="search only these fields, starting from the current defaults")
     args = ap.parse_args()
     A, B = load(args.data, range(0, 50)), load(args.data, range(50, 100))
     tune, held = (A, B) if args.tune == "A" else (B, A)
@@ -81,6 +84,8 @@ def main():
     for r in range(args.rounds):
         changed = False
         for name, vals in GRID.items():
+            if args.only is not None and name not in args.only:
+                continue
             for v in vals:
                 if v == getattr(cfg, name):
                     continue

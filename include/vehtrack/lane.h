@@ -112,13 +112,16 @@ typedef struct {
     int32_t track_hold;           /* frames a hidden marking's line is kept              */
     int32_t track_gate_permille;  /* a new line farther than W*this/1000 px replaces the
                                      old one instead of being smoothed with it           */
+    int32_t solo_vote_permille;   /* no ego pair meets at a plausible vanishing point (night,
+                                     faded markings): a line then needs votes >= the vote
+                                     floor * this / 1000 (1000: no extra demand)         */
 } vt_lane_cfg;
 
 /* The defaults (field order as above). */
 #define VT_LANE_CFG_DEFAULT                                                          \
     {320, 240, 250, 450, 14, 48, 6, 50, 0, 4, 24, 4096, 16, 320, 4, 0, 8, 80, 4, 8, 6, \
      19, 56, 260, 500, 250, 700, 20, 2, 250, 2000, 2, 16, 2, 6, 3, 500, 128, 2, 150, 1, \
-     30, 2, 2, 25, 128, 5, 31}
+     30, 2, 2, 25, 128, 5, 31, 1500}
 
 /* One lane line. A line is x(y) = xb + slope * (y - (H-1)) over the Hough band; above
  * it, the polyline through vy/vx (vy decreasing from H-1 to y_top) follows the
@@ -214,7 +217,7 @@ vt_status vt_lane_cfg_default(vt_lane_cfg *cfg);
  * VT_LANE_MAX_PEAKS, more than VT_LANE_MAX_THETA theta bins). Ranges: sizes >= 16;
  * permille fields 0..1000 (lane_w_*: 0..10000, lane_w_min <= lane_w_max); angles
  * -356..356 qdeg (|theta| <= 89 degrees), theta_min <= theta_max, step >= 1;
- * rho_step_shift 0..3; gains (q8) 0..256; noise_gain_q4 0..1024; grad_min 1..255;
+ * rho_step_shift 0..3; solo_vote_permille 1000..10000; gains (q8) 0..256; noise_gain_q4 0..1024; grad_min 1..255;
  * refine_iters 0..8; refine_tol_min, vp_tol_min 0..4096 px; seg_min >= 1; counts >= 0
  * (fit_min_points >= 2). */
 vt_status vt_lane_cfg_check(const vt_lane_cfg *cfg);

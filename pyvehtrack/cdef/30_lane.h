@@ -62,6 +62,7 @@ typedef struct {
     int32_t track_alpha_q8;
     int32_t track_hold;
     int32_t track_gate_permille;
+    int32_t solo_vote_permille;
 } vt_lane_cfg;
 
 typedef struct {

@@ -114,6 +114,8 @@ class LaneConfig:
     track_alpha_q8: int = 128         # smoothing gain toward the new line, Q8
     track_hold: int = 5               # frames a hidden marking's line is kept
     track_gate_permille: int = 31     # farther than W*this/1000 px: replace, not smooth
+    solo_vote_permille: int = 1500    # no ego pair at a plausible vanishing point: a line
+                                      # needs votes >= vote floor * this / 1000
 
 
 DEFAULT = LaneConfig()
@@ -356,6 +358,11 @@ def select_lines(kl: list[LaneLine], kr: list[LaneLine], W: int, H: int, cfg: La
                     W * cfg.lane_w_min_permille / 1000.0 <= wb <= W * cfg.lane_w_max_permille / 1000.0):
                 if best is None or a.votes + b.votes > best[0]:
                     best = (a.votes + b.votes, xv, yv)
+    if best is None:
+        # Nothing confirms a line's geometry (night, faded markings): demand more votes.
+        vmin = max(cfg.vote_min, (H - band_top) * cfg.vote_min_permille // 1000, 1)
+        kl = [ln for ln in kl if ln.votes * 1000 >= vmin * cfg.solo_vote_permille]
+        kr = [ln for ln in kr if ln.votes * 1000 >= vmin * cfg.solo_vote_permille]
     if best is not None:
         _, xv, yv = best
         tol = max(W * cfg.vp_tol_permille / 1000.0, cfg.vp_tol_min)
