@@ -21,8 +21,12 @@ Tolerances, and why:
     by one: it is the floor of a quotient that symmetric scenes make an exact integer,
     and the Q16 and float quotients can fall on either side; the extension segments
     then start a row apart. Not compared: rows above an extension segment chosen by a
-    margin of one count (the oracle records that row, `sure_y`), where a centre at a
-    window edge can tip the choice.
+    margin of one count over any other slope, the neighbouring ones included (the
+    oracle records that row, `sure_y`), where a centre at a window edge can tip the
+    choice. (Until issue 8 the neighbours were left out of that margin: a flat,
+    unrefined outer line -- C's from the Q1.14 sin/cos of its cell, ~0.01 px from the
+    float one -- counted a centre 0.003 px outside the window and chose the next
+    slope, 1 px away in x at the next vertex; a hypothesis seed found it.)
   * Road area: within 1 px per row (C rounds the Q16 x half up, the oracle the float x:
     only a .5 tie can flip), plus the boundary lines' own tolerance scaled to input px.
 Outer lines (left-most, right-most) are kept only if they pass within a tolerance of

@@ -30,7 +30,11 @@ c/lane.c gives the measured effect:
      through that point are lane lines. Per half the ego line is the strongest steep
      line, replaced by a line further in that is steeper by min_dtheta (a solid outer
      line often outvotes a dashed ego line); the outer line is the strongest line
-     further out and flatter by min_dtheta.
+     further out and flatter by min_dtheta. Without a pair at a plausible vanishing
+     point nothing confirms a line's geometry (night, faded markings): a line then
+     needs solo_vote_permille / 1000 times the vote floor (issue 8: report the visible
+     markings or none). Every other line through the vanishing point further out than
+     an ego line is a "further" line (lines_all: every lane line, left to right).
   6. Extension toward the vanishing row: segments whose height halves with the
      distance to the vanishing row, each pivoting on the previous vertex with the
      slope that covers the most marking centres, so a curve far away is followed. With
@@ -474,8 +478,13 @@ def extend(line: LaneLine, marks, W: int, H: int, vp_known: bool, y_v: int,
         cnt, k, ytop = best
         need = max(cfg.seg_count_min, seg * cfg.seg_count_permille // 1000)
         # Test support: a count moved by one (a centre at the window's edge, where C's
-        # Q16 and this float arithmetic may disagree) could change this decision.
-        rival = max([c for kk, c in counts.items() if abs(kk - k) > 1], default=-9)
+        # Q16 and this float arithmetic may disagree) could change this decision. Any
+        # other slope is a rival, the neighbours too: a flip to k +- 1 moves the next
+        # vertex by 1 px in x, beyond the 0.25 px the rows are compared with. (An
+        # unrefined flat line differs by ~0.01 px between C, whose line comes from the
+        # Q1.14 sin/cos of its Hough cell, and this float line; with a centre 0.003 px
+        # outside the window C counted it and chose k = 0 over k = 1.)
+        rival = max([c for kk, c in counts.items() if kk != k], default=-9)
         if line.sure_y < 0 and (cnt - rival <= 1 or abs(cnt - need) <= 1):
             line.sure_y = y0
         if cnt >= need:
