@@ -341,3 +341,29 @@ def test_night_reports_visible_markings_or_none(dark, seed):
             n_pairs += found == 2
     # Not vacuous: the markings in the headlights' reach are still found somewhere.
     assert n_pairs >= 2
+
+
+def test_downscaled_frame_maps_all_lines_back():
+    # A frame larger than the core's maximum is downscaled first; lanes_all and road_all
+    # come back in the input frame's pixels (pyvehtrack.lane._rescale), like the ego ones.
+    img, _, _ = multi_scene(640, 360, 4, n_side=3, lane_w=0.25)
+    f = 2 * max(1, -(-int(lib.VT_MAX_WIDTH) // 640))       # big enough to be downscaled
+    big = cv2.resize(img, (640 * f, 360 * f), interpolation=cv2.INTER_NEAREST)
+    det = LaneDetector("c")
+    small = det.detect(img)
+    det.reset()
+    with pytest.warns(UserWarning, match="downscaled"):
+        res = det.detect(big)
+    assert res.input_scale < 1
+    assert res.x_left_all.shape == (360 * f,) and res.road_all_valid
+    assert [ln.side for ln in res.lanes_all] == [ln.side for ln in small.lanes_all]
+    # One working pixel of the big frame is 2^shift / input_scale input px; the lines'
+    # bottom points agree within that (the small frame's times f).
+    px = (1 << res.work_shift) / res.input_scale
+    for a, b in zip(small.lanes_all, res.lanes_all):
+        pa = a.points[np.argmax(a.points[:, 1])]
+        pb = b.points[np.argmax(b.points[:, 1])]
+        assert abs(pb[0] - (f * (pa[0] + 0.5) - 0.5)) <= px + f, (a.side, pa, pb)
+    y = 360 * f - 1
+    assert abs(res.x_left_all[y] - f * small.x_left_all[359]) <= px + f
+    assert abs(res.x_right_all[y] - f * small.x_right_all[359]) <= px + f
