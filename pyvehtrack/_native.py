@@ -424,6 +424,12 @@ def lane_detect(cfg, st, img: np.ndarray, res, road=None) -> None:
           f"img {img.shape}")
 
 
+def lane_road_all(res, img_w: int, img_h: int, road) -> None:
+    """vt_lane_road_all: the road area over all lanes of res into road (vt_road_area *)."""
+    check("vt_lane_road_all", lib.vt_lane_road_all(res, img_w, img_h, road),
+          f"frame {img_w}x{img_h}")
+
+
 def lane_line_x(line, y_q16: int) -> int:
     """vt_lane_line_x; line is a vt_lane_line * or a vt_lane_line (e.g. res.lines[k])."""
     if ffi.typeof(line).kind == "struct":

@@ -26,6 +26,7 @@ from .frames import to_gray
 from .reference import lane as _ref
 
 SIDES = _ref.SIDE_NAMES
+FURTHER = "further"   # side of a line of lanes_all that is in no slot
 STATES = {1: "found", 2: "held"}
 MIN_SIZE = 16
 
@@ -61,6 +62,18 @@ class LaneResult:
     engine: str = "c"
     note: str = ""
     raw: object = field(default=None, repr=False)  # vt_lane_result (C) or LaneFrame (oracle)
+    # Every lane line found, left to right (issue 8): the slot lines above (side =
+    # their slot) and the further outer lines through the vanishing point (side
+    # "further"); and the road area spanning all of them (lane_width_all = mean lane
+    # width). The ego fields above are unchanged.
+    lanes_all: list = field(default_factory=list)
+    road_all: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.int32))
+    road_all_valid: bool = False
+    road_all_y_top: int = 0
+    road_all_y_bottom: int = 0
+    x_left_all: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
+    x_right_all: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
+    lane_width_all: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int32))
 
     def lane(self, side: str) -> Lane | None:
         for ln in self.lanes:
@@ -147,71 +160,96 @@ class LaneDetector:
         return out
 
 
+
 def from_c(r, road, shape) -> LaneResult:
     """The LaneResult of a C vt_lane_result * and vt_road_area * for a frame of
     `shape` (h, w) (the pixels the core saw; no rescaling). Copies everything."""
     ffi = _native.ffi
-    lines = []
-    for k in range(int(_native.lib.VT_LANE_SLOTS)):
-        ln = r.lines[k]
-        if ln.state == 0:
-            continue
+    h, w = shape
+
+    def c_line(k, ln):
         n = ln.n_verts
         vy = [int(ln.vy[i]) for i in range(n)]
         vx = [ln.vx[i] / 65536.0 for i in range(n)]
-        lines.append((k, int(ln.state), int(ln.votes), int(ln.theta), int(ln.rho),
-                      int(ln.y_top), vy, vx))
-    h = shape[0]
-    arrs = [np.frombuffer(ffi.buffer(getattr(road, nm)), np.int16)[:h].astype(np.int32)
-            for nm in ("x_left", "x_right", "lane_width")]
+        return (k, int(ln.state), int(ln.votes), int(ln.theta), int(ln.rho),
+                int(ln.y_top), vy, vx)
+
+    lines = [c_line(k, r.lines[k]) for k in range(int(_native.lib.VT_LANE_SLOTS))
+             if r.lines[k].state != 0]
+    lines_all = [c_line(int(r.lines_all_slot[i]), r.lines_all[i]) for i in range(r.n_lines_all)]
+
+    def c_road(rd):
+        arrs = [np.frombuffer(ffi.buffer(getattr(rd, nm)), np.int16)[:h].astype(np.int32)
+                for nm in ("x_left", "x_right", "lane_width")]
+        return bool(rd.valid), int(rd.y_top), int(rd.y_bottom), arrs
+
+    road_all = ffi.new("vt_road_area *")
+    _native.lane_road_all(r, w, h, road_all)
     # Copies: the next call overwrites the core's buffers.
     raw = ffi.new("vt_lane_result *", r[0])
     return _build(shape, int(r.shift), int(r.w), int(r.h), lines,
-                  int(r.vp_y) if r.vp_known else None, bool(road.valid), int(road.y_top),
-                  int(road.y_bottom), arrs, raw)
+                  int(r.vp_y) if r.vp_known else None, *c_road(road), raw,
+                  lines_all, c_road(road_all))
 
 
 def from_reference(fr, shape) -> LaneResult:
     """The LaneResult of the oracle's LaneFrame for a frame of `shape` (h, w)."""
-    lines = []
-    for k, ln in enumerate(fr.lines):
-        if ln is None:
-            continue
-        lines.append((k, ln.state, ln.votes, ln.theta_qdeg, ln.rho, ln.y_top,
-                      [v[0] for v in ln.verts], [v[1] for v in ln.verts]))
-    road = fr.road
-    h = shape[0]
-    arrs = [np.asarray(road[nm][:h], np.int32) for nm in ("x_left", "x_right", "lane_width")]
+    h, w = shape
+
+    def r_line(k, ln):
+        return (k, ln.state, ln.votes, ln.theta_qdeg, ln.rho, ln.y_top,
+                [v[0] for v in ln.verts], [v[1] for v in ln.verts])
+
+    lines = [r_line(k, ln) for k, ln in enumerate(fr.lines) if ln is not None]
+    lines_all = [r_line(k, ln) for k, ln in zip(fr.lines_all_slot, fr.lines_all)]
+
+    def r_road(road):
+        arrs = [np.asarray(road[nm][:h], np.int32) for nm in ("x_left", "x_right", "lane_width")]
+        return bool(road["valid"]), int(road["y_top"]), int(road["y_bottom"]), arrs
+
+    road_all = _ref.road_area_all(fr.lines_all, w, h, fr.shift, len(fr.road["x_left"]))
     return _build(shape, fr.shift, fr.W, fr.H, lines, fr.vp_y if fr.vp_known else None,
-                  bool(road["valid"]), int(road["y_top"]), int(road["y_bottom"]), arrs, fr)
+                  *r_road(fr.road), fr, lines_all, r_road(road_all))
 
 
-def _build(shape, s, W, H, lines, vp_y, road_valid, y_top, y_bottom, arrs, raw) -> LaneResult:
+def _polygon(valid, y_top, y_bottom, x_left, x_right) -> np.ndarray:
+    if not valid:
+        return np.zeros((0, 2), np.int32)
+    ys = np.arange(y_top, y_bottom + 1)
+    return np.concatenate([np.stack([x_left[ys], ys], 1),
+                           np.stack([x_right[ys[::-1]], ys[::-1]], 1)]).astype(np.int32)
+
+
+def _build(shape, s, W, H, lines, vp_y, road_valid, y_top, y_bottom, arrs, raw,
+           lines_all=(), road_all=None) -> LaneResult:
     h, w = shape
     n = 1 << s
 
     def to_in(v):
         return (v + 0.5) * n - 0.5
 
-    lanes = []
-    for k, state, votes, theta, rho, top, vy, vx in lines:
+    def lane(k, state, votes, theta, rho, top, vy, vx):
         ys = np.arange(top, vy[0] + 1)
         # The vertices span exactly rows top..H-1 (y decreasing): linear interpolation.
         xs = np.interp(ys, np.asarray(vy[::-1], float), np.asarray(vx[::-1], float))
         pts = np.stack([to_in(xs), to_in(ys.astype(float))], axis=1)
         pts = pts[(pts[:, 0] >= 0) & (pts[:, 0] <= w - 1)]
-        lanes.append(Lane(SIDES[k], STATES.get(state, "found"), float(rho * n),
-                          theta / _ref.QDEG, votes, pts))
+        return Lane(SIDES[k] if k >= 0 else FURTHER, STATES.get(state, "found"), float(rho * n),
+                    theta / _ref.QDEG, votes, pts)
+
+    lanes = [lane(*t) for t in lines]
     x_left, x_right, lane_width = arrs
-    if road_valid:
-        ys = np.arange(y_top, y_bottom + 1)
-        poly = np.concatenate([np.stack([x_left[ys], ys], 1),
-                               np.stack([x_right[ys[::-1]], ys[::-1]], 1)]).astype(np.int32)
-    else:
-        poly = np.zeros((0, 2), np.int32)
-    return LaneResult(lanes, poly, road_valid, y_top, y_bottom, x_left, x_right, lane_width,
-                      None if vp_y is None else to_in(float(vp_y)),
-                      (to_in(float(W // 2)), to_in(float(H - 1))), s, raw=raw)
+    poly = _polygon(road_valid, y_top, y_bottom, x_left, x_right)
+    out = LaneResult(lanes, poly, road_valid, y_top, y_bottom, x_left, x_right, lane_width,
+                     None if vp_y is None else to_in(float(vp_y)),
+                     (to_in(float(W // 2)), to_in(float(H - 1))), s, raw=raw)
+    out.lanes_all = [lane(*t) for t in lines_all]
+    if road_all is not None:
+        valid, top, bottom, (xl, xr, lw) = road_all
+        out.road_all_valid, out.road_all_y_top, out.road_all_y_bottom = valid, top, bottom
+        out.x_left_all, out.x_right_all, out.lane_width_all = xl, xr, lw
+        out.road_all = _polygon(valid, top, bottom, xl, xr)
+    return out
 
 
 def _rescale(res: LaneResult, f: float, w0: int, h0: int) -> None:
@@ -219,7 +257,7 @@ def _rescale(res: LaneResult, f: float, w0: int, h0: int) -> None:
     def back(v):
         return (v + 0.5) / f - 0.5
 
-    for ln in res.lanes:
+    for ln in res.lanes + res.lanes_all:
         ln.points = back(ln.points)
         ln.rho = ln.rho / f
     res.origin = (back(res.origin[0]), back(res.origin[1]))
@@ -227,27 +265,34 @@ def _rescale(res: LaneResult, f: float, w0: int, h0: int) -> None:
         res.vanishing_row = back(res.vanishing_row)
     h1 = res.x_left.shape[0]
     rows = np.clip(np.floor((np.arange(h0) + 0.5) * f).astype(int), 0, h1 - 1)
-    for nm in ("x_left", "x_right", "lane_width"):
-        a = getattr(res, nm)[rows].astype(float)
-        v = np.clip(back(a), 0, w0 - 1) if nm != "lane_width" else a / f
-        setattr(res, nm, np.round(v).astype(np.int32))
-    if res.road_valid:
-        inside = (rows >= res.road_y_top) & (rows <= res.road_y_bottom)
-        for nm in ("x_left", "x_right", "lane_width"):
-            getattr(res, nm)[~inside] = 0
-        ys = np.flatnonzero(inside)
-        res.road_y_top, res.road_y_bottom = int(ys[0]), int(ys[-1])
-        res.road = np.concatenate([np.stack([res.x_left[ys], ys], 1),
-                                   np.stack([res.x_right[ys[::-1]], ys[::-1]], 1)]).astype(np.int32)
-    else:
-        res.road = np.zeros((0, 2), np.int32)
+    for sfx, vname, pname in (("", "road_valid", "road"), ("_all", "road_all_valid", "road_all")):
+        names = [nm + sfx for nm in ("x_left", "x_right", "lane_width")]
+        if getattr(res, names[0]).shape[0] != h1:
+            continue
+        for nm in names:
+            a = getattr(res, nm)[rows].astype(float)
+            v = np.clip(back(a), 0, w0 - 1) if not nm.startswith("lane_width") else a / f
+            setattr(res, nm, np.round(v).astype(np.int32))
+        top_name, bottom_name = f"{pname}_y_top", f"{pname}_y_bottom"
+        if getattr(res, vname):
+            inside = (rows >= getattr(res, top_name)) & (rows <= getattr(res, bottom_name))
+            for nm in names:
+                getattr(res, nm)[~inside] = 0
+            ys = np.flatnonzero(inside)
+            setattr(res, top_name, int(ys[0]))
+            setattr(res, bottom_name, int(ys[-1]))
+        setattr(res, pname, _polygon(getattr(res, vname), getattr(res, top_name),
+                                     getattr(res, bottom_name), getattr(res, names[0]),
+                                     getattr(res, names[1])))
 
 
 def tusimple_lanes(res: LaneResult, h_samples, width: int, sides=("left", "right")) -> list:
     """The result's lanes of the given sides as TuSimple lane lists (x per h_sample, -2
     where the lane has no point)."""
     from .eval.lanes import sample_points
+    if sides == "all":   # every line of lanes_all
+        return [sample_points(ln.points, h_samples, width) for ln in res.lanes_all]
     return [sample_points(ln.points, h_samples, width) for ln in res.lanes if ln.side in sides]
 
 
-__all__ = ["Lane", "LaneResult", "LaneDetector", "default_config", "tusimple_lanes", "SIDES"]
+__all__ = ["Lane", "LaneResult", "LaneDetector", "default_config", "tusimple_lanes", "SIDES", "FURTHER"]

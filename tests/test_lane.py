@@ -21,8 +21,12 @@ Tolerances, and why:
     by one: it is the floor of a quotient that symmetric scenes make an exact integer,
     and the Q16 and float quotients can fall on either side; the extension segments
     then start a row apart. Not compared: rows above an extension segment chosen by a
-    margin of one count (the oracle records that row, `sure_y`), where a centre at a
-    window edge can tip the choice.
+    margin of one count over any other slope, the neighbouring ones included (the
+    oracle records that row, `sure_y`), where a centre at a window edge can tip the
+    choice. (Until issue 8 the neighbours were left out of that margin: a flat,
+    unrefined outer line -- C's from the Q1.14 sin/cos of its cell, ~0.01 px from the
+    float one -- counted a centre 0.003 px outside the window and chose the next
+    slope, 1 px away in x at the next vertex; a hypothesis seed found it.)
   * Road area: within 1 px per row (C rounds the Q16 x half up, the oracle the float x:
     only a .5 tie can flip), plus the boundary lines' own tolerance scaled to input px.
 Outer lines (left-most, right-most) are kept only if they pass within a tolerance of
@@ -342,7 +346,11 @@ def test_bad_frames_give_an_empty_result_or_a_clear_error(engine):
 # (a 700-px build halves it, and the lines found legitimately differ).
 @pytest.mark.skipif(int(N.lib.VT_MAX_WIDTH) < 1280, reason="needs VT_MAX_WIDTH >= 1280")
 def test_huge_and_colour_frames():
-    img = cv2.imread(str(DATA / "lane_tusimple_0601_1494452495543904834_gray_640x360.png"),
+    # A frame whose lines are found alike at both working widths (the point here is the
+    # coordinate mapping; on 0601_1494452495543904834 the left line's angle differs
+    # between the 320- and 240-px working frames with the issue-8 defaults, both lines
+    # within TuSimple's threshold of the label: 98% and 100% row accuracy).
+    img = cv2.imread(str(DATA / "lane_tusimple_0531_1492626726476963805_gray_640x360.png"),
                      cv2.IMREAD_GRAYSCALE)
     det = LaneDetector("c")
     small = det.detect(img)
@@ -361,11 +369,19 @@ def test_huge_and_colour_frames():
     # two results agree within that pixel (measured: <= 1 px).
     for ln in small.lanes:
         other = res.lane(ln.side)
-        assert other is not None
+        if other is None:
+            # An outer line found at the vote floor in the 320-px working frame (here the
+            # left-most, 8 votes with the defaults chosen in issue 8) can fall below it in
+            # the 240-px one: only the ego lines must be in both.
+            assert ln.side in ("left-most", "right-most") and ln.votes <= 2 * default_config().vote_min
+            continue
         x, y = ln.points[len(ln.points) // 2]
         pts = other.points[np.argsort(other.points[:, 1])]
         xb = np.interp(5 * (y + 0.5) - 0.5, pts[:, 1], pts[:, 0])
-        assert abs(xb - (5 * (x + 0.5) - 0.5)) <= 8 / 0.6
+        # Measured across the line (dx / sqrt(1 + slope^2)): a flat outer line's x
+        # moves by |slope| px per px the line moves across.
+        slope = np.polyfit(pts[:, 1], pts[:, 0], 1)[0]
+        assert abs(xb - (5 * (x + 0.5) - 0.5)) / np.hypot(1.0, slope) <= 8 / 0.6
 
 
 # ------------------------------------------------------------------ C arguments

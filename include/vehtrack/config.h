@@ -92,10 +92,17 @@
 #ifndef VT_LANE_MAX_VERTS
 #define VT_LANE_MAX_VERTS 24
 #endif
+/* Every lane line of a frame (vt_lane_result.lines_all): the four slots plus the
+ * further outer lines through the vanishing point; beyond this many, the weakest
+ * further lines are left out (counted in lines_all_dropped). */
+#ifndef VT_LANE_MAX_LINES
+#define VT_LANE_MAX_LINES 8
+#endif
 #if VT_LANE_MAX_WORK_W < 16 || VT_LANE_MAX_WORK_W > 4096 || VT_LANE_MAX_WORK_H < 16 || \
     VT_LANE_MAX_WORK_H > 4096 || VT_LANE_MAX_MARKS < 1 || VT_LANE_MAX_MARKS > 65535 ||  \
     VT_LANE_MAX_ROW_MARKS < 1 || VT_LANE_MAX_THETA < 1 || VT_LANE_ACC_CELLS < 1 ||     \
-    VT_LANE_ACC_CELLS > 16777216 || VT_LANE_MAX_PEAKS < 1 || VT_LANE_MAX_VERTS < 4
+    VT_LANE_ACC_CELLS > 16777216 || VT_LANE_MAX_PEAKS < 1 || VT_LANE_MAX_VERTS < 4 || \
+    VT_LANE_MAX_LINES < 4 || VT_LANE_MAX_LINES > 64
 #error "lane capacities out of range (see vehtrack/config.h)"
 #endif
 

@@ -5,8 +5,8 @@
  * Cost: sizeof(vt_lane_state) = 85,652 bytes on x86-64 at the default capacities: the
  * Hough accumulator (VT_LANE_ACC_CELLS * 2 bytes) is 64 KB of it, marking centres 8 KB,
  * row buffers and per-row indices 4.4 KB, the extension histogram 3.8 KB; no frame
- * buffer: the frame is read once, one working row at a time. vt_lane_result is 980
- * bytes, vt_road_area 6.5 KB. Work per frame, W x H the working frame (the input
+ * buffer: the frame is read once, one working row at a time. vt_lane_result is 2,908
+ * bytes (1.9 KB of it lines_all), vt_road_area 6.5 KB. Work per frame, W x H the working frame (the input
  * box-downscaled by 2^s so that W <= work_width_max, H <= work_height_max; 320 x 240
  * by default):
  *   - 4^s adds per working pixel below roi_top (downscale), then ~6 operations per
@@ -58,8 +58,9 @@ typedef enum {
 } vt_lane_state_code;
 
 /* Configuration, all integers; units in the comments ("permille of W": thousandths of
- * the working width). VT_LANE_CFG_DEFAULT gives the values tuned on TuSimple (see
- * README). vt_lane_cfg_check() states the valid ranges. */
+ * the working width). VT_LANE_CFG_DEFAULT gives the values chosen on half B (entries
+ * 50..99, the 0601 recording) of TuSimple test100 by tools/tune_lanes.py; the figure
+ * to quote is the other half's (see c/lane.c). vt_lane_cfg_check() states the valid ranges. */
 typedef struct {
     int32_t work_width_max;       /* box-downscale by 2^s (s <= 3) until W <= this ...   */
     int32_t work_height_max;      /* ... and H <= this                                   */
@@ -111,13 +112,16 @@ typedef struct {
     int32_t track_hold;           /* frames a hidden marking's line is kept              */
     int32_t track_gate_permille;  /* a new line farther than W*this/1000 px replaces the
                                      old one instead of being smoothed with it           */
+    int32_t solo_vote_permille;   /* no ego pair meets at a plausible vanishing point (night,
+                                     faded markings): a line then needs votes >= the vote
+                                     floor * this / 1000 (1000: no extra demand)         */
 } vt_lane_cfg;
 
 /* The defaults (field order as above). */
 #define VT_LANE_CFG_DEFAULT                                                          \
-    {320, 240, 250, 500, 12, 48, 6, 40, 0, 8, 24, 4096, 16, 320, 4, 0, 8, 80, 4, 8, 6, \
-     19, 48, 260, 500, 250, 700, 15, 2, 250, 2000, 2, 16, 2, 6, 3, 500, 128, 2, 150, 1, \
-     20, 2, 2, 37, 128, 5, 31}
+    {320, 240, 250, 450, 14, 48, 6, 50, 0, 4, 24, 4096, 16, 320, 4, 0, 8, 80, 4, 8, 6, \
+     19, 56, 260, 500, 250, 700, 20, 2, 250, 2000, 2, 16, 2, 6, 3, 500, 128, 2, 150, 1, \
+     30, 2, 2, 25, 128, 5, 31, 1500}
 
 /* One lane line. A line is x(y) = xb + slope * (y - (H-1)) over the Hough band; above
  * it, the polyline through vy/vx (vy decreasing from H-1 to y_top) follows the
@@ -151,6 +155,15 @@ typedef struct {
     int32_t n_marks;       /* marking centres kept                                   */
     int32_t rows_dropped;  /* rows dropped as texture or for lack of room            */
     vt_lane_line lines[VT_LANE_SLOTS];
+    /* Every lane line found, left to right by x at the bottom row (xb): the slot lines
+     * above (FOUND or HELD) and, when the ego pair gives a vanishing point, every
+     * further candidate of a half that passes through it and lies further out than
+     * that half's ego line (FOUND, not tracked). lines_all_slot[i] is the slot of
+     * lines_all[i] (vt_lane_side) or -1 for a further line. */
+    int32_t n_lines_all;
+    int32_t lines_all_dropped; /* further lines left out for VT_LANE_MAX_LINES */
+    int32_t lines_all_slot[VT_LANE_MAX_LINES];
+    vt_lane_line lines_all[VT_LANE_MAX_LINES];
 } vt_lane_result;
 
 /* A Hough candidate (internal, in the state for its size). */
@@ -204,7 +217,7 @@ vt_status vt_lane_cfg_default(vt_lane_cfg *cfg);
  * VT_LANE_MAX_PEAKS, more than VT_LANE_MAX_THETA theta bins). Ranges: sizes >= 16;
  * permille fields 0..1000 (lane_w_*: 0..10000, lane_w_min <= lane_w_max); angles
  * -356..356 qdeg (|theta| <= 89 degrees), theta_min <= theta_max, step >= 1;
- * rho_step_shift 0..3; gains (q8) 0..256; noise_gain_q4 0..1024; grad_min 1..255;
+ * rho_step_shift 0..3; solo_vote_permille 1000..10000; gains (q8) 0..256; noise_gain_q4 0..1024; grad_min 1..255;
  * refine_iters 0..8; refine_tol_min, vp_tol_min 0..4096 px; seg_min >= 1; counts >= 0
  * (fit_min_points >= 2). */
 vt_status vt_lane_cfg_check(const vt_lane_cfg *cfg);
@@ -229,6 +242,17 @@ vt_status vt_lane_reset(vt_lane_state *st);
  * left untouched and the tracker is unchanged. */
 vt_status vt_lane_detect(const vt_lane_cfg *cfg, vt_lane_state *st, const vt_image_u8 *img,
                          vt_lane_result *res, vt_road_area *road);
+
+/* The road area over all lanes (issue 8): between lines_all[0] and
+ * lines_all[n_lines_all - 1] of res, with the same rules as the ego road area of
+ * vt_lane_detect (rows from the lower of the two top rows down, x clamped to the
+ * frame, ends above the first crossing row); lane_width = the span divided by
+ * n_lines_all - 1 (the mean lane width). img_w x img_h: the input frame res was made
+ * from (1..VT_MAX_WIDTH x 1..VT_MAX_HEIGHT, else VT_E_SIZE). valid = 0 with fewer than
+ * two lines. VT_E_ARG for NULL pointers or a result whose counts or shift are out of
+ * range. */
+vt_status vt_lane_road_all(const vt_lane_result *res, int32_t img_w, int32_t img_h,
+                           vt_road_area *road);
 
 /* x (Q16, working px) of a line's polyline at working row y (Q16): linear between
  * vertices, the end segments extended beyond them. VT_E_ARG if the line has no

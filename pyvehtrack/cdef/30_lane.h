@@ -7,6 +7,7 @@
 #define VT_LANE_ACC_CELLS ...
 #define VT_LANE_MAX_PEAKS ...
 #define VT_LANE_MAX_VERTS ...
+#define VT_LANE_MAX_LINES ...
 
 typedef enum { VT_LANE_LEFT_MOST, VT_LANE_LEFT, VT_LANE_RIGHT, VT_LANE_RIGHT_MOST,
                VT_LANE_SLOTS, ... } vt_lane_side;
@@ -61,6 +62,7 @@ typedef struct {
     int32_t track_alpha_q8;
     int32_t track_hold;
     int32_t track_gate_permille;
+    int32_t solo_vote_permille;
 } vt_lane_cfg;
 
 typedef struct {
@@ -90,6 +92,10 @@ typedef struct {
     int32_t n_marks;
     int32_t rows_dropped;
     vt_lane_line lines[...];
+    int32_t n_lines_all;
+    int32_t lines_all_dropped;
+    int32_t lines_all_slot[...];
+    vt_lane_line lines_all[...];
 } vt_lane_result;
 
 typedef struct { ...; } vt_lane_state;
@@ -99,4 +105,6 @@ vt_status vt_lane_cfg_check(const vt_lane_cfg *cfg);
 vt_status vt_lane_reset(vt_lane_state *st);
 vt_status vt_lane_detect(const vt_lane_cfg *cfg, vt_lane_state *st, const vt_image_u8 *img,
                          vt_lane_result *res, vt_road_area *road);
+vt_status vt_lane_road_all(const vt_lane_result *res, int32_t img_w, int32_t img_h,
+                           vt_road_area *road);
 vt_status vt_lane_line_x(const vt_lane_line *line, vt_q16 y, vt_q16 *x);

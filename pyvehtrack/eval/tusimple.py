@@ -10,9 +10,13 @@ says how). Two scores per engine:
     centre at the bottom (one per side); prediction = the detector's "left" and "right"
     lines;
   * all (the benchmark's own scoring, for reference): ground truth = every labelled
-    lane; prediction = every line the detector reports (at most 4). TuSimple labels up
+    lane; prediction = the four slot lines (left-most .. right-most). TuSimple labels up
     to 5 lanes, so a detector that reports the 4 lines around the ego lane is capped
-    below 100% here.
+    below 100% here;
+  * every: as "all", the prediction being every line of `lanes_all` (the slot lines
+    plus the further lines through the vanishing point).
+--half A|B scores only the first / last 50 entries of test_label.json (file order):
+the split used to choose the lane defaults (tools/tune_lanes.py tunes on A).
 Every frame is scored on its own: the tracker is reset before each (the set holds one
 frame per clip). Prints a table and writes JSON (summary + per-frame scores).
 """
@@ -59,10 +63,11 @@ def run(engine: str, labels: list[dict], data: Path, overrides: dict) -> dict:
         ego_gt = eval_lanes.ego_lanes(lab["lanes"], hs, w)
         ego = eval_lanes.bench(ego_pred, ego_gt, hs)
         full = eval_lanes.bench(all_pred, lab["lanes"], hs)
-        frames.append({"raw_file": lab["raw_file"], "ego": ego, "all": full,
+        every = eval_lanes.bench(tusimple_lanes(res, hs, w, sides="all"), lab["lanes"], hs)
+        frames.append({"raw_file": lab["raw_file"], "ego": ego, "all": full, "every": every,
                        "n_pred": len(all_pred), "ego_lanes": ego_pred})
     summary = {}
-    for key in ("ego", "all"):
+    for key in ("ego", "all", "every"):
         a = np.array([f[key] for f in frames])
         summary[key] = {"accuracy": float(a[:, 0].mean()), "fp": float(a[:, 1].mean()),
                         "fn": float(a[:, 2].mean())}
@@ -76,10 +81,14 @@ def main(argv=None, default_data: Path = DEFAULT_DATA) -> int:
     ap.add_argument("--engine", choices=("c", "reference", "both"), default="both")
     ap.add_argument("--out", type=Path, default=Path("lanes_tusimple.json"))
     ap.add_argument("--limit", type=int, default=0, help="score only the first N frames")
+    ap.add_argument("--half", choices=("A", "B"), default=None,
+                    help="only entries 0-49 (A, the tuning half) or 50-99 (B, held out) of test_label.json")
     ap.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
                     help="override a lane config field (e.g. --set work_width_max=640)")
     args = ap.parse_args(argv)
     labels = load_labels(args.data)
+    if args.half:
+        labels = labels[:50] if args.half == "A" else labels[50:100]
     if args.limit:
         labels = labels[:args.limit]
     overrides = {}
@@ -89,10 +98,11 @@ def main(argv=None, default_data: Path = DEFAULT_DATA) -> int:
     engines = ("c", "reference") if args.engine == "both" else (args.engine,)
     results = [run(e, labels, args.data, overrides) for e in engines]
     print(f"\nTuSimple lane metric, {len(labels)} frames of {args.data.name}"
+          + (f" (half {args.half})" if args.half else "")
           + (f", config overrides {overrides}" if overrides else ""))
     print(f"{'engine':<10} {'score':<5} {'accuracy':>9} {'FP':>7} {'FN':>7}")
     for r in results:
-        for key in ("ego", "all"):
+        for key in ("ego", "all", "every"):
             s = r["summary"][key]
             print(f"{r['engine']:<10} {key:<5} {100 * s['accuracy']:8.2f}% {s['fp']:7.4f} {s['fn']:7.4f}")
     out = {"data": str(args.data), "n_frames": len(labels), "overrides": overrides,

@@ -30,7 +30,11 @@ c/lane.c gives the measured effect:
      through that point are lane lines. Per half the ego line is the strongest steep
      line, replaced by a line further in that is steeper by min_dtheta (a solid outer
      line often outvotes a dashed ego line); the outer line is the strongest line
-     further out and flatter by min_dtheta.
+     further out and flatter by min_dtheta. Without a pair at a plausible vanishing
+     point nothing confirms a line's geometry (night, faded markings): a line then
+     needs solo_vote_permille / 1000 times the vote floor (issue 8: report the visible
+     markings or none). Every other line through the vanishing point further out than
+     an ego line is a "further" line (lines_all: every lane line, left to right).
   6. Extension toward the vanishing row: segments whose height halves with the
      distance to the vanishing row, each pivoting on the previous vertex with the
      slope that covers the most marking centres, so a curve far away is followed. With
@@ -64,17 +68,18 @@ NONE, DETECTED, HELD = 0, 1, 2
 
 @dataclass(frozen=True)
 class LaneConfig:
-    """Mirror of the C vt_lane_cfg: same field names, same integer units."""
+    """Mirror of the C vt_lane_cfg: same field names, same integer units. Defaults:
+    chosen on half B of TuSimple test100 (tools/tune_lanes.py --tune B)."""
     work_width_max: int = 320         # box-downscale by 2^s (s <= 3) until W <= this
     work_height_max: int = 240        # ... and H <= this
     roi_top_permille: int = 250       # rows above H*this/1000 are never looked at
-    hough_top_permille: int = 500     # Hough votes from rows >= H*this/1000
-    grad_min: int = 12                # [-1 0 1] threshold floor
+    hough_top_permille: int = 450     # Hough votes from rows >= H*this/1000
+    grad_min: int = 14                # [-1 0 1] threshold floor
     noise_gain_q4: int = 48           # row threshold >= mean|g| * this / 16
     mark_w_top_permille: int = 6      # widest marking at row 0 / row H-1, per mille of W
-    mark_w_bottom_permille: int = 40
+    mark_w_bottom_permille: int = 50
     mark_wmin_top_permille: int = 0   # narrowest marking at row 0 / row H-1 (>= 1 px)
-    mark_wmin_bottom_permille: int = 8
+    mark_wmin_bottom_permille: int = 4
     marks_per_row_max: int = 24       # a row with more centres is texture: dropped
     marks_max: int = 4096             # centres kept per frame (bottom rows first)
     theta_min_qdeg: int = 4 * QDEG    # left half theta range; right half mirrored
@@ -87,12 +92,12 @@ class LaneConfig:
     nms_rho_bins: int = 8
     max_peaks: int = 6                # candidates per half
     merge_permille: int = 19          # lines closer than W*this/1000 at both band ends merge
-    min_dtheta_qdeg: int = 12 * QDEG  # ego vs outer line angle difference
+    min_dtheta_qdeg: int = 14 * QDEG  # ego vs outer line angle difference
     ego_theta_max_qdeg: int = 65 * QDEG  # flatter lines can only be outer lines
     ego_vote_permille: int = 500      # an inner line replacing the ego needs this share
     vp_x_permille: int = 250          # vanishing point within cx +- W*this/1000
     vp_low_permille: int = 700        # ... and not below row H*this/1000
-    vp_tol_permille: int = 15         # lane lines pass within W*this/1000 px of it
+    vp_tol_permille: int = 20         # lane lines pass within W*this/1000 px of it
     vp_tol_min: int = 2               # ... or within this many px (small frames)
     lane_w_min_permille: int = 250    # ego lane width at the bottom row, per mille of W
     lane_w_max_permille: int = 2000
@@ -106,13 +111,15 @@ class LaneConfig:
     seg_count_min: int = 2            # a segment needs this many centres ...
     seg_count_permille: int = 150     # ... and seg rows * this / 1000
     seg_miss_max: int = 1             # without a VP: stop after this many empty segments
-    win_bottom_permille: int = 20     # segment window: W*this/1000 px at the bottom row,
+    win_bottom_permille: int = 30     # segment window: W*this/1000 px at the bottom row,
     win_top: int = 2                  # ... this many px at the vanishing row
     vp_margin: int = 2                # without a VP: never above roi_top + this
-    top_margin_permille: int = 37     # with a VP: lanes end H*this/1000 rows below it
+    top_margin_permille: int = 25     # with a VP: lanes end H*this/1000 rows below it
     track_alpha_q8: int = 128         # smoothing gain toward the new line, Q8
     track_hold: int = 5               # frames a hidden marking's line is kept
     track_gate_permille: int = 31     # farther than W*this/1000 px: replace, not smooth
+    solo_vote_permille: int = 1500    # no ego pair at a plausible vanishing point: a line
+                                      # needs votes >= vote floor * this / 1000
 
 
 DEFAULT = LaneConfig()
@@ -355,6 +362,11 @@ def select_lines(kl: list[LaneLine], kr: list[LaneLine], W: int, H: int, cfg: La
                     W * cfg.lane_w_min_permille / 1000.0 <= wb <= W * cfg.lane_w_max_permille / 1000.0):
                 if best is None or a.votes + b.votes > best[0]:
                     best = (a.votes + b.votes, xv, yv)
+    if best is None:
+        # Nothing confirms a line's geometry (night, faded markings): demand more votes.
+        vmin = max(cfg.vote_min, (H - band_top) * cfg.vote_min_permille // 1000, 1)
+        kl = [ln for ln in kl if ln.votes * 1000 >= vmin * cfg.solo_vote_permille]
+        kr = [ln for ln in kr if ln.votes * 1000 >= vmin * cfg.solo_vote_permille]
     if best is not None:
         _, xv, yv = best
         tol = max(W * cfg.vp_tol_permille / 1000.0, cfg.vp_tol_min)
@@ -368,7 +380,19 @@ def select_lines(kl: list[LaneLine], kr: list[LaneLine], W: int, H: int, cfg: La
     for i, ln in enumerate(out):
         if ln is not None:
             ln.side = i
-    return out
+    if best is None:
+        return out, []
+    return out, further(kl, 0, le, lo) + further(kr, 1, re, ro)
+
+
+def further(kept: list[LaneLine], half: int, ego, outer) -> list[LaneLine]:
+    """The further lines of one half (issue 8, all lanes): the lines through the
+    vanishing point (kept, already filtered) that are in no slot and further out than
+    the half's ego line (a line inside the ego lane is no lane line); strongest first."""
+    if ego is None:
+        return []
+    sgn = 1 if half == 0 else -1
+    return [ln for ln in kept if ln is not ego and ln is not outer and sgn * ln.xb < sgn * ego.xb]
 
 
 def refine(line: LaneLine, marks, W: int, H: int, cfg: LaneConfig) -> None:
@@ -454,8 +478,13 @@ def extend(line: LaneLine, marks, W: int, H: int, vp_known: bool, y_v: int,
         cnt, k, ytop = best
         need = max(cfg.seg_count_min, seg * cfg.seg_count_permille // 1000)
         # Test support: a count moved by one (a centre at the window's edge, where C's
-        # Q16 and this float arithmetic may disagree) could change this decision.
-        rival = max([c for kk, c in counts.items() if abs(kk - k) > 1], default=-9)
+        # Q16 and this float arithmetic may disagree) could change this decision. Any
+        # other slope is a rival, the neighbours too: a flip to k +- 1 moves the next
+        # vertex by 1 px in x, beyond the 0.25 px the rows are compared with. (An
+        # unrefined flat line differs by ~0.01 px between C, whose line comes from the
+        # Q1.14 sin/cos of its Hough cell, and this float line; with a centre 0.003 px
+        # outside the window C counted it and chose k = 0 over k = 1.)
+        rival = max([c for kk, c in counts.items() if kk != k], default=-9)
         if line.sure_y < 0 and (cnt - rival <= 1 or abs(cnt - need) <= 1):
             line.sure_y = y0
         if cnt >= need:
@@ -492,6 +521,9 @@ class LaneFrame:
     lines: list                      # LaneLine or None per slot
     road: dict | None = None         # valid, y_top, y_bottom, height, x_left, x_right, lane_width
     accs: tuple = ()                 # ((acc, bin0) left, (acc, bin0) right)
+    lines_all: list = field(default_factory=list)  # every line, left to right by xb
+    lines_all_slot: list = field(default_factory=list)  # its slot, -1 for a further line
+    lines_all_dropped: int = 0       # further lines left out for max_lines
 
 
 def polyline_x(verts, yw: float) -> float:
@@ -518,14 +550,30 @@ def road_area(lines, frame_w: int, frame_h: int, s: int, max_height: int) -> dic
     """The road area in input pixels (vt_road_area): between the inner-most found line on
     each side (ego line, else the outer one), from where both lines exist down to the
     bottom row; lane_width = ego lane width (the span / number of lanes it covers)."""
+    lft = lines[LEFT] or lines[LEFT_MOST]
+    rgt = lines[RIGHT] or lines[RIGHT_MOST]
+    gaps = 1 + (lines[LEFT] is None) + (lines[RIGHT] is None)
+    return road_between(lft, rgt, gaps, frame_w, frame_h, s, max_height)
+
+
+def road_area_all(lines_all, frame_w: int, frame_h: int, s: int, max_height: int) -> dict:
+    """The road area over all lanes (vt_lane_road_all): between the left-most and the
+    right-most of all lines; lane_width = the span / (number of lines - 1)."""
+    if len(lines_all) < 2:
+        return road_between(None, None, 1, frame_w, frame_h, s, max_height)
+    return road_between(lines_all[0], lines_all[-1], len(lines_all) - 1, frame_w, frame_h, s,
+                        max_height)
+
+
+def road_between(lft, rgt, gaps: int, frame_w: int, frame_h: int, s: int,
+                 max_height: int) -> dict:
+    """The area between lines lft and rgt (either None: not valid), lane width per row
+    = their distance // gaps."""
     road = dict(valid=0, y_top=0, y_bottom=0, height=frame_h,
                 x_left=np.zeros(max_height, np.int64), x_right=np.zeros(max_height, np.int64),
                 lane_width=np.zeros(max_height, np.int64))
-    lft = lines[LEFT] or lines[LEFT_MOST]
-    rgt = lines[RIGHT] or lines[RIGHT_MOST]
     if lft is None or rgt is None:
         return road
-    gaps = 1 + (lines[LEFT] is None) + (lines[RIGHT] is None)
     n = 1 << s
     top_w = max(lft.y_top, rgt.y_top)
     y_first = max(0, math.ceil((top_w + 0.5) * n - 0.5))
@@ -549,8 +597,10 @@ def road_area(lines, frame_w: int, frame_h: int, s: int, max_height: int) -> dic
 class LaneDetector:
     """Reference lane detector; its state is the previous frame's lines (the tracker)."""
 
-    def __init__(self, cfg: LaneConfig = DEFAULT, max_height: int = 1080, max_verts: int = 24):
+    def __init__(self, cfg: LaneConfig = DEFAULT, max_height: int = 1080, max_verts: int = 24,
+                 max_lines: int = 8):
         self.cfg = cfg
+        self.max_lines = max_lines      # C: VT_LANE_MAX_LINES
         self.max_height = max_height    # C: VT_MAX_HEIGHT (length of the road arrays)
         self.max_verts = max_verts      # C: VT_LANE_MAX_VERTS
         self.reset()
@@ -590,7 +640,7 @@ class LaneDetector:
         marks = all_marks(work, cfg)
         kl, accl, b0l = candidates(marks, W, H, 0, cfg)
         kr, accr, b0r = candidates(marks, W, H, 1, cfg)
-        found = select_lines(kl, kr, W, H, cfg)
+        found, extra = select_lines(kl, kr, W, H, cfg)
         lines = [self._track(i, found[i], W, H) for i in range(4)]
         known, y_v = vanishing_row(lines[LEFT], lines[RIGHT], H, cfg)
         for ln in lines:
@@ -598,5 +648,21 @@ class LaneDetector:
                 extend(ln, marks, W, H, known, y_v, cfg, self.max_verts)
         self.prev = lines
         road = road_area(lines, w, h, s, self.max_height)
-        return LaneFrame(s, W, H, roi_top, band_top, known, y_v, lines, road,
-                         ((accl, b0l), (accr, b0r)))
+        # Every line: slots first, then the further lines while there is room; sorted
+        # left to right by xb, stable.
+        all_ = [(ln, i) for i, ln in enumerate(lines) if ln is not None]
+        room = self.max_lines - len(all_)
+        for ln in extra[:max(room, 0)]:
+            ln = replace(ln, side=-1)
+            ln.xb = min(max(ln.xb, -16384.0), 16384.0)
+            extend(ln, marks, W, H, known, y_v, cfg, self.max_verts)
+            all_.append((ln, -1))
+        all_.sort(key=lambda t: t[0].xb)
+        fr = LaneFrame(s, W, H, roi_top, band_top, known, y_v, lines, road,
+                       ((accl, b0l), (accr, b0r)), [t[0] for t in all_], [t[1] for t in all_],
+                       max(0, len(extra) - max(room, 0)))
+        return fr
+
+    def road_all(self, frame: LaneFrame, frame_w: int, frame_h: int) -> dict:
+        """The road area over all lanes of a frame this detector returned."""
+        return road_area_all(frame.lines_all, frame_w, frame_h, frame.shift, self.max_height)
