@@ -21,7 +21,9 @@
  * (22.8 M); a window's SVM score is dim multiply-adds, 14.2 k instructions for
  * the 64x64 model (1764 values; 2601 windows: 37 M; -O3 10 k); vt_classify_box
  * with the HOG model on a 120x100 box 0.72 M. GIST is the box verifier, not the
- * sliding-window scorer: ~700 multiply-adds per pixel over its pyramid.
+ * sliding-window scorer: ~700 multiply-adds per pixel over its pyramid, and
+ * vt_classify_box with the GIST model on one box costs 24.7 M instructions
+ * (64x64 window) -- as much as a whole frame's budget: verify few boxes with it.
  * Memory: sizeof(vt_hog_ws) = 274,832 bytes at the default 1280x192 band,
  * vt_gist_ws 52,492, vt_cls_box_ws 86,228 (capacities in config.h).
  *
