@@ -411,3 +411,28 @@ def test_mlp_bad_arguments_and_box():
     assert N.classify_box_mlp(ws, m, img, box) == N.mlp_decision(m, N.hog_descriptor(hw, 0, 0, 32, 32))
     with pytest.raises(VtError, match="vt_classify_box_mlp"):
         N.classify_box_mlp(ws, m, img, (0, 0, 90, 10))
+
+
+_BUF = np.zeros(1300 * 200, np.uint8)
+_BAD_DIMS = [(0, 40, 40), (40, 0, 40), (-1, 40, 40), (40, -1, 40), (40, 40, 39), (40, 40, -40),
+             (lib.VT_CLS_MAX_W + 1, 40, lib.VT_CLS_MAX_W + 1), (40, lib.VT_CLS_MAX_H + 1, 40),
+             (2 ** 31 - 1, 2 ** 31 - 1, 2 ** 31 - 1), (-(2 ** 31), 40, 40)]
+
+
+@pytest.mark.parametrize("dims", _BAD_DIMS)
+def test_prepare_bad_views(dims):
+    w, h, stride = dims
+    v = ffi.new("vt_image_u8 *")
+    v.px, v.w, v.h, v.stride = ffi.cast("uint8_t *", _BUF.ctypes.data), w, h, stride
+    assert lib.vt_hog_prepare(N.hog_ws_new(), v) == lib.VT_E_SIZE
+    assert lib.vt_gist_prepare(N.gist_ws_new(), v) == lib.VT_E_SIZE
+    m = N.svm_default_model(lib.VT_DESC_HOG)
+    out = ffi.new("int32_t *")
+    box = ffi.new("vt_box *", [0, 0, 9, 9])
+    if w < 1 or h < 1 or stride < w or w > lib.VT_MAX_WIDTH or h > lib.VT_MAX_HEIGHT:
+        # over the band capacity is still a valid frame for vt_classify_box
+        assert lib.vt_classify_box(N.box_ws_new(), m, v, box, out) < 0 and out[0] == 0
+    v.w, v.h, v.stride = 40, 40, 40
+    v.px = ffi.NULL
+    assert lib.vt_hog_prepare(N.hog_ws_new(), v) == lib.VT_E_ARG
+    assert lib.vt_resample_area(v, box, ffi.new("vt_image_u8_mut *")) < 0
