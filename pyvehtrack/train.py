@@ -380,6 +380,11 @@ def run(vehicles, non_vehicles, frames=None, frames_json=None, kind: str = "hog"
         if feature_cache is not None:
             np.savez(feature_cache, X=X, y=y, fold=fold)
     tr, te = fold != 0, fold == 0
+    if len(set(y[tr])) < 2 or len(set(y[te])) < 2:
+        raise ValueError(f"the grouped split leaves TRAIN with {int(y[tr].sum())} vehicles / "
+                         f"{int((1 - y[tr]).sum())} non-vehicles and TEST with {int(y[te].sum())} / "
+                         f"{int((1 - y[te]).sum())}: each needs both (a folder's files 0-39 are TEST, "
+                         f"40-199 TRAIN, ...; give folders of more than 40 crops)")
     std = kind == "gist"
     val = {}
     if C is None and model_type == "mlp":

@@ -443,3 +443,34 @@ def test_prepare_bad_views(dims):
     v.px = ffi.NULL
     assert lib.vt_hog_prepare(N.hog_ws_new(), v) == lib.VT_E_ARG
     assert lib.vt_resample_area(v, box, ffi.new("vt_image_u8_mut *")) < 0
+
+
+def test_train_cli_small(tmp_path):
+    """`pyvehtrack train` end to end on 2 x 48 crops (files 0-39 of each folder are TEST,
+    40-47 TRAIN): it writes a model the classify command reads, and prints both accuracies;
+    too few files is a clear error."""
+    import cv2
+    from pyvehtrack.train import read_gray
+    pos, neg = _crops()
+    for name, files in (("veh", pos), ("non", neg)):
+        d = tmp_path / name
+        d.mkdir()
+        for i in range(48):
+            g = read_gray(files[i % len(files)])
+            cv2.imwrite(str(d / f"image{i:04d}.png"), np.roll(g, i // len(files), axis=1))
+    env_py = [sys.executable, "-c", "import sys; from pyvehtrack.cli import main; sys.exit(main())"]
+    out = tmp_path / "m.npz"
+    r = subprocess.run(env_py + ["train", "--vehicles", str(tmp_path / "veh"), "--non-vehicles",
+                                 str(tmp_path / "non"), "--window", "32", "--C", "0.1", "--out", str(out),
+                                 "--no-progress"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert "float accuracy" in r.stdout and "C fixed-point accuracy" in r.stdout and "agreement" in r.stdout
+    js = tmp_path / "o.json"
+    r = subprocess.run(env_py + ["classify", str(pos[0]), "--model", str(out), "--json", str(js)],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert len(json.loads(js.read_text())) == 1
+    r = subprocess.run(env_py + ["train", "--vehicles", str(DATA / "vehicles"), "--non-vehicles",
+                                 str(DATA / "non-vehicles"), "--out", str(out), "--no-progress"],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and "grouped split" in r.stderr
