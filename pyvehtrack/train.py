@@ -342,7 +342,7 @@ def evaluate(d: dict, X: np.ndarray, Xc: np.ndarray, y: np.ndarray, src: np.ndar
 
 def run(vehicles, non_vehicles, frames=None, frames_json=None, kind: str = "hog", win: int = 64,
         C: float | None = None, progress: bool = True, log=print, model_type: str = "svm",
-        hidden: int = 16, feature_cache=None):
+        hidden: int = 16, feature_cache=None, hard_negatives: bool = False):
     """Build the crops, choose C on the inner validation fold (fold 1 of TRAIN), fit on
     all of TRAIN, quantise, and score float and C models on TEST. Returns (model dict,
     report dict)."""
@@ -404,7 +404,68 @@ def run(vehicles, non_vehicles, frames=None, frames_json=None, kind: str = "hog"
     else:
         w, b = fit_svm(X[tr], y[tr], C, std)
         d = model_dict(kind, win, win, w, b, C, info)
+        if hard_negatives and frames is not None and kind == "hog":
+            # One round: the model's false detections on the TRAIN frames become
+            # negatives, and the SVM is fitted again with the same C.
+            hn = mine_hard_negatives(frames, frames_json, d)
+            hc = [_resample(img, box, win, win) for (_, _, img, box) in hn]
+            log(f"  {len(hc)} hard negatives mined on TRAIN frames")
+            Xh = float_features(kind, hc)
+            w, b = fit_svm(np.vstack([X[tr], Xh]), np.concatenate([y[tr], np.zeros(len(hc), int)]), C, std)
+            info["hard_negatives"] = len(hc)
+            d = model_dict(kind, win, win, w, b, C, info)
     Xc = c_features(kind, crops.images, win, win)
     rep = {"kind": kind, "model_type": model_type, "window": win, "C": C, "validation": val,
            "test": evaluate(d, X, Xc, y, src, te), "train": evaluate(d, X, Xc, y, src, tr)}
     return d, rep
+
+
+# ---------------------------------------------------------------- hard negatives
+def mine_hard_negatives(frames_dir, annotation, d: dict, scales=(1.0, 0.75, 0.5, 0.35),
+                        per_frame: int = 10, max_overlap: float = 0.1, progress=None):
+    """False detections of the linear HOG model `d` on the TRAIN frames only: every
+    window position of each scale (the frame resized by `scale`, bands of
+    VT_CLS_MAX_H rows scanned with vt_hog_scan), kept where the C score is >= 0 and
+    at most `max_overlap` of the window covers a labelled box; the `per_frame`
+    highest per frame. Returns [(frame name, frame fold, gray frame crop box)]."""
+    from . import _native as N
+    if d.get("model_type", "svm") != "svm" or d["kind"] != "hog":
+        raise ValueError("hard negatives are mined with a linear HOG model")
+    m, keep = c_model(d)
+    ws = N.hog_ws_new()
+    ww, wh = d["win_w"], d["win_h"]
+    bh = int(N.lib.VT_CLS_MAX_H) // 8 * 8
+    bw_max = int(N.lib.VT_CLS_MAX_W) // 8 * 8
+    frames_dir = Path(frames_dir)
+    out = []
+    for name, boxes in load_annotation(annotation):
+        fold = (_last_number(name) // 10) % 5
+        if fold == 0:
+            continue  # never look at TEST frames
+        p = frames_dir / name
+        img = read_gray(p if p.exists() else frames_dir / Path(name).name)
+        fh, fw = img.shape
+        cands = []
+        for s in scales:
+            sw, sh = int(fw * s) // 8 * 8, int(fh * s) // 8 * 8
+            if sw < ww or sh < wh:
+                continue
+            im = np.ascontiguousarray(cv2.resize(img, (sw, sh), interpolation=cv2.INTER_AREA))
+            for y0 in range(0, max(1, sh - wh + 1), bh - wh):
+                band = im[y0:y0 + bh, :min(sw, bw_max)]
+                if band.shape[0] < wh:
+                    continue
+                N.hog_prepare(ws, band)
+                ncx, ncy = ws.cells_x - ww // 8 + 1, ws.cells_y - wh // 8 + 1
+                sc = N.hog_scan(ws, m, 0, 0, ncx, ncy)
+                for cy, cx in zip(*np.nonzero(sc >= 0)):
+                    x0, yy0 = cx * 8 / s, (y0 + cy * 8) / s
+                    box = (int(x0), int(yy0), min(fw - 1, int(x0 + ww / s) - 1), min(fh - 1, int(yy0 + wh / s) - 1))
+                    if _overlap_frac(box, boxes) <= max_overlap:
+                        cands.append((int(sc[cy, cx]), box))
+        cands.sort(key=lambda t: -t[0])
+        for _, box in cands[:per_frame]:
+            out.append((name, fold, img, box))
+        if progress:
+            progress()
+    return out
