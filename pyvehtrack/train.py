@@ -256,7 +256,7 @@ def fit_svm(X: np.ndarray, y: np.ndarray, C: float, standardise: bool, sample_we
     else:
         mu = np.zeros(X.shape[1])
         sd = np.ones(X.shape[1])
-    clf = LinearSVC(C=C, max_iter=20000, dual=True)
+    clf = LinearSVC(C=C, max_iter=20000, dual=True, random_state=0)
     clf.fit((X - mu) / sd, y, sample_weight=sample_weight)
     w = clf.coef_.ravel() / sd
     b = float(clf.intercept_[0] - np.sum(clf.coef_.ravel() * mu / sd))
