@@ -474,3 +474,25 @@ def test_train_cli_small(tmp_path):
                                  str(DATA / "non-vehicles"), "--out", str(out), "--no-progress"],
                        capture_output=True, text=True)
     assert r.returncode == 2 and "grouped split" in r.stderr
+
+
+def test_hog_bin_boundaries_exact_for_every_gradient():
+    """The Q30 boundary constants of c/tables/classify_q.h give the exact sign of
+    |g| sin(angle - 20k deg) for every integer gradient |gx|, |gy| <= 255 (folded, gy >= 0):
+    so C's orientation bins equal the float ones, never off at a boundary."""
+    import re
+    text = (ROOT / "c" / "tables" / "classify_q.h").read_text()
+
+    def arr(name):
+        body = text[text.index(name):]
+        body = body[body.index("{") + 1:body.index("}")]
+        return [int(v) for v in re.findall(r"-?\d+", body)]
+    sq, cq = arr("vt__hog_bound_sin_q30"), arr("vt__hog_bound_cos_q30")
+    gx, gy = np.meshgrid(np.arange(-255, 256, dtype=np.int64), np.arange(0, 256, dtype=np.int64))
+    for k in range(1, 9):
+        a = math.radians(20 * k)
+        exact = gy * math.cos(a) - gx * math.sin(a)
+        q = gy * cq[k - 1] - gx * sq[k - 1]
+        nz = np.abs(exact) > 1e-9          # only (0, 0) is on a boundary; C skips it
+        assert np.abs(exact[nz]).min() > 2 ** -10
+        assert ((q >= 0) == (exact >= 0))[nz].all()
