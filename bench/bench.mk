@@ -53,3 +53,16 @@ $(BENCH_DIR)/ram_bill_%: bench/ram_bill.c $(CORE_SRCS) $(CORE_HDRS) bench/bench.
 .PHONY: ram-bill
 ram-bill: $(addprefix $(BENCH_DIR)/ram_bill_,$(RAM_NAMES))
 	$(PY) bench/ram_bill.py --workdir $(BENCH_DIR) $(RAM_NAMES)
+
+# The classifier's costs (bench/classify_cost.c): instructions of vt_hog_prepare on a
+# 1280x192 band, vt_hog_scan over it and vt_classify_box on one box; sizeof of the workspaces.
+CLS_COST := $(BENCH_DIR)/classify_cost
+$(CLS_COST): bench/classify_cost.c $(CORE_SRCS) $(CORE_HDRS) bench/bench.mk
+	@mkdir -p $(BENCH_DIR)
+	$(CC) $(STRICT) $(BENCH_OPT) -g -Iinclude $(CORE_SRCS) bench/classify_cost.c -o $@
+.PHONY: classify-cost
+classify-cost: $(CLS_COST)
+	$(PY) -c "import cv2; cv2.imwrite('$(BENCH_DIR)/road_1280x720.pgm', cv2.imread('bench/data/road_1280x720.png', 0))"
+	$(VALGRIND) --tool=callgrind --callgrind-out-file=$(BENCH_DIR)/classify.callgrind \
+	  --toggle-collect='cost_*' $(CLS_COST) $(BENCH_DIR)/road_1280x720.pgm 1280 192
+	callgrind_annotate --inclusive=yes $(BENCH_DIR)/classify.callgrind | grep -E 'cost_(hog|classify)' | grep -v '^ *\.'

@@ -1,11 +1,11 @@
 /* classify_cost.c -- callgrind driver for the classifier's costs (host tool, uses stdio).
  *
- *   cc -O2 -Iinclude c/*.c bench/classify_cost.c -o build/classify_cost
- *   valgrind --tool=callgrind --toggle-collect='cost_*' build/classify_cost FRAME.pgm
+ *   make classify-cost   (builds it with the core, runs callgrind, prints the costs)
+ *   (or: valgrind --tool=callgrind --toggle-collect=cost_X build/bench/classify_cost FRAME.pgm W H)
  *
  * Runs once each, on a band of the frame: cost_hog_prepare (a W x H band),
  * cost_hog_scan (every window position of the default HOG model on that band),
- * cost_classify_box_hog / cost_classify_box_gist (one 120x100 box). Prints sizeof of
+ * cost_classify_box (HOG, then GIST SVM) and cost_classify_box_mlp (one 120x100 box). Prints sizeof of
  * the workspaces and the default model's weights. */
 #include <stdio.h>
 #include <stdlib.h>
@@ -21,6 +21,14 @@ static int32_t g_scores[(VT_CLS_MAX_W / 8) * (VT_CLS_MAX_H / 8)];
 void cost_hog_prepare(const vt_image_u8 *band);
 void cost_hog_scan(const vt_svm_model *m, int32_t ncx, int32_t ncy);
 void cost_classify_box(const vt_svm_model *m, const vt_image_u8 *img, const vt_box *b, int32_t *s);
+void cost_classify_box_mlp(const vt_mlp_model *m, const vt_image_u8 *img, const vt_box *b, int32_t *s);
+
+void cost_classify_box_mlp(const vt_mlp_model *m, const vt_image_u8 *img, const vt_box *b, int32_t *s)
+{
+    if (vt_classify_box_mlp(&g_box, m, img, b, s) != VT_OK) {
+        puts("mlp box failed");
+    }
+}
 
 void cost_hog_prepare(const vt_image_u8 *band)
 {
@@ -49,8 +57,9 @@ int main(int argc, char **argv)
     int w, h, maxv, bw, bh, y0;
     vt_image_u8 frame, band;
     const vt_svm_model *mh = NULL, *mg = NULL;
+    const vt_mlp_model *mm = NULL;
     vt_box box;
-    int32_t s1 = 0, s2 = 0, ncx, ncy;
+    int32_t s1 = 0, s2 = 0, s3 = 0, ncx, ncy;
     if (argc < 2 || (f = fopen(argv[1], "rb")) == NULL) {
         fprintf(stderr, "usage: %s FRAME.pgm [band_w band_h]\n", argv[0]);
         return 2;
@@ -88,12 +97,16 @@ int main(int argc, char **argv)
     if (mg != NULL) {
         cost_classify_box(mg, &frame, &box, &s2);
     }
-    printf("band %dx%d (%d px), windows %d (%dx%d), box scores hog %d gist %d\n", bw, bh, bw * bh,
-           (int)(ncx * ncy), (int)mh->win_w, (int)mh->win_h, (int)s1, (int)s2);
+    if (vt_mlp_default_model(&mm) == VT_OK) {
+        cost_classify_box_mlp(mm, &frame, &box, &s3);
+    }
+    printf("band %dx%d (%d px), windows %d (%dx%d), box scores hog %d gist %d mlp %d\n", bw, bh,
+           bw * bh, (int)(ncx * ncy), (int)mh->win_w, (int)mh->win_h, (int)s1, (int)s2, (int)s3);
     printf("sizeof vt_hog_ws %lu, vt_gist_ws %lu, vt_cls_box_ws %lu, vt_svm_model %lu, "
-           "default hog weights %lu bytes, gist %lu bytes\n",
+           "default hog weights %lu bytes, gist %lu bytes, mlp %lu bytes\n",
            (unsigned long)sizeof(vt_hog_ws), (unsigned long)sizeof(vt_gist_ws),
            (unsigned long)sizeof(vt_cls_box_ws), (unsigned long)sizeof(vt_svm_model),
-           (unsigned long)(2 * mh->dim), (unsigned long)(mg != NULL ? 2 * mg->dim : 0));
+           (unsigned long)(2 * mh->dim), (unsigned long)(mg != NULL ? 2 * mg->dim : 0),
+           (unsigned long)(mm != NULL ? 2 * mm->dim * mm->hidden + 6 * mm->hidden : 0));
     return 0;
 }

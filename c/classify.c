@@ -42,7 +42,8 @@ static int32_t vt__mag_q4(int32_t n)
 }
 
 /* |g| sin(angle - theta_k) >= 0, i.e. angle >= 20 k degrees, for the folded
- * gradient (angle in [0, 180)) and k = 1..8. Exact in int64 (|g| <= 255, Q30). */
+ * gradient (angle in [0, 180)) and k = 1..8. Exact in int64 (|g| <= 255, Q30;
+ * tests/test_classify.py checks every gradient against the exact sign). */
 static int vt__ge_bound(int32_t gx, int32_t gy, int k)
 {
     return (int64_t)gy * vt__hog_bound_cos_q30[k - 1] - (int64_t)gx * vt__hog_bound_sin_q30[k - 1] >=

@@ -711,6 +711,8 @@ def classify_box(ws, model, frame: np.ndarray, box) -> int:
     check("vt_classify_box", lib.vt_classify_box(ws, model, v, b, out),
           f"frame {frame.shape}, box {list(box)}")
     return int(out[0])
+
+
 def mlp_model(kind: int, win_w: int, win_h: int, w1_q, w1_shift: int, b1_q16, w2_q, w2_shift: int,
               b2_q16: int, threshold_q16: int = 0):
     """A vt_mlp_model over copies of the arrays; returns (model, keepalive)."""

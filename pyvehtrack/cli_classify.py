@@ -2,6 +2,7 @@
 
     pyvehtrack train --vehicles DIR... --non-vehicles DIR... [--frames DIR --frames-json ANN.json]
                      [--descriptor hog|gist] [--window N] [--C C] [--model-type svm|mlp [--hidden N]]
+                     [--hard-negatives]
                      --out MODEL.npz [--no-progress]
     pyvehtrack classify INPUT... --json OUT.json [--model MODEL.npz] [--engine c|reference]
 
@@ -30,6 +31,9 @@ def register_train(sub) -> None:
     p.add_argument("--model-type", choices=("svm", "mlp"), default="svm",
                    help="linear SVM (default; the sliding-window scorer) or a one-hidden-layer MLP")
     p.add_argument("--hidden", type=int, default=16, help="MLP hidden units (default 16)")
+    p.add_argument("--hard-negatives", action="store_true",
+                   help="linear HOG with --frames: add the model's false detections on the TRAIN frames "
+                        "as negatives and fit again (one round)")
     p.add_argument("--out", required=True, metavar="MODEL.npz")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run_train)
@@ -52,7 +56,7 @@ def run_train(args) -> int:
         d, rep = T.run(args.vehicles, args.non_vehicles, args.frames, args.frames_json,
                        kind=args.descriptor, win=args.window, C=args.C,
                        progress=not args.no_progress, log=lambda s: print(s, file=sys.stderr),
-                       model_type=args.model_type, hidden=args.hidden)
+                       model_type=args.model_type, hidden=args.hidden, hard_negatives=args.hard_negatives)
     except ValueError as e:
         raise CliError(str(e)) from e
     T.save_model(args.out, d)

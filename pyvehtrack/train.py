@@ -215,19 +215,25 @@ def _shift_for(m: float) -> int:
     return shift
 
 
-def fit_mlp(X: np.ndarray, y: np.ndarray, hidden: int, alpha: float = 1e-3, max_iter: int = 40, seed: int = 0):
+def fit_mlp(X: np.ndarray, y: np.ndarray, hidden: int, alpha: float = 1e-3, max_iter: int = 120,
+            seed: int = 0, standardise: bool = False):
     """sklearn MLPClassifier, one ReLU layer; fixed iterations (no early stopping on a
-    random part of TRAIN: neighbouring crops are near-duplicates). Returns w1 (hidden x dim), b1, w2, b2."""
+    random part of TRAIN: neighbouring crops are near-duplicates). The standardisation,
+    if any, is folded into the first layer. Returns w1 (hidden x dim), b1, w2, b2."""
     import warnings
 
     from sklearn.exceptions import ConvergenceWarning
     from sklearn.neural_network import MLPClassifier
+    mu, sd = np.zeros(X.shape[1]), np.ones(X.shape[1])
+    if standardise:
+        mu, sd = X.mean(axis=0), np.maximum(X.std(axis=0), 1e-6)
     clf = MLPClassifier((hidden,), alpha=alpha, max_iter=max_iter, random_state=seed)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ConvergenceWarning)
-        clf.fit(X, y)
-    return (clf.coefs_[0].T.copy(), clf.intercepts_[0].copy(), clf.coefs_[1].ravel().copy(),
-            float(clf.intercepts_[1][0]))
+        clf.fit((X - mu) / sd, y)
+    w1 = clf.coefs_[0].T / sd
+    b1 = clf.intercepts_[0] - w1 @ mu
+    return w1, b1, clf.coefs_[1].ravel().copy(), float(clf.intercepts_[1][0])
 
 
 def mlp_dict(kind, win_w, win_h, w1, b1, w2, b2, info) -> dict:
@@ -250,7 +256,7 @@ def fit_svm(X: np.ndarray, y: np.ndarray, C: float, standardise: bool, sample_we
     else:
         mu = np.zeros(X.shape[1])
         sd = np.ones(X.shape[1])
-    clf = LinearSVC(C=C, max_iter=20000, dual=True)
+    clf = LinearSVC(C=C, max_iter=20000, dual=True, random_state=0)
     clf.fit((X - mu) / sd, y, sample_weight=sample_weight)
     w = clf.coef_.ravel() / sd
     b = float(clf.intercept_[0] - np.sum(clf.coef_.ravel() * mu / sd))
@@ -336,7 +342,7 @@ def evaluate(d: dict, X: np.ndarray, Xc: np.ndarray, y: np.ndarray, src: np.ndar
 
 def run(vehicles, non_vehicles, frames=None, frames_json=None, kind: str = "hog", win: int = 64,
         C: float | None = None, progress: bool = True, log=print, model_type: str = "svm",
-        hidden: int = 16):
+        hidden: int = 16, feature_cache=None, hard_negatives: bool = False):
     """Build the crops, choose C on the inner validation fold (fold 1 of TRAIN), fit on
     all of TRAIN, quantise, and score float and C models on TEST. Returns (model dict,
     report dict)."""
@@ -361,10 +367,24 @@ def run(vehicles, non_vehicles, frames=None, frames_json=None, kind: str = "hog"
         raise ValueError("need both vehicles and non-vehicles")
     fold = np.array(crops.fold)
     src = np.array(crops.source)
-    with tqdm(total=len(y), desc=f"{kind} features", unit="img", disable=not progress,
-              file=__import__("sys").stderr) as bar:
-        X = float_features(kind, crops.images, progress=bar.update)
+    X = None
+    if feature_cache is not None and Path(feature_cache).exists():
+        z = np.load(feature_cache)
+        if z["X"].shape[0] == len(y) and np.array_equal(z["y"], y) and np.array_equal(z["fold"], fold):
+            X = z["X"]
+            log(f"  float features from {feature_cache}")
+    if X is None:
+        with tqdm(total=len(y), desc=f"{kind} features", unit="img", disable=not progress,
+                  file=__import__("sys").stderr) as bar:
+            X = float_features(kind, crops.images, progress=bar.update)
+        if feature_cache is not None:
+            np.savez(feature_cache, X=X, y=y, fold=fold)
     tr, te = fold != 0, fold == 0
+    if len(set(y[tr])) < 2 or len(set(y[te])) < 2:
+        raise ValueError(f"the grouped split leaves TRAIN with {int(y[tr].sum())} vehicles / "
+                         f"{int((1 - y[tr]).sum())} non-vehicles and TEST with {int(y[te].sum())} / "
+                         f"{int((1 - y[te]).sum())}: each needs both (a folder's files 0-39 are TEST, "
+                         f"40-199 TRAIN, ...; give folders of more than 40 crops)")
     std = kind == "gist"
     val = {}
     if C is None and model_type == "mlp":
@@ -380,11 +400,72 @@ def run(vehicles, non_vehicles, frames=None, frames_json=None, kind: str = "hog"
             "split": "gti: blocks of 40 files, block % 5 == 0 TEST; tusimple: (NNNN // 10) % 5 == 0 TEST"}
     if model_type == "mlp":
         log(f"  fitting an MLP with {hidden} hidden units on TRAIN")
-        d = mlp_dict(kind, win, win, *fit_mlp(X[tr], y[tr], hidden), info)
+        d = mlp_dict(kind, win, win, *fit_mlp(X[tr], y[tr], hidden, standardise=std), info)
     else:
         w, b = fit_svm(X[tr], y[tr], C, std)
         d = model_dict(kind, win, win, w, b, C, info)
+        if hard_negatives and frames is not None and kind == "hog":
+            # One round: the model's false detections on the TRAIN frames become
+            # negatives, and the SVM is fitted again with the same C.
+            hn = mine_hard_negatives(frames, frames_json, d)
+            hc = [_resample(img, box, win, win) for (_, _, img, box) in hn]
+            log(f"  {len(hc)} hard negatives mined on TRAIN frames")
+            Xh = float_features(kind, hc)
+            w, b = fit_svm(np.vstack([X[tr], Xh]), np.concatenate([y[tr], np.zeros(len(hc), int)]), C, std)
+            info["hard_negatives"] = len(hc)
+            d = model_dict(kind, win, win, w, b, C, info)
     Xc = c_features(kind, crops.images, win, win)
     rep = {"kind": kind, "model_type": model_type, "window": win, "C": C, "validation": val,
            "test": evaluate(d, X, Xc, y, src, te), "train": evaluate(d, X, Xc, y, src, tr)}
     return d, rep
+
+
+# ---------------------------------------------------------------- hard negatives
+def mine_hard_negatives(frames_dir, annotation, d: dict, scales=(1.0, 0.75, 0.5, 0.35),
+                        per_frame: int = 10, max_overlap: float = 0.1, progress=None):
+    """False detections of the linear HOG model `d` on the TRAIN frames only: every
+    window position of each scale (the frame resized by `scale`, bands of
+    VT_CLS_MAX_H rows scanned with vt_hog_scan), kept where the C score is >= 0 and
+    at most `max_overlap` of the window covers a labelled box; the `per_frame`
+    highest per frame. Returns [(frame name, frame fold, gray frame crop box)]."""
+    from . import _native as N
+    if d.get("model_type", "svm") != "svm" or d["kind"] != "hog":
+        raise ValueError("hard negatives are mined with a linear HOG model")
+    m, keep = c_model(d)
+    ws = N.hog_ws_new()
+    ww, wh = d["win_w"], d["win_h"]
+    bh = int(N.lib.VT_CLS_MAX_H) // 8 * 8
+    bw_max = int(N.lib.VT_CLS_MAX_W) // 8 * 8
+    frames_dir = Path(frames_dir)
+    out = []
+    for name, boxes in load_annotation(annotation):
+        fold = (_last_number(name) // 10) % 5
+        if fold == 0:
+            continue  # never look at TEST frames
+        p = frames_dir / name
+        img = read_gray(p if p.exists() else frames_dir / Path(name).name)
+        fh, fw = img.shape
+        cands = []
+        for s in scales:
+            sw, sh = int(fw * s) // 8 * 8, int(fh * s) // 8 * 8
+            if sw < ww or sh < wh:
+                continue
+            im = np.ascontiguousarray(cv2.resize(img, (sw, sh), interpolation=cv2.INTER_AREA))
+            for y0 in range(0, max(1, sh - wh + 1), bh - wh):
+                band = im[y0:y0 + bh, :min(sw, bw_max)]
+                if band.shape[0] < wh:
+                    continue
+                N.hog_prepare(ws, band)
+                ncx, ncy = ws.cells_x - ww // 8 + 1, ws.cells_y - wh // 8 + 1
+                sc = N.hog_scan(ws, m, 0, 0, ncx, ncy)
+                for cy, cx in zip(*np.nonzero(sc >= 0)):
+                    x0, yy0 = cx * 8 / s, (y0 + cy * 8) / s
+                    box = (int(x0), int(yy0), min(fw - 1, int(x0 + ww / s) - 1), min(fh - 1, int(yy0 + wh / s) - 1))
+                    if _overlap_frac(box, boxes) <= max_overlap:
+                        cands.append((int(sc[cy, cx]), box))
+        cands.sort(key=lambda t: -t[0])
+        for _, box in cands[:per_frame]:
+            out.append((name, fold, img, box))
+        if progress:
+            progress()
+    return out

@@ -306,13 +306,20 @@ def test_default_model_scores_test_crops():
     pos, neg = _crops()
     imgs = [read_gray(p) for p in pos + neg]
     truth = np.array([1] * len(pos) + [0] * len(neg), bool)
-    c = Classifier().score(imgs)
+    clf = Classifier()
+    assert clf.model_type == "mlp"  # the built-in default: the MLP on HOG
+    c = clf.score(imgs)
     f = Classifier(engine="reference").score(imgs)
-    # The linear HOG model's GTI TEST accuracy is 95.8% (tools/eval_classify.py); these
-    # 16 crops were picked by file position, before scoring, and 3 of them are missed
-    # (two GTI_Right, one GTI_MiddleClose). A regression below 13/16 fails.
-    assert ((c >= 0) == truth).sum() >= 13, c
+    # The MLP's GTI TEST accuracy is 97.6% (tools/eval_classify.py); these 16 crops were
+    # picked by file position before any scoring, and it gets all of them right (the
+    # 16-unit MLP tried first missed GTI_Right_image0302).
+    assert ((c >= 0) == truth).all(), c
     assert ((f >= 0) == (c >= 0)).all()
+    # The linear HOG SVM (the sliding-window scorer, 95.8% on GTI TEST) misses 3 of them.
+    m = N.svm_default_model(lib.VT_DESC_HOG)
+    ws = N.box_ws_new()
+    lin = np.array([N.classify_box(ws, m, g, (0, 0, g.shape[1] - 1, g.shape[0] - 1)) for g in imgs])
+    assert ((lin >= 0) == truth).sum() >= 13, lin
 
 
 def test_classify_cli(tmp_path):
@@ -330,7 +337,7 @@ def test_classify_cli(tmp_path):
     want = Classifier().score([read_gray(p) for p in pos + [neg[0]]])
     assert [e["vehicle"] for e in res] == [bool(v >= 0) for v in want]
     assert np.allclose([e["score"] for e in res], want)
-    assert sum(e["vehicle"] for e in res) >= 7 and not res[-1]["vehicle"]
+    assert all(e["vehicle"] for e in res[:-1]) and not res[-1]["vehicle"]
     r = subprocess.run(env_py + ["classify", str(tmp_path / "nope.png"), "--json", str(out)],
                        capture_output=True, text=True)
     assert r.returncode == 2 and "no such file" in r.stderr
@@ -411,3 +418,81 @@ def test_mlp_bad_arguments_and_box():
     assert N.classify_box_mlp(ws, m, img, box) == N.mlp_decision(m, N.hog_descriptor(hw, 0, 0, 32, 32))
     with pytest.raises(VtError, match="vt_classify_box_mlp"):
         N.classify_box_mlp(ws, m, img, (0, 0, 90, 10))
+
+
+_BUF = np.zeros(1300 * 200, np.uint8)
+_BAD_DIMS = [(0, 40, 40), (40, 0, 40), (-1, 40, 40), (40, -1, 40), (40, 40, 39), (40, 40, -40),
+             (lib.VT_CLS_MAX_W + 1, 40, lib.VT_CLS_MAX_W + 1), (40, lib.VT_CLS_MAX_H + 1, 40),
+             (2 ** 31 - 1, 2 ** 31 - 1, 2 ** 31 - 1), (-(2 ** 31), 40, 40)]
+
+
+@pytest.mark.parametrize("dims", _BAD_DIMS)
+def test_prepare_bad_views(dims):
+    w, h, stride = dims
+    v = ffi.new("vt_image_u8 *")
+    v.px, v.w, v.h, v.stride = ffi.cast("uint8_t *", _BUF.ctypes.data), w, h, stride
+    assert lib.vt_hog_prepare(N.hog_ws_new(), v) == lib.VT_E_SIZE
+    assert lib.vt_gist_prepare(N.gist_ws_new(), v) == lib.VT_E_SIZE
+    m = N.svm_default_model(lib.VT_DESC_HOG)
+    out = ffi.new("int32_t *")
+    box = ffi.new("vt_box *", [0, 0, 9, 9])
+    if w < 1 or h < 1 or stride < w or w > lib.VT_MAX_WIDTH or h > lib.VT_MAX_HEIGHT:
+        # over the band capacity is still a valid frame for vt_classify_box
+        assert lib.vt_classify_box(N.box_ws_new(), m, v, box, out) < 0 and out[0] == 0
+    v.w, v.h, v.stride = 40, 40, 40
+    v.px = ffi.NULL
+    assert lib.vt_hog_prepare(N.hog_ws_new(), v) == lib.VT_E_ARG
+    assert lib.vt_resample_area(v, box, ffi.new("vt_image_u8_mut *")) < 0
+
+
+def test_train_cli_small(tmp_path):
+    """`pyvehtrack train` end to end on 2 x 48 crops (files 0-39 of each folder are TEST,
+    40-47 TRAIN): it writes a model the classify command reads, and prints both accuracies;
+    too few files is a clear error."""
+    import cv2
+    from pyvehtrack.train import read_gray
+    pos, neg = _crops()
+    for name, files in (("veh", pos), ("non", neg)):
+        d = tmp_path / name
+        d.mkdir()
+        for i in range(48):
+            g = read_gray(files[i % len(files)])
+            cv2.imwrite(str(d / f"image{i:04d}.png"), np.roll(g, i // len(files), axis=1))
+    env_py = [sys.executable, "-c", "import sys; from pyvehtrack.cli import main; sys.exit(main())"]
+    out = tmp_path / "m.npz"
+    r = subprocess.run(env_py + ["train", "--vehicles", str(tmp_path / "veh"), "--non-vehicles",
+                                 str(tmp_path / "non"), "--window", "32", "--C", "0.1", "--out", str(out),
+                                 "--no-progress"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert "float accuracy" in r.stdout and "C fixed-point accuracy" in r.stdout and "agreement" in r.stdout
+    js = tmp_path / "o.json"
+    r = subprocess.run(env_py + ["classify", str(pos[0]), "--model", str(out), "--json", str(js)],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert len(json.loads(js.read_text())) == 1
+    r = subprocess.run(env_py + ["train", "--vehicles", str(DATA / "vehicles"), "--non-vehicles",
+                                 str(DATA / "non-vehicles"), "--out", str(out), "--no-progress"],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and "grouped split" in r.stderr
+
+
+def test_hog_bin_boundaries_exact_for_every_gradient():
+    """The Q30 boundary constants of c/tables/classify_q.h give the exact sign of
+    |g| sin(angle - 20k deg) for every integer gradient |gx|, |gy| <= 255 (folded, gy >= 0):
+    so C's orientation bins equal the float ones, never off at a boundary."""
+    import re
+    text = (ROOT / "c" / "tables" / "classify_q.h").read_text()
+
+    def arr(name):
+        body = text[text.index(name):]
+        body = body[body.index("{") + 1:body.index("}")]
+        return [int(v) for v in re.findall(r"-?\d+", body)]
+    sq, cq = arr("vt__hog_bound_sin_q30"), arr("vt__hog_bound_cos_q30")
+    gx, gy = np.meshgrid(np.arange(-255, 256, dtype=np.int64), np.arange(0, 256, dtype=np.int64))
+    for k in range(1, 9):
+        a = math.radians(20 * k)
+        exact = gy * math.cos(a) - gx * math.sin(a)
+        q = gy * cq[k - 1] - gx * sq[k - 1]
+        nz = np.abs(exact) > 1e-9          # only (0, 0) is on a boundary; C skips it
+        assert np.abs(exact[nz]).min() > 2 ** -10
+        assert ((q >= 0) == (exact >= 0))[nz].all()
