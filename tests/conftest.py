@@ -6,8 +6,12 @@ import os
 import numpy as np
 from hypothesis import HealthCheck, settings
 
+# Derandomized by default, so CI and every developer draw the same examples and a red
+# run is reproducible; VT_HYP_RANDOM=1 explores fresh examples (the way the known
+# C-vs-oracle rounding cascades in the README's "Known gaps" were found).
 settings.register_profile(
     "default", deadline=None, max_examples=int(os.environ.get("VT_HYP_EXAMPLES", "150")),
+    derandomize=os.environ.get("VT_HYP_RANDOM", "0") != "1", print_blob=True,
     suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 settings.load_profile("default")
 
