@@ -105,6 +105,17 @@ check: $(CHECK_EXT)
 	$(SAN_ENV) PYTHONPATH=$(CURDIR) PYVEHTRACK_FFI=$(abspath $(CHECK_EXT)) $(PY) -m pytest -q \
 	  -p no:cacheprovider $(TESTS)
 
+# ---- soak: the tracker over SOAK_FRAMES synthetic frames, C only (tests/c/soak.c)
+SOAK_FRAMES ?= 1000000
+SOAK_SEED   ?= 1
+.PHONY: soak
+$(BUILD)/soak: tests/c/soak.c $(CORE_SRCS) $(CORE_HDRS)
+	@mkdir -p $(BUILD)
+	$(CC) -std=c99 -O2 -Wall -Wextra -Werror -Iinclude tests/c/soak.c $(CORE_SRCS) -o $@
+soak: $(BUILD)/soak
+	@start=$$(date +%s); $(BUILD)/soak $(SOAK_FRAMES) $(SOAK_SEED) && \
+	  echo "soak: $$(( $$(date +%s) - start )) s wall"
+
 -include firmware_demo/firmware.mk
 -include bench/bench.mk
 -include fuzz/fuzz.mk

@@ -113,8 +113,8 @@ static void model(fz *f)
     if (s != VT_OK) {
         return;
     }
-    n = 1 + (fz_u8(f) & 63);
-    coast = fz_u8(f) & 31;
+    n = 1 + (fz_u8(f) & 31); /* long coasts: the soak and test_kalman cover them */
+    coast = fz_u8(f) & 15;
     for (k = 0; k < n; k++) {
         vt_q16 z[VT_KF_MAX_Z];
         int32_t i;

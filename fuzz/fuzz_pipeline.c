@@ -1,0 +1,82 @@
+/* fuzz-requires: vehtrack/pipeline.h
+ * fuzz_pipeline.c -- the whole per-frame system (vehtrack/pipeline.h, thesis
+ * fig. 4.1: lanes -> road area -> detection -> tracking): a configuration
+ * mutated from the defaults (its own fields and the stages' inside it), up to
+ * four frames whose size may change between frames, through vt_pipeline_step,
+ * vt_pipeline_step_road (any road area) and vt_pipeline_step_dets (any boxes,
+ * counts past the limits), plus vt_pipeline_work_size and vt_fixed_road_area on
+ * edge values. fuzz.mk builds this harness only where the header exists. */
+#include "fuzz.h"
+#include "vehtrack/pipeline.h"
+
+static vt_pipeline g_p;
+static vt_frame_out g_out;
+static vt_road_area g_road;
+static vt_box g_dets[300];
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    fz f = fz_open(data, size);
+    vt_pipeline_cfg cfg;
+    vt_image_u8 img;
+    int32_t k, n, i, ww = 0, wh = 0;
+    vt_status s;
+    fz_status(vt_pipeline_cfg_default(&cfg));
+    if (fz_u8(&f) & 1) {
+        /* the pipeline's own fields (after the three stage configurations) */
+        fz_mutate_i32s(&f, &cfg.fixed_road, sizeof cfg - offsetof(vt_pipeline_cfg, fixed_road));
+    } else {
+        fz_mutate_i32s(&f, &cfg, sizeof cfg);
+    }
+    fz_status(vt_pipeline_cfg_check(fz_u8(&f) == 0xFF ? NULL : &cfg));
+    s = vt_pipeline_init(fz_u8(&f) == 0xFF ? NULL : &g_p, &cfg, NULL, NULL);
+    fz_status(s);
+    fz_status(vt_pipeline_work_size(fz_edge(&f, 1920), fz_edge(&f, 1080), fz_edge(&f, VT_MAX_WIDTH),
+                                    fz_edge(&f, VT_MAX_HEIGHT), fz_u8(&f) == 0xFF ? NULL : &ww, &wh));
+    fz_status(vt_fixed_road_area(&cfg.fixed_road, fz_edge(&f, VT_MAX_WIDTH), fz_edge(&f, VT_MAX_HEIGHT),
+                                 &g_road));
+    if (s != VT_OK) {
+        fz_close(&f);
+        return 0;
+    }
+    img = fz_image_u8(&f, VT_MAX_WIDTH, VT_MAX_HEIGHT);
+    n = 1 + (fz_u8(&f) & 3);
+    for (k = 0; k < n; k++) {
+        uint8_t how = fz_u8(&f) % 3u;
+        if (k > 0 && fz_u8(&f) > 220) {
+            img = fz_image_u8(&f, VT_MAX_WIDTH, VT_MAX_HEIGHT);
+        }
+        if (how == 0) {
+            s = vt_pipeline_step(&g_p, &img, fz_u8(&f) == 0xFF ? NULL : &g_out);
+        } else if (how == 1) {
+            g_road.valid = fz_edge(&f, 1);
+            g_road.y_top = fz_edge(&f, img.h);
+            g_road.y_bottom = fz_edge(&f, img.h);
+            g_road.height = fz_u8(&f) < 200 ? img.h : fz_edge(&f, img.h);
+            for (i = 0; i < VT_MAX_HEIGHT; i += 1 + (fz_u8(&f) & 63)) {
+                g_road.x_left[i] = (int16_t)fz_raw_i32(&f);
+                g_road.x_right[i] = (int16_t)fz_raw_i32(&f);
+                g_road.lane_width[i] = (int16_t)fz_raw_i32(&f);
+            }
+            s = vt_pipeline_step_road(&g_p, &img, fz_u8(&f) == 0xFF ? NULL : &g_road, &g_out);
+        } else {
+            int32_t nd = fz_u8(&f) < 230 ? (fz_u8(&f) & 7) : fz_edge(&f, 256);
+            for (i = 0; i < nd && i < 300; i++) {
+                g_dets[i].left = fz_range(&f, -8, 80);
+                g_dets[i].top = fz_range(&f, -8, 60);
+                g_dets[i].right = fz_near(&f, g_dets[i].left, -2, 40);
+                g_dets[i].bottom = fz_near(&f, g_dets[i].top, -2, 40);
+            }
+            s = vt_pipeline_step_dets(&g_p, &img, fz_u8(&f) == 0xFF ? NULL : g_dets,
+                                      nd > 300 ? 300 : nd, &g_out);
+        }
+        fz_status(s);
+        if (s == VT_OK) {
+            FZ_ASSERT(g_out.n_tracks >= 0 && g_out.n_tracks <= VT_MAX_TRACKS);
+            FZ_ASSERT(g_out.n_boxes >= 0 && g_out.n_boxes <= VT_MAX_BOXES);
+        }
+    }
+    fz_close(&f);
+    return 0;
+}
