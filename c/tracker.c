@@ -91,6 +91,10 @@ static vt_status vt__check_cfg(const vt_tracker_cfg *c)
         c->init_max_change < 0) {
         return VT_E_ARG;
     }
+    if ((c->measurement != VT_MEAS_ROI_SEARCH && c->measurement != VT_MEAS_EDGE_CURVES) ||
+        vt_edge_cfg_check(&c->edge) != VT_OK) {
+        return VT_E_ARG;
+    }
     if (m->dt <= 0 || m->meas_sigma_x < 0 || m->meas_sigma_y < 0 || m->init_sigma_pos < 0 ||
         m->init_sigma_vel < 0) {
         return VT_E_ARG;
@@ -149,6 +153,57 @@ static vt_status vt__update(vt_track *t, int32_t left, int32_t bottom, int32_t r
     return s;
 }
 
+/* VT_MEAS_EDGE_CURVES: the template is the curve points inside the track's box,
+ * found in the box widened by the ROI margin `m` (so the box's own border is not
+ * the crop's). A crop over capacity (or off the image) leaves no template, and
+ * the track coasts until a detection gives a smaller box. */
+static void vt__edge_refresh(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *cfg,
+                             const vt_image_u8 *img)
+{
+    int32_t w = t->box.right - t->box.left + 1;
+    int32_t m = vt__max_i32(cfg->roi_margin_min, (int32_t)((int64_t)w * cfg->roi_margin_percent / 100));
+    vt_box roi;
+    roi.left = t->box.left - m;
+    roi.right = t->box.right + m;
+    roi.top = t->box.top - m;
+    roi.bottom = t->box.bottom + m;
+    t->edges.n = 0;
+    t->edges.box = t->box;
+    if (vt_edge_map(img, &cfg->edge, &roi, &tr->edge_ws) == VT_OK) {
+        (void)vt_edge_template_set(&tr->edge_ws, &t->box, &t->edges, NULL);
+    }
+}
+
+/* VT_MEAS_EDGE_CURVES's measurement: the template's box moved by the best
+ * displacement within +-radius of the prediction (the predicted box's left and
+ * bottom against the template box's), in a crop widened by radius + m. */
+static void vt__edge_measure(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *cfg,
+                             const vt_image_u8 *img, int32_t m, vt_box *meas, int32_t *found)
+{
+    const vt_box *tb = &t->edges.box;
+    int32_t cx = t->box.left - tb->left, cy = t->box.bottom - tb->bottom;
+    int32_t pad = cfg->edge.radius + m, dx, dy, score;
+    vt_box roi;
+    *found = 0;
+    if (t->edges.n == 0 || cx < -8192 || cx > 8192 || cy < -8192 || cy > 8192) {
+        return;
+    }
+    roi.left = tb->left + cx - pad;
+    roi.right = tb->right + cx + pad;
+    roi.top = tb->top + cy - pad;
+    roi.bottom = tb->bottom + cy + pad;
+    if (vt_edge_map(img, &cfg->edge, &roi, &tr->edge_ws) != VT_OK ||
+        vt_edge_match(&tr->edge_ws, &cfg->edge, &t->edges, cx, cy, &dx, &dy, &score, found) !=
+            VT_OK) {
+        *found = 0;
+        return;
+    }
+    meas->left = tb->left + dx;
+    meas->right = tb->right + dx;
+    meas->top = tb->top + dy;
+    meas->bottom = tb->bottom + dy;
+}
+
 static void vt__start(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *cfg,
                       const vt_image_u8 *img, const vt_box *d)
 {
@@ -170,6 +225,9 @@ static void vt__start(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *cfg,
     t->sides.max_change_right = cfg->init_max_change;
     vt__box_from_state(t);
     vt__sample(img, &t->box, t->tmpl);
+    if (cfg->measurement == VT_MEAS_EDGE_CURVES) {
+        vt__edge_refresh(tr, t, cfg, img);
+    }
 }
 
 vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_image_u8 *img,
@@ -237,7 +295,12 @@ vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_im
         roi.top = t->box.bottom - w / 2;
         roi.bottom = t->box.bottom + vt__max_i32(m, gate_b);
         sides = t->sides;
-        s = vt_track_search(img, &cfg->search, &roi, &sides, &tr->ws, &meas, &found);
+        if (cfg->measurement == VT_MEAS_EDGE_CURVES) {
+            vt__edge_measure(tr, t, cfg, img, m, &meas, &found);
+            s = VT_OK;
+        } else {
+            s = vt_track_search(img, &cfg->search, &roi, &sides, &tr->ws, &meas, &found);
+        }
         if (s == VT_OK && found && vt__abs_i32(meas.left - t->box.left) <= gate &&
             vt__abs_i32(meas.right - t->box.right) <= gate &&
             vt__abs_i32(meas.bottom - t->box.bottom) <= gate_b &&
@@ -245,6 +308,9 @@ vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_im
             t->sides = sides;
             measured[i] = 1;
             vt__hit(t, cfg, img);
+            if (cfg->measurement == VT_MEAS_EDGE_CURVES) {
+                vt__edge_refresh(tr, t, cfg, img);
+            }
         } else {
             t->misses += 1;
             if (t->state == VT_TRACK_CONFIRMED) {
@@ -303,6 +369,9 @@ vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_im
                         vt__hit(t, cfg, img);
                     } else {
                         vt__sample(img, &t->box, t->tmpl);
+                    }
+                    if (cfg->measurement == VT_MEAS_EDGE_CURVES) {
+                        vt__edge_refresh(tr, t, cfg, img);
                     }
                 }
             }

@@ -7,7 +7,9 @@
  * Cost: sizeof(vt_tracker) = VT_MAX_TRACKS * sizeof(vt_track) (2,688 bytes each
  * on x86-64: the 2,360-byte fixed-point Kalman filter and a VT_TRACK_TEMPLATE^2-byte
  * template) plus the projection workspace (4 * (VT_MAX_WIDTH + VT_MAX_HEIGHT)
- * bytes): 55,024 bytes at the defaults. Work per frame and track: one predict +
+ * bytes): 55,024 bytes at the defaults. The edge-curve measurement adds
+ * vt_edge_template per track (1,044 bytes) and one vt_edge_ws (327,696 bytes at
+ * VT_EDGE_MAX_PIXELS = 65536), whichever measurement is configured. Work per frame and track: one predict +
  * update (about 1 100 multiplies) and two Sobel responses per ROI pixel (2.3
  * instructions per frame pixel for two tracks at 640x480, `make bench`); nothing
  * outside the ROIs is touched except on detection frames (the template check,
@@ -17,6 +19,7 @@
 
 #include <stdint.h>
 #include "vehtrack/config.h"
+#include "vehtrack/edge_track.h"
 #include "vehtrack/fixed.h"
 #include "vehtrack/image.h"
 #include "vehtrack/kalman.h"
@@ -50,12 +53,21 @@ typedef struct {
     int32_t match_iou_percent;   /* detection <-> track association threshold       */
     vt_q14 keep_ncc;             /* correlation that keeps an undetected track      */
     int32_t init_max_change;     /* px: the two-threshold rule's starting allowance */
+    /* The per-frame measurement: VT_MEAS_ROI_SEARCH (thesis sec. 3.6.1, the
+     * default) or VT_MEAS_EDGE_CURVES (GIST paper sec. III.B: the track's edge
+     * curves matched by chamfer distance, vehtrack/edge_track.h, with `edge`). */
+    int32_t measurement;
+    vt_edge_cfg edge;
 } vt_tracker_cfg;
+
+#define VT_MEAS_ROI_SEARCH 0
+#define VT_MEAS_EDGE_CURVES 1
 
 #define VT_TRACKER_CFG_DEFAULT                                                     \
     {                                                                              \
         VT_TRACK_SEARCH_CFG_DEFAULT, VT_KF_MODEL_CFG_DEFAULT, 6, 0, 35, 10, 3, 6, 30,   \
-            (vt_q14)((VT_Q14_ONE * 7 + 5) / 10), 3 /* 0.7, rounded */             \
+            (vt_q14)((VT_Q14_ONE * 7 + 5) / 10), 3 /* 0.7, rounded */,            \
+            VT_MEAS_ROI_SEARCH, VT_EDGE_CFG_DEFAULT                                \
     }
 
 /* One track. Public so that callers can inspect and save it; change it only
@@ -73,6 +85,7 @@ typedef struct {
     vt_track_sides sides; /* the two-threshold side rule's memory */
     vt_kf kf;             /* bottom-edge model [x1, y1, x2, vx1, vy1, vx2] */
     uint8_t tmpl[VT_TRACK_TEMPLATE * VT_TRACK_TEMPLATE];
+    vt_edge_template edges; /* curve points, used by VT_MEAS_EDGE_CURVES only */
 } vt_track;
 
 typedef struct {
@@ -81,6 +94,7 @@ typedef struct {
     int32_t dropped_full;   /* detections not started because every slot was used */
     vt_track tracks[VT_MAX_TRACKS];
     vt_track_search_ws ws;
+    vt_edge_ws edge_ws;     /* VT_MEAS_EDGE_CURVES's crop workspace */
 } vt_tracker;
 
 /* What the tracker reports per track and frame. */

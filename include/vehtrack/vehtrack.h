@@ -16,6 +16,7 @@
 #include "vehtrack/detect.h"
 #include "vehtrack/kalman.h"
 #include "vehtrack/track_search.h"
+#include "vehtrack/edge_track.h"
 #include "vehtrack/tracker.h"
 
 #define VT_VERSION_MAJOR 0

@@ -42,7 +42,11 @@ typedef struct {
     int32_t match_iou_percent;
     vt_q14 keep_ncc;
     int32_t init_max_change;
+    int32_t measurement;
+    vt_edge_cfg edge;
 } vt_tracker_cfg;
+#define VT_MEAS_ROI_SEARCH ...
+#define VT_MEAS_EDGE_CURVES ...
 
 typedef struct {
     int32_t id;
@@ -57,6 +61,7 @@ typedef struct {
     vt_track_sides sides;
     vt_kf kf;
     uint8_t tmpl[...];
+    vt_edge_template edges;
 } vt_track;
 
 typedef struct {
