@@ -42,11 +42,13 @@ static int vt__box_ok(const vt_box *b)
 /* Gradient sector: 0 along x, 1 the (1,1) diagonal, 2 along y, 3 the (1,-1) diagonal. */
 static int16_t vt__sector(int32_t gx, int32_t gy)
 {
-    int32_t ax = vt__abs_i32(gx), ay = vt__abs_i32(gy);
-    if (128 * ay <= 53 * ax) {
+    /* ay / ax <= tan 22.5 deg = sqrt(2) - 1  <=>  (ax + ay)^2 <= 2 ax^2, exact
+     * (|g| <= 1020: the squares stay below 2^23; equality only at ax = ay = 0). */
+    int32_t ax = vt__abs_i32(gx), ay = vt__abs_i32(gy), s2 = (ax + ay) * (ax + ay);
+    if (s2 <= 2 * ax * ax) {
         return 0;
     }
-    if (128 * ax <= 53 * ay) {
+    if (s2 <= 2 * ay * ay) {
         return 2;
     }
     return (int16_t)(((gx > 0) == (gy > 0)) ? 1 : 3);

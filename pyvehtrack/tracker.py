@@ -8,10 +8,13 @@ reference.
 `step(frame, detections=...)` feeds your own detections instead (an (N, 4) array
 of inclusive [left, top, right, bottom] boxes; float coordinates are rounded to the
 nearest pixel, NaN/inf/non-numbers refused); then detection frames are the frames
-where you pass them."""
+where you pass them.
+
+`Tracker(measurement="edges")` measures each track by matching its edge curves
+(GIST paper sec. III.B) instead of the thesis's ROI search ("roi", the default)."""
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 
 import cv2
 import numpy as np
@@ -22,6 +25,7 @@ from .kalman import ModelConfig
 from .reference import tracker as rtrk
 
 STATES = {1: "tentative", 2: "confirmed", 3: "coasting"}
+MEASUREMENTS = {"roi": rtrk.MEAS_ROI_SEARCH, "edges": rtrk.MEAS_EDGE_CURVES}
 
 
 @dataclass(frozen=True)
@@ -43,7 +47,10 @@ def cfg_to_c(cfg: rtrk.TrackerCfg):
         setattr(c.search, f.name, _check.integer(getattr(cfg.search, f.name), f"cfg.search.{f.name}"))
     c.model = ModelConfig(**vars(cfg.model)).to_c()[0]  # Q16, checked, as the Kalman API does
     for f in fields(cfg):
-        if f.name not in ("search", "model", "keep_ncc"):
+        if f.name == "edge":
+            for g in fields(cfg.edge):
+                setattr(c.edge, g.name, _check.integer(getattr(cfg.edge, g.name), f"cfg.edge.{g.name}"))
+        elif f.name not in ("search", "model", "keep_ncc"):
             setattr(c, f.name, _check.integer(getattr(cfg, f.name), f"cfg.{f.name}"))
     keep = _check.real(cfg.keep_ncc, "cfg.keep_ncc")
     if not -1.0 <= keep <= 1.0:
@@ -75,7 +82,7 @@ def check_cfg(cfg: rtrk.TrackerCfg):
     default = _native.tracker_cfg_default()
     bad = []
     for f in fields(cfg):
-        if f.name in ("search", "model"):
+        if f.name in ("search", "model", "edge"):
             for g in fields(getattr(cfg, f.name)):
                 t = _native.ffi.new("vt_tracker_cfg *", default[0])
                 setattr(getattr(t, f.name), g.name, getattr(getattr(c, f.name), g.name))
@@ -94,19 +101,25 @@ class Tracker:
     """Vehicle tracker. engine="c" runs the fixed-point core, "reference" the float oracle.
 
     detector: an object with .detect(gray) -> result with .boxes (N, 4), used every
-    `detect_every` frames when step() is not given detections. Frames larger than the
+    `detect_every` frames when step() is not given detections. measurement: "roi" (thesis
+    ROI search) or "edges" (edge curves matched by chamfer distance, GIST paper); when given
+    it overrides cfg.measurement. Frames larger than the
     core's compile-time maximum are downscaled by an integer factor (boxes are scaled
     back to input pixels), never clipped."""
 
     def __init__(self, engine: str = "c", cfg: rtrk.TrackerCfg | None = None,
-                 detect_every: int = 10, detector=None):
+                 detect_every: int = 10, detector=None, measurement: str | None = None):
         _check.choice(engine, "engine", ("c", "reference"))
+        if measurement is not None:
+            _check.choice(measurement, "measurement", tuple(MEASUREMENTS))
         self.detect_every = _check.integer(detect_every, "detect_every", lo=1)
         if detector is not None and not callable(getattr(detector, "detect", None)):
             raise TypeError(f"detector: expected an object with a detect(frame) method, "
                             f"got {type(detector).__name__}")
         self.engine = engine
         self.cfg = cfg if cfg is not None else rtrk.TrackerCfg()
+        if measurement is not None:
+            self.cfg = replace(self.cfg, measurement=MEASUREMENTS[measurement])
         ccfg = check_cfg(self.cfg)      # both engines: errors now, naming the field
         self.detector = detector
         self.frame_index = 0
@@ -115,7 +128,11 @@ class Tracker:
             self._ccfg = ccfg
             self._tr = _native.tracker_new()
         else:
-            self._ref = rtrk.Tracker(self.cfg, max_tracks=int(_native.lib.VT_MAX_TRACKS))
+            lib = _native.lib
+            self._ref = rtrk.Tracker(self.cfg, max_tracks=int(lib.VT_MAX_TRACKS),
+                                     max_edge_points=int(lib.VT_EDGE_MAX_POINTS),
+                                     max_edge_pixels=int(lib.VT_EDGE_MAX_PIXELS),
+                                     coord_lim=4 * max(int(lib.VT_MAX_WIDTH), int(lib.VT_MAX_HEIGHT)))
 
     def _scale(self, gray: np.ndarray) -> int:
         h, w = gray.shape

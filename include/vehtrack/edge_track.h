@@ -93,9 +93,10 @@ vt_status vt_edge_cfg_check(const vt_edge_cfg *cfg);
  * to the image; the crop is filtered as an image of its own: Sobel with the
  * crop's border pixel replicated, as vt_sobel_x/y on the crop view).
  * 1. gx, gy: vt_sobel_x / vt_sobel_y; m = |gx| + |gy| (<= 2040, exact).
- * 2. direction of (gx, gy) in 4 sectors, exactly: with ax = |gx|, ay = |gy|,
- *    horizontal if 128 ay <= 53 ax (tan 22.5 deg = 0.4142 ~ 53/128 = 0.4141),
- *    vertical if 128 ax <= 53 ay, else the diagonal of sign(gx gy).
+ * 2. direction of (gx, gy) in 4 sectors of 45 degrees, exactly: with ax = |gx|,
+ *    ay = |gy|, along x if ay / ax < tan 22.5 deg = sqrt(2) - 1, tested as
+ *    (ax + ay)^2 <= 2 ax^2 (no integer pair but 0, 0 lies on the boundary), along
+ *    y if (ax + ay)^2 <= 2 ay^2, else the diagonal of sign(gx gy).
  * 3. non-maximum suppression along that direction: kept if m >= low, m > m(p - u)
  *    and m >= m(p + u) (u the unit step along the gradient; neighbours outside
  *    the crop count 0; the asymmetric tie keeps one pixel of a plateau).
