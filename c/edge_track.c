@@ -27,7 +27,8 @@ vt_status vt_edge_cfg_check(const vt_edge_cfg *c)
     if (c == NULL || c->low < 1 || c->high < c->low || c->high > 4096 || c->min_len < 1 ||
         c->radius < 0 || c->radius > 64 || c->trunc < 1 || c->trunc > 1000 ||
         c->max_mean_q8 < 0 || c->max_mean_q8 > 256000 || c->min_points < 1 ||
-        c->min_points > VT_EDGE_MAX_POINTS) {
+        c->min_points > VT_EDGE_MAX_POINTS || c->scale_steps < 0 || c->scale_steps > 8 ||
+        c->scale_step_q8 < 1 || c->scale_step_q8 > 64) {
         return VT_E_ARG;
     }
     return VT_OK;
@@ -295,14 +296,31 @@ vt_status vt_edge_template_set(const vt_edge_ws *ws, const vt_box *box, vt_edge_
     return VT_OK;
 }
 
-vt_status vt_edge_match(const vt_edge_ws *ws, const vt_edge_cfg *cfg, const vt_edge_template *tpl,
-                        int32_t cx, int32_t cy, int32_t *dx, int32_t *dy, int32_t *score,
-                        int32_t *found)
+/* floor((v s + 128) / 256): |v s| < 2^20 * 2^10, no overflow in int64. */
+static int32_t vt__scale(int32_t v, int32_t s)
 {
-    int32_t ddx, ddy, i, best = -1, bx = 0, by = 0;
-    if (ws == NULL || tpl == NULL || dx == NULL || dy == NULL || score == NULL ||
-        found == NULL || vt_edge_cfg_check(cfg) != VT_OK || cx < -8192 || cx > 8192 ||
-        cy < -8192 || cy > 8192 || tpl->n < 0 || tpl->n > VT_EDGE_MAX_POINTS) {
+    return (int32_t)vt__floor_shr64((int64_t)v * s + 128, 8);
+}
+
+vt_status vt_edge_scale(int32_t v, int32_t s_q8, int32_t *out)
+{
+    if (out == NULL || v < -(1 << 20) || v > (1 << 20) || s_q8 < 1 || s_q8 > 1024) {
+        return VT_E_ARG;
+    }
+    *out = vt__scale(v, s_q8);
+    return VT_OK;
+}
+
+vt_status vt_edge_match(const vt_edge_ws *ws, const vt_edge_cfg *cfg, const vt_edge_template *tpl,
+                        int32_t cx, int32_t cy, int32_t *dx, int32_t *dy, int32_t *scale_q8,
+                        int32_t *score, int32_t *found)
+{
+    int32_t ddx, ddy, i, j, best = -1, bx = 0, by = 0, bs = 256, ax, ay;
+    int16_t sx[VT_EDGE_MAX_POINTS], sy[VT_EDGE_MAX_POINTS];
+    if (ws == NULL || tpl == NULL || dx == NULL || dy == NULL || scale_q8 == NULL ||
+        score == NULL || found == NULL || vt_edge_cfg_check(cfg) != VT_OK || cx < -8192 ||
+        cx > 8192 || cy < -8192 || cy > 8192 || tpl->n < 0 || tpl->n > VT_EDGE_MAX_POINTS ||
+        !vt__box_ok(&tpl->box)) {
         return VT_E_ARG;
     }
     if (!vt__ws_ok(ws)) {
@@ -312,27 +330,42 @@ vt_status vt_edge_match(const vt_edge_ws *ws, const vt_edge_cfg *cfg, const vt_e
     if (tpl->n == 0) {
         return VT_OK;
     }
-    for (ddy = cy - cfg->radius; ddy <= cy + cfg->radius; ++ddy) {
-        for (ddx = cx - cfg->radius; ddx <= cx + cfg->radius; ++ddx) {
-            int32_t sum = 0; /* <= 1000 * 4096 */
-            for (i = 0; i < tpl->n; ++i) {
-                int32_t x = tpl->x[i] + ddx - ws->x0, y = tpl->y[i] + ddy - ws->y0;
-                int32_t d = cfg->trunc;
-                if (x >= 0 && y >= 0 && x < ws->w && y < ws->h) {
-                    int32_t v = ws->u.dt[y * ws->w + x];
-                    d = v < d ? v : d;
+    ax = (int32_t)vt__floor_shr64((int64_t)tpl->box.left + tpl->box.right, 1);
+    ay = tpl->box.bottom;
+    for (j = 0; j <= 2 * cfg->scale_steps; ++j) {
+        /* k = 0, -1, +1, -2, +2, ... */
+        int32_t k = (j + 1) / 2 * (j % 2 ? -1 : 1), s = 256 + k * cfg->scale_step_q8;
+        for (i = 0; i < tpl->n; ++i) {
+            /* |x - ax| < 2^16 (int16 points, bounded box): the result fits int16 for
+             * s <= 2 (256 + 8 * 64 = 768 < 2^10): clamp keeps it defined anyway. */
+            int32_t u = ax + vt__scale(tpl->x[i] - ax, s), v = ay + vt__scale(tpl->y[i] - ay, s);
+            sx[i] = (int16_t)vt__clamp_i32(u, -32768, 32767);
+            sy[i] = (int16_t)vt__clamp_i32(v, -32768, 32767);
+        }
+        for (ddy = cy - cfg->radius; ddy <= cy + cfg->radius; ++ddy) {
+            for (ddx = cx - cfg->radius; ddx <= cx + cfg->radius; ++ddx) {
+                int32_t sum = 0; /* <= 1000 * 4096 */
+                for (i = 0; i < tpl->n; ++i) {
+                    int32_t x = sx[i] + ddx - ws->x0, y = sy[i] + ddy - ws->y0;
+                    int32_t d = cfg->trunc;
+                    if (x >= 0 && y >= 0 && x < ws->w && y < ws->h) {
+                        int32_t v = ws->u.dt[y * ws->w + x];
+                        d = v < d ? v : d;
+                    }
+                    sum += d;
                 }
-                sum += d;
-            }
-            if (best < 0 || sum < best) {
-                best = sum;
-                bx = ddx;
-                by = ddy;
+                if (best < 0 || sum < best) {
+                    best = sum;
+                    bx = ddx;
+                    by = ddy;
+                    bs = s;
+                }
             }
         }
     }
     *dx = bx;
     *dy = by;
+    *scale_q8 = bs;
     *score = best;
     *found = (tpl->n >= cfg->min_points &&
               (int64_t)best * 256 <= (int64_t)cfg->max_mean_q8 * tpl->n) ? 1 : 0;

@@ -182,25 +182,30 @@ static void vt__edge_measure(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *
 {
     const vt_box *tb = &t->edges.box;
     int32_t cx = t->box.left - tb->left, cy = t->box.bottom - tb->bottom;
-    int32_t pad = cfg->edge.radius + m, dx, dy, score;
+    int32_t pad = cfg->edge.radius + m, dx, dy, sc, score, ax, grow;
     vt_box roi;
     *found = 0;
     if (t->edges.n == 0 || cx < -8192 || cx > 8192 || cy < -8192 || cy > 8192) {
         return;
     }
-    roi.left = tb->left + cx - pad;
-    roi.right = tb->right + cx + pad;
-    roi.top = tb->top + cy - pad;
+    /* The crop also holds the template grown by the largest scale. */
+    grow = (int32_t)(((int64_t)(tb->right - tb->left + tb->bottom - tb->top + 2) *
+                      cfg->edge.scale_steps * cfg->edge.scale_step_q8) / 256) + 1;
+    roi.left = tb->left + cx - pad - grow;
+    roi.right = tb->right + cx + pad + grow;
+    roi.top = tb->top + cy - pad - grow;
     roi.bottom = tb->bottom + cy + pad;
     if (vt_edge_map(img, &cfg->edge, &roi, &tr->edge_ws) != VT_OK ||
-        vt_edge_match(&tr->edge_ws, &cfg->edge, &t->edges, cx, cy, &dx, &dy, &score, found) !=
-            VT_OK) {
+        vt_edge_match(&tr->edge_ws, &cfg->edge, &t->edges, cx, cy, &dx, &dy, &sc, &score,
+                      found) != VT_OK) {
         *found = 0;
         return;
     }
-    meas->left = tb->left + dx;
-    meas->right = tb->right + dx;
-    meas->top = tb->top + dy;
+    /* The template box scaled about its bottom centre, as its points were. */
+    ax = (int32_t)vt__floor_shr64((int64_t)tb->left + tb->right, 1);
+    meas->left = ax + (int32_t)vt__floor_shr64((int64_t)(tb->left - ax) * sc + 128, 8) + dx;
+    meas->right = ax + (int32_t)vt__floor_shr64((int64_t)(tb->right - ax) * sc + 128, 8) + dx;
+    meas->top = tb->bottom + (int32_t)vt__floor_shr64((int64_t)(tb->top - tb->bottom) * sc + 128, 8) + dy;
     meas->bottom = tb->bottom + dy;
 }
 

@@ -484,10 +484,11 @@ def edge_template_points(tpl) -> tuple[np.ndarray, np.ndarray]:
             np.array([tpl.y[i] for i in range(n)], np.int64))
 
 
-def edge_match(ws, cfg, tpl, cx: int, cy: int) -> tuple[int, int, int, bool]:
-    """(dx, dy, score, found); dx/dy/score are meaningful only for a non-empty template."""
-    dx, dy, sc, fd = (ffi.new("int32_t *") for _ in range(4))
-    check("vt_edge_match", lib.vt_edge_match(ws, cfg, tpl, int(cx), int(cy), dx, dy, sc, fd),
+def edge_match(ws, cfg, tpl, cx: int, cy: int) -> tuple[int, int, int, int, bool]:
+    """(dx, dy, scale_q8, score, found); all but found are meaningful only for a non-empty
+    template."""
+    dx, dy, s, sc, fd = (ffi.new("int32_t *") for _ in range(5))
+    check("vt_edge_match", lib.vt_edge_match(ws, cfg, tpl, int(cx), int(cy), dx, dy, s, sc, fd),
           f"cx={cx}, cy={cy}")
-    return int(dx[0]), int(dy[0]), int(sc[0]), bool(fd[0])
+    return int(dx[0]), int(dy[0]), int(s[0]), int(sc[0]), bool(fd[0])
 # ================================================================ end edge_track.h

@@ -10,6 +10,8 @@ typedef struct {
     int32_t trunc;
     int32_t max_mean_q8;
     int32_t min_points;
+    int32_t scale_steps;
+    int32_t scale_step_q8;
 } vt_edge_cfg;
 
 struct vt_edge_grad {
@@ -43,5 +45,6 @@ vt_status vt_edge_map(const vt_image_u8 *img, const vt_edge_cfg *cfg, const vt_b
 vt_status vt_edge_template_set(const vt_edge_ws *ws, const vt_box *box, vt_edge_template *tpl,
                                int32_t *n_out);
 vt_status vt_edge_match(const vt_edge_ws *ws, const vt_edge_cfg *cfg, const vt_edge_template *tpl,
-                        int32_t cx, int32_t cy, int32_t *dx, int32_t *dy, int32_t *score,
-                        int32_t *found);
+                        int32_t cx, int32_t cy, int32_t *dx, int32_t *dy, int32_t *scale_q8,
+                        int32_t *score, int32_t *found);
+vt_status vt_edge_scale(int32_t v, int32_t s_q8, int32_t *out);

@@ -34,6 +34,8 @@ class EdgeCfg:
     trunc: int = 15
     max_mean_q8: int = 1536
     min_points: int = 16
+    scale_steps: int = 2
+    scale_step_q8: int = 4
 
 
 def clip_roi(shape, roi):
@@ -177,23 +179,53 @@ def template_set(em: EdgeMap, box, max_points: int) -> Template:
     return Template(xs + l + em.x0, ys + t + em.y0, tuple(int(v) for v in box))
 
 
+def scale(v, s_q8: int):
+    """v * s_q8 / 256 rounded to the nearest integer, halves up (works on arrays)."""
+    return (v * s_q8 + 128) // 256
+
+
+def scales(cfg: EdgeCfg) -> list[int]:
+    """Candidate scales (Q8) in search order: 1, then 1 -+ step, 1 -+ 2 steps, ..."""
+    out = [256]
+    for k in range(1, cfg.scale_steps + 1):
+        out += [256 - k * cfg.scale_step_q8, 256 + k * cfg.scale_step_q8]
+    return out
+
+
+def anchor(box) -> tuple[int, int]:
+    """Scaling centre: the box's bottom centre (an approaching vehicle grows about it)."""
+    return (box[0] + box[2]) // 2, box[3]
+
+
+def scale_box(box, s_q8: int, dx: int = 0, dy: int = 0) -> tuple:
+    ax, ay = anchor(box)
+    l, t, r, b = box
+    return (ax + scale(l - ax, s_q8) + dx, ay + scale(t - ay, s_q8) + dy,
+            ax + scale(r - ax, s_q8) + dx, b + dy)
+
+
 def match(em: EdgeMap, cfg: EdgeCfg, tpl: Template, cx: int, cy: int):
-    """(dx, dy, score, found): the displacement within +-radius of (cx, cy) whose summed
-    distance, each capped at trunc (trunc outside the crop), is smallest; the first in
-    row-major order of (dy, dx) on ties. None for an empty template."""
+    """(dx, dy, scale_q8, score, found): over the scales (in `scales` order) and the
+    displacements within +-radius of (cx, cy), the one whose summed distance, each capped
+    at trunc (trunc outside the crop), is smallest; the first in (scale, dy, dx) order on
+    ties. None for an empty template."""
     n = len(tpl.xs)
     if n == 0:
         return None
     h, w = em.dt.shape
+    ax, ay = anchor(tpl.box)
     best = None
-    for dy in range(cy - cfg.radius, cy + cfg.radius + 1):
-        for dx in range(cx - cfg.radius, cx + cfg.radius + 1):
-            x, y = tpl.xs + dx - em.x0, tpl.ys + dy - em.y0
-            inside = (x >= 0) & (y >= 0) & (x < w) & (y < h)
-            d = np.full(n, cfg.trunc, np.int64)
-            d[inside] = np.minimum(em.dt[y[inside], x[inside]], cfg.trunc)
-            s = int(d.sum())
-            if best is None or s < best[2]:
-                best = (dx, dy, s)
-    found = n >= cfg.min_points and best[2] * 256 <= cfg.max_mean_q8 * n
-    return best[0], best[1], best[2], found
+    for s in scales(cfg):
+        xs = np.clip(ax + scale(tpl.xs - ax, s), -32768, 32767)
+        ys = np.clip(ay + scale(tpl.ys - ay, s), -32768, 32767)
+        for dy in range(cy - cfg.radius, cy + cfg.radius + 1):
+            for dx in range(cx - cfg.radius, cx + cfg.radius + 1):
+                x, y = xs + dx - em.x0, ys + dy - em.y0
+                inside = (x >= 0) & (y >= 0) & (x < w) & (y < h)
+                d = np.full(n, cfg.trunc, np.int64)
+                d[inside] = np.minimum(em.dt[y[inside], x[inside]], cfg.trunc)
+                sc = int(d.sum())
+                if best is None or sc < best[3]:
+                    best = (dx, dy, s, sc)
+    found = n >= cfg.min_points and best[3] * 256 <= cfg.max_mean_q8 * n
+    return (*best, found)

@@ -172,12 +172,16 @@ class Tracker:
         cx, cy = t.box[0] - tl, t.box[3] - tb
         if abs(cx) > 8192 or abs(cy) > 8192:
             return None
-        pad = self.cfg.edge.radius + m
-        em = self._edge_map(img, (tl + cx - pad, tt + cy - pad, tr_ + cx + pad, tb + cy + pad))
+        e = self.cfg.edge
+        pad = e.radius + m
+        # the crop also holds the template grown by the largest scale
+        grow = ((tr_ - tl + tb - tt + 2) * e.scale_steps * e.scale_step_q8) // 256 + 1
+        em = self._edge_map(img, (tl + cx - pad - grow, tt + cy - pad - grow,
+                                  tr_ + cx + pad + grow, tb + cy + pad))
         if em is None:
             return None
-        dx, dy, _, found = redge.match(em, self.cfg.edge, t.edges, cx, cy)
-        return (tl + dx, tt + dy, tr_ + dx, tb + dy) if found else None
+        dx, dy, s, _, found = redge.match(em, e, t.edges, cx, cy)
+        return redge.scale_box(t.edges.box, s, dx, dy) if found else None
 
     def _update(self, t: Track, left, bottom, right):
         t.kf.update(np.array([[left], [bottom], [right]], dtype=float))
