@@ -449,6 +449,43 @@ def _track_frame(ctx: Ctx) -> Stage:
                  note="2 tracks; oracle copies its tracker each run")
 
 
+@register("track_frame_edges", driver=False)
+def _track_frame_edges(ctx: Ctx) -> Stage:
+    """track_frame with the edge-curve measurement (GIST paper sec. III.B) in place of
+    the ROI search: edge map + chamfer transform of each track's crop, 5 scales x 17 x 17
+    displacements, then a fresh template."""
+    import copy
+
+    from pyvehtrack import _native
+    from pyvehtrack.reference import tracker as rtrk
+    from pyvehtrack.tracker import cfg_to_c
+    img = ctx.frame
+    h, w = img.shape
+    dets = np.array([[370 * w // 640, 270 * h // 480, 456 * w // 640, 328 * h // 480],
+                     [528 * w // 640, 268 * h // 480, 639 * w // 640, 336 * h // 480]])
+    pcfg = rtrk.TrackerCfg(measurement=rtrk.MEAS_EDGE_CURVES)
+    ccfg = cfg_to_c(pcfg)
+    tr = _native.tracker_new()
+    _native.tracker_step(tr, ccfg, img, True, dets)
+    saved = _native.ffi.new("vt_tracker *")
+    _native.ffi.memmove(saved, tr, _native.ffi.sizeof("vt_tracker"))
+    lib = _native.lib
+    ref = rtrk.Tracker(pcfg, max_tracks=int(lib.VT_MAX_TRACKS), max_edge_points=int(lib.VT_EDGE_MAX_POINTS),
+                       max_edge_pixels=int(lib.VT_EDGE_MAX_PIXELS))
+    ref.step(img, True, dets)
+    last = {}
+
+    def c():
+        _native.ffi.memmove(tr, saved, _native.ffi.sizeof("vt_tracker"))
+        last["out"] = _native.tracker_step(tr, ccfg, img, False)
+
+    def reference():
+        return copy.deepcopy(ref).step(img, False)
+
+    return Stage("track_frame_edges", c, reference, pixels=img.size, calls=1,
+                 note="2 tracks, edge-curve measurement; oracle copies its tracker each run")
+
+
 # ---------------------------------------------------------------- frames
 def load_frame(w: int, h: int, quick: bool) -> tuple[np.ndarray, str]:
     """The gray bench frame of size w x h (quick: an eighth of each side, at least

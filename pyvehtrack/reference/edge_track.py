@@ -214,18 +214,18 @@ def match(em: EdgeMap, cfg: EdgeCfg, tpl: Template, cx: int, cy: int):
         return None
     h, w = em.dt.shape
     ax, ay = anchor(tpl.box)
+    dys, dxs = np.mgrid[cy - cfg.radius:cy + cfg.radius + 1, cx - cfg.radius:cx + cfg.radius + 1]
+    dxs, dys = dxs.ravel()[:, None], dys.ravel()[:, None]   # (dy, dx) in row-major order
     best = None
     for s in scales(cfg):
         xs = np.clip(ax + scale(tpl.xs - ax, s), -32768, 32767)
         ys = np.clip(ay + scale(tpl.ys - ay, s), -32768, 32767)
-        for dy in range(cy - cfg.radius, cy + cfg.radius + 1):
-            for dx in range(cx - cfg.radius, cx + cfg.radius + 1):
-                x, y = xs + dx - em.x0, ys + dy - em.y0
-                inside = (x >= 0) & (y >= 0) & (x < w) & (y < h)
-                d = np.full(n, cfg.trunc, np.int64)
-                d[inside] = np.minimum(em.dt[y[inside], x[inside]], cfg.trunc)
-                sc = int(d.sum())
-                if best is None or sc < best[3]:
-                    best = (dx, dy, s, sc)
+        x, y = xs[None, :] + dxs - em.x0, ys[None, :] + dys - em.y0      # displacements x points
+        inside = (x >= 0) & (y >= 0) & (x < w) & (y < h)
+        d = np.minimum(em.dt[np.clip(y, 0, h - 1), np.clip(x, 0, w - 1)], cfg.trunc)
+        sums = np.where(inside, d, cfg.trunc).sum(axis=1)
+        k = int(np.argmin(sums))                                      # the first smallest
+        if best is None or int(sums[k]) < best[3]:
+            best = (int(dxs[k, 0]), int(dys[k, 0]), s, int(sums[k]))
     found = n >= cfg.min_points and best[3] * 256 <= cfg.max_mean_q8 * n
     return (*best, found)
