@@ -32,7 +32,7 @@ class EdgeCfg:
     min_len: int = 10
     radius: int = 8
     trunc: int = 15
-    max_mean_q8: int = 768
+    max_mean_q8: int = 1536
     min_points: int = 16
     scale_steps: int = 2
     scale_step_q8: int = 4
