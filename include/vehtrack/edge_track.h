@@ -11,10 +11,12 @@
  * reads it. Everything is exact integer arithmetic.
  *
  * Cost: vt_edge_ws holds 5 bytes per pixel of the largest crop,
- * VT_EDGE_MAX_PIXELS (327,696 bytes at 65536); vt_edge_template holds
+ * VT_EDGE_MAX_PIXELS, plus 24 (327,704 bytes at 65536); vt_edge_template holds
  * 4 * VT_EDGE_MAX_POINTS + 20 bytes (1,044 at 256). Work: two Sobel responses,
  * a few compares and the two chamfer passes per crop pixel; the match reads
- * (2 radius + 1)^2 * n points distances. */
+ * (2 scale_steps + 1) (2 radius + 1)^2 n distances (370 k for 256 points at the
+ * defaults). Stack: vt_edge_match keeps the scaled points, 4 * VT_EDGE_MAX_POINTS
+ * bytes; the flood fills use the workspace, not the stack. */
 #ifndef VEHTRACK_EDGE_TRACK_H
 #define VEHTRACK_EDGE_TRACK_H
 

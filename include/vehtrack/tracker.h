@@ -8,8 +8,10 @@
  * on x86-64: the 2,360-byte fixed-point Kalman filter and a VT_TRACK_TEMPLATE^2-byte
  * template) plus the projection workspace (4 * (VT_MAX_WIDTH + VT_MAX_HEIGHT)
  * bytes): 55,024 bytes at the defaults. The edge-curve measurement adds
- * vt_edge_template per track (1,044 bytes) and one vt_edge_ws (327,696 bytes at
- * VT_EDGE_MAX_PIXELS = 65536), whichever measurement is configured. Work per frame and track: one predict +
+ * vt_edge_template per track (1,044 bytes; vt_track is 3,736) and one vt_edge_ws
+ * (327,704 bytes at VT_EDGE_MAX_PIXELS = 65536), whichever measurement is
+ * configured: 399,496 bytes in all at the defaults (build with a smaller
+ * VT_EDGE_MAX_PIXELS where RAM is short and the edges are not used). Work per frame and track: one predict +
  * update (about 1 100 multiplies) and two Sobel responses per ROI pixel (2.3
  * instructions per frame pixel for two tracks at 640x480, `make bench`); nothing
  * outside the ROIs is touched except on detection frames (the template check,
