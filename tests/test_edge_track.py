@@ -337,3 +337,26 @@ def test_python_bad_input():
     cfg = rtrk.TrackerCfg()
     Tracker(cfg=cfg, measurement="edges")
     assert cfg.measurement == rtrk.MEAS_ROI_SEARCH        # the caller's cfg is not changed
+
+
+def test_cli_track_measurement_flag(tmp_path, capsys):
+    """`pyvehtrack track --measurement edges` runs on a few frames of the KITTI clip (tests/data)
+    and writes its tracks; an unknown measurement is refused by the parser."""
+    import shutil
+    from pathlib import Path
+
+    from pyvehtrack.cli import main as cli_main
+    clip = sorted((Path(__file__).parent / "data" / "kitti_clip").glob("*.png"))[:4]
+    if not clip:
+        pytest.skip("tests/data/kitti_clip missing")
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    for p in clip:
+        shutil.copy(p, frames / p.name)
+    tracks = tmp_path / "tracks.txt"
+    rc = cli_main(["track", str(frames), "--out", str(tmp_path / "a.mp4"), "--tracks", str(tracks),
+                   "--measurement", "edges", "--detect-every", "2", "--no-progress"])
+    assert rc == 0 and tracks.is_file()
+    capsys.readouterr()
+    assert cli_main(["track", str(frames), "--out", str(tmp_path / "b.mp4"), "--measurement", "flow"]) == 2
+    assert "--measurement" in capsys.readouterr().err
