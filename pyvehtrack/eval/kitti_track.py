@@ -93,10 +93,10 @@ def main(argv=None, default_data: Path = DEFAULT_DATA) -> int:
     engines = ("c", "reference") if a.engine == "both" else (a.engine,)
     measurements = ("roi", "edges") if a.measurement == "both" else (a.measurement,)
     res = [run(e, files, boxes, a.detect_every, not a.no_progress, m) for e in engines for m in measurements]
-    print(f"{'engine':<12}{'lead id':>8}{'id share':>10}{'IoU>=0.6':>10}{'mean IoU':>10}"
+    print(f"{'engine':<16}{'lead id':>8}{'id share':>10}{'IoU>=0.6':>10}{'mean IoU':>10}"
           f"{'HOTA':>8}{'MOTA':>8}{'IDF1':>8}{'IDSW':>6}{'trk/frm':>8}")
     for r in res:
-        print(f"{r['engine']:<12}{str(r['lead_id']):>8}{r['id_share']:>10.1%}{r['iou06_share']:>10.1%}"
+        print(f"{r['engine']:<16}{str(r['lead_id']):>8}{r['id_share']:>10.1%}{r['iou06_share']:>10.1%}"
               f"{r['mean_iou_lead']:>10.3f}{r['HOTA']:>8.3f}{r['MOTA']:>8.3f}{r['IDF1']:>8.3f}"
               f"{r['IDSW']:>6}{r['tracks_per_frame']:>8.2f}")
     if a.json:
