@@ -345,7 +345,10 @@ vt_status vt_edge_match(const vt_edge_ws *ws, const vt_edge_cfg *cfg, const vt_e
         for (ddy = cy - cfg->radius; ddy <= cy + cfg->radius; ++ddy) {
             for (ddx = cx - cfg->radius; ddx <= cx + cfg->radius; ++ddx) {
                 int32_t sum = 0; /* <= 1000 * 4096 */
-                for (i = 0; i < tpl->n; ++i) {
+                /* Terms are >= 0: once the partial sum reaches the best, this
+                 * displacement cannot win (strictly smaller wins), so stop early;
+                 * the result is the full search's. */
+                for (i = 0; i < tpl->n && (best < 0 || sum < best); ++i) {
                     int32_t x = sx[i] + ddx - ws->x0, y = sy[i] + ddy - ws->y0;
                     int32_t d = cfg->trunc;
                     if (x >= 0 && y >= 0 && x < ws->w && y < ws->h) {
