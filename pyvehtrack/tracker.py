@@ -118,7 +118,7 @@ class Tracker:
                             f"got {type(detector).__name__}")
         self.engine = engine
         self.cfg = cfg if cfg is not None else rtrk.TrackerCfg()
-        if measurement is not None:
+        if measurement is not None and isinstance(self.cfg, rtrk.TrackerCfg):  # else check_cfg names it
             self.cfg = replace(self.cfg, measurement=MEASUREMENTS[measurement])
         ccfg = check_cfg(self.cfg)      # both engines: errors now, naming the field
         self.detector = detector
