@@ -8,6 +8,9 @@
 #   make check SAN=1  the pytest suite against a copy of the extension built with ASan+UBSan
 #   make firmware     Cortex-M3/M7 images, size table, forbidden-symbol check
 #   make bench        C vs reference per stage, plus callgrind instructions per pixel
+#   make check SAN=1 CC=clang   the same with clang's sanitizers (its own runtime preloaded)
+#   make fuzz         libFuzzer harnesses (fuzz/), FUZZ_SECONDS each; make fuzz-long: >= 10 M runs each
+#   make soak         the tracker over SOAK_FRAMES synthetic frames, C only (tests/c/soak.c)
 
 PY      ?= python3
 CC      ?= cc
@@ -34,11 +37,14 @@ $(BUILD)/libvehtrack.a: $(CORE_SRCS) $(CORE_HDRS)
 # System packages: the ARM toolchain and QEMU for the firmware proof, valgrind for
 # `make bench`. Python: the build backend first, then the package in editable mode
 # (meson-python rebuilds the C on import, so it needs no build isolation).
-APT_PKGS := gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm valgrind
+APT_PKGS := gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm valgrind \
+            clang libclang-rt-14-dev gcc-multilib
 SUDO     := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 setup:
-	@missing=""; for t in arm-none-eabi-gcc qemu-system-arm valgrind; do \
+	@missing=""; for t in arm-none-eabi-gcc qemu-system-arm valgrind clang; do \
 	  command -v $$t >/dev/null || missing="$$missing $$t"; done; \
+	[ -f "$$(clang -print-file-name=libclang_rt.fuzzer-x86_64.a 2>/dev/null)" ] || missing="$$missing libclang-rt"; \
+	[ -f /usr/include/x86_64-linux-gnu/gnu/stubs-32.h ] || [ -f /usr/include/gnu/stubs-32.h ] || missing="$$missing gcc-multilib"; \
 	if [ -n "$$missing" ]; then echo "installing system packages for:$$missing"; \
 	  $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq \
 	    --no-install-recommends $(APT_PKGS) >/dev/null; fi
@@ -52,10 +58,15 @@ tables:
 # The smallest sensible build: one track slot, VGA-sized frames at most.
 SMALL_DEFS := -DVT_MAX_TRACKS=1 -DVT_MAX_WIDTH=700 -DVT_MAX_HEIGHT=500
 
+# The sanitized suite runs once per compiler in SAN_COMPILERS (about a minute
+# each): clang's UBSan catches signed negations gcc 12's misses, gcc's ASan
+# differs in its interceptors. Then the fuzzers, FUZZ_SECONDS each.
+SAN_COMPILERS ?= gcc clang
 test: lib
 	$(PY) -m pytest -q
-	$(MAKE) check SAN=1
+	@set -e; for c in $(SAN_COMPILERS); do $(MAKE) check SAN=1 CC=$$c; done
 	$(MAKE) check CHECK_DEFS="$(SMALL_DEFS)"
+	$(MAKE) fuzz
 
 pytest:
 	$(PY) -m pytest -q
@@ -64,12 +75,22 @@ pytest:
 EXT_SUFFIX := $(shell $(PY) -c "import sysconfig; print(sysconfig.get_config_var('EXT_SUFFIX'))")
 PY_INC     := $(shell $(PY) -c "import sysconfig; print(sysconfig.get_paths()['include'])")
 CHECK_DEFS ?=
-# A -D configuration gets its own build dir, so builds of different configs never mix.
-CHECK_DIR  := $(BUILD)/check$(if $(filter 1,$(SAN)),-san,)$(if $(strip $(CHECK_DEFS)),-$(shell echo '$(CHECK_DEFS)' | md5sum | cut -c1-8),)
+# A -D configuration gets its own build dir, so builds of different configs never mix;
+# a sanitized build also names its compiler (gcc's and clang's runtimes differ).
+CC_NAME    := $(shell $(CC) --version 2>/dev/null | head -1 | grep -qi clang && echo clang || echo gcc)
+CHECK_DIR  := $(BUILD)/check$(if $(filter 1,$(SAN)),-san$(if $(filter clang,$(CC_NAME)),-clang,),)$(if $(strip $(CHECK_DEFS)),-$(shell echo '$(CHECK_DEFS)' | md5sum | cut -c1-8),)
 CHECK_EXT  := $(CHECK_DIR)/_vtffi$(EXT_SUFFIX)
 ifeq ($(SAN),1)
 SAN_FLAGS  := -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer -g
-SAN_ENV    := LD_PRELOAD="$$($(CC) -print-file-name=libasan.so) $$($(CC) -print-file-name=libubsan.so)" \
+# The preloaded runtime follows the compiler: gcc's libasan + libubsan, or clang's
+# ASan runtime (which carries its UBSan too). clang's UBSan flags signed negations
+# gcc 12's does not (issue 11), so `make test` runs the clang suite.
+ifeq ($(CC_NAME),clang)
+SAN_PRELOAD := $$($(CC) -print-file-name=libclang_rt.asan-x86_64.so)
+else
+SAN_PRELOAD := $$($(CC) -print-file-name=libasan.so) $$($(CC) -print-file-name=libubsan.so)
+endif
+SAN_ENV    := LD_PRELOAD="$(SAN_PRELOAD)" \
               ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 endif
 
@@ -86,6 +107,7 @@ check: $(CHECK_EXT)
 
 -include firmware_demo/firmware.mk
 -include bench/bench.mk
+-include fuzz/fuzz.mk
 
 clean:
 	rm -rf $(BUILD)

@@ -7,6 +7,7 @@
 #   make bench                      full run: bench/results.md and bench/results.json
 #   make bench BENCH_ARGS=--quick   tiny frames, one repeat (seconds)
 #   make bench BENCH_OPT=-O3        another optimisation level (meson release builds use -O3)
+#   make ram-bill                   only the RAM bill: bench/ram_bill.md and bench/ram_bill.json
 
 BENCH_DIR    := $(BUILD)/bench
 BENCH_OPT    ?= -O2
@@ -28,7 +29,27 @@ $(BENCH_DRIVER): bench/callgrind_main.c $(CORE_SRCS) $(CORE_HDRS) bench/bench.mk
 	@mkdir -p $(BENCH_DIR)
 	$(CC) $(STRICT) $(BENCH_OPT) -g -Wl,-z,now -Iinclude $(CORE_SRCS) bench/callgrind_main.c -o $@
 
-bench: $(BENCH_EXT) $(BENCH_DRIVER)
+bench: $(BENCH_EXT) $(BENCH_DRIVER) ram-bill
 	PYTHONPATH=$(CURDIR) PYVEHTRACK_FFI=$(abspath $(BENCH_EXT)) $(PY) bench/bench.py \
 	  --driver $(BENCH_DRIVER) --valgrind $(VALGRIND) --workdir $(BENCH_DIR) \
 	  --cc "$(CC)" --cflags="$(BENCH_OPT)" --command "make bench" $(BENCH_ARGS)
+
+# The RAM bill (issue 10): bench/ram_bill.c built once per configuration below,
+# sizeof(vt_pipeline) and its parts, and one step on the largest bench frame each
+# admits; bench/ram_bill.md and .json. Add a build: a name in RAM_NAMES and its
+# RAM_DEFS_<name> (and a line in bench/ram_bill.py's NOTES).
+RAM_NAMES        := default 720p vga vga-lean vga-lean-8
+RAM_DEFS_default :=
+RAM_DEFS_720p    := -DVT_MAX_WIDTH=1280 -DVT_MAX_HEIGHT=720
+RAM_DEFS_vga     := -DVT_MAX_WIDTH=640 -DVT_MAX_HEIGHT=480
+RAM_DEFS_vga-lean := $(RAM_DEFS_vga) -DVT_LANE_MAX_WORK_W=320 -DVT_LANE_MAX_WORK_H=240 \
+                     -DVT_LANE_ACC_CELLS=16384 -DVT_KF_MAX_X=6 -DVT_KF_MAX_Z=3
+RAM_DEFS_vga-lean-8 := $(RAM_DEFS_vga-lean) -DVT_MAX_TRACKS=8
+
+$(BENCH_DIR)/ram_bill_%: bench/ram_bill.c $(CORE_SRCS) $(CORE_HDRS) bench/bench.mk
+	@mkdir -p $(BENCH_DIR)
+	$(CC) $(STRICT) -O1 $(RAM_DEFS_$*) -Iinclude $(CORE_SRCS) bench/ram_bill.c -o $@
+
+.PHONY: ram-bill
+ram-bill: $(addprefix $(BENCH_DIR)/ram_bill_,$(RAM_NAMES))
+	$(PY) bench/ram_bill.py --workdir $(BENCH_DIR) $(RAM_NAMES)

@@ -402,8 +402,7 @@ def _full_detect(ctx: Ctx) -> Stage:
         last["boxes"] = nat.detect(dst, dcfg, img, road, dres)[1]
 
     def reference():
-        if ref.lane_detector is not None:
-            ref.lane_detector.reset()
+        ref.reset()
         return ref.detect(img)
 
     return Stage("full_detect", c, reference, pixels=img.size, calls=3,
@@ -466,12 +465,15 @@ def _track_frame_edges(ctx: Ctx) -> Stage:
     pcfg = rtrk.TrackerCfg(measurement=rtrk.MEAS_EDGE_CURVES)
     ccfg = cfg_to_c(pcfg)
     tr = _native.tracker_new()
+    ws = _native.edge_ws_new()          # caller-owned: the tracker keeps only a pointer
+    _native.tracker_set_edge_ws(tr, ws)
     _native.tracker_step(tr, ccfg, img, True, dets)
     saved = _native.ffi.new("vt_tracker *")
     _native.ffi.memmove(saved, tr, _native.ffi.sizeof("vt_tracker"))
     lib = _native.lib
     ref = rtrk.Tracker(pcfg, max_tracks=int(lib.VT_MAX_TRACKS), max_edge_points=int(lib.VT_EDGE_MAX_POINTS),
-                       max_edge_pixels=int(lib.VT_EDGE_MAX_PIXELS))
+                       max_edge_pixels=int(lib.VT_EDGE_MAX_PIXELS),
+                       coord_lim=4 * max(int(lib.VT_MAX_WIDTH), int(lib.VT_MAX_HEIGHT)))
     ref.step(img, True, dets)
     last = {}
 
@@ -484,6 +486,50 @@ def _track_frame_edges(ctx: Ctx) -> Stage:
 
     return Stage("track_frame_edges", c, reference, pixels=img.size, calls=1,
                  note="2 tracks, edge-curve measurement; oracle copies its tracker each run")
+
+
+# ---------------------------------------------------------------- the whole system (issue 10)
+@register("pipeline", sizes=DETECT_SIZES)
+def _pipeline(ctx: Ctx) -> Stage:
+    """One detection frame of a fresh pipeline through its one call (vt_pipeline_init +
+    vt_pipeline_step): lanes -> road -> shadow -> verify -> tracker."""
+    from pyvehtrack import _native as nat
+    from pyvehtrack import config
+    from pyvehtrack.reference import pipeline as rpipe
+    img = ctx.frame
+    cfg = config.PipelineConfig()
+    ccfg = config.to_c(cfg)
+    p = nat.ffi.new("vt_pipeline *")
+    out = nat.ffi.new("vt_frame_out *")
+    rcfg, caps = config.to_reference(cfg), config.reference_capacities()
+    last = {}
+
+    def c():
+        nat.check("vt_pipeline_init", nat.lib.vt_pipeline_init(p, ccfg, nat.ffi.NULL, nat.ffi.NULL))
+        nat.pipeline_step(p, img, out)
+        last["v"] = [getattr(out.boxes[i].box, k) for i in range(out.n_boxes)
+                     for k in ("left", "top", "right", "bottom")] + \
+                    [getattr(out.tracks[i], k) if k == "id" else getattr(out.tracks[i].box, k)
+                     for i in range(out.n_tracks) for k in ("id", "left", "top", "right", "bottom")]
+
+    def reference():
+        return rpipe.Pipeline(rcfg, caps).step(img)
+
+    return Stage("pipeline", c, reference, pixels=img.size, calls=2,
+                 digest=lambda: digest(last["v"]) if last.get("v") else 0,
+                 note="fresh pipeline, one detection frame (init included)")
+
+
+def ram_bill() -> list[dict]:
+    """sizeof(vt_pipeline) and its parts in this build (the cffi extension's)."""
+    from pyvehtrack._native import ffi, lib
+    rows = [("vt_pipeline (the whole state)", "vt_pipeline"), ("  vt_lane_state", "vt_lane_state"),
+            ("  vt_tracker", "vt_tracker"), ("  vt_detect_state", "vt_detect_state"),
+            ("  vt_detect_result", "vt_detect_result"), ("  vt_pipeline_cfg", "vt_pipeline_cfg"),
+            ("vt_frame_out (one frame's output)", "vt_frame_out"), ("  vt_road_area", "vt_road_area"),
+            ("  vt_lane_result", "vt_lane_result")]
+    caps = {k: int(getattr(lib, k)) for k in ("VT_MAX_WIDTH", "VT_MAX_HEIGHT", "VT_MAX_TRACKS")}
+    return [{"what": w, "bytes": ffi.sizeof(t), **caps} for w, t in rows]
 
 
 # ---------------------------------------------------------------- frames
@@ -646,6 +692,10 @@ def struct_sizes() -> list[dict]:
         for n in names:
             if not n.startswith("$"):
                 t = ffi.typeof(f"{kind} {n}")
+                try:
+                    ffi.sizeof(t)
+                except ffi.error:  # opaque (a stage's slot not built in: struct vt_svm_model)
+                    continue
                 rows.append({"type": f"{kind} {n}", "sizeof": ffi.sizeof(t), "alignof": ffi.alignof(t)})
     return rows
 

@@ -477,6 +477,46 @@ static uint32_t bench_digest_track_frame(const bench_ctx *ctx)
     return digest_u32(v, 5u * (size_t)g_track_n);
 }
 
+/* ---- the whole system through its one call (issue 10): a fresh pipeline (init
+ * included) and one detection frame: lanes -> road -> shadow -> verify -> tracker. */
+static vt_pipeline_cfg g_pipe_cfg;
+static vt_pipeline g_pipe;
+static vt_frame_out g_pipe_out;
+
+static void bench_setup_pipeline(bench_ctx *ctx)
+{
+    note_status(ctx, vt_pipeline_cfg_default(&g_pipe_cfg));
+}
+
+static void bench_run_pipeline(bench_ctx *ctx)
+{
+    note_status(ctx, vt_pipeline_init(&g_pipe, &g_pipe_cfg, NULL, NULL));
+    note_status(ctx, vt_pipeline_step(&g_pipe, &ctx->frame, &g_pipe_out));
+}
+
+/* The boxes handed to the tracker, then the tracks' ids and boxes, as bench.py. */
+static uint32_t bench_digest_pipeline(const bench_ctx *ctx)
+{
+    uint32_t v[4 * VT_MAX_BOXES + 5 * VT_MAX_TRACKS];
+    size_t n = 0;
+    int32_t i;
+    (void)ctx;
+    for (i = 0; i < g_pipe_out.n_boxes; ++i) {
+        v[n++] = (uint32_t)g_pipe_out.boxes[i].box.left;
+        v[n++] = (uint32_t)g_pipe_out.boxes[i].box.top;
+        v[n++] = (uint32_t)g_pipe_out.boxes[i].box.right;
+        v[n++] = (uint32_t)g_pipe_out.boxes[i].box.bottom;
+    }
+    for (i = 0; i < g_pipe_out.n_tracks; ++i) {
+        v[n++] = (uint32_t)g_pipe_out.tracks[i].id;
+        v[n++] = (uint32_t)g_pipe_out.tracks[i].box.left;
+        v[n++] = (uint32_t)g_pipe_out.tracks[i].box.top;
+        v[n++] = (uint32_t)g_pipe_out.tracks[i].box.right;
+        v[n++] = (uint32_t)g_pipe_out.tracks[i].box.bottom;
+    }
+    return digest_u32(v, n);
+}
+
 /* The registry. Default units match bench.py's full run. */
 static const bench_stage stages[] = {
     {"filter_h101", 1, bench_setup_filter_h101, bench_run_filter_h101, digest_s16},
@@ -494,6 +534,7 @@ static const bench_stage stages[] = {
     {"lane", 1, bench_setup_lane, bench_run_lane, bench_digest_lane},
     {"full_detect", 1, bench_setup_lane, bench_run_full_detect, bench_digest_detect},
     {"track_frame", 1, bench_setup_track_frame, bench_run_track_frame, bench_digest_track_frame},
+    {"pipeline", 1, bench_setup_pipeline, bench_run_pipeline, bench_digest_pipeline},
 };
 #define N_STAGES (sizeof stages / sizeof stages[0])
 

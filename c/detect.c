@@ -15,6 +15,16 @@ vt_status vt_detect_cfg_default(vt_detect_cfg *cfg)
     return VT_OK;
 }
 
+vt_status vt_detect_cfg_check(const vt_detect_cfg *cfg)
+{
+    vt_status s;
+    if (cfg == NULL) {
+        return VT_E_ARG;
+    }
+    s = vt_shadow_cfg_check(&cfg->shadow);
+    return s != VT_OK ? s : vt_verify_cfg_check(&cfg->verify);
+}
+
 vt_status vt_detect(vt_detect_state *st, const vt_detect_cfg *cfg, const vt_image_u8 *img,
                     const vt_road_area *road, vt_detect_result *out)
 {

@@ -499,6 +499,14 @@ vt_status vt_kf_update(vt_kf *kf, const vt_q16 *z)
     }
     n = kf->dim_x;
     m = kf->dim_z;
+    /* A variance saturated at the top of Q31.32 (a long coast) carries no
+     * usable information, and a gain from it would leave P indefinite: refuse
+     * the update (the caller coasts and drops the track). */
+    for (i = 0; i < n; i++) {
+        if (kf->P[i][i] == INT64_MAX) {
+            return VT_E_SINGULAR;
+        }
+    }
     /* y = z - H x (Q15.16, saturated: a residual beyond +-32768 px is clipped,
      * never wrapped). */
     for (i = 0; i < m; i++) {
@@ -569,12 +577,25 @@ typedef struct {
     vt_q32 var_x, var_y, dt2, mx2, my2, p2, v2;
 } vt__kf_model_terms;
 
+vt_status vt_kf_model_cfg_check(const vt_kf_model_cfg *cfg)
+{
+    vt_q32 var;
+    if (cfg == NULL || cfg->dt < VT_KF_DT_MIN || cfg->dt > VT_KF_DT_MAX || cfg->accel_x < 0 ||
+        cfg->accel_x > VT_KF_ACCEL_MAX || cfg->accel_y < 0 || cfg->accel_y > VT_KF_ACCEL_MAX ||
+        cfg->meas_sigma_x < VT_KF_MEAS_SIGMA_MIN || cfg->meas_sigma_x > VT_KF_MEAS_SIGMA_MAX ||
+        cfg->meas_sigma_y < VT_KF_MEAS_SIGMA_MIN || cfg->meas_sigma_y > VT_KF_MEAS_SIGMA_MAX ||
+        cfg->init_sigma_pos < 0 || cfg->init_sigma_pos > VT_KF_POS_SIGMA_MAX ||
+        cfg->init_sigma_vel < 0 || cfg->init_sigma_vel > VT_KF_VEL_SIGMA_MAX) {
+        return VT_E_ARG;
+    }
+    return vt_kf_accel_var(cfg->accel_x, cfg->p_max, cfg->p_zero, &var);
+}
+
 static vt_status vt__kf_model_terms_get(const vt_kf_model_cfg *cfg, vt__kf_model_terms *t)
 {
-    vt_status s;
-    if (cfg == NULL || cfg->dt <= 0 || cfg->meas_sigma_x < 0 || cfg->meas_sigma_y < 0 ||
-        cfg->init_sigma_pos < 0 || cfg->init_sigma_vel < 0) {
-        return VT_E_ARG;
+    vt_status s = vt_kf_model_cfg_check(cfg);
+    if (s != VT_OK) {
+        return s;
     }
     s = vt_kf_accel_var(cfg->accel_x, cfg->p_max, cfg->p_zero, &t->var_x);
     if (s != VT_OK) {

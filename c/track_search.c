@@ -59,6 +59,15 @@ static int32_t vt__scan(const int32_t *v, int32_t from, int32_t to, int32_t step
     return -1;
 }
 
+/* |a - b|, saturated to INT32_MAX: the side memory is caller-owned, so its
+ * previous positions may be anything (a - b can overflow int32). */
+static int32_t vt__absdiff_sat(int32_t a, int32_t b)
+{
+    int64_t d = (int64_t)a - b;
+    d = d < 0 ? -d : d;
+    return d > INT32_MAX ? INT32_MAX : (int32_t)d;
+}
+
 static int32_t vt__max_range(const int32_t *v, int32_t lo, int32_t hi)
 {
     int32_t i, m = 0;
@@ -66,6 +75,19 @@ static int32_t vt__max_range(const int32_t *v, int32_t lo, int32_t hi)
         m = v[i] > m ? v[i] : m;
     }
     return m;
+}
+
+vt_status vt_track_search_cfg_check(const vt_track_search_cfg *cfg)
+{
+    if (cfg == NULL ||
+        (cfg->polarity != VT_EDGE_DARK_ABOVE && cfg->polarity != VT_EDGE_DARK_BELOW) ||
+        cfg->h_thresh < 1 || cfg->v_thresh < 1 || cfg->min_h_percent < 0 ||
+        cfg->min_h_percent > 100 || cfg->min_v_percent < 0 || cfg->min_v_percent > 100 ||
+        cfg->bottom_percent < 1 || cfg->bottom_percent > 100 ||
+        (cfg->side_mode != VT_SIDES_TWO_THRESHOLD && cfg->side_mode != VT_SIDES_LARGEST)) {
+        return VT_E_ARG;
+    }
+    return VT_OK;
 }
 
 vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg,
@@ -80,11 +102,7 @@ vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg
     if (cfg == NULL || roi == NULL || ws == NULL || meas == NULL || found == NULL) {
         return VT_E_ARG;
     }
-    if ((cfg->polarity != VT_EDGE_DARK_ABOVE && cfg->polarity != VT_EDGE_DARK_BELOW) ||
-        cfg->h_thresh < 1 || cfg->v_thresh < 1 || cfg->min_h_percent < 0 ||
-        cfg->min_h_percent > 100 || cfg->min_v_percent < 0 || cfg->min_v_percent > 100 ||
-        cfg->bottom_percent < 1 || cfg->bottom_percent > 100 ||
-        (cfg->side_mode != VT_SIDES_TWO_THRESHOLD && cfg->side_mode != VT_SIDES_LARGEST)) {
+    if (vt_track_search_cfg_check(cfg) != VT_OK) {
         return VT_E_ARG;
     }
     *found = 0;
@@ -150,14 +168,14 @@ vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg
         xr = vt__scan(ws->vproj, r - 1, midx - 1, -1, 1, 2, rmax);
     }
     if (cfg->side_mode == VT_SIDES_TWO_THRESHOLD && sides != NULL && sides->have_prev) {
-        int32_t dl = vt__abs_i32(xl - sides->prev_left), dr = vt__abs_i32(xr - sides->prev_right);
+        int32_t dl = vt__absdiff_sat(xl, sides->prev_left), dr = vt__absdiff_sat(xr, sides->prev_right);
         if (dl > sides->max_change_left) {
             xl = vt__scan(ws->vproj, l, midx, 1, 1, 1, lmax);
-            dl = vt__abs_i32(xl - sides->prev_left);
+            dl = vt__absdiff_sat(xl, sides->prev_left);
         }
         if (dr > sides->max_change_right) {
             xr = vt__scan(ws->vproj, r - 1, midx - 1, -1, 1, 1, rmax);
-            dr = vt__abs_i32(xr - sides->prev_right);
+            dr = vt__absdiff_sat(xr, sides->prev_right);
         }
         sides->max_change_left = dl > sides->max_change_left ? dl : sides->max_change_left;
         sides->max_change_right = dr > sides->max_change_right ? dr : sides->max_change_right;

@@ -10,6 +10,13 @@
 /* Detections accepted per frame; more is a caller error. */
 #define VT__MAX_DETS 256
 
+/* Counters saturate at INT32_MAX instead of wrapping (signed overflow is UB,
+ * and a wrapped age or frame count would reorder the lifecycle). */
+static int32_t vt__inc_sat(int32_t v)
+{
+    return v < INT32_MAX ? v + 1 : v;
+}
+
 /* Box from the filter state: corners rounded half up; height from the aspect. */
 static void vt__box_from_state(vt_track *t)
 {
@@ -71,36 +78,23 @@ static int vt__box_ok(const vt_box *b)
            b->top >= -lim && b->bottom <= lim;
 }
 
-static vt_status vt__check_cfg(const vt_tracker_cfg *c)
+vt_status vt_tracker_cfg_check(const vt_tracker_cfg *c)
 {
-    vt_q32 var;
-    const vt_kf_model_cfg *m = &c->model;
-    if ((c->search.polarity != VT_EDGE_DARK_ABOVE && c->search.polarity != VT_EDGE_DARK_BELOW) ||
-        c->search.h_thresh < 1 || c->search.v_thresh < 1 || c->search.min_h_percent < 0 ||
-        c->search.min_h_percent > 100 || c->search.min_v_percent < 0 ||
-        c->search.min_v_percent > 100 || c->search.bottom_percent < 1 ||
-        c->search.bottom_percent > 100 ||
-        (c->search.side_mode != VT_SIDES_TWO_THRESHOLD && c->search.side_mode != VT_SIDES_LARGEST)) {
+    if (c == NULL || vt_track_search_cfg_check(&c->search) != VT_OK ||
+        vt_kf_model_cfg_check(&c->model) != VT_OK) {
         return VT_E_ARG;
     }
     if (c->roi_margin_min < 0 || c->roi_margin_min > VT_MAX_WIDTH || c->roi_margin_percent < 0 ||
         c->roi_margin_percent > 400 || c->gate_percent < 0 || c->gate_percent > 400 ||
         c->gate_bottom_percent < 0 || c->gate_bottom_percent > 400 ||
-        c->confirm_hits < 1 || c->max_coast < 0 || c->match_iou_percent < 1 ||
+        c->confirm_hits < 1 || c->confirm_hits > VT_TRACK_MAX_FRAMES_CFG || c->max_coast < 0 ||
+        c->max_coast > VT_TRACK_MAX_FRAMES_CFG || c->match_iou_percent < 1 ||
         c->match_iou_percent > 100 || c->keep_ncc < -VT_Q14_ONE || c->keep_ncc > VT_Q14_ONE ||
-        c->init_max_change < 0) {
+        c->init_max_change < 0 || c->init_max_change > VT_MAX_WIDTH) {
         return VT_E_ARG;
     }
     if ((c->measurement != VT_MEAS_ROI_SEARCH && c->measurement != VT_MEAS_EDGE_CURVES) ||
         vt_edge_cfg_check(&c->edge) != VT_OK) {
-        return VT_E_ARG;
-    }
-    if (m->dt <= 0 || m->meas_sigma_x < 0 || m->meas_sigma_y < 0 || m->init_sigma_pos < 0 ||
-        m->init_sigma_vel < 0) {
-        return VT_E_ARG;
-    }
-    if (vt_kf_accel_var(m->accel_x, m->p_max, m->p_zero, &var) != VT_OK ||
-        vt_kf_accel_var(m->accel_y, m->p_max, m->p_zero, &var) != VT_OK) {
         return VT_E_ARG;
     }
     return VT_OK;
@@ -113,6 +107,16 @@ vt_status vt_tracker_init(vt_tracker *tr)
     }
     memset(tr, 0, sizeof(*tr));
     tr->next_id = 1;
+    tr->edge_ws = NULL; /* memset need not make a null pointer */
+    return VT_OK;
+}
+
+vt_status vt_tracker_set_edge_ws(vt_tracker *tr, vt_edge_ws *ws)
+{
+    if (tr == NULL) {
+        return VT_E_ARG;
+    }
+    tr->edge_ws = ws;
     return VT_OK;
 }
 
@@ -129,7 +133,7 @@ vt_status vt_tracker_cfg_default(vt_tracker_cfg *cfg)
 /* A successful measurement: lifecycle and template. */
 static void vt__hit(vt_track *t, const vt_tracker_cfg *cfg, const vt_image_u8 *img)
 {
-    t->hits += 1;
+    t->hits = vt__inc_sat(t->hits);
     t->misses = 0;
     if (t->state == VT_TRACK_TENTATIVE && t->hits >= cfg->confirm_hits) {
         t->state = VT_TRACK_CONFIRMED;
@@ -169,8 +173,8 @@ static void vt__edge_refresh(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *
     roi.bottom = t->box.bottom + m;
     t->edges.n = 0;
     t->edges.box = t->box;
-    if (vt_edge_map(img, &cfg->edge, &roi, &tr->edge_ws) == VT_OK) {
-        (void)vt_edge_template_set(&tr->edge_ws, &t->box, &t->edges, NULL);
+    if (vt_edge_map(img, &cfg->edge, &roi, tr->edge_ws) == VT_OK) {
+        (void)vt_edge_template_set(tr->edge_ws, &t->box, &t->edges, NULL);
     }
 }
 
@@ -195,8 +199,8 @@ static void vt__edge_measure(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *
     roi.right = tb->right + cx + pad + grow;
     roi.top = tb->top + cy - pad - grow;
     roi.bottom = tb->bottom + cy + pad;
-    if (vt_edge_map(img, &cfg->edge, &roi, &tr->edge_ws) != VT_OK ||
-        vt_edge_match(&tr->edge_ws, &cfg->edge, &t->edges, cx, cy, &dx, &dy, &sc, &score,
+    if (vt_edge_map(img, &cfg->edge, &roi, tr->edge_ws) != VT_OK ||
+        vt_edge_match(tr->edge_ws, &cfg->edge, &t->edges, cx, cy, &dx, &dy, &sc, &score,
                       found) != VT_OK) {
         *found = 0;
         return;
@@ -218,8 +222,8 @@ static void vt__start(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *cfg,
                                vt_q16_from_int(d->bottom), vt_q16_from_int(d->right)) != VT_OK) {
         return; /* cannot happen: the model was validated; leave the slot free */
     }
-    t->id = tr->next_id;
-    tr->next_id = tr->next_id < INT32_MAX ? tr->next_id + 1 : tr->next_id;
+    t->id = tr->next_id; /* < INT32_MAX: the caller checked */
+    tr->next_id += 1;
     t->state = cfg->confirm_hits <= 1 ? VT_TRACK_CONFIRMED : VT_TRACK_TENTATIVE;
     t->hits = 1;
     t->aspect_q8 = (int32_t)(((int64_t)h * 256 + w / 2) / w);
@@ -264,11 +268,14 @@ vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_im
             }
         }
     }
-    s = vt__check_cfg(cfg);
+    s = vt_tracker_cfg_check(cfg);
     if (s != VT_OK) {
         return s;
     }
-    tr->frame += 1;
+    if (cfg->measurement == VT_MEAS_EDGE_CURVES && tr->edge_ws == NULL) {
+        return VT_E_ARG; /* the edge measurement needs its workspace (vt_tracker_set_edge_ws) */
+    }
+    tr->frame = vt__inc_sat(tr->frame);
 
     /* 1. Every live track: predict, search the ROI, update or coast. */
     for (i = 0; i < VT_MAX_TRACKS; ++i) {
@@ -281,7 +288,7 @@ vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_im
         if (t->state == VT_TRACK_FREE) {
             continue;
         }
-        t->age += 1;
+        t->age = vt__inc_sat(t->age);
         if (vt_kf_predict(&t->kf) != VT_OK) {
             t->state = VT_TRACK_FREE;
             continue;
@@ -317,7 +324,7 @@ vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_im
                 vt__edge_refresh(tr, t, cfg, img);
             }
         } else {
-            t->misses += 1;
+            t->misses = vt__inc_sat(t->misses);
             if (t->state == VT_TRACK_CONFIRMED) {
                 t->state = VT_TRACK_COASTING;
             }
@@ -417,8 +424,9 @@ vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_im
             }
             for (i = 0; i < VT_MAX_TRACKS && tr->tracks[i].state != VT_TRACK_FREE; ++i) {
             }
-            if (i == VT_MAX_TRACKS) {
-                tr->dropped_full += 1;
+            if (i == VT_MAX_TRACKS || tr->next_id == INT32_MAX) {
+                /* Every slot used, or every id given out: ids are never reused. */
+                tr->dropped_full = vt__inc_sat(tr->dropped_full);
                 continue;
             }
             vt__start(tr, &tr->tracks[i], cfg, img, &dets[j]);

@@ -2,11 +2,11 @@
  * primitives run on a real road frame held in flash, on a bare Cortex-M3
  * (soft-float ABI) and Cortex-M7, and every output is folded into an FNV-1a
  * checksum that tests/test_firmware.py recomputes on the host through cffi.
- * Then the vehicle pipeline over three real 640x256 frames in flash: the lane
- * stage (vt_lane_detect) on every frame, its road area feeding detection
- * (vt_detect) on the first frame, and the tracker (vt_tracker_step) over the
- * three frames, printing every road area, box and track and their checksums
- * (the host test repeats them too).
+ * Then the whole vehicle system over three real 640x256 frames in flash, through
+ * its one call: a static vt_pipeline stepped once per frame (lanes on every
+ * frame, detection on the first in the lanes' road area, the tracker on all
+ * three), printing every frame's road area, boxes and tracks and a checksum of
+ * every vt_frame_out (the host test repeats them too).
  * Equal checksums mean the same C gives the same bits on ARM and on the host.
  *
  * Every buffer is static (.bss), so the linker's size table is the RAM bill.
@@ -14,13 +14,10 @@
  * in tests/test_firmware.py; change both together. */
 #include <stddef.h>
 #include <stdint.h>
-#include "vehtrack/detect.h"
 #include "vehtrack/fixed.h"
 #include "vehtrack/image.h"
-#include "vehtrack/lane.h"
-#include "vehtrack/road.h"
+#include "vehtrack/pipeline.h"
 #include "vehtrack/status.h"
-#include "vehtrack/tracker.h"
 #include "vehtrack/trig.h"
 #include "board.h"
 #include "clip_data.h"
@@ -42,20 +39,12 @@ static int16_t g_soby[H * W];
 static uint8_t g_pyr[PH * PW];
 static uint32_t g_ii[(H + 1) * (W + 1)];
 
-/* The pipeline's state, all in .bss: configurations, the lane stage (its
- * tracker and scratch, ~86 KB, most of it the Hough accumulator), its lines and
- * road area, the detector's scratch and result, the tracker and its per-frame
- * output. */
-static vt_lane_cfg g_lane_cfg;
-static vt_lane_state g_lane;
-static vt_lane_result g_lanes;
-static vt_road_area g_road;
-static vt_detect_cfg g_detect_cfg;
-static vt_detect_state g_detect;
-static vt_detect_result g_detected;
-static vt_tracker_cfg g_tracker_cfg;
-static vt_tracker g_tracker;
-static vt_track_out g_tracks[VT_MAX_TRACKS];
+/* The whole vehicle system's state, in .bss: its configuration, the pipeline
+ * (every stage's configuration copy and state) and one frame's output. */
+static vt_pipeline_cfg g_pipe_cfg;
+static vt_camera_cfg g_cam;
+static vt_pipeline g_pipe;
+static vt_frame_out g_out;
 
 /* ---------------------------------------------------------------- FNV-1a 32 */
 #define FNV_BASIS 2166136261u
@@ -468,61 +457,115 @@ static void line_box(const vt_box *b)
     fw_line_s32(b->bottom);
 }
 
-/* The lane stage on one frame: its status and the road area (the header fields,
- * then three int16 per row) go into h, and a `road` line is printed. The road
- * is hashed even after an error (vt_lane_detect then leaves it untouched). */
-static uint32_t lane_frame(uint32_t h, int32_t f, const vt_image_u8 *img)
+static void line_sp(int32_t v)
 {
-    vt_status s;
-    int32_t i;
-    if (f == 0) {
-        start();
-    }
-    s = vt_lane_detect(&g_lane_cfg, &g_lane, img, &g_lanes, &g_road);
-    if (f == 0) {
-        stop("lane");
-    }
+    fw_line_str(" ");
+    fw_line_s32(v);
+}
+
+/* One vt_frame_out into h (the recipe tests/test_firmware.py mirrors), printing a
+ * line per road area, box and track. */
+static uint32_t hash_frame_out(uint32_t h, vt_status s, const vt_frame_out *o)
+{
+    int32_t i, f = o->frame;
+    const vt_lane_result *ln = &o->lanes;
     h = fnv_status(h, s);
-    h = fnv_s32(h, g_road.valid);
-    h = fnv_s32(h, g_road.y_top);
-    h = fnv_s32(h, g_road.y_bottom);
-    h = fnv_s32(h, g_road.height);
-    for (i = 0; i < FW_CLIP_H; ++i) {
-        h = fnv_s16(h, g_road.x_left[i]);
-        h = fnv_s16(h, g_road.x_right[i]);
-        h = fnv_s16(h, g_road.lane_width[i]);
+    h = fnv_s32(fnv_s32(h, o->frame), o->detection_frame);
+    h = fnv_s32(fnv_s32(h, o->lanes_ran), o->lane_status);
+    h = fnv_s32(fnv_s32(fnv_s32(h, ln->shift), ln->w), ln->h);
+    h = fnv_s32(fnv_s32(h, ln->vp_known), ln->vp_y);
+    for (i = 0; i < VT_LANE_SLOTS; ++i) {
+        h = fnv_s32(fnv_s32(h, ln->lines[i].state), ln->lines[i].n_verts);
+        h = fnv_s32(fnv_s32(h, ln->lines[i].xb), ln->lines[i].slope);
     }
+    h = fnv_s32(fnv_s32(h, o->road_source), o->road.valid);
     fw_line_str("road ");
     fw_line_s32(f);
-    fw_line_str(" ");
-    fw_line_s32(s);
-    fw_line_str(" ");
-    fw_line_s32(g_road.valid);
-    fw_line_str(" ");
-    fw_line_s32(g_road.y_top);
-    fw_line_str(" ");
-    fw_line_s32(g_road.y_bottom);
+    line_sp(o->lane_status);
+    line_sp(o->road.valid);
+    line_sp(o->road.y_top);
+    line_sp(o->road.y_bottom);
+    line_sp(o->road_source);
     fw_line_end();
+    if (o->road.valid) {
+        h = fnv_s32(fnv_s32(fnv_s32(h, o->road.y_top), o->road.y_bottom), o->road.height);
+        for (i = 0; i < o->road.height && i < VT_MAX_HEIGHT; ++i) {
+            h = fnv_s16(h, o->road.x_left[i]);
+            h = fnv_s16(h, o->road.x_right[i]);
+            h = fnv_s16(h, o->road.lane_width[i]);
+        }
+    }
+    h = fnv_s32(h, o->n_hyp);
+    for (i = 0; i < o->n_hyp && i < VT_MAX_HYPOTHESES; ++i) {
+        h = fnv_s32(fnv_s32(fnv_s32(h, o->hyp[i].row), o->hyp[i].x_start), o->hyp[i].x_end);
+    }
+    h = fnv_s32(h, o->n_boxes);
+    fw_line_str("boxes ");
+    fw_line_s32(f);
+    line_sp(o->n_boxes);
+    fw_line_end();
+    for (i = 0; i < o->n_boxes && i < VT_MAX_BOXES; ++i) {
+        h = fnv_box(h, &o->boxes[i].box);
+        h = fnv_s32(fnv_s32(h, o->boxes[i].source), o->boxes[i].score);
+        fw_line_str("box ");
+        fw_line_s32(f);
+        fw_line_str(" ");
+        line_box(&o->boxes[i].box);
+        line_sp(o->boxes[i].source);
+        fw_line_end();
+    }
+    h = fnv_s32(h, o->n_tracks);
+    fw_line_str("tracks ");
+    fw_line_s32(f);
+    line_sp(o->n_tracks);
+    fw_line_end();
+    for (i = 0; i < o->n_tracks && i < VT_MAX_TRACKS; ++i) {
+        const vt_pipe_track *t = &o->tracks[i];
+        h = fnv_s32(fnv_s32(h, t->id), t->state);
+        h = fnv_box(h, &t->box);
+        h = fnv_s32(fnv_s32(h, t->vx), t->vy);
+        h = fnv_s32(fnv_s32(fnv_s32(h, t->distance_mm), t->ttc_ms), t->warning);
+        fw_line_str("track ");
+        fw_line_s32(f);
+        line_sp(t->id);
+        line_sp(t->state);
+        fw_line_str(" ");
+        line_box(&t->box);
+        line_sp(t->vx);
+        line_sp(t->vy);
+        line_sp(t->distance_mm);
+        line_sp(t->ttc_ms);
+        line_sp(t->warning);
+        fw_line_end();
+    }
     return h;
 }
 
 #if FW_CLIP_N != 3
-#error "run_pipeline() names one insns line per clip frame: update g_track_insns_names"
+#error "run_pipeline() names one checksum and insns line per clip frame: update g_step_names"
 #endif
-static const char *const g_track_insns_names[FW_CLIP_N] = {"track_frame0", "track_frame1", "track_frame2"};
+static const char *const g_step_names[FW_CLIP_N] = {"step_frame0", "step_frame1", "step_frame2"};
+static const char *const g_out_names[FW_CLIP_N] = {"frame_out0", "frame_out1", "frame_out2"};
 
-/* Lanes on every frame (as a detector keeps its lane tracker fed), detection
- * on frame 0 in frame 0's lane road area, tracking over the clip. Checksums
- * (statuses folded in, as above) go to their own lines and to `checksum
- * pipeline` (folded in the order road, detect, tracker), never into `checksum
- * all`, which stays the primitives' alone. `checksum road` covers the three
- * frames' road areas, so it is printed after the tracking loop. */
+/* The whole system through its one call: a static vt_pipeline with the default
+ * configuration but lanes on every frame (as a detector keeps its lane tracker
+ * fed), and the clip's camera, so over the 3-frame clip detection runs on frame 0
+ * in the lanes' road, the tracker follows on frames 1 and 2, and every track gets
+ * its distance, TTC and warning. Each frame's vt_frame_out is hashed into
+ * its own checksum line and all of them, after the init statuses, into
+ * `checksum pipeline`; `checksum all` stays the primitives' alone. The stack
+ * high-water mark of one step is measured by painting the stack right before
+ * each step and scanning it right after (the largest of the three); it counts
+ * from the top of the stack, so main's and this function's frames (a few dozen
+ * bytes) are included: an upper bound, the reserve a step needs. */
+static uint32_t g_stack_step;
+
 static void run_pipeline(void)
 {
-    uint32_t h, hroad, hdetect, pipeline = FNV_BASIS;
+    uint32_t h, hf, used;
     vt_image_u8 img;
     vt_status s;
-    int32_t i, f, n_out;
+    int32_t f;
 
     fw_line_str("clip ");
     fw_line_u32(FW_CLIP_W);
@@ -532,87 +575,34 @@ static void run_pipeline(void)
     fw_line_u32(FW_CLIP_N);
     fw_line_end();
 
-    /* The lane stage on frame 0: its road area is the detector's. */
-    img.px = fw_clip[0];
+    h = fnv_status(FNV_BASIS, vt_pipeline_cfg_default(&g_pipe_cfg));
+    g_pipe_cfg.lanes_every_frame = 1;
+    /* The clip's camera: KITTI's (the default camera) with the principal point moved
+     * by the crop (x 300, y 118 of the 1242x375 frames); 10 frames/s is the range
+     * configuration's default frame_dt. */
+    h = fnv_status(h, vt_camera_cfg_default(&g_cam));
+    g_cam.img_w = FW_CLIP_W;
+    g_cam.img_h = FW_CLIP_H;
+    g_cam.cx -= 300 * VT_Q16_ONE;
+    g_cam.cy -= 118 * VT_Q16_ONE;
+    h = fnv_status(h, vt_pipeline_init(&g_pipe, &g_pipe_cfg, &g_cam, NULL));
     img.w = FW_CLIP_W;
     img.h = FW_CLIP_H;
     img.stride = FW_CLIP_W;
-    hroad = fnv_status(FNV_BASIS, vt_lane_cfg_default(&g_lane_cfg));
-    hroad = fnv_status(hroad, vt_lane_reset(&g_lane));
-    hroad = lane_frame(hroad, 0, &img);
-
-    /* Detection on frame 0: hypotheses (nearest first) and verified boxes. */
-    h = fnv_status(FNV_BASIS, vt_detect_cfg_default(&g_detect_cfg));
-    start();
-    s = vt_detect(&g_detect, &g_detect_cfg, &img, &g_road, &g_detected);
-    stop("detect");
-    h = fnv_status(h, s);
-    h = fnv_s32(h, g_detected.n_hyp);
-    for (i = 0; i < g_detected.n_hyp; ++i) {
-        h = fnv_s32(h, g_detected.hyp[i].row);
-        h = fnv_s32(h, g_detected.hyp[i].x_start);
-        h = fnv_s32(h, g_detected.hyp[i].x_end);
-    }
-    h = fnv_s32(h, g_detected.n_boxes);
-    fw_line_str("boxes ");
-    fw_line_s32(g_detected.n_boxes);
-    fw_line_end();
-    for (i = 0; i < g_detected.n_boxes; ++i) {
-        h = fnv_box(h, &g_detected.box[i]);
-        fw_line_str("box ");
-        line_box(&g_detected.box[i]);
-        fw_line_end();
-    }
-    print_checksum("detect", h);
-    hdetect = h;
-
-    /* Tracking: frame 0 is a detection frame with the boxes above, frames 1
-     * and 2 are tracked only (ROI search + Kalman update per track), after the
-     * lane stage has seen them. */
-    h = fnv_status(FNV_BASIS, vt_tracker_cfg_default(&g_tracker_cfg));
-    h = fnv_status(h, vt_tracker_init(&g_tracker));
+    g_stack_step = 0;
     for (f = 0; f < FW_CLIP_N; ++f) {
         img.px = fw_clip[f];
-        if (f > 0) {
-            hroad = lane_frame(hroad, f, &img);
-        }
-        n_out = 0;
+        fw_stack_paint();
         start();
-        s = vt_tracker_step(&g_tracker, &g_tracker_cfg, &img, f == 0 ? 1 : 0, g_detected.box,
-                            f == 0 ? g_detected.n_boxes : 0, g_tracks, VT_MAX_TRACKS, &n_out);
-        stop(g_track_insns_names[f]);
-        h = fnv_s32(fnv_status(h, s), n_out);
-        fw_line_str("tracks ");
-        fw_line_s32(f);
-        fw_line_str(" ");
-        fw_line_s32(n_out);
-        fw_line_end();
-        for (i = 0; i < n_out && i < VT_MAX_TRACKS; ++i) {
-            const vt_track_out *t = &g_tracks[i];
-            h = fnv_s32(fnv_s32(h, t->id), t->state);
-            h = fnv_box(h, &t->box);
-            h = fnv_s32(fnv_s32(h, t->vx), t->vy);
-            fw_line_str("track ");
-            fw_line_s32(f);
-            fw_line_str(" ");
-            fw_line_s32(t->id);
-            fw_line_str(" ");
-            fw_line_s32(t->state);
-            fw_line_str(" ");
-            line_box(&t->box);
-            fw_line_str(" ");
-            fw_line_s32(t->vx);
-            fw_line_str(" ");
-            fw_line_s32(t->vy);
-            fw_line_end();
-        }
+        s = vt_pipeline_step(&g_pipe, &img, &g_out);
+        stop(g_step_names[f]);
+        used = fw_stack_used();
+        g_stack_step = used > g_stack_step ? used : g_stack_step;
+        hf = hash_frame_out(FNV_BASIS, s, &g_out);
+        print_checksum(g_out_names[f], hf);
+        h = fnv_u32(h, hf);
     }
-    print_checksum("road", hroad);
-    print_checksum("tracker", h);
-    pipeline = fnv_u32(pipeline, hroad);
-    pipeline = fnv_u32(pipeline, hdetect);
-    pipeline = fnv_u32(pipeline, h);
-    print_checksum("pipeline", pipeline);
+    print_checksum("pipeline", h);
 }
 
 int main(void)
@@ -653,18 +643,19 @@ int main(void)
     print_size("ram sobel_y", (uint32_t)sizeof g_soby);
     print_size("ram pyr_down", (uint32_t)sizeof g_pyr);
     print_size("ram integral", (uint32_t)sizeof g_ii);
-    print_size("ram lane", (uint32_t)sizeof g_lane);
-    print_size("ram lane_result", (uint32_t)sizeof g_lanes);
-    print_size("ram road", (uint32_t)sizeof g_road);
-    print_size("ram detect", (uint32_t)sizeof g_detect);
-    print_size("ram detect_result", (uint32_t)sizeof g_detected);
-    print_size("ram tracker", (uint32_t)sizeof g_tracker);
-    print_size("ram track_out", (uint32_t)sizeof g_tracks);
-    print_size("ram configs", (uint32_t)(sizeof g_lane_cfg + sizeof g_detect_cfg + sizeof g_tracker_cfg));
+    print_size("ram pipeline", (uint32_t)sizeof g_pipe);
+    print_size("ram pipeline.lane", (uint32_t)sizeof g_pipe.lane);
+    print_size("ram pipeline.detect", (uint32_t)(sizeof g_pipe.detect + sizeof g_pipe.det));
+    print_size("ram pipeline.tracker", (uint32_t)sizeof g_pipe.tracker);
+    print_size("ram pipeline.range", (uint32_t)sizeof g_pipe.range);
+    print_size("ram pipeline.cfg", (uint32_t)sizeof g_pipe.cfg);
+    print_size("ram frame_out", (uint32_t)sizeof g_out);
+    print_size("ram pipeline_cfg", (uint32_t)sizeof g_pipe_cfg);
     print_size("sizeof vt_image_u8", (uint32_t)sizeof(vt_image_u8));
     print_size("sizeof vt_road_area", (uint32_t)sizeof(vt_road_area));
     print_size("stack reserved", fw_stack_size());
     print_size("stack pipeline", stack_pipeline);
+    print_size("stack step", g_stack_step);
     print_size("stack used", stack_primitives > stack_pipeline ? stack_primitives : stack_pipeline);
     fw_line_str("done");
     fw_line_end();

@@ -14,14 +14,15 @@ from . import image
 from . import kalman
 
 __all__ = ["VtError", "ffi", "lib", "image", "kalman", "Detector", "LaneDetector", "Tracker",
-           "KalmanFilter", "MAX_WIDTH", "MAX_HEIGHT", "__version__"]
+           "KalmanFilter", "Pipeline", "FrameResult", "MAX_WIDTH", "MAX_HEIGHT", "__version__"]
 
 __version__ = f"{lib.VT_VERSION_MAJOR}.{lib.VT_VERSION_MINOR}.{lib.VT_VERSION_PATCH}"
 MAX_WIDTH = lib.VT_MAX_WIDTH
 MAX_HEIGHT = lib.VT_MAX_HEIGHT
 
 # The friendly classes load on first use, so `import pyvehtrack` stays light.
-_LAZY = {"Detector": "detector", "LaneDetector": "lane", "Tracker": "tracker", "KalmanFilter": "kalman"}
+_LAZY = {"Detector": "detector", "LaneDetector": "lane", "Tracker": "tracker", "KalmanFilter": "kalman",
+         "Pipeline": "pipeline", "FrameResult": "pipeline"}
 
 
 def __getattr__(name):

@@ -446,6 +446,17 @@ def edge_ws_new():
     return ffi.new("vt_edge_ws *")
 
 
+def tracker_set_edge_ws(tr, ws) -> None:
+    """Attach ws (a vt_edge_ws *, or None to detach) to tr. The caller keeps ws alive
+    as long as tr may step with the edge measurement (the tracker holds a pointer)."""
+    check("vt_tracker_set_edge_ws", lib.vt_tracker_set_edge_ws(tr, ffi.NULL if ws is None else ws))
+
+
+def pipeline_set_edge_ws(p, ws) -> None:
+    """As tracker_set_edge_ws for a vt_pipeline's tracker (after vt_pipeline_init)."""
+    check("vt_pipeline_set_edge_ws", lib.vt_pipeline_set_edge_ws(p, ffi.NULL if ws is None else ws))
+
+
 def edge_template_new():
     return ffi.new("vt_edge_template *")
 
@@ -492,3 +503,147 @@ def edge_match(ws, cfg, tpl, cx: int, cy: int) -> tuple[int, int, int, int, bool
           f"cx={cx}, cy={cy}")
     return int(dx[0]), int(dy[0]), int(s[0]), int(sc[0]), bool(fd[0])
 # ================================================================ end edge_track.h
+# ================================================================ camera.h
+# Thin 1:1 wrappers (raw fixed-point ints; the friendly API is pyvehtrack.camera).
+RANGE_OUT_DTYPE = np.dtype([("id", np.int32), ("flags", np.int32), ("fcw", np.int32),
+                            ("lead_class", np.int32), ("distance", np.int32), ("sigma", np.int32),
+                            ("dist_width", np.int32), ("dist_filt", np.int32), ("rate", np.int32), ("accel", np.int32),
+                            ("ttc_dist", np.int32), ("ttc_scale", np.int32)])
+
+
+def camera_cfg_default():
+    return _defaults("vt_camera_cfg")
+
+
+def camera_cfg_check(cam) -> None:
+    check("vt_camera_cfg_check", lib.vt_camera_cfg_check(cam),
+          "a camera field is out of range (see vt_camera_cfg_check in vehtrack/camera.h)")
+
+
+def camera_row_distance(cam, tp: int, row: int) -> tuple[int, int]:
+    d, ok = ffi.new("vt_q16 *"), ffi.new("int32_t *")
+    check("vt_camera_row_distance", lib.vt_camera_row_distance(cam, tp, row, d, ok),
+          f"tan_pitch={tp}, row={row} (Q16)")
+    return int(d[0]), int(ok[0])
+
+
+def camera_box_distance(cam, tp: int, box):
+    b = ffi.new("vt_box *", [int(v) for v in box])
+    out = ffi.new("vt_distance *")
+    check("vt_camera_box_distance", lib.vt_camera_box_distance(cam, tp, b, out),
+          f"tan_pitch={tp} (Q16), box={list(box)}")
+    return out
+
+
+def pitch_new(cam):
+    st = ffi.new("vt_pitch_state *")
+    check("vt_pitch_init", lib.vt_pitch_init(cam, st), "camera config")
+    return st
+
+
+def pitch_update(cam, st, vp_valid: int, vp_row: int) -> None:
+    check("vt_pitch_update", lib.vt_pitch_update(cam, st, vp_valid, vp_row),
+          f"vp_valid={vp_valid}, vp_row={vp_row} (Q16)")
+
+
+def lane_vanishing_row(res, img_h: int) -> tuple[int, int]:
+    row, ok = ffi.new("vt_q16 *"), ffi.new("int32_t *")
+    check("vt_lane_vanishing_row", lib.vt_lane_vanishing_row(res, img_h, row, ok),
+          f"img_h={img_h}, lane result {res.w}x{res.h} shift {res.shift}")
+    return int(row[0]), int(ok[0])
+
+
+def range_cfg_default():
+    return _defaults("vt_range_cfg")
+
+
+def range_cfg_check(cfg) -> None:
+    check("vt_range_cfg_check", lib.vt_range_cfg_check(cfg),
+          "a range field is out of range (see vt_range_cfg_check in vehtrack/camera.h)")
+
+
+def fcw_step(cfg, st, ttc_valid: int, ttc: int, closing: int, lead_class: int) -> int:
+    out = ffi.new("int32_t *")
+    check("vt_fcw_step", lib.vt_fcw_step(cfg, st, ttc_valid, ttc, closing, lead_class, out),
+          f"ttc_valid={ttc_valid}, ttc={ttc} (Q16), closing={closing}, lead_class={lead_class}")
+    return int(out[0])
+
+
+def range_new():
+    st = ffi.new("vt_range_state *")
+    check("vt_range_init", lib.vt_range_init(st))
+    return st
+
+
+def range_step(st, cfg, cam, tp: int, ego_speed: int, tracks: np.ndarray) -> np.ndarray:
+    """tracks: a TRACK_OUT_DTYPE array (as tracker_step returns). Returns RANGE_OUT_DTYPE."""
+    tr = np.ascontiguousarray(tracks, dtype=TRACK_OUT_DTYPE)
+    n = len(tr)
+    ptr = ffi.cast("vt_track_out *", tr.ctypes.data) if n else ffi.NULL
+    cap = max(n, 1)
+    out = np.zeros(cap, RANGE_OUT_DTYPE)
+    n_out = ffi.new("int32_t *")
+    check("vt_range_step", lib.vt_range_step(st, cfg, cam, tp, ego_speed, ptr, n,
+                                             ffi.cast("vt_range_out *", out.ctypes.data), cap,
+                                             n_out),
+          f"{n} track(s), tan_pitch={tp}, ego_speed={ego_speed} (Q16)")
+    return out[: int(n_out[0])].copy()
+# ================================================================ end camera.h
+
+
+# ================================================================ pipeline.h
+def pipeline_cfg_default():
+    return _defaults("vt_pipeline_cfg")
+
+
+def pipeline_cfg_check(cfg) -> None:
+    check("vt_pipeline_cfg_check", lib.vt_pipeline_cfg_check(cfg),
+          "a stage configuration or policy is out of range (see vt_pipeline_cfg_check)")
+
+
+def pipeline_new(cfg):
+    """A vt_pipeline owned by Python, initialised with cfg (camera and model off)."""
+    p = ffi.new("vt_pipeline *")
+    check("vt_pipeline_init", lib.vt_pipeline_init(p, cfg, ffi.NULL, ffi.NULL),
+          "a stage configuration or policy is out of range (see vt_pipeline_cfg_check)")
+    return p
+
+
+def pipeline_step(p, img: np.ndarray, out, road=None, dets=None) -> int:
+    """vt_pipeline_step into out (a vt_frame_out *); with road (a vt_road_area *)
+    vt_pipeline_step_road, with dets (an (N, 4) box array, N may be 0)
+    vt_pipeline_step_dets. Returns the status (VT_OK, or VT_E_CAPACITY when more
+    tracks were live than out holds); raises VtError on errors."""
+    v = view(img, "img")
+    if dets is not None:
+        boxes = _boxes_i32(dets, "dets")
+        pd = ffi.cast("vt_box *", boxes.ctypes.data) if len(boxes) else ffi.NULL
+        name, s = "vt_pipeline_step_dets", lib.vt_pipeline_step_dets(p, v, pd, len(boxes), out)
+    elif road is not None:
+        name, s = "vt_pipeline_step_road", lib.vt_pipeline_step_road(p, v, road, out)
+    else:
+        name, s = "vt_pipeline_step", lib.vt_pipeline_step(p, v, out)
+    detail = f"img {img.shape}"
+    if dets is not None:
+        # The caller's boxes go to the tracker stage as they are; it is the one that
+        # refuses a bad box, so the message names it.
+        detail += (f", {len(dets)} detections (the tracker stage, vt_tracker_step, refuses a box "
+                   f"with left > right, top > bottom or coordinates beyond +-2^30)")
+    if s != lib.VT_E_CAPACITY or dets is not None:
+        check(name, s, detail)
+    return int(s)
+
+
+def pipeline_work_size(w: int, h: int, max_w: int, max_h: int) -> tuple[int, int]:
+    ww, wh = ffi.new("int32_t *"), ffi.new("int32_t *")
+    check("vt_pipeline_work_size", lib.vt_pipeline_work_size(w, h, max_w, max_h, ww, wh),
+          f"{w}x{h} into {max_w}x{max_h}")
+    return int(ww[0]), int(wh[0])
+
+
+def fixed_road_area(fr, w: int, h: int):
+    """A new vt_road_area holding the fixed trapezoid of a w x h frame."""
+    road = ffi.new("vt_road_area *")
+    check("vt_fixed_road_area", lib.vt_fixed_road_area(fr, w, h, road), f"frame {w}x{h}")
+    return road
+# ================================================================ end pipeline.h

@@ -96,11 +96,10 @@ def road_from_lanes(lr):
 
 
 def fit_size(h: int, w: int, max_h: int, max_w: int) -> tuple[int, int]:
-    """The largest (h', w') <= (max_h, max_w) with the frame's aspect ratio (each >= 1)."""
-    if h <= max_h and w <= max_w:
-        return h, w
-    s = max(h / max_h, w / max_w)
-    return max(1, min(max_h, int(h / s))), max(1, min(max_w, int(w / s)))
+    """The largest (h', w') <= (max_h, max_w) with the frame's aspect ratio (each >= 1):
+    the pipeline's one downscale rule (vt_pipeline_work_size)."""
+    ww, wh = _native.pipeline_work_size(int(w), int(h), int(max_w), int(max_h))
+    return wh, ww
 
 
 def _cfg_to_c(cfg: DetectConfig):
@@ -158,10 +157,12 @@ class Detector:
                             f"got {type(lane_detector).__name__}")
         self.road = road
         self.lane_detector = lane_detector
+        self._own_lanes = False
         if self.lane_detector is None and road in ("auto", "lanes"):
             mod = _lane_module()
             if mod is not None:
                 self.lane_detector = mod.LaneDetector(engine=engine)
+                self._own_lanes = True  # the pipeline runs the same lane stage itself
             elif road == "lanes":
                 raise RuntimeError("road='lanes': the lane stage (pyvehtrack.lane) is not available")
         self.max_h, self.max_w = int(lib.VT_MAX_HEIGHT), int(lib.VT_MAX_WIDTH)
@@ -169,6 +170,43 @@ class Detector:
         if engine == "c":
             self._state = ffi.new("vt_detect_state *")
             self._out = ffi.new("vt_detect_result *")
+        # The view onto the pipeline: detection on every call, no tracker. With its own
+        # lane stage the pipeline runs the lanes too; a given road, a road callable or
+        # a caller's lane detector supply the road from here (policy "fixed").
+        from .pipeline import Pipeline  # noqa: PLC0415
+        self._lanes_inside = self.pipeline_overrides() is not None
+        over = dict(self._stage_overrides())
+        over["road"] = self.road if self._lanes_inside else "fixed"
+        self.pipeline = Pipeline(engine, detect_every=1, track=False, **over)
+
+    def reset(self) -> None:
+        """Forget the lane tracker's lines (call between unrelated frames or videos)."""
+        self.pipeline.reset()
+        if self.lane_detector is not None and hasattr(self.lane_detector, "reset"):
+            self.lane_detector.reset()
+
+    def _stage_overrides(self) -> dict:
+        from . import config  # noqa: PLC0415
+        return {"shadow": config.ShadowConfig(**{f.name: getattr(self.cfg.shadow, f.name)
+                                                 for f in fields(ShadowConfig)}),
+                "verify": config.VerifyConfig(**{f.name: getattr(self.cfg.verify, f.name)
+                                                 for f in fields(VerifyConfig)})}
+
+    def pipeline_overrides(self):
+        """The pipeline configuration fields that make a Pipeline detect as this
+        Detector does (stage configs and road policy), or None when the road comes
+        from outside the pipeline (a given road, a callable, a caller's lane detector)."""
+        if not isinstance(self.road, str) or (self.lane_detector is not None and
+                                              not getattr(self, "_own_lanes", False)):
+            return None
+        over = self._stage_overrides()
+        over["road"] = self.road
+        return over
+
+    def fallback_road(self, h: int, w: int):
+        """The road the pipeline uses where the lanes give none (road "auto") or always
+        ("fixed"): this Detector's fixed trapezoid for an h x w processed frame."""
+        return self.fixed_road.make(h, w)
 
     # ------------------------------------------------------------------ road
     def _road_for(self, gray: np.ndarray):
@@ -198,16 +236,7 @@ class Detector:
 
     # ------------------------------------------------------------------ detect
     def _prepare(self, frame):
-        gray = to_gray(frame)
-        h, w = gray.shape
-        ph, pw = fit_size(h, w, self.max_h, self.max_w)
-        if (ph, pw) != (h, w):
-            if not self._warned:
-                warnings.warn(f"frame {w}x{h} is larger than the core's maximum "
-                              f"{self.max_w}x{self.max_h}: downscaled to {pw}x{ph}", stacklevel=3)
-                self._warned = True
-            gray = cv2.resize(gray, (pw, ph), interpolation=cv2.INTER_AREA)
-        return gray, (w / pw, h / ph)
+        return self.pipeline.prepare(frame)  # the one downscale rule (and its warning)
 
     def detect_gray(self, gray: np.ndarray, road):
         """Hypotheses (N, 3) and boxes (M, 4) in the pixels of `gray` (which must fit the
@@ -230,8 +259,24 @@ class Detector:
 
     def detect(self, frame) -> DetectionResult:
         gray, (sx, sy) = self._prepare(frame)
-        road, lanes, source = self._road_for(gray)
-        hyp, box, stats = self.detect_gray(gray, road)
+        if self._lanes_inside:
+            h, w = gray.shape
+            fallback = self.fixed_road.make(h, w) if self.road != "lanes" else None
+            res = self.pipeline.step_gray(gray, road=fallback)
+            lanes = []
+            for ln in (res.lanes.lanes if res.lanes is not None else []):
+                if len(ln.points):
+                    lanes.append((ln.side, np.asarray(ln.points, np.float64).reshape(-1, 2)))
+            source = res.road_source
+            poly = res.road
+        else:
+            from .pipeline import NO_ROAD  # noqa: PLC0415
+            road, lanes, source = self._road_for(gray)
+            res = self.pipeline.step_gray(gray, road=NO_ROAD if road is None else road)
+            poly = res.road
+        hyp = res.hypotheses
+        box = res.box_array
+        stats = dict(res.stats) if res.stats else {}
 
         def mx(x):
             return np.floor((np.asarray(x, np.float64) + 0.5) * sx).astype(np.int64)
@@ -242,7 +287,6 @@ class Detector:
         if sx != 1.0 or sy != 1.0:
             hyp = np.stack([my(hyp[:, 0]), mx(hyp[:, 1]), mx(hyp[:, 2])], 1).reshape(-1, 3)
             box = np.stack([mx(box[:, 0]), my(box[:, 1]), mx(box[:, 2]), my(box[:, 3])], 1).reshape(-1, 4)
-        poly = rshadow.road_polygon(road) if road is not None else np.zeros((0, 2), np.int64)
         poly = np.stack([mx(poly[:, 0]), my(poly[:, 1])], 1).reshape(-1, 2) if len(poly) else poly
         out_lanes = [Lane(side, np.stack([mx(p[:, 0]), my(p[:, 1])], 1).reshape(-1, 2))
                      for side, p in lanes]

@@ -105,20 +105,17 @@ class LaneDetector:
         self.max_w = int(_native.lib.VT_MAX_WIDTH)
         self.max_h = int(_native.lib.VT_MAX_HEIGHT)
         self._warned = False
-        if engine == "c":
-            self._st = _native.lane_state_new()
-            self._res = _native.ffi.new("vt_lane_result *")
-            self._road = _native.ffi.new("vt_road_area *")
-        else:
-            self._ref = _ref.LaneDetector(self.cfg, max_height=self.max_h,
-                                          max_verts=int(_native.lib.VT_LANE_MAX_VERTS))
+        # A view onto the pipeline: only its lane stage runs (every frame, no
+        # hypotheses, no tracker); the pipeline owns the downscale rule.
+        from . import config  # noqa: PLC0415
+        from .pipeline import Pipeline  # noqa: PLC0415
+        lane = config.LaneConfig(**{f.name: getattr(self.cfg, f.name) for f in fields(_ref.LaneConfig)})
+        self.pipeline = Pipeline(engine, lane=lane, road="lanes", sources=(), lanes_every_frame=True,
+                                 track=False)
 
     def reset(self) -> None:
         """Forget the tracked lines (call between unrelated frames or videos)."""
-        if self.engine == "c":
-            _native.lane_reset(self._st)
-        else:
-            self._ref.reset()
+        self.pipeline.reset()
 
     # ------------------------------------------------------------------
     def detect(self, frame: np.ndarray) -> LaneResult:
@@ -128,10 +125,8 @@ class LaneDetector:
             raise ValueError(f"frame {w0}x{h0} is too small: the lane detector needs at "
                              f"least {MIN_SIZE}x{MIN_SIZE} pixels")
         scale, note = 1.0, ""
-        if w0 > self.max_w or h0 > self.max_h:
-            scale = min(self.max_w / w0, self.max_h / h0)
-            w1, h1 = max(MIN_SIZE, int(w0 * scale)), max(MIN_SIZE, int(h0 * scale))
-            w1, h1 = min(w1, self.max_w), min(h1, self.max_h)
+        w1, h1 = self.pipeline.work_size(w0, h0)
+        if (w1, h1) != (w0, h0):
             gray = cv2.resize(gray, (w1, h1), interpolation=cv2.INTER_AREA)
             scale = w1 / w0
             note = (f"frame {w0}x{h0} is larger than the core's maximum "
@@ -140,53 +135,55 @@ class LaneDetector:
             if not self._warned:
                 warnings.warn(note, stacklevel=2)
                 self._warned = True
-        if self.engine == "c":
-            out = self._detect_c(gray)
-        else:
-            out = self._detect_ref(gray)
+        res = self.pipeline.step_gray(gray)
+        if res.lanes is None:
+            status = int(self.pipeline._out.lane_status) if self.engine == "c" else int(_native.lib.VT_E_SIZE)
+            _native.check("vt_lane_detect", status, f"img {gray.shape}")
+            raise ValueError(f"frame {w1}x{h1}: the lane stage did not run")
+        out = res.lanes
         out.engine, out.note, out.input_scale = self.engine, note, scale
         if scale != 1.0:
             _rescale(out, scale, w0, h0)
         return out
 
-    # ------------------------------------------------------------------
-    def _detect_c(self, gray: np.ndarray) -> LaneResult:
-        ffi = _native.ffi
-        _native.lane_detect(self._ccfg, self._st, gray, self._res, self._road)
-        r = self._res
-        lines = []
-        for k in range(int(_native.lib.VT_LANE_SLOTS)):
-            ln = r.lines[k]
-            if ln.state == 0:
-                continue
-            n = ln.n_verts
-            vy = [int(ln.vy[i]) for i in range(n)]
-            vx = [ln.vx[i] / 65536.0 for i in range(n)]
-            lines.append((k, int(ln.state), int(ln.votes), int(ln.theta), int(ln.rho),
-                          int(ln.y_top), vy, vx))
-        road = self._road
-        h = gray.shape[0]
-        arrs = [np.frombuffer(ffi.buffer(getattr(road, nm)), np.int16)[:h].astype(np.int32)
-                for nm in ("x_left", "x_right", "lane_width")]
-        # Copies: the next call overwrites the core's buffers.
-        raw = ffi.new("vt_lane_result *", r[0])
-        return _build(gray.shape, int(r.shift), int(r.w), int(r.h), lines,
-                      int(r.vp_y) if r.vp_known else None, bool(road.valid), int(road.y_top),
-                      int(road.y_bottom), arrs, raw)
 
-    def _detect_ref(self, gray: np.ndarray) -> LaneResult:
-        fr = self._ref.detect(gray)
-        lines = []
-        for k, ln in enumerate(fr.lines):
-            if ln is None:
-                continue
-            lines.append((k, ln.state, ln.votes, ln.theta_qdeg, ln.rho, ln.y_top,
-                          [v[0] for v in ln.verts], [v[1] for v in ln.verts]))
-        road = fr.road
-        h = gray.shape[0]
-        arrs = [np.asarray(road[nm][:h], np.int32) for nm in ("x_left", "x_right", "lane_width")]
-        return _build(gray.shape, fr.shift, fr.W, fr.H, lines, fr.vp_y if fr.vp_known else None,
-                      bool(road["valid"]), int(road["y_top"]), int(road["y_bottom"]), arrs, fr)
+def from_c(r, road, shape) -> LaneResult:
+    """The LaneResult of a C vt_lane_result * and vt_road_area * for a frame of
+    `shape` (h, w) (the pixels the core saw; no rescaling). Copies everything."""
+    ffi = _native.ffi
+    lines = []
+    for k in range(int(_native.lib.VT_LANE_SLOTS)):
+        ln = r.lines[k]
+        if ln.state == 0:
+            continue
+        n = ln.n_verts
+        vy = [int(ln.vy[i]) for i in range(n)]
+        vx = [ln.vx[i] / 65536.0 for i in range(n)]
+        lines.append((k, int(ln.state), int(ln.votes), int(ln.theta), int(ln.rho),
+                      int(ln.y_top), vy, vx))
+    h = shape[0]
+    arrs = [np.frombuffer(ffi.buffer(getattr(road, nm)), np.int16)[:h].astype(np.int32)
+            for nm in ("x_left", "x_right", "lane_width")]
+    # Copies: the next call overwrites the core's buffers.
+    raw = ffi.new("vt_lane_result *", r[0])
+    return _build(shape, int(r.shift), int(r.w), int(r.h), lines,
+                  int(r.vp_y) if r.vp_known else None, bool(road.valid), int(road.y_top),
+                  int(road.y_bottom), arrs, raw)
+
+
+def from_reference(fr, shape) -> LaneResult:
+    """The LaneResult of the oracle's LaneFrame for a frame of `shape` (h, w)."""
+    lines = []
+    for k, ln in enumerate(fr.lines):
+        if ln is None:
+            continue
+        lines.append((k, ln.state, ln.votes, ln.theta_qdeg, ln.rho, ln.y_top,
+                      [v[0] for v in ln.verts], [v[1] for v in ln.verts]))
+    road = fr.road
+    h = shape[0]
+    arrs = [np.asarray(road[nm][:h], np.int32) for nm in ("x_left", "x_right", "lane_width")]
+    return _build(shape, fr.shift, fr.W, fr.H, lines, fr.vp_y if fr.vp_known else None,
+                  bool(road["valid"]), int(road["y_top"]), int(road["y_bottom"]), arrs, fr)
 
 
 def _build(shape, s, W, H, lines, vp_y, road_valid, y_top, y_bottom, arrs, raw) -> LaneResult:

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, fields, replace
 
-import cv2
 import numpy as np
 
 from . import _check, _native
@@ -59,18 +58,23 @@ def cfg_to_c(cfg: rtrk.TrackerCfg):
     return c
 
 
+def tracker_config(cfg: rtrk.TrackerCfg):
+    """The pyvehtrack.config.TrackerConfig of a reference TrackerCfg (same fields)."""
+    from . import config  # noqa: PLC0415
+    if not isinstance(cfg, rtrk.TrackerCfg):
+        raise TypeError(f"cfg: expected a TrackerCfg, got {type(cfg).__name__}")
+    return config.TrackerConfig(
+        search=config.SearchConfig(**{f.name: getattr(cfg.search, f.name) for f in fields(cfg.search)}),
+        model=ModelConfig(**vars(cfg.model)), keep_ncc=cfg.keep_ncc,
+        edge=config.EdgeConfig(**{f.name: getattr(cfg.edge, f.name) for f in fields(cfg.edge)}),
+        **{f.name: getattr(cfg, f.name) for f in fields(cfg)
+           if f.name not in ("search", "model", "keep_ncc", "edge")})
+
+
 def _c_accepts(c) -> bool:
-    """Whether the core accepts a tracker config. The C tracker checks its config at every
-    step (there is no separate check function), so step a fresh tracker once on a blank
-    16x16 frame: nothing else in that call can fail."""
-    st = _native.ffi.new("vt_tracker *")
-    _native.lib.vt_tracker_init(st)
-    img = np.zeros((16, 16), np.uint8)
-    try:
-        _native.tracker_step(st, c, img, False)
-    except _native.VtError:
-        return False
-    return True
+    """Whether the core accepts a tracker config (vt_tracker_cfg_check, the check
+    vt_tracker_step makes before touching the tracker)."""
+    return _native.lib.vt_tracker_cfg_check(c) == _native.lib.VT_OK
 
 
 def check_cfg(cfg: rtrk.TrackerCfg):
@@ -103,12 +107,19 @@ class Tracker:
     detector: an object with .detect(gray) -> result with .boxes (N, 4), used every
     `detect_every` frames when step() is not given detections. measurement: "roi" (thesis
     ROI search) or "edges" (edge curves matched by chamfer distance, GIST paper); when given
-    it overrides cfg.measurement. Frames larger than the
-    core's compile-time maximum are downscaled by an integer factor (boxes are scaled
-    back to input pixels), never clipped."""
+    it overrides cfg.measurement (the edge measurement's workspace, 320 KB at the default
+    VT_EDGE_MAX_PIXELS, is allocated only then). Frames larger than the core's compile-time
+    maximum are downscaled by the pipeline's one rule (boxes are scaled back to input
+    pixels), never clipped.
+
+    A view onto pyvehtrack.Pipeline: with a pyvehtrack Detector of the same engine
+    (and its own lane stage) the whole frame, detection included, is one pipeline
+    step; any other detector's boxes, and boxes passed to step(), enter the pipeline
+    as the frame's detections."""
 
     def __init__(self, engine: str = "c", cfg: rtrk.TrackerCfg | None = None,
                  detect_every: int = 10, detector=None, measurement: str | None = None):
+        from .pipeline import Pipeline  # noqa: PLC0415  (pipeline imports this module's users)
         _check.choice(engine, "engine", ("c", "reference"))
         if measurement is not None:
             _check.choice(measurement, "measurement", tuple(MEASUREMENTS))
@@ -120,52 +131,38 @@ class Tracker:
         self.cfg = cfg if cfg is not None else rtrk.TrackerCfg()
         if measurement is not None and isinstance(self.cfg, rtrk.TrackerCfg):  # else check_cfg names it
             self.cfg = replace(self.cfg, measurement=MEASUREMENTS[measurement])
-        ccfg = check_cfg(self.cfg)      # both engines: errors now, naming the field
+        check_cfg(self.cfg)             # both engines: errors now, naming the field
         self.detector = detector
         self.frame_index = 0
         self.last_was_detection = False  # whether the last step() had detections
-        if engine == "c":
-            self._ccfg = ccfg
-            self._tr = _native.tracker_new()
+        over = {}
+        own = getattr(detector, "pipeline_overrides", None)
+        self._own = callable(own) and getattr(detector, "engine", None) == engine and own() is not None
+        if self._own:
+            over = dict(own())
         else:
-            lib = _native.lib
-            self._ref = rtrk.Tracker(self.cfg, max_tracks=int(lib.VT_MAX_TRACKS),
-                                     max_edge_points=int(lib.VT_EDGE_MAX_POINTS),
-                                     max_edge_pixels=int(lib.VT_EDGE_MAX_PIXELS),
-                                     coord_lim=4 * max(int(lib.VT_MAX_WIDTH), int(lib.VT_MAX_HEIGHT)))
+            over["sources"] = ()   # detections come from step() or the detector object
+        self.pipeline = Pipeline(engine, tracker=tracker_config(self.cfg), detect_every=self.detect_every,
+                                 reference_quantized=False, **over)
 
-    def _scale(self, gray: np.ndarray) -> int:
-        h, w = gray.shape
-        f = 1
-        while w // f > _native.lib.VT_MAX_WIDTH or h // f > _native.lib.VT_MAX_HEIGHT:
-            f += 1
-        return f
+    @property
+    def _tr(self):
+        """The C engine's vt_tracker inside the pipeline (for inspection)."""
+        return self.pipeline._p.tracker
 
     def step(self, frame: np.ndarray, detections=None) -> list[Track]:
         gray = to_gray(frame)
-        if gray.size == 0:
-            raise ValueError("empty frame")
-        f = self._scale(gray)
-        # at least one pixel each way: a 5000x1 frame shrinks along its long side only
-        small = cv2.resize(gray, (max(1, gray.shape[1] // f), max(1, gray.shape[0] // f)),
-                           interpolation=cv2.INTER_AREA) if f > 1 else gray
+        dets = None
+        road = None
         if detections is not None:
-            det_frame, dets = True, _native._boxes_i32(detections, "detections")
+            dets = _native._boxes_i32(detections, "detections")
         elif self.detector is not None and self.frame_index % self.detect_every == 0:
-            det_frame, dets = True, np.asarray(self.detector.detect(frame).boxes).reshape(-1, 4)
-        else:
-            det_frame, dets = False, np.zeros((0, 4), np.int32)
-        self.last_was_detection = det_frame
-        if f > 1 and len(dets):
-            dets = np.asarray(dets) // f
+            if self._own:
+                h, w = self.pipeline.work_size(gray.shape[1], gray.shape[0])[::-1]
+                road = self.detector.fallback_road(h, w)
+            else:
+                dets = np.asarray(self.detector.detect(frame).boxes).reshape(-1, 4)
         self.frame_index += 1
-        if self.engine == "c":
-            rows = _native.tracker_step(self._tr, self._ccfg, small, det_frame, dets)
-            out = [Track(int(r["id"]), STATES[int(r["state"])],
-                         tuple(int(r[k]) * f for k in ("left", "top", "right", "bottom")),
-                         (r["vx"] / 65536 * f, r["vy"] / 65536 * f)) for r in rows]
-        else:
-            rows = self._ref.step(small, det_frame, dets)
-            out = [Track(i, STATES[s], tuple(int(v) * f for v in b), (vx * f, vy * f))
-                   for i, s, b, vx, vy in rows]
-        return out
+        res = self.pipeline.step(gray, road=road, detections=dets)
+        self.last_was_detection = res.detection_frame
+        return [Track(t.id, t.state, t.box, t.velocity) for t in res.tracks]

@@ -315,6 +315,83 @@ def test_bad_arguments():
     assert tr.frame == 0
 
 
+def test_edge_workspace_is_caller_owned_and_required():
+    """The edge measurement's workspace is not inside vt_tracker (the ROI search does not pay
+    for it): the tracker holds a pointer, NULL after init; stepping with the edge measurement
+    and no workspace is VT_E_ARG with the tracker unchanged, and the pipeline refuses the
+    same before any stage runs (frame counter unchanged)."""
+    from pyvehtrack import config
+    from pyvehtrack.pipeline import Pipeline
+    kind = dict(ffi.typeof("vt_tracker").fields)["edge_ws"].type
+    assert kind.kind == "pointer" and kind.item.cname == "vt_edge_ws"
+    img = np.full((48, 64), 90, np.uint8)
+    img[20:30, 20:40] = 200
+    v = _native.view(img, "img")
+    n = ffi.new("int32_t *")
+    out = ffi.new("vt_track_out[]", int(lib.VT_MAX_TRACKS))
+    det = ffi.new("vt_box *", [18, 18, 41, 31])
+    tc = _native.tracker_cfg_default()
+    tc.measurement = lib.VT_MEAS_EDGE_CURVES
+    tr = _native.tracker_new()
+    assert tr.edge_ws == ffi.NULL
+    assert lib.vt_tracker_step(tr, tc, v, 1, det, 1, out, lib.VT_MAX_TRACKS, n) == lib.VT_E_ARG
+    assert tr.frame == 0 and tr.next_id == 1 and all(t.state == 0 for t in tr.tracks)
+    with pytest.raises(_native.VtError):
+        _native.tracker_step(tr, tc, img, True, [[18, 18, 41, 31]])
+    ws = _native.edge_ws_new()
+    assert lib.vt_tracker_set_edge_ws(ffi.NULL, ws) == lib.VT_E_ARG
+    _native.tracker_set_edge_ws(tr, ws)
+    assert tr.edge_ws == ws
+    assert lib.vt_tracker_step(tr, tc, v, 1, det, 1, out, lib.VT_MAX_TRACKS, n) == lib.VT_OK
+    assert tr.frame == 1 and n[0] == 1 and tr.tracks[0].edges.n > 0
+    _native.tracker_set_edge_ws(tr, None)                     # detached: refused again
+    assert lib.vt_tracker_step(tr, tc, v, 0, ffi.NULL, 0, out, lib.VT_MAX_TRACKS, n) == lib.VT_E_ARG
+    assert tr.frame == 1
+    tc.measurement = lib.VT_MEAS_ROI_SEARCH                   # the ROI search never needs it
+    assert lib.vt_tracker_step(tr, tc, v, 0, ffi.NULL, 0, out, lib.VT_MAX_TRACKS, n) == lib.VT_OK
+    _native.tracker_set_edge_ws(tr, ws)
+    assert lib.vt_tracker_init(tr) == lib.VT_OK and tr.edge_ws == ffi.NULL  # init detaches
+
+    # The pipeline: init accepts the configuration (the workspace comes after init), every
+    # step refuses it until a workspace is attached.
+    pc = _native.pipeline_cfg_default()
+    pc.tracker.measurement = lib.VT_MEAS_EDGE_CURVES
+    pc.sources = 0
+    p = _native.pipeline_new(pc)
+    fo = ffi.new("vt_frame_out *")
+    assert lib.vt_pipeline_step_dets(p, v, det, 1, fo) == lib.VT_E_ARG
+    assert lib.vt_pipeline_step(p, v, fo) == lib.VT_E_ARG
+    assert p.frame == 0 and p.tracker.frame == 0
+    assert lib.vt_pipeline_set_edge_ws(ffi.NULL, ws) == lib.VT_E_ARG
+    _native.pipeline_set_edge_ws(p, ws)
+    assert lib.vt_pipeline_step_dets(p, v, det, 1, fo) == lib.VT_OK and fo.n_tracks == 1
+    pc.track = 0                                              # no tracker: no workspace needed
+    q = _native.pipeline_new(pc)
+    assert lib.vt_pipeline_step(q, v, fo) == lib.VT_OK
+
+    # pyvehtrack.config carries the new tracker fields both ways.
+    tcfg = config.TrackerConfig(measurement=config.MEASUREMENTS["edges"], edge=config.EdgeConfig(low=50))
+    cc = config.to_c(config.PipelineConfig(tracker=tcfg))
+    assert cc.tracker.measurement == lib.VT_MEAS_EDGE_CURVES and cc.tracker.edge.low == 50
+    assert config.from_c(cc).tracker == tcfg
+    assert config.to_reference(config.PipelineConfig(tracker=tcfg)).tracker.edge.low == 50
+    assert config.TrackerConfig().edge == config.EdgeConfig() and \
+        [getattr(config.EdgeConfig(), f) for f in E_FIELDS] == [getattr(red.EdgeCfg(), f) for f in E_FIELDS]
+    with pytest.raises(_native.VtError):
+        config.to_c(config.PipelineConfig(tracker=config.TrackerConfig(measurement=2)))
+
+    # Python allocates the workspace only for the edge measurement.
+    assert Pipeline(sources=()).__dict__.get("_edge_ws") is None
+    assert Tracker("c")._tr.edge_ws == ffi.NULL
+    edges = Pipeline(sources=(), tracker=config.TrackerConfig(measurement=config.MEASUREMENTS["edges"]))
+    assert edges._edge_ws is not None and edges._p.tracker.edge_ws == edges._edge_ws
+    trk = Tracker("c", measurement="edges")
+    assert trk._tr.edge_ws != ffi.NULL
+    trk.pipeline.reset()                                      # a new run keeps its workspace
+    assert trk._tr.edge_ws == trk.pipeline._edge_ws
+    assert len(trk.step(img, detections=[[18, 18, 41, 31]])) == 1
+
+
 def test_python_bad_input():
     with pytest.raises(ValueError, match="measurement"):
         Tracker(measurement="optical-flow")

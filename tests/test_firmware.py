@@ -9,12 +9,14 @@ must be equal, line by line, for both cores. There is no tolerance: the
 primitives are exact integer functions, so any difference is a portability bug
 (int width, shift or division semantics, byte order) or a stale frame.
 
-Then the vehicle pipeline over three 640x256 clip frames in flash: the lane stage
-(vt_lane_detect) on every frame, vt_detect on the first frame in that frame's lane
-road area, and vt_tracker_step over the three frames. The image prints every road
-area (status, valid, rows), box and track (box and Q16 velocity) and their checksums;
-`host_pipeline()` repeats it and every line must be equal, again with no
-tolerance (the Kalman filter is fixed-point too).
+Then the whole vehicle system over three 640x256 clip frames in flash through its
+one call, vt_pipeline_step on a static vt_pipeline (lanes on every frame, detection
+on the first in the lanes' road area, the tracker on all three, the camera stage's
+distance, TTC and warning per track). The image prints
+every frame's road area (lane status, valid, rows, source), boxes and tracks (box
+and Q16 velocity) and a checksum of every vt_frame_out; `host_pipeline()` repeats
+it and every line must be equal, again with no tolerance (the Kalman filter is
+fixed-point too).
 
 The ARM toolchain and QEMU are required, not optional: CI installs them with
 `make setup`, and a skipped proof would prove nothing, so a missing tool FAILS.
@@ -268,71 +270,63 @@ def _fnv_box(h: int, b) -> int:
 
 
 def host_pipeline(frames: list[np.ndarray]) -> tuple[list[str], list[tuple[str, int]]]:
-    """main.c's run_pipeline(): the printed lines (clip/road/boxes/box/tracks/track)
-    and the checksums in the order printed, detect, road (over the three frames'
-    lane road areas), tracker, then pipeline (over road, detect, tracker)."""
+    """main.c's run_pipeline(): the printed lines (clip, then per frame road/boxes/box/
+    tracks/track) and the checksums in the order printed, one per vt_frame_out
+    (frame_out0..2), then pipeline (the init statuses and the three)."""
     h_, w_ = frames[0].shape
     lines = [f"clip {w_}x{h_}x{len(frames)}"]
     sums: list[tuple[str, int]] = []
-
-    # The lane stage, fresh (main.c's static state, reset), its road area in a struct
-    # that lives across frames as main.c's .bss one does (an error leaves it as it was).
-    lcfg, lst = ffi.new("vt_lane_cfg *"), _native.lane_state_new()
-    lres, road = ffi.new("vt_lane_result *"), ffi.new("vt_road_area *")
-    hroad = fnv_s32(FNV_BASIS, lib.vt_lane_cfg_default(lcfg))
-    hroad = fnv_s32(hroad, lib.vt_lane_reset(lst))
-
-    def lane_frame(h: int, f: int) -> int:
-        s = lib.vt_lane_detect(lcfg, lst, view(frames[f], "frame"), lres, road)
-        h = fnv_s32(h, s)
-        for v in (road.valid, road.y_top, road.y_bottom, road.height):
-            h = fnv_s32(h, v)
-        for i in range(h_):
-            h = fnv_s16(fnv_s16(fnv_s16(h, road.x_left[i]), road.x_right[i]), road.lane_width[i])
-        lines.append(f"road {f} {s} {road.valid} {road.y_top} {road.y_bottom}")
-        return h
-
-    hroad = lane_frame(hroad, 0)
-
-    cfg = ffi.new("vt_detect_cfg *")
-    h = fnv_s32(FNV_BASIS, lib.vt_detect_cfg_default(cfg))
-    st, res = ffi.new("vt_detect_state *"), ffi.new("vt_detect_result *")
-    h = fnv_s32(h, lib.vt_detect(st, cfg, view(frames[0], "frame0"), road, res))
-    h = fnv_s32(h, res.n_hyp)
-    for i in range(res.n_hyp):
-        hy = res.hyp[i]
-        h = fnv_s32(fnv_s32(fnv_s32(h, hy.row), hy.x_start), hy.x_end)
-    h = fnv_s32(h, res.n_boxes)
-    lines.append(f"boxes {res.n_boxes}")
-    for i in range(res.n_boxes):
-        h = _fnv_box(h, res.box[i])
-        lines.append(f"box {_box_line(res.box[i])}")
-    sums.append(("detect", h))
-    hdetect = h
-
-    tcfg, tr = ffi.new("vt_tracker_cfg *"), ffi.new("vt_tracker *")
-    h = fnv_s32(FNV_BASIS, lib.vt_tracker_cfg_default(tcfg))
-    h = fnv_s32(h, lib.vt_tracker_init(tr))
-    cap = int(lib.VT_MAX_TRACKS)
-    out, n_out = ffi.new("vt_track_out[]", cap), ffi.new("int32_t *")
+    cfg = ffi.new("vt_pipeline_cfg *")
+    total = fnv_s32(FNV_BASIS, lib.vt_pipeline_cfg_default(cfg))
+    cfg.lanes_every_frame = 1
+    cam = ffi.new("vt_camera_cfg *")  # the clip's camera, as main.c builds it
+    total = fnv_s32(total, lib.vt_camera_cfg_default(cam))
+    cam.img_w, cam.img_h = w_, h_
+    cam.cx -= 300 * 65536
+    cam.cy -= 118 * 65536
+    p = ffi.new("vt_pipeline *")  # zeroed, as main.c's .bss one
+    total = fnv_s32(total, lib.vt_pipeline_init(p, cfg, cam, ffi.NULL))
+    o = ffi.new("vt_frame_out *")
     for f, frame in enumerate(frames):
-        if f > 0:
-            hroad = lane_frame(hroad, f)
-        n_out[0] = 0
-        s = lib.vt_tracker_step(tr, tcfg, view(frame, "frame"), 1 if f == 0 else 0, res.box,
-                                res.n_boxes if f == 0 else 0, out, cap, n_out)
-        h = fnv_s32(fnv_s32(h, s), n_out[0])
-        lines.append(f"tracks {f} {n_out[0]}")
-        for t in out[0:min(n_out[0], cap)]:
+        s = lib.vt_pipeline_step(p, view(frame, "frame"), o)
+        h = fnv_s32(FNV_BASIS, s)
+        ln = o.lanes
+        for v in (o.frame, o.detection_frame, o.lanes_ran, o.lane_status, ln.shift, ln.w, ln.h,
+                  ln.vp_known, ln.vp_y):
+            h = fnv_s32(h, v)
+        for k in range(int(lib.VT_LANE_SLOTS)):
+            li = ln.lines[k]
+            for v in (li.state, li.n_verts, li.xb, li.slope):
+                h = fnv_s32(h, v)
+        r = o.road
+        h = fnv_s32(fnv_s32(h, o.road_source), r.valid)
+        lines.append(f"road {f} {o.lane_status} {r.valid} {r.y_top} {r.y_bottom} {o.road_source}")
+        if r.valid:
+            for v in (r.y_top, r.y_bottom, r.height):
+                h = fnv_s32(h, v)
+            for i in range(min(r.height, int(lib.VT_MAX_HEIGHT))):
+                h = fnv_s16(fnv_s16(fnv_s16(h, r.x_left[i]), r.x_right[i]), r.lane_width[i])
+        h = fnv_s32(h, o.n_hyp)
+        for i in range(o.n_hyp):
+            hy = o.hyp[i]
+            h = fnv_s32(fnv_s32(fnv_s32(h, hy.row), hy.x_start), hy.x_end)
+        h = fnv_s32(h, o.n_boxes)
+        lines.append(f"boxes {f} {o.n_boxes}")
+        for i in range(o.n_boxes):
+            b = o.boxes[i]
+            h = fnv_s32(fnv_s32(_fnv_box(h, b.box), b.source), b.score)
+            lines.append(f"box {f} {_box_line(b.box)} {b.source}")
+        h = fnv_s32(h, o.n_tracks)
+        lines.append(f"tracks {f} {o.n_tracks}")
+        for i in range(o.n_tracks):
+            t = o.tracks[i]
             h = _fnv_box(fnv_s32(fnv_s32(h, t.id), t.state), t.box)
-            h = fnv_s32(fnv_s32(h, t.vx), t.vy)
-            lines.append(f"track {f} {t.id} {t.state} {_box_line(t.box)} {t.vx} {t.vy}")
-    sums.append(("road", hroad))
-    sums.append(("tracker", h))
-
-    total = FNV_BASIS
-    for v in (hroad, hdetect, h):
-        total = fnv_u32(total, v)
+            for v in (t.vx, t.vy, t.distance_mm, t.ttc_ms, t.warning):
+                h = fnv_s32(h, v)
+            lines.append(f"track {f} {t.id} {t.state} {_box_line(t.box)} {t.vx} {t.vy} "
+                         f"{t.distance_mm} {t.ttc_ms} {t.warning}")
+        sums.append((f"frame_out{f}", h))
+        total = fnv_u32(total, h)
     sums.append(("pipeline", total))
     return lines, sums
 
@@ -430,7 +424,7 @@ def test_pipeline_exercises_detection_and_tracking(pipeline):
     least one box on frame 0, and a track exists in every frame, so the tracked
     frames run the ROI search and the Kalman filter."""
     lines = pipeline[0]
-    assert int(next(ln for ln in lines if ln.startswith("boxes ")).split()[1]) >= 1, lines
+    assert int(next(ln for ln in lines if ln.startswith("boxes 0 ")).split()[2]) >= 1, lines
     for f in range(len(CLIP)):
         assert any(ln.startswith(f"track {f} ") for ln in lines), (f, lines)
 
@@ -444,8 +438,15 @@ def test_pipeline_detects_in_the_lane_road(pipeline):
     for f in range(len(CLIP)):
         road = next(ln for ln in lines if ln.startswith(f"road {f} ")).split()
         assert road[2:4] == [str(int(lib.VT_OK)), "1"], (f, road)
+        assert road[6] == str(int(lib.VT_ROAD_SRC_LANES)), (f, road)
     last = [ln.split() for ln in lines if ln.startswith(f"track {len(CLIP) - 1} ")]
     assert any(int(t[3]) == int(lib.VT_TRACK_CONFIRMED) for t in last), lines
+    # The camera stage ran: every track has a filtered distance (mm), plausible for the
+    # lead car about 8-10 m ahead (lidar 7.8-8.0 m; the flat-road distance has no rear offset).
+    for ln in lines:
+        if ln.startswith("track "):
+            d = int(ln.split()[10])
+            assert d != int(lib.VT_UNKNOWN) and 5000 < d < 15000, ln
 
 
 def test_host_recipe_sees_error_statuses():

@@ -43,6 +43,10 @@ typedef struct {
 /* Fill *cfg with VT_DETECT_CFG_DEFAULT. */
 vt_status vt_detect_cfg_default(vt_detect_cfg *cfg);
 
+/* VT_OK if both stages' configurations pass vt_shadow_cfg_check and
+ * vt_verify_cfg_check; their status otherwise, VT_E_ARG for NULL. */
+vt_status vt_detect_cfg_check(const vt_detect_cfg *cfg);
+
 /* Shadow hypotheses (at most VT_MAX_HYPOTHESES) in `road`, verified into boxes
  * (at most VT_MAX_BOXES). Errors as vt_shadow_find and vt_verify; on any error
  * out->n_hyp and out->n_boxes are 0 (if out is not NULL). */

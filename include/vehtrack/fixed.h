@@ -30,14 +30,16 @@ typedef int16_t vt_q14;
 #define VT_Q14_ONE 16384
 #define VT_Q14_SHIFT 14
 
-/* floor(x / 2^n) for 0 <= n <= 62, without relying on >> of negatives. */
+/* floor(x / 2^n) for every int64 x and 0 <= n <= 63, without relying on >> of
+ * negatives. For x < 0 it uses floor(x / d) = -1 - floor((-1 - x) / d): -1 - x
+ * is in [0, INT64_MAX] for every negative x, INT64_MIN included, so nothing is
+ * ever negated out of range (a saturated covariance reaches INT64_MIN). */
 static inline int64_t vt__floor_shr64(int64_t x, int n)
 {
     if (x >= 0) {
         return x >> n;
     }
-    /* -x cannot overflow for the products used here (|x| <= 2^62). */
-    return -(int64_t)(((uint64_t)(-x) + (((uint64_t)1 << n) - 1u)) >> n);
+    return -1 - ((-1 - x) >> n);
 }
 
 /* Saturate an int32 to int16. */

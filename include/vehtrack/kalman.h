@@ -95,9 +95,12 @@ vt_status vt_kf_predict(vt_kf *kf);
  *   y = z - H x; S = H P H^T + R; K = P H^T S^-1; x = x + K y;
  *   P = (I-KH) P (I-KH)^T + K R K^T, symmetrised.
  * VT_E_ARG for NULL, VT_E_SIZE for bad dims, VT_E_SINGULAR when S has no
- * inverse (a zero pivot) or the gain would leave the Q31.32 range (|K| >= 2^31,
- * i.e. S singular to working precision). On any error x, P and K are
- * unchanged; after VT_E_SINGULAR, y and S hold this measurement's values. */
+ * inverse (a zero pivot), the gain would leave the Q31.32 range (|K| >= 2^31,
+ * i.e. S singular to working precision), or a diagonal entry of P is
+ * saturated (INT64_MAX, e.g. after a long coast: such a P carries no usable
+ * information, and a gain from it would leave P indefinite; then nothing is
+ * changed). On any error x, P and K are unchanged; after the other
+ * VT_E_SINGULAR cases, y and S hold this measurement's values. */
 vt_status vt_kf_update(vt_kf *kf, const vt_q16 *z);
 
 /* Variance of the thesis's acceleration model (sec. 3.5.1, eq. 3.24): the
@@ -140,6 +143,27 @@ typedef struct {
         5 * VT_Q16_ONE             /* init_sigma_vel = 5 px/frame */             \
     }
 
+/* The domain of a vt_kf_model_cfg (all Q15.16). Why these bounds: with them
+ * no initial P, Q or R entry saturates Q31.32 (sigma^2 <= 2^20 px^2, var dt^4 / 4
+ * <= 2^12 * 2^12 / 4), a measurement is never trusted beyond the pixel grid's
+ * quantisation (sigma >= 1/4 px: R = 0 with a sub-frame dt drives the Joseph
+ * form into cancellations of 2^16-fold gains), and dt stays between a
+ * sixteenth of a frame and 8 frames (the papers use 1). */
+#define VT_KF_DT_MIN (VT_Q16_ONE / 16)
+#define VT_KF_DT_MAX (8 * VT_Q16_ONE)
+#define VT_KF_ACCEL_MAX (64 * VT_Q16_ONE)
+#define VT_KF_MEAS_SIGMA_MIN (VT_Q16_ONE / 4)
+#define VT_KF_MEAS_SIGMA_MAX (1024 * VT_Q16_ONE)
+#define VT_KF_POS_SIGMA_MAX (1024 * VT_Q16_ONE)
+#define VT_KF_VEL_SIGMA_MAX (256 * VT_Q16_ONE)
+
+/* VT_OK if every field of *cfg is inside its domain: VT_KF_DT_MIN <= dt <=
+ * VT_KF_DT_MAX, 0 <= accel_x, accel_y <= VT_KF_ACCEL_MAX, P1, P2 as
+ * vt_kf_accel_var, VT_KF_MEAS_SIGMA_MIN <= meas_sigma_* <= VT_KF_MEAS_SIGMA_MAX,
+ * 0 <= init_sigma_pos <= VT_KF_POS_SIGMA_MAX, 0 <= init_sigma_vel <=
+ * VT_KF_VEL_SIGMA_MAX; VT_E_ARG otherwise (and for NULL). */
+vt_status vt_kf_model_cfg_check(const vt_kf_model_cfg *cfg);
+
 /* Fill *cfg with VT_KF_MODEL_CFG_DEFAULT (so bindings need not copy it).
  * VT_E_ARG for NULL. */
 vt_status vt_kf_model_cfg_default(vt_kf_model_cfg *cfg);
@@ -173,5 +197,11 @@ vt_status vt_kf_init_bottom_edge(vt_kf *kf, const vt_kf_model_cfg *cfg, vt_q16 x
  * P = diag(p^2, p^2, v^2, v^2), x = [x, y, 0, 0].
  * VT_E_ARG for NULL or a cfg outside its domain (then *kf is not touched). */
 vt_status vt_kf_init_cv(vt_kf *kf, const vt_kf_model_cfg *cfg, vt_q16 x, vt_q16 y);
+
+/* A measurement with its own noise (IVVI paper eq. 6: the error of a distance grows with
+ * it, so each measurement brings its R): kf->R = r (dim_z x dim_z, row-major, Q31.32),
+ * then vt_kf_update(kf, z). r must be symmetric with a non-negative diagonal, else
+ * VT_E_ARG. On any error *kf is unchanged (R included). (c/kalman_r.c) */
+vt_status vt_kf_update_r(vt_kf *kf, const vt_q16 *z, const vt_q32 *r);
 
 #endif /* VEHTRACK_KALMAN_H */

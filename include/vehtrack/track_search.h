@@ -83,6 +83,11 @@ typedef struct {
  * *found is 1 and *meas the box (its top copied from roi) when all three edges
  * were found, else 0 (and *meas untouched). Exact integer arithmetic throughout.
  * `sides` may be NULL (no history: first threshold only). */
+/* VT_OK if every field of *cfg is in its domain (polarity and side_mode one of
+ * their constants, thresholds >= 1, percentages 0..100, bottom_percent 1..100);
+ * VT_E_ARG otherwise and for NULL. vt_track_search checks the same. */
+vt_status vt_track_search_cfg_check(const vt_track_search_cfg *cfg);
+
 vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg,
                           const vt_box *roi, vt_track_sides *sides,
                           vt_track_search_ws *ws, vt_box *meas, int32_t *found);

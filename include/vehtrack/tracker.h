@@ -4,14 +4,17 @@
  * new tracks, and normalised correlation decides whether a track the detector no
  * longer sees is still there before it is dropped.
  *
- * Cost: sizeof(vt_tracker) = VT_MAX_TRACKS * sizeof(vt_track) (2,688 bytes each
- * on x86-64: the 2,360-byte fixed-point Kalman filter and a VT_TRACK_TEMPLATE^2-byte
- * template) plus the projection workspace (4 * (VT_MAX_WIDTH + VT_MAX_HEIGHT)
- * bytes): 55,024 bytes at the defaults. The edge-curve measurement adds
- * vt_edge_template per track (1,044 bytes; vt_track is 3,736) and one vt_edge_ws
- * (327,704 bytes at VT_EDGE_MAX_PIXELS = 65536), whichever measurement is
- * configured: 399,496 bytes in all at the defaults (build with a smaller
- * VT_EDGE_MAX_PIXELS where RAM is short and the edges are not used). Work per frame and track: one predict +
+ * Cost: sizeof(vt_tracker) = VT_MAX_TRACKS * sizeof(vt_track) plus the
+ * projection workspace (4 * (VT_MAX_WIDTH + VT_MAX_HEIGHT) bytes) and one
+ * pointer: 71,800 bytes at the defaults on x86-64. vt_track is 3,736 bytes: the
+ * 2,360-byte fixed-point Kalman filter, a VT_TRACK_TEMPLATE^2-byte template and
+ * the edge-curve template (vt_edge_template, 4 * VT_EDGE_MAX_POINTS + 20 = 1,044
+ * bytes, kept in every track whichever measurement is configured: it is the
+ * track's own state, small, and keeps a track copyable). The edge measurement's
+ * crop workspace (vt_edge_ws, 327,704 bytes at VT_EDGE_MAX_PIXELS = 65536) is
+ * NOT in vt_tracker: the caller owns it and attaches it with
+ * vt_tracker_set_edge_ws only when it uses VT_MEAS_EDGE_CURVES, so the ROI
+ * search pays nothing for it. Work per frame and track: one predict +
  * update (about 1 100 multiplies) and two Sobel responses per ROI pixel (2.3
  * instructions per frame pixel for two tracks at 640x480, `make bench`); nothing
  * outside the ROIs is touched except on detection frames (the template check,
@@ -75,7 +78,7 @@ typedef struct {
 /* One track. Public so that callers can inspect and save it; change it only
  * through the functions below. */
 typedef struct {
-    int32_t id;           /* > 0, never reused within a run */
+    int32_t id;           /* 1..INT32_MAX-1, never reused within a run */
     int32_t state;        /* vt_track_state */
     int32_t hits;         /* successful measurements so far */
     int32_t misses;       /* consecutive frames without a measurement */
@@ -91,12 +94,14 @@ typedef struct {
 } vt_track;
 
 typedef struct {
-    int32_t next_id;
-    int32_t frame;          /* frames stepped so far */
-    int32_t dropped_full;   /* detections not started because every slot was used */
+    int32_t next_id;        /* INT32_MAX: every id given out, no track starts */
+    int32_t frame;          /* frames stepped so far (saturates at INT32_MAX) */
+    int32_t dropped_full;   /* detections not started because every slot (or every
+                               id) was used; saturates, as hits, misses and age */
     vt_track tracks[VT_MAX_TRACKS];
     vt_track_search_ws ws;
-    vt_edge_ws edge_ws;     /* VT_MEAS_EDGE_CURVES's crop workspace */
+    vt_edge_ws *edge_ws;    /* VT_MEAS_EDGE_CURVES's crop workspace, caller-owned;
+                               NULL (vt_tracker_init) until vt_tracker_set_edge_ws */
 } vt_tracker;
 
 /* What the tracker reports per track and frame. */
@@ -108,11 +113,32 @@ typedef struct {
     vt_q16 vy;
 } vt_track_out;
 
+/* Largest confirm_hits and max_coast, frames (a minute at 30 fps): a longer
+ * coast only lets the covariance saturate. */
+#define VT_TRACK_MAX_FRAMES_CFG 1800
+
+/* VT_OK if every field of *cfg is in its domain: search as
+ * vt_track_search_cfg_check, model as vt_kf_model_cfg_check, 0 <= roi_margin_min
+ * <= VT_MAX_WIDTH, roi_margin_percent, gate_percent, gate_bottom_percent in
+ * 0..400, 1 <= confirm_hits <= VT_TRACK_MAX_FRAMES_CFG, 0 <= max_coast <=
+ * VT_TRACK_MAX_FRAMES_CFG, match_iou_percent in 1..100, keep_ncc in [-1, 1]
+ * (Q14), 0 <= init_max_change <= VT_MAX_WIDTH. VT_E_ARG otherwise and for NULL.
+ * vt_tracker_step checks the same before touching the tracker. */
+vt_status vt_tracker_cfg_check(const vt_tracker_cfg *cfg);
+
 /* Empty the tracker (ids restart at 1). VT_E_ARG for NULL. */
 vt_status vt_tracker_init(vt_tracker *tr);
 
 /* Fill *cfg with VT_TRACKER_CFG_DEFAULT. VT_E_ARG for NULL. */
 vt_status vt_tracker_cfg_default(vt_tracker_cfg *cfg);
+
+/* Attach the caller's workspace for VT_MEAS_EDGE_CURVES (ws NULL detaches it).
+ * Call after vt_tracker_init, which detaches it. The tracker keeps the pointer:
+ * *ws must outlive its use and is overwritten by every vt_tracker_step with the
+ * edge measurement. It holds nothing from one step to the next (scratch only), so
+ * trackers stepped one after another may share one workspace, never trackers
+ * stepped concurrently. The ROI search never touches it. VT_E_ARG for tr NULL. */
+vt_status vt_tracker_set_edge_ws(vt_tracker *tr, vt_edge_ws *ws);
 
 /* One frame. Every live track: predict, search its ROI in `img`, update when
  * found (else it coasts). If `detection_frame` is non-zero, `dets[0..n_dets-1]`
@@ -122,10 +148,13 @@ vt_status vt_tracker_cfg_default(vt_tracker_cfg *cfg);
  * second measurement (counted as its hit when the search failed); a track no detection matched survives only if its template
  * correlates with the same box in `img` at >= keep_ncc; an unmatched detection
  * that overlaps no track starts a tentative track (or, when every slot is used,
- * is counted in dropped_full: the defined behaviour when full).
+ * is counted in dropped_full: the defined behaviour when full; likewise once
+ * every id 1..INT32_MAX-1 was given out, so an id is never reused).
  * Writes up to out_cap live tracks to out (all states but FREE) and their count
  * to *n_out; VT_E_CAPACITY if more were live than out_cap (out is still filled).
- * VT_E_ARG / VT_E_SIZE for bad arguments (then the tracker is unchanged). */
+ * VT_E_ARG / VT_E_SIZE for bad arguments (then the tracker is unchanged),
+ * including VT_E_ARG when cfg->measurement is VT_MEAS_EDGE_CURVES and no
+ * workspace is attached (vt_tracker_set_edge_ws). */
 vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_image_u8 *img,
                           int32_t detection_frame, const vt_box *dets, int32_t n_dets,
                           vt_track_out *out, int32_t out_cap, int32_t *n_out);

@@ -18,6 +18,8 @@
 #include "vehtrack/track_search.h"
 #include "vehtrack/edge_track.h"
 #include "vehtrack/tracker.h"
+#include "vehtrack/camera.h"
+#include "vehtrack/pipeline.h"
 
 #define VT_VERSION_MAJOR 0
 #define VT_VERSION_MINOR 1

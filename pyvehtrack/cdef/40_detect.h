@@ -74,5 +74,6 @@ typedef struct {
 } vt_detect_result;
 
 vt_status vt_detect_cfg_default(vt_detect_cfg *cfg);
+vt_status vt_detect_cfg_check(const vt_detect_cfg *cfg);
 vt_status vt_detect(vt_detect_state *st, const vt_detect_cfg *cfg, const vt_image_u8 *img,
                     const vt_road_area *road, vt_detect_result *out);

@@ -15,6 +15,7 @@ typedef struct {
 } vt_track_search_cfg;
 #define VT_SIDES_TWO_THRESHOLD ...
 #define VT_SIDES_LARGEST ...
+#define VT_TRACK_MAX_FRAMES_CFG ...
 typedef struct { ...; } vt_track_search_ws;
 typedef struct {
     int32_t have_prev;
@@ -24,6 +25,7 @@ typedef struct {
     int32_t max_change_right;
 } vt_track_sides;
 
+vt_status vt_track_search_cfg_check(const vt_track_search_cfg *cfg);
 vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg,
                           const vt_box *roi, vt_track_sides *sides,
                           vt_track_search_ws *ws, vt_box *meas, int32_t *found);
@@ -69,6 +71,7 @@ typedef struct {
     int32_t frame;
     int32_t dropped_full;
     vt_track tracks[...];
+    vt_edge_ws *edge_ws;
     ...;
 } vt_tracker;
 
@@ -82,6 +85,8 @@ typedef struct {
 
 vt_status vt_tracker_init(vt_tracker *tr);
 vt_status vt_tracker_cfg_default(vt_tracker_cfg *cfg);
+vt_status vt_tracker_cfg_check(const vt_tracker_cfg *cfg);
+vt_status vt_tracker_set_edge_ws(vt_tracker *tr, vt_edge_ws *ws);
 vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_image_u8 *img,
                           int32_t detection_frame, const vt_box *dets, int32_t n_dets,
                           vt_track_out *out, int32_t out_cap, int32_t *n_out);

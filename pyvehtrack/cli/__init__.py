@@ -41,6 +41,7 @@ SUBCOMMANDS: dict[str, str] = {
     "detect": "pyvehtrack.cli.detect",
     "track": "pyvehtrack.cli.track",
     "eval": "pyvehtrack.cli.eval",
+    "calibrate": "pyvehtrack.cli.calibrate",
 }
 
 EXAMPLES = """examples:

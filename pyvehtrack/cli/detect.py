@@ -6,6 +6,9 @@
 At least one of --out and --json. The JSON is a list with one entry per frame:
 {"frame": input-order index, "file": its file, "lanes": [{"side": "left"|"right", "points":
 [[x, y], ...]}], "boxes": [[left, top, right, bottom], ...]} in input pixels (inclusive boxes).
+With --camera CAMERA.json each entry also has "distance_m": one flat-road distance per box
+(eq. 1 of the IVVI paper at the box's bottom row, pitch from the lanes' vanishing point;
+null when the bottom row is at or above the horizon or on the frame's last row).
 """
 from __future__ import annotations
 
@@ -76,6 +79,8 @@ def register(sub) -> None:
                    help="road area from the lanes (auto: fall back to a fixed trapezoid)")
     p.add_argument("--skip-bad-frames", action="store_true",
                    help="skip (and count) frames that cannot be decoded instead of stopping with exit 2")
+    p.add_argument("--camera", metavar="CAMERA.json",
+                   help="camera file (needs height_m): a distance per box in the JSON")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
@@ -98,6 +103,16 @@ def run(args) -> int:
     sources = frame_sources(args.inputs)
     total = count_frames(sources)
     multi = total is None or total > 1
+    cam = ranger = lanes = None
+    if args.camera:
+        from ..camera import Camera, CameraFileError, RangeEstimator, lane_vanishing_row
+        from ..lane import LaneDetector
+        try:
+            cam = Camera.load(args.camera)
+        except CameraFileError as e:
+            raise CliError(f"--camera: {e}") from None
+        if cam.height_m is None:
+            raise CliError(f"--camera {args.camera}: 'height_m' (camera height above the road) is missing")
     try:
         det = Detector(engine=args.engine, road=args.road)
     except (RuntimeError, ValueError, TypeError) as e:
@@ -120,9 +135,19 @@ def run(args) -> int:
                 for i, file, frame in reader:
                     try:
                         res = det.detect(frame)
+                        entry = detection_json(i, file, res)
+                        if cam is not None:
+                            h, w = frame.shape[:2]
+                            if ranger is None or ranger.size != (w, h):
+                                # a picture of another size: the camera file says whether it fits
+                                ranger = RangeEstimator(cam, (w, h), 10.0, engine=args.engine)
+                                lanes = LaneDetector(engine=args.engine)
+                            ranger.update_pitch(lane_vanishing_row(lanes.detect(frame)))
+                            dists = [ranger.box_distance(cam.undistort_box(b)) for b in res.boxes]
+                            entry["distance_m"] = [round(d.distance, 3) if d.valid else None for d in dists]
                     except (VtError, ValueError, TypeError) as e:
                         raise CliError(f"{file}: {e}") from None
-                    entries.append(detection_json(i, file, res))
+                    entries.append(entry)
                     if kind == "image":
                         path = out if not multi else out.with_name(f"{out.stem}_{i:05d}{out.suffix}")
                         tmp = single_tmp if not multi else outs.reserve("--out", path)

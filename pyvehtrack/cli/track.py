@@ -2,12 +2,21 @@
 
     pyvehtrack track INPUT... --out annotated.mp4 [--tracks tracks.txt] [--engine c|reference]
                      [--detect-every N] [--road auto|lanes|fixed] [--all-states]
+                     [--camera CAMERA.json [--fps F] [--ego-speed V]] [--json TRACKS.json]
                      [--skip-bad-frames] [--no-progress]
 
 tracks.txt is the KITTI tracking label format, one line per track and frame:
 `frame id Car -1 -1 -10 left top right bottom -1 -1 -1 -1000 -1000 -1000 -10 score`,
 so TrackEval and other tools read it as is. Frame numbers follow the input order
-(a folder's files in sorted name order; a skipped bad frame keeps its number)."""
+(a folder's files in sorted name order; a skipped bad frame keeps its number). With
+--camera, the location fields (x y z, camera coordinates, m) hold the lateral offset, the
+camera height and the filtered distance of the track's bottom centre.
+
+TRACKS.json (--json) is a list of per-frame records
+`{"frame": n, "tracks": [{"id", "box": [l, t, r, b], "state", "velocity_px": [vx, vy],
+"distance_m", "ttc_s", "warning": bool, "source": "shadow"|"classifier"|"flow"|"model"}]}`
+with null where a value is unknown (no --camera: distance_m, ttc_s null and warning false).
+distance_m is the filtered distance, ttc_s the TTC from it and its rate (pyvehtrack.camera)."""
 from __future__ import annotations
 
 import colorsys
@@ -32,12 +41,28 @@ def id_colour(track_id: int) -> tuple[int, int, int]:
     return int(b * 255), int(g * 255), int(r * 255)
 
 
-def kitti_line(frame: int, t) -> str:
-    """A track as a KITTI tracking result line; the score says its state (STATE_SCORE)."""
-    return track_line(frame, t.id, t.box, STATE_SCORE[t.state], digits=2)
+def kitti_line(frame: int, t, location=None) -> str:
+    """A track as a KITTI tracking result line; the score says its state (STATE_SCORE).
+    location: (x, y, z) in metres (camera coordinates) for the location fields, or None."""
+    line = track_line(frame, t.id, t.box, STATE_SCORE[t.state], digits=2)
+    if location is None:
+        return line
+    f = line.split(" ")
+    f[13:16] = [f"{v:.2f}" for v in location]   # fields: ... h w l x y z rotation_y score
+    return " ".join(f)
 
 
-def draw_tracks(frame, tracks, frame_index: int, detection_frame: bool):
+def track_record(t, r=None) -> dict:
+    """One track's entry of TRACKS.json; r: its pyvehtrack.camera range output or None."""
+    return {"id": int(t.id), "box": [int(v) for v in t.box], "state": t.state,
+            "velocity_px": [round(float(t.velocity[0]), 4), round(float(t.velocity[1]), 4)],
+            "distance_m": None if r is None or r.dist_filt is None else round(r.dist_filt, 3),
+            "ttc_s": None if r is None or r.ttc_dist is None else round(r.ttc_dist, 3),
+            "warning": bool(r is not None and r.warning),
+            "source": getattr(t, "source", "shadow")}
+
+
+def draw_tracks(frame, tracks, frame_index: int, detection_frame: bool, ranges=None):
     import cv2
     import numpy as np
     img = frame.copy() if frame.ndim == 3 else cv2.cvtColor(frame, cv2.COLOR_GRAY2BGR)
@@ -52,6 +77,12 @@ def draw_tracks(frame, tracks, frame_index: int, detection_frame: bool):
         cx, cy = (l + r) // 2, b
         cv2.arrowedLine(img, (cx, cy), (int(cx + 5 * vx), int(cy + 5 * vy)), c, 2, tipLength=0.3)
         label = f"#{t.id} {vx:+.1f},{vy:+.1f}px/f"
+        rg = (ranges or {}).get(t.id)
+        if rg is not None and rg.dist_filt is not None:
+            label += f" {rg.dist_filt:.1f}m" + (f" TTC {rg.ttc_dist:.1f}s" if rg.ttc_dist is not None else "")
+            if rg.warning:  # forward-collision warning: a thick red frame
+                label += " WARN"
+                cv2.rectangle(img, (l - 3, tp - 3), (r + 3, b + 3), (0, 0, 255), 3)
         ty = tp - 5 if tp >= 16 else tp + 15  # inside the box when there is no room above
         cv2.putText(img, label, (l + 2, ty), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 3, cv2.LINE_AA)
         cv2.putText(img, label, (l + 2, ty), cv2.FONT_HERSHEY_SIMPLEX, 0.45, c, 1, cv2.LINE_AA)
@@ -82,6 +113,16 @@ def register(sub) -> None:
                    help="also write tentative tracks to --tracks (default: confirmed and coasting)")
     p.add_argument("--skip-bad-frames", action="store_true",
                    help="skip (and count) frames that cannot be decoded instead of stopping with exit 2")
+    p.add_argument("--camera", metavar="CAMERA.json",
+                   help="camera file (pyvehtrack calibrate; needs height_m): distance, TTC and warning")
+    p.add_argument("--fps", type=float, default=None, metavar="F",
+                   help="frame rate for TTC (default: the video's, 10 for frames)")
+    p.add_argument("--ego-speed", type=float, default=None, metavar="M/S",
+                   help="own speed, m/s, if known: picks the NHTSA threshold of the lead's class")
+    p.add_argument("--rear-offset", type=float, default=0.0, metavar="M",
+                   help="m from the road contact the box's bottom shows to the vehicle's rear "
+                        "(default 0: eq. 1 as is; about 1.8 on KITTI, see the README)")
+    p.add_argument("--json", metavar="TRACKS.json", help="write per-frame track records (JSON)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
@@ -104,14 +145,37 @@ def run(args) -> int:
         raise CliError(f"--out {args.out}: expected an .mp4/.avi video (or a .png/.jpg name for frames)")
     sources = frame_sources(args.inputs)
     total = count_frames(sources)
+    cam = None
+    if args.camera:
+        import math
+
+        from ..camera import Camera, CameraFileError
+        try:
+            cam = Camera.load(args.camera)
+        except CameraFileError as e:
+            raise CliError(f"--camera: {e}") from None
+        if cam.height_m is None:
+            raise CliError(f"--camera {args.camera}: 'height_m' (camera height above the road) is missing; "
+                           "a chessboard cannot give it, add it to the file")
+        if args.fps is not None and not (math.isfinite(args.fps) and args.fps >= 1):
+            raise CliError(f"--fps {args.fps}: must be >= 1")
+        if args.ego_speed is not None and not (math.isfinite(args.ego_speed) and args.ego_speed >= 0):
+            raise CliError(f"--ego-speed {args.ego_speed}: must be >= 0 m/s")
+        if not (math.isfinite(args.rear_offset) and 0 <= args.rear_offset <= 5):
+            raise CliError(f"--rear-offset {args.rear_offset}: must be in [0, 5] m")
+    elif args.fps is not None or args.ego_speed is not None or args.rear_offset != 0.0:
+        raise CliError("--fps, --ego-speed and --rear-offset need --camera")
     try:
         det = Detector(engine=args.engine, road=args.road)
         trk = Tracker(engine=args.engine, detect_every=args.detect_every, detector=det,
                       measurement=getattr(args, "measurement", "roi"))
     except (RuntimeError, ValueError, TypeError) as e:
         raise CliError(str(e)) from None
+    ranger = lanes = None
+    records = []
     with Outputs() as outs:
         tracks_tmp = outs.reserve("--tracks", args.tracks) if args.tracks else None
+        json_tmp = outs.reserve("--json", args.json) if args.json else None
         video = None
         if kind == "video":
             video = VideoOut(outs.reserve("--out", out), sources, name=str(out))
@@ -124,13 +188,27 @@ def run(args) -> int:
                 for i, file, frame in reader:
                     try:
                         tracks = trk.step(frame)
+                        ranges = {}
+                        if cam is not None:
+                            if ranger is None:
+                                ranger, lanes = _range_stage(cam, frame, args, sources)
+                            h, w = frame.shape[:2]
+                            if (w, h) != ranger.size:
+                                raise ValueError(f"frame size {w}x{h} differs from the first frame's "
+                                                 f"{ranger.size[0]}x{ranger.size[1]}")
+                            from ..camera import lane_vanishing_row
+                            ranger.update_pitch(lane_vanishing_row(lanes.detect(frame)))
+                            ranges = {r.id: r for r in ranger.step(
+                                [(t.id, cam.undistort_box(t.box)) for t in tracks], args.ego_speed)}
                     except (VtError, ValueError, TypeError) as e:
                         raise CliError(f"{file}: {e}") from None
                     for t in tracks:
                         if args.all_states or t.state != "tentative":
-                            lines.append(kitti_line(i, t))
+                            lines.append(kitti_line(i, t, _location(cam, t, ranges.get(t.id))))
                             ids.add(t.id)
-                    img = draw_tracks(frame, tracks, i, trk.last_was_detection)
+                    records.append({"frame": i, "tracks": [track_record(t, ranges.get(t.id)) for t in tracks
+                                                           if args.all_states or t.state != "tentative"]})
+                    img = draw_tracks(frame, tracks, i, trk.last_was_detection, ranges)
                     if kind == "image":
                         path = out.with_name(f"{out.stem}_{i:05d}{out.suffix}")
                         if not cv2.imwrite(str(outs.reserve("--out", path)), img):
@@ -146,8 +224,32 @@ def run(args) -> int:
             raise CliError("no frame could be decoded; nothing written")
         if tracks_tmp is not None:
             tracks_tmp.write_text("".join(s + "\n" for s in lines))
+        if json_tmp is not None:
+            import json
+            json_tmp.write_text("[\n" + ",\n".join(json.dumps(r) for r in records) + "\n]\n")
         outs.commit()
     print(f"{n} frame(s), {len(ids)} track(s), {len(lines)} track-frame(s); annotated: {out}"
           + (f"; tracks: {args.tracks}" if args.tracks else "")
           + (f"; {len(reader.skipped)} bad frame(s) skipped" if reader.skipped else ""))
     return 0
+
+
+def _range_stage(cam, frame, args, sources):
+    """The range estimator and lane detector for this run (made at the first frame, whose
+    size the camera file must match)."""
+    from ..camera import RangeEstimator
+    from ..lane import LaneDetector
+    from .common import video_fps
+    h, w = frame.shape[:2]
+    fps = args.fps if args.fps is not None else video_fps(sources)
+    return (RangeEstimator(cam, (w, h), fps, engine=args.engine, rear_offset=args.rear_offset),
+            LaneDetector(engine=args.engine))
+
+
+def _location(cam, t, r):
+    """KITTI location (x, y, z) of the track's bottom centre, camera coordinates (m)."""
+    if cam is None or r is None or r.dist_filt is None:
+        return None
+    l, _t, rr, _b = t.box
+    z = r.dist_filt
+    return ((l + rr) / 2 - cam.cx) * z / cam.fx, cam.height_m, z

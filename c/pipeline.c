@@ -1,0 +1,421 @@
+/* pipeline.c -- the per-frame order of the whole system (thesis fig. 4.1 for
+ * detection, ch. 3 for tracking): lanes and the road area (sec. 2.4.1), shadow
+ * hypotheses and their verification (sec. 2.4.2) every detect_every frames, the
+ * tracker on every frame (sec. 3.5-3.6), and with a camera the distance, TTC and
+ * warning per track (IVVI paper sec. 4, c/camera.c). It only composes the stages through
+ * their public functions; the firmware, the bench driver and Python all call
+ * vt_pipeline_step, so the order is written once. */
+#include "vehtrack/pipeline.h"
+#include <stddef.h>
+#include <string.h>
+#include "internal.h"
+
+vt_status vt_pipeline_cfg_default(vt_pipeline_cfg *cfg)
+{
+    static const vt_pipeline_cfg def = VT_PIPELINE_CFG_DEFAULT;
+    if (cfg == NULL) {
+        return VT_E_ARG;
+    }
+    *cfg = def;
+    return VT_OK;
+}
+
+static vt_status vt__fixed_road_check(const vt_fixed_road *fr)
+{
+    if (fr->vp_x_permille < 0 || fr->vp_x_permille > 1000 || fr->vp_y_permille < 0 ||
+        fr->vp_y_permille > 1000 || fr->bottom_left_permille < 0 ||
+        fr->bottom_left_permille > 1000 || fr->bottom_right_permille < 0 ||
+        fr->bottom_right_permille > 1000 ||
+        fr->bottom_left_permille > fr->bottom_right_permille || fr->lane_bottom_permille < 0 ||
+        fr->lane_bottom_permille > 1000 || fr->top_margin < 0 || fr->top_margin > 4096) {
+        return VT_E_ARG;
+    }
+    return VT_OK;
+}
+
+vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg)
+{
+    vt_status s;
+    if (cfg == NULL) {
+        return VT_E_ARG;
+    }
+    if (cfg->detect_every < 1 || cfg->road_policy < VT_ROAD_AUTO ||
+        cfg->road_policy > VT_ROAD_FIXED || (cfg->lanes_every_frame != 0 && cfg->lanes_every_frame != 1) ||
+        (cfg->track != 0 && cfg->track != 1) || (cfg->sources & ~VT_SRC_BUILT) != 0) {
+        return VT_E_ARG;
+    }
+    s = vt__fixed_road_check(&cfg->fixed_road);
+    if (s == VT_OK && cfg->road_policy != VT_ROAD_FIXED) {
+        s = vt_lane_cfg_check(&cfg->lane);
+    }
+    if (s == VT_OK) {
+        s = vt_shadow_cfg_check(&cfg->detect.shadow);
+    }
+    if (s == VT_OK) {
+        s = vt_verify_cfg_check(&cfg->detect.verify);
+    }
+    if (s == VT_OK) {
+        s = vt_tracker_cfg_check(&cfg->tracker);
+    }
+    return s;
+}
+
+vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
+                           const vt_camera_cfg *camera, const struct vt_svm_model *model)
+{
+    vt_status s;
+    if (p == NULL || cfg == NULL || model != NULL) {
+        return VT_E_ARG; /* the classifier stage is not built in yet */
+    }
+    s = vt_pipeline_cfg_check(cfg);
+    if (s == VT_OK && camera != NULL) {
+        s = vt_camera_cfg_check(camera);
+        if (s == VT_OK) {
+            s = vt_range_cfg_check(&cfg->range);
+        }
+    }
+    if (s != VT_OK) {
+        return s;
+    }
+    /* cfg may alias p->cfg (re-initialising with the same settings): copy first. */
+    memmove(&p->cfg, cfg, sizeof(p->cfg));
+    p->model = model;
+    p->camera = camera;
+    p->frame = 0;
+    p->ego_speed = -VT_Q16_ONE;
+    memset(&p->pitch, 0, sizeof(p->pitch));
+    memset(p->ranges, 0, sizeof(p->ranges));
+    s = vt_range_init(&p->range);
+    if (s == VT_OK && camera != NULL) {
+        s = vt_pitch_init(camera, &p->pitch);
+    }
+    if (s != VT_OK) {
+        return s;
+    }
+    memset(&p->detect, 0, sizeof(p->detect));
+    memset(&p->det, 0, sizeof(p->det));
+    memset(p->tracks, 0, sizeof(p->tracks));
+    s = vt_lane_reset(&p->lane);
+    if (s == VT_OK) {
+        s = vt_tracker_init(&p->tracker);
+    }
+    return s;
+}
+
+vt_status vt_pipeline_set_edge_ws(vt_pipeline *p, vt_edge_ws *ws)
+{
+    if (p == NULL) {
+        return VT_E_ARG;
+    }
+    return vt_tracker_set_edge_ws(&p->tracker, ws);
+}
+
+vt_status vt_pipeline_set_ego_speed(vt_pipeline *p, vt_q16 speed)
+{
+    if (p == NULL) {
+        return VT_E_ARG;
+    }
+    p->ego_speed = speed < 0 ? -VT_Q16_ONE : speed;
+    return VT_OK;
+}
+
+vt_status vt_pipeline_work_size(int32_t w, int32_t h, int32_t max_w, int32_t max_h,
+                                int32_t *work_w, int32_t *work_h)
+{
+    int64_t v;
+    if (work_w == NULL || work_h == NULL) {
+        return VT_E_ARG;
+    }
+    if (w < 1 || h < 1 || max_w < 1 || max_h < 1) {
+        return VT_E_SIZE;
+    }
+    if (w <= max_w && h <= max_h) {
+        *work_w = w;
+        *work_h = h;
+    } else if ((int64_t)w * max_h >= (int64_t)h * max_w) {
+        /* Width limits: w/max_w >= h/max_h. */
+        v = (int64_t)h * max_w / w;
+        *work_w = max_w;
+        *work_h = v < 1 ? 1 : (int32_t)v;
+    } else {
+        v = (int64_t)w * max_h / h;
+        *work_w = v < 1 ? 1 : (int32_t)v;
+        *work_h = max_h;
+    }
+    return VT_OK;
+}
+
+/* floor(n / d) for d > 0 (n may be negative). */
+static int64_t vt__floor_div64(int64_t n, int64_t d)
+{
+    int64_t q = n / d;
+    return (n % d != 0 && n < 0) ? q - 1 : q;
+}
+
+/* Everything is kept in thousandths of a pixel (K = 1000) so the permille
+ * fractions are exact: VX = vp_x * (w - 1), VY = vp_y * (h - 1), SPAN = the
+ * bottom row's distance below VY. t = (y K - VY) / SPAN clamped to [0, 1], then
+ * x = VX + t (BX - VX) rounded half up: floor((VX SPAN + TN (BX - VX) + SPAN K / 2)
+ * / (SPAN K)) with TN = clamp(y K - VY, 0, SPAN). Magnitudes stay below
+ * 2^12 * 1000 squared ~ 2^44, so int64 never overflows. */
+vt_status vt_fixed_road_area(const vt_fixed_road *fr, int32_t w, int32_t h, vt_road_area *road)
+{
+    const int64_t k = 1000;
+    int64_t vx, vy, span, bl, br, lb, tn, den;
+    int32_t y, yt;
+    if (fr == NULL || road == NULL || vt__fixed_road_check(fr) != VT_OK) {
+        return VT_E_ARG;
+    }
+    if (w < 1 || h < 1 || w > VT_MAX_WIDTH || h > VT_MAX_HEIGHT) {
+        return VT_E_SIZE;
+    }
+    vx = (int64_t)fr->vp_x_permille * (w - 1);
+    vy = (int64_t)fr->vp_y_permille * (h - 1);
+    bl = (int64_t)fr->bottom_left_permille * (w - 1);
+    br = (int64_t)fr->bottom_right_permille * (w - 1);
+    lb = (int64_t)fr->lane_bottom_permille * w; /* lane width at the bottom, K px */
+    span = (int64_t)(h - 1) * k - vy;
+    if (span <= 0) {
+        span = k; /* the vanishing point on the bottom row: t jumps to 1 there */
+    }
+    den = span * k;
+    for (y = 0; y < h; ++y) {
+        tn = (int64_t)y * k - vy;
+        tn = tn < 0 ? 0 : (tn > span ? span : tn);
+        road->x_left[y] = (int16_t)vt__floor_div64(vx * span + tn * (bl - vx) + den / 2, den);
+        road->x_right[y] = (int16_t)vt__floor_div64(vx * span + tn * (br - vx) + den / 2, den);
+        road->lane_width[y] = (int16_t)vt__floor_div64(tn * lb + den / 2, den);
+    }
+    /* First row: ceil(VY / K) + top_margin, kept inside the frame. */
+    yt = (int32_t)(-vt__floor_div64(-vy, k)) + fr->top_margin;
+    road->y_top = vt__clamp_i32(yt, 0, h - 1);
+    road->y_bottom = h - 1;
+    road->height = h;
+    road->valid = 1;
+    return VT_OK;
+}
+
+/* The road area of a detection frame per the policy: the lanes' (written to
+ * out->road by the lane stage) when found, else the caller's road or the fixed
+ * trapezoid (none with VT_ROAD_LANES). */
+static void vt__road(const vt_pipeline *p, const vt_image_u8 *frame, const vt_road_area *given,
+                     vt_frame_out *out, int32_t lanes_ok)
+{
+    if (lanes_ok && out->road.valid) {
+        out->road_source = VT_ROAD_SRC_LANES;
+        return;
+    }
+    out->road.valid = 0;
+    out->road_source = VT_ROAD_SRC_NONE;
+    if (p->cfg.road_policy == VT_ROAD_LANES) {
+        return;
+    }
+    if (given != NULL) {
+        if (given->valid) {
+            out->road = *given;
+            out->road_source = VT_ROAD_SRC_FIXED;
+        }
+    } else if (vt_fixed_road_area(&p->cfg.fixed_road, frame->w, frame->h, &out->road) == VT_OK) {
+        out->road_source = VT_ROAD_SRC_FIXED;
+    }
+}
+
+/* The frame counter wraps to 0 after INT32_MAX frames (over two years at 30
+ * frames/s); only the detection cadence notices. */
+static int32_t vt__next_frame(int32_t f)
+{
+    return f < INT32_MAX ? f + 1 : 0;
+}
+
+/* Q16 seconds or metres -> thousandths, rounded half up, saturated to int32
+ * (VT_UNKNOWN is never produced for a known value: it saturates to INT32_MIN + 1). */
+static int32_t vt__q16_milli(vt_q16 v)
+{
+    int64_t m = ((int64_t)v * 1000 + 32768) >> 16;
+    return m > INT32_MAX ? INT32_MAX : (m <= INT32_MIN ? INT32_MIN + 1 : (int32_t)m);
+}
+
+static void vt__out_tracks(const vt_pipeline *p, int32_t n, int32_t n_ranges, vt_frame_out *out)
+{
+    int32_t i, k;
+    for (i = 0; i < n && i < VT_MAX_TRACKS; ++i) {
+        const vt_track_out *t = &p->tracks[i];
+        vt_pipe_track *o = &out->tracks[i];
+        o->id = t->id;
+        o->state = t->state;
+        o->box = t->box;
+        o->vx = t->vx;
+        o->vy = t->vy;
+        o->distance_mm = VT_UNKNOWN;
+        o->ttc_ms = VT_UNKNOWN;
+        o->warning = p->camera != NULL ? VT_FCW_NONE : VT_FCW_UNKNOWN;
+        for (k = 0; k < n_ranges; ++k) {
+            const vt_range_out *r = &p->ranges[k];
+            if (r->id != t->id) {
+                continue;
+            }
+            if (r->flags & VT_RANGE_FILT_VALID) {
+                o->distance_mm = vt__q16_milli(r->dist_filt);
+            }
+            if (r->flags & VT_RANGE_TTC_DIST_VALID) {
+                o->ttc_ms = vt__q16_milli(r->ttc_dist);
+            }
+            o->warning = r->fcw;
+            break;
+        }
+    }
+    out->n_tracks = i;
+}
+
+/* The camera stage after the tracker: the pitch from this frame's lanes (when they
+ * ran and both ego lines meet), then the range filters of the tracks. */
+static vt_status vt__geometry(vt_pipeline *p, const vt_image_u8 *frame, const vt_frame_out *out,
+                              int32_t lanes_ok, int32_t n_tracks, int32_t *n_ranges)
+{
+    vt_q16 vp_row = 0;
+    int32_t vp_valid = 0;
+    vt_status s;
+    *n_ranges = 0;
+    if (lanes_ok && vt_lane_vanishing_row(&out->lanes, frame->h, &vp_row, &vp_valid) != VT_OK) {
+        vp_valid = 0;
+    }
+    s = vt_pitch_update(p->camera, &p->pitch, vp_valid, vp_valid ? vp_row : 0);
+    if (s == VT_OK) {
+        s = vt_range_step(&p->range, &p->cfg.range, p->camera, p->pitch.tan_pitch, p->ego_speed,
+                          p->tracks, n_tracks, p->ranges, VT_MAX_TRACKS, n_ranges);
+    }
+    return s;
+}
+
+/* The step behind the three entry points. road: the caller's fallback road (or
+ * NULL); dets/n_dets: the caller's detections when ext is 1. */
+static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_road_area *road,
+                          const vt_box *dets, int32_t n_dets, int32_t ext, vt_frame_out *out)
+{
+    vt_status s;
+    int32_t det_frame, run_lanes, lanes_ok = 0, n_boxes = 0, n_tracks = 0, n_ranges = 0, i;
+    const vt_box *boxes = p->det.box;
+    if (frame->px == NULL) {
+        return VT_E_ARG;
+    }
+    s = vt__check_dims(frame->w, frame->h, frame->stride, VT_MAX_WIDTH, VT_MAX_HEIGHT);
+    if (s != VT_OK) {
+        return s;
+    }
+    if ((road != NULL && road->valid && road->height != frame->h) ||
+        (p->camera != NULL && (p->camera->img_w != frame->w || p->camera->img_h != frame->h))) {
+        return VT_E_SIZE;
+    }
+    /* A pipeline that was never initialised (or was corrupted) has no valid
+     * configuration: refuse rather than run stages on garbage. */
+    if (vt_pipeline_cfg_check(&p->cfg) != VT_OK || p->frame < 0) {
+        return VT_E_ARG;
+    }
+    /* Checked here, not left to the tracker stage, so that nothing changes. */
+    if (p->cfg.track && p->cfg.tracker.measurement == VT_MEAS_EDGE_CURVES &&
+        p->tracker.edge_ws == NULL) {
+        return VT_E_ARG;
+    }
+    det_frame = ext || (p->cfg.sources != 0 && (p->frame % p->cfg.detect_every) == 0);
+    run_lanes = !ext && p->cfg.road_policy != VT_ROAD_FIXED &&
+                ((det_frame && p->cfg.sources != 0) || p->cfg.lanes_every_frame);
+
+    out->frame = p->frame;
+    out->detection_frame = det_frame;
+    out->lanes_ran = run_lanes;
+    out->lane_status = VT_OK;
+    out->road_source = VT_ROAD_SRC_NONE;
+    out->road.valid = 0;
+    out->road.height = frame->h;
+    out->n_hyp = 0;
+    out->n_boxes = 0;
+    out->n_boxes_in = 0;
+    out->n_tracks = 0;
+    memset(&out->lanes, 0, sizeof(out->lanes));
+
+    if (run_lanes) {
+        out->lane_status = vt_lane_detect(&p->cfg.lane, &p->lane, frame, &out->lanes, &out->road);
+        lanes_ok = out->lane_status == VT_OK;
+    }
+    if (ext) {
+        boxes = dets;
+        n_boxes = n_dets;
+        for (i = 0; i < n_dets && i < VT_MAX_BOXES; ++i) {
+            out->boxes[i].box = dets[i];
+            out->boxes[i].source = VT_SRC_EXTERNAL;
+            out->boxes[i].score = VT_UNKNOWN;
+        }
+        out->n_boxes = i;
+    } else if (det_frame) {
+        vt__road(p, frame, road, out, lanes_ok);
+        p->det.n_hyp = 0;
+        p->det.n_boxes = 0;
+        if (out->road_source != VT_ROAD_SRC_NONE) {
+            s = vt_detect(&p->detect, &p->cfg.detect, frame, &out->road, &p->det);
+            if (s != VT_OK) {
+                p->frame = vt__next_frame(p->frame);
+                return s;
+            }
+        }
+        out->n_hyp = p->det.n_hyp;
+        for (i = 0; i < p->det.n_hyp; ++i) {
+            out->hyp[i] = p->det.hyp[i];
+        }
+        for (i = 0; i < p->det.n_boxes; ++i) {
+            out->boxes[i].box = p->det.box[i];
+            out->boxes[i].source = VT_SRC_SHADOW;
+            out->boxes[i].score = VT_UNKNOWN;
+        }
+        n_boxes = p->det.n_boxes;
+        out->n_boxes = n_boxes;
+    } else if (lanes_ok && out->road.valid) {
+        out->road_source = VT_ROAD_SRC_LANES; /* lanes every frame: report their road */
+    } else {
+        out->road.valid = 0;
+    }
+    out->n_boxes_in = n_boxes;
+    s = VT_OK;
+    if (p->cfg.track) {
+        s = vt_tracker_step(&p->tracker, &p->cfg.tracker, frame, det_frame, boxes, n_boxes,
+                            p->tracks, VT_MAX_TRACKS, &n_tracks);
+    }
+    p->frame = vt__next_frame(p->frame);
+    if (s != VT_OK && s != VT_E_CAPACITY) {
+        return s;
+    }
+    if (p->camera != NULL && p->cfg.track) {
+        vt_status sg = vt__geometry(p, frame, out, lanes_ok, n_tracks, &n_ranges);
+        if (sg != VT_OK && sg != VT_E_CAPACITY) {
+            n_ranges = 0;
+            s = sg;
+        }
+    }
+    vt__out_tracks(p, n_tracks, n_ranges, out);
+    return s;
+}
+
+vt_status vt_pipeline_step(vt_pipeline *p, const vt_image_u8 *frame, vt_frame_out *out)
+{
+    if (p == NULL || frame == NULL || out == NULL) {
+        return VT_E_ARG;
+    }
+    return vt__step(p, frame, NULL, NULL, 0, 0, out);
+}
+
+vt_status vt_pipeline_step_road(vt_pipeline *p, const vt_image_u8 *frame,
+                                const vt_road_area *road, vt_frame_out *out)
+{
+    if (p == NULL || frame == NULL || out == NULL) {
+        return VT_E_ARG;
+    }
+    return vt__step(p, frame, road, NULL, 0, 0, out);
+}
+
+vt_status vt_pipeline_step_dets(vt_pipeline *p, const vt_image_u8 *frame, const vt_box *dets,
+                                int32_t n_dets, vt_frame_out *out)
+{
+    if (p == NULL || frame == NULL || out == NULL || n_dets < 0 || (dets == NULL && n_dets > 0)) {
+        return VT_E_ARG;
+    }
+    return vt__step(p, frame, NULL, dets, n_dets, 1, out);
+}

@@ -1,0 +1,375 @@
+"""Camera files, distance, time to collision and forward-collision warning.
+
+The camera file (JSON) is what every command takes (`--camera CAMERA.json`):
+
+    {"fx": 721.5, "fy": 721.5, "cx": 609.6, "cy": 172.9, "height_m": 1.65,
+     "pitch_deg": 0.0,                       optional, positive = looking down
+     "dist": [k1, k2, p1, p2, k3],           optional, OpenCV order
+     "image_size": [1242, 375]}              optional, written by `pyvehtrack calibrate`
+
+in pixels of the input frame. `height_m` (the camera's height above the road) cannot
+come from a chessboard: `pyvehtrack calibrate` takes it as --height-m or leaves it
+out, and a file without it is refused where a distance is needed.
+
+    cam = Camera.load("camera.json")
+    rng = RangeEstimator(cam, (w, h), fps=10)          # engine="c" (default) or "reference"
+    rng.update_pitch(vp_row)                            # per frame, from the lanes (or None)
+    for r in rng.step(tracks, ego_speed=None):          # tracks from pyvehtrack.tracker
+        r.id, r.distance, r.dist_filt, r.rate, r.ttc_dist, r.ttc_scale, r.warning
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .reference import camera as rcam
+
+Q16 = 1 << 16
+PITCH_LIMIT_DEG = 3.0   # braking and load move a car's pitch by a degree or two, not more
+__all__ = ["Camera", "CameraFileError", "RangeEstimator", "camera_params", "lane_vanishing_row",
+           "params_to_c", "range_to_c", "params_from_c", "range_from_c", "q16"]
+
+
+class CameraFileError(ValueError):
+    """A camera file that cannot be read or is not valid."""
+
+
+def q16(v: float, name: str) -> int:
+    """Round to Q16 (nearest); ValueError naming `name` for non-finite or out-of-range
+    values (never clipped)."""
+    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{name} must be a number, got {type(v).__name__}")
+    if not math.isfinite(float(v)):
+        raise ValueError(f"{name}={v} is not finite")
+    q = int(round(float(v) * Q16))
+    if not -(2**31) <= q < 2**31:
+        raise ValueError(f"{name}={v} is outside the Q16 range (+-32768)")
+    return q
+
+
+def _num(d: dict, key: str, *, required: bool, positive: bool = False, lo=None, hi=None):
+    if key not in d or d[key] is None:
+        if required:
+            raise CameraFileError(f"camera: '{key}' is missing")
+        return None
+    v = d[key]
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise CameraFileError(f"camera: '{key}' must be a number, got {v!r}")
+    v = float(v)
+    if not math.isfinite(v):
+        raise CameraFileError(f"camera: '{key}' must be finite, got {v}")
+    if positive and not v > 0:
+        raise CameraFileError(f"camera: '{key}' must be > 0, got {v}")
+    if lo is not None and not lo <= v <= hi:
+        raise CameraFileError(f"camera: '{key}'={v} is outside [{lo}, {hi}]")
+    return v
+
+
+@dataclass(frozen=True)
+class Camera:
+    """Intrinsics (px of the input frame), height above the road (m), nominal pitch
+    (degrees, positive = looking down), OpenCV distortion coefficients."""
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    height_m: float | None = None
+    pitch_deg: float | None = None
+    dist: tuple | None = None
+    image_size: tuple | None = None
+
+    def __post_init__(self):
+        v = Camera.from_dict(self.to_dict())  # one validation path for files and code
+        for f in ("fx", "fy", "cx", "cy", "height_m", "pitch_deg", "dist", "image_size"):
+            object.__setattr__(self, f, getattr(v, f))
+
+    # -- file I/O ---------------------------------------------------------------------
+    def to_dict(self) -> dict:
+        d = {"fx": self.fx, "fy": self.fy, "cx": self.cx, "cy": self.cy, "height_m": self.height_m}
+        if self.pitch_deg is not None:
+            d["pitch_deg"] = self.pitch_deg
+        if self.dist is not None:
+            d["dist"] = list(self.dist)
+        if self.image_size is not None:
+            d["image_size"] = list(self.image_size)
+        return d
+
+    @staticmethod
+    def from_dict(d) -> "Camera":
+        if not isinstance(d, dict):
+            raise CameraFileError(f"camera: expected a JSON object, got {type(d).__name__}")
+        known = {"fx", "fy", "cx", "cy", "height_m", "pitch_deg", "dist", "image_size"}
+        unknown = sorted(set(d) - known)
+        if unknown:
+            raise CameraFileError(f"camera: unknown key(s) {unknown} (known: {sorted(known)})")
+        fx = _num(d, "fx", required=True, lo=1.0, hi=16384.0)
+        fy = _num(d, "fy", required=True, lo=1.0, hi=16384.0)
+        cx = _num(d, "cx", required=True, lo=-32768.0, hi=32767.0)
+        cy = _num(d, "cy", required=True, lo=-32768.0, hi=32767.0)
+        h = _num(d, "height_m", required=False, lo=1e-3, hi=100.0)
+        pitch = _num(d, "pitch_deg", required=False, lo=-45.0, hi=45.0)
+        dist = d.get("dist")
+        if dist is not None:
+            if not isinstance(dist, (list, tuple)) or len(dist) not in (4, 5, 8, 12, 14) or not all(
+                    isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+                    for v in dist):
+                raise CameraFileError("camera: 'dist' must be 4, 5, 8, 12 or 14 finite numbers "
+                                      f"(OpenCV order k1 k2 p1 p2 [k3 ...]), got {dist!r}")
+            dist = tuple(float(v) for v in dist)
+        size = d.get("image_size")
+        if size is not None:
+            if (not isinstance(size, (list, tuple)) or len(size) != 2
+                    or not all(isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= 32767
+                               for v in size)):
+                raise CameraFileError(f"camera: 'image_size' must be [width, height] in pixels, got {size!r}")
+            size = (int(size[0]), int(size[1]))
+        return Camera.__new__(Camera)._init(fx, fy, cx, cy, h, pitch, dist, size)
+
+    def _init(self, *vals) -> "Camera":
+        for f, v in zip(("fx", "fy", "cx", "cy", "height_m", "pitch_deg", "dist", "image_size"), vals):
+            object.__setattr__(self, f, v)
+        return self
+
+    @staticmethod
+    def load(path) -> "Camera":
+        p = Path(path)
+        try:
+            text = p.read_text()
+        except OSError as e:
+            raise CameraFileError(f"camera file {p}: {e.strerror or e}") from None
+        try:
+            d = json.loads(text)
+        except json.JSONDecodeError as e:
+            raise CameraFileError(f"camera file {p}: not JSON ({e.msg} at line {e.lineno})") from None
+        try:
+            return Camera.from_dict(d)
+        except CameraFileError as e:
+            raise CameraFileError(f"camera file {p}: {str(e).removeprefix('camera: ')}") from None
+
+    def save(self, path) -> None:
+        Path(path).write_text(json.dumps(self.to_dict(), indent=2) + "\n")
+
+    # -- use ----------------------------------------------------------------------------
+    def undistort_box(self, box) -> list:
+        """The box with its corners moved as OpenCV's undistortion moves them (no-op without
+        "dist"): distances assume a pinhole, so the rows and widths must be undistorted ones."""
+        if self.dist is None:
+            return [int(v) for v in box]
+        import cv2
+        l, t, r, b = (float(v) for v in box)
+        k = np.array([[self.fx, 0, self.cx], [0, self.fy, self.cy], [0, 0, 1]], np.float64)
+        pts = np.array([[[l, b]], [[r, b]], [[(l + r) / 2, t]], [[(l + r) / 2, b]]], np.float64)
+        u = cv2.undistortPoints(pts, k, np.asarray(self.dist, np.float64), P=k).reshape(-1, 2)
+        return [int(round(min(u[0, 0], u[1, 0]))), int(round(u[2, 1])), int(round(max(u[0, 0], u[1, 0]))),
+                int(round(u[3, 1]))]
+
+    def check_frame(self, w: int, h: int) -> None:
+        if self.image_size is not None and tuple(self.image_size) != (int(w), int(h)):
+            raise ValueError(f"camera: calibrated for {self.image_size[0]}x{self.image_size[1]} frames, "
+                             f"got {w}x{h} (the camera file is in pixels of the input frame)")
+
+    def params(self, img_w: int, img_h: int, **overrides) -> rcam.CameraParams:
+        """The stage's parameters for frames of img_w x img_h (quantised to what the C
+        core holds). ValueError without height_m."""
+        if self.height_m is None:
+            raise ValueError("camera: 'height_m' (camera height above the road) is required for "
+                             "distances; a chessboard calibration cannot give it, add it to the file")
+        self.check_frame(img_w, img_h)
+        pitch = self.pitch_deg or 0.0
+        # the per-frame pitch may wander PITCH_LIMIT_DEG around the calibrated one
+        p = rcam.CameraParams(int(img_w), int(img_h), self.fx, self.fy, self.cx, self.cy, self.height_m,
+                              tan_pitch=math.tan(math.radians(pitch)),
+                              tan_pitch_min=math.tan(math.radians(pitch - PITCH_LIMIT_DEG)),
+                              tan_pitch_max=math.tan(math.radians(pitch + PITCH_LIMIT_DEG)))
+        p = dataclasses.replace(p, **overrides)
+        return params_from_c(params_to_c(p))
+
+
+def lane_vanishing_row(lanes) -> float | None:
+    """Input row where the two ego lane lines meet, from a pyvehtrack.lane.LaneResult: on the
+    C engine the refined lines' intersection (vt_lane_vanishing_row, sub-pixel); otherwise the
+    result's own vanishing_row (None when the lanes do not give one)."""
+    from . import _native
+    raw = getattr(lanes, "raw", None)
+    f = float(lanes.input_scale)
+    if raw is not None and hasattr(raw, "H") and hasattr(raw, "lines"):
+        # the float oracle's LaneFrame: the same intersection in floats
+        ln = raw.lines
+        left, right = (None if k >= len(ln) or ln[k] is None else (ln[k].xb, ln[k].slope) for k in (1, 2))
+        row = rcam.vanishing_row(left, right, int(raw.H), int(raw.shift))
+        return None if row is None else (row + 0.5) / f - 0.5
+    if raw is None or not hasattr(raw, "shift") or not hasattr(raw, "lines"):
+        return lanes.vanishing_row
+    h_seen = int(raw.h) << int(raw.shift)
+    # the frame the lane stage saw: its height is h << shift plus the rows the downscale dropped
+    h_full = int(round(len(lanes.x_left) * f))
+    if (h_full >> int(raw.shift)) == int(raw.h):
+        h_seen = h_full
+    row, ok = _native.lane_vanishing_row(raw, h_seen)
+    if not ok:
+        return None
+    return ((row / Q16) + 0.5) / f - 0.5
+
+
+def camera_params(cam: Camera, img_w: int, img_h: int, **kw) -> rcam.CameraParams:
+    return cam.params(img_w, img_h, **kw)
+
+
+_CAM_Q16 = ("fx", "fy", "cx", "cy", "height", "tan_pitch", "tan_pitch_min", "tan_pitch_max",
+            "pitch_max_step", "delta_px", "bottom_offset", "vehicle_width")
+_CAM_INT = ("img_w", "img_h", "pitch_alpha_q8", "pitch_reacquire", "width_tol_percent")
+_RNG_Q16 = ("frame_dt", "jerk_sigma", "init_sigma_rate", "init_sigma_accel", "sigma_min", "ttc_max",
+            "ttc_stopped", "ttc_slower", "ttc_decel", "ttc_margin", "min_closing", "stopped_speed",
+            "decel_thresh", "rear_offset")
+_RNG_INT = ("min_frames", "scale_lag", "confirm_frames", "rearm_frames", "release_frames",
+            "width_min_frames", "width_window")
+
+
+def _to_c(ctype: str, p, q16_fields, int_fields, check):
+    from . import _native
+    c = _native.ffi.new(ctype + " *")
+    for f in q16_fields:
+        setattr(c, f, q16(getattr(p, f), f"{type(p).__name__}.{f}"))
+    for f in int_fields:
+        v = getattr(p, f)
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not -(2**31) <= v < 2**31:
+            raise ValueError(f"{type(p).__name__}.{f}={v!r} must be an int32")
+        setattr(c, f, int(v))
+    check(c)
+    return c
+
+
+def params_to_c(p: rcam.CameraParams):
+    """vt_camera_cfg for p (Q16 rounded to nearest); VtError if a field is out of range."""
+    from . import _native
+    return _to_c("vt_camera_cfg", p, _CAM_Q16, _CAM_INT, _native.camera_cfg_check)
+
+
+def range_to_c(p: rcam.RangeParams):
+    from . import _native
+    return _to_c("vt_range_cfg", p, _RNG_Q16, _RNG_INT, _native.range_cfg_check)
+
+
+def params_from_c(c) -> rcam.CameraParams:
+    return rcam.CameraParams(**{f: getattr(c, f) / Q16 for f in _CAM_Q16},
+                             **{f: int(getattr(c, f)) for f in _CAM_INT})
+
+
+def range_from_c(c) -> rcam.RangeParams:
+    return rcam.RangeParams(**{f: getattr(c, f) / Q16 for f in _RNG_Q16},
+                            **{f: int(getattr(c, f)) for f in _RNG_INT})
+
+
+class RangeEstimator:
+    """Distance, range rate, both TTCs and the FCW state per track, on the C core
+    (engine="c") or the float reference. `params` overrides fields of
+    reference.camera.RangeParams (frame_dt comes from fps)."""
+
+    def __init__(self, camera: Camera, image_size, fps: float, engine: str = "c",
+                 camera_overrides: dict | None = None, **params):
+        if engine not in ("c", "reference"):
+            raise ValueError(f"engine must be 'c' or 'reference', got {engine!r}")
+        if not isinstance(camera, Camera):
+            raise TypeError(f"camera must be a pyvehtrack.camera.Camera, got {type(camera).__name__}")
+        try:
+            w, h = (int(v) for v in image_size)
+        except (TypeError, ValueError):
+            raise ValueError(f"image_size must be (width, height), got {image_size!r}") from None
+        if isinstance(fps, bool) or not isinstance(fps, (int, float)) or not math.isfinite(fps) or fps < 1:
+            raise ValueError(f"fps must be a number >= 1, got {fps!r}")
+        self.engine = engine
+        self.size = (w, h)
+        self.cam = camera.params(w, h, **(camera_overrides or {}))
+        rp = dataclasses.replace(rcam.RangeParams(frame_dt=1.0 / float(fps)), **params)
+        from . import _native
+        self._n = _native
+        self._ccam = params_to_c(self.cam)
+        self._crng = range_to_c(rp)
+        self.params = range_from_c(self._crng)
+        if engine == "c":
+            self._pitch = _native.pitch_new(self._ccam)
+            self._st = _native.range_new()
+        else:
+            self._pitch_ref = rcam.PitchEstimator(self.cam)
+            self._ref = rcam.RangeTracker(self.cam, self.params, int(_native.lib.VT_MAX_TRACKS))
+
+    @property
+    def tan_pitch(self) -> float:
+        return self._pitch.tan_pitch / Q16 if self.engine == "c" else self._pitch_ref.tan_pitch
+
+    @property
+    def pitch_deg(self) -> float:
+        return math.degrees(math.atan(self.tan_pitch))
+
+    @property
+    def pitch_flag(self) -> int:
+        return int(self._pitch.flag) if self.engine == "c" else self._pitch_ref.flag
+
+    def update_pitch(self, vp_row: float | None) -> float:
+        """Feed this frame's vanishing row (input px) or None; returns tan(pitch)."""
+        if vp_row is not None and (isinstance(vp_row, bool) or not isinstance(vp_row, (int, float, np.number))
+                                   or not math.isfinite(float(vp_row))):
+            raise ValueError(f"vp_row must be a finite number or None, got {vp_row!r}")
+        if self.engine == "c":
+            if vp_row is None:
+                self._n.pitch_update(self._ccam, self._pitch, 0, 0)
+            else:
+                self._n.pitch_update(self._ccam, self._pitch, 1, q16(vp_row, "vp_row"))
+        else:
+            self._pitch_ref.update(None if vp_row is None else float(vp_row))
+        return self.tan_pitch
+
+    def box_distance(self, box) -> rcam.BoxDistance:
+        """One box's distances with the current pitch, no filter (for single pictures)."""
+        box = [int(v) for v in box]
+        if self.engine == "reference":
+            return rcam.box_distance(self.cam, self._pitch_ref.tan_pitch, box)
+        d = self._n.camera_box_distance(self._ccam, int(self._pitch.tan_pitch), box)
+        L = self._n.lib
+        return rcam.BoxDistance(bool(d.flags & L.VT_DIST_VALID), bool(d.flags & L.VT_DIST_FAR_VALID),
+                                bool(d.flags & L.VT_DIST_WIDTH_AGREES), d.distance / Q16,
+                                d.dist_near / Q16, d.dist_far / Q16, d.sigma / Q16, d.dist_width / Q16,
+                                bool(d.flags & L.VT_DIST_BOTTOM_CLIPPED),
+                                bool(d.flags & L.VT_DIST_SIDE_CLIPPED))
+
+    def step(self, tracks, ego_speed: float | None = None) -> list[rcam.RangeOut]:
+        """tracks: pyvehtrack.tracker.Track objects (or (id, box) pairs), boxes in input px."""
+        pairs = []
+        for t in tracks:
+            tid, box = (t.id, t.box) if hasattr(t, "box") else t
+            box = [int(v) for v in box]
+            if len(box) != 4 or box[2] < box[0] or box[3] < box[1]:
+                raise ValueError(f"track {tid}: box {box} is not [left, top, right, bottom]")
+            pairs.append((int(tid), box))
+        if ego_speed is not None and (not math.isfinite(float(ego_speed)) or ego_speed < 0):
+            raise ValueError(f"ego_speed must be >= 0 m/s or None, got {ego_speed}")
+        if self.engine == "reference":
+            return self._ref.step(pairs, self._pitch_ref.tan_pitch, ego_speed)
+        arr = np.zeros(len(pairs), self._n.TRACK_OUT_DTYPE)
+        for k, (tid, b) in enumerate(pairs):
+            arr[k] = (tid, 2, b[0], b[1], b[2], b[3], 0, 0)
+        ego = -Q16 if ego_speed is None else q16(ego_speed, "ego_speed")
+        rows = self._n.range_step(self._st, self._crng, self._ccam, int(self._pitch.tan_pitch), ego, arr)
+        return [_range_out(r, self._n.lib) for r in rows]
+
+
+def _range_out(r, lib) -> rcam.RangeOut:
+    f = int(r["flags"])
+    g = lambda k: float(r[k]) / Q16  # noqa: E731
+    return rcam.RangeOut(
+        id=int(r["id"]),
+        distance=g("distance") if f & lib.VT_RANGE_DIST_VALID else None,
+        sigma=g("sigma"), dist_width=g("dist_width"),
+        width_agrees=bool(f & lib.VT_RANGE_WIDTH_AGREES),
+        dist_filt=g("dist_filt") if f & lib.VT_RANGE_FILT_VALID else None,
+        rate=g("rate") if f & lib.VT_RANGE_FILT_VALID else None,
+        accel=g("accel") if f & lib.VT_RANGE_FILT_VALID else None,
+        ttc_dist=g("ttc_dist") if f & lib.VT_RANGE_TTC_DIST_VALID else None,
+        ttc_scale=g("ttc_scale") if f & lib.VT_RANGE_TTC_SCALE_VALID else None,
+        closing=bool(f & lib.VT_RANGE_CLOSING), lead_class=int(r["lead_class"]), fcw=int(r["fcw"]),
+        from_width=bool(f & lib.VT_RANGE_FROM_WIDTH))

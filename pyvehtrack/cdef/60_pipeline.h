@@ -1,0 +1,102 @@
+/* pipeline.h: the per-frame order of the whole system. */
+#define VT_SRC_SHADOW ...
+#define VT_SRC_CLASSIFIER ...
+#define VT_SRC_FLOW ...
+#define VT_SRC_MODEL ...
+#define VT_SRC_EXTERNAL ...
+#define VT_SRC_BUILT ...
+#define VT_ROAD_SRC_NONE ...
+#define VT_ROAD_SRC_LANES ...
+#define VT_ROAD_SRC_FIXED ...
+#define VT_ROAD_AUTO ...
+#define VT_ROAD_LANES ...
+#define VT_ROAD_FIXED ...
+#define VT_UNKNOWN ...
+#define VT_FCW_UNKNOWN ...
+#define VT_FCW_NONE ...
+
+struct vt_svm_model;
+
+typedef struct {
+    int32_t vp_x_permille;
+    int32_t vp_y_permille;
+    int32_t bottom_left_permille;
+    int32_t bottom_right_permille;
+    int32_t lane_bottom_permille;
+    int32_t top_margin;
+} vt_fixed_road;
+
+typedef struct {
+    vt_lane_cfg lane;
+    vt_detect_cfg detect;
+    vt_tracker_cfg tracker;
+    vt_range_cfg range;
+    vt_fixed_road fixed_road;
+    int32_t detect_every;
+    int32_t road_policy;
+    int32_t lanes_every_frame;
+    int32_t sources;
+    int32_t track;
+} vt_pipeline_cfg;
+
+typedef struct {
+    vt_pipeline_cfg cfg;
+    int32_t frame;
+    vt_q16 ego_speed;
+    vt_lane_state lane;
+    vt_detect_state detect;
+    vt_detect_result det;
+    vt_tracker tracker;
+    vt_pitch_state pitch;
+    vt_range_state range;
+    ...;
+} vt_pipeline;
+
+typedef struct {
+    vt_box box;
+    int32_t source;
+    int32_t score;
+} vt_pipe_box;
+
+typedef struct {
+    int32_t id;
+    int32_t state;
+    vt_box box;
+    vt_q16 vx;
+    vt_q16 vy;
+    int32_t distance_mm;
+    int32_t ttc_ms;
+    int32_t warning;
+} vt_pipe_track;
+
+typedef struct {
+    int32_t frame;
+    int32_t detection_frame;
+    int32_t lane_status;
+    int32_t lanes_ran;
+    vt_lane_result lanes;
+    int32_t road_source;
+    vt_road_area road;
+    int32_t n_hyp;
+    vt_hypothesis hyp[...];
+    int32_t n_boxes;
+    int32_t n_boxes_in;
+    vt_pipe_box boxes[...];
+    int32_t n_tracks;
+    vt_pipe_track tracks[...];
+} vt_frame_out;
+
+vt_status vt_pipeline_cfg_default(vt_pipeline_cfg *cfg);
+vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg);
+vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
+                           const vt_camera_cfg *camera, const struct vt_svm_model *model);
+vt_status vt_pipeline_set_edge_ws(vt_pipeline *p, vt_edge_ws *ws);
+vt_status vt_pipeline_set_ego_speed(vt_pipeline *p, vt_q16 speed);
+vt_status vt_pipeline_step(vt_pipeline *p, const vt_image_u8 *frame, vt_frame_out *out);
+vt_status vt_pipeline_step_road(vt_pipeline *p, const vt_image_u8 *frame,
+                                const vt_road_area *road, vt_frame_out *out);
+vt_status vt_pipeline_step_dets(vt_pipeline *p, const vt_image_u8 *frame, const vt_box *dets,
+                                int32_t n_dets, vt_frame_out *out);
+vt_status vt_pipeline_work_size(int32_t w, int32_t h, int32_t max_w, int32_t max_h,
+                                int32_t *work_w, int32_t *work_h);
+vt_status vt_fixed_road_area(const vt_fixed_road *fr, int32_t w, int32_t h, vt_road_area *road);

@@ -1,0 +1,344 @@
+"""The whole system, one call per frame: lanes -> road area -> vehicle hypotheses ->
+verification -> tracker [-> camera geometry], on the C core (vt_pipeline_step) or on
+the float oracle (pyvehtrack.reference.pipeline), which compose the stages in the
+same order.
+
+    from pyvehtrack import Pipeline
+    pipe = Pipeline()                       # engine="c"; Pipeline(detect_every=5, road="fixed")
+    for frame in frames:                    # gray (h, w) or BGR (h, w, 3) uint8
+        res = pipe.step(frame)
+        for t in res.tracks:
+            print(t.id, t.state, t.box, t.velocity, t.distance, t.ttc, t.warning)
+
+Coordinates in a result are the INPUT frame's pixels, boxes inclusive. The one
+downscale rule of the library lives here: a frame larger than the core's
+compile-time maximum (pyvehtrack.MAX_WIDTH x MAX_HEIGHT) is resampled (cv2
+INTER_AREA) to the size vt_pipeline_work_size gives (same aspect ratio, the limiting
+side at its maximum), a warning says so once, and results are mapped back
+(x_in = floor((x + 0.5) * sx) for box corners, velocities times sx, sy).
+
+With a camera (pyvehtrack.camera.Camera, and the frame rate: Pipeline(camera=cam,
+fps=10)) each track gets its filtered distance (m), the TTC from it and its rate (s)
+and the forward-collision warning (c/camera.c: pitch from the lanes' vanishing row,
+a [d, rate, accel] filter per track, NHTSA thresholds); without one they are None.
+Box scores are None for the shadow source, which has no confidence.
+"""
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from . import _native
+from . import config as _config
+from . import lane as _lane
+from ._native import ffi, lib
+from .config import PipelineConfig
+from .frames import to_gray
+
+ENGINES = ("c", "reference")
+STATES = {1: "tentative", 2: "confirmed", 3: "coasting"}
+ROAD_SOURCES = {0: "none", 1: "lanes", 2: "fixed"}
+SOURCE_NAMES = {1: "shadow", 2: "classifier", 4: "flow", 8: "model", 16: "external"}
+
+
+class _NoRoad:
+    """A road argument meaning "no road on this frame" (see Pipeline.step)."""
+    valid = False
+
+    def __repr__(self) -> str:
+        return "NO_ROAD"
+
+
+NO_ROAD = _NoRoad()
+
+
+@dataclass(frozen=True)
+class Box:
+    box: tuple                 # (left, top, right, bottom), inclusive, input pixels
+    source: str                # "shadow" (others as their stages plug in)
+    score: float | None = None  # the source's confidence, None if it has none
+
+
+@dataclass(frozen=True)
+class Track:
+    id: int
+    state: str                 # "tentative" | "confirmed" | "coasting"
+    box: tuple                 # (left, top, right, bottom), inclusive, input pixels
+    velocity: tuple            # (vx, vy) of the bottom edge, input px/frame
+    distance: float | None = None  # filtered distance, m (camera stage); None while unknown
+    ttc: float | None = None       # time to collision from it and its rate, s; None if unknown
+    warning: bool | None = None    # forward-collision warning; None without a camera
+
+
+@dataclass
+class FrameResult:
+    frame: int                     # index of the frame in this run (0 first)
+    detection_frame: bool          # detection ran on this frame
+    lanes: object                  # pyvehtrack.lane.LaneResult when the lane stage ran, else None
+    road: np.ndarray               # (N, 2) int outline of the road area used; (0, 2) if none
+    road_source: str               # "lanes", "fixed" or "none"
+    hypotheses: np.ndarray         # (N, 3) int [row, x_start, x_end], nearest first
+    boxes: list                    # [Box]: the detections handed to the tracker
+    tracks: list                   # [Track]
+    scale: float = 1.0             # input pixels per processed pixel (max of x, y)
+    stats: dict = field(default_factory=dict)  # shadow stage statistics (detection frames)
+
+    @property
+    def box_array(self) -> np.ndarray:
+        """The boxes as an (N, 4) int64 array."""
+        return np.array([b.box for b in self.boxes], np.int64).reshape(-1, 4)
+
+
+def _polygon(x_left, x_right, y_top, y_bottom) -> np.ndarray:
+    ys = np.arange(y_top, y_bottom + 1)
+    return np.concatenate([np.stack([np.asarray(x_left)[ys], ys], 1),
+                           np.stack([np.asarray(x_right)[ys[::-1]], ys[::-1]], 1)]).astype(np.int64)
+
+
+class Pipeline:
+    """Frame-by-frame detection and tracking of one video.
+
+    engine: "c" (the fixed-point core) or "reference" (the float oracle).
+    camera, model: the camera geometry and classifier stages (not built in yet:
+    pass None). cfg: a pyvehtrack.config.PipelineConfig (default: the core's);
+    keyword arguments replace its top-level fields, e.g. Pipeline(detect_every=5,
+    road="fixed", tracker=TrackerConfig(confirm_hits=2)). reference_quantized: the
+    reference engine runs the Kalman model and keep_ncc rounded as C holds them
+    (default) or as given."""
+
+    def __init__(self, engine: str = "c", camera=None, model=None,
+                 cfg: PipelineConfig | None = None, *, fps: float | None = None,
+                 ego_speed: float | None = None, reference_quantized: bool = True, **config):
+        if engine not in ENGINES:
+            raise ValueError(f"engine: expected one of {ENGINES}, got {engine!r}")
+        if camera is not None:
+            from .camera import Camera  # noqa: PLC0415
+            if not isinstance(camera, Camera):
+                raise TypeError(f"camera: expected a pyvehtrack.camera.Camera, got {type(camera).__name__}")
+            if camera.height_m is None:
+                raise ValueError("camera: 'height_m' (camera height above the road) is required")
+            if isinstance(fps, bool) or not isinstance(fps, (int, float)) or not np.isfinite(fps) or fps < 1:
+                raise ValueError(f"fps: a camera needs the frame rate, a number >= 1; got {fps!r}")
+        elif fps is not None or ego_speed is not None:
+            raise ValueError("fps and ego_speed are for the camera stage: pass camera= too")
+        self.camera, self.fps = camera, fps
+        self._geom = None          # (input w, h) the camera stage was set up for
+        self.ego_speed = None
+        self.set_ego_speed(ego_speed)
+        if model is not None:
+            raise ValueError("model: the classifier stage is not built into this version; pass None")
+        self.engine = engine
+        self._ref_quantized = bool(reference_quantized)
+        self.cfg = _config.from_kwargs(cfg, **config)
+        self._ccfg = _config.to_c(self.cfg)  # checks the whole config once, for both engines
+        self.max_w, self.max_h = int(lib.VT_MAX_WIDTH), int(lib.VT_MAX_HEIGHT)
+        self._warned = False
+        self.reset()
+
+    def set_ego_speed(self, speed: float | None) -> None:
+        """The ego vehicle's speed (m/s, >= 0) for the next frames, or None (unknown):
+        the camera stage's lead class and so its warning threshold."""
+        if speed is not None and (isinstance(speed, bool) or not isinstance(speed, (int, float, np.number))
+                                  or not np.isfinite(speed) or speed < 0):
+            raise ValueError(f"ego_speed: expected a speed >= 0 m/s or None, got {speed!r}")
+        self.ego_speed = None if speed is None else float(speed)
+        if getattr(self, "_p", None) is not None:
+            from .camera import q16  # noqa: PLC0415
+            _native.check("vt_pipeline_set_ego_speed", lib.vt_pipeline_set_ego_speed(
+                self._p, -65536 if speed is None else q16(speed, "ego_speed")))
+        if getattr(self, "_ref", None) is not None:
+            self._ref.ego_speed = self.ego_speed
+
+    def _setup_camera(self, w0: int, h0: int, pw: int, ph: int) -> None:
+        """The camera stage for input frames of w0 x h0 processed at pw x ph: the
+        intrinsics mapped to the processed pixels, the range filter at 1/fps."""
+        from .camera import params_to_c, range_to_c, range_from_c  # noqa: PLC0415
+        from .reference import camera as rcam  # noqa: PLC0415  (parameter records only)
+        import dataclasses  # noqa: PLC0415
+        cp = self.camera.params(w0, h0)
+        if (pw, ph) != (w0, h0):
+            sx, sy = w0 / pw, h0 / ph
+            cp = dataclasses.replace(cp, img_w=pw, img_h=ph, fx=cp.fx / sx, fy=cp.fy / sy,
+                                     cx=(cp.cx + 0.5) / sx - 0.5, cy=(cp.cy + 0.5) / sy - 0.5)
+        self._ccam = params_to_c(cp)
+        crng = range_to_c(rcam.RangeParams(frame_dt=1.0 / float(self.fps)))
+        self._ccfg.range = crng[0]
+        from .camera import params_from_c  # noqa: PLC0415
+        self._cam_params = params_from_c(self._ccam)   # the values C holds, for the oracle too
+        self._range_params = range_from_c(crng)
+        self._geom = (w0, h0)
+        self.reset()
+
+    def reset(self) -> None:
+        """Start a new run: every stage empty, track ids from 1, frame 0 next."""
+        if self.engine == "c":
+            self._p = ffi.new("vt_pipeline *")
+            cam = self._ccam if self._geom is not None else ffi.NULL
+            _native.check("vt_pipeline_init", lib.vt_pipeline_init(self._p, self._ccfg, cam, ffi.NULL),
+                          "a stage configuration, policy or the camera is out of range")
+            # The edge-curve measurement's workspace (sizeof(vt_edge_ws), 320 KB at the
+            # default VT_EDGE_MAX_PIXELS) exists only when that measurement runs; it is
+            # scratch, so one per Pipeline serves every run (init detaches it).
+            if self._ccfg.track and self._ccfg.tracker.measurement == lib.VT_MEAS_EDGE_CURVES:
+                if getattr(self, "_edge_ws", None) is None:
+                    self._edge_ws = _native.edge_ws_new()
+                _native.pipeline_set_edge_ws(self._p, self._edge_ws)
+            else:
+                self._edge_ws = None
+            self._out = ffi.new("vt_frame_out *")
+        else:
+            from .reference import pipeline as rpipe  # noqa: PLC0415  (the reference engine only)
+            geom = (self._cam_params, self._range_params) if self._geom is not None else None
+            self._ref = rpipe.Pipeline(_config.to_reference(self.cfg, self._ref_quantized),
+                                       _config.reference_capacities(), camera=geom)
+        self.set_ego_speed(self.ego_speed)
+
+    @property
+    def frame_index(self) -> int:
+        """Frames stepped so far."""
+        return int(self._p.frame) if self.engine == "c" else int(self._ref.frame)
+
+    # ------------------------------------------------------------------ the one downscale rule
+    def work_size(self, w: int, h: int) -> tuple[int, int]:
+        """The (w, h) a w x h frame is processed at (vt_pipeline_work_size)."""
+        return _native.pipeline_work_size(int(w), int(h), self.max_w, self.max_h)
+
+    def prepare(self, frame) -> tuple[np.ndarray, tuple[float, float]]:
+        """The gray frame the core processes and (sx, sy), input pixels per processed pixel."""
+        gray = to_gray(frame)
+        h, w = gray.shape
+        pw, ph = self.work_size(w, h)
+        if (pw, ph) != (w, h):
+            if not self._warned:
+                warnings.warn(f"frame {w}x{h} is larger than the core's maximum "
+                              f"{self.max_w}x{self.max_h}: downscaled to {pw}x{ph}", stacklevel=3)
+                self._warned = True
+            gray = cv2.resize(gray, (pw, ph), interpolation=cv2.INTER_AREA)
+        return gray, (w / pw, h / ph)
+
+    # ------------------------------------------------------------------ step
+    def step(self, frame, *, road=None, detections=None) -> FrameResult:
+        """One frame (gray or BGR uint8); the result in input pixels.
+
+        road: a road area (an object with y_top, y_bottom, x_left, x_right, lane_width
+        per row and valid, e.g. reference RoadArea) in the pixels of the PROCESSED frame
+        (see prepare), replacing the fixed trapezoid: the road of road="fixed" and the
+        fallback of road="auto"; NO_ROAD for none. detections: an (N, 4) array of
+        [left, top, right, bottom] input-pixel boxes making this a detection frame with
+        them (lanes and hypothesis stages do not run)."""
+        gray, (sx, sy) = self.prepare(frame)
+        self._camera_for(int(round(gray.shape[1] * sx)), int(round(gray.shape[0] * sy)), gray)
+        if detections is not None:
+            d = _native._boxes_i32(detections, "detections").astype(np.float64)
+            if sx != 1.0 or sy != 1.0:
+                d = np.floor(d / np.array([sx, sy, sx, sy]))
+            detections = d.astype(np.int32).reshape(-1, 4)
+        res = self._run(gray, road, detections)
+        if sx != 1.0 or sy != 1.0:
+            res = _rescale(res, sx, sy, int(round(gray.shape[0] * sy)), int(round(gray.shape[1] * sx)))
+        return res
+
+    def _camera_for(self, w0: int, h0: int, gray: np.ndarray) -> None:
+        if self.camera is None:
+            return
+        if self._geom is None:
+            if self.frame_index != 0:
+                raise RuntimeError("the camera stage must be set up on the first frame")
+            self._setup_camera(w0, h0, gray.shape[1], gray.shape[0])
+        elif self._geom != (w0, h0):
+            raise ValueError(f"frame {w0}x{h0}: the camera stage was set up for "
+                             f"{self._geom[0]}x{self._geom[1]} frames (reset() or a new Pipeline "
+                             f"for another size)")
+
+    def step_gray(self, gray: np.ndarray, *, road=None, detections=None) -> FrameResult:
+        """One frame already at the working size (see prepare); road, detections and the
+        result in its pixels."""
+        self._camera_for(gray.shape[1], gray.shape[0], gray)
+        return self._run(gray, road, detections)
+
+    def _run(self, gray: np.ndarray, road, detections) -> FrameResult:
+        if self.engine == "c":
+            return self._step_c(gray, road, detections)
+        return self._step_ref(gray, road, detections)
+
+    def _step_c(self, gray: np.ndarray, road, detections) -> FrameResult:
+        o = self._out
+        croad = None
+        if road is not None and detections is None:
+            croad = _native.road_area(None if road is NO_ROAD else road, gray.shape[0])
+        _native.pipeline_step(self._p, gray, o, road=croad, dets=detections)
+        h = gray.shape[0]
+        lanes = None
+        if o.lanes_ran and o.lane_status == lib.VT_OK:
+            lanes = _lane.from_c(ffi.addressof(o, "lanes"), ffi.addressof(o, "road"), gray.shape)
+        road = np.zeros((0, 2), np.int64)
+        if o.road.valid:
+            arrs = [np.frombuffer(ffi.buffer(getattr(o.road, nm)), np.int16)[:h].astype(np.int64)
+                    for nm in ("x_left", "x_right")]
+            road = _polygon(arrs[0], arrs[1], int(o.road.y_top), int(o.road.y_bottom))
+        hyp = np.array([(o.hyp[i].row, o.hyp[i].x_start, o.hyp[i].x_end) for i in range(o.n_hyp)],
+                       np.int64).reshape(-1, 3)
+        boxes = [Box((int(b.box.left), int(b.box.top), int(b.box.right), int(b.box.bottom)),
+                     SOURCE_NAMES.get(int(b.source), "unknown"),
+                     None if b.score == lib.VT_UNKNOWN else float(b.score))
+                 for b in (o.boxes[i] for i in range(o.n_boxes))]
+        tracks = [Track(int(t.id), STATES[int(t.state)],
+                        (int(t.box.left), int(t.box.top), int(t.box.right), int(t.box.bottom)),
+                        (t.vx / 65536, t.vy / 65536),
+                        None if t.distance_mm == lib.VT_UNKNOWN else t.distance_mm / 1000,
+                        None if t.ttc_ms == lib.VT_UNKNOWN else t.ttc_ms / 1000,
+                        None if t.warning == lib.VT_FCW_UNKNOWN else bool(t.warning & lib.VT_FCW_WARNING))
+                  for t in (o.tracks[i] for i in range(o.n_tracks))]
+        stats = {}
+        if o.detection_frame:
+            s = self._p.detect.shadow
+            stats = {"median": int(s.median), "mad": int(s.mad), "dark_limit": int(s.dark_limit),
+                     "n_runs": int(s.n_runs), "n_dropped": int(s.n_dropped)}
+        return FrameResult(int(o.frame), bool(o.detection_frame), lanes, road,
+                           ROAD_SOURCES[int(o.road_source)], hyp, boxes, tracks, 1.0, stats)
+
+    def _step_ref(self, gray: np.ndarray, road, detections) -> FrameResult:
+        r = self._ref.step(gray, road=road, detections=detections)
+        lanes = _lane.from_reference(r.lanes, gray.shape) if r.lanes_ok else None
+        road = np.zeros((0, 2), np.int64)
+        if r.road is not None:
+            road = _polygon(r.road.x_left, r.road.x_right, r.road.y_top, r.road.y_bottom)
+        boxes = [Box(tuple(int(v) for v in b), s) for b, s in zip(r.boxes, r.box_source)]
+        tracks = [Track(int(i), STATES[int(s)], b, (float(vx), float(vy)), d, ttc, wn)
+                  for i, s, b, vx, vy, d, ttc, wn in r.tracks]
+        return FrameResult(r.frame, r.detection_frame, lanes, road, r.road_source,
+                           np.asarray(r.hypotheses, np.int64).reshape(-1, 3), boxes, tracks, 1.0,
+                           dict(r.stats))
+
+
+def _rescale(res: FrameResult, sx: float, sy: float, h0: int, w0: int) -> FrameResult:
+    """Map a result computed on the working frame back to the input frame."""
+    def mx(x):
+        return np.floor((np.asarray(x, np.float64) + 0.5) * sx).astype(np.int64)
+
+    def my(y):
+        return np.floor((np.asarray(y, np.float64) + 0.5) * sy).astype(np.int64)
+
+    def box(b):
+        return (int(mx(b[0])), int(my(b[1])), int(mx(b[2])), int(my(b[3])))
+
+    hyp = res.hypotheses
+    if len(hyp):
+        hyp = np.stack([my(hyp[:, 0]), mx(hyp[:, 1]), mx(hyp[:, 2])], 1)
+    road = res.road
+    if len(road):
+        road = np.stack([mx(road[:, 0]), my(road[:, 1])], 1)
+    if res.lanes is not None:
+        _lane._rescale(res.lanes, 1.0 / sx, w0, h0)
+        res.lanes.input_scale = 1.0 / sx
+    return FrameResult(res.frame, res.detection_frame, res.lanes, road, res.road_source, hyp,
+                       [Box(box(b.box), b.source, b.score) for b in res.boxes],
+                       [Track(t.id, t.state, box(t.box), (t.velocity[0] * sx, t.velocity[1] * sy),
+                              t.distance, t.ttc, t.warning) for t in res.tracks],
+                       float(max(sx, sy)), res.stats)
+
+
+__all__ = ["Pipeline", "FrameResult", "Box", "Track", "PipelineConfig", "NO_ROAD"]

@@ -1,0 +1,224 @@
+"""The float oracle of c/pipeline.c: the oracle stages composed in the same order
+(thesis fig. 4.1 for detection, ch. 3 for tracking), so C and oracle can be compared
+frame by frame end to end.
+
+    lanes (reference.lane)                on detection frames, or every frame
+      -> road area                        the lanes' area, else the fixed trapezoid
+      -> shadow hypotheses (reference.shadow) -> verification (reference.verify)
+                                          on frames 0, N, 2N, ...
+      -> tracker (reference.tracker)      every frame
+      -> geometry (reference.camera)      with a camera: pitch from the lanes' vanishing
+                                          row, range filter, TTC and FCW per track
+
+Plain NumPy/OpenCV, never calling C. Capacities (VT_MAX_*) are passed in, so the
+oracle drops what C drops.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import camera as rcam
+from . import lane as rlane
+from . import shadow as rshadow
+from . import tracker as rtrk
+from . import verify as rverify
+from .shadow import RoadArea, ShadowConfig, trapezoid_road
+from .verify import VerifyConfig
+
+ROAD_AUTO, ROAD_LANES, ROAD_FIXED = "auto", "lanes", "fixed"
+SRC_SHADOW = "shadow"
+
+
+@dataclass
+class FixedRoadRef:
+    """The fixed trapezoid as fractions (see shadow.trapezoid_road)."""
+    vp: tuple = (0.5, 0.45)
+    bottom: tuple = (0.05, 0.95)
+    lane_bottom: float = 0.45
+    top_margin: int = 4
+
+    def make(self, h: int, w: int) -> RoadArea:
+        return trapezoid_road(h, w, vp=self.vp, bottom=self.bottom, lane_bottom=self.lane_bottom,
+                              top_margin=self.top_margin)
+
+
+@dataclass
+class Capacities:
+    """The compile-time capacities of the C build the oracle mirrors."""
+    max_width: int = 1920
+    max_height: int = 1080
+    max_tracks: int = 16
+    max_hypotheses: int = 32
+    max_boxes: int = 32
+    max_shadow_active: int = 64
+    max_shadow_cand: int = 64
+    max_verts: int = 24
+    max_edge_points: int = 256      # VT_EDGE_MAX_POINTS
+    max_edge_pixels: int = 65536    # VT_EDGE_MAX_PIXELS
+    coord_lim: int = 7680           # 4 * max(VT_MAX_WIDTH, VT_MAX_HEIGHT): the tracker's box limit
+
+
+@dataclass
+class PipelineRefConfig:
+    lane: rlane.LaneConfig = field(default_factory=rlane.LaneConfig)
+    shadow: ShadowConfig = field(default_factory=ShadowConfig)
+    verify: VerifyConfig = field(default_factory=VerifyConfig)
+    tracker: rtrk.TrackerCfg = field(default_factory=rtrk.TrackerCfg)
+    fixed_road: FixedRoadRef = field(default_factory=FixedRoadRef)
+    detect_every: int = 10
+    road_policy: str = ROAD_AUTO
+    lanes_every_frame: bool = False
+    sources: tuple = (SRC_SHADOW,)
+    track: bool = True
+
+
+@dataclass
+class RefFrame:
+    frame: int
+    detection_frame: bool
+    lanes_ran: bool
+    lanes_ok: bool
+    lanes: object                 # reference.lane.LaneFrame or None
+    road_source: str              # "none" | "lanes" | "fixed"
+    road: RoadArea | None
+    hypotheses: np.ndarray        # (N, 3) row, x_start, x_end
+    boxes: np.ndarray             # (M, 4) inclusive
+    box_source: list              # one source name per box
+    tracks: list                  # (id, state, (l, t, r, b), vx, vy, distance_m, ttc_s, warning)
+    stats: dict                   # the shadow stage's statistics (detection frames)
+
+
+def _lane_fits(h: int, w: int, cfg: rlane.LaneConfig) -> bool:
+    """The lane stage's size rule (vt_lane_detect): 16x16 at least, and a box
+    downscale by 2^s, s <= 3, brings the frame within the working maximum (>= 8x8)."""
+    if w < 16 or h < 16:
+        return False
+    s = rlane.choose_shift(w, h, cfg)
+    W, H = w >> s, h >> s
+    return W <= cfg.work_width_max and H <= cfg.work_height_max and W >= 8 and H >= 8
+
+
+def _road_from_lane_frame(fr) -> RoadArea | None:
+    r = fr.road
+    if not r["valid"]:
+        return None
+    return RoadArea(int(r["y_top"]), int(r["y_bottom"]), np.asarray(r["x_left"]),
+                    np.asarray(r["x_right"]), np.asarray(r["lane_width"]), True)
+
+
+class Pipeline:
+    """One run over a video: step(gray) per frame, in order."""
+
+    def __init__(self, cfg: PipelineRefConfig | None = None, caps: Capacities | None = None,
+                 camera=None):
+        """camera: None, or (reference.camera.CameraParams, RangeParams) for frames of
+        exactly the camera's img_w x img_h."""
+        self.cfg = cfg or PipelineRefConfig()
+        self.caps = caps or Capacities()
+        self.camera = camera
+        self.ego_speed = None      # m/s or None (unknown)
+        if camera is not None:
+            self.pitch = rcam.PitchEstimator(camera[0])
+            self.ranges = rcam.RangeTracker(camera[0], camera[1], self.caps.max_tracks)
+        if int(self.cfg.detect_every) < 1:
+            raise ValueError(f"detect_every must be >= 1, got {self.cfg.detect_every}")
+        if self.cfg.road_policy not in (ROAD_AUTO, ROAD_LANES, ROAD_FIXED):
+            raise ValueError(f"road_policy: expected 'auto', 'lanes' or 'fixed', got {self.cfg.road_policy!r}")
+        if tuple(self.cfg.sources) not in ((SRC_SHADOW,), ()):
+            raise ValueError(f"sources: only ('shadow',) or () is built, got {self.cfg.sources!r}")
+        self.lane = rlane.LaneDetector(self.cfg.lane, max_height=self.caps.max_height,
+                                       max_verts=self.caps.max_verts)
+        self.tracker = rtrk.Tracker(self.cfg.tracker, max_tracks=self.caps.max_tracks,
+                                    max_edge_points=self.caps.max_edge_points,
+                                    max_edge_pixels=self.caps.max_edge_pixels,
+                                    coord_lim=self.caps.coord_lim)
+        self.frame = 0
+
+    def step(self, gray: np.ndarray, road=None, detections=None) -> RefFrame:
+        """One frame. road: a RoadArea (or one with valid False: no road) replacing the
+        fixed trapezoid (the fallback of "auto", the road of "fixed"). detections: an
+        (N, 4) box array making this a detection frame with those boxes (the lane and
+        hypothesis stages do not run), as c/pipeline.c's step_road / step_dets."""
+        c = self.cfg
+        gray = np.asarray(gray, np.uint8)
+        h, w = gray.shape
+        if not (1 <= w <= self.caps.max_width and 1 <= h <= self.caps.max_height):
+            raise ValueError(f"frame {w}x{h} outside 1x1..{self.caps.max_width}x{self.caps.max_height}")
+        if self.camera is not None and (w, h) != (self.camera[0].img_w, self.camera[0].img_h):
+            raise ValueError(f"frame {w}x{h}: the camera is for {self.camera[0].img_w}x{self.camera[0].img_h}")
+        ext = detections is not None
+        det_frame = ext or (bool(c.sources) and self.frame % c.detect_every == 0)
+        run_lanes = not ext and c.road_policy != ROAD_FIXED and \
+            ((det_frame and bool(c.sources)) or c.lanes_every_frame)
+        given = road
+        lanes, lanes_ok, road, source = None, False, None, "none"
+        if run_lanes and _lane_fits(h, w, c.lane):
+            lanes = self.lane.detect(gray)
+            lanes_ok = True
+        lane_road = _road_from_lane_frame(lanes) if lanes_ok else None
+        hyp = np.zeros((0, 3), np.int64)
+        boxes = np.zeros((0, 4), np.int64)
+        stats = {}
+        box_source = SRC_SHADOW
+        if ext:
+            boxes = np.asarray(detections, np.int64).reshape(-1, 4)
+            box_source = "external"
+        elif det_frame:
+            if lane_road is not None:
+                road, source = lane_road, "lanes"
+            elif c.road_policy != ROAD_LANES:
+                if given is None:
+                    road, source = c.fixed_road.make(h, w), "fixed"
+                elif getattr(given, "valid", True):
+                    road, source = given, "fixed"
+            if road is not None:
+                res = rshadow.find_hypotheses(gray, road, c.shadow,
+                                              max_active=self.caps.max_shadow_active,
+                                              max_cand=self.caps.max_shadow_cand,
+                                              max_out=self.caps.max_hypotheses)
+                hyp = res.hypotheses
+                stats = {"median": res.median, "mad": res.mad, "dark_limit": res.dark_threshold,
+                         "n_runs": res.n_runs, "n_dropped": res.n_dropped}
+                boxes = rverify.verify(gray, hyp, c.verify, max_out=self.caps.max_boxes)
+        elif lane_road is not None:
+            road, source = lane_road, "lanes"
+        rows = self.tracker.step(gray, det_frame, boxes) if c.track else []
+        geo = {}
+        if self.camera is not None and c.track:
+            geo = self._geometry(lanes if lanes_ok else None, rows)
+        tracks = [(i, s, tuple(int(v) for v in b), vx, vy) + geo.get(i, (None, None, None))
+                  for i, s, b, vx, vy in rows]
+        out = RefFrame(self.frame, det_frame, bool(run_lanes), lanes_ok, lanes, source, road,
+                       np.asarray(hyp, np.int64).reshape(-1, 3), boxes, [box_source] * len(boxes),
+                       tracks, stats)
+        self.frame = self.frame + 1 if self.frame < 2**31 - 1 else 0
+        return out
+
+
+    def _geometry(self, lane_frame, rows) -> dict:
+        """The camera stage after the tracker (c/pipeline.c's vt__geometry): the pitch from
+        the two ego lines' vanishing row when the lanes ran, then the range filters.
+        id -> (filtered distance m, TTC s, warning) with None where C says VT_UNKNOWN."""
+        vp = None
+        if lane_frame is not None:
+            left, right = lane_frame.lines[rlane.LEFT], lane_frame.lines[rlane.RIGHT]
+            vp = rcam.vanishing_row(None if left is None else (left.xb, left.slope),
+                                    None if right is None else (right.xb, right.slope),
+                                    lane_frame.H, lane_frame.shift)
+        self.pitch.update(vp)
+        outs = self.ranges.step([(int(i), [int(v) for v in b]) for i, _s, b, _vx, _vy in rows],
+                                self.pitch.tan_pitch, self.ego_speed)
+        return {r.id: (r.dist_filt, r.ttc_dist, r.warning) for r in outs}
+
+
+def work_size(w: int, h: int, max_w: int, max_h: int) -> tuple[int, int]:
+    """The working size rule of c/pipeline.c (vt_pipeline_work_size) in plain
+    arithmetic: unchanged if the frame fits, else the limiting side at its maximum
+    and the other scaled by the same ratio, rounded down (>= 1)."""
+    if w <= max_w and h <= max_h:
+        return w, h
+    if w * max_h >= h * max_w:
+        return max_w, max(1, h * max_w // w)
+    return max(1, w * max_h // h), max_h

@@ -1,0 +1,253 @@
+#!/usr/bin/env python3
+"""Lead-car distance, TTC and pitch on the 78 KITTI frames of ../shared/data/kitti-raw-sfnd-ttc,
+against the lidar (derived_lidar_lead_distance.csv).
+
+    PYTHONPATH=. python3 tools/eval_kitti_range.py [--data DIR] [--engine c|reference]
+                                                   [--json OUT.json] [--png OUT.png]
+
+Pipeline (all pyvehtrack, nothing fitted on this sequence): Detector + Tracker (detection
+every 10th frame, the tracker's defaults), LaneDetector for the vanishing row of the ego
+lanes -> pitch (vt_pitch_update), RangeEstimator (vt_range_step) per track. Camera: f, cx,
+cy from P_rect_00 of calib_sfnd_2011_09_26.txt, 1.65 m above the road, nominal pitch 0.
+
+Which track is the lead: per frame, the track whose box has the largest IoU (>= 0.5) with the
+lidar lead box (derived_lidar_lead_box.csv). The lidar box is used only for this
+association, never for a distance. Frames with no such track count as "not tracked".
+
+Truth: the lidar's closest point in the ego-lane box (ego_lane_min_x_m, the rear bumper), in
+the lidar frame, which sits 0.27 m behind the camera: camera distance = lidar - 0.27 m.
+Lidar TTC: the slope of a least-squares line through the lidar distances of frames t-2..t+2
+(the "smoothed over 5 frames" of the issue), TTC = d_t / -slope, at 10 Hz; only where the
+lidar closes faster than 0.1 m/s (else there is no finite TTC to compare).
+
+Every parameter of the range stage is its default, chosen before this sequence was run
+(NHTSA thresholds, 3 m/s^2 relative acceleration noise, +-1 px row error, 1.8 m assumed width
+only for the cross-check); the figures are reported for all frames, and for each half.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from pyvehtrack.camera import Camera, RangeEstimator, lane_vanishing_row  # noqa: E402
+from pyvehtrack.detector import Detector  # noqa: E402
+from pyvehtrack.lane import LaneDetector  # noqa: E402
+from pyvehtrack.tracker import Tracker  # noqa: E402
+
+DEFAULT_DATA = Path("/work/shared/data/kitti-raw-sfnd-ttc")
+LIDAR_BEHIND_CAMERA_M = 0.27
+CAM_HEIGHT_M = 1.65
+FPS = 10.0
+
+
+def kitti_camera(data: Path, w: int, h: int) -> Camera:
+    for line in (data / "calib_sfnd_2011_09_26.txt").read_text().splitlines():
+        if line.startswith("P_rect_00"):
+            v = [float(t) for t in line.split(":", 1)[1].split()]
+            return Camera(fx=v[0], fy=v[5], cx=v[2], cy=v[6], height_m=CAM_HEIGHT_M, pitch_deg=0.0,
+                          image_size=(w, h))
+    raise SystemExit("no P_rect_00 in the calibration file")
+
+
+def iou(box, gt) -> float:
+    """IoU of an inclusive pixel box and the lidar's continuous box."""
+    l, t, r, b = box[0], box[1], box[2] + 1, box[3] + 1
+    ix = max(0.0, min(r, gt[2]) - max(l, gt[0]))
+    iy = max(0.0, min(b, gt[3]) - max(t, gt[1]))
+    inter = ix * iy
+    union = (r - l) * (b - t) + (gt[2] - gt[0]) * (gt[3] - gt[1]) - inter
+    return inter / union if union > 0 else 0.0
+
+
+def lidar_ttc(d: np.ndarray, dt: float) -> np.ndarray:
+    out = np.full(len(d), np.nan)
+    t = np.arange(5) * dt
+    for i in range(2, len(d) - 2):
+        slope = np.polyfit(t, d[i - 2:i + 3], 1)[0]
+        if slope < -0.1:
+            out[i] = d[i] / -slope
+    return out
+
+
+def stats(rel: np.ndarray) -> dict:
+    rel = np.abs(rel[np.isfinite(rel)])
+    if len(rel) == 0:
+        return {"n": 0}
+    return {"n": int(len(rel)), "median": float(np.median(rel)), "p95": float(np.percentile(rel, 95)),
+            "mean": float(np.mean(rel))}
+
+
+def collect(data: Path, engine: str):
+    """Detector + tracker + lanes over the sequence: per frame the tracks, the vanishing row
+    and the lead track's id (by IoU with the lidar box)."""
+    files = sorted((data / "image_02" / "data").glob("*.png"))
+    lbox = {int(r["frame"]): [float(r[k]) for k in ("left", "top", "right", "bottom")]
+            for r in csv.DictReader(open(data / "derived_lidar_lead_box.csv"))}
+    first = cv2.imread(str(files[0]), cv2.IMREAD_COLOR)
+    h, w = first.shape[:2]
+    det = Detector(engine=engine)
+    trk = Tracker(engine=engine, detect_every=10, detector=det)
+    lanes = LaneDetector(engine=engine)
+    frames = []
+    for i, p in enumerate(files):
+        img = cv2.imread(str(p), cv2.IMREAD_COLOR)
+        vp = lane_vanishing_row(lanes.detect(img))
+        tracks = trk.step(img)
+        best, best_iou = None, 0.5
+        for t in tracks:
+            v = iou(t.box, lbox[i])
+            if v >= best_iou:
+                best, best_iou = t, v
+        frames.append({"tracks": [(t.id, list(t.box)) for t in tracks], "vp": vp,
+                       "lead": None if best is None else best.id,
+                       "iou": None if best is None else round(best_iou, 3)})
+    return frames, (w, h)
+
+
+def ranges(data: Path, engine: str, frames, size, **params):
+    """The range stage over the collected tracks."""
+    w, h = size
+    lid = {int(r["frame"]): r for r in csv.DictReader(open(data / "derived_lidar_lead_distance.csv"))}
+    rng = RangeEstimator(kitti_camera(data, w, h), (w, h), FPS, engine=engine, **params)
+    rows = []
+    for i, fr in enumerate(frames):
+        rng.update_pitch(fr["vp"])
+        outs = {o.id: o for o in rng.step(fr["tracks"])}
+        o = outs.get(fr["lead"]) if fr["lead"] is not None else None
+        box = dict(fr["tracks"]).get(fr["lead"]) if fr["lead"] is not None else None
+        rows.append({
+            "frame": i, "vp_row": fr["vp"], "pitch_deg": rng.pitch_deg, "pitch_flag": rng.pitch_flag,
+            "lead_id": fr["lead"], "lead_box": box, "iou": fr["iou"],
+            "distance_m": None if o is None else o.distance,
+            "dist_filt_m": None if o is None else o.dist_filt,
+            "from_width": None if o is None else o.from_width,
+            "dist_width_1p8_m": None if o is None else o.dist_width,
+            "rate_mps": None if o is None else o.rate,
+            "ttc_dist_s": None if o is None else o.ttc_dist,
+            "ttc_scale_s": None if o is None else o.ttc_scale,
+            "warning": None if o is None else o.warning,
+            "lidar_min_m": float(lid[i]["ego_lane_min_x_m"]),
+            "lidar_p05_m": float(lid[i]["ego_lane_p05_x_m"]),
+        })
+    return rows
+
+
+def summarise(rows) -> dict:
+    n = len(rows)
+    truth = np.array([r["lidar_min_m"] for r in rows]) - LIDAR_BEHIND_CAMERA_M
+    ttc_l = lidar_ttc(np.array([r["lidar_min_m"] for r in rows]), 1.0 / FPS)
+
+    def arr(key):
+        return np.array([np.nan if r[key] is None else float(r[key]) for r in rows])
+    d_f, d_m = arr("dist_filt_m"), arr("distance_m")
+    t_d, t_s = arr("ttc_dist_s"), arr("ttc_scale_s")
+    out = {"frames": n, "lead_tracked": int(np.sum([r["lead_id"] is not None for r in rows]))}
+    halves = {"all": slice(0, n), "first_half": slice(0, n // 2), "second_half": slice(n // 2, n)}
+    for name, sl in halves.items():
+        out[name] = {
+            "distance_filtered_rel": stats((d_f[sl] - truth[sl]) / truth[sl]),
+            "distance_measured_rel": stats((d_m[sl] - truth[sl]) / truth[sl]),
+            "ttc_dist_rel": stats((t_d[sl] - ttc_l[sl]) / ttc_l[sl]),
+            "ttc_scale_rel": stats((t_s[sl] - ttc_l[sl]) / ttc_l[sl]),
+            "ttc_frames_with_lidar_ttc": int(np.sum(np.isfinite(ttc_l[sl]))),
+            "ttc_dist_reported": int(np.sum(np.isfinite(t_d[sl]) & np.isfinite(ttc_l[sl]))),
+            "ttc_scale_reported": int(np.sum(np.isfinite(t_s[sl]) & np.isfinite(ttc_l[sl]))),
+        }
+    out["from_width_frames"] = int(np.sum([bool(r["from_width"]) for r in rows]))
+    pitch = np.array([r["pitch_deg"] for r in rows])
+    out["pitch_deg"] = {"min": float(pitch.min()), "max": float(pitch.max()),
+                        "median": float(np.median(pitch)),
+                        "frames_with_vp": int(np.sum([r["vp_row"] is not None for r in rows]))}
+    out["lidar_ttc_s"] = [None if not np.isfinite(v) else round(float(v), 3) for v in ttc_l]
+    return out
+
+
+def plot(rows, summary, path: Path) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fr = [r["frame"] for r in rows]
+    val = lambda k: [np.nan if r[k] is None else r[k] for r in rows]  # noqa: E731
+    fig, ax = plt.subplots(3, 1, figsize=(9, 10), sharex=True)
+    ax[0].plot(fr, np.array(val("lidar_min_m")) - LIDAR_BEHIND_CAMERA_M, "k-", label="lidar - 0.27 m")
+    ax[0].plot(fr, val("distance_m"), "c.", label="measured (row, or learnt width)")
+    ax[0].plot(fr, val("dist_filt_m"), "b-", label="filtered")
+    ax[0].plot(fr, val("dist_width_1p8_m"), "g:", label="width cross-check (1.8 m)")
+    ax[0].set_ylabel("distance (m)")
+    ax[0].legend(fontsize=8)
+    ax[1].plot(fr, summary["lidar_ttc_s"] and [np.nan if v is None else v for v in summary["lidar_ttc_s"]],
+               "k-", label="lidar (5-frame fit)")
+    ax[1].plot(fr, val("ttc_dist_s"), "b.-", label="filtered distance / rate")
+    ax[1].plot(fr, val("ttc_scale_s"), "r.-", label="box scale change (5 frames)")
+    ax[1].set_ylim(0, 20)
+    ax[1].set_ylabel("TTC (s)")
+    ax[1].legend(fontsize=8)
+    ax[2].plot(fr, val("pitch_deg"), "m.-")
+    ax[2].set_ylabel("pitch (deg, + down)")
+    ax[2].set_xlabel("frame (10 Hz)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=80)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--data", type=Path, default=DEFAULT_DATA)
+    ap.add_argument("--engine", choices=("c", "reference"), default="c")
+    ap.add_argument("--json", type=Path, default=Path("eval_kitti_range.json"))
+    ap.add_argument("--png", type=Path, default=None)
+    ap.add_argument("--rear-offset", type=float, default=None, metavar="M",
+                    help="range stage's rear_offset (m); default: fitted on the first half (frames 0-38)")
+    a = ap.parse_args(argv)
+    if not (a.data / "derived_lidar_lead_distance.csv").is_file():
+        print(f"eval_kitti_range: {a.data}: not the kitti-raw-sfnd-ttc folder", file=sys.stderr)
+        return 2
+    frames, size = collect(a.data, a.engine)
+    offset = a.rear_offset
+    tuning = None
+    if offset is None:
+        # one parameter, fitted on the first half only: where the bottom edge's road contact
+        # lies relative to the rear bumper the lidar sees (rear overhang + shadow)
+        grid = np.round(np.arange(0.0, 2.01, 0.05), 2)
+        errs = []
+        for g in grid:
+            s0 = summarise(ranges(a.data, a.engine, frames, size, rear_offset=float(g)))
+            errs.append(s0["first_half"]["distance_filtered_rel"].get("median", np.inf))
+        offset = float(grid[int(np.argmin(errs))])
+        tuning = {"rear_offset_grid": grid.tolist(), "first_half_median": errs, "chosen": offset}
+    rows = ranges(a.data, a.engine, frames, size, rear_offset=offset)
+    base = summarise(ranges(a.data, a.engine, frames, size, rear_offset=0.0))
+    s = summarise(rows)
+    s["rear_offset_m"] = offset
+    a.json.write_text(json.dumps({"engine": a.engine, "summary": s, "tuning": tuning,
+                                  "summary_eq1_as_is": base, "per_frame": rows}, indent=1))
+    if a.png:
+        plot(rows, s, a.png)
+    print(f"[{a.engine}] rear_offset = {offset} m ({'fitted on frames 0-38' if tuning else 'given'}); "
+          f"with 0 (eq. 1 as is): second half distance median "
+          f"{base['second_half']['distance_filtered_rel'].get('median', float('nan')):.1%}, all "
+          f"{base['all']['distance_filtered_rel'].get('median', float('nan')):.1%}")
+    for name in ("all", "first_half", "second_half"):
+        x = s[name]
+        f = lambda d: (f"median {d['median']:.1%}  P95 {d['p95']:.1%}  (n={d['n']})"  # noqa: E731
+                       if d.get("n") else "n=0")
+        print(f"[{a.engine}] {name}: distance (filtered) {f(x['distance_filtered_rel'])}")
+        print(f"[{a.engine}] {name}: distance (measured) {f(x['distance_measured_rel'])}")
+        print(f"[{a.engine}] {name}: TTC distance/rate   {f(x['ttc_dist_rel'])}  "
+              f"of {x['ttc_frames_with_lidar_ttc']} lidar-TTC frames")
+        print(f"[{a.engine}] {name}: TTC scale change    {f(x['ttc_scale_rel'])}")
+    print(f"[{a.engine}] lead tracked in {s['lead_tracked']}/{s['frames']} frames; distance from the "
+          f"learnt width in {s['from_width_frames']}; pitch {s['pitch_deg']}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
