@@ -477,9 +477,12 @@ def _track_frame_edges(ctx: Ctx) -> Stage:
     ref.step(img, True, dets)
     last = {}
 
+    keep = (ws, saved)   # the tracker (and its saved copy) point at ws: keep it alive
+
     def c():
-        _native.ffi.memmove(tr, saved, _native.ffi.sizeof("vt_tracker"))
+        _native.ffi.memmove(tr, saved, _native.ffi.sizeof("vt_tracker"))  # the ws pointer too
         last["out"] = _native.tracker_step(tr, ccfg, img, False)
+        last["keep"] = keep
 
     def reference():
         return copy.deepcopy(ref).step(img, False)
