@@ -107,7 +107,10 @@ class Pipeline:
     keyword arguments replace its top-level fields, e.g. Pipeline(detect_every=5,
     road="fixed", tracker=TrackerConfig(confirm_hits=2)). reference_quantized: the
     reference engine runs the Kalman model and keep_ncc rounded as C holds them
-    (default) or as given."""
+    (default) or as given. With the tracker's edge-curve measurement
+    (TrackerConfig(measurement=config.MEASUREMENTS["edges"])) the C engine allocates
+    its workspace (sizeof(vt_edge_ws)) and attaches it with vt_pipeline_set_edge_ws;
+    otherwise there is none."""
 
     def __init__(self, engine: str = "c", camera=None, model=None,
                  cfg: PipelineConfig | None = None, *, fps: float | None = None,
