@@ -597,6 +597,49 @@ def _model_track(ctx: Ctx) -> Stage:
     return _model_stage(ctx, "model_track", True)
 
 
+@register("track_frame_edges", driver=False)
+def _track_frame_edges(ctx: Ctx) -> Stage:
+    """track_frame with the edge-curve measurement (GIST paper sec. III.B) in place of
+    the ROI search: edge map + chamfer transform of each track's crop, 5 scales x 17 x 17
+    displacements, then a fresh template."""
+    import copy
+
+    from pyvehtrack import _native
+    from pyvehtrack.reference import tracker as rtrk
+    from pyvehtrack.tracker import cfg_to_c
+    img = ctx.frame
+    h, w = img.shape
+    dets = np.array([[370 * w // 640, 270 * h // 480, 456 * w // 640, 328 * h // 480],
+                     [528 * w // 640, 268 * h // 480, 639 * w // 640, 336 * h // 480]])
+    pcfg = rtrk.TrackerCfg(measurement=rtrk.MEAS_EDGE_CURVES)
+    ccfg = cfg_to_c(pcfg)
+    tr = _native.tracker_new()
+    ws = _native.edge_ws_new()          # caller-owned: the tracker keeps only a pointer
+    _native.tracker_set_edge_ws(tr, ws)
+    _native.tracker_step(tr, ccfg, img, True, dets)
+    saved = _native.ffi.new("vt_tracker *")
+    _native.ffi.memmove(saved, tr, _native.ffi.sizeof("vt_tracker"))
+    lib = _native.lib
+    ref = rtrk.Tracker(pcfg, max_tracks=int(lib.VT_MAX_TRACKS), max_edge_points=int(lib.VT_EDGE_MAX_POINTS),
+                       max_edge_pixels=int(lib.VT_EDGE_MAX_PIXELS),
+                       coord_lim=4 * max(int(lib.VT_MAX_WIDTH), int(lib.VT_MAX_HEIGHT)))
+    ref.step(img, True, dets)
+    last = {}
+
+    keep = (ws, saved)   # the tracker (and its saved copy) point at ws: keep it alive
+
+    def c():
+        _native.ffi.memmove(tr, saved, _native.ffi.sizeof("vt_tracker"))  # the ws pointer too
+        last["out"] = _native.tracker_step(tr, ccfg, img, False)
+        last["keep"] = keep
+
+    def reference():
+        return copy.deepcopy(ref).step(img, False)
+
+    return Stage("track_frame_edges", c, reference, pixels=img.size, calls=1,
+                 note="2 tracks, edge-curve measurement; oracle copies its tracker each run")
+
+
 # ---------------------------------------------------------------- the whole system (issue 10)
 @register("pipeline", sizes=DETECT_SIZES)
 def _pipeline(ctx: Ctx) -> Stage:

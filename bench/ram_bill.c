@@ -74,13 +74,14 @@ int main(int argc, char **argv)
            VT_LANE_MAX_WORK_W, VT_LANE_MAX_WORK_H, VT_LANE_ACC_CELLS, VT_LANE_MAX_MARKS);
     printf(" vt_pipeline=%lu vt_lane_state=%lu vt_tracker=%lu vt_track=%lu vt_detect_state=%lu "
            "vt_detect_result=%lu vt_pipeline_cfg=%lu vt_frame_out=%lu vt_road_area=%lu "
-           "vt_lane_result=%lu vt_range_state=%lu",
+           "vt_lane_result=%lu vt_range_state=%lu vt_edge_ws=%lu vt_edge_template=%lu",
            (unsigned long)sizeof(vt_pipeline), (unsigned long)sizeof(vt_lane_state),
            (unsigned long)sizeof(vt_tracker), (unsigned long)sizeof(vt_track),
            (unsigned long)sizeof(vt_detect_state), (unsigned long)sizeof(vt_detect_result),
            (unsigned long)sizeof(vt_pipeline_cfg), (unsigned long)sizeof(vt_frame_out),
            (unsigned long)sizeof(vt_road_area), (unsigned long)sizeof(vt_lane_result),
-           (unsigned long)sizeof(vt_range_state));
+           (unsigned long)sizeof(vt_range_state), (unsigned long)sizeof(vt_edge_ws),
+           (unsigned long)sizeof(vt_edge_template));
     if (argc > 2) {
         int32_t s;
         if (read_pgm(argv[2], &img) != 0) {

@@ -102,6 +102,14 @@ vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
     return s;
 }
 
+vt_status vt_pipeline_set_edge_ws(vt_pipeline *p, vt_edge_ws *ws)
+{
+    if (p == NULL) {
+        return VT_E_ARG;
+    }
+    return vt_tracker_set_edge_ws(&p->tracker, ws);
+}
+
 vt_status vt_pipeline_set_ego_speed(vt_pipeline *p, vt_q16 speed)
 {
     if (p == NULL) {
@@ -301,6 +309,11 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
     /* A pipeline that was never initialised (or was corrupted) has no valid
      * configuration: refuse rather than run stages on garbage. */
     if (vt_pipeline_cfg_check(&p->cfg) != VT_OK || p->frame < 0) {
+        return VT_E_ARG;
+    }
+    /* Checked here, not left to the tracker stage, so that nothing changes. */
+    if (p->cfg.track && p->cfg.tracker.measurement == VT_MEAS_EDGE_CURVES &&
+        p->tracker.edge_ws == NULL) {
         return VT_E_ARG;
     }
     det_frame = ext || (p->cfg.sources != 0 && (p->frame % p->cfg.detect_every) == 0);

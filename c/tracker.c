@@ -93,6 +93,10 @@ vt_status vt_tracker_cfg_check(const vt_tracker_cfg *c)
         c->init_max_change < 0 || c->init_max_change > VT_MAX_WIDTH) {
         return VT_E_ARG;
     }
+    if ((c->measurement != VT_MEAS_ROI_SEARCH && c->measurement != VT_MEAS_EDGE_CURVES) ||
+        vt_edge_cfg_check(&c->edge) != VT_OK) {
+        return VT_E_ARG;
+    }
     return VT_OK;
 }
 
@@ -103,6 +107,16 @@ vt_status vt_tracker_init(vt_tracker *tr)
     }
     memset(tr, 0, sizeof(*tr));
     tr->next_id = 1;
+    tr->edge_ws = NULL; /* memset need not make a null pointer */
+    return VT_OK;
+}
+
+vt_status vt_tracker_set_edge_ws(vt_tracker *tr, vt_edge_ws *ws)
+{
+    if (tr == NULL) {
+        return VT_E_ARG;
+    }
+    tr->edge_ws = ws;
     return VT_OK;
 }
 
@@ -143,6 +157,62 @@ static vt_status vt__update(vt_track *t, int32_t left, int32_t bottom, int32_t r
     return s;
 }
 
+/* VT_MEAS_EDGE_CURVES: the template is the curve points inside the track's box,
+ * found in the box widened by the ROI margin `m` (so the box's own border is not
+ * the crop's). A crop over capacity (or off the image) leaves no template, and
+ * the track coasts until a detection gives a smaller box. */
+static void vt__edge_refresh(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *cfg,
+                             const vt_image_u8 *img)
+{
+    int32_t w = t->box.right - t->box.left + 1;
+    int32_t m = vt__max_i32(cfg->roi_margin_min, (int32_t)((int64_t)w * cfg->roi_margin_percent / 100));
+    vt_box roi;
+    roi.left = t->box.left - m;
+    roi.right = t->box.right + m;
+    roi.top = t->box.top - m;
+    roi.bottom = t->box.bottom + m;
+    t->edges.n = 0;
+    t->edges.box = t->box;
+    if (vt_edge_map(img, &cfg->edge, &roi, tr->edge_ws) == VT_OK) {
+        (void)vt_edge_template_set(tr->edge_ws, &t->box, &t->edges, NULL);
+    }
+}
+
+/* VT_MEAS_EDGE_CURVES's measurement: the template's box moved by the best
+ * displacement within +-radius of the prediction (the predicted box's left and
+ * bottom against the template box's), in a crop widened by radius + m. */
+static void vt__edge_measure(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *cfg,
+                             const vt_image_u8 *img, int32_t m, vt_box *meas, int32_t *found)
+{
+    const vt_box *tb = &t->edges.box;
+    int32_t cx = t->box.left - tb->left, cy = t->box.bottom - tb->bottom;
+    int32_t pad = cfg->edge.radius + m, dx, dy, sc, score, ax, grow;
+    vt_box roi;
+    *found = 0;
+    if (t->edges.n == 0 || cx < -8192 || cx > 8192 || cy < -8192 || cy > 8192) {
+        return;
+    }
+    /* The crop also holds the template grown by the largest scale. */
+    grow = (int32_t)(((int64_t)(tb->right - tb->left + tb->bottom - tb->top + 2) *
+                      cfg->edge.scale_steps * cfg->edge.scale_step_q8) / 256) + 1;
+    roi.left = tb->left + cx - pad - grow;
+    roi.right = tb->right + cx + pad + grow;
+    roi.top = tb->top + cy - pad - grow;
+    roi.bottom = tb->bottom + cy + pad;
+    if (vt_edge_map(img, &cfg->edge, &roi, tr->edge_ws) != VT_OK ||
+        vt_edge_match(tr->edge_ws, &cfg->edge, &t->edges, cx, cy, &dx, &dy, &sc, &score,
+                      found) != VT_OK) {
+        *found = 0;
+        return;
+    }
+    /* The template box scaled about its bottom centre, as its points were. */
+    ax = (int32_t)vt__floor_shr64((int64_t)tb->left + tb->right, 1);
+    meas->left = ax + (int32_t)vt__floor_shr64((int64_t)(tb->left - ax) * sc + 128, 8) + dx;
+    meas->right = ax + (int32_t)vt__floor_shr64((int64_t)(tb->right - ax) * sc + 128, 8) + dx;
+    meas->top = tb->bottom + (int32_t)vt__floor_shr64((int64_t)(tb->top - tb->bottom) * sc + 128, 8) + dy;
+    meas->bottom = tb->bottom + dy;
+}
+
 static void vt__start(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *cfg,
                       const vt_image_u8 *img, const vt_box *d)
 {
@@ -164,6 +234,9 @@ static void vt__start(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *cfg,
     t->sides.max_change_right = cfg->init_max_change;
     vt__box_from_state(t);
     vt__sample(img, &t->box, t->tmpl);
+    if (cfg->measurement == VT_MEAS_EDGE_CURVES) {
+        vt__edge_refresh(tr, t, cfg, img);
+    }
 }
 
 vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_image_u8 *img,
@@ -199,6 +272,9 @@ vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_im
     if (s != VT_OK) {
         return s;
     }
+    if (cfg->measurement == VT_MEAS_EDGE_CURVES && tr->edge_ws == NULL) {
+        return VT_E_ARG; /* the edge measurement needs its workspace (vt_tracker_set_edge_ws) */
+    }
     tr->frame = vt__inc_sat(tr->frame);
 
     /* 1. Every live track: predict, search the ROI, update or coast. */
@@ -231,7 +307,12 @@ vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_im
         roi.top = t->box.bottom - w / 2;
         roi.bottom = t->box.bottom + vt__max_i32(m, gate_b);
         sides = t->sides;
-        s = vt_track_search(img, &cfg->search, &roi, &sides, &tr->ws, &meas, &found);
+        if (cfg->measurement == VT_MEAS_EDGE_CURVES) {
+            vt__edge_measure(tr, t, cfg, img, m, &meas, &found);
+            s = VT_OK;
+        } else {
+            s = vt_track_search(img, &cfg->search, &roi, &sides, &tr->ws, &meas, &found);
+        }
         if (s == VT_OK && found && vt__abs_i32(meas.left - t->box.left) <= gate &&
             vt__abs_i32(meas.right - t->box.right) <= gate &&
             vt__abs_i32(meas.bottom - t->box.bottom) <= gate_b &&
@@ -239,6 +320,9 @@ vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_im
             t->sides = sides;
             measured[i] = 1;
             vt__hit(t, cfg, img);
+            if (cfg->measurement == VT_MEAS_EDGE_CURVES) {
+                vt__edge_refresh(tr, t, cfg, img);
+            }
         } else {
             t->misses = vt__inc_sat(t->misses);
             if (t->state == VT_TRACK_CONFIRMED) {
@@ -297,6 +381,9 @@ vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_im
                         vt__hit(t, cfg, img);
                     } else {
                         vt__sample(img, &t->box, t->tmpl);
+                    }
+                    if (cfg->measurement == VT_MEAS_EDGE_CURVES) {
+                        vt__edge_refresh(tr, t, cfg, img);
                     }
                 }
             }

@@ -10,6 +10,7 @@
 #define FZ_DETS 260 /* past the tracker's 256 per frame */
 
 static vt_tracker g_tr;
+static vt_edge_ws g_edge_ws; /* attached at every run, so a fuzzed measurement = edges runs */
 static vt_box g_dets[FZ_DETS];
 
 static vt_box det(fz *f, const vt_image_u8 *img)
@@ -40,6 +41,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     vt_image_u8 img = fz_image_u8(&f, VT_MAX_WIDTH, VT_MAX_HEIGHT);
     int32_t step, n_steps, i, j;
     fz_status(vt_tracker_init(&g_tr));
+    fz_status(vt_tracker_set_edge_ws(&g_tr, &g_edge_ws));
     fz_status(vt_tracker_cfg_default(&cfg));
     fz_mutate_i32s(&f, &cfg, sizeof cfg);
     fz_status(vt_tracker_cfg_check(&cfg));

@@ -440,6 +440,75 @@ def lane_line_x(line, y_q16: int) -> int:
 # ================================================================ end lane.h
 
 
+# ================================================================ edge_track.h
+# (thin 1:1 wrappers; the tracker selects this measurement with
+# vt_tracker_cfg.measurement = VT_MEAS_EDGE_CURVES)
+def edge_cfg_default():
+    return _defaults("vt_edge_cfg")
+
+
+def edge_ws_new():
+    """A zeroed vt_edge_ws (5 bytes per pixel of VT_EDGE_MAX_PIXELS) owned by Python."""
+    return ffi.new("vt_edge_ws *")
+
+
+def tracker_set_edge_ws(tr, ws) -> None:
+    """Attach ws (a vt_edge_ws *, or None to detach) to tr. The caller keeps ws alive
+    as long as tr may step with the edge measurement (the tracker holds a pointer)."""
+    check("vt_tracker_set_edge_ws", lib.vt_tracker_set_edge_ws(tr, ffi.NULL if ws is None else ws))
+
+
+def pipeline_set_edge_ws(p, ws) -> None:
+    """As tracker_set_edge_ws for a vt_pipeline's tracker (after vt_pipeline_init)."""
+    check("vt_pipeline_set_edge_ws", lib.vt_pipeline_set_edge_ws(p, ffi.NULL if ws is None else ws))
+
+
+def edge_template_new():
+    return ffi.new("vt_edge_template *")
+
+
+def _box(b, name: str):
+    vals = [int(v) for v in b]
+    if len(vals) != 4 or any(abs(v) > 2**30 for v in vals):
+        raise ValueError(f"{name}: expected [left, top, right, bottom] integers, got {b!r}")
+    return ffi.new("vt_box *", vals)
+
+
+def edge_map(ws, cfg, img: np.ndarray, roi) -> None:
+    v = view(img, "img")
+    check("vt_edge_map", lib.vt_edge_map(v, cfg, _box(roi, "roi"), ws),
+          f"img {getattr(img, 'shape', None)}, roi {list(roi)}")
+
+
+def edge_ws_arrays(ws) -> tuple[np.ndarray, np.ndarray]:
+    """Copies of the crop's curve labels (uint8, 1 on a curve) and 3-4 chamfer distances."""
+    n = int(ws.w) * int(ws.h)
+    lab = np.frombuffer(ffi.buffer(ws.lab, n), np.uint8).reshape(ws.h, ws.w).copy()
+    dt = np.frombuffer(ffi.buffer(ws.u.dt, 2 * n), np.uint16).reshape(ws.h, ws.w).copy()
+    return lab, dt
+
+
+def edge_template_set(ws, box, tpl) -> int:
+    n = ffi.new("int32_t *")
+    check("vt_edge_template_set", lib.vt_edge_template_set(ws, _box(box, "box"), tpl, n),
+          f"box {list(box)}")
+    return int(n[0])
+
+
+def edge_template_points(tpl) -> tuple[np.ndarray, np.ndarray]:
+    n = int(tpl.n)
+    return (np.array([tpl.x[i] for i in range(n)], np.int64),
+            np.array([tpl.y[i] for i in range(n)], np.int64))
+
+
+def edge_match(ws, cfg, tpl, cx: int, cy: int) -> tuple[int, int, int, int, bool]:
+    """(dx, dy, scale_q8, score, found); all but found are meaningful only for a non-empty
+    template."""
+    dx, dy, s, sc, fd = (ffi.new("int32_t *") for _ in range(5))
+    check("vt_edge_match", lib.vt_edge_match(ws, cfg, tpl, int(cx), int(cy), dx, dy, s, sc, fd),
+          f"cx={cx}, cy={cy}")
+    return int(dx[0]), int(dy[0]), int(s[0]), int(sc[0]), bool(fd[0])
+# ================================================================ end edge_track.h
 # ================================================================ camera.h
 # Thin 1:1 wrappers (raw fixed-point ints; the friendly API is pyvehtrack.camera).
 RANGE_OUT_DTYPE = np.dtype([("id", np.int32), ("flags", np.int32), ("fcw", np.int32),

@@ -44,6 +44,13 @@ VerifyConfig = _int_config("VerifyConfig", "vt_verify_cfg",
 SearchConfig = _int_config("SearchConfig", "vt_track_search_cfg",
                            "vt_track_search_cfg (vehtrack/track_search.h): ROI measurement.",
                            _native.tracker_cfg_default().search)
+EdgeConfig = _int_config("EdgeConfig", "vt_edge_cfg",
+                         "vt_edge_cfg (vehtrack/edge_track.h): the edge-curve measurement "
+                         "(GIST paper sec. III.B), used when TrackerConfig.measurement is "
+                         "MEASUREMENTS['edges'].",
+                         _native.tracker_cfg_default().edge)
+# TrackerConfig.measurement: the C values (VT_MEAS_*) by name.
+MEASUREMENTS = {"roi": int(lib.VT_MEAS_ROI_SEARCH), "edges": int(lib.VT_MEAS_EDGE_CURVES)}
 
 
 def _tracker_defaults() -> dict:
@@ -52,6 +59,8 @@ def _tracker_defaults() -> dict:
     for f, _ in ffi.typeof("vt_tracker_cfg").fields:
         if f == "search":
             out[f] = SearchConfig(**{g.name: int(getattr(c.search, g.name)) for g in fields(SearchConfig)})
+        elif f == "edge":
+            out[f] = EdgeConfig(**{g.name: int(getattr(c.edge, g.name)) for g in fields(EdgeConfig)})
         elif f == "model":
             out[f] = ModelConfig.from_c(c.model)
         elif f == "keep_ncc":
@@ -67,7 +76,9 @@ TrackerConfig = make_dataclass(
     [(k, type(v), field(default=v)) for k, v in _TD.items()],
     frozen=True,
     namespace={"__doc__": "vt_tracker_cfg (vehtrack/tracker.h). model: a kalman.ModelConfig "
-                          "(px, frames); keep_ncc: a correlation in [-1, 1]; the rest C's ints."})
+                          "(px, frames); keep_ncc: a correlation in [-1, 1]; edge: an EdgeConfig; "
+                          "measurement: MEASUREMENTS['roi'] (ROI search, default) or "
+                          "MEASUREMENTS['edges'] (edge curves); the rest C's ints."})
 TrackerConfig.__module__ = __name__
 del _TD
 
@@ -214,8 +225,9 @@ def _tracker_to_c(dst, t) -> None:
             or not np.isfinite(k) or not -1.0 <= float(k) <= 1.0:
         raise ValueError(f"tracker.keep_ncc: {k!r} must be a number in [-1, 1]")
     dst.keep_ncc = int(np.floor(float(k) * 16384 + 0.5))
+    _fill_ints(dst.edge, t.edge, EdgeConfig, "tracker.edge")
     for f in fields(TrackerConfig):
-        if f.name not in ("search", "model", "keep_ncc"):
+        if f.name not in ("search", "model", "keep_ncc", "edge"):
             setattr(dst, f.name, _int(getattr(t, f.name), f"tracker.{f.name}"))
 
 
@@ -266,8 +278,9 @@ def from_c(c) -> PipelineConfig:
     def ints(obj, cls):
         return cls(**{f.name: int(getattr(obj, f.name)) for f in fields(cls)})
     tr = {f.name: int(getattr(c.tracker, f.name)) for f in fields(TrackerConfig)
-          if f.name not in ("search", "model", "keep_ncc")}
+          if f.name not in ("search", "model", "keep_ncc", "edge")}
     tracker = TrackerConfig(search=ints(c.tracker.search, SearchConfig),
+                            edge=ints(c.tracker.edge, EdgeConfig),
                             model=ModelConfig.from_c(c.tracker.model),
                             keep_ncc=int(c.tracker.keep_ncc) / 16384, **tr)
     fr = c.fixed_road
@@ -293,6 +306,7 @@ def to_reference(cfg: PipelineConfig, quantize: bool = True):
     from .reference import pipeline as rpipe  # noqa: PLC0415
     from .reference import shadow as rshadow  # noqa: PLC0415
     from .reference import track_search as rts  # noqa: PLC0415
+    from .reference import edge_track as redge  # noqa: PLC0415
     from .reference import tracker as rtrk  # noqa: PLC0415
     from .reference import verify as rverify  # noqa: PLC0415
     c = to_c(cfg)
@@ -303,9 +317,9 @@ def to_reference(cfg: PipelineConfig, quantize: bool = True):
     t = q.tracker if quantize else cfg.tracker
     tracker = rtrk.TrackerCfg(search=conv(t.search, rts.SearchCfg),
                               model=rtrk.ModelCfg(**dataclasses.asdict(t.model)),
-                              keep_ncc=t.keep_ncc,
+                              keep_ncc=t.keep_ncc, edge=conv(t.edge, redge.EdgeCfg),
                               **{f.name: getattr(t, f.name) for f in fields(rtrk.TrackerCfg)
-                                 if f.name not in ("search", "model", "keep_ncc")})
+                                 if f.name not in ("search", "model", "keep_ncc", "edge")})
     fr = rpipe.FixedRoadRef(q.fixed_road.vp, q.fixed_road.bottom, q.fixed_road.lane_bottom,
                             q.fixed_road.top_margin)
     return rpipe.PipelineRefConfig(
@@ -323,9 +337,13 @@ def reference_capacities():
                       max_boxes=int(lib.VT_MAX_BOXES),
                       max_shadow_active=int(lib.VT_MAX_SHADOW_ACTIVE),
                       max_shadow_cand=int(lib.VT_MAX_SHADOW_CAND),
-                      max_verts=int(lib.VT_LANE_MAX_VERTS))
+                      max_verts=int(lib.VT_LANE_MAX_VERTS),
+                      max_edge_points=int(lib.VT_EDGE_MAX_POINTS),
+                      max_edge_pixels=int(lib.VT_EDGE_MAX_PIXELS),
+                      coord_lim=4 * max(int(lib.VT_MAX_WIDTH), int(lib.VT_MAX_HEIGHT)))
 
 
-__all__ = ["LaneConfig", "ShadowConfig", "VerifyConfig", "SearchConfig", "TrackerConfig",
+__all__ = ["LaneConfig", "ShadowConfig", "VerifyConfig", "SearchConfig", "EdgeConfig", "MEASUREMENTS",
+           "TrackerConfig",
            "FixedRoad", "PipelineConfig", "ModelConfig", "from_kwargs", "to_c", "from_c",
            "to_reference", "reference_capacities", "Q16_ONE"]

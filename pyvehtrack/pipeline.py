@@ -107,7 +107,10 @@ class Pipeline:
     keyword arguments replace its top-level fields, e.g. Pipeline(detect_every=5,
     road="fixed", tracker=TrackerConfig(confirm_hits=2)). reference_quantized: the
     reference engine runs the Kalman model and keep_ncc rounded as C holds them
-    (default) or as given."""
+    (default) or as given. With the tracker's edge-curve measurement
+    (TrackerConfig(measurement=config.MEASUREMENTS["edges"])) the C engine allocates
+    its workspace (sizeof(vt_edge_ws)) and attaches it with vt_pipeline_set_edge_ws;
+    otherwise there is none."""
 
     def __init__(self, engine: str = "c", camera=None, model=None,
                  cfg: PipelineConfig | None = None, *, fps: float | None = None,
@@ -179,6 +182,15 @@ class Pipeline:
             cam = self._ccam if self._geom is not None else ffi.NULL
             _native.check("vt_pipeline_init", lib.vt_pipeline_init(self._p, self._ccfg, cam, ffi.NULL),
                           "a stage configuration, policy or the camera is out of range")
+            # The edge-curve measurement's workspace (sizeof(vt_edge_ws), 320 KB at the
+            # default VT_EDGE_MAX_PIXELS) exists only when that measurement runs; it is
+            # scratch, so one per Pipeline serves every run (init detaches it).
+            if self._ccfg.track and self._ccfg.tracker.measurement == lib.VT_MEAS_EDGE_CURVES:
+                if getattr(self, "_edge_ws", None) is None:
+                    self._edge_ws = _native.edge_ws_new()
+                _native.pipeline_set_edge_ws(self._p, self._edge_ws)
+            else:
+                self._edge_ws = None
             self._out = ffi.new("vt_frame_out *")
         else:
             from .reference import pipeline as rpipe  # noqa: PLC0415  (the reference engine only)

@@ -8,10 +8,13 @@ reference.
 `step(frame, detections=...)` feeds your own detections instead (an (N, 4) array
 of inclusive [left, top, right, bottom] boxes; float coordinates are rounded to the
 nearest pixel, NaN/inf/non-numbers refused); then detection frames are the frames
-where you pass them."""
+where you pass them.
+
+`Tracker(measurement="edges")` measures each track by matching its edge curves
+(GIST paper sec. III.B) instead of the thesis's ROI search ("roi", the default)."""
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
@@ -21,6 +24,7 @@ from .kalman import ModelConfig
 from .reference import tracker as rtrk
 
 STATES = {1: "tentative", 2: "confirmed", 3: "coasting"}
+MEASUREMENTS = {"roi": rtrk.MEAS_ROI_SEARCH, "edges": rtrk.MEAS_EDGE_CURVES}
 
 
 @dataclass(frozen=True)
@@ -42,7 +46,10 @@ def cfg_to_c(cfg: rtrk.TrackerCfg):
         setattr(c.search, f.name, _check.integer(getattr(cfg.search, f.name), f"cfg.search.{f.name}"))
     c.model = ModelConfig(**vars(cfg.model)).to_c()[0]  # Q16, checked, as the Kalman API does
     for f in fields(cfg):
-        if f.name not in ("search", "model", "keep_ncc"):
+        if f.name == "edge":
+            for g in fields(cfg.edge):
+                setattr(c.edge, g.name, _check.integer(getattr(cfg.edge, g.name), f"cfg.edge.{g.name}"))
+        elif f.name not in ("search", "model", "keep_ncc"):
             setattr(c, f.name, _check.integer(getattr(cfg, f.name), f"cfg.{f.name}"))
     keep = _check.real(cfg.keep_ncc, "cfg.keep_ncc")
     if not -1.0 <= keep <= 1.0:
@@ -59,21 +66,15 @@ def tracker_config(cfg: rtrk.TrackerCfg):
     return config.TrackerConfig(
         search=config.SearchConfig(**{f.name: getattr(cfg.search, f.name) for f in fields(cfg.search)}),
         model=ModelConfig(**vars(cfg.model)), keep_ncc=cfg.keep_ncc,
-        **{f.name: getattr(cfg, f.name) for f in fields(cfg) if f.name not in ("search", "model", "keep_ncc")})
+        edge=config.EdgeConfig(**{f.name: getattr(cfg.edge, f.name) for f in fields(cfg.edge)}),
+        **{f.name: getattr(cfg, f.name) for f in fields(cfg)
+           if f.name not in ("search", "model", "keep_ncc", "edge")})
 
 
 def _c_accepts(c) -> bool:
-    """Whether the core accepts a tracker config. The C tracker checks its config at every
-    step (there is no separate check function), so step a fresh tracker once on a blank
-    16x16 frame: nothing else in that call can fail."""
-    st = _native.ffi.new("vt_tracker *")
-    _native.lib.vt_tracker_init(st)
-    img = np.zeros((16, 16), np.uint8)
-    try:
-        _native.tracker_step(st, c, img, False)
-    except _native.VtError:
-        return False
-    return True
+    """Whether the core accepts a tracker config (vt_tracker_cfg_check, the check
+    vt_tracker_step makes before touching the tracker)."""
+    return _native.lib.vt_tracker_cfg_check(c) == _native.lib.VT_OK
 
 
 def check_cfg(cfg: rtrk.TrackerCfg):
@@ -85,7 +86,7 @@ def check_cfg(cfg: rtrk.TrackerCfg):
     default = _native.tracker_cfg_default()
     bad = []
     for f in fields(cfg):
-        if f.name in ("search", "model"):
+        if f.name in ("search", "model", "edge"):
             for g in fields(getattr(cfg, f.name)):
                 t = _native.ffi.new("vt_tracker_cfg *", default[0])
                 setattr(getattr(t, f.name), g.name, getattr(getattr(c, f.name), g.name))
@@ -104,9 +105,12 @@ class Tracker:
     """Vehicle tracker. engine="c" runs the fixed-point core, "reference" the float oracle.
 
     detector: an object with .detect(gray) -> result with .boxes (N, 4), used every
-    `detect_every` frames when step() is not given detections. Frames larger than the
-    core's compile-time maximum are downscaled by the pipeline's one rule (boxes are
-    scaled back to input pixels), never clipped.
+    `detect_every` frames when step() is not given detections. measurement: "roi" (thesis
+    ROI search) or "edges" (edge curves matched by chamfer distance, GIST paper); when given
+    it overrides cfg.measurement (the edge measurement's workspace, 320 KB at the default
+    VT_EDGE_MAX_PIXELS, is allocated only then). Frames larger than the core's compile-time
+    maximum are downscaled by the pipeline's one rule (boxes are scaled back to input
+    pixels), never clipped.
 
     A view onto pyvehtrack.Pipeline: with a pyvehtrack Detector of the same engine
     (and its own lane stage) the whole frame, detection included, is one pipeline
@@ -114,15 +118,19 @@ class Tracker:
     as the frame's detections."""
 
     def __init__(self, engine: str = "c", cfg: rtrk.TrackerCfg | None = None,
-                 detect_every: int = 10, detector=None):
+                 detect_every: int = 10, detector=None, measurement: str | None = None):
         from .pipeline import Pipeline  # noqa: PLC0415  (pipeline imports this module's users)
         _check.choice(engine, "engine", ("c", "reference"))
+        if measurement is not None:
+            _check.choice(measurement, "measurement", tuple(MEASUREMENTS))
         self.detect_every = _check.integer(detect_every, "detect_every", lo=1)
         if detector is not None and not callable(getattr(detector, "detect", None)):
             raise TypeError(f"detector: expected an object with a detect(frame) method, "
                             f"got {type(detector).__name__}")
         self.engine = engine
         self.cfg = cfg if cfg is not None else rtrk.TrackerCfg()
+        if measurement is not None and isinstance(self.cfg, rtrk.TrackerCfg):  # else check_cfg names it
+            self.cfg = replace(self.cfg, measurement=MEASUREMENTS[measurement])
         check_cfg(self.cfg)             # both engines: errors now, naming the field
         self.detector = detector
         self.frame_index = 0

@@ -149,4 +149,18 @@
 #error "VT_KF_MAX_X must be in 1..16 and VT_KF_MAX_Z in 1..8"
 #endif
 
+/* Edge-curve tracking (vehtrack/edge_track.h): the largest crop whose edge
+ * curves are computed (5 bytes per pixel of workspace: 320 KB at 65536, a
+ * 256 x 256 crop) and the curve points kept per track (4 bytes each). */
+#ifndef VT_EDGE_MAX_PIXELS
+#define VT_EDGE_MAX_PIXELS 65536
+#endif
+#ifndef VT_EDGE_MAX_POINTS
+#define VT_EDGE_MAX_POINTS 256
+#endif
+#if VT_EDGE_MAX_PIXELS < 16 || VT_EDGE_MAX_PIXELS > 1048576 || VT_EDGE_MAX_POINTS < 1 || \
+    VT_EDGE_MAX_POINTS > 4096
+#error "VT_EDGE_MAX_PIXELS must be in 16..2^20 and VT_EDGE_MAX_POINTS in 1..4096"
+#endif
+
 #endif /* VEHTRACK_CONFIG_H */

@@ -7,11 +7,13 @@
  *
  * Cost: sizeof(vt_pipeline) is the library's RAM bill (`make bench` prints it for
  * the default, VGA and 1280x720 builds): the lane stage (its Hough accumulator,
- * 64 KB, dominates at small frames), the tracker (2.7 KB per track plus a
+ * 64 KB, dominates at small frames), the tracker (3.7 KB per track plus a
  * projection workspace of 4 * (VT_MAX_WIDTH + VT_MAX_HEIGHT) bytes), the detector's
  * scratch and the road area (6 bytes per row). sizeof(vt_frame_out) is the
- * caller's output (lanes, road area, boxes, tracks). Work: the stages' own (see
- * their headers); detection runs only every detect_every frames. Stack: the
+ * caller's output (lanes, road area, boxes, tracks). The tracker's edge-curve
+ * measurement needs a vt_edge_ws more (327,704 bytes at the defaults), owned by
+ * the caller and attached with vt_pipeline_set_edge_ws only when that measurement
+ * is used. Work: the stages' own (see their headers); detection runs only every detect_every frames. Stack: the
  * stages' (about 2 KB, the Kalman update), measured in firmware_demo/. */
 #ifndef VEHTRACK_PIPELINE_H
 #define VEHTRACK_PIPELINE_H
@@ -176,6 +178,16 @@ vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg);
 vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
                            const vt_camera_cfg *camera, const struct vt_svm_model *model);
 
+/* Attach the caller's workspace for the tracker's edge-curve measurement
+ * (cfg.tracker.measurement == VT_MEAS_EDGE_CURVES; vehtrack/edge_track.h), as
+ * vt_tracker_set_edge_ws: call after vt_pipeline_init (which detaches it); ws NULL
+ * detaches. The pipeline keeps the pointer (*ws must outlive the run; it is scratch,
+ * rewritten every step). A pipeline tracking with the edge measurement and no
+ * workspace refuses every vt_pipeline_step* with VT_E_ARG before any stage runs
+ * (nothing changes); vt_pipeline_init itself accepts that configuration, since the
+ * workspace can only be attached after it. VT_E_ARG for p NULL. */
+vt_status vt_pipeline_set_edge_ws(vt_pipeline *p, vt_edge_ws *ws);
+
 /* The ego vehicle's speed for the next steps (the camera stage's lead class), Q16
  * m/s; negative = unknown. VT_E_ARG for NULL. */
 vt_status vt_pipeline_set_ego_speed(vt_pipeline *p, vt_q16 speed);
@@ -183,7 +195,8 @@ vt_status vt_pipeline_set_ego_speed(vt_pipeline *p, vt_q16 speed);
 /* One frame: lanes (every frame or detection frames, per the policy) -> road area
  * (lanes, else the fixed trapezoid, per the policy) -> on detection frames (every
  * detect_every-th, when a hypothesis source is on) hypotheses and verification ->
- * tracker (if on) -> geometry. frame: 1x1 ..
+ * tracker (if on) -> geometry. VT_E_ARG when the tracker runs the edge-curve
+ * measurement without a workspace (vt_pipeline_set_edge_ws). frame: 1x1 ..
  * VT_MAX_WIDTH x VT_MAX_HEIGHT (VT_E_SIZE otherwise; see vt_pipeline_work_size for
  * bringing a larger frame within it). A lane-stage error (e.g. a frame below its
  * 16x16 minimum) is not fatal: it is reported in out->lane_status and the road

@@ -4,10 +4,17 @@
  * new tracks, and normalised correlation decides whether a track the detector no
  * longer sees is still there before it is dropped.
  *
- * Cost: sizeof(vt_tracker) = VT_MAX_TRACKS * sizeof(vt_track) (2,688 bytes each
- * on x86-64: the 2,360-byte fixed-point Kalman filter and a VT_TRACK_TEMPLATE^2-byte
- * template) plus the projection workspace (4 * (VT_MAX_WIDTH + VT_MAX_HEIGHT)
- * bytes): 55,024 bytes at the defaults. Work per frame and track: one predict +
+ * Cost: sizeof(vt_tracker) = VT_MAX_TRACKS * sizeof(vt_track) plus the
+ * projection workspace (4 * (VT_MAX_WIDTH + VT_MAX_HEIGHT) bytes) and one
+ * pointer: 71,800 bytes at the defaults on x86-64. vt_track is 3,736 bytes: the
+ * 2,360-byte fixed-point Kalman filter, a VT_TRACK_TEMPLATE^2-byte template and
+ * the edge-curve template (vt_edge_template, 4 * VT_EDGE_MAX_POINTS + 20 = 1,044
+ * bytes, kept in every track whichever measurement is configured: it is the
+ * track's own state, small, and keeps a track copyable). The edge measurement's
+ * crop workspace (vt_edge_ws, 327,704 bytes at VT_EDGE_MAX_PIXELS = 65536) is
+ * NOT in vt_tracker: the caller owns it and attaches it with
+ * vt_tracker_set_edge_ws only when it uses VT_MEAS_EDGE_CURVES, so the ROI
+ * search pays nothing for it. Work per frame and track: one predict +
  * update (about 1 100 multiplies) and two Sobel responses per ROI pixel (2.3
  * instructions per frame pixel for two tracks at 640x480, `make bench`); nothing
  * outside the ROIs is touched except on detection frames (the template check,
@@ -17,6 +24,7 @@
 
 #include <stdint.h>
 #include "vehtrack/config.h"
+#include "vehtrack/edge_track.h"
 #include "vehtrack/fixed.h"
 #include "vehtrack/image.h"
 #include "vehtrack/kalman.h"
@@ -50,12 +58,21 @@ typedef struct {
     int32_t match_iou_percent;   /* detection <-> track association threshold       */
     vt_q14 keep_ncc;             /* correlation that keeps an undetected track      */
     int32_t init_max_change;     /* px: the two-threshold rule's starting allowance */
+    /* The per-frame measurement: VT_MEAS_ROI_SEARCH (thesis sec. 3.6.1, the
+     * default) or VT_MEAS_EDGE_CURVES (GIST paper sec. III.B: the track's edge
+     * curves matched by chamfer distance, vehtrack/edge_track.h, with `edge`). */
+    int32_t measurement;
+    vt_edge_cfg edge;
 } vt_tracker_cfg;
+
+#define VT_MEAS_ROI_SEARCH 0
+#define VT_MEAS_EDGE_CURVES 1
 
 #define VT_TRACKER_CFG_DEFAULT                                                     \
     {                                                                              \
         VT_TRACK_SEARCH_CFG_DEFAULT, VT_KF_MODEL_CFG_DEFAULT, 6, 0, 35, 10, 3, 6, 30,   \
-            (vt_q14)((VT_Q14_ONE * 7 + 5) / 10), 3 /* 0.7, rounded */             \
+            (vt_q14)((VT_Q14_ONE * 7 + 5) / 10), 3 /* 0.7, rounded */,            \
+            VT_MEAS_ROI_SEARCH, VT_EDGE_CFG_DEFAULT                                \
     }
 
 /* One track. Public so that callers can inspect and save it; change it only
@@ -73,6 +90,7 @@ typedef struct {
     vt_track_sides sides; /* the two-threshold side rule's memory */
     vt_kf kf;             /* bottom-edge model [x1, y1, x2, vx1, vy1, vx2] */
     uint8_t tmpl[VT_TRACK_TEMPLATE * VT_TRACK_TEMPLATE];
+    vt_edge_template edges; /* curve points, used by VT_MEAS_EDGE_CURVES only */
 } vt_track;
 
 typedef struct {
@@ -82,6 +100,8 @@ typedef struct {
                                id) was used; saturates, as hits, misses and age */
     vt_track tracks[VT_MAX_TRACKS];
     vt_track_search_ws ws;
+    vt_edge_ws *edge_ws;    /* VT_MEAS_EDGE_CURVES's crop workspace, caller-owned;
+                               NULL (vt_tracker_init) until vt_tracker_set_edge_ws */
 } vt_tracker;
 
 /* What the tracker reports per track and frame. */
@@ -112,6 +132,14 @@ vt_status vt_tracker_init(vt_tracker *tr);
 /* Fill *cfg with VT_TRACKER_CFG_DEFAULT. VT_E_ARG for NULL. */
 vt_status vt_tracker_cfg_default(vt_tracker_cfg *cfg);
 
+/* Attach the caller's workspace for VT_MEAS_EDGE_CURVES (ws NULL detaches it).
+ * Call after vt_tracker_init, which detaches it. The tracker keeps the pointer:
+ * *ws must outlive its use and is overwritten by every vt_tracker_step with the
+ * edge measurement. It holds nothing from one step to the next (scratch only), so
+ * trackers stepped one after another may share one workspace, never trackers
+ * stepped concurrently. The ROI search never touches it. VT_E_ARG for tr NULL. */
+vt_status vt_tracker_set_edge_ws(vt_tracker *tr, vt_edge_ws *ws);
+
 /* One frame. Every live track: predict, search its ROI in `img`, update when
  * found (else it coasts). If `detection_frame` is non-zero, `dets[0..n_dets-1]`
  * are this frame's detections (n_dets may be 0; dets may be NULL only then):
@@ -124,7 +152,9 @@ vt_status vt_tracker_cfg_default(vt_tracker_cfg *cfg);
  * every id 1..INT32_MAX-1 was given out, so an id is never reused).
  * Writes up to out_cap live tracks to out (all states but FREE) and their count
  * to *n_out; VT_E_CAPACITY if more were live than out_cap (out is still filled).
- * VT_E_ARG / VT_E_SIZE for bad arguments (then the tracker is unchanged). */
+ * VT_E_ARG / VT_E_SIZE for bad arguments (then the tracker is unchanged),
+ * including VT_E_ARG when cfg->measurement is VT_MEAS_EDGE_CURVES and no
+ * workspace is attached (vt_tracker_set_edge_ws). */
 vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_image_u8 *img,
                           int32_t detection_frame, const vt_box *dets, int32_t n_dets,
                           vt_track_out *out, int32_t out_cap, int32_t *n_out);

@@ -18,6 +18,7 @@
 #include "vehtrack/fulldet.h"
 #include "vehtrack/kalman.h"
 #include "vehtrack/track_search.h"
+#include "vehtrack/edge_track.h"
 #include "vehtrack/tracker.h"
 #include "vehtrack/camera.h"
 #include "vehtrack/classify.h"

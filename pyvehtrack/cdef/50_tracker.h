@@ -44,7 +44,11 @@ typedef struct {
     int32_t match_iou_percent;
     vt_q14 keep_ncc;
     int32_t init_max_change;
+    int32_t measurement;
+    vt_edge_cfg edge;
 } vt_tracker_cfg;
+#define VT_MEAS_ROI_SEARCH ...
+#define VT_MEAS_EDGE_CURVES ...
 
 typedef struct {
     int32_t id;
@@ -59,6 +63,7 @@ typedef struct {
     vt_track_sides sides;
     vt_kf kf;
     uint8_t tmpl[...];
+    vt_edge_template edges;
 } vt_track;
 
 typedef struct {
@@ -66,6 +71,7 @@ typedef struct {
     int32_t frame;
     int32_t dropped_full;
     vt_track tracks[...];
+    vt_edge_ws *edge_ws;
     ...;
 } vt_tracker;
 
@@ -80,6 +86,7 @@ typedef struct {
 vt_status vt_tracker_init(vt_tracker *tr);
 vt_status vt_tracker_cfg_default(vt_tracker_cfg *cfg);
 vt_status vt_tracker_cfg_check(const vt_tracker_cfg *cfg);
+vt_status vt_tracker_set_edge_ws(vt_tracker *tr, vt_edge_ws *ws);
 vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_image_u8 *img,
                           int32_t detection_frame, const vt_box *dets, int32_t n_dets,
                           vt_track_out *out, int32_t out_cap, int32_t *n_out);

@@ -90,6 +90,7 @@ vt_status vt_pipeline_cfg_default(vt_pipeline_cfg *cfg);
 vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg);
 vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
                            const vt_camera_cfg *camera, const struct vt_svm_model *model);
+vt_status vt_pipeline_set_edge_ws(vt_pipeline *p, vt_edge_ws *ws);
 vt_status vt_pipeline_set_ego_speed(vt_pipeline *p, vt_q16 speed);
 vt_status vt_pipeline_step(vt_pipeline *p, const vt_image_u8 *frame, vt_frame_out *out);
 vt_status vt_pipeline_step_road(vt_pipeline *p, const vt_image_u8 *frame,

@@ -107,6 +107,9 @@ def register(sub) -> None:
     p.add_argument("--road", choices=("auto", "lanes", "fixed"), default="auto",
                    help="road area for the detector: lanes, a fixed trapezoid, or lanes with fallback")
     add_model_arg(p)
+    p.add_argument("--measurement", choices=("roi", "edges"), default="roi",
+                   help="per-frame measurement of a track: the thesis's ROI search (roi, default) or "
+                        "the GIST paper's edge curves matched by chamfer distance (edges)")
     p.add_argument("--all-states", action="store_true",
                    help="also write tentative tracks to --tracks (default: confirmed and coasting)")
     p.add_argument("--skip-bad-frames", action="store_true",
@@ -164,7 +167,8 @@ def run(args) -> int:
         raise CliError("--fps, --ego-speed and --rear-offset need --camera")
     det = make_detector(args)
     try:
-        trk = Tracker(engine=args.engine, detect_every=args.detect_every, detector=det)
+        trk = Tracker(engine=args.engine, detect_every=args.detect_every, detector=det,
+                      measurement=getattr(args, "measurement", "roi"))
     except (RuntimeError, ValueError, TypeError) as e:
         raise CliError(str(e)) from None
     ranger = lanes = None

@@ -1,7 +1,8 @@
 """Track the lead car through the 78 KITTI frames of ../shared/data/kitti-raw-sfnd-ttc
 and score it against the lidar-derived lead-car box (derived_lidar_lead_box.csv).
 
-    python tools/eval_kitti_track.py [--data DIR] [--engine c|reference|both] [--json OUT]
+    python tools/eval_kitti_track.py [--data DIR] [--engine c|reference|both]
+                                     [--measurement roi|edges|both] [--json OUT]
 
 Figures (the tracking issue's targets: one id through >= 95% of the frames, IoU >= 0.6
 in >= 90%):
@@ -43,14 +44,15 @@ def load(data: Path):
     return files, boxes
 
 
-def run(engine: str, files, boxes, detect_every: int, progress: bool) -> dict:
+def run(engine: str, files, boxes, detect_every: int, progress: bool, measurement: str = "roi") -> dict:
     from ..detector import Detector
     from ..tracker import Tracker
     from .tracking import evaluate_kitti
 
-    trk = Tracker(engine=engine, detect_every=detect_every, detector=Detector(engine=engine))
+    trk = Tracker(engine=engine, detect_every=detect_every, detector=Detector(engine=engine),
+                  measurement=measurement)
     per_frame = []
-    for f in tqdm(files, desc=f"track ({engine})", unit="frame", disable=not progress, file=sys.stderr):
+    for f in tqdm(files, desc=f"track ({engine}, {measurement})", unit="frame", disable=not progress, file=sys.stderr):
         per_frame.append([t for t in trk.step(cv2.imread(str(f))) if t.state != "tentative"])
     n = len(files)
     counts: dict[int, int] = {}
@@ -67,7 +69,7 @@ def run(engine: str, files, boxes, detect_every: int, progress: bool) -> dict:
     gt = np.array([(k, 1, *boxes[k]) for k in range(n)], float)
     tr = np.array([(k, t.id, *t.box, 1.0) for k, ts in enumerate(per_frame) for t in ts], float).reshape(-1, 7)
     te = evaluate_kitti(gt, tr, num_frames=n, preproc="none")
-    return {"engine": engine, "frames": n, "lead_id": lead,
+    return {"engine": engine if measurement == "roi" else f"{engine}/{measurement}", "frames": n, "lead_id": lead,
             "id_share": float((ious >= 0.5).mean()), "iou06_share": float((ious >= 0.6).mean()),
             "mean_iou_lead": float(ious.mean()), "ids_over_lead": len(counts),
             "HOTA": te["HOTA"], "MOTA": te["MOTA"], "IDF1": te["IDF1"], "IDSW": te["IDSW"],
@@ -79,6 +81,8 @@ def main(argv=None, default_data: Path = DEFAULT_DATA) -> int:
     ap.add_argument("--data", type=Path, default=default_data)
     ap.add_argument("--engine", choices=("c", "reference", "both"), default="both")
     ap.add_argument("--detect-every", type=int, default=10)
+    ap.add_argument("--measurement", choices=("roi", "edges", "both"), default="roi",
+                    help="the tracker's per-frame measurement (both: one row each)")
     ap.add_argument("--json", type=Path)
     ap.add_argument("--no-progress", action="store_true")
     a = ap.parse_args(argv)
@@ -87,11 +91,12 @@ def main(argv=None, default_data: Path = DEFAULT_DATA) -> int:
         return 2
     files, boxes = load(a.data)
     engines = ("c", "reference") if a.engine == "both" else (a.engine,)
-    res = [run(e, files, boxes, a.detect_every, not a.no_progress) for e in engines]
-    print(f"{'engine':<10}{'lead id':>8}{'id share':>10}{'IoU>=0.6':>10}{'mean IoU':>10}"
+    measurements = ("roi", "edges") if a.measurement == "both" else (a.measurement,)
+    res = [run(e, files, boxes, a.detect_every, not a.no_progress, m) for e in engines for m in measurements]
+    print(f"{'engine':<16}{'lead id':>8}{'id share':>10}{'IoU>=0.6':>10}{'mean IoU':>10}"
           f"{'HOTA':>8}{'MOTA':>8}{'IDF1':>8}{'IDSW':>6}{'trk/frm':>8}")
     for r in res:
-        print(f"{r['engine']:<10}{str(r['lead_id']):>8}{r['id_share']:>10.1%}{r['iou06_share']:>10.1%}"
+        print(f"{r['engine']:<16}{str(r['lead_id']):>8}{r['id_share']:>10.1%}{r['iou06_share']:>10.1%}"
               f"{r['mean_iou_lead']:>10.3f}{r['HOTA']:>8.3f}{r['MOTA']:>8.3f}{r['IDF1']:>8.3f}"
               f"{r['IDSW']:>6}{r['tracks_per_frame']:>8.2f}")
     if a.json:

@@ -1,6 +1,7 @@
 """Tracker vs the SORT baseline on the synthetic set, scored with TrackEval (HOTA, MOTA, IDF1).
 
     python tools/eval_synth_track.py [--n 5] [--seed 0] [--size 640x480] [--frames N] [--json OUT]
+                                     [--measurement roi|edges|both]
 
 Both trackers are fed the same detections, from two sources:
   - "gt-noisy": GT boxes with 2 px noise per edge and 10% dropped (pyvehtrack.synth.gt_detections),
@@ -10,7 +11,9 @@ Rows per source:
   - SORT:        filterpy SORT (max_age 1, min_hits 3) on the detections of every frame;
   - ours/1:      the tracker (C engine) given the detections of every frame;
   - ours/10:     the tracker given detections only every 10th frame (the thesis's design), ROI search
-                 in between -- the detections of the other 9 frames are not used.
+                 in between -- the detections of the other 9 frames are not used;
+  - ours/10 edges: the same with the edge-curve measurement (GIST paper) in place of the ROI
+                 search (rows present with --measurement edges|both).
 """
 from __future__ import annotations
 
@@ -27,9 +30,9 @@ from . import tracking as ev
 from .sort import run_sort
 
 
-def run_ours(seq, dets, every: int, engine: str = "c"):
+def run_ours(seq, dets, every: int, engine: str = "c", measurement: str = "roi"):
     from ..tracker import Tracker
-    trk = Tracker(engine=engine, detect_every=every)
+    trk = Tracker(engine=engine, detect_every=every, measurement=measurement)
     out = []
     for t in range(seq.n_frames):
         d = np.asarray(dets[t])[:, :4] if t % every == 0 else None
@@ -45,6 +48,7 @@ def main(argv=None) -> int:
     ap.add_argument("--size", default="640x480")
     ap.add_argument("--frames", type=int, default=None, help="frames per sequence (default: the scenario's)")
     ap.add_argument("--preproc", choices=("kitti", "none"), default="kitti")
+    ap.add_argument("--measurement", choices=("roi", "edges", "both"), default="roi")
     ap.add_argument("--json", type=Path)
     a = ap.parse_args(argv)
     w, h = (int(v) for v in a.size.lower().split("x"))
@@ -58,9 +62,15 @@ def main(argv=None) -> int:
             "detector": [_det_boxes(det, seq.frames[t]) for t in range(seq.n_frames)],
         }
         for src, dets in sources.items():
-            for name, tracks in (("SORT", run_sort(dets)), ("ours/1", run_ours(seq, dets, 1)),
-                                 ("ours/10", run_ours(seq, dets, 10))):
-                rows.setdefault(f"{src:9} {name}", []).append((seq, tracks, seq.n_frames))
+            runs = []
+            if a.measurement in ("roi", "both"):
+                runs += [("SORT", lambda: run_sort(dets)), ("ours/1", lambda: run_ours(seq, dets, 1)),
+                         ("ours/10", lambda: run_ours(seq, dets, 10))]
+            if a.measurement in ("edges", "both"):
+                runs += [("ours/1 edges", lambda: run_ours(seq, dets, 1, measurement="edges")),
+                         ("ours/10 edges", lambda: run_ours(seq, dets, 10, measurement="edges"))]
+            for name, fn in runs:
+                rows.setdefault(f"{src:9} {name}", []).append((seq, fn(), seq.n_frames))
     results = {k: ev.evaluate_many(v, preproc=a.preproc) for k, v in rows.items()}
     print(ev.format_results(results, names=("HOTA", "DetA", "AssA", "MOTA", "IDF1", "IDSW", "FN", "FP")))
     if a.json:

@@ -55,6 +55,9 @@ class Capacities:
     max_shadow_active: int = 64
     max_shadow_cand: int = 64
     max_verts: int = 24
+    max_edge_points: int = 256      # VT_EDGE_MAX_POINTS
+    max_edge_pixels: int = 65536    # VT_EDGE_MAX_PIXELS
+    coord_lim: int = 7680           # 4 * max(VT_MAX_WIDTH, VT_MAX_HEIGHT): the tracker's box limit
 
 
 @dataclass
@@ -127,7 +130,10 @@ class Pipeline:
             raise ValueError(f"sources: only ('shadow',) or () is built, got {self.cfg.sources!r}")
         self.lane = rlane.LaneDetector(self.cfg.lane, max_height=self.caps.max_height,
                                        max_verts=self.caps.max_verts)
-        self.tracker = rtrk.Tracker(self.cfg.tracker, max_tracks=self.caps.max_tracks)
+        self.tracker = rtrk.Tracker(self.cfg.tracker, max_tracks=self.caps.max_tracks,
+                                    max_edge_points=self.caps.max_edge_points,
+                                    max_edge_pixels=self.caps.max_edge_pixels,
+                                    coord_lim=self.caps.coord_lim)
         self.frame = 0
 
     def step(self, gray: np.ndarray, road=None, detections=None) -> RefFrame:

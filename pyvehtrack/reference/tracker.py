@@ -8,7 +8,12 @@ updated when the measurement passes the gate, else coasts. On detection frames,
 detections are matched to tracks by IoU (greedy, best pair first); a track no
 detection matches survives only if its 16x16 template still correlates with the
 same box in the new frame; unmatched detections that overlap no track start
-tentative tracks in the first free slot."""
+tentative tracks in the first free slot.
+
+With measurement=MEAS_EDGE_CURVES the ROI search is replaced by the GIST paper's
+(sec. III.B): the track's edge curves at its last good frame are matched to the new
+frame's curves by chamfer distance (reference/edge_track.py), and the template
+is refreshed from the box after every update."""
 from __future__ import annotations
 
 import math
@@ -17,6 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from filterpy.kalman import KalmanFilter
 
+from . import edge_track as redge
 from . import image as rimg
 from .kalman import bottom_edge_filter
 from .track_search import SearchCfg, Sides, track_search
@@ -24,6 +30,7 @@ from .track_search import SearchCfg, Sides, track_search
 FREE, TENTATIVE, CONFIRMED, COASTING = 0, 1, 2, 3
 TEMPLATE = 16
 MAX_DETS = 256
+MEAS_ROI_SEARCH, MEAS_EDGE_CURVES = 0, 1
 
 
 @dataclass
@@ -53,6 +60,8 @@ class TrackerCfg:
     match_iou_percent: int = 30
     keep_ncc: float = 0.7
     init_max_change: int = 3
+    measurement: int = MEAS_ROI_SEARCH
+    edge: redge.EdgeCfg = field(default_factory=redge.EdgeCfg)
 
 
 def _round(v: float) -> int:
@@ -73,6 +82,7 @@ class Track:
     sides: Sides = field(default_factory=Sides)
     kf: KalmanFilter | None = None
     tmpl: np.ndarray | None = None
+    edges: redge.Template | None = None
 
     def box_from_state(self):
         x = self.kf.x[:, 0]
@@ -111,8 +121,13 @@ def box_iou(a, b) -> float:
 
 
 class Tracker:
-    def __init__(self, cfg: TrackerCfg | None = None, max_tracks: int = 16):
+    def __init__(self, cfg: TrackerCfg | None = None, max_tracks: int = 16,
+                 max_edge_points: int = 256, max_edge_pixels: int = 65536, coord_lim: int = 7680):
         self.cfg = cfg or TrackerCfg()
+        # the C build's capacities (VT_EDGE_MAX_POINTS, VT_EDGE_MAX_PIXELS, 4 * max(VT_MAX_*))
+        self.max_edge_points = max_edge_points
+        self.max_edge_pixels = max_edge_pixels
+        self.coord_lim = coord_lim
         self.tracks = [Track() for _ in range(max_tracks)]
         self.next_id = 1
         self.frame = 0
@@ -126,6 +141,47 @@ class Tracker:
         elif t.state == COASTING:
             t.state = CONFIRMED
         t.tmpl = sample(img, t.box)
+
+    def _margin(self, box) -> int:
+        w = box[2] - box[0] + 1
+        return max(self.cfg.roi_margin_min, (w * self.cfg.roi_margin_percent) // 100)
+
+    def _edge_map(self, img, roi):
+        """edge_map, or None where C's vt_edge_map fails (empty, over capacity, out of range)."""
+        lim = self.coord_lim
+        if min(roi) < -lim or max(roi) > lim:
+            return None
+        c = redge.clip_roi(img.shape, roi)
+        if c is None or (c[2] - c[0] + 1) * (c[3] - c[1] + 1) > self.max_edge_pixels:
+            return None
+        return redge.edge_map(img, self.cfg.edge, roi)
+
+    def _edge_refresh(self, t: Track, img):
+        """Template: the curve points in the box, found in the box widened by the margin."""
+        l, top, r, b = t.box
+        m = self._margin(t.box)
+        em = self._edge_map(img, (l - m, top - m, r + m, b + m))
+        t.edges = redge.template_set(em, t.box, self.max_edge_points) if em is not None else \
+            redge.Template(np.zeros(0, np.int64), np.zeros(0, np.int64), t.box)
+
+    def _edge_measure(self, t: Track, img, m):
+        """The template box moved by the best displacement near the prediction, or None."""
+        if t.edges is None or len(t.edges.xs) == 0:
+            return None
+        tl, tt, tr_, tb = t.edges.box
+        cx, cy = t.box[0] - tl, t.box[3] - tb
+        if abs(cx) > 8192 or abs(cy) > 8192:
+            return None
+        e = self.cfg.edge
+        pad = e.radius + m
+        # the crop also holds the template grown by the largest scale
+        grow = ((tr_ - tl + tb - tt + 2) * e.scale_steps * e.scale_step_q8) // 256 + 1
+        em = self._edge_map(img, (tl + cx - pad - grow, tt + cy - pad - grow,
+                                  tr_ + cx + pad + grow, tb + cy + pad))
+        if em is None:
+            return None
+        dx, dy, s, _, found = redge.match(em, e, t.edges, cx, cy)
+        return redge.scale_box(t.edges.box, s, dx, dy) if found else None
 
     def _update(self, t: Track, left, bottom, right):
         t.kf.update(np.array([[left], [bottom], [right]], dtype=float))
@@ -145,6 +201,8 @@ class Tracker:
         t.sides = Sides(True, l, r, c.init_max_change, c.init_max_change)
         t.box_from_state()
         t.tmpl = sample(img, t.box)
+        if c.measurement == MEAS_EDGE_CURVES:
+            self._edge_refresh(t, img)
 
     def step(self, img: np.ndarray, detection_frame: bool = False, dets=()):
         c = self.cfg
@@ -169,13 +227,19 @@ class Tracker:
             sides = Sides(**vars(t.sides))
             # the verification step's ROI: half the edge length high; below, as far
             # as the bottom gate lets the edge move
-            meas = track_search(img, c.search, (l - m, b - w // 2, r + m, b + max(m, gate_b)), sides, grads)
+            if c.measurement == MEAS_EDGE_CURVES:
+                meas = self._edge_measure(t, img, m)
+            else:
+                meas = track_search(img, c.search, (l - m, b - w // 2, r + m, b + max(m, gate_b)),
+                                    sides, grads)
             if meas is not None and abs(meas[0] - l) <= gate and abs(meas[2] - r) <= gate \
                     and abs(meas[3] - b) <= gate_b:
                 self._update(t, meas[0], meas[3], meas[2])
                 t.sides = sides
                 measured[i] = True
                 self._hit(t, img)
+                if c.measurement == MEAS_EDGE_CURVES:
+                    self._edge_refresh(t, img)
             else:
                 t.misses += 1
                 if t.state == CONFIRMED:
@@ -211,6 +275,8 @@ class Tracker:
                     self._hit(t, img)
                 else:
                     t.tmpl = sample(img, t.box)
+                if c.measurement == MEAS_EDGE_CURVES:
+                    self._edge_refresh(t, img)
             for i, t in enumerate(self.tracks):
                 if t.state == FREE or matched[i]:
                     continue
