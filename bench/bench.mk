@@ -32,3 +32,16 @@ bench: $(BENCH_EXT) $(BENCH_DRIVER)
 	PYTHONPATH=$(CURDIR) PYVEHTRACK_FFI=$(abspath $(BENCH_EXT)) $(PY) bench/bench.py \
 	  --driver $(BENCH_DRIVER) --valgrind $(VALGRIND) --workdir $(BENCH_DIR) \
 	  --cc "$(CC)" --cflags="$(BENCH_OPT)" --command "make bench" $(BENCH_ARGS)
+
+# The classifier's costs (bench/classify_cost.c): instructions of vt_hog_prepare on a
+# 1280x192 band, vt_hog_scan over it and vt_classify_box on one box; sizeof of the workspaces.
+CLS_COST := $(BENCH_DIR)/classify_cost
+$(CLS_COST): bench/classify_cost.c $(CORE_SRCS) $(CORE_HDRS) bench/bench.mk
+	@mkdir -p $(BENCH_DIR)
+	$(CC) $(STRICT) $(BENCH_OPT) -g -Iinclude $(CORE_SRCS) bench/classify_cost.c -o $@
+.PHONY: classify-cost
+classify-cost: $(CLS_COST)
+	$(PY) -c "import cv2; cv2.imwrite('$(BENCH_DIR)/road_1280x720.pgm', cv2.imread('bench/data/road_1280x720.png', 0))"
+	$(VALGRIND) --tool=callgrind --callgrind-out-file=$(BENCH_DIR)/classify.callgrind \
+	  --toggle-collect='cost_*' $(CLS_COST) $(BENCH_DIR)/road_1280x720.pgm 1280 192
+	callgrind_annotate --inclusive=yes $(BENCH_DIR)/classify.callgrind | grep -E 'cost_(hog|classify)' | grep -v '^ *\.'

@@ -1,7 +1,7 @@
 /* classify_cost.c -- callgrind driver for the classifier's costs (host tool, uses stdio).
  *
- *   cc -O2 -Iinclude c/*.c bench/classify_cost.c -o build/classify_cost
- *   valgrind --tool=callgrind --toggle-collect='cost_*' build/classify_cost FRAME.pgm
+ *   make classify-cost   (builds it with the core, runs callgrind, prints the costs)
+ *   (or: valgrind --tool=callgrind --toggle-collect=cost_X build/bench/classify_cost FRAME.pgm W H)
  *
  * Runs once each, on a band of the frame: cost_hog_prepare (a W x H band),
  * cost_hog_scan (every window position of the default HOG model on that band),

@@ -215,19 +215,25 @@ def _shift_for(m: float) -> int:
     return shift
 
 
-def fit_mlp(X: np.ndarray, y: np.ndarray, hidden: int, alpha: float = 1e-3, max_iter: int = 40, seed: int = 0):
+def fit_mlp(X: np.ndarray, y: np.ndarray, hidden: int, alpha: float = 1e-3, max_iter: int = 120,
+            seed: int = 0, standardise: bool = False):
     """sklearn MLPClassifier, one ReLU layer; fixed iterations (no early stopping on a
-    random part of TRAIN: neighbouring crops are near-duplicates). Returns w1 (hidden x dim), b1, w2, b2."""
+    random part of TRAIN: neighbouring crops are near-duplicates). The standardisation,
+    if any, is folded into the first layer. Returns w1 (hidden x dim), b1, w2, b2."""
     import warnings
 
     from sklearn.exceptions import ConvergenceWarning
     from sklearn.neural_network import MLPClassifier
+    mu, sd = np.zeros(X.shape[1]), np.ones(X.shape[1])
+    if standardise:
+        mu, sd = X.mean(axis=0), np.maximum(X.std(axis=0), 1e-6)
     clf = MLPClassifier((hidden,), alpha=alpha, max_iter=max_iter, random_state=seed)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ConvergenceWarning)
-        clf.fit(X, y)
-    return (clf.coefs_[0].T.copy(), clf.intercepts_[0].copy(), clf.coefs_[1].ravel().copy(),
-            float(clf.intercepts_[1][0]))
+        clf.fit((X - mu) / sd, y)
+    w1 = clf.coefs_[0].T / sd
+    b1 = clf.intercepts_[0] - w1 @ mu
+    return w1, b1, clf.coefs_[1].ravel().copy(), float(clf.intercepts_[1][0])
 
 
 def mlp_dict(kind, win_w, win_h, w1, b1, w2, b2, info) -> dict:
@@ -336,7 +342,7 @@ def evaluate(d: dict, X: np.ndarray, Xc: np.ndarray, y: np.ndarray, src: np.ndar
 
 def run(vehicles, non_vehicles, frames=None, frames_json=None, kind: str = "hog", win: int = 64,
         C: float | None = None, progress: bool = True, log=print, model_type: str = "svm",
-        hidden: int = 16):
+        hidden: int = 16, feature_cache=None):
     """Build the crops, choose C on the inner validation fold (fold 1 of TRAIN), fit on
     all of TRAIN, quantise, and score float and C models on TEST. Returns (model dict,
     report dict)."""
@@ -361,9 +367,18 @@ def run(vehicles, non_vehicles, frames=None, frames_json=None, kind: str = "hog"
         raise ValueError("need both vehicles and non-vehicles")
     fold = np.array(crops.fold)
     src = np.array(crops.source)
-    with tqdm(total=len(y), desc=f"{kind} features", unit="img", disable=not progress,
-              file=__import__("sys").stderr) as bar:
-        X = float_features(kind, crops.images, progress=bar.update)
+    X = None
+    if feature_cache is not None and Path(feature_cache).exists():
+        z = np.load(feature_cache)
+        if z["X"].shape[0] == len(y) and np.array_equal(z["y"], y) and np.array_equal(z["fold"], fold):
+            X = z["X"]
+            log(f"  float features from {feature_cache}")
+    if X is None:
+        with tqdm(total=len(y), desc=f"{kind} features", unit="img", disable=not progress,
+                  file=__import__("sys").stderr) as bar:
+            X = float_features(kind, crops.images, progress=bar.update)
+        if feature_cache is not None:
+            np.savez(feature_cache, X=X, y=y, fold=fold)
     tr, te = fold != 0, fold == 0
     std = kind == "gist"
     val = {}
@@ -380,7 +395,7 @@ def run(vehicles, non_vehicles, frames=None, frames_json=None, kind: str = "hog"
             "split": "gti: blocks of 40 files, block % 5 == 0 TEST; tusimple: (NNNN // 10) % 5 == 0 TEST"}
     if model_type == "mlp":
         log(f"  fitting an MLP with {hidden} hidden units on TRAIN")
-        d = mlp_dict(kind, win, win, *fit_mlp(X[tr], y[tr], hidden), info)
+        d = mlp_dict(kind, win, win, *fit_mlp(X[tr], y[tr], hidden, standardise=std), info)
     else:
         w, b = fit_svm(X[tr], y[tr], C, std)
         d = model_dict(kind, win, win, w, b, C, info)

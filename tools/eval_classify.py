@@ -31,13 +31,15 @@ def main(argv=None) -> int:
     ap.add_argument("--hidden", type=int, default=16)
     ap.add_argument("--out", required=True)
     ap.add_argument("--json", default=None)
+    ap.add_argument("--cache", default=None, help="an .npz to keep the float features in (reused when "
+                    "the crops are the same)")
     args = ap.parse_args(argv)
     d = Path(args.data)
     model, rep = T.run([d / "gti-vehicles" / "vehicles"], [d / "gti-vehicles" / "non-vehicles"],
                        d / "tusimple-vehicles-dev", d / "tusimple-vehicles-dev" / "annotation.json",
                        kind=args.descriptor, win=args.window, C=args.C, progress=False,
                        log=lambda s: print(s, file=sys.stderr), model_type=args.model_type,
-                       hidden=args.hidden)
+                       hidden=args.hidden, feature_cache=args.cache)
     T.save_model(args.out, model)
     print(json.dumps(rep, indent=1))
     if args.json:
