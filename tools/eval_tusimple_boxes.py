@@ -5,7 +5,8 @@
                                         [--offset F] [--limit N] [--out pred.json] [--draw DIR]
 
 The split is pyvehtrack.datasets.tusimple_split (TEST: (NNNN // 10) % 5 == 0, 102 frames).
-Tune on --split train only; report --split test. Prints eval_boxes' table (recall and
+Tune on --split train only (choices on --split val, the TRAIN frames the
+classifier of tools/train_window_svm.py --fit-only never saw); report --split test. Prints eval_boxes' table (recall and
 precision at IoU >= 0.5 by size, lead vehicle, COCO AP50 by pycocotools). Detection runs
 through pyvehtrack.detector.Detector in its full-road mode, as `pyvehtrack detect` does.
 """
@@ -22,7 +23,7 @@ import cv2
 _ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(_ROOT))
 from pyvehtrack import eval_boxes as eb  # noqa: E402
-from pyvehtrack.datasets import tusimple_split  # noqa: E402
+from pyvehtrack.datasets import tusimple_split, tusimple_subsplit  # noqa: E402
 from pyvehtrack.detector import Detector  # noqa: E402
 
 DATA = next((p for p in (_ROOT.parent / "shared" / "data", _ROOT.parent.parent / "shared" / "data")
@@ -31,7 +32,8 @@ DATA = next((p for p in (_ROOT.parent / "shared" / "data", _ROOT.parent.parent /
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--split", choices=("train", "test"), required=True)
+    ap.add_argument("--split", choices=("train", "test", "fit", "val"), required=True,
+                    help="test, train, or a TRAIN sub-split (datasets.tusimple_subsplit): fit or val")
     ap.add_argument("--data", default=str(DATA / "tusimple-vehicles-dev"))
     ap.add_argument("--model", default=None)
     ap.add_argument("--sources", nargs="+", default=None,
@@ -44,7 +46,8 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     data = Path(args.data)
     ann = json.loads((data / "annotation.json").read_text())
-    frames = [e for e in ann if tusimple_split(e["file_name"]) == args.split]
+    part = tusimple_split if args.split in ("train", "test") else tusimple_subsplit
+    frames = [e for e in ann if part(e["file_name"]) == args.split]
     if args.limit:
         frames = frames[: args.limit]
     det = Detector(model=args.model, sources=tuple(args.sources) if args.sources else None,
