@@ -40,6 +40,8 @@ def main(argv=None) -> int:
                     help="shadow and/or windows (full-road), or ego; default: Detector's (full-road shadow with "
                          "--model, else the ego-lane detector)")
     ap.add_argument("--offset", type=float, default=0.0, help="added to the model's score threshold")
+    ap.add_argument("--nms-iou", type=float, default=None, help="full-road NMS IoU (default: FullDetConfig's)")
+    ap.add_argument("--nms-contain", type=float, default=None, help="full-road NMS containment (default: FullDetConfig's)")
     ap.add_argument("--limit", type=int, default=0)
     ap.add_argument("--out", default=None, help="write the predictions (detect --json format)")
     ap.add_argument("--draw", default=None, help="folder for annotated frames (green: found, red: truth)")
@@ -52,6 +54,15 @@ def main(argv=None) -> int:
         frames = frames[: args.limit]
     det = Detector(model=args.model, sources=tuple(args.sources) if args.sources else None,
                    score_offset=args.offset)
+    if (args.nms_iou is not None or args.nms_contain is not None) and det.full is not None:
+        from dataclasses import replace
+
+        from pyvehtrack import fullroad
+        d = det.full.cfg.det
+        d = replace(d, nms_iou=d.nms_iou if args.nms_iou is None else args.nms_iou,
+                    nms_contain=d.nms_contain if args.nms_contain is None else args.nms_contain)
+        det.full = fullroad.FullRoadDetector(det.full.model, sources=det.full.sources, camera=det.full.camera,
+                                             cfg=replace(det.full.cfg, det=d))
     preds, t0 = [], time.time()
     for i, e in enumerate(frames):
         img = cv2.imread(str(data / e["file_name"]))
