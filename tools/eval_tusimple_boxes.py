@@ -42,6 +42,8 @@ def main(argv=None) -> int:
     ap.add_argument("--offset", type=float, default=0.0, help="added to the model's score threshold")
     ap.add_argument("--nms-iou", type=float, default=None, help="full-road NMS IoU (default: FullDetConfig's)")
     ap.add_argument("--nms-contain", type=float, default=None, help="full-road NMS containment (default: FullDetConfig's)")
+    ap.add_argument("--box-height", type=float, default=None,
+                    help="full-road window box height / width (default: FullDetConfig's 0.75)")
     ap.add_argument("--limit", type=int, default=0)
     ap.add_argument("--out", default=None, help="write the predictions (detect --json format)")
     ap.add_argument("--draw", default=None, help="folder for annotated frames (green: found, red: truth)")
@@ -54,13 +56,15 @@ def main(argv=None) -> int:
         frames = frames[: args.limit]
     det = Detector(model=args.model, sources=tuple(args.sources) if args.sources else None,
                    score_offset=args.offset)
-    if (args.nms_iou is not None or args.nms_contain is not None) and det.full is not None:
+    if (args.nms_iou is not None or args.nms_contain is not None or args.box_height is not None) and \
+            det.full is not None:
         from dataclasses import replace
 
         from pyvehtrack import fullroad
         d = det.full.cfg.det
         d = replace(d, nms_iou=d.nms_iou if args.nms_iou is None else args.nms_iou,
-                    nms_contain=d.nms_contain if args.nms_contain is None else args.nms_contain)
+                    nms_contain=d.nms_contain if args.nms_contain is None else args.nms_contain,
+                    box_height=d.box_height if args.box_height is None else args.box_height)
         det.full = fullroad.FullRoadDetector(det.full.model, sources=det.full.sources, camera=det.full.camera,
                                              cfg=replace(det.full.cfg, det=d))
     preds, t0 = [], time.time()
