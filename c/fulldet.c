@@ -374,3 +374,46 @@ vt_status vt_hog_scorer_score(void *ctx, const vt_image_u8 *level_img, const vt_
     b.bottom = win->y + win->size - 1;
     return vt_classify_box(&sc->box, m, level_img, &b, score);
 }
+
+vt_status vt_mlp_scorer_init(vt_mlp_scorer *sc, const vt_mlp_model *m)
+{
+    vt_status s;
+    if (sc == NULL) {
+        return VT_E_ARG;
+    }
+    sc->model = NULL;
+    s = vt_mlp_model_check(m);
+    if (s != VT_OK) {
+        return s;
+    }
+    sc->model = m;
+    return VT_OK;
+}
+
+vt_status vt_mlp_scorer_score(void *ctx, const vt_image_u8 *level_img, const vt_window *win,
+                              int32_t *score)
+{
+    vt_mlp_scorer *sc = (vt_mlp_scorer *)ctx;
+    vt_status s;
+    vt_box b;
+    if (score == NULL) {
+        return VT_E_ARG;
+    }
+    *score = 0;
+    if (sc == NULL || sc->model == NULL || win == NULL) {
+        return VT_E_ARG;
+    }
+    s = vt_image_u8_check(level_img);
+    if (s != VT_OK) {
+        return s;
+    }
+    if (win->size < 1 || win->x < 0 || win->y < 0 || win->x + win->size > level_img->w ||
+        win->y + win->size > level_img->h) {
+        return VT_E_ARG;
+    }
+    b.left = win->x;
+    b.top = win->y;
+    b.right = win->x + win->size - 1;
+    b.bottom = win->y + win->size - 1;
+    return vt_classify_box_mlp(&sc->box, sc->model, level_img, &b, score);
+}

@@ -9,7 +9,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-__all__ = ["tusimple_split", "gti_split", "GTI_BLOCK", "GTI_TEST_EVERY"]
+__all__ = ["tusimple_split", "tusimple_subsplit", "gti_split", "GTI_BLOCK", "GTI_TEST_EVERY"]
 
 _NUM = re.compile(r"(\d+)")
 
@@ -29,6 +29,15 @@ def tusimple_split(file_name: str) -> str:
     (0005, 0055, 0105, ...; 102 of the 507 frames); all others are TRAIN. Never
     tune on TEST."""
     return "test" if (_last_number(file_name) // 10) % 5 == 0 else "train"
+
+
+def tusimple_subsplit(file_name: str) -> str:
+    """'test', 'fit' or 'val' for a tusimple-vehicles-dev frame: TEST as tusimple_split;
+    the TRAIN frames with (NNNN // 10) % 5 == 1 are 'val' (the TRAIN part that choices
+    such as C, thresholds and window sizes are made on; ~100 frames), the other TRAIN
+    frames are 'fit' (the classifier's training frames)."""
+    k = (_last_number(file_name) // 10) % 5
+    return "test" if k == 0 else ("val" if k == 1 else "fit")
 
 
 # GTI crops come from video: neighbouring file numbers are near-duplicates, so the

@@ -11,7 +11,10 @@ threshold means vehicle); source 1 = shadow hypothesis, 2 = classifier window.
 
 Model files (.npz, written by `pyvehtrack train` or tools/train_window_svm.py) hold:
 kind ("hog"/"gist" or 1/2), win_w, win_h, w_q (int16 weights), w_shift, bias_q16 and
-optionally threshold_q16.
+optionally threshold_q16 and scan_sizes: the window sides (level pixels, increasing, the
+model's window among them) the detector lays on each pyramid level, e.g. [32, 45] for
+two sizes per octave (default: the model's window alone). Sides other than the model's
+window are resampled to it per window (vt_classify_box: slower, same classifier).
 """
 from __future__ import annotations
 
@@ -73,6 +76,7 @@ class SvmModel:
     bias_q16: int
     threshold_q16: int = 0
     path: str = "<built-in>"
+    scan_sizes: tuple = ()
 
     def score_float(self, desc_q15: np.ndarray) -> float:
         """The model's decision value (real units) for a Q15 descriptor, in float."""
@@ -80,7 +84,26 @@ class SvmModel:
         return float(w @ (np.asarray(desc_q15, np.float64) / 32768) + self.bias_q16 / 65536)
 
 
-def load_model(path) -> SvmModel:
+@dataclass
+class MlpModel:
+    """A one-hidden-layer MLP on the model window's descriptor (classify.h vt_mlp_model;
+    written by tools/train_window_svm.py --mlp or `pyvehtrack train --model-type mlp`).
+    Scores are its Q16 logits; windows go through vt_mlp_scorer (vt_classify_box_mlp)."""
+    kind: int
+    win_w: int
+    win_h: int
+    w1_q: np.ndarray
+    w1_shift: int
+    b1_q16: np.ndarray
+    w2_q: np.ndarray
+    w2_shift: int
+    b2_q16: int
+    threshold_q16: int = 0
+    path: str = "<in memory>"
+    scan_sizes: tuple = ()
+
+
+def load_model(path) -> SvmModel | MlpModel:
     """A model from an .npz file (see the module doc); ValueError naming the problem."""
     p = os.fspath(path)
     if not os.path.isfile(p):
@@ -89,7 +112,9 @@ def load_model(path) -> SvmModel:
         z = np.load(p, allow_pickle=False)
     except Exception as e:  # noqa: BLE001  (any unreadable file is the same user error)
         raise ValueError(f"model: {p} is not a readable .npz file ({e})") from None
-    need = ("kind", "win_w", "win_h", "w_q", "w_shift", "bias_q16")
+    mlp = "model_type" in z.files and str(z["model_type"]) == "mlp"
+    need = ("kind", "win_w", "win_h") + (("w1_q", "w1_shift", "b1_q16", "w2_q", "w2_shift", "b2_q16") if mlp
+                                         else ("w_q", "w_shift", "bias_q16"))
     miss = [k for k in need if k not in z.files]
     if miss:
         raise ValueError(f"model: {p} lacks {', '.join(miss)} (expected the keys {', '.join(need)})")
@@ -97,13 +122,34 @@ def load_model(path) -> SvmModel:
     kind = _KINDS.get(kind.lower() if isinstance(kind, str) else int(kind))
     if kind is None:
         raise ValueError(f"model: {p}: kind must be 'hog' or 'gist', got {z['kind'].item()!r}")
+    scan = _scan_sizes(z, p)
+    thr = int(z["threshold_q16"]) if "threshold_q16" in z.files else 0
+    if mlp:
+        arrs = [np.asarray(z[k]) for k in ("w1_q", "b1_q16", "w2_q")]
+        if any(not np.issubdtype(a.dtype, np.integer) for a in arrs) or arrs[0].ndim != 2:
+            raise ValueError(f"model: {p}: w1_q (2-D), b1_q16 and w2_q must be integer arrays")
+        m = MlpModel(kind, int(z["win_w"]), int(z["win_h"]), arrs[0], int(z["w1_shift"]), arrs[1], arrs[2],
+                     int(z["w2_shift"]), int(z["b2_q16"]), thr, p, scan)
+        _c_model(m)   # validates shapes, shifts and window against the C core
+        return m
     w = np.asarray(z["w_q"])
     if w.ndim != 1 or not np.issubdtype(w.dtype, np.integer) or (np.abs(w.astype(np.int64)) > 32767).any():
         raise ValueError(f"model: {p}: w_q must be a 1-D array of int16 values")
     m = SvmModel(kind, int(z["win_w"]), int(z["win_h"]), w.astype(np.int16), int(z["w_shift"]),
-                 int(z["bias_q16"]), int(z["threshold_q16"]) if "threshold_q16" in z.files else 0, p)
+                 int(z["bias_q16"]), thr, p, scan)
     _c_model(m)   # validates window, dim and shift against the C core
     return m
+
+
+def _scan_sizes(z, p) -> tuple:
+    if "scan_sizes" not in z.files:
+        return ()
+    a = np.asarray(z["scan_sizes"])
+    if a.ndim != 1 or not np.issubdtype(a.dtype, np.integer) or not 1 <= len(a) <= int(lib.VT_WIN_MAX_SIZES) \
+            or (a < 4).any() or (a > 1024).any() or (np.diff(a) <= 0).any() or int(z["win_w"]) not in a:
+        raise ValueError(f"model: {p}: scan_sizes must be 1..{int(lib.VT_WIN_MAX_SIZES)} increasing window "
+                         f"sides in 4..1024 including win_w, got {a.tolist()}")
+    return tuple(int(v) for v in a)
 
 
 def default_model() -> SvmModel | None:
@@ -116,7 +162,10 @@ def default_model() -> SvmModel | None:
     return SvmModel(m.kind, m.win_w, m.win_h, w, m.w_shift, m.bias_q16, m.threshold_q16)
 
 
-def _c_model(m: SvmModel):
+def _c_model(m):
+    if isinstance(m, MlpModel):
+        return _native.mlp_model(m.kind, m.win_w, m.win_h, m.w1_q, m.w1_shift, m.b1_q16, m.w2_q, m.w2_shift,
+                                 m.b2_q16, m.threshold_q16)
     return _native.svm_model(m.kind, m.win_w, m.win_h, m.w_q, m.w_shift, m.bias_q16, m.threshold_q16)
 
 
@@ -177,12 +226,12 @@ class FullRoadDetector:
             raise ValueError(f"sources: expected a non-empty subset of {SOURCES}, got {sources!r}")
         if model is None:
             self.model = default_model()
-        elif isinstance(model, SvmModel):
+        elif isinstance(model, (SvmModel, MlpModel)):
             self.model = model
         elif isinstance(model, (str, os.PathLike)):
             self.model = load_model(model)
         else:
-            raise TypeError(f"model: expected a path, an SvmModel or None, got {type(model).__name__}")
+            raise TypeError(f"model: expected a path, an SvmModel, an MlpModel or None, got {type(model).__name__}")
         if self.model is None and "windows" in sources:
             raise ValueError("sources: 'windows' needs a classifier model, and this build has no default "
                              "model: pass model=PATH.npz (see `pyvehtrack train`)")
@@ -196,8 +245,9 @@ class FullRoadDetector:
         thr = 0
         if self.model is not None:
             thr = self.model.threshold_q16 + int(round(cfg.score_offset * 65536))
-            if det.win.sizes != (self.model.win_w,) and self.model.win_w == self.model.win_h:
-                det = replace(det, win=replace(det.win, sizes=(self.model.win_w,), step=8 / self.model.win_w))
+            sizes = self.model.scan_sizes or (self.model.win_w,)
+            if det.win.sizes != sizes and self.model.win_w == self.model.win_h:
+                det = replace(det, win=replace(det.win, sizes=sizes, step=8 / self.model.win_w))
         det = replace(det, shadow_source="shadow" in sources, window_source="windows" in sources,
                       window_score_min=thr, shadow_score_min=thr,
                       shadow_classify=det.shadow_classify and self.model is not None)
@@ -206,7 +256,15 @@ class FullRoadDetector:
         self._state = ffi.new("vt_fulldet_state *")
         self._out = ffi.new("vt_fulldet_result *")
         self._scorer = None
-        if self.model is not None:
+        if isinstance(self.model, MlpModel):
+            self._m, self._keep = _c_model(self.model)
+            self._mlp = ffi.new("vt_mlp_scorer *")
+            _native.check("vt_mlp_scorer_init", lib.vt_mlp_scorer_init(self._mlp, self._m))
+            self._scorer = ffi.new("vt_window_scorer *")
+            self._scorer.level = ffi.NULL
+            self._scorer.score = ffi.addressof(lib, "vt_mlp_scorer_score")
+            self._scorer.ctx = self._mlp
+        elif self.model is not None:
             self._m, self._keep = _c_model(self.model)
             self._hog = ffi.new("vt_hog_scorer *")
             _native.check("vt_hog_scorer_init", lib.vt_hog_scorer_init(self._hog, self._m))
@@ -224,7 +282,7 @@ class FullRoadDetector:
         win = ffi.new("vt_window *", [level, s, x, y])
         out = ffi.new("int32_t *")
         v = _native.view(np.ascontiguousarray(img), "level_img")
-        _native.check("vt_hog_scorer_score", lib.vt_hog_scorer_score(self._hog, v, win, out))
+        _native.check("window scorer", self._scorer.score(self._scorer.ctx, v, win, out))
         return int(out[0])
 
     def detect_gray(self, gray: np.ndarray, road=None, horizon_y: int | None = None) -> np.ndarray:
@@ -257,5 +315,5 @@ class FullRoadDetector:
         return out
 
 
-__all__ = ["Camera", "SvmModel", "FullRoadConfig", "FullRoadDetector", "load_model", "default_model", "SOURCES",
+__all__ = ["Camera", "SvmModel", "MlpModel", "FullRoadConfig", "FullRoadDetector", "load_model", "default_model", "SOURCES",
            "DEFAULT_SOURCES"]

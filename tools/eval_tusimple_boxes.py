@@ -5,7 +5,8 @@
                                         [--offset F] [--limit N] [--out pred.json] [--draw DIR]
 
 The split is pyvehtrack.datasets.tusimple_split (TEST: (NNNN // 10) % 5 == 0, 102 frames).
-Tune on --split train only; report --split test. Prints eval_boxes' table (recall and
+Tune on --split train only (choices on --split val, the TRAIN frames the
+classifier of tools/train_window_svm.py --fit-only never saw); report --split test. Prints eval_boxes' table (recall and
 precision at IoU >= 0.5 by size, lead vehicle, COCO AP50 by pycocotools). Detection runs
 through pyvehtrack.detector.Detector in its full-road mode, as `pyvehtrack detect` does.
 """
@@ -22,7 +23,7 @@ import cv2
 _ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(_ROOT))
 from pyvehtrack import eval_boxes as eb  # noqa: E402
-from pyvehtrack.datasets import tusimple_split  # noqa: E402
+from pyvehtrack.datasets import tusimple_split, tusimple_subsplit  # noqa: E402
 from pyvehtrack.detector import Detector  # noqa: E402
 
 DATA = next((p for p in (_ROOT.parent / "shared" / "data", _ROOT.parent.parent / "shared" / "data")
@@ -31,24 +32,41 @@ DATA = next((p for p in (_ROOT.parent / "shared" / "data", _ROOT.parent.parent /
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--split", choices=("train", "test"), required=True)
+    ap.add_argument("--split", choices=("train", "test", "fit", "val"), required=True,
+                    help="test, train, or a TRAIN sub-split (datasets.tusimple_subsplit): fit or val")
     ap.add_argument("--data", default=str(DATA / "tusimple-vehicles-dev"))
     ap.add_argument("--model", default=None)
     ap.add_argument("--sources", nargs="+", default=None,
                     help="shadow and/or windows (full-road), or ego; default: Detector's (full-road shadow with "
                          "--model, else the ego-lane detector)")
     ap.add_argument("--offset", type=float, default=0.0, help="added to the model's score threshold")
+    ap.add_argument("--nms-iou", type=float, default=None, help="full-road NMS IoU (default: FullDetConfig's)")
+    ap.add_argument("--nms-contain", type=float, default=None, help="full-road NMS containment (default: FullDetConfig's)")
+    ap.add_argument("--box-height", type=float, default=None,
+                    help="full-road window box height / width (default: FullDetConfig's 0.75)")
     ap.add_argument("--limit", type=int, default=0)
     ap.add_argument("--out", default=None, help="write the predictions (detect --json format)")
     ap.add_argument("--draw", default=None, help="folder for annotated frames (green: found, red: truth)")
     args = ap.parse_args(argv)
     data = Path(args.data)
     ann = json.loads((data / "annotation.json").read_text())
-    frames = [e for e in ann if tusimple_split(e["file_name"]) == args.split]
+    part = tusimple_split if args.split in ("train", "test") else tusimple_subsplit
+    frames = [e for e in ann if part(e["file_name"]) == args.split]
     if args.limit:
         frames = frames[: args.limit]
     det = Detector(model=args.model, sources=tuple(args.sources) if args.sources else None,
                    score_offset=args.offset)
+    if (args.nms_iou is not None or args.nms_contain is not None or args.box_height is not None) and \
+            det.full is not None:
+        from dataclasses import replace
+
+        from pyvehtrack import fullroad
+        d = det.full.cfg.det
+        d = replace(d, nms_iou=d.nms_iou if args.nms_iou is None else args.nms_iou,
+                    nms_contain=d.nms_contain if args.nms_contain is None else args.nms_contain,
+                    box_height=d.box_height if args.box_height is None else args.box_height)
+        det.full = fullroad.FullRoadDetector(det.full.model, sources=det.full.sources, camera=det.full.camera,
+                                             cfg=replace(det.full.cfg, det=d))
     preds, t0 = [], time.time()
     for i, e in enumerate(frames):
         img = cv2.imread(str(data / e["file_name"]))

@@ -4,6 +4,12 @@
 user-facing one and writes the same .npz keys).
 
     python tools/train_window_svm.py --out /tmp/win32.npz [--win 32] [--rounds 2] [--C 0.01]
+        [--scan-sizes 32 45] [--mlp HIDDEN [--mlp-iter N]] [--fit-only]
+
+The shipped full-road model tests/data/window_mlp_hog32.npz was made with
+    --fit-only --scan-sizes 32 45 --rounds 1 --mlp 32 --mlp-iter 40
+(--fit-only keeps the 'val' part of TRAIN unseen, for choosing thresholds and NMS with
+tools/eval_tusimple_boxes.py --split val).
 
 Data, TRAIN parts only (pyvehtrack.datasets splits; never the tusimple TEST frames):
   * positives: every box >= 20 px wide of the tusimple-vehicles-dev TRAIN frames, as a
@@ -32,9 +38,10 @@ from sklearn.svm import LinearSVC
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from pyvehtrack import _native  # noqa: E402
-from pyvehtrack.datasets import gti_sorted, gti_split, tusimple_split  # noqa: E402
+from pyvehtrack.datasets import gti_sorted, gti_split, tusimple_split, tusimple_subsplit  # noqa: E402
 from pyvehtrack.eval_boxes import box_iou_matrix  # noqa: E402
-from pyvehtrack.fullroad import FullRoadConfig, FullRoadDetector, SvmModel  # noqa: E402
+from pyvehtrack.fullroad import FullRoadConfig, FullRoadDetector, MlpModel, SvmModel  # noqa: E402
+from pyvehtrack.train import fit_mlp, mlp_dict  # noqa: E402
 from pyvehtrack.reference import fulldet as rfd  # noqa: E402
 from pyvehtrack.reference import windows as rw  # noqa: E402
 
@@ -87,6 +94,15 @@ def main(argv=None) -> int:
     ap.add_argument("--neg-per-frame", type=int, default=40)
     ap.add_argument("--max-frames", type=int, default=0, help="use only the first N TRAIN frames (0: all)")
     ap.add_argument("--no-gti", action="store_true")
+    ap.add_argument("--scan-sizes", type=int, nargs="+", default=None,
+                    help="window sides per pyramid level the detector scans (and mining uses), e.g. 32 45; "
+                         "written into the model (default: --win alone)")
+    ap.add_argument("--mlp", type=int, default=0, metavar="HIDDEN",
+                    help="train a one-hidden-layer MLP (pyvehtrack.train.fit_mlp) with HIDDEN ReLU units "
+                         "instead of the linear SVM (mining rounds then use the MLP)")
+    ap.add_argument("--mlp-iter", type=int, default=60)
+    ap.add_argument("--fit-only", action="store_true",
+                    help="train on the 'fit' part of TRAIN only (datasets.tusimple_subsplit), keeping 'val' unseen")
     args = ap.parse_args(argv)
     t0 = time.time()
     win = args.win
@@ -94,6 +110,8 @@ def main(argv=None) -> int:
     rng = np.random.default_rng(0)
     ann = json.loads((TUS / "annotation.json").read_text())
     train = [e for e in ann if tusimple_split(e["file_name"]) == "train"]
+    if args.fit_only:
+        train = [e for e in train if tusimple_subsplit(e["file_name"]) == "fit"]
     if args.max_frames:
         train = train[: args.max_frames]
     frames = []
@@ -121,7 +139,8 @@ def main(argv=None) -> int:
             neg.append(hog(ws, cv2.imread(str(p), cv2.IMREAD_GRAYSCALE), win))
     n_gti_neg = len(neg)
     # random windows of the detector's grid that hold no vehicle
-    wcfg = rw.WindowConfig(sizes=(win,), step=8 / win)
+    scan = tuple(args.scan_sizes) if args.scan_sizes else (win,)
+    wcfg = rw.WindowConfig(sizes=scan, step=8 / win)
     from pyvehtrack.fullroad import Camera
     camspec = Camera()
 
@@ -156,12 +175,24 @@ def main(argv=None) -> int:
     for rnd in range(args.rounds + 1):
         X = np.vstack(pos + neg)
         y = np.r_[np.ones(len(pos)), -np.ones(len(neg))]
-        clf = LinearSVC(C=args.C, class_weight="balanced", max_iter=20000)
-        clf.fit(X, y)
-        acc = (clf.predict(X) == y).mean()
-        wq, shift, bq = quantise(clf.coef_[0], float(clf.intercept_[0]))
-        model = SvmModel(1, win, win, wq, shift, bq, 0)
-        print(f"round {rnd}: {len(pos)} pos, {len(neg)} neg, training accuracy {acc:.4f}, w_shift {shift}  "
+        if args.mlp:
+            # balance the classes by repeating positives (MLPClassifier has no class_weight)
+            rep = max(1, int(round(len(neg) / len(pos))))
+            Xb = np.vstack(pos * rep + neg)
+            yb = np.r_[np.ones(len(pos) * rep), -np.ones(len(neg))]
+            w1, b1, w2, b2 = fit_mlp(Xb, yb, args.mlp, max_iter=args.mlp_iter)
+            d = mlp_dict("hog", win, win, w1, b1, w2, b2, {})
+            model = MlpModel(1, win, win, d["w1_q"], d["w1_shift"], d["b1_q16"], d["w2_q"], d["w2_shift"],
+                             d["b2_q16"], 0, scan_sizes=scan if args.scan_sizes else ())
+            acc = ((np.maximum(X @ w1.T + b1, 0) @ w2 + b2 >= 0) == (y > 0)).mean()
+            shift = (d["w1_shift"], d["w2_shift"])
+        else:
+            clf = LinearSVC(C=args.C, class_weight="balanced", max_iter=20000)
+            clf.fit(X, y)
+            acc = (clf.predict(X) == y).mean()
+            wq, shift, bq = quantise(clf.coef_[0], float(clf.intercept_[0]))
+            model = SvmModel(1, win, win, wq, shift, bq, 0, scan_sizes=scan if args.scan_sizes else ())
+        print(f"round {rnd}: {len(pos)} pos, {len(neg)} neg, training accuracy {acc:.4f}, shift {shift}  "
               f"[{time.time() - t0:.0f}s]", flush=True)
         if rnd == args.rounds:
             break
@@ -175,8 +206,14 @@ def main(argv=None) -> int:
                     neg.append(hog(ws, g[bb[1]:bb[3] + 1, bb[0]:bb[2] + 1], win))
                     added += 1
         print(f"  hard negatives added: {added}", flush=True)
-    np.savez(args.out, kind="hog", win_w=win, win_h=win, w_q=model.w_q, w_shift=model.w_shift,
-             bias_q16=model.bias_q16, threshold_q16=0)
+    extra = {"scan_sizes": np.asarray(scan, np.int32)} if args.scan_sizes else {}
+    if args.mlp:
+        np.savez(args.out, model_type="mlp", kind="hog", win_w=win, win_h=win, w1_q=model.w1_q,
+                 w1_shift=model.w1_shift, b1_q16=model.b1_q16, w2_q=model.w2_q, w2_shift=model.w2_shift,
+                 b2_q16=model.b2_q16, threshold_q16=0, **extra)
+    else:
+        np.savez(args.out, kind="hog", win_w=win, win_h=win, w_q=model.w_q, w_shift=model.w_shift,
+                 bias_q16=model.bias_q16, threshold_q16=0, **extra)
     print(f"wrote {args.out}")
     return 0
 

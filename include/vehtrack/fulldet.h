@@ -177,4 +177,24 @@ vt_status vt_hog_scorer_level(void *ctx, const vt_image_u8 *level_img, int32_t l
 vt_status vt_hog_scorer_score(void *ctx, const vt_image_u8 *level_img, const vt_window *win,
                               int32_t *score);
 
+/* The classify stage's HOG (or GIST) + MLP (vt_mlp_model) as a vt_window_scorer:
+ * pass {NULL, vt_mlp_scorer_score, &sc}. Every window is scored by
+ * vt_classify_box_mlp on its level-image box (resampled to the model window by
+ * vt_resample_area, descriptor on the crop alone, as the trainer's crops), so the
+ * scores are exactly those of the classify stage on the same box (its arithmetic:
+ * classify.h, vt_mlp_model). No band sharing: each window costs its descriptor
+ * (HOG 32x32: ~1e5 instructions) plus hidden x dim multiply-adds. Scores are the
+ * MLP's Q16 logits. */
+typedef struct {
+    const vt_mlp_model *model;
+    vt_cls_box_ws box;
+} vt_mlp_scorer;
+
+/* Point sc at model m (vt_mlp_model_check must pass). */
+vt_status vt_mlp_scorer_init(vt_mlp_scorer *sc, const vt_mlp_model *m);
+
+/* vt_window_scorer.score for ctx = a vt_mlp_scorer *. */
+vt_status vt_mlp_scorer_score(void *ctx, const vt_image_u8 *level_img, const vt_window *win,
+                              int32_t *score);
+
 #endif /* VEHTRACK_FULLDET_H */

@@ -61,3 +61,12 @@ vt_status vt_hog_scorer_level(void *ctx, const vt_image_u8 *level_img, int32_t l
                               int32_t y1);
 vt_status vt_hog_scorer_score(void *ctx, const vt_image_u8 *level_img, const vt_window *win,
                               int32_t *score);
+
+typedef struct {
+    const vt_mlp_model *model;
+    ...;
+} vt_mlp_scorer;
+
+vt_status vt_mlp_scorer_init(vt_mlp_scorer *sc, const vt_mlp_model *m);
+vt_status vt_mlp_scorer_score(void *ctx, const vt_image_u8 *level_img, const vt_window *win,
+                              int32_t *score);
