@@ -890,10 +890,13 @@ static void vt__road_between(const vt_lane_line *l, const vt_lane_line *r, int32
     y_first = y_first < 0 ? 0 : y_first;
     for (y = img_h - 1; y >= y_first; --y) {
         /* working row of input row y: (y + 1/2) / 2^s - 1/2, exact in Q16 for s <= 3 */
-        vt_q16 yw = (vt_q16)(((int64_t)(2 * y + 1) << 15 >> s) - 32768), xl, xr;
+        vt_q16 yw = (vt_q16)(((int64_t)(2 * y + 1) << 15 >> s) - 32768), xl = 0, xr = 0;
         int64_t il, ir, cl, cr;
-        (void)vt_lane_line_x(l, yw, &xl);
-        (void)vt_lane_line_x(r, yw, &xr);
+        /* both lines are set (checked above), so this fails only on a corrupted
+         * result: stop the area there rather than use an unset x */
+        if (vt_lane_line_x(l, yw, &xl) != VT_OK || vt_lane_line_x(r, yw, &xr) != VT_OK) {
+            break;
+        }
         /* input x = (x + 1/2) 2^s - 1/2, rounded half up */
         il = vt__floor_shr64(((int64_t)xl + 32768) * ((int64_t)1 << s), 16);
         ir = vt__floor_shr64(((int64_t)xr + 32768) * ((int64_t)1 << s), 16);
