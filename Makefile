@@ -62,11 +62,21 @@ SMALL_DEFS := -DVT_MAX_TRACKS=1 -DVT_MAX_WIDTH=700 -DVT_MAX_HEIGHT=500
 # each): clang's UBSan catches signed negations gcc 12's misses, gcc's ASan
 # differs in its interceptors. Then the fuzzers, FUZZ_SECONDS each.
 SAN_COMPILERS ?= gcc clang
+# The first suite runs everything; the sanitized (gcc and clang side by side, one core
+# each) and small-configuration runs are "secondary": they leave out the modules that do
+# not depend on the extension's build (tests/conftest.py, BUILD_INDEPENDENT) and draw
+# SECONDARY_EXAMPLES hypothesis examples per test instead of 150, to keep CI under 20 min.
+SECONDARY_EXAMPLES ?= 60
+CI_FUZZ_SECONDS    ?= 15
 test: lib
 	$(PY) -m pytest -q
-	@set -e; for c in $(SAN_COMPILERS); do $(MAKE) check SAN=1 CC=$$c; done
-	$(MAKE) check CHECK_DEFS="$(SMALL_DEFS)"
-	$(MAKE) fuzz
+	@set -e; pids=""; for c in $(SAN_COMPILERS); do \
+	  $(MAKE) --no-print-directory check SAN=1 CC=$$c SECONDARY=1 > $(BUILD)/test-san-$$c.log 2>&1 & pids="$$pids $$!"; done; \
+	  rc=0; for p in $$pids; do wait $$p || rc=1; done; \
+	  for c in $(SAN_COMPILERS); do echo "== sanitized suite ($$c)"; grep -v '^\.*  *\[' $(BUILD)/test-san-$$c.log | tail -n 40; done; \
+	  exit $$rc
+	$(MAKE) check CHECK_DEFS="$(SMALL_DEFS)" SECONDARY=1
+	$(MAKE) fuzz FUZZ_SECONDS=$(CI_FUZZ_SECONDS)
 
 pytest:
 	$(PY) -m pytest -q
@@ -101,8 +111,9 @@ $(CHECK_EXT): $(CORE_SRCS) $(CORE_HDRS) $(wildcard pyvehtrack/cdef/*.h) tools/bu
 	  $(CORE_SRCS) $(CHECK_DIR)/_vtffi.c -o $@
 
 TESTS ?= tests
+SECONDARY ?=
 check: $(CHECK_EXT)
-	$(SAN_ENV) PYTHONPATH=$(CURDIR) PYVEHTRACK_FFI=$(abspath $(CHECK_EXT)) $(PY) -m pytest -q \
+	$(SAN_ENV) $(if $(filter 1,$(SECONDARY)),VT_SECONDARY_RUN=1 VT_HYP_EXAMPLES=$(SECONDARY_EXAMPLES),) PYTHONPATH=$(CURDIR) PYVEHTRACK_FFI=$(abspath $(CHECK_EXT)) $(PY) -m pytest -q \
 	  -p no:cacheprovider $(TESTS)
 
 # ---- soak: the tracker over SOAK_FRAMES synthetic frames, C only (tests/c/soak.c)

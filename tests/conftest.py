@@ -43,3 +43,23 @@ def padded_copy(img: np.ndarray, pad: int, fill: int = 77) -> np.ndarray:
     big = np.full((h, w + pad), fill, dtype=img.dtype)
     big[:, :w] = img
     return big[:, :w]
+
+
+# Modules whose tests do not depend on how the cffi extension was built: they build and
+# run their own C drivers (with their own sanitizers), the ARM images, or are Python and
+# subprocess work (HTML report in Chromium, Dask batch, CLI registry). `make test` runs
+# them once, in the first suite; its sanitizer and small-configuration runs set
+# VT_SECONDARY_RUN=1 and leave them out, so CI's time goes to what those builds change.
+BUILD_INDEPENDENT = {"test_soak", "test_c_ub", "test_determinism", "test_bench", "test_tables",
+                     "test_batch", "test_report", "test_house", "test_calibrate", "test_firmware"}
+
+
+def pytest_collection_modifyitems(config, items):
+    if os.environ.get("VT_SECONDARY_RUN") != "1":
+        return
+    keep, drop = [], []
+    for it in items:
+        (drop if it.module.__name__.rsplit(".", 1)[-1] in BUILD_INDEPENDENT else keep).append(it)
+    if drop:
+        config.hook.pytest_deselected(items=drop)
+        items[:] = keep
