@@ -76,6 +76,7 @@ test: lib
 	  for c in $(SAN_COMPILERS); do echo "== sanitized suite ($$c)"; grep -v '^\.*  *\[' $(BUILD)/test-san-$$c.log | tail -n 40; done; \
 	  exit $$rc
 	$(MAKE) check CHECK_DEFS="$(SMALL_DEFS)" SECONDARY=1
+	$(MAKE) -j2 fuzz-build
 	$(MAKE) fuzz FUZZ_SECONDS=$(CI_FUZZ_SECONDS)
 
 pytest:

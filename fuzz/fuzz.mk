@@ -12,6 +12,7 @@
 # seeds in fuzz/corpus/NAME/): nothing to register.
 
 FUZZ_CC      ?= clang
+comma        := ,
 FUZZ_SECONDS ?= 20
 FUZZ_RUNS    ?= 10000000
 # fuzz-long stops a harness after FUZZ_LONG_SECONDS too when set (0: no limit), for a
@@ -33,10 +34,18 @@ FUZZ_ENV     := ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print
 
 .PHONY: fuzz fuzz-long fuzz-build $(addprefix fuzz-,$(FUZZ_NAMES))
 
-$(FUZZ_OUT)/fuzz_%: fuzz/fuzz_%.c fuzz/fuzz.h $(CORE_SRCS) $(CORE_HDRS)
+# The core is compiled once (instrumented, without libFuzzer's main: fuzzer-no-link)
+# and every harness links those objects: eight harnesses cost one core build.
+FUZZ_CORE_FLAGS := $(subst -fsanitize=fuzzer$(comma),-fsanitize=fuzzer-no-link$(comma),$(FUZZ_FLAGS))
+FUZZ_OBJS    := $(patsubst c/%.c,$(FUZZ_OUT)/obj/%.o,$(CORE_SRCS))
+
+$(FUZZ_OUT)/obj/%.o: c/%.c $(CORE_HDRS)
 	@command -v $(FUZZ_CC) >/dev/null || { echo "fuzz: $(FUZZ_CC) not found; run 'make setup' (apt-get install clang libclang-rt-14-dev)" >&2; exit 1; }
-	@mkdir -p $(FUZZ_OUT)
-	$(FUZZ_CC) $(FUZZ_FLAGS) -Iinclude -Ifuzz $< $(CORE_SRCS) -o $@
+	@mkdir -p $(FUZZ_OUT)/obj
+	$(FUZZ_CC) $(FUZZ_CORE_FLAGS) -Iinclude -c $< -o $@
+
+$(FUZZ_OUT)/fuzz_%: fuzz/fuzz_%.c fuzz/fuzz.h $(FUZZ_OBJS)
+	$(FUZZ_CC) $(FUZZ_FLAGS) -Iinclude -Ifuzz $< $(FUZZ_OBJS) -o $@
 
 fuzz-build: $(FUZZ_BINS)
 

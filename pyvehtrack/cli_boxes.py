@@ -17,7 +17,11 @@ def register_eval_boxes(sub) -> None:
                        description="Recall and precision at IoU >= 0.5 (all vehicles, >= 32 px and >= 64 px "
                        "wide, the lead vehicle) and COCO AP50 (pycocotools) of `detect --json` output "
                        "against a tusimple-vehicles-dev style annotation.json. Only frames present in "
-                       "--pred are scored.")
+                       "--pred are scored.",
+                       epilog="examples:\n  pyvehtrack detect frames/ --model M.npz --json found.json\n"
+                              "  pyvehtrack eval-boxes --gt ../shared/data/tusimple-vehicles-dev/annotation.json "
+                              "--pred found.json",
+                       formatter_class=__import__("argparse").RawDescriptionHelpFormatter)
     p.add_argument("--gt", required=True, metavar="ANNOTATION.json",
                    help="[{file_name, bbox: [{left, top, right, bottom}, ...]}, ...]")
     p.add_argument("--pred", required=True, metavar="FOUND.json", help="as written by `pyvehtrack detect --json`")

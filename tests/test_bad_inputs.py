@@ -553,8 +553,13 @@ def test_existing_output_replaced_only_on_success(tmp_path, capsys):
     capsys.readouterr()
 
 
-@pytest.mark.parametrize("argv", [["--version"], ["detect", "--help"], ["track", "--help"], ["eval", "--help"],
-                                  ["--help"]])
+def _every_command():
+    from pyvehtrack.cli import SUBCOMMANDS
+    return [[name, "--help"] for name in SUBCOMMANDS]
+
+
+# every registered command, so a command added later without an example fails here
+@pytest.mark.parametrize("argv", [["--version"], ["--help"], *_every_command()])
 def test_help_has_examples_and_version(argv, capsys):
     assert cli_main(argv) == 0
     out = capsys.readouterr().out
