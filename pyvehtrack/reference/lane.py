@@ -73,13 +73,13 @@ class LaneConfig:
     work_width_max: int = 320         # box-downscale by 2^s (s <= 3) until W <= this
     work_height_max: int = 240        # ... and H <= this
     roi_top_permille: int = 250       # rows above H*this/1000 are never looked at
-    hough_top_permille: int = 450     # Hough votes from rows >= H*this/1000
-    grad_min: int = 14                # [-1 0 1] threshold floor
+    hough_top_permille: int = 500     # Hough votes from rows >= H*this/1000
+    grad_min: int = 12                # [-1 0 1] threshold floor
     noise_gain_q4: int = 48           # row threshold >= mean|g| * this / 16
     mark_w_top_permille: int = 6      # widest marking at row 0 / row H-1, per mille of W
-    mark_w_bottom_permille: int = 50
+    mark_w_bottom_permille: int = 40
     mark_wmin_top_permille: int = 0   # narrowest marking at row 0 / row H-1 (>= 1 px)
-    mark_wmin_bottom_permille: int = 4
+    mark_wmin_bottom_permille: int = 8
     marks_per_row_max: int = 24       # a row with more centres is texture: dropped
     marks_max: int = 4096             # centres kept per frame (bottom rows first)
     theta_min_qdeg: int = 4 * QDEG    # left half theta range; right half mirrored
@@ -92,12 +92,12 @@ class LaneConfig:
     nms_rho_bins: int = 8
     max_peaks: int = 6                # candidates per half
     merge_permille: int = 19          # lines closer than W*this/1000 at both band ends merge
-    min_dtheta_qdeg: int = 14 * QDEG  # ego vs outer line angle difference
+    min_dtheta_qdeg: int = 12 * QDEG  # ego vs outer line angle difference
     ego_theta_max_qdeg: int = 65 * QDEG  # flatter lines can only be outer lines
     ego_vote_permille: int = 500      # an inner line replacing the ego needs this share
     vp_x_permille: int = 250          # vanishing point within cx +- W*this/1000
     vp_low_permille: int = 700        # ... and not below row H*this/1000
-    vp_tol_permille: int = 20         # lane lines pass within W*this/1000 px of it
+    vp_tol_permille: int = 15         # lane lines pass within W*this/1000 px of it
     vp_tol_min: int = 2               # ... or within this many px (small frames)
     lane_w_min_permille: int = 250    # ego lane width at the bottom row, per mille of W
     lane_w_max_permille: int = 2000
@@ -111,10 +111,10 @@ class LaneConfig:
     seg_count_min: int = 2            # a segment needs this many centres ...
     seg_count_permille: int = 150     # ... and seg rows * this / 1000
     seg_miss_max: int = 1             # without a VP: stop after this many empty segments
-    win_bottom_permille: int = 30     # segment window: W*this/1000 px at the bottom row,
+    win_bottom_permille: int = 20     # segment window: W*this/1000 px at the bottom row,
     win_top: int = 2                  # ... this many px at the vanishing row
     vp_margin: int = 2                # without a VP: never above roi_top + this
-    top_margin_permille: int = 25     # with a VP: lanes end H*this/1000 rows below it
+    top_margin_permille: int = 37     # with a VP: lanes end H*this/1000 rows below it
     track_alpha_q8: int = 128         # smoothing gain toward the new line, Q8
     track_hold: int = 5               # frames a hidden marking's line is kept
     track_gate_permille: int = 31     # farther than W*this/1000 px: replace, not smooth
