@@ -34,7 +34,7 @@ def test_track_json_with_camera(tmp_path):
     recs = json.loads(js.read_text())
     assert [r["frame"] for r in recs] == list(range(len(FRAMES)))
     lidar = {int(r["frame"]): float(r["ego_lane_min_x_m"]) - 0.27
-             for r in csv.DictReader(open(CLIP / "lidar_distance.csv"))}
+             for r in csv.DictReader(open(CLIP / "truth_lidar_range.csv"))}
     seen = 0
     for r in recs:
         for t in r["tracks"]:
