@@ -595,6 +595,42 @@ def range_step(st, cfg, cam, tp: int, ego_speed: int, tracks: np.ndarray) -> np.
           f"{n} track(s), tan_pitch={tp}, ego_speed={ego_speed} (Q16)")
     return out[: int(n_out[0])].copy()
 # ================================================================ end camera.h
+# ================================================================ ttc_scale.h
+TTC_OUT_DTYPE = np.dtype([("id", np.int32), ("flags", np.int32), ("blocks", np.int32),
+                          ("matched", np.int32), ("pairs", np.int32), ("scale", np.int32),
+                          ("ttc", np.int32)])
+
+
+def ttc_cfg_default():
+    cfg = ffi.new("vt_ttc_cfg *")
+    check("vt_ttc_cfg_default", lib.vt_ttc_cfg_default(cfg))
+    return cfg
+
+
+def ttc_cfg_check(cfg) -> None:
+    check("vt_ttc_cfg_check", lib.vt_ttc_cfg_check(cfg), "a vt_ttc_cfg field is out of range")
+
+
+def ttc_new():
+    st = ffi.new("vt_ttc_state *")
+    check("vt_ttc_init", lib.vt_ttc_init(st))
+    return st
+
+
+def ttc_step(st, cfg, grey: np.ndarray, tracks: np.ndarray) -> np.ndarray:
+    """grey: (h, w) uint8; tracks: a TRACK_OUT_DTYPE array. Returns TTC_OUT_DTYPE rows."""
+    v = view(grey, "grey")
+    tr = np.ascontiguousarray(tracks, dtype=TRACK_OUT_DTYPE)
+    n = len(tr)
+    ptr = ffi.cast("vt_track_out *", tr.ctypes.data) if n else ffi.NULL
+    cap = max(n, 1)
+    out = np.zeros(cap, TTC_OUT_DTYPE)
+    n_out = ffi.new("int32_t *")
+    st_ = lib.vt_ttc_step(st, cfg, v, ptr, n, ffi.cast("vt_ttc_out *", out.ctypes.data), cap, n_out)
+    if st_ != lib.VT_E_CAPACITY:
+        check("vt_ttc_step", st_, f"{n} track(s), frame {grey.shape[1]}x{grey.shape[0]}")
+    return out[: int(n_out[0])].copy()
+# ================================================================ end ttc_scale.h
 # ================================================================ windows.h
 WINDOW_DTYPE = np.dtype([("level", "<i4"), ("size", "<i4"), ("x", "<i4"), ("y", "<i4")])
 SCORED_BOX_DTYPE = np.dtype([("left", "<i4"), ("top", "<i4"), ("right", "<i4"), ("bottom", "<i4"),

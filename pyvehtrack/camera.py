@@ -373,3 +373,85 @@ def _range_out(r, lib) -> rcam.RangeOut:
         ttc_scale=g("ttc_scale") if f & lib.VT_RANGE_TTC_SCALE_VALID else None,
         closing=bool(f & lib.VT_RANGE_CLOSING), lead_class=int(r["lead_class"]), fcw=int(r["fcw"]),
         from_width=bool(f & lib.VT_RANGE_FROM_WIDTH))
+
+
+class ScaleTtc:
+    """Time to collision from the scale change of SAD-matched blocks inside each track's
+    box over `lag` frames (c/ttc_scale.c, or its float twin reference/ttc_scale.py with
+    engine="reference"). `params` overrides fields of reference.ttc_scale.TtcScaleParams
+    (frame_dt comes from fps). step() takes the frame (grey uint8, or BGR uint8) and the
+    tracks of that frame."""
+
+    def __init__(self, fps: float, engine: str = "c", **params):
+        from . import _native
+        from .reference import ttc_scale as rts
+        if engine not in ("c", "reference"):
+            raise ValueError(f"engine must be 'c' or 'reference', got {engine!r}")
+        if isinstance(fps, bool) or not isinstance(fps, (int, float)) or not math.isfinite(fps) or fps < 1:
+            raise ValueError(f"fps must be a number >= 1, got {fps!r}")
+        known = {f.name for f in dataclasses.fields(rts.TtcScaleParams)}
+        for k in params:
+            if k not in known:
+                raise TypeError(f"ScaleTtc: unknown parameter {k!r} (known: {sorted(known)})")
+        p = dataclasses.replace(rts.TtcScaleParams(frame_dt=1.0 / float(fps)), **params)
+        self._n = _native
+        self._c = _native.ffi.new("vt_ttc_cfg *")
+        for f in ("block", "grid", "margin_pct", "radius", "min_texture", "max_sad", "lag",
+                  "min_pair_px", "min_pairs"):
+            v = getattr(p, f)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not -(2**31) <= v < 2**31:
+                raise ValueError(f"TtcScaleParams.{f}={v!r} must be an int32")
+            setattr(self._c, f, int(v))
+        self._c.frame_dt = q16(p.frame_dt, "TtcScaleParams.frame_dt")
+        self._c.ttc_max = q16(p.ttc_max, "TtcScaleParams.ttc_max")
+        try:
+            _native.ttc_cfg_check(self._c)
+        except _native.VtError:
+            raise ValueError(f"ScaleTtc: a parameter is out of range: {p} (see include/vehtrack/"
+                             f"ttc_scale.h for the ranges)") from None
+        # the oracle runs on exactly the C core's numbers
+        self.params = dataclasses.replace(p, frame_dt=self._c.frame_dt / Q16, ttc_max=self._c.ttc_max / Q16)
+        self.engine = engine
+        if engine == "c":
+            self._st = _native.ttc_new()
+        else:
+            self._ref = rts.TtcScaleTracker(self.params, int(_native.lib.VT_TTC_TRACKS),
+                                            int(_native.lib.VT_TTC_HIST))
+
+    def step(self, frame, tracks):
+        """frame: (h, w) grey or (h, w, 3) BGR uint8 array; tracks: Track objects or (id, box)
+        pairs, boxes [left, top, right, bottom] inclusive px. Returns one
+        reference.ttc_scale.TtcScaleOut per measured track (ttc/scale None when unknown)."""
+        from .reference.ttc_scale import TtcScaleOut
+        if not isinstance(frame, np.ndarray):
+            raise TypeError(f"frame must be a numpy.ndarray, got {type(frame).__name__}")
+        if frame.dtype != np.uint8:
+            raise TypeError(f"frame must be uint8, got {frame.dtype}")
+        if frame.ndim == 3 and frame.shape[2] == 3:
+            import cv2
+            frame = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
+        elif frame.ndim != 2:
+            raise ValueError(f"frame must be (h, w) grey or (h, w, 3) BGR, got shape {frame.shape}")
+        if frame.shape[0] < 1 or frame.shape[1] < 1:
+            raise ValueError(f"frame is empty: shape {frame.shape}")
+        pairs, seen = [], set()
+        for t in tracks:
+            tid, box = (t.id, t.box) if hasattr(t, "box") else t
+            box = [int(v) for v in box]
+            if len(box) != 4 or box[2] < box[0] or box[3] < box[1]:
+                raise ValueError(f"track {tid}: box {box} is not [left, top, right, bottom]")
+            if int(tid) <= 0 or int(tid) in seen:
+                raise ValueError(f"track id {tid} must be a positive, unique int")
+            seen.add(int(tid))
+            pairs.append((int(tid), box))
+        if self.engine == "reference":
+            return self._ref.step(np.ascontiguousarray(frame), pairs)
+        arr = np.zeros(len(pairs), self._n.TRACK_OUT_DTYPE)
+        for k, (tid, b) in enumerate(pairs):
+            arr[k] = (tid, 2, b[0], b[1], b[2], b[3], 0, 0)
+        rows = self._n.ttc_step(self._st, self._c, np.ascontiguousarray(frame), arr)
+        L = self._n.lib
+        return [TtcScaleOut(int(r["id"]),
+                            float(r["scale"]) / Q16 if r["flags"] & L.VT_TTC_SCALE_VALID else None,
+                            float(r["ttc"]) / Q16 if r["flags"] & L.VT_TTC_VALID else None,
+                            int(r["blocks"]), int(r["matched"]), int(r["pairs"])) for r in rows]

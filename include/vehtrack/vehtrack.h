@@ -21,6 +21,7 @@
 #include "vehtrack/edge_track.h"
 #include "vehtrack/tracker.h"
 #include "vehtrack/camera.h"
+#include "vehtrack/ttc_scale.h"
 #include "vehtrack/classify.h"
 #include "vehtrack/flow.h"
 #include "vehtrack/vehicle_model.h"

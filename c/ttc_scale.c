@@ -1,0 +1,361 @@
+/* ttc_scale.c -- time to collision from the scale change of SAD-matched blocks inside
+ * a track's box (IVVI paper sec. 4, "TTC from the box's scale change"; measured as the
+ * SFND camera TTC does it, from many points: the box edges jitter by +-1 px, which on a
+ * 100 px box is as large as the 1 % per-frame scale change of a 10 s TTC at 10 Hz, so
+ * the scale is taken as a median over many point pairs and over `lag` frames).
+ * Integers only; every rounding is stated in ttc_scale.h. */
+#include "vehtrack/ttc_scale.h"
+#include <stddef.h>
+#include "internal.h"
+
+#define VT__IN(v, lo, hi) ((v) >= (lo) && (v) <= (hi))
+
+vt_status vt_ttc_cfg_default(vt_ttc_cfg *cfg)
+{
+    static const vt_ttc_cfg def = VT_TTC_CFG_DEFAULT;
+    if (cfg == NULL) {
+        return VT_E_ARG;
+    }
+    *cfg = def;
+    return VT_OK;
+}
+
+vt_status vt_ttc_cfg_check(const vt_ttc_cfg *c)
+{
+    if (c == NULL || !VT__IN(c->block, 4, VT_TTC_BLOCK) || !VT__IN(c->grid, 2, VT_TTC_GRID) ||
+        !VT__IN(c->margin_pct, 0, 40) || !VT__IN(c->radius, 1, 16) ||
+        !VT__IN(c->min_texture, 0, 255) || !VT__IN(c->max_sad, 1, 255) ||
+        !VT__IN(c->lag, 1, VT_TTC_HIST - 1) || !VT__IN(c->min_pair_px, 1, 4096) ||
+        !VT__IN(c->min_pairs, 1, VT_TTC_MAX_PAIRS) || !VT__IN(c->frame_dt, 1, VT_Q16_ONE) ||
+        !VT__IN(c->ttc_max, 1, 1000 * VT_Q16_ONE)) {
+        return VT_E_ARG;
+    }
+    return VT_OK;
+}
+
+static void vt__slot_clear(vt_ttc_track *t, int32_t id)
+{
+    t->id = id;
+    t->n_hist = 0;
+    t->head = 0;
+}
+
+vt_status vt_ttc_init(vt_ttc_state *st)
+{
+    int32_t k;
+    if (st == NULL) {
+        return VT_E_ARG;
+    }
+    st->img_w = 0;
+    st->img_h = 0;
+    for (k = 0; k < VT_TTC_TRACKS; k++) {
+        vt__slot_clear(&st->t[k], 0);
+    }
+    return VT_OK;
+}
+
+/* n / d rounded half away from zero; d > 0 here. */
+static int64_t vt__rdiv(int64_t n, int64_t d)
+{
+    int64_t q = 0;
+    (void)vt_div_round_s64(n, d, &q);
+    return q;
+}
+
+/* SAD of the stored block against the frame at (x, y) (the block lies inside). */
+static int32_t vt__sad(const vt_image_u8 *img, const uint8_t *tm, int32_t b, int32_t x, int32_t y)
+{
+    int32_t i, j, s = 0;
+    for (j = 0; j < b; j++) {
+        const uint8_t *p = img->px + (size_t)(y + j) * (size_t)img->stride + (size_t)x;
+        for (i = 0; i < b; i++) {
+            s += vt__abs_i32((int32_t)p[i] - tm[j * b + i]);
+        }
+    }
+    return s;
+}
+
+/* Q8 parabola vertex offset through (-1, sm), (0, s0), (1, sp), clamped to +-1/2. */
+static int32_t vt__sub(int32_t sm, int32_t s0, int32_t sp)
+{
+    int64_t den = (int64_t)sm - 2 * (int64_t)s0 + sp, q;
+    if (den <= 0) {
+        return 0;
+    }
+    q = vt__rdiv(((int64_t)sm - sp) * 256, 2 * den);
+    return (int32_t)(q > 128 ? 128 : (q < -128 ? -128 : q));
+}
+
+/* Search one block; *mx, *my in Q8 px. 1 if matched. */
+static int32_t vt__match(const vt_ttc_cfg *c, const vt_image_u8 *img, const uint8_t *tm,
+                         int32_t px, int32_t py, int32_t *mx, int32_t *my)
+{
+    int32_t b = c->block, r = c->radius, dx, dy, bx = 0, by = 0, best = -1, s;
+    int32_t sxm, sxp, sym, syp;
+    for (dy = -r; dy <= r; dy++) {
+        for (dx = -r; dx <= r; dx++) {
+            int32_t x = px + dx, y = py + dy;
+            if (x < 0 || y < 0 || x > img->w - b || y > img->h - b) {
+                continue;
+            }
+            s = vt__sad(img, tm, b, x, y);
+            if (best < 0 || s < best) { /* ties: the first in raster order */
+                best = s;
+                bx = dx;
+                by = dy;
+            }
+        }
+    }
+    if (best < 0 || bx == -r || bx == r || by == -r || by == r ||
+        best > c->max_sad * b * b) {
+        return 0;
+    }
+    /* the four neighbours exist unless the match touches the frame's edge */
+    if (px + bx - 1 < 0 || px + bx + 1 > img->w - b || py + by - 1 < 0 ||
+        py + by + 1 > img->h - b) {
+        return 0;
+    }
+    sxm = vt__sad(img, tm, b, px + bx - 1, py + by);
+    sxp = vt__sad(img, tm, b, px + bx + 1, py + by);
+    sym = vt__sad(img, tm, b, px + bx, py + by - 1);
+    syp = vt__sad(img, tm, b, px + bx, py + by + 1);
+    *mx = (px + bx) * 256 + vt__sub(sxm, best, sxp);
+    *my = (py + by) * 256 + vt__sub(sym, best, syp);
+    return 1;
+}
+
+/* Where block (x, y) of old box o lands in new box n: shifted with the box centre and
+ * scaled about it by (w + h)_n / (w + h)_o, rounded half away from zero (px). */
+static int32_t vt__predict(int32_t x, int32_t b, int32_t lo, int32_t ro, int32_t ln, int32_t rn,
+                           int64_t so, int64_t sn)
+{
+    int64_t co = (int64_t)lo + ro, cn = (int64_t)ln + rn;
+    return x + (int32_t)vt__rdiv((cn - co) * so + (2 * (int64_t)x + b - 1 - co) * (sn - so), 2 * so);
+}
+
+/* The k-th smallest of a[0..n-1] (0-based), reordering a (deterministic quickselect). */
+static int32_t vt__select(int32_t *a, int32_t n, int32_t k)
+{
+    int32_t lo = 0, hi = n - 1;
+    while (lo < hi) {
+        int32_t p = a[lo + (hi - lo) / 2], i = lo, j = hi, t;
+        while (i <= j) {
+            while (a[i] < p) {
+                i++;
+            }
+            while (a[j] > p) {
+                j--;
+            }
+            if (i <= j) {
+                t = a[i];
+                a[i] = a[j];
+                a[j] = t;
+                i++;
+                j--;
+            }
+        }
+        if (k <= j) {
+            hi = j;
+        } else if (k >= i) {
+            lo = i;
+        } else {
+            return a[k];
+        }
+    }
+    return a[k];
+}
+
+static void vt__measure(vt_ttc_state *st, const vt_ttc_cfg *c, const vt_image_u8 *img,
+                        const vt_ttc_entry *e, const vt_box *nb, vt_ttc_out *o)
+{
+    int32_t mx[VT_TTC_MAX_BLOCKS], my[VT_TTC_MAX_BLOCKS], ok[VT_TTC_MAX_BLOCKS];
+    int32_t i, j, np = 0, b = c->block;
+    int64_t so = ((int64_t)e->box.right - e->box.left + 1) + ((int64_t)e->box.bottom - e->box.top + 1);
+    int64_t sn = ((int64_t)nb->right - nb->left + 1) + ((int64_t)nb->bottom - nb->top + 1);
+    int64_t minp2 = (int64_t)c->min_pair_px * c->min_pair_px;
+    o->blocks = e->n;
+    for (i = 0; i < e->n; i++) {
+        int32_t px = vt__predict(e->x[i], b, e->box.left, e->box.right, nb->left, nb->right, so, sn);
+        int32_t py = vt__predict(e->y[i], b, e->box.top, e->box.bottom, nb->top, nb->bottom, so, sn);
+        ok[i] = vt__match(c, img, e->px[i], px, py, &mx[i], &my[i]);
+        o->matched += ok[i];
+    }
+    for (i = 0; i < e->n; i++) {
+        for (j = i + 1; j < e->n; j++) {
+            int64_t ax, ay, d0, d1, r2;
+            if (!ok[i] || !ok[j]) {
+                continue;
+            }
+            ax = (int64_t)e->x[i] - e->x[j];
+            ay = (int64_t)e->y[i] - e->y[j];
+            d0 = ax * ax + ay * ay;
+            if (d0 < minp2) {
+                continue;
+            }
+            ax = (int64_t)mx[i] - mx[j]; /* Q8; |.| < 2^24, squares < 2^48 */
+            ay = (int64_t)my[i] - my[j];
+            d1 = ax * ax + ay * ay;      /* Q16 px^2 */
+            r2 = vt__rdiv(d1, d0);
+            st->pair[np++] = (int32_t)(r2 > INT32_MAX ? INT32_MAX : r2);
+        }
+    }
+    o->pairs = np;
+    if (np < c->min_pairs) {
+        return;
+    }
+    {
+        int64_t med = vt__select(st->pair, np, (np - 1) / 2);
+        int64_t s = (int64_t)vt_isqrt_u64((uint64_t)med << 16), q;
+        o->scale = (vt_q16)s;
+        o->flags |= VT_TTC_SCALE_VALID;
+        if (s > VT_Q16_ONE) {
+            q = vt__rdiv((int64_t)c->lag * c->frame_dt * VT_Q16_ONE, s - VT_Q16_ONE);
+            if (q <= c->ttc_max) {
+                o->ttc = (vt_q16)q;
+                o->flags |= VT_TTC_VALID;
+            }
+        }
+    }
+}
+
+/* Store this frame's textured grid blocks of box bx as the track's newest entry. */
+static void vt__store(vt_ttc_track *t, const vt_ttc_cfg *c, const vt_image_u8 *img, const vt_box *bx,
+                      int32_t inside)
+{
+    vt_ttc_entry *e = &t->e[t->head];
+    int64_t bw = (int64_t)bx->right - bx->left + 1, bh = (int64_t)bx->bottom - bx->top + 1;
+    int64_t mw = bw * c->margin_pct / 100, mh = bh * c->margin_pct / 100;
+    int64_t li = bx->left + mw, ti = bx->top + mh, wi = bw - 2 * mw, hi = bh - 2 * mh;
+    int32_t b = c->block, gx, gy, i, j, need = c->min_texture * b * (b - 1);
+    e->box = *bx;
+    e->n = 0;
+    if (inside && wi >= b && hi >= b) {
+        for (gy = 0; gy < c->grid; gy++) {
+            int64_t y = ti + (hi - b) * gy / (c->grid - 1);
+            for (gx = 0; gx < c->grid; gx++) {
+                int64_t x = li + (wi - b) * gx / (c->grid - 1);
+                int32_t th = 0, tv = 0;
+                const uint8_t *p;
+                if (x < 0 || y < 0 || x + b > img->w || y + b > img->h) {
+                    continue;
+                }
+                p = img->px + (size_t)y * (size_t)img->stride + (size_t)x;
+                for (j = 0; j < b; j++) {
+                    for (i = 0; i < b; i++) {
+                        int32_t v = p[(size_t)j * (size_t)img->stride + (size_t)i];
+                        if (i + 1 < b) {
+                            th += vt__abs_i32(p[(size_t)j * (size_t)img->stride + (size_t)i + 1] - v);
+                        }
+                        if (j + 1 < b) {
+                            tv += vt__abs_i32(p[(size_t)(j + 1) * (size_t)img->stride + (size_t)i] - v);
+                        }
+                        e->px[e->n][j * b + i] = (uint8_t)v;
+                    }
+                }
+                if (th >= need && tv >= need) {
+                    e->x[e->n] = (int16_t)x;
+                    e->y[e->n] = (int16_t)y;
+                    e->n += 1;
+                }
+            }
+        }
+    }
+    t->head = (t->head + 1) % VT_TTC_HIST;
+    if (t->n_hist < VT_TTC_HIST) {
+        t->n_hist += 1;
+    }
+}
+
+vt_status vt_ttc_step(vt_ttc_state *st, const vt_ttc_cfg *cfg, const vt_image_u8 *img,
+                      const vt_track_out *tracks, int32_t n_tracks, vt_ttc_out *out,
+                      int32_t out_cap, int32_t *n_out)
+{
+    int32_t i, j, k, written = 0, full = 0, inside;
+    vt_status s;
+    if (st == NULL || n_out == NULL || vt_ttc_cfg_check(cfg) != VT_OK || img == NULL ||
+        n_tracks < 0 || (n_tracks > 0 && tracks == NULL) || out_cap < 0 ||
+        (out_cap > 0 && out == NULL)) {
+        return VT_E_ARG;
+    }
+    s = vt_image_u8_check(img);
+    if (s != VT_OK) {
+        return s;
+    }
+    if (img->w > 32767 || img->h > 32767) { /* positions are int16 */
+        return VT_E_SIZE;
+    }
+    for (i = 0; i < n_tracks; i++) {
+        const vt_track_out *a = &tracks[i];
+        if (a->state == VT_TRACK_FREE) {
+            continue;
+        }
+        if (a->id <= 0 || a->box.right < a->box.left || a->box.bottom < a->box.top) {
+            return VT_E_ARG;
+        }
+        for (j = 0; j < i; j++) {
+            if (tracks[j].state != VT_TRACK_FREE && tracks[j].id == a->id) {
+                return VT_E_ARG;
+            }
+        }
+    }
+    *n_out = 0;
+    if (img->w != st->img_w || img->h != st->img_h) { /* another frame size: restart */
+        (void)vt_ttc_init(st);
+        st->img_w = img->w;
+        st->img_h = img->h;
+    }
+    for (k = 0; k < VT_TTC_TRACKS; k++) {
+        int32_t seen = 0;
+        for (i = 0; i < n_tracks && !seen && st->t[k].id != 0; i++) {
+            seen = tracks[i].state != VT_TRACK_FREE && tracks[i].id == st->t[k].id;
+        }
+        if (!seen) {
+            vt__slot_clear(&st->t[k], 0);
+        }
+    }
+    for (i = 0; i < n_tracks; i++) {
+        vt_ttc_track *slot = NULL;
+        vt_ttc_out o;
+        if (tracks[i].state == VT_TRACK_FREE) {
+            continue;
+        }
+        for (k = 0; k < VT_TTC_TRACKS && slot == NULL; k++) {
+            if (st->t[k].id == tracks[i].id) {
+                slot = &st->t[k];
+            }
+        }
+        for (k = 0; k < VT_TTC_TRACKS && slot == NULL; k++) {
+            if (st->t[k].id == 0) {
+                slot = &st->t[k];
+                vt__slot_clear(slot, tracks[i].id);
+            }
+        }
+        if (slot == NULL) {
+            full = 1;
+            continue;
+        }
+        o.id = tracks[i].id;
+        o.flags = 0;
+        o.blocks = 0;
+        o.matched = 0;
+        o.pairs = 0;
+        o.scale = 0;
+        o.ttc = 0;
+        /* a box beyond +-32767 px is neither measured nor stored (keeps every product
+         * of vt__predict below 2^40) */
+        inside = VT__IN(tracks[i].box.left, -32768, 32767) && VT__IN(tracks[i].box.right, -32768, 32767) &&
+                 VT__IN(tracks[i].box.top, -32768, 32767) && VT__IN(tracks[i].box.bottom, -32768, 32767);
+        if (inside && slot->n_hist >= cfg->lag) {
+            const vt_ttc_entry *e = &slot->e[(slot->head - cfg->lag + VT_TTC_HIST) % VT_TTC_HIST];
+            vt__measure(st, cfg, img, e, &tracks[i].box, &o);
+        }
+        vt__store(slot, cfg, img, &tracks[i].box, inside);
+        if (written < out_cap) {
+            out[written++] = o;
+        } else {
+            full = 1;
+        }
+    }
+    *n_out = written;
+    return full ? VT_E_CAPACITY : VT_OK;
+}

@@ -1,0 +1,139 @@
+/* vehtrack/ttc_scale.h -- monocular time to collision from the scale change measured
+ * by many SAD-matched blocks inside a track's box (IVVI paper sec. 4's "TTC from the
+ * box's scale change", measured the robust way of the Udacity SFND camera-TTC project:
+ * the median of pairwise distance ratios of matched points, not the box edges, whose
+ * +-1 px jitter on a ~100 px box is as large as a 1 % per-frame scale change).
+ *
+ * Per track, every frame:
+ *   1. blocks of `block` x `block` px on a grid x grid lattice over the box's inner
+ *      part (margin_pct cut from each side), kept if they have texture in both
+ *      directions, are stored with their positions in a ring of the last frames;
+ *   2. the blocks stored `lag` frames ago are searched in this frame by exact integer
+ *      SAD over +-radius px around where the box's own shift and size change put them;
+ *      a best match on the window's edge or with SAD > max_sad per pixel is dropped;
+ *      the integer match is refined to 1/256 px by a parabola through the SADs of its
+ *      neighbours in x and in y;
+ *   3. s = the (lower) median, over all pairs of matched blocks at least min_pair_px
+ *      apart lag frames ago, of (distance now / distance then);
+ *   4. TTC = lag frame_dt / (s - 1).
+ * pyvehtrack/reference/ttc_scale.py is the float twin (same integer search and ties).
+ *
+ * Number formats: positions Q8 px (int32), squared ratios and s Q16 (vt_q16), TTC
+ * and frame_dt Q16 s.
+ * Memory: sizeof(vt_ttc_state) = VT_TTC_TRACKS slots of VT_TTC_HIST entries of
+ * VT_TTC_GRID^2 blocks of VT_TTC_BLOCK^2 bytes (+ positions), plus a pair scratch of
+ * VT_TTC_GRID^2 (VT_TTC_GRID^2 - 1) / 2 int32: about 106 KB at the defaults (8, 6, 8,
+ * 4 tracks). Work per track and frame: up to grid^2 searches of (2 radius + 1)^2 SADs
+ * of block^2 pixels (64 x 169 x 64 = 692k absolute differences at the defaults), the
+ * texture test of grid^2 blocks and an O(pairs) median selection. */
+#ifndef VEHTRACK_TTC_SCALE_H
+#define VEHTRACK_TTC_SCALE_H
+
+#include <stdint.h>
+#include "vehtrack/config.h"
+#include "vehtrack/fixed.h"
+#include "vehtrack/image.h"
+#include "vehtrack/status.h"
+#include "vehtrack/tracker.h"
+
+/* Capacities (override with -D). */
+#ifndef VT_TTC_TRACKS
+#define VT_TTC_TRACKS 4 /* tracks measured at once (the lead and its neighbours) */
+#endif
+#ifndef VT_TTC_GRID
+#define VT_TTC_GRID 8   /* largest grid side                                      */
+#endif
+#ifndef VT_TTC_BLOCK
+#define VT_TTC_BLOCK 8  /* largest block side, px                                 */
+#endif
+#ifndef VT_TTC_HIST
+#define VT_TTC_HIST 6   /* frames kept per track; lag <= VT_TTC_HIST - 1          */
+#endif
+#if VT_TTC_TRACKS < 1 || VT_TTC_GRID < 2 || VT_TTC_GRID > 16 || VT_TTC_BLOCK < 4 || \
+    VT_TTC_BLOCK > 16 || VT_TTC_HIST < 2 || VT_TTC_HIST > 64
+#error "VT_TTC_* capacities out of range"
+#endif
+#define VT_TTC_MAX_BLOCKS (VT_TTC_GRID * VT_TTC_GRID)
+#define VT_TTC_MAX_PAIRS (VT_TTC_MAX_BLOCKS * (VT_TTC_MAX_BLOCKS - 1) / 2)
+
+typedef struct vt_ttc_cfg {
+    int32_t block;       /* block side, px, 4..VT_TTC_BLOCK                           */
+    int32_t grid;        /* grid x grid blocks, 2..VT_TTC_GRID                        */
+    int32_t margin_pct;  /* cut from each side of the box, %, 0..40                   */
+    int32_t radius;      /* search +-radius px, 1..16                                 */
+    int32_t min_texture; /* mean |step| across and along a block, grey levels, 0..255 */
+    int32_t max_sad;     /* mean |difference| of a match, grey levels, 1..255          */
+    int32_t lag;         /* frames between the two views, 1..VT_TTC_HIST-1            */
+    int32_t min_pair_px; /* pairs closer than this then are not used, 1..4096         */
+    int32_t min_pairs;   /* fewer usable pairs: no scale, 1..VT_TTC_MAX_PAIRS         */
+    vt_q16 frame_dt;     /* s per frame, (0, 1]                                        */
+    vt_q16 ttc_max;      /* s; larger (or s <= 1) is "no TTC", (0, 1000]               */
+} vt_ttc_cfg;
+
+/* block 8, grid 8, margin 10 %, radius 6, texture 2, SAD 24, lag 5, pairs >= 16 px,
+ * >= 10 pairs, 0.1 s, 20 s: grid, texture and lag chosen on KITTI frames 0-38 only
+ * (tools/eval_kitti_range.py reports frames 39-77). */
+#define VT_TTC_CFG_DEFAULT {8, 8, 10, 6, 2, 24, 5, 16, 10, 6554, 20 * VT_Q16_ONE}
+
+vt_status vt_ttc_cfg_default(vt_ttc_cfg *cfg);
+/* VT_OK if every field is in its range above, else VT_E_ARG. */
+vt_status vt_ttc_cfg_check(const vt_ttc_cfg *cfg);
+
+/* One stored frame of a track (private; public for its size). */
+typedef struct vt_ttc_entry {
+    vt_box box;
+    int32_t n;                                   /* blocks stored                     */
+    int16_t x[VT_TTC_MAX_BLOCKS];                /* top-left corners, px              */
+    int16_t y[VT_TTC_MAX_BLOCKS];
+    uint8_t px[VT_TTC_MAX_BLOCKS][VT_TTC_BLOCK * VT_TTC_BLOCK];
+} vt_ttc_entry;
+
+typedef struct vt_ttc_track {
+    int32_t id;                                  /* 0 = free                           */
+    int32_t n_hist;                              /* entries held (<= VT_TTC_HIST)      */
+    int32_t head;                                /* next entry index                   */
+    vt_ttc_entry e[VT_TTC_HIST];
+} vt_ttc_track;
+
+typedef struct vt_ttc_state {
+    int32_t img_w, img_h;                        /* frame size (0: none yet)           */
+    vt_ttc_track t[VT_TTC_TRACKS];
+    int32_t pair[VT_TTC_MAX_PAIRS];              /* scratch: squared ratios, Q16       */
+} vt_ttc_state;
+
+#define VT_TTC_SCALE_VALID 1 /* at least min_pairs pairs: scale is measured            */
+#define VT_TTC_VALID 2       /* 1 < s and TTC <= ttc_max                               */
+
+typedef struct vt_ttc_out {
+    int32_t id;
+    int32_t flags;       /* VT_TTC_*                                                   */
+    int32_t blocks;      /* blocks searched (stored lag frames ago)                    */
+    int32_t matched;     /* of them matched                                            */
+    int32_t pairs;       /* pairs in the median                                        */
+    vt_q16 scale;        /* s, Q16 (0 unless SCALE_VALID)                               */
+    vt_q16 ttc;          /* s, Q16 (0 unless VALID)                                     */
+} vt_ttc_out;
+
+/* Empty the stage. VT_E_ARG for NULL. */
+vt_status vt_ttc_init(vt_ttc_state *st);
+
+/* One frame (8-bit grey, the frame the boxes are in). Tracks FREE are skipped; slots of
+ * ids absent this frame are freed; an id with no free slot gets no output (and
+ * VT_E_CAPACITY at the end). A frame of another size than the last one forgets every
+ * track (a documented restart, not an error). Per track: if it holds an entry lag frames
+ * old, the blocks are matched (see the file comment) and
+ *   - sub-pixel offset per axis: (S- - S+) 256 / (2 (S- - 2 S0 + S+)) rounded half away
+ *     from zero, clamped to +-128 (0 if the denominator is 0): Q8 px;
+ *   - squared ratio per pair: (dx^2 + dy^2 now, Q16 px^2) / (dx^2 + dy^2 then, px^2),
+ *     rounded half away from zero, saturated at 2^31 - 1 (s = 181);
+ *   - s = floor(sqrt(median 2^16)) (Q16; the lower median, element (n - 1) / 2);
+ *   - TTC = lag frame_dt 2^16 / (s - 2^16) rounded half away from zero, Q16 s.
+ * Then this frame's blocks are stored. Writes one vt_ttc_out per measured track in input
+ * order, up to out_cap; *n_out = their number. VT_E_ARG for NULL, a bad cfg, a bad image
+ * (VT_E_SIZE for its size), n_tracks < 0, a box with right < left or bottom < top or a
+ * duplicate id (state unchanged). VT_E_CAPACITY when outputs or slots ran out. */
+vt_status vt_ttc_step(vt_ttc_state *st, const vt_ttc_cfg *cfg, const vt_image_u8 *img,
+                      const vt_track_out *tracks, int32_t n_tracks, vt_ttc_out *out,
+                      int32_t out_cap, int32_t *n_out);
+
+#endif /* VEHTRACK_TTC_SCALE_H */
