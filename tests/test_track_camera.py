@@ -18,7 +18,7 @@ CLIP = Path(__file__).parent / "data" / "kitti_clip"
 FRAMES = sorted(str(p) for p in CLIP.glob("0*.png"))[:8]
 CAM = {"fx": 721.5377, "fy": 721.5377, "cx": 309.5593, "cy": 54.854, "height_m": 1.65, "pitch_deg": 0.0,
        "image_size": [640, 256]}
-KEYS = {"id", "box", "state", "velocity_px", "distance_m", "ttc_s", "warning", "source"}
+KEYS = {"id", "box", "state", "velocity_px", "distance_m", "ttc_s", "warning", "source", "ttc_points_s"}
 
 
 def _camera(tmp_path, **changes) -> str:
@@ -40,6 +40,8 @@ def test_track_json_with_camera(tmp_path):
         for t in r["tracks"]:
             assert set(t) == KEYS and t["source"] in ("shadow", "classifier", "flow", "model")
             assert len(t["box"]) == 4 and len(t["velocity_px"]) == 2 and isinstance(t["warning"], bool)
+            assert t["ttc_points_s"] is None or 0 < t["ttc_points_s"] <= 20   # block-scale TTC
+            assert t["ttc_points_s"] is None or r["frame"] >= 5                 # needs 5 frames of history
             if t["box"][0] < 320 < t["box"][2] and t["distance_m"] is not None:   # the lead car
                 assert abs(t["distance_m"] / lidar[r["frame"]] - 1) < 0.15, (r["frame"], t["distance_m"])
                 assert t["warning"] is False                                      # far, slow closing
@@ -57,6 +59,7 @@ def test_track_json_without_camera(tmp_path):
     for r in json.loads(js.read_text()):
         for t in r["tracks"]:
             assert t["distance_m"] is None and t["ttc_s"] is None and t["warning"] is False
+            assert t["ttc_points_s"] is None
 
 
 @pytest.mark.parametrize("changes, extra, msg", [

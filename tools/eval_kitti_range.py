@@ -38,7 +38,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from pyvehtrack.camera import Camera, RangeEstimator, lane_vanishing_row  # noqa: E402
+from pyvehtrack.camera import Camera, RangeEstimator, ScaleTtc, lane_vanishing_row  # noqa: E402
 from pyvehtrack.detector import Detector  # noqa: E402
 from pyvehtrack.lane import LaneDetector  # noqa: E402
 from pyvehtrack.tracker import Tracker  # noqa: E402
@@ -78,6 +78,17 @@ def lidar_ttc(d: np.ndarray, dt: float) -> np.ndarray:
     return out
 
 
+def lidar_ttc_trailing(d: np.ndarray, dt: float) -> np.ndarray:
+    """The same least-squares TTC over frames t-4..t: no look-ahead, as a causal estimator."""
+    out = np.full(len(d), np.nan)
+    t = np.arange(5) * dt
+    for i in range(4, len(d)):
+        slope = np.polyfit(t, d[i - 4:i + 1], 1)[0]
+        if slope < -0.1:
+            out[i] = d[i] / -slope
+    return out
+
+
 def stats(rel: np.ndarray) -> dict:
     rel = np.abs(rel[np.isfinite(rel)])
     if len(rel) == 0:
@@ -108,20 +119,30 @@ def collect(data: Path, engine: str):
             if v >= best_iou:
                 best, best_iou = t, v
         frames.append({"tracks": [(t.id, list(t.box)) for t in tracks], "vp": vp,
+                       "grey": cv2.cvtColor(img, cv2.COLOR_BGR2GRAY),
                        "lead": None if best is None else best.id,
                        "iou": None if best is None else round(best_iou, 3)})
     return frames, (w, h)
 
 
-def ranges(data: Path, engine: str, frames, size, **params):
-    """The range stage over the collected tracks."""
+def points_ttc(engine: str, frames, **params):
+    """The block-scale TTC (c/ttc_scale.c) over the collected tracks: {frame: {id: out}}."""
+    est = ScaleTtc(FPS, engine=engine, **params)
+    return [{o.id: o for o in est.step(fr["grey"], fr["tracks"])} for fr in frames]
+
+
+def ranges(data: Path, engine: str, frames, size, points=None, bottom_height=0.0, **params):
+    """The range stage over the collected tracks. bottom_height (m): the height above the
+    road of what the box's bottom edge shows; eq. 1 then uses the camera height minus it."""
     w, h = size
     lid = {int(r["frame"]): r for r in csv.DictReader(open(data / "derived_lidar_lead_distance.csv"))}
-    rng = RangeEstimator(kitti_camera(data, w, h), (w, h), FPS, engine=engine, **params)
+    rng = RangeEstimator(kitti_camera(data, w, h), (w, h), FPS, engine=engine,
+                         camera_overrides={"height": CAM_HEIGHT_M - bottom_height}, **params)
     rows = []
     for i, fr in enumerate(frames):
         rng.update_pitch(fr["vp"])
         outs = {o.id: o for o in rng.step(fr["tracks"])}
+        po = points[i].get(fr["lead"]) if points is not None and fr["lead"] is not None else None
         o = outs.get(fr["lead"]) if fr["lead"] is not None else None
         box = dict(fr["tracks"]).get(fr["lead"]) if fr["lead"] is not None else None
         rows.append({
@@ -134,6 +155,9 @@ def ranges(data: Path, engine: str, frames, size, **params):
             "rate_mps": None if o is None else o.rate,
             "ttc_dist_s": None if o is None else o.ttc_dist,
             "ttc_scale_s": None if o is None else o.ttc_scale,
+            "ttc_points_s": None if po is None else po.ttc,
+            "scale_points": None if po is None else po.scale,
+            "points_pairs": None if po is None else po.pairs,
             "warning": None if o is None else o.warning,
             "lidar_min_m": float(lid[i]["ego_lane_min_x_m"]),
             "lidar_p05_m": float(lid[i]["ego_lane_p05_x_m"]),
@@ -145,11 +169,12 @@ def summarise(rows) -> dict:
     n = len(rows)
     truth = np.array([r["lidar_min_m"] for r in rows]) - LIDAR_BEHIND_CAMERA_M
     ttc_l = lidar_ttc(np.array([r["lidar_min_m"] for r in rows]), 1.0 / FPS)
+    ttc_lc = lidar_ttc_trailing(np.array([r["lidar_min_m"] for r in rows]), 1.0 / FPS)
 
     def arr(key):
         return np.array([np.nan if r[key] is None else float(r[key]) for r in rows])
     d_f, d_m = arr("dist_filt_m"), arr("distance_m")
-    t_d, t_s = arr("ttc_dist_s"), arr("ttc_scale_s")
+    t_d, t_s, t_p = arr("ttc_dist_s"), arr("ttc_scale_s"), arr("ttc_points_s")
     out = {"frames": n, "lead_tracked": int(np.sum([r["lead_id"] is not None for r in rows]))}
     halves = {"all": slice(0, n), "first_half": slice(0, n // 2), "second_half": slice(n // 2, n)}
     for name, sl in halves.items():
@@ -158,6 +183,13 @@ def summarise(rows) -> dict:
             "distance_measured_rel": stats((d_m[sl] - truth[sl]) / truth[sl]),
             "ttc_dist_rel": stats((t_d[sl] - ttc_l[sl]) / ttc_l[sl]),
             "ttc_scale_rel": stats((t_s[sl] - ttc_l[sl]) / ttc_l[sl]),
+            "ttc_points_rel": stats((t_p[sl] - ttc_l[sl]) / ttc_l[sl]),
+            "ttc_points_reported": int(np.sum(np.isfinite(t_p[sl]) & np.isfinite(ttc_l[sl]))),
+            # against the lidar TTC fitted over frames t-4..t (what a causal estimate can know)
+            "trailing": {"ttc_dist_rel": stats((t_d[sl] - ttc_lc[sl]) / ttc_lc[sl]),
+                         "ttc_scale_rel": stats((t_s[sl] - ttc_lc[sl]) / ttc_lc[sl]),
+                         "ttc_points_rel": stats((t_p[sl] - ttc_lc[sl]) / ttc_lc[sl]),
+                         "frames_with_lidar_ttc": int(np.sum(np.isfinite(ttc_lc[sl])))},
             "ttc_frames_with_lidar_ttc": int(np.sum(np.isfinite(ttc_l[sl]))),
             "ttc_dist_reported": int(np.sum(np.isfinite(t_d[sl]) & np.isfinite(ttc_l[sl]))),
             "ttc_scale_reported": int(np.sum(np.isfinite(t_s[sl]) & np.isfinite(ttc_l[sl]))),
@@ -168,6 +200,7 @@ def summarise(rows) -> dict:
                         "median": float(np.median(pitch)),
                         "frames_with_vp": int(np.sum([r["vp_row"] is not None for r in rows]))}
     out["lidar_ttc_s"] = [None if not np.isfinite(v) else round(float(v), 3) for v in ttc_l]
+    out["lidar_ttc_trailing_s"] = [None if not np.isfinite(v) else round(float(v), 3) for v in ttc_lc]
     return out
 
 
@@ -177,17 +210,23 @@ def plot(rows, summary, path: Path) -> None:
     import matplotlib.pyplot as plt
     fr = [r["frame"] for r in rows]
     val = lambda k: [np.nan if r[k] is None else r[k] for r in rows]  # noqa: E731
+    nn = lambda v: [np.nan if x is None else x for x in v]  # noqa: E731
     fig, ax = plt.subplots(3, 1, figsize=(9, 10), sharex=True)
     ax[0].plot(fr, np.array(val("lidar_min_m")) - LIDAR_BEHIND_CAMERA_M, "k-", label="lidar - 0.27 m")
     ax[0].plot(fr, val("distance_m"), "c.", label="measured (row, or learnt width)")
     ax[0].plot(fr, val("dist_filt_m"), "b-", label="filtered")
     ax[0].plot(fr, val("dist_width_1p8_m"), "g:", label="width cross-check (1.8 m)")
+    ax[0].axvline(38.5, color="0.6", lw=0.8)
     ax[0].set_ylabel("distance (m)")
+    ax[0].set_title(f"KITTI lead car; left of the grey line: tuning frames 0-38 "
+                    f"({summary.get('model', '')})", fontsize=9)
     ax[0].legend(fontsize=8)
-    ax[1].plot(fr, summary["lidar_ttc_s"] and [np.nan if v is None else v for v in summary["lidar_ttc_s"]],
-               "k-", label="lidar (5-frame fit)")
+    ax[1].plot(fr, nn(summary["lidar_ttc_s"]), "k-", label="lidar (5-frame fit, centred)")
+    ax[1].plot(fr, nn(summary["lidar_ttc_trailing_s"]), "k--", lw=0.8, label="lidar (5-frame fit, t-4..t)")
     ax[1].plot(fr, val("ttc_dist_s"), "b.-", label="filtered distance / rate")
     ax[1].plot(fr, val("ttc_scale_s"), "r.-", label="box scale change (5 frames)")
+    ax[1].plot(fr, val("ttc_points_s"), "g.-", label="matched blocks' scale (ttc_scale.c)")
+    ax[1].axvline(38.5, color="0.6", lw=0.8)
     ax[1].set_ylim(0, 20)
     ax[1].set_ylabel("TTC (s)")
     ax[1].legend(fontsize=8)
@@ -198,52 +237,85 @@ def plot(rows, summary, path: Path) -> None:
     fig.savefig(path, dpi=80)
 
 
+def _fit(a, frames, size, points, key, grid):
+    """The one distance parameter, fitted on the first half only (frames 0-38)."""
+    errs = []
+    for g in grid:
+        s0 = summarise(ranges(a.data, a.engine, frames, size, points, **{key: float(g)}))
+        errs.append(s0["first_half"]["distance_filtered_rel"].get("median", np.inf))
+    return float(grid[int(np.argmin(errs))]), errs
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--data", type=Path, default=DEFAULT_DATA)
     ap.add_argument("--engine", choices=("c", "reference"), default="c")
     ap.add_argument("--json", type=Path, default=Path("eval_kitti_range.json"))
     ap.add_argument("--png", type=Path, default=None)
+    ap.add_argument("--model", choices=("offset", "height"), default="offset",
+                    help="distance model reported: 'offset' subtracts rear_offset (m) from eq. 1; "
+                         "'height' reads the box bottom as a line bottom_height (m) above the road "
+                         "(eq. 1 with the camera height minus it). Both are fitted on frames 0-38 "
+                         "and both are printed; this picks the one in the JSON rows and the PNG")
     ap.add_argument("--rear-offset", type=float, default=None, metavar="M",
                     help="range stage's rear_offset (m); default: fitted on the first half (frames 0-38)")
+    ap.add_argument("--bottom-height", type=float, default=None, metavar="M",
+                    help="height above the road of the box's bottom edge (m); default: fitted on "
+                         "the first half (frames 0-38)")
     a = ap.parse_args(argv)
     if not (a.data / "derived_lidar_lead_distance.csv").is_file():
         print(f"eval_kitti_range: {a.data}: not the kitti-raw-sfnd-ttc folder", file=sys.stderr)
         return 2
     frames, size = collect(a.data, a.engine)
-    offset = a.rear_offset
-    tuning = None
+    points = points_ttc(a.engine, frames)
+    tuning = {}
+    offset, height = a.rear_offset, a.bottom_height
     if offset is None:
-        # one parameter, fitted on the first half only: where the bottom edge's road contact
-        # lies relative to the rear bumper the lidar sees (rear overhang + shadow)
+        # where the bottom edge's road point lies relative to the rear bumper the lidar sees
         grid = np.round(np.arange(0.0, 2.01, 0.05), 2)
-        errs = []
-        for g in grid:
-            s0 = summarise(ranges(a.data, a.engine, frames, size, rear_offset=float(g)))
-            errs.append(s0["first_half"]["distance_filtered_rel"].get("median", np.inf))
-        offset = float(grid[int(np.argmin(errs))])
-        tuning = {"rear_offset_grid": grid.tolist(), "first_half_median": errs, "chosen": offset}
-    rows = ranges(a.data, a.engine, frames, size, rear_offset=offset)
-    base = summarise(ranges(a.data, a.engine, frames, size, rear_offset=0.0))
-    s = summarise(rows)
-    s["rear_offset_m"] = offset
-    a.json.write_text(json.dumps({"engine": a.engine, "summary": s, "tuning": tuning,
+        offset, errs = _fit(a, frames, size, points, "rear_offset", grid)
+        tuning["rear_offset"] = {"grid": grid.tolist(), "first_half_median": errs, "chosen": offset}
+    if height is None:
+        grid = np.round(np.arange(0.0, 0.61, 0.01), 2)
+        height, errs = _fit(a, frames, size, points, "bottom_height", grid)
+        tuning["bottom_height"] = {"grid": grid.tolist(), "first_half_median": errs, "chosen": height}
+    base = summarise(ranges(a.data, a.engine, frames, size, points, rear_offset=0.0))
+    models = {"offset": ranges(a.data, a.engine, frames, size, points, rear_offset=offset),
+              "height": ranges(a.data, a.engine, frames, size, points, bottom_height=height)}
+    sums = {k: summarise(v) for k, v in models.items()}
+    sums["offset"]["rear_offset_m"] = offset
+    sums["height"]["bottom_height_m"] = height
+    s, rows = sums[a.model], models[a.model]
+    s["model"] = (f"rear_offset {offset} m" if a.model == "offset" else f"bottom_height {height} m")
+    a.json.write_text(json.dumps({"engine": a.engine, "model": a.model, "summary": s,
+                                  "summaries": sums, "tuning": tuning or None,
                                   "summary_eq1_as_is": base, "per_frame": rows}, indent=1))
     if a.png:
         plot(rows, s, a.png)
-    print(f"[{a.engine}] rear_offset = {offset} m ({'fitted on frames 0-38' if tuning else 'given'}); "
-          f"with 0 (eq. 1 as is): second half distance median "
+    print(f"[{a.engine}] eq. 1 as is (no offset, no height): second half distance median "
           f"{base['second_half']['distance_filtered_rel'].get('median', float('nan')):.1%}, all "
           f"{base['all']['distance_filtered_rel'].get('median', float('nan')):.1%}")
+    f = lambda d: (f"median {d['median']:.1%}  P95 {d['p95']:.1%}  (n={d['n']})"  # noqa: E731
+                   if d.get("n") else "n=0")
+    for m, sm in sums.items():
+        par = f"rear_offset = {offset} m" if m == "offset" else f"bottom_height = {height} m"
+        fitted = (a.rear_offset if m == "offset" else a.bottom_height) is None
+        print(f"[{a.engine}] model {m}: {par} ({'fitted on frames 0-38' if fitted else 'given'})")
+        for name in ("all", "first_half", "second_half"):
+            x = sm[name]
+            print(f"[{a.engine}] {m} {name}: distance (filtered) {f(x['distance_filtered_rel'])}")
+            print(f"[{a.engine}] {m} {name}: distance (measured) {f(x['distance_measured_rel'])}")
+            print(f"[{a.engine}] {m} {name}: TTC distance/rate   {f(x['ttc_dist_rel'])}  "
+                  f"of {x['ttc_frames_with_lidar_ttc']} lidar-TTC frames")
+    x0 = s
     for name in ("all", "first_half", "second_half"):
-        x = s[name]
-        f = lambda d: (f"median {d['median']:.1%}  P95 {d['p95']:.1%}  (n={d['n']})"  # noqa: E731
-                       if d.get("n") else "n=0")
-        print(f"[{a.engine}] {name}: distance (filtered) {f(x['distance_filtered_rel'])}")
-        print(f"[{a.engine}] {name}: distance (measured) {f(x['distance_measured_rel'])}")
-        print(f"[{a.engine}] {name}: TTC distance/rate   {f(x['ttc_dist_rel'])}  "
-              f"of {x['ttc_frames_with_lidar_ttc']} lidar-TTC frames")
-        print(f"[{a.engine}] {name}: TTC scale change    {f(x['ttc_scale_rel'])}")
+        x = x0[name]
+        print(f"[{a.engine}] {name}: TTC box scale change {f(x['ttc_scale_rel'])}")
+        print(f"[{a.engine}] {name}: TTC block scale      {f(x['ttc_points_rel'])}")
+        t = x["trailing"]
+        print(f"[{a.engine}] {name}: vs lidar t-4..t ({t['frames_with_lidar_ttc']} frames): "
+              f"distance/rate ({a.model}) {f(t['ttc_dist_rel'])}; box scale {f(t['ttc_scale_rel'])}; "
+              f"block scale {f(t['ttc_points_rel'])}")
     print(f"[{a.engine}] lead tracked in {s['lead_tracked']}/{s['frames']} frames; distance from the "
           f"learnt width in {s['from_width_frames']}; pitch {s['pitch_deg']}")
     return 0

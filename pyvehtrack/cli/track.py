@@ -16,7 +16,9 @@ TRACKS.json (--json) is a list of per-frame records
 `{"frame": n, "tracks": [{"id", "box": [l, t, r, b], "state", "velocity_px": [vx, vy],
 "distance_m", "ttc_s", "warning": bool, "source": "shadow"|"classifier"|"flow"|"model"}]}`
 with null where a value is unknown (no --camera: distance_m, ttc_s null and warning false).
-distance_m is the filtered distance, ttc_s the TTC from it and its rate (pyvehtrack.camera)."""
+distance_m is the filtered distance, ttc_s the TTC from it and its rate (pyvehtrack.camera);
+"ttc_points_s" (added field) is the TTC from the scale change of SAD-matched blocks inside the
+box over 5 frames (pyvehtrack.camera.ScaleTtc, c/ttc_scale.c), null when unknown."""
 from __future__ import annotations
 
 import colorsys
@@ -52,14 +54,16 @@ def kitti_line(frame: int, t, location=None) -> str:
     return " ".join(f)
 
 
-def track_record(t, r=None) -> dict:
-    """One track's entry of TRACKS.json; r: its pyvehtrack.camera range output or None."""
+def track_record(t, r=None, p=None) -> dict:
+    """One track's entry of TRACKS.json; r: its pyvehtrack.camera range output or None; p: its
+    ScaleTtc output or None."""
     return {"id": int(t.id), "box": [int(v) for v in t.box], "state": t.state,
             "velocity_px": [round(float(t.velocity[0]), 4), round(float(t.velocity[1]), 4)],
             "distance_m": None if r is None or r.dist_filt is None else round(r.dist_filt, 3),
             "ttc_s": None if r is None or r.ttc_dist is None else round(r.ttc_dist, 3),
             "warning": bool(r is not None and r.warning),
-            "source": getattr(t, "source", "shadow")}
+            "source": getattr(t, "source", "shadow"),
+            "ttc_points_s": None if p is None or p.ttc is None else round(p.ttc, 3)}
 
 
 def draw_tracks(frame, tracks, frame_index: int, detection_frame: bool, ranges=None):
@@ -171,7 +175,7 @@ def run(args) -> int:
                       measurement=getattr(args, "measurement", "roi"))
     except (RuntimeError, ValueError, TypeError) as e:
         raise CliError(str(e)) from None
-    ranger = lanes = None
+    ranger = lanes = points = None
     records = []
     with Outputs() as outs:
         tracks_tmp = outs.reserve("--tracks", args.tracks) if args.tracks else None
@@ -188,10 +192,12 @@ def run(args) -> int:
                 for i, file, frame in reader:
                     try:
                         tracks = trk.step(frame)
-                        ranges = {}
+                        ranges, pts = {}, {}
                         if cam is not None:
                             if ranger is None:
                                 ranger, lanes = _range_stage(cam, frame, args, sources)
+                                from ..camera import ScaleTtc
+                                points = ScaleTtc(1.0 / ranger.params.frame_dt, engine=args.engine)
                             h, w = frame.shape[:2]
                             if (w, h) != ranger.size:
                                 raise ValueError(f"frame size {w}x{h} differs from the first frame's "
@@ -200,13 +206,14 @@ def run(args) -> int:
                             ranger.update_pitch(lane_vanishing_row(lanes.detect(frame)))
                             ranges = {r.id: r for r in ranger.step(
                                 [(t.id, cam.undistort_box(t.box)) for t in tracks], args.ego_speed)}
+                            pts = {o.id: o for o in points.step(frame, [(t.id, t.box) for t in tracks])}
                     except (VtError, ValueError, TypeError) as e:
                         raise CliError(f"{file}: {e}") from None
                     for t in tracks:
                         if args.all_states or t.state != "tentative":
                             lines.append(kitti_line(i, t, _location(cam, t, ranges.get(t.id))))
                             ids.add(t.id)
-                    records.append({"frame": i, "tracks": [track_record(t, ranges.get(t.id)) for t in tracks
+                    records.append({"frame": i, "tracks": [track_record(t, ranges.get(t.id), pts.get(t.id)) for t in tracks
                                                            if args.all_states or t.state != "tentative"]})
                     img = draw_tracks(frame, tracks, i, trk.last_was_detection, ranges)
                     if kind == "image":
