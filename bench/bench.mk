@@ -66,3 +66,17 @@ classify-cost: $(CLS_COST)
 	$(VALGRIND) --tool=callgrind --callgrind-out-file=$(BENCH_DIR)/classify.callgrind \
 	  --toggle-collect='cost_*' $(CLS_COST) $(BENCH_DIR)/road_1280x720.pgm 1280 192
 	callgrind_annotate --inclusive=yes $(BENCH_DIR)/classify.callgrind | grep -E 'cost_(hog|classify)' | grep -v '^ *\.'
+
+# The block-scale TTC's cost per track and frame (bench/ttc_cost.c): one vt_ttc_step on the
+# lead car of tests/data/kitti_clip (frames 5 -> 6, the tracker's boxes), default cfg with lag 1.
+TTC_COST := $(BENCH_DIR)/ttc_cost
+$(TTC_COST): bench/ttc_cost.c $(CORE_SRCS) $(CORE_HDRS) bench/bench.mk
+	@mkdir -p $(BENCH_DIR)
+	$(CC) $(STRICT) $(BENCH_OPT) -g -Iinclude $(CORE_SRCS) bench/ttc_cost.c -o $@
+.PHONY: ttc-cost
+ttc-cost: $(TTC_COST)
+	$(PY) -c "import cv2; [cv2.imwrite('$(BENCH_DIR)/kclip_%d.pgm' % i, cv2.imread('tests/data/kitti_clip/00000%d.png' % i, 0)) for i in (5, 6)]"
+	$(VALGRIND) --tool=callgrind --callgrind-out-file=$(BENCH_DIR)/ttc.callgrind \
+	  --toggle-collect='cost_*' $(TTC_COST) $(BENCH_DIR)/kclip_5.pgm $(BENCH_DIR)/kclip_6.pgm \
+	  255 35 401 181 257 34 405 182
+	callgrind_annotate --inclusive=yes $(BENCH_DIR)/ttc.callgrind | grep -E 'cost_ttc' | grep -v '^ *\.'
