@@ -62,11 +62,14 @@ static int64_t vt__rdiv(int64_t n, int64_t d)
     return q;
 }
 
-/* SAD of the stored block against the frame at (x, y) (the block lies inside). */
-static int32_t vt__sad(const vt_image_u8 *img, const uint8_t *tm, int32_t b, int32_t x, int32_t y)
+/* SAD of the stored block against the frame at (x, y) (the block lies inside). Stops
+ * after a row once the sum reaches `limit` (the result is then >= limit, which is all a
+ * caller keeping only a strictly smaller SAD needs: the search stays exact). */
+static int32_t vt__sad(const vt_image_u8 *img, const uint8_t *tm, int32_t b, int32_t x, int32_t y,
+                       int32_t limit)
 {
     int32_t i, j, s = 0;
-    for (j = 0; j < b; j++) {
+    for (j = 0; j < b && s < limit; j++) {
         const uint8_t *p = img->px + (size_t)(y + j) * (size_t)img->stride + (size_t)x;
         for (i = 0; i < b; i++) {
             s += vt__abs_i32((int32_t)p[i] - tm[j * b + i]);
@@ -98,7 +101,7 @@ static int32_t vt__match(const vt_ttc_cfg *c, const vt_image_u8 *img, const uint
             if (x < 0 || y < 0 || x > img->w - b || y > img->h - b) {
                 continue;
             }
-            s = vt__sad(img, tm, b, x, y);
+            s = vt__sad(img, tm, b, x, y, best < 0 ? INT32_MAX : best);
             if (best < 0 || s < best) { /* ties: the first in raster order */
                 best = s;
                 bx = dx;
@@ -115,10 +118,10 @@ static int32_t vt__match(const vt_ttc_cfg *c, const vt_image_u8 *img, const uint
         py + by + 1 > img->h - b) {
         return 0;
     }
-    sxm = vt__sad(img, tm, b, px + bx - 1, py + by);
-    sxp = vt__sad(img, tm, b, px + bx + 1, py + by);
-    sym = vt__sad(img, tm, b, px + bx, py + by - 1);
-    syp = vt__sad(img, tm, b, px + bx, py + by + 1);
+    sxm = vt__sad(img, tm, b, px + bx - 1, py + by, INT32_MAX);
+    sxp = vt__sad(img, tm, b, px + bx + 1, py + by, INT32_MAX);
+    sym = vt__sad(img, tm, b, px + bx, py + by - 1, INT32_MAX);
+    syp = vt__sad(img, tm, b, px + bx, py + by + 1, INT32_MAX);
     *mx = (px + bx) * 256 + vt__sub(sxm, best, sxp);
     *my = (py + by) * 256 + vt__sub(sym, best, syp);
     return 1;
