@@ -268,10 +268,18 @@ def range_from_c(c) -> rcam.RangeParams:
 class RangeEstimator:
     """Distance, range rate, both TTCs and the FCW state per track, on the C core
     (engine="c") or the float reference. `params` overrides fields of
-    reference.camera.RangeParams (frame_dt comes from fps)."""
+    reference.camera.RangeParams (frame_dt comes from fps).
+
+    bottom_height (m, default 0): the height above the road of what a box's bottom edge
+    shows. Eq. 1 assumes the road contact (0); a detector whose box ends at the lower edge
+    of the rear bumper sees a line bottom_height above the road, and the same eq. 1 with
+    the camera height minus bottom_height gives its distance (the plane through that line).
+    On KITTI the tracker's box ends there: 0.37 m fitted on frames 0-38
+    (tools/eval_kitti_range.py --model height). rear_offset (m, subtracted from the
+    distance) is the other, empirical correction; the two can be combined."""
 
     def __init__(self, camera: Camera, image_size, fps: float, engine: str = "c",
-                 camera_overrides: dict | None = None, **params):
+                 camera_overrides: dict | None = None, bottom_height: float = 0.0, **params):
         if engine not in ("c", "reference"):
             raise ValueError(f"engine must be 'c' or 'reference', got {engine!r}")
         if not isinstance(camera, Camera):
@@ -282,9 +290,18 @@ class RangeEstimator:
             raise ValueError(f"image_size must be (width, height), got {image_size!r}") from None
         if isinstance(fps, bool) or not isinstance(fps, (int, float)) or not math.isfinite(fps) or fps < 1:
             raise ValueError(f"fps must be a number >= 1, got {fps!r}")
+        if (isinstance(bottom_height, bool) or not isinstance(bottom_height, (int, float))
+                or not math.isfinite(bottom_height)
+                or not (bottom_height == 0 or 0 < bottom_height < (camera.height_m or 0))):
+            raise ValueError(f"bottom_height must be in [0, camera height {camera.height_m}) m, "
+                             f"got {bottom_height!r}")
         self.engine = engine
         self.size = (w, h)
-        self.cam = camera.params(w, h, **(camera_overrides or {}))
+        over = dict(camera_overrides or {})
+        if bottom_height:
+            over["height"] = over.get("height", camera.height_m) - float(bottom_height)
+        self.bottom_height = float(bottom_height)
+        self.cam = camera.params(w, h, **over)
         rp = dataclasses.replace(rcam.RangeParams(frame_dt=1.0 / float(fps)), **params)
         from . import _native
         self._n = _native

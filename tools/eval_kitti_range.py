@@ -137,7 +137,7 @@ def ranges(data: Path, engine: str, frames, size, points=None, bottom_height=0.0
     w, h = size
     lid = {int(r["frame"]): r for r in csv.DictReader(open(data / "derived_lidar_lead_distance.csv"))}
     rng = RangeEstimator(kitti_camera(data, w, h), (w, h), FPS, engine=engine,
-                         camera_overrides={"height": CAM_HEIGHT_M - bottom_height}, **params)
+                         bottom_height=bottom_height, **params)
     rows = []
     for i, fr in enumerate(frames):
         rng.update_pitch(fr["vp"])

@@ -216,9 +216,16 @@ typedef struct vt_range_cfg {
                                is measured by its width instead, 1..1000              */
     int32_t width_window;   /* the width is a running mean over about this many
                                frames, 1..1000                                        */
-    vt_q16 rear_offset;     /* m subtracted from eq. 1's distance: the road contact
-                               the bottom edge shows (rear wheels, shadow) lies this
-                               far beyond the rear face, [0, 5] (0: eq. 1 as is)      */
+    vt_q16 rear_offset;     /* m subtracted from eq. 1's distance, [0, 5] (0: eq. 1
+                               as is): for a bottom edge on the road contact of the
+                               rear wheels, the rear overhang (about 1 m on a car).
+                               An empirical correction otherwise: on KITTI the box ends
+                               at the bumper's lower edge, ~0.37 m above the road, for
+                               which eq. 1 with the camera height lowered by that much
+                               is the physical model (its error grows with distance,
+                               d h_b / (h - h_b), so a constant offset only fits a
+                               range of distances; see pyvehtrack.camera.RangeEstimator
+                               bottom_height and tools/eval_kitti_range.py)           */
 } vt_range_cfg;
 
 /* jerk 5 m/s^3, margin 0.7 s and release 10 frames were chosen on the synthetic NHTSA

@@ -127,6 +127,10 @@ def register(sub) -> None:
     p.add_argument("--rear-offset", type=float, default=0.0, metavar="M",
                    help="m from the road contact the box's bottom shows to the vehicle's rear "
                         "(default 0: eq. 1 as is; about 1.8 on KITTI, see the README)")
+    p.add_argument("--bottom-height", type=float, default=0.0, metavar="M",
+                   help="height above the road of what the box's bottom edge shows, m (default 0: "
+                        "the road contact; about 0.37 on KITTI, where the box ends at the bumper's "
+                        "lower edge): eq. 1 then uses the camera height minus it")
     p.add_argument("--json", metavar="TRACKS.json", help="write per-frame track records (JSON)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
@@ -167,8 +171,12 @@ def run(args) -> int:
             raise CliError(f"--ego-speed {args.ego_speed}: must be >= 0 m/s")
         if not (math.isfinite(args.rear_offset) and 0 <= args.rear_offset <= 5):
             raise CliError(f"--rear-offset {args.rear_offset}: must be in [0, 5] m")
-    elif args.fps is not None or args.ego_speed is not None or args.rear_offset != 0.0:
-        raise CliError("--fps, --ego-speed and --rear-offset need --camera")
+        if not (math.isfinite(args.bottom_height) and 0 <= args.bottom_height < cam.height_m):
+            raise CliError(f"--bottom-height {args.bottom_height}: must be in [0, height_m = "
+                           f"{cam.height_m}) m")
+    elif (args.fps is not None or args.ego_speed is not None or args.rear_offset != 0.0
+          or args.bottom_height != 0.0):
+        raise CliError("--fps, --ego-speed, --rear-offset and --bottom-height need --camera")
     det = make_detector(args)
     try:
         trk = Tracker(engine=args.engine, detect_every=args.detect_every, detector=det,
@@ -249,7 +257,8 @@ def _range_stage(cam, frame, args, sources):
     from .common import video_fps
     h, w = frame.shape[:2]
     fps = args.fps if args.fps is not None else video_fps(sources)
-    return (RangeEstimator(cam, (w, h), fps, engine=args.engine, rear_offset=args.rear_offset),
+    return (RangeEstimator(cam, (w, h), fps, engine=args.engine, rear_offset=args.rear_offset,
+                           bottom_height=args.bottom_height),
             LaneDetector(engine=args.engine))
 
 
