@@ -68,11 +68,12 @@ def iou(box, gt) -> float:
     return inter / union if union > 0 else 0.0
 
 
-def lidar_ttc(d: np.ndarray, dt: float) -> np.ndarray:
+def lidar_ttc(d: np.ndarray, dt: float, half: int = 2) -> np.ndarray:
+    """TTC from the slope of a least-squares line through frames t-half..t+half."""
     out = np.full(len(d), np.nan)
-    t = np.arange(5) * dt
-    for i in range(2, len(d) - 2):
-        slope = np.polyfit(t, d[i - 2:i + 3], 1)[0]
+    t = np.arange(2 * half + 1) * dt
+    for i in range(half, len(d) - half):
+        slope = np.polyfit(t, d[i - half:i + half + 1], 1)[0]
         if slope < -0.1:
             out[i] = d[i] / -slope
     return out
@@ -170,6 +171,8 @@ def summarise(rows) -> dict:
     truth = np.array([r["lidar_min_m"] for r in rows]) - LIDAR_BEHIND_CAMERA_M
     ttc_l = lidar_ttc(np.array([r["lidar_min_m"] for r in rows]), 1.0 / FPS)
     ttc_lc = lidar_ttc_trailing(np.array([r["lidar_min_m"] for r in rows]), 1.0 / FPS)
+    ttc_l9 = lidar_ttc(np.array([r["lidar_min_m"] for r in rows]), 1.0 / FPS, half=4)
+    ttc_p05 = lidar_ttc(np.array([r["lidar_p05_m"] for r in rows]), 1.0 / FPS)
 
     def arr(key):
         return np.array([np.nan if r[key] is None else float(r[key]) for r in rows])
@@ -190,6 +193,15 @@ def summarise(rows) -> dict:
                          "ttc_scale_rel": stats((t_s[sl] - ttc_lc[sl]) / ttc_lc[sl]),
                          "ttc_points_rel": stats((t_p[sl] - ttc_lc[sl]) / ttc_lc[sl]),
                          "frames_with_lidar_ttc": int(np.sum(np.isfinite(ttc_lc[sl])))},
+            # against a smoother lidar TTC (9-frame centred fit): how much of the error is
+            # the 5-frame lidar TTC's own noise
+            "smooth9": {"ttc_dist_rel": stats((t_d[sl] - ttc_l9[sl]) / ttc_l9[sl]),
+                        "ttc_scale_rel": stats((t_s[sl] - ttc_l9[sl]) / ttc_l9[sl]),
+                        "ttc_points_rel": stats((t_p[sl] - ttc_l9[sl]) / ttc_l9[sl]),
+                        "frames_with_lidar_ttc": int(np.sum(np.isfinite(ttc_l9[sl])))},
+            # the lidar against itself: the 5-frame TTC of the 5th-percentile distance vs
+            # that of the minimum (the truth's own noise floor)
+            "lidar_p05_vs_min_ttc_rel": stats((ttc_p05[sl] - ttc_l[sl]) / ttc_l[sl]),
             "ttc_frames_with_lidar_ttc": int(np.sum(np.isfinite(ttc_l[sl]))),
             "ttc_dist_reported": int(np.sum(np.isfinite(t_d[sl]) & np.isfinite(ttc_l[sl]))),
             "ttc_scale_reported": int(np.sum(np.isfinite(t_s[sl]) & np.isfinite(ttc_l[sl]))),
@@ -312,10 +324,12 @@ def main(argv=None) -> int:
         x = x0[name]
         print(f"[{a.engine}] {name}: TTC box scale change {f(x['ttc_scale_rel'])}")
         print(f"[{a.engine}] {name}: TTC block scale      {f(x['ttc_points_rel'])}")
-        t = x["trailing"]
-        print(f"[{a.engine}] {name}: vs lidar t-4..t ({t['frames_with_lidar_ttc']} frames): "
-              f"distance/rate ({a.model}) {f(t['ttc_dist_rel'])}; box scale {f(t['ttc_scale_rel'])}; "
-              f"block scale {f(t['ttc_points_rel'])}")
+        for key, lab in (("trailing", "lidar t-4..t"), ("smooth9", "lidar 9-frame fit")):
+            t = x[key]
+            print(f"[{a.engine}] {name}: vs {lab} ({t['frames_with_lidar_ttc']} frames): "
+                  f"distance/rate ({a.model}) {f(t['ttc_dist_rel'])}; box scale {f(t['ttc_scale_rel'])}; "
+                  f"block scale {f(t['ttc_points_rel'])}")
+        print(f"[{a.engine}] {name}: lidar p05 vs lidar min, 5-frame TTC: {f(x['lidar_p05_vs_min_ttc_rel'])}")
     print(f"[{a.engine}] lead tracked in {s['lead_tracked']}/{s['frames']} frames; distance from the "
           f"learnt width in {s['from_width_frames']}; pitch {s['pitch_deg']}")
     return 0
