@@ -255,3 +255,25 @@ def test_absent_id_is_forgotten():
         est.step(frames[1], [(2, boxes[1])])
         (o,) = est.step(frames[2], [(1, boxes[2])])
         assert o.blocks == 0 and o.scale is None
+
+
+def test_c_matches_oracle_many_tracks():
+    """Several tracks at once, ids coming and going, more ids than slots: the same outputs
+    (counts equal, scales within the tolerance above) in C and in the oracle."""
+    frames, boxes = zoom_frames(21, [0.7 * 1.02 ** k for k in range(7)], w=240, h=160)
+    n_slots = int(lib.VT_TTC_TRACKS)
+    c, r = ScaleTtc(10, lag=2), ScaleTtc(10, engine="reference", lag=2)
+    tol = tol_s(c.params)
+    seen = 0
+    for k, (f, b) in enumerate(zip(frames, boxes)):
+        ids = [i for i in range(1, n_slots + 3) if (i + k) % 5 != 0]
+        tracks = [(i, [b[0] + i % 3, b[1] - i % 2, b[2] + i % 3, b[3] - i % 2]) for i in ids]
+        a, o = c.step(f, tracks), r.step(f, tracks)
+        assert [x.id for x in a] == [x.id for x in o]
+        for x, y in zip(a, o):
+            assert (x.blocks, x.matched, x.pairs) == (y.blocks, y.matched, y.pairs)
+            assert (x.scale is None) == (y.scale is None)
+            if x.scale is not None:
+                assert abs(x.scale - y.scale) <= tol
+                seen += 1
+    assert seen >= 3
