@@ -27,7 +27,8 @@ vt_status vt_ttc_cfg_check(const vt_ttc_cfg *c)
         !VT__IN(c->min_texture, 0, 255) || !VT__IN(c->max_sad, 1, 255) ||
         !VT__IN(c->lag, 1, VT_TTC_HIST - 1) || !VT__IN(c->min_pair_px, 1, 4096) ||
         !VT__IN(c->min_pairs, 1, VT_TTC_MAX_PAIRS) || !VT__IN(c->frame_dt, 1, VT_Q16_ONE) ||
-        !VT__IN(c->ttc_max, 1, 1000 * VT_Q16_ONE)) {
+        !VT__IN(c->ttc_max, 1, 1000 * VT_Q16_ONE) ||
+        !(c->anchor_radius == 0 || VT__IN(c->anchor_radius, c->radius + 1, 48))) {
         return VT_E_ARG;
     }
     return VT_OK;
@@ -89,12 +90,13 @@ static int32_t vt__sub(int32_t sm, int32_t s0, int32_t sp)
     return (int32_t)(q > 128 ? 128 : (q < -128 ? -128 : q));
 }
 
-/* Search one block; *mx, *my in Q8 px. 1 if matched. */
-static int32_t vt__match(const vt_ttc_cfg *c, const vt_image_u8 *img, const uint8_t *tm,
-                         int32_t px, int32_t py, int32_t *mx, int32_t *my)
+/* Integer SAD search of one block over +-r around (px, py): 1 if the best lies inside
+ * the window (not on its edge) with SAD <= max_sad per pixel; *bx, *by its offset. */
+static int32_t vt__search(const vt_ttc_cfg *c, const vt_image_u8 *img, const uint8_t *tm,
+                          int32_t px, int32_t py, int32_t r, int32_t *obx, int32_t *oby,
+                          int32_t *obest)
 {
-    int32_t b = c->block, r = c->radius, dx, dy, bx = 0, by = 0, best = -1, s;
-    int32_t sxm, sxp, sym, syp;
+    int32_t b = c->block, dx, dy, bx = 0, by = 0, best = -1, s;
     for (dy = -r; dy <= r; dy++) {
         for (dx = -r; dx <= r; dx++) {
             int32_t x = px + dx, y = py + dy;
@@ -111,6 +113,20 @@ static int32_t vt__match(const vt_ttc_cfg *c, const vt_image_u8 *img, const uint
     }
     if (best < 0 || bx == -r || bx == r || by == -r || by == r ||
         best > c->max_sad * b * b) {
+        return 0;
+    }
+    *obx = bx;
+    *oby = by;
+    *obest = best;
+    return 1;
+}
+
+/* Search one block; *mx, *my in Q8 px. 1 if matched. */
+static int32_t vt__match(const vt_ttc_cfg *c, const vt_image_u8 *img, const uint8_t *tm,
+                         int32_t px, int32_t py, int32_t *mx, int32_t *my)
+{
+    int32_t b = c->block, bx, by, best, sxm, sxp, sym, syp;
+    if (!vt__search(c, img, tm, px, py, c->radius, &bx, &by, &best)) {
         return 0;
     }
     /* the four neighbours exist unless the match touches the frame's edge */
@@ -168,18 +184,54 @@ static int32_t vt__select(int32_t *a, int32_t n, int32_t k)
     return a[k];
 }
 
+/* The lower median of a[0..n-1], 1 <= n <= VT_TTC_ANCHORS (insertion sort). */
+static int32_t vt__small_median(int32_t *a, int32_t n)
+{
+    int32_t i, j, t;
+    for (i = 1; i < n; i++) {
+        for (j = i; j > 0 && a[j - 1] > a[j]; j--) {
+            t = a[j];
+            a[j] = a[j - 1];
+            a[j - 1] = t;
+        }
+    }
+    return a[(n - 1) / 2];
+}
+
 static void vt__measure(vt_ttc_state *st, const vt_ttc_cfg *c, const vt_image_u8 *img,
                         const vt_ttc_entry *e, const vt_box *nb, vt_ttc_out *o)
 {
     int32_t mx[VT_TTC_MAX_BLOCKS], my[VT_TTC_MAX_BLOCKS], ok[VT_TTC_MAX_BLOCKS];
-    int32_t i, j, np = 0, b = c->block;
+    int32_t anx[VT_TTC_ANCHORS], any[VT_TTC_ANCHORS];
+    int32_t i, j, k, np = 0, na = 0, ox = 0, oy = 0, b = c->block;
     int64_t so = ((int64_t)e->box.right - e->box.left + 1) + ((int64_t)e->box.bottom - e->box.top + 1);
     int64_t sn = ((int64_t)nb->right - nb->left + 1) + ((int64_t)nb->bottom - nb->top + 1);
     int64_t minp2 = (int64_t)c->min_pair_px * c->min_pair_px;
     o->blocks = e->n;
+    /* anchors: blocks k n / VT_TTC_ANCHORS searched wide; the median of their offsets
+     * corrects the box's prediction for all */
+    for (k = 0; c->anchor_radius > 0 && k < VT_TTC_ANCHORS && e->n > 0; k++) {
+        int32_t bx, by, best;
+        i = k * e->n / VT_TTC_ANCHORS;
+        if (k > 0 && i == (k - 1) * e->n / VT_TTC_ANCHORS) {
+            continue;
+        }
+        if (vt__search(c, img, e->px[i],
+                       vt__predict(e->x[i], b, e->box.left, e->box.right, nb->left, nb->right, so, sn),
+                       vt__predict(e->y[i], b, e->box.top, e->box.bottom, nb->top, nb->bottom, so, sn),
+                       c->anchor_radius, &bx, &by, &best)) {
+            anx[na] = bx;
+            any[na] = by;
+            na++;
+        }
+    }
+    if (na > 0) {
+        ox = vt__small_median(anx, na);
+        oy = vt__small_median(any, na);
+    }
     for (i = 0; i < e->n; i++) {
-        int32_t px = vt__predict(e->x[i], b, e->box.left, e->box.right, nb->left, nb->right, so, sn);
-        int32_t py = vt__predict(e->y[i], b, e->box.top, e->box.bottom, nb->top, nb->bottom, so, sn);
+        int32_t px = vt__predict(e->x[i], b, e->box.left, e->box.right, nb->left, nb->right, so, sn) + ox;
+        int32_t py = vt__predict(e->y[i], b, e->box.top, e->box.bottom, nb->top, nb->bottom, so, sn) + oy;
         ok[i] = vt__match(c, img, e->px[i], px, py, &mx[i], &my[i]);
         o->matched += ok[i];
     }

@@ -414,7 +414,7 @@ class ScaleTtc:
         self._n = _native
         self._c = _native.ffi.new("vt_ttc_cfg *")
         for f in ("block", "grid", "margin_pct", "radius", "min_texture", "max_sad", "lag",
-                  "min_pair_px", "min_pairs"):
+                  "min_pair_px", "min_pairs", "anchor_radius"):
             v = getattr(p, f)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not -(2**31) <= v < 2**31:
                 raise ValueError(f"TtcScaleParams.{f}={v!r} must be an int32")

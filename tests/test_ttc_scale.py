@@ -72,15 +72,19 @@ def tol_s(p: rts.TtcScaleParams) -> float:
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 10_000), rate=st.floats(0.0, 0.04), lag=st.integers(1, 4),
        grid=st.integers(2, 8), block=st.integers(4, 8), radius=st.integers(2, 6),
-       jitter=st.lists(st.integers(-2, 2), min_size=8, max_size=8), min_pair=st.integers(1, 24))
-def test_c_matches_oracle(seed, rate, lag, grid, block, radius, jitter, min_pair):
+       jitter=st.lists(st.integers(-2, 2), min_size=8, max_size=8), min_pair=st.integers(1, 24),
+       anchor=st.sampled_from([0, 0, 1, 4, 10]))
+def test_c_matches_oracle(seed, rate, lag, grid, block, radius, jitter, min_pair, anchor):
     scales = [0.7 * (1 + rate) ** k for k in range(6)]
     frames, boxes = zoom_frames(seed, scales, drift=(1.3, -0.4))
-    kw = dict(lag=lag, grid=grid, block=block, radius=radius, min_pair_px=min_pair, min_pairs=3)
+    kw = dict(lag=lag, grid=grid, block=block, radius=radius, min_pair_px=min_pair, min_pairs=3,
+              anchor_radius=anchor and radius + anchor)
     c, r = ScaleTtc(10, **kw), ScaleTtc(10, engine="reference", **kw)
     tol = tol_s(c.params)
     for k, (f, b) in enumerate(zip(frames, boxes)):
         b = [b[0] + jitter[k], b[1] + jitter[k + 1], b[2] - jitter[k + 2], b[3]]  # a jittering tracker
+        if anchor and k == 3:
+            b = [b[0], b[1] + 7, b[2], b[3] + 7]  # a box jump, as on a detection frame
         (a,) = c.step(f, [(7, b)])
         (o,) = r.step(f, [(7, b)])
         assert (a.id, a.blocks, a.matched, a.pairs) == (o.id, o.blocks, o.matched, o.pairs)
@@ -191,7 +195,8 @@ def test_c_bad_arguments_and_guards():
     for f, val in (("block", 3), ("block", lib.VT_TTC_BLOCK + 1), ("grid", 1), ("lag", 0),
                    ("lag", lib.VT_TTC_HIST), ("radius", 0), ("radius", 17), ("max_sad", 0),
                    ("min_pairs", 0), ("min_pairs", lib.VT_TTC_MAX_PAIRS + 1), ("frame_dt", 0),
-                   ("ttc_max", 0), ("margin_pct", 41), ("min_pair_px", 0)):
+                   ("ttc_max", 0), ("margin_pct", 41), ("min_pair_px", 0),
+                   ("anchor_radius", 6), ("anchor_radius", 49), ("anchor_radius", -1)):
         c2 = _native.ttc_cfg_default()
         setattr(c2, f, val)
         assert lib.vt_ttc_cfg_check(c2) == E, f
@@ -277,3 +282,17 @@ def test_c_matches_oracle_many_tracks():
                 assert abs(x.scale - y.scale) <= tol
                 seen += 1
     assert seen >= 3
+
+
+@pytest.mark.parametrize("engine", ["c", "reference"])
+def test_anchors_follow_a_box_jump(engine):
+    """The box jumps 9 px down on one frame while the texture does not move (a detection
+    frame's re-fit): with radius 4 the blocks are lost without anchors and found with them."""
+    frames, boxes = zoom_frames(4, [0.8 * 1.01 ** k for k in range(4)], drift=(0.5, 0.0))
+    boxes[3] = [boxes[3][0], boxes[3][1] + 9, boxes[3][2], boxes[3][3] + 9]
+    got = {}
+    for anchor in (0, 16):
+        est = ScaleTtc(10, engine=engine, lag=1, radius=4, anchor_radius=anchor)
+        got[anchor] = [est.step(f, [(1, b)])[0] for f, b in zip(frames, boxes)][-1]
+    assert got[0].matched <= got[0].blocks // 4
+    assert got[16].matched >= got[16].blocks * 3 // 4 and abs(got[16].scale - 1.01) < 0.005

@@ -42,6 +42,8 @@ class TtcScaleParams:
     min_pairs: int = 10       # fewer usable pairs: no scale, 1..100000
     frame_dt: float = 0.1     # s per frame, (0, 1]
     ttc_max: float = 20.0     # s; a larger TTC (or s <= 1: not closing) is "no TTC", (0, 1000]
+    anchor_radius: int = 12   # 0, or radius+1..48: ANCHORS blocks searched over +-this first;
+    #                           the lower median of their offsets moves every block's window
 
 
 @dataclass
@@ -67,6 +69,7 @@ class _Slot:
     ring: list = field(default_factory=list)   # newest last
 
 
+ANCHORS = 4                      # blocks k n / 4, k = 0..3 (VT_TTC_ANCHORS)
 R2_MAX = (2**31 - 1) / 2**16    # the C core saturates a squared ratio there (s = 181)
 BOX_LIM = 32767                   # boxes with a coordinate beyond +-this are not measured
 
@@ -116,10 +119,11 @@ def predict(p: TtcScaleParams, old_box, new_box, x: int, y: int) -> tuple[int, i
     return px, py
 
 
-def match(p: TtcScaleParams, img: np.ndarray, tmpl: np.ndarray, px: int, py: int):
-    """Integer SAD search; returns (x, y) float (sub-pixel) or None."""
+def search(p: TtcScaleParams, img: np.ndarray, tmpl: np.ndarray, px: int, py: int, R: int):
+    """Integer SAD search over +-R: (dx, dy, sad table) of the best (first in raster order
+    among equals), or None when it lies on the window's edge or its SAD is over max_sad."""
     h, w = img.shape
-    B, R = p.block, p.radius
+    B = p.block
     t = tmpl.astype(np.int32)
     sad = {}
     best = None
@@ -137,6 +141,16 @@ def match(p: TtcScaleParams, img: np.ndarray, tmpl: np.ndarray, px: int, py: int
     s0, dx, dy = best
     if abs(dx) == R or abs(dy) == R or s0 > p.max_sad * B * B:
         return None
+    return dx, dy, sad
+
+
+def match(p: TtcScaleParams, img: np.ndarray, tmpl: np.ndarray, px: int, py: int):
+    """The block's match in sub-pixel (x, y), or None."""
+    r = search(p, img, tmpl, px, py, p.radius)
+    if r is None:
+        return None
+    dx, dy, sad = r
+    s0 = sad[(dx, dy)]
     if (dx - 1, dy) not in sad or (dx + 1, dy) not in sad or (dx, dy - 1) not in sad or (dx, dy + 1) not in sad:
         return None
 
@@ -199,10 +213,21 @@ class TtcScaleTracker:
             inside = all(-BOX_LIM - 1 <= v <= BOX_LIM for v in box)
             if inside and len(slot.ring) >= p.lag:
                 e = slot.ring[-p.lag]
+                n = len(e.pos)
+                offs = []
+                for k in range(ANCHORS if p.anchor_radius and n else 0):
+                    i = k * n // ANCHORS
+                    if k > 0 and i == (k - 1) * n // ANCHORS:
+                        continue
+                    r = search(p, grey, e.tmpl[i], *predict(p, e.box, box, *e.pos[i]), p.anchor_radius)
+                    if r is not None:
+                        offs.append(r[:2])
+                ox = sorted(o[0] for o in offs)[(len(offs) - 1) // 2] if offs else 0
+                oy = sorted(o[1] for o in offs)[(len(offs) - 1) // 2] if offs else 0
                 new = []
                 for (x, y), tm in zip(e.pos, e.tmpl):
                     px, py = predict(p, e.box, box, x, y)
-                    new.append(match(p, grey, tm, px, py))
+                    new.append(match(p, grey, tm, px + ox, py + oy))
                 nb, nm = len(e.pos), sum(v is not None for v in new)
                 scale, npairs = scale_of(p, e.pos, new)
                 if scale is not None and scale > 1.0:
