@@ -4,6 +4,7 @@ against the lidar (derived_lidar_lead_distance.csv).
 
     PYTHONPATH=. python3 tools/eval_kitti_range.py [--data DIR] [--engine c|reference]
                                                    [--json OUT.json] [--png OUT.png]
+                                                   [--model offset|height]
 
 Pipeline (all pyvehtrack, nothing fitted on this sequence): Detector + Tracker (detection
 every 10th frame, the tracker's defaults), LaneDetector for the vanishing row of the ego
@@ -23,6 +24,19 @@ lidar closes faster than 0.1 m/s (else there is no finite TTC to compare).
 Every parameter of the range stage is its default, chosen before this sequence was run
 (NHTSA thresholds, 3 m/s^2 relative acceleration noise, +-1 px row error, 1.8 m assumed width
 only for the cross-check); the figures are reported for all frames, and for each half.
+
+Distance models, each with one parameter fitted on frames 0-38 (the first half) only:
+"offset" subtracts rear_offset (m) from eq. 1; "height" reads the box's bottom edge as a line
+bottom_height (m) above the road (eq. 1 with the camera height minus it: the tracker's box
+ends at the bumper's lower edge, not at the tyres' road contact). Both are printed; --model
+picks the one in the JSON rows and the PNG.
+
+Three TTCs, side by side: the range filter's distance / rate, the box's width change over 5
+frames (both vt_range_step), and the scale of SAD-matched blocks inside the box over 5 frames
+(vt_ttc_step, pyvehtrack.camera.ScaleTtc; its grid, texture, lag and anchor radius were chosen
+on frames 0-38). Each against the lidar TTC of the issue (5-frame centred fit), and for
+diagnosis against a trailing 5-frame fit (t-4..t, what a causal estimate can know) and a
+9-frame centred fit (less lidar noise); "lidar p05 vs lidar min" is the lidar's own spread.
 """
 from __future__ import annotations
 
