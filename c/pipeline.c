@@ -1,6 +1,8 @@
 /* pipeline.c -- the per-frame order of the whole system (thesis fig. 4.1 for
  * detection, ch. 3 for tracking): lanes and the road area (sec. 2.4.1), shadow
- * hypotheses and their verification (sec. 2.4.2) every detect_every frames, the
+ * hypotheses and their verification (sec. 2.4.2) -- or, with a classifier, the
+ * whole-road detector (IVVI paper sec. 4/5 windows, GIST paper sec. III
+ * classifier, c/fulldet.c) -- every detect_every frames, the
  * tracker on every frame (sec. 3.5-3.6), and with a camera the distance, TTC and
  * warning per track (IVVI paper sec. 4, c/camera.c). It only composes the stages through
  * their public functions; the firmware, the bench driver and Python all call
@@ -33,8 +35,28 @@ static vt_status vt__fixed_road_check(const vt_fixed_road *fr)
     return VT_OK;
 }
 
+static vt_status vt__road_camera_check(const vt_road_camera *rc)
+{
+    if (rc->horizon_q16 < -65536 || rc->horizon_q16 > 65536 || rc->hood_q16 < 3277 ||
+        rc->hood_q16 > 131072 || rc->height_mm < 100 || rc->height_mm > 20000 ||
+        rc->fx_per_w_q16 < 3277 || rc->fx_per_w_q16 > 1310720) {
+        return VT_E_ARG;
+    }
+    return VT_OK;
+}
+
+/* The whole-road detector's configuration as the pipeline runs it: its own
+ * `sources` replaced by the pipeline's bits (0 when neither is on). */
+static void vt__fulldet_cfg(const vt_pipeline_cfg *cfg, vt_fulldet_cfg *fc)
+{
+    *fc = cfg->fulldet;
+    fc->sources = ((cfg->sources & VT_SRC_SHADOW) ? VT_FULLDET_SHADOW : 0) |
+                  ((cfg->sources & VT_SRC_CLASSIFIER) ? VT_FULLDET_WINDOWS : 0);
+}
+
 vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg)
 {
+    vt_fulldet_cfg fc;
     vt_status s;
     if (cfg == NULL) {
         return VT_E_ARG;
@@ -57,15 +79,25 @@ vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg)
     if (s == VT_OK) {
         s = vt_tracker_cfg_check(&cfg->tracker);
     }
+    if (s == VT_OK) {
+        /* Checked whatever the sources, with both of its sources on, so that a
+         * classifier attached later never meets a bad configuration. */
+        vt__fulldet_cfg(cfg, &fc);
+        fc.sources = VT_FULLDET_SHADOW | VT_FULLDET_WINDOWS;
+        s = vt_fulldet_cfg_check(&fc);
+    }
+    if (s == VT_OK) {
+        s = vt__road_camera_check(&cfg->road_camera);
+    }
     return s;
 }
 
 vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
-                           const vt_camera_cfg *camera, const struct vt_svm_model *model)
+                           const vt_camera_cfg *camera, const vt_svm_model *model)
 {
     vt_status s;
-    if (p == NULL || cfg == NULL || model != NULL) {
-        return VT_E_ARG; /* the classifier stage is not built in yet */
+    if (p == NULL || cfg == NULL || (model != NULL && vt_svm_model_check(model) != VT_OK)) {
+        return VT_E_ARG;
     }
     s = vt_pipeline_cfg_check(cfg);
     if (s == VT_OK && camera != NULL) {
@@ -81,6 +113,10 @@ vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
     memmove(&p->cfg, cfg, sizeof(p->cfg));
     p->model = model;
     p->camera = camera;
+    p->cls_ws = NULL;
+    memset(&p->scorer, 0, sizeof(p->scorer));
+    p->horizon_y = 0;
+    p->horizon_known = 0;
     p->frame = 0;
     p->ego_speed = -VT_Q16_ONE;
     memset(&p->pitch, 0, sizeof(p->pitch));
@@ -108,6 +144,35 @@ vt_status vt_pipeline_set_edge_ws(vt_pipeline *p, vt_edge_ws *ws)
         return VT_E_ARG;
     }
     return vt_tracker_set_edge_ws(&p->tracker, ws);
+}
+
+vt_status vt_pipeline_set_cls_ws(vt_pipeline *p, vt_pipe_cls_ws *ws, const vt_window_scorer *scorer)
+{
+    vt_status s;
+    if (p == NULL || (scorer != NULL && (scorer->score == NULL || ws == NULL))) {
+        return VT_E_ARG;
+    }
+    if (ws == NULL) {
+        p->cls_ws = NULL;
+        memset(&p->scorer, 0, sizeof(p->scorer));
+        return VT_OK;
+    }
+    if (scorer == NULL) {
+        if (p->model == NULL) {
+            return VT_E_ARG;
+        }
+        s = vt_hog_scorer_init(&ws->hog, p->model);
+        if (s != VT_OK) {
+            return s;
+        }
+        p->scorer.level = vt_hog_scorer_level;
+        p->scorer.score = vt_hog_scorer_score;
+        p->scorer.ctx = &ws->hog;
+    } else {
+        p->scorer = *scorer;
+    }
+    p->cls_ws = ws;
+    return VT_OK;
 }
 
 vt_status vt_pipeline_set_ego_speed(vt_pipeline *p, vt_q16 speed)
@@ -287,6 +352,79 @@ static vt_status vt__geometry(vt_pipeline *p, const vt_image_u8 *frame, const vt
     return s;
 }
 
+static int64_t vt__clamp64(int64_t v, int64_t lo, int64_t hi)
+{
+    return v < lo ? lo : (v > hi ? hi : v);
+}
+
+/* round(h * q / 65536), half up, exact (|h q| < 2^32). */
+static int32_t vt__frac_q16(int32_t h, int32_t q)
+{
+    return (int32_t)vt__floor_div64((int64_t)h * q + 32768, 65536);
+}
+
+/* The whole-road detector on a detection frame: its camera (the road camera of the
+ * frame's size, the horizon the last lanes' vanishing row once known), the road (the
+ * caller's when given, else the camera road), vt_fulldet, and its boxes into out and
+ * p->det (the tracker's input). */
+static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
+                                  const vt_road_area *given, vt_frame_out *out)
+{
+    vt_fulldet_cfg fc;
+    vt_camera_min cam;
+    vt_pipe_cls_ws *ws = p->cls_ws;
+    const vt_road_camera *rc = &p->cfg.road_camera;
+    int32_t i, fx;
+    vt_status s;
+    vt__fulldet_cfg(&p->cfg, &fc);
+    cam.horizon_y = p->horizon_known ? p->horizon_y : vt__frac_q16(frame->h, rc->horizon_q16);
+    cam.hood_y = vt__frac_q16(frame->h, rc->hood_q16);
+    cam.hood_y = cam.hood_y < 1 ? 1 : cam.hood_y;
+    fx = (int32_t)(((int64_t)frame->w * rc->fx_per_w_q16 + 2048) >> 12);
+    cam.fx_q4 = fx < 16 ? 16 : fx;
+    cam.height_mm = rc->height_mm;
+    out->road.valid = 0;
+    out->road_source = VT_ROAD_SRC_NONE;
+    if (given != NULL) {
+        if (given->valid) {
+            out->road = *given;
+            out->road_source = VT_ROAD_SRC_FIXED;
+        }
+    } else {
+        s = vt_road_from_camera(&fc.win, &cam, frame->w, frame->h, &out->road);
+        if (s != VT_OK) {
+            return s;
+        }
+        out->road_source = out->road.valid ? VT_ROAD_SRC_CAMERA : VT_ROAD_SRC_NONE;
+    }
+    p->det.n_hyp = 0;
+    p->det.n_boxes = 0;
+    if (out->road_source == VT_ROAD_SRC_NONE) {
+        return VT_OK;
+    }
+    s = vt_fulldet(&ws->st, &fc, &cam, frame, &out->road, &p->scorer, &ws->res);
+    if (s != VT_OK) {
+        return s;
+    }
+    /* The shadow source's hypotheses (fulldet keeps them in its detect result). */
+    if (fc.sources & VT_FULLDET_SHADOW) {
+        out->n_hyp = ws->st.dres.n_hyp;
+        for (i = 0; i < ws->st.dres.n_hyp; ++i) {
+            out->hyp[i] = ws->st.dres.hyp[i];
+        }
+    }
+    for (i = 0; i < ws->res.n_boxes && i < VT_MAX_BOXES; ++i) {
+        p->det.box[i] = ws->res.box[i].box;
+        out->boxes[i].box = ws->res.box[i].box;
+        out->boxes[i].source = ws->res.box[i].source == VT_FULLDET_WINDOWS ? VT_SRC_CLASSIFIER
+                                                                            : VT_SRC_SHADOW;
+        out->boxes[i].score = ws->res.box[i].score;
+    }
+    p->det.n_boxes = i;
+    out->n_boxes = i;
+    return VT_OK;
+}
+
 /* The step behind the three entry points. road: the caller's fallback road (or
  * NULL); dets/n_dets: the caller's detections when ext is 1. */
 static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_road_area *road,
@@ -294,6 +432,8 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
 {
     vt_status s;
     int32_t det_frame, run_lanes, lanes_ok = 0, n_boxes = 0, n_tracks = 0, n_ranges = 0, i;
+    int32_t whole, vp_valid = 0;
+    vt_q16 vp_row = 0;
     const vt_box *boxes = p->det.box;
     if (frame->px == NULL) {
         return VT_E_ARG;
@@ -316,6 +456,12 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
         p->tracker.edge_ws == NULL) {
         return VT_E_ARG;
     }
+    /* A classifier asked for (a model, or the classifier source) needs its
+     * workspace and scorer attached (vt_pipeline_set_cls_ws). */
+    whole = p->cls_ws != NULL && p->scorer.score != NULL;
+    if (!whole && (p->model != NULL || (p->cfg.sources & VT_SRC_CLASSIFIER) != 0)) {
+        return VT_E_ARG;
+    }
     det_frame = ext || (p->cfg.sources != 0 && (p->frame % p->cfg.detect_every) == 0);
     run_lanes = !ext && p->cfg.road_policy != VT_ROAD_FIXED &&
                 ((det_frame && p->cfg.sources != 0) || p->cfg.lanes_every_frame);
@@ -336,6 +482,14 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
     if (run_lanes) {
         out->lane_status = vt_lane_detect(&p->cfg.lane, &p->lane, frame, &out->lanes, &out->road);
         lanes_ok = out->lane_status == VT_OK;
+        /* The whole-road detector's horizon: the lanes' vanishing row, held while
+         * they are lost (the camera's pitch changes slowly). */
+        if (whole && lanes_ok &&
+            vt_lane_vanishing_row(&out->lanes, frame->h, &vp_row, &vp_valid) == VT_OK && vp_valid) {
+            p->horizon_y = (int32_t)vt__clamp64(vt__floor_div64((int64_t)vp_row + 32768, 65536),
+                                               -VT_MAX_HEIGHT, VT_MAX_HEIGHT);
+            p->horizon_known = 1;
+        }
     }
     if (ext) {
         boxes = dets;
@@ -346,6 +500,14 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
             out->boxes[i].score = VT_UNKNOWN;
         }
         out->n_boxes = i;
+    } else if (det_frame && whole) {
+        s = vt__detect_whole(p, frame, road, out);
+        if (s != VT_OK) {
+            out->n_boxes = 0;
+            p->frame = vt__next_frame(p->frame);
+            return s;
+        }
+        n_boxes = p->det.n_boxes;
     } else if (det_frame) {
         vt__road(p, frame, road, out, lanes_ok);
         p->det.n_hyp = 0;
