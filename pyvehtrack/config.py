@@ -260,7 +260,7 @@ def to_c(cfg: PipelineConfig):
     for s in src:
         c.sources |= getattr(lib, SOURCES[s])
     if c.sources & ~lib.VT_SRC_BUILT:
-        raise ValueError(f"sources: {cfg.sources!r} asks for a stage not built yet (built: shadow)")
+        raise ValueError(f"sources: {cfg.sources!r} asks for a stage not built yet (built: shadow, classifier)")
     checks = [("lane", "vt_lane_cfg_check", ffi.addressof(c, "lane")),
               ("shadow", "vt_shadow_cfg_check", ffi.addressof(c.detect, "shadow")),
               ("verify", "vt_verify_cfg_check", ffi.addressof(c.detect, "verify")),

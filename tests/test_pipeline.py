@@ -315,8 +315,14 @@ def test_python_bad_arguments():
         Pipeline("gpu")
     with pytest.raises(TypeError, match="camera"):
         Pipeline(camera=object(), fps=10)
-    with pytest.raises(ValueError, match="model"):
+    with pytest.raises(TypeError, match="model"):
         Pipeline(model=object())
+    with pytest.raises(ValueError, match="model"):
+        Pipeline(model="/no/such/model.npz")
+    with pytest.raises(ValueError, match="classifier"):
+        Pipeline(sources=("shadow", "classifier"))      # no classifier given
+    with pytest.raises(ValueError, match="road_camera"):
+        Pipeline(road_camera=object())                   # only with a model
     with pytest.raises(TypeError, match="unknown pipeline config"):
         Pipeline(detect_evry=3)
     with pytest.raises(ValueError, match="detect_every"):

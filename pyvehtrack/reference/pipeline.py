@@ -6,6 +6,9 @@ frame by frame end to end.
       -> road area                        the lanes' area, else the fixed trapezoid
       -> shadow hypotheses (reference.shadow) -> verification (reference.verify)
                                           on frames 0, N, 2N, ...
+         or, with a classifier (score), the whole-road detector (reference.fulldet)
+         on the camera road (reference.windows.road_from_camera), the horizon the
+         lanes' vanishing row once they found one (held while they are lost)
       -> tracker (reference.tracker)      every frame
       -> geometry (reference.camera)      with a camera: pitch from the lanes' vanishing
                                           row, range filter, TTC and FCW per track
@@ -20,15 +23,34 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import camera as rcam
+from . import fulldet as rfd
 from . import lane as rlane
 from . import shadow as rshadow
 from . import tracker as rtrk
 from . import verify as rverify
+from . import windows as rw
 from .shadow import RoadArea, ShadowConfig, trapezoid_road
 from .verify import VerifyConfig
 
 ROAD_AUTO, ROAD_LANES, ROAD_FIXED = "auto", "lanes", "fixed"
 SRC_SHADOW = "shadow"
+SRC_CLASSIFIER = "classifier"
+
+
+@dataclass
+class RoadCameraRef:
+    """The whole-road detector's camera relative to the frame (vt_road_camera): the
+    horizon and hood rows as fractions of h, rounded half up per frame; the camera
+    height; fx as a fraction of w (used for distances only, not by the windows)."""
+    horizon: float = 30037 / 65536
+    hood: float = 60948 / 65536
+    height_m: float = 1.8
+    fx_per_w: float = 36564 / 65536
+
+    def for_frame(self, h: int, w: int, horizon_y: int | None) -> rw.Camera:
+        hy = int(np.floor(h * self.horizon + 0.5)) if horizon_y is None else horizon_y
+        return rw.Camera(fx=max(1.0, self.fx_per_w * w), horizon_y=hy, height_m=self.height_m,
+                         hood_y=max(1, int(np.floor(h * self.hood + 0.5))))
 
 
 @dataclass
@@ -57,6 +79,8 @@ class Capacities:
     max_verts: int = 24
     max_edge_points: int = 256      # VT_EDGE_MAX_POINTS
     max_edge_pixels: int = 65536    # VT_EDGE_MAX_PIXELS
+    max_windows: int = 4096         # VT_FULLDET_MAX_WINDOWS
+    max_cand: int = 1024            # VT_FULLDET_MAX_CAND
     coord_lim: int = 7680           # 4 * max(VT_MAX_WIDTH, VT_MAX_HEIGHT): the tracker's box limit
 
 
@@ -72,6 +96,8 @@ class PipelineRefConfig:
     lanes_every_frame: bool = False
     sources: tuple = (SRC_SHADOW,)
     track: bool = True
+    fulldet: rfd.FullDetConfig = field(default_factory=rfd.FullDetConfig)  # its sources: ours
+    road_camera: RoadCameraRef = field(default_factory=RoadCameraRef)
 
 
 @dataclass
@@ -87,7 +113,9 @@ class RefFrame:
     boxes: np.ndarray             # (M, 4) inclusive
     box_source: list              # one source name per box
     tracks: list                  # (id, state, (l, t, r, b), vx, vy, distance_m, ttc_s, warning)
-    stats: dict                   # the shadow stage's statistics (detection frames)
+    stats: dict                   # the shadow stage's statistics (detection frames), or the
+                                  # whole-road detector's counters and horizon_y
+    box_score: list = field(default_factory=list)  # one score per box (None: no confidence)
 
 
 def _lane_fits(h: int, w: int, cfg: rlane.LaneConfig) -> bool:
@@ -112,10 +140,14 @@ class Pipeline:
     """One run over a video: step(gray) per frame, in order."""
 
     def __init__(self, cfg: PipelineRefConfig | None = None, caps: Capacities | None = None,
-                 camera=None):
+                 camera=None, score=None):
         """camera: None, or (reference.camera.CameraParams, RangeParams) for frames of
-        exactly the camera's img_w x img_h."""
+        exactly the camera's img_w x img_h. score: None (the ego-lane detector), or the
+        classifier of the whole-road detector, score(level_image, level, size, x, y) ->
+        int (see reference.fulldet)."""
         self.cfg = cfg or PipelineRefConfig()
+        self.score = score
+        self.horizon_y = None      # the last lanes' vanishing row (whole-road detector)
         self.caps = caps or Capacities()
         self.camera = camera
         self.ego_speed = None      # m/s or None (unknown)
@@ -126,8 +158,10 @@ class Pipeline:
             raise ValueError(f"detect_every must be >= 1, got {self.cfg.detect_every}")
         if self.cfg.road_policy not in (ROAD_AUTO, ROAD_LANES, ROAD_FIXED):
             raise ValueError(f"road_policy: expected 'auto', 'lanes' or 'fixed', got {self.cfg.road_policy!r}")
-        if tuple(self.cfg.sources) not in ((SRC_SHADOW,), ()):
-            raise ValueError(f"sources: only ('shadow',) or () is built, got {self.cfg.sources!r}")
+        if not set(self.cfg.sources) <= {SRC_SHADOW, SRC_CLASSIFIER}:
+            raise ValueError(f"sources: only 'shadow' and 'classifier' are built, got {self.cfg.sources!r}")
+        if SRC_CLASSIFIER in self.cfg.sources and score is None:
+            raise ValueError("sources: 'classifier' needs a classifier (score)")
         self.lane = rlane.LaneDetector(self.cfg.lane, max_height=self.caps.max_height,
                                        max_verts=self.caps.max_verts)
         self.tracker = rtrk.Tracker(self.cfg.tracker, max_tracks=self.caps.max_tracks,
@@ -158,13 +192,21 @@ class Pipeline:
             lanes = self.lane.detect(gray)
             lanes_ok = True
         lane_road = _road_from_lane_frame(lanes) if lanes_ok else None
+        whole = self.score is not None
+        if whole and lanes_ok:
+            vp = self._vanishing_row(lanes)
+            if vp is not None:
+                self.horizon_y = int(min(max(np.floor(vp + 0.5), -self.caps.max_height), self.caps.max_height))
         hyp = np.zeros((0, 3), np.int64)
         boxes = np.zeros((0, 4), np.int64)
         stats = {}
         box_source = SRC_SHADOW
+        scores = None
         if ext:
             boxes = np.asarray(detections, np.int64).reshape(-1, 4)
             box_source = "external"
+        elif det_frame and whole:
+            road, source, hyp, boxes, box_source, scores, stats = self._detect_whole(gray, given)
         elif det_frame:
             if lane_road is not None:
                 road, source = lane_road, "lanes"
@@ -190,12 +232,58 @@ class Pipeline:
             geo = self._geometry(lanes if lanes_ok else None, rows)
         tracks = [(i, s, tuple(int(v) for v in b), vx, vy) + geo.get(i, (None, None, None))
                   for i, s, b, vx, vy in rows]
+        if isinstance(box_source, str):
+            box_source = [box_source] * len(boxes)
         out = RefFrame(self.frame, det_frame, bool(run_lanes), lanes_ok, lanes, source, road,
-                       np.asarray(hyp, np.int64).reshape(-1, 3), boxes, [box_source] * len(boxes),
-                       tracks, stats)
+                       np.asarray(hyp, np.int64).reshape(-1, 3), boxes, box_source,
+                       tracks, stats, [None] * len(boxes) if scores is None else scores)
         self.frame = self.frame + 1 if self.frame < 2**31 - 1 else 0
         return out
 
+
+    @staticmethod
+    def _vanishing_row(lane_frame):
+        left, right = lane_frame.lines[rlane.LEFT], lane_frame.lines[rlane.RIGHT]
+        return rcam.vanishing_row(None if left is None else (left.xb, left.slope),
+                                  None if right is None else (right.xb, right.slope),
+                                  lane_frame.H, lane_frame.shift)
+
+    def _detect_whole(self, gray: np.ndarray, given):
+        """The whole-road detector on a detection frame (c/pipeline.c's
+        vt__detect_whole): road, road source, hypotheses, boxes, their sources and
+        scores, and the detector's counters."""
+        c = self.cfg
+        h, w = gray.shape
+        cam = c.road_camera.for_frame(h, w, self.horizon_y)
+        stats = {"horizon_y": cam.horizon_y}
+        empty = np.zeros((0, 3), np.int64), np.zeros((0, 4), np.int64), [], []
+        if given is not None:
+            if not getattr(given, "valid", True):
+                return (None, "none") + empty + (stats,)
+            road, source = given, "fixed"
+        else:
+            ok, y0, y1, xl, xr, lw = rw.road_from_camera(cam, c.fulldet.win, w, h)
+            if not ok:
+                return (None, "none") + empty + (stats,)
+            road, source = RoadArea(y0, y1, xl, xr, lw, True), "camera"
+        from dataclasses import replace  # noqa: PLC0415
+        fc = replace(c.fulldet, shadow_source=SRC_SHADOW in c.sources,
+                     window_source=SRC_CLASSIFIER in c.sources)
+        arr, st = rfd.detect(gray, road, cam, fc, self.score, max_windows=self.caps.max_windows,
+                             max_cand=self.caps.max_cand, max_boxes=self.caps.max_boxes,
+                             max_hyp=self.caps.max_hypotheses,
+                             max_shadow_active=self.caps.max_shadow_active,
+                             max_shadow_cand=self.caps.max_shadow_cand)
+        stats.update(st)
+        hyp = np.zeros((0, 3), np.int64)
+        if fc.shadow_source:
+            hyp = rshadow.find_hypotheses(gray, road, fc.shadow, max_active=self.caps.max_shadow_active,
+                                          max_cand=self.caps.max_shadow_cand,
+                                          max_out=self.caps.max_hypotheses).hypotheses
+        boxes = arr[:, :4].astype(np.int64).reshape(-1, 4)
+        src = [SRC_CLASSIFIER if int(v) == 2 else SRC_SHADOW for v in arr[:, 5]]
+        return road, source, np.asarray(hyp, np.int64).reshape(-1, 3), boxes, src, \
+            [int(v) for v in arr[:, 4]], stats
 
     def _geometry(self, lane_frame, rows) -> dict:
         """The camera stage after the tracker (c/pipeline.c's vt__geometry): the pitch from
