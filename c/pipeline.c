@@ -131,6 +131,7 @@ vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
     memset(&p->detect, 0, sizeof(p->detect));
     memset(&p->det, 0, sizeof(p->det));
     memset(p->tracks, 0, sizeof(p->tracks));
+    p->n_src = 0;
     s = vt_lane_reset(&p->lane);
     if (s == VT_OK) {
         s = vt_tracker_init(&p->tracker);
@@ -300,6 +301,50 @@ static int32_t vt__q16_milli(vt_q16 v)
     return m > INT32_MAX ? INT32_MAX : (m <= INT32_MIN ? INT32_MIN + 1 : (int32_t)m);
 }
 
+/* Intersection area of two inclusive boxes (0 if disjoint), exact in int64. */
+static int64_t vt__inter(const vt_box *a, const vt_box *b)
+{
+    int64_t w = (int64_t)(a->right < b->right ? a->right : b->right) -
+                (a->left > b->left ? a->left : b->left) + 1;
+    int64_t h = (int64_t)(a->bottom < b->bottom ? a->bottom : b->bottom) -
+                (a->top > b->top ? a->top : b->top) + 1;
+    return (w > 0 && h > 0) ? w * h : 0;
+}
+
+/* The source that started each output track (see vt_pipe_track.source): kept from the
+ * table for known ids, else taken from this frame's boxes; then the table is rewritten
+ * with the live tracks only (after every lookup, so no entry is read once overwritten). */
+static void vt__track_sources(vt_pipeline *p, vt_frame_out *out)
+{
+    int32_t i, k, n_old = p->n_src, src;
+    int64_t best, a;
+    for (i = 0; i < out->n_tracks; ++i) {
+        src = 0;
+        for (k = 0; k < n_old; ++k) {
+            if (p->src_id[k] == out->tracks[i].id) {
+                src = p->src_of[k];
+                break;
+            }
+        }
+        if (k == n_old) {
+            best = 0;
+            for (k = 0; k < out->n_boxes; ++k) {
+                a = vt__inter(&out->tracks[i].box, &out->boxes[k].box);
+                if (a > best) {
+                    best = a;
+                    src = out->boxes[k].source;
+                }
+            }
+        }
+        out->tracks[i].source = src;
+    }
+    for (i = 0; i < out->n_tracks; ++i) {
+        p->src_id[i] = out->tracks[i].id;
+        p->src_of[i] = out->tracks[i].source;
+    }
+    p->n_src = out->n_tracks;
+}
+
 static void vt__out_tracks(const vt_pipeline *p, int32_t n, int32_t n_ranges, vt_frame_out *out)
 {
     int32_t i, k;
@@ -314,6 +359,7 @@ static void vt__out_tracks(const vt_pipeline *p, int32_t n, int32_t n_ranges, vt
         o->distance_mm = VT_UNKNOWN;
         o->ttc_ms = VT_UNKNOWN;
         o->warning = p->camera != NULL ? VT_FCW_NONE : VT_FCW_UNKNOWN;
+        o->source = 0;
         for (k = 0; k < n_ranges; ++k) {
             const vt_range_out *r = &p->ranges[k];
             if (r->id != t->id) {
@@ -553,6 +599,7 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
         }
     }
     vt__out_tracks(p, n_tracks, n_ranges, out);
+    vt__track_sources(p, out);
     return s;
 }
 

@@ -213,11 +213,20 @@ class Detector:
             return None
         over = self._stage_overrides()
         over["road"] = self.road
+        if self.full is not None:
+            # full-road mode: the pipeline's classifier source with this Detector's model
+            over.update(model=self.full.model if self.full.model is not None else "default",
+                        road_camera=self.full.camera, fullroad=self.full.cfg,
+                        sources=tuple({"shadow": "shadow", "windows": "classifier"}[x]
+                                      for x in self.full.sources))
         return over
 
     def fallback_road(self, h: int, w: int):
         """The road the pipeline uses where the lanes give none (road "auto") or always
-        ("fixed"): this Detector's fixed trapezoid for an h x w processed frame."""
+        ("fixed"): this Detector's fixed trapezoid for an h x w processed frame; None in
+        the full-road mode (the pipeline's camera road)."""
+        if self.full is not None:
+            return None
         return self.fixed_road.make(h, w)
 
     # ------------------------------------------------------------------ road

@@ -82,6 +82,8 @@ class Track:
     distance: float | None = None  # filtered distance, m (camera stage); None while unknown
     ttc: float | None = None       # time to collision from it and its rate, s; None if unknown
     warning: bool | None = None    # forward-collision warning; None without a camera
+    source: str | None = None      # the source that started the track ("shadow", "classifier",
+                                   # "external"); None if no box of its first frame met it
 
 
 @dataclass
@@ -389,7 +391,8 @@ class Pipeline:
                         (t.vx / 65536, t.vy / 65536),
                         None if t.distance_mm == lib.VT_UNKNOWN else t.distance_mm / 1000,
                         None if t.ttc_ms == lib.VT_UNKNOWN else t.ttc_ms / 1000,
-                        None if t.warning == lib.VT_FCW_UNKNOWN else bool(t.warning & lib.VT_FCW_WARNING))
+                        None if t.warning == lib.VT_FCW_UNKNOWN else bool(t.warning & lib.VT_FCW_WARNING),
+                        SOURCE_NAMES.get(int(t.source)))
                   for t in (o.tracks[i] for i in range(o.n_tracks))]
         stats = {}
         if o.detection_frame and self.whole_road and detections is None:
@@ -418,8 +421,8 @@ class Pipeline:
             road = _polygon(r.road.x_left, r.road.x_right, r.road.y_top, r.road.y_bottom)
         boxes = [Box(tuple(int(v) for v in b), s, None if sc is None else sc / 65536)
                  for b, s, sc in zip(r.boxes, r.box_source, r.box_score)]
-        tracks = [Track(int(i), STATES[int(s)], b, (float(vx), float(vy)), d, ttc, wn)
-                  for i, s, b, vx, vy, d, ttc, wn in r.tracks]
+        tracks = [Track(int(i), STATES[int(s)], b, (float(vx), float(vy)), d, ttc, wn, src)
+                  for (i, s, b, vx, vy, d, ttc, wn), src in zip(r.tracks, r.track_source)]
         return FrameResult(r.frame, r.detection_frame, lanes, road, r.road_source,
                            np.asarray(r.hypotheses, np.int64).reshape(-1, 3), boxes, tracks, 1.0,
                            dict(r.stats))
@@ -496,7 +499,7 @@ def _rescale(res: FrameResult, sx: float, sy: float, h0: int, w0: int) -> FrameR
     return FrameResult(res.frame, res.detection_frame, res.lanes, road, res.road_source, hyp,
                        [Box(box(b.box), b.source, b.score) for b in res.boxes],
                        [Track(t.id, t.state, box(t.box), (t.velocity[0] * sx, t.velocity[1] * sy),
-                              t.distance, t.ttc, t.warning) for t in res.tracks],
+                              t.distance, t.ttc, t.warning, t.source) for t in res.tracks],
                        float(max(sx, sy)), res.stats)
 
 

@@ -59,6 +59,8 @@ def _compare(ra, rb, exact: bool, where: str):
     if road_equal:
         assert np.array_equal(ra.hypotheses, rb.hypotheses), where
     assert [(t.id, t.state) for t in ra.tracks] == [(t.id, t.state) for t in rb.tracks], where
+    if road_equal:
+        assert [t.source for t in ra.tracks] == [t.source for t in rb.tracks], where
     for a, b in zip(ra.tracks, rb.tracks):
         assert max(abs(x - y) for x, y in zip(a.box, b.box)) <= box_tol, where
         if box_tol == 0:

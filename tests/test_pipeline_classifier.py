@@ -52,7 +52,7 @@ def _compare(ra, rb, where, exact=True):
     assert ra.road_source == rb.road_source, where
     if ra.detection_frame:
         assert ra.stats.get("horizon_y") == rb.stats.get("horizon_y"), where
-    assert [(t.id, t.state) for t in ra.tracks] == [(t.id, t.state) for t in rb.tracks], where
+    assert [(t.id, t.state, t.source) for t in ra.tracks] == [(t.id, t.state, t.source) for t in rb.tracks], where
     if not exact:
         return
     assert np.array_equal(ra.road, rb.road), where
@@ -232,3 +232,21 @@ def test_python_classifier_arguments():
         Pipeline(model=mean_score, fullroad=object())
     with pytest.raises(ValueError, match="model"):
         Pipeline(model=str(DATA / "README.md"))
+
+
+def test_tracker_with_a_model_runs_the_classifier_source():
+    """`track --model` (Tracker with a full-road Detector) is one pipeline step per frame
+    with the classifier source: the same tracks as Pipeline(model=...), and each track
+    says which source started it (before, the Tracker's pipeline ran the ego-lane
+    detector and the model was not used)."""
+    from pyvehtrack.detector import Detector
+    from pyvehtrack.tracker import Tracker
+    frames = _clip()[:8]
+    trk = Tracker(detect_every=2, detector=Detector(model=str(MODEL), sources=("shadow", "windows")))
+    pipe = Pipeline(model=str(MODEL), sources=("shadow", "classifier"), detect_every=2)
+    seen = set()
+    for i, f in enumerate(frames):
+        old, new = trk.step(f), pipe.step(f).tracks
+        assert [(t.id, t.state, t.box, t.source) for t in old] == [(t.id, t.state, t.box, t.source) for t in new], i
+        seen |= {t.source for t in new}
+    assert seen and seen <= {"shadow", "classifier"}

@@ -155,6 +155,9 @@ typedef struct {
     vt_pitch_state pitch;  /* camera stage: pitch from the lanes' vanishing row */
     vt_range_state range;  /* camera stage: per-track range filter and FCW state */
     vt_range_out ranges[VT_MAX_TRACKS];
+    int32_t n_src;                      /* the source that started each live track:   */
+    int32_t src_id[VT_MAX_TRACKS];      /* track ids ...                               */
+    int32_t src_of[VT_MAX_TRACKS];      /* ... and their VT_SRC_* (0: not known)       */
 } vt_pipeline;
 
 /* A detected box and the source that proposed it. score: the source's confidence:
@@ -180,6 +183,10 @@ typedef struct {
     int32_t distance_mm;
     int32_t ttc_ms;
     int32_t warning;
+    int32_t source;  /* VT_SRC_* of the detection that started the track: on the frame
+                        a track first appears, the source of the frame's box with the
+                        largest intersection with its box (the first of equals); 0 if
+                        no box meets it. Kept for the track's life. */
 } vt_pipe_track;
 
 /* One frame's results, all in the pixels of the frame given to vt_pipeline_step. */

@@ -86,6 +86,7 @@ typedef struct {
     int32_t distance_mm;
     int32_t ttc_ms;
     int32_t warning;
+    int32_t source;
 } vt_pipe_track;
 
 typedef struct {

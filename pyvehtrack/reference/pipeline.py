@@ -116,6 +116,7 @@ class RefFrame:
     stats: dict                   # the shadow stage's statistics (detection frames), or the
                                   # whole-road detector's counters and horizon_y
     box_score: list = field(default_factory=list)  # one score per box (None: no confidence)
+    track_source: list = field(default_factory=list)  # per track: the source that started it
 
 
 def _lane_fits(h: int, w: int, cfg: rlane.LaneConfig) -> bool:
@@ -169,6 +170,27 @@ class Pipeline:
                                     max_edge_pixels=self.caps.max_edge_pixels,
                                     coord_lim=self.caps.coord_lim)
         self.frame = 0
+        self.track_src = {}        # id -> the source of the box that started the track
+
+    def _track_sources(self, tracks, boxes, box_source) -> list:
+        """The source that started each track (c/pipeline.c's vt__track_sources): kept
+        for a known id, else the source of this frame's box with the largest
+        intersection with the track's box (the first of equals), None if none meets it."""
+        out = []
+        for t in tracks:
+            if t[0] in self.track_src:
+                out.append(self.track_src[t[0]])
+                continue
+            best, src = 0, None
+            l, tp, r, b = t[2]
+            for bx, s in zip(boxes, box_source):
+                iw = min(r, int(bx[2])) - max(l, int(bx[0])) + 1
+                ih = min(b, int(bx[3])) - max(tp, int(bx[1])) + 1
+                if iw > 0 and ih > 0 and iw * ih > best:
+                    best, src = iw * ih, s
+            out.append(src)
+        self.track_src = {t[0]: s for t, s in zip(tracks, out)}
+        return out
 
     def step(self, gray: np.ndarray, road=None, detections=None) -> RefFrame:
         """One frame. road: a RoadArea (or one with valid False: no road) replacing the
@@ -234,9 +256,10 @@ class Pipeline:
                   for i, s, b, vx, vy in rows]
         if isinstance(box_source, str):
             box_source = [box_source] * len(boxes)
+        tsrc = self._track_sources(tracks, boxes[:self.caps.max_boxes], box_source[:self.caps.max_boxes])
         out = RefFrame(self.frame, det_frame, bool(run_lanes), lanes_ok, lanes, source, road,
                        np.asarray(hyp, np.int64).reshape(-1, 3), boxes, box_source,
-                       tracks, stats, [None] * len(boxes) if scores is None else scores)
+                       tracks, stats, [None] * len(boxes) if scores is None else scores, tsrc)
         self.frame = self.frame + 1 if self.frame < 2**31 - 1 else 0
         return out
 
