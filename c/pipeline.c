@@ -89,6 +89,9 @@ vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg)
     if (s == VT_OK) {
         s = vt__road_camera_check(&cfg->road_camera);
     }
+    if (s == VT_OK) {
+        s = vt_flow_cfg_check(&cfg->flow);
+    }
     return s;
 }
 
@@ -117,6 +120,8 @@ vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
     memset(&p->scorer, 0, sizeof(p->scorer));
     p->horizon_y = 0;
     p->horizon_known = 0;
+    p->flow_st = NULL;
+    memset(&p->flow, 0, sizeof(p->flow));
     p->frame = 0;
     p->ego_speed = -VT_Q16_ONE;
     memset(&p->pitch, 0, sizeof(p->pitch));
@@ -176,6 +181,22 @@ vt_status vt_pipeline_set_cls_ws(vt_pipeline *p, vt_pipe_cls_ws *ws, const vt_wi
     return VT_OK;
 }
 
+vt_status vt_pipeline_set_flow_ws(vt_pipeline *p, vt_flow_state *st)
+{
+    vt_status s = VT_OK;
+    if (p == NULL) {
+        return VT_E_ARG;
+    }
+    if (st != NULL) {
+        s = vt_flow_init(st);
+    }
+    if (s == VT_OK) {
+        p->flow_st = st;
+        memset(&p->flow, 0, sizeof(p->flow));
+    }
+    return s;
+}
+
 vt_status vt_pipeline_set_ego_speed(vt_pipeline *p, vt_q16 speed)
 {
     if (p == NULL) {
@@ -210,6 +231,8 @@ vt_status vt_pipeline_work_size(int32_t w, int32_t h, int32_t max_w, int32_t max
     }
     return VT_OK;
 }
+
+static int64_t vt__inter(const vt_box *a, const vt_box *b);
 
 /* floor(n / d) for d > 0 (n may be negative). */
 static int64_t vt__floor_div64(int64_t n, int64_t d)
@@ -471,6 +494,50 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
     return VT_OK;
 }
 
+/* The overtaking stage on this frame (every frame: it compares consecutive ones); a
+ * frame of another size restarts it. Its boxes are appended to out->boxes and
+ * p->det.box from index n (while VT_MAX_BOXES allows; all counted in *n_in).
+ * *fresh = 1 if one of them meets no track of the previous step. */
+static vt_status vt__flow(vt_pipeline *p, const vt_image_u8 *frame, vt_frame_out *out, int32_t n,
+                          int32_t *n_in, int32_t *fresh)
+{
+    int32_t i, k;
+    vt_status s = vt_flow_step(p->flow_st, &p->cfg.flow, frame, &p->flow);
+    *fresh = 0;
+    if (s == VT_E_SIZE) {
+        s = vt_flow_reset(p->flow_st);
+        if (s == VT_OK) {
+            s = vt_flow_step(p->flow_st, &p->cfg.flow, frame, &p->flow);
+        }
+    }
+    if (s != VT_OK) {
+        p->flow.n = 0;
+        return s;
+    }
+    out->flow_ready = p->flow.ready;
+    for (i = 0; i < p->flow.n; ++i) {
+        const vt_box *b = &p->flow.hyp[i].box;
+        for (k = 0; k < p->n_src; ++k) {
+            if (vt__inter(b, &p->tracks[k].box) > 0) {
+                break;
+            }
+        }
+        if (k == p->n_src) {
+            *fresh = 1;
+        }
+        if (n < VT_MAX_BOXES) {
+            p->det.box[n] = *b;
+            out->boxes[n].box = *b;
+            out->boxes[n].source = VT_SRC_FLOW;
+            out->boxes[n].score = p->flow.hyp[i].cells;
+            ++n;
+        }
+    }
+    out->n_boxes = n;
+    *n_in += p->flow.n;
+    return VT_OK;
+}
+
 /* The step behind the three entry points. road: the caller's fallback road (or
  * NULL); dets/n_dets: the caller's detections when ext is 1. */
 static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_road_area *road,
@@ -478,7 +545,7 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
 {
     vt_status s;
     int32_t det_frame, run_lanes, lanes_ok = 0, n_boxes = 0, n_tracks = 0, n_ranges = 0, i;
-    int32_t whole, vp_valid = 0;
+    int32_t whole, vp_valid = 0, n_in, fresh = 0, trk_det;
     vt_q16 vp_row = 0;
     const vt_box *boxes = p->det.box;
     if (frame->px == NULL) {
@@ -508,6 +575,9 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
     if (!whole && (p->model != NULL || (p->cfg.sources & VT_SRC_CLASSIFIER) != 0)) {
         return VT_E_ARG;
     }
+    if ((p->cfg.sources & VT_SRC_FLOW) != 0 && p->flow_st == NULL) {
+        return VT_E_ARG;
+    }
     det_frame = ext || (p->cfg.sources != 0 && (p->frame % p->cfg.detect_every) == 0);
     run_lanes = !ext && p->cfg.road_policy != VT_ROAD_FIXED &&
                 ((det_frame && p->cfg.sources != 0) || p->cfg.lanes_every_frame);
@@ -522,6 +592,7 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
     out->n_hyp = 0;
     out->n_boxes = 0;
     out->n_boxes_in = 0;
+    out->flow_ready = 0;
     out->n_tracks = 0;
     memset(&out->lanes, 0, sizeof(out->lanes));
 
@@ -582,9 +653,32 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
         out->road.valid = 0;
     }
     out->n_boxes_in = n_boxes;
+    trk_det = det_frame;
+    if ((p->cfg.sources & VT_SRC_FLOW) != 0) {
+        /* On a frame with the caller's boxes, the flow boxes go after the copied ones. */
+        n_in = n_boxes;
+        if (ext) {
+            boxes = p->det.box;
+            for (i = 0; i < out->n_boxes; ++i) {
+                p->det.box[i] = dets[i];
+            }
+        }
+        s = vt__flow(p, frame, out, out->n_boxes, &n_in, &fresh);
+        if (s != VT_OK) {
+            p->frame = vt__next_frame(p->frame);
+            return s;
+        }
+        out->n_boxes_in = n_in;
+        n_boxes = out->n_boxes;
+        if (!det_frame && fresh) {
+            trk_det = 1; /* an overtaking vehicle no track covers: hand it over now */
+        } else if (!det_frame) {
+            n_boxes = 0;
+        }
+    }
     s = VT_OK;
     if (p->cfg.track) {
-        s = vt_tracker_step(&p->tracker, &p->cfg.tracker, frame, det_frame, boxes, n_boxes,
+        s = vt_tracker_step(&p->tracker, &p->cfg.tracker, frame, trk_det, boxes, n_boxes,
                             p->tracks, VT_MAX_TRACKS, &n_tracks);
     }
     p->frame = vt__next_frame(p->frame);

@@ -98,6 +98,7 @@ class FrameResult:
     tracks: list                   # [Track]
     scale: float = 1.0             # input pixels per processed pixel (max of x, y)
     stats: dict = field(default_factory=dict)  # shadow stage statistics (detection frames)
+    flow_ready: bool = False       # the overtaking stage compared two frames (sources "flow")
 
     @property
     def box_array(self) -> np.ndarray:
@@ -130,7 +131,7 @@ class Pipeline:
     def __init__(self, engine: str = "c", camera=None, model=None,
                  cfg: PipelineConfig | None = None, *, fps: float | None = None,
                  ego_speed: float | None = None, reference_quantized: bool = True,
-                 road_camera=None, fullroad=None, **config):
+                 road_camera=None, fullroad=None, flow=None, **config):
         if engine not in ENGINES:
             raise ValueError(f"engine: expected one of {ENGINES}, got {engine!r}")
         if camera is not None:
@@ -152,6 +153,7 @@ class Pipeline:
         self.cfg = _config.from_kwargs(cfg, **config)
         self._ccfg = _config.to_c(self.cfg)  # checks the whole config once, for both engines
         self._setup_classifier(model, road_camera, fullroad)
+        self._setup_flow(flow)
         self.max_w, self.max_h = int(lib.VT_MAX_WIDTH), int(lib.VT_MAX_HEIGHT)
         self._warned = False
         self.reset()
@@ -199,6 +201,22 @@ class Pipeline:
             self._cscorer = _callback_scorer(self._score_fn)
         elif isinstance(_m, _fr.MlpModel):
             self._cscorer = _fr.c_scorer(_m)
+
+    def _setup_flow(self, flow) -> None:
+        """The overtaking stage's settings (sources "flow"): a dict of vt_flow_cfg fields
+        replacing the core's defaults (pyvehtrack.flow.make_cfg checks them)."""
+        self._flow_st = None
+        if "flow" not in self.cfg.sources:
+            if flow is not None:
+                raise ValueError("flow: the overtaking stage's settings need sources including 'flow'")
+            return
+        if flow is not None and not isinstance(flow, dict):
+            raise TypeError(f"flow: expected a dict of vt_flow_cfg fields, got {type(flow).__name__}")
+        from . import flow as _flow  # noqa: PLC0415
+        fc = _flow.make_cfg(**(flow or {}))
+        self._ccfg.flow = fc[0]
+        self._flow_fields = {f: int(getattr(fc, f)) for f in _flow.CFG_FIELDS}
+        _native.pipeline_cfg_check(self._ccfg)
 
     def _ref_score(self):
         """The classifier for the reference engine: the callable, else the C classifier
@@ -276,6 +294,12 @@ class Pipeline:
                     self._cls_ws = ffi.new("vt_pipe_cls_ws *")
                 sc = self._cscorer[0] if self._cscorer is not None else ffi.NULL
                 _native.check("vt_pipeline_set_cls_ws", lib.vt_pipeline_set_cls_ws(self._p, self._cls_ws, sc))
+            if "flow" in self.cfg.sources:
+                # the overtaking stage's state (sizeof(vt_flow_state), ~1.9 MB at the default
+                # capacities): one per Pipeline, emptied by every attach
+                if self._flow_st is None:
+                    self._flow_st = ffi.new("vt_flow_state *")
+                _native.check("vt_pipeline_set_flow_ws", lib.vt_pipeline_set_flow_ws(self._p, self._flow_st))
             # The edge-curve measurement's workspace (sizeof(vt_edge_ws), 320 KB at the
             # default VT_EDGE_MAX_PIXELS) exists only when that measurement runs; it is
             # scratch, so one per Pipeline serves every run (init detaches it).
@@ -291,6 +315,10 @@ class Pipeline:
             geom = (self._cam_params, self._range_params) if self._geom is not None else None
             rcfg = _config.to_reference(self.cfg, self._ref_quantized)
             score = None
+            if "flow" in self.cfg.sources:
+                import dataclasses  # noqa: PLC0415
+                from types import SimpleNamespace  # noqa: PLC0415
+                rcfg = dataclasses.replace(rcfg, flow=SimpleNamespace(**self._flow_fields))
             if self.whole_road:
                 rcfg = _whole_road_reference(rcfg, self._ccfg)
                 score = self._ref_score()
@@ -405,7 +433,8 @@ class Pipeline:
             stats = {"median": int(s.median), "mad": int(s.mad), "dark_limit": int(s.dark_limit),
                      "n_runs": int(s.n_runs), "n_dropped": int(s.n_dropped)}
         return FrameResult(int(o.frame), bool(o.detection_frame), lanes, road,
-                           ROAD_SOURCES[int(o.road_source)], hyp, boxes, tracks, 1.0, stats)
+                           ROAD_SOURCES[int(o.road_source)], hyp, boxes, tracks, 1.0, stats,
+                           bool(o.flow_ready))
 
     def _horizon_c(self, shape) -> int:
         """The horizon row the C whole-road detector used on this frame."""
@@ -425,7 +454,7 @@ class Pipeline:
                   for (i, s, b, vx, vy, d, ttc, wn), src in zip(r.tracks, r.track_source)]
         return FrameResult(r.frame, r.detection_frame, lanes, road, r.road_source,
                            np.asarray(r.hypotheses, np.int64).reshape(-1, 3), boxes, tracks, 1.0,
-                           dict(r.stats))
+                           dict(r.stats), bool(getattr(r, "flow_ready", False)))
 
 
 def replace_sources(det, srcs):
@@ -500,7 +529,7 @@ def _rescale(res: FrameResult, sx: float, sy: float, h0: int, w0: int) -> FrameR
                        [Box(box(b.box), b.source, b.score) for b in res.boxes],
                        [Track(t.id, t.state, box(t.box), (t.velocity[0] * sx, t.velocity[1] * sy),
                               t.distance, t.ttc, t.warning, t.source) for t in res.tracks],
-                       float(max(sx, sy)), res.stats)
+                       float(max(sx, sy)), res.stats, res.flow_ready)
 
 
 __all__ = ["Pipeline", "FrameResult", "Box", "Track", "PipelineConfig", "NO_ROAD"]

@@ -23,6 +23,7 @@
 #include "vehtrack/classify.h"
 #include "vehtrack/config.h"
 #include "vehtrack/detect.h"
+#include "vehtrack/flow.h"
 #include "vehtrack/fulldet.h"
 #include "vehtrack/image.h"
 #include "vehtrack/lane.h"
@@ -39,10 +40,11 @@
  * VT_SRC_CLASSIFIER its sliding windows. */
 #define VT_SRC_SHADOW 1     /* shadow rows + vertical-edge verification (sec. 2.4.2) */
 #define VT_SRC_CLASSIFIER 2 /* classifier windows over the whole road (needs a classifier) */
-#define VT_SRC_FLOW 4       /* overtaking vehicles from lateral SAD flow */
+#define VT_SRC_FLOW 4       /* overtaking vehicles from lateral SAD flow (every frame; needs
+                               its state attached: vt_pipeline_set_flow_ws)               */
 #define VT_SRC_MODEL 8      /* the 7-parameter vehicle model fitted by a GA */
 #define VT_SRC_EXTERNAL 16  /* the caller's detections (vt_pipeline_step_dets); not a policy bit */
-#define VT_SRC_BUILT (VT_SRC_SHADOW | VT_SRC_CLASSIFIER)
+#define VT_SRC_BUILT (VT_SRC_SHADOW | VT_SRC_CLASSIFIER | VT_SRC_FLOW)
 
 /* Where the road area of a frame came from (vt_frame_out.road_source) and which
  * the pipeline may use (vt_pipeline_cfg.road_policy). */
@@ -115,13 +117,14 @@ typedef struct {
     vt_fulldet_cfg fulldet;  /* the whole-road detector (with a classifier); its own
                                 `sources` field is ignored: the pipeline's bits decide */
     vt_road_camera road_camera; /* its camera (with a classifier)                        */
+    vt_flow_cfg flow;        /* the overtaking stage (VT_SRC_FLOW)                       */
 } vt_pipeline_cfg;
 
 #define VT_PIPELINE_CFG_DEFAULT                                                            \
     {                                                                                      \
         VT_LANE_CFG_DEFAULT, VT_DETECT_CFG_DEFAULT, VT_TRACKER_CFG_DEFAULT,                \
             VT_RANGE_CFG_DEFAULT, VT_FIXED_ROAD_DEFAULT, 10, VT_ROAD_AUTO, 0, VT_SRC_SHADOW, 1, \
-            VT_FULLDET_CFG_DEFAULT, VT_ROAD_CAMERA_DEFAULT                                 \
+            VT_FULLDET_CFG_DEFAULT, VT_ROAD_CAMERA_DEFAULT, VT_FLOW_CFG_DEFAULT            \
     }
 
 /* The whole-road detector's scratch, owned by the caller and attached with
@@ -145,6 +148,8 @@ typedef struct {
     vt_window_scorer scorer;     /* its classifier (score NULL: none)                     */
     int32_t horizon_y;           /* the last lanes' vanishing row, input px               */
     int32_t horizon_known;       /* 1 once the lanes gave one (this run)                  */
+    vt_flow_state *flow_st;      /* the overtaking stage's state (NULL: none attached)    */
+    vt_flow_result flow;         /* its last result                                       */
     int32_t frame;    /* frames stepped so far */
     vt_q16 ego_speed; /* m/s, negative = unknown (vt_pipeline_set_ego_speed) */
     vt_lane_state lane;
@@ -201,9 +206,13 @@ typedef struct {
     int32_t n_hyp;           /* shadow hypotheses (nearest first; of the whole-road
                                 detector's shadow source when a classifier runs)     */
     vt_hypothesis hyp[VT_MAX_HYPOTHESES];
-    int32_t n_boxes;         /* boxes handed to the tracker (the first VT_MAX_BOXES)  */
+    int32_t n_boxes;         /* boxes handed to the tracker (the first VT_MAX_BOXES);
+                                the flow boxes are listed on every frame, handed over
+                                as vt_pipeline_set_flow_ws says                      */
     int32_t n_boxes_in;      /* all of them: more than n_boxes only when the caller's
-                                detections (vt_pipeline_step_dets) exceed VT_MAX_BOXES */
+                                detections (vt_pipeline_step_dets) exceed VT_MAX_BOXES,
+                                or the flow boxes did not fit (not handed over)      */
+    int32_t flow_ready;      /* the overtaking stage compared two frames (VT_SRC_FLOW) */
     vt_pipe_box boxes[VT_MAX_BOXES];
     int32_t n_tracks;        /* live tracks                                          */
     vt_pipe_track tracks[VT_MAX_TRACKS];
@@ -251,6 +260,22 @@ vt_status vt_pipeline_set_cls_ws(vt_pipeline *p, vt_pipe_cls_ws *ws, const vt_wi
  * (nothing changes); vt_pipeline_init itself accepts that configuration, since the
  * workspace can only be attached after it. VT_E_ARG for p NULL. */
 vt_status vt_pipeline_set_edge_ws(vt_pipeline *p, vt_edge_ws *ws);
+
+/* Attach the caller's state of the overtaking stage (vehtrack/flow.h; ~1.9 MB at the
+ * default capacities, which is why it is not in vt_pipeline: a firmware build sizes it
+ * with VT_MAX_WIDTH/HEIGHT or VT_FLOW_MAX_PIXELS/CELLS). It is emptied here
+ * (vt_flow_init) and then holds the previous frame: it must outlive the run and serve
+ * one pipeline only. Call after vt_pipeline_init (which detaches it); st NULL detaches.
+ * With VT_SRC_FLOW on and no state attached every step is VT_E_ARG. VT_E_ARG for p NULL.
+ *
+ * Policy (vt_pipeline_step): the stage runs on every frame (it compares consecutive
+ * frames; a frame of another size restarts it). Its hypotheses (overtaking blobs) are
+ * boxes of source VT_SRC_FLOW, score = the blob's cells, after the detector's boxes
+ * (while VT_MAX_BOXES allows). They reach the tracker on detection frames, and on any
+ * other frame where one of them meets no live track (an overtaking vehicle cannot wait
+ * for the next detection frame): that frame is then a detection frame for the tracker
+ * with the flow boxes alone (out->detection_frame still says whether the detector ran). */
+vt_status vt_pipeline_set_flow_ws(vt_pipeline *p, vt_flow_state *st);
 
 /* The ego vehicle's speed for the next steps (the camera stage's lead class), Q16
  * m/s; negative = unknown. VT_E_ARG for NULL. */

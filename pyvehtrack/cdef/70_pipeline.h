@@ -45,6 +45,7 @@ typedef struct {
     int32_t track;
     vt_fulldet_cfg fulldet;
     vt_road_camera road_camera;
+    vt_flow_cfg flow;
 } vt_pipeline_cfg;
 
 typedef struct {
@@ -60,6 +61,8 @@ typedef struct {
     vt_window_scorer scorer;
     int32_t horizon_y;
     int32_t horizon_known;
+    vt_flow_state *flow_st;
+    vt_flow_result flow;
     int32_t frame;
     vt_q16 ego_speed;
     vt_lane_state lane;
@@ -101,6 +104,7 @@ typedef struct {
     vt_hypothesis hyp[...];
     int32_t n_boxes;
     int32_t n_boxes_in;
+    int32_t flow_ready;
     vt_pipe_box boxes[...];
     int32_t n_tracks;
     vt_pipe_track tracks[...];
@@ -112,6 +116,7 @@ vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
                            const vt_camera_cfg *camera, const vt_svm_model *model);
 vt_status vt_pipeline_set_cls_ws(vt_pipeline *p, vt_pipe_cls_ws *ws, const vt_window_scorer *scorer);
 vt_status vt_pipeline_set_edge_ws(vt_pipeline *p, vt_edge_ws *ws);
+vt_status vt_pipeline_set_flow_ws(vt_pipeline *p, vt_flow_state *st);
 vt_status vt_pipeline_set_ego_speed(vt_pipeline *p, vt_q16 speed);
 vt_status vt_pipeline_step(vt_pipeline *p, const vt_image_u8 *frame, vt_frame_out *out);
 vt_status vt_pipeline_step_road(vt_pipeline *p, const vt_image_u8 *frame,

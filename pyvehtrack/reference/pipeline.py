@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import camera as rcam
+from . import flow as rflow
 from . import fulldet as rfd
 from . import lane as rlane
 from . import shadow as rshadow
@@ -35,6 +36,7 @@ from .verify import VerifyConfig
 ROAD_AUTO, ROAD_LANES, ROAD_FIXED = "auto", "lanes", "fixed"
 SRC_SHADOW = "shadow"
 SRC_CLASSIFIER = "classifier"
+SRC_FLOW = "flow"
 
 
 @dataclass
@@ -81,6 +83,9 @@ class Capacities:
     max_edge_pixels: int = 65536    # VT_EDGE_MAX_PIXELS
     max_windows: int = 4096         # VT_FULLDET_MAX_WINDOWS
     max_cand: int = 1024            # VT_FULLDET_MAX_CAND
+    max_flow_hyps: int = 16         # VT_FLOW_MAX_HYPS
+    max_flow_seeds: int = 4         # VT_FLOW_MAX_SEEDS
+    max_flow_blobs: int = 32        # VT_FLOW_MAX_BLOBS
     coord_lim: int = 7680           # 4 * max(VT_MAX_WIDTH, VT_MAX_HEIGHT): the tracker's box limit
 
 
@@ -98,6 +103,7 @@ class PipelineRefConfig:
     track: bool = True
     fulldet: rfd.FullDetConfig = field(default_factory=rfd.FullDetConfig)  # its sources: ours
     road_camera: RoadCameraRef = field(default_factory=RoadCameraRef)
+    flow: object = None   # the overtaking stage's settings (the fields of vt_flow_cfg), with "flow"
 
 
 @dataclass
@@ -159,8 +165,15 @@ class Pipeline:
             raise ValueError(f"detect_every must be >= 1, got {self.cfg.detect_every}")
         if self.cfg.road_policy not in (ROAD_AUTO, ROAD_LANES, ROAD_FIXED):
             raise ValueError(f"road_policy: expected 'auto', 'lanes' or 'fixed', got {self.cfg.road_policy!r}")
-        if not set(self.cfg.sources) <= {SRC_SHADOW, SRC_CLASSIFIER}:
-            raise ValueError(f"sources: only 'shadow' and 'classifier' are built, got {self.cfg.sources!r}")
+        if not set(self.cfg.sources) <= {SRC_SHADOW, SRC_CLASSIFIER, SRC_FLOW}:
+            raise ValueError(f"sources: only 'shadow', 'classifier' and 'flow' are built, got {self.cfg.sources!r}")
+        self.flow = None
+        if SRC_FLOW in self.cfg.sources:
+            if self.cfg.flow is None:
+                raise ValueError("sources: 'flow' needs cfg.flow (the vt_flow_cfg fields)")
+            self.flow = rflow.FlowOracle(self.cfg.flow, self.caps.max_flow_hyps, self.caps.max_flow_seeds,
+                                         self.caps.max_flow_blobs)
+        self.last_boxes = []       # the previous step's track boxes (the flow hand-over rule)
         if SRC_CLASSIFIER in self.cfg.sources and score is None:
             raise ValueError("sources: 'classifier' needs a classifier (score)")
         self.lane = rlane.LaneDetector(self.cfg.lane, max_height=self.caps.max_height,
@@ -248,7 +261,23 @@ class Pipeline:
                 boxes = rverify.verify(gray, hyp, c.verify, max_out=self.caps.max_boxes)
         elif lane_road is not None:
             road, source = lane_road, "lanes"
-        rows = self.tracker.step(gray, det_frame, boxes) if c.track else []
+        trk_det, trk_boxes = det_frame, boxes
+        flow_ready = False
+        if self.flow is not None:
+            flow_ready, fboxes, fcells, fresh = self._flow(gray)
+            box_source = [box_source] * len(boxes) if isinstance(box_source, str) else list(box_source)
+            scores = [None] * len(boxes) if scores is None else list(scores)
+            room = max(0, self.caps.max_boxes - min(len(boxes), self.caps.max_boxes))
+            boxes = np.concatenate([boxes[:self.caps.max_boxes] if ext else boxes,
+                                    np.asarray(fboxes[:room], np.int64).reshape(-1, 4)])
+            box_source += [SRC_FLOW] * len(fboxes[:room])
+            scores += fcells[:room]
+            trk_boxes = boxes
+            if not det_frame:
+                trk_det = fresh
+                if not fresh:
+                    trk_boxes = np.zeros((0, 4), np.int64)
+        rows = self.tracker.step(gray, trk_det, trk_boxes) if c.track else []
         geo = {}
         if self.camera is not None and c.track:
             geo = self._geometry(lanes if lanes_ok else None, rows)
@@ -260,9 +289,27 @@ class Pipeline:
         out = RefFrame(self.frame, det_frame, bool(run_lanes), lanes_ok, lanes, source, road,
                        np.asarray(hyp, np.int64).reshape(-1, 3), boxes, box_source,
                        tracks, stats, [None] * len(boxes) if scores is None else scores, tsrc)
+        out.flow_ready = flow_ready
+        self.last_boxes = [t[2] for t in tracks]
         self.frame = self.frame + 1 if self.frame < 2**31 - 1 else 0
         return out
 
+
+    def _flow(self, gray):
+        """The overtaking stage on this frame (c/pipeline.c's vt__flow): (ready, boxes,
+        their cells, whether one of them meets no track of the previous step). A frame
+        of another size restarts the stage."""
+        try:
+            ready, hyps = self.flow.step(gray)
+        except ValueError:
+            self.flow.reset()
+            ready, hyps = self.flow.step(gray)
+        boxes = [tuple(int(v) for v in h.box) for h in hyps]
+
+        def meets(a, b):
+            return min(a[2], b[2]) >= max(a[0], b[0]) and min(a[3], b[3]) >= max(a[1], b[1])
+        fresh = any(not any(meets(b, t) for t in self.last_boxes) for b in boxes)
+        return ready, boxes, [int(h.cells) for h in hyps], fresh
 
     @staticmethod
     def _vanishing_row(lane_frame):
