@@ -605,6 +605,7 @@ static void run_pipeline(int32_t full)
         g_pipe_cfg.sources = VT_SRC_SHADOW | VT_SRC_CLASSIFIER | VT_SRC_FLOW;
         g_pipe_cfg.detect_every = 1;
         g_pipe_cfg.flow.sides = VT_FLOW_SIDE_BOTH;
+        g_pipe_cfg.flow.min_age = 1; /* report from frame 1: the clip has three frames */
         h = fnv_status(h, vt_svm_default_model(VT_DESC_HOG, &model));
     }
     h = fnv_status(h, vt_pipeline_init(&g_pipe, &g_pipe_cfg, &g_cam, model));

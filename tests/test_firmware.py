@@ -299,6 +299,7 @@ def host_pipeline_run(frames: list[np.ndarray], full: bool) -> tuple[list[str], 
         cfg.sources = lib.VT_SRC_SHADOW | lib.VT_SRC_CLASSIFIER | lib.VT_SRC_FLOW
         cfg.detect_every = 1
         cfg.flow.sides = lib.VT_FLOW_SIDE_BOTH
+        cfg.flow.min_age = 1
         total = fnv_s32(total, lib.vt_svm_default_model(lib.VT_DESC_HOG, model))
     total = fnv_s32(total, lib.vt_pipeline_init(p, cfg, cam, model[0] if full else ffi.NULL))
     keep = []
@@ -486,7 +487,7 @@ def test_full_run_exercises_every_source(pipeline):
         road = next(ln for ln in lines if ln.startswith(f"road {f} ")).split()
         assert road[6] == str(int(lib.VT_ROAD_SRC_CAMERA)), (f, road)
     srcs = {int(ln.split()[6]) for ln in lines if ln.startswith("box ")}
-    assert int(lib.VT_SRC_CLASSIFIER) in srcs, lines
+    assert {int(lib.VT_SRC_CLASSIFIER), int(lib.VT_SRC_FLOW)} <= srcs, lines
     tsrc = {int(ln.split()[-1]) for ln in lines if ln.startswith("track ")}
     assert tsrc and tsrc <= {int(lib.VT_SRC_SHADOW), int(lib.VT_SRC_CLASSIFIER), int(lib.VT_SRC_FLOW)}, lines
 
