@@ -607,6 +607,16 @@ static void run_pipeline(int32_t full)
         g_pipe_cfg.flow.sides = VT_FLOW_SIDE_BOTH;
         g_pipe_cfg.flow.min_age = 1; /* report from frame 1: the clip has three frames */
         h = fnv_status(h, vt_svm_default_model(VT_DESC_HOG, &model));
+        if (model != NULL) {
+            /* Windows of the model's own size a cell apart, as pyvehtrack's
+             * Pipeline(model=...) lays them (scored from the prepared HOG band;
+             * other sizes would be resampled window by window, ~10x the work). */
+            g_pipe_cfg.fulldet.win.n_sizes = 1;
+            g_pipe_cfg.fulldet.win.size[0] = model->win_w;
+            g_pipe_cfg.fulldet.win.step_q8 = 8 * 256 / model->win_w;
+            g_pipe_cfg.fulldet.window_score_min = model->threshold_q16;
+            g_pipe_cfg.fulldet.shadow_score_min = model->threshold_q16;
+        }
     }
     h = fnv_status(h, vt_pipeline_init(&g_pipe, &g_pipe_cfg, &g_cam, model));
     if (full) {

@@ -301,6 +301,11 @@ def host_pipeline_run(frames: list[np.ndarray], full: bool) -> tuple[list[str], 
         cfg.flow.sides = lib.VT_FLOW_SIDE_BOTH
         cfg.flow.min_age = 1
         total = fnv_s32(total, lib.vt_svm_default_model(lib.VT_DESC_HOG, model))
+        m = model[0]
+        cfg.fulldet.win.n_sizes = 1
+        cfg.fulldet.win.size[0] = m.win_w
+        cfg.fulldet.win.step_q8 = 8 * 256 // m.win_w
+        cfg.fulldet.window_score_min = cfg.fulldet.shadow_score_min = m.threshold_q16
     total = fnv_s32(total, lib.vt_pipeline_init(p, cfg, cam, model[0] if full else ffi.NULL))
     keep = []
     if full:
