@@ -92,6 +92,13 @@ vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg)
     if (s == VT_OK) {
         s = vt_flow_cfg_check(&cfg->flow);
     }
+    if (s == VT_OK) {
+        s = vt_model_cfg_check(&cfg->model);
+    }
+    if (s == VT_OK && (cfg->model_fits < 0 || cfg->model_fits > VT_MAX_TRACKS ||
+                       cfg->model_min_fitness < 0)) {
+        s = VT_E_ARG;
+    }
     return s;
 }
 
@@ -122,6 +129,7 @@ vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
     p->horizon_known = 0;
     p->flow_st = NULL;
     memset(&p->flow, 0, sizeof(p->flow));
+    p->model_ws = NULL;
     p->frame = 0;
     p->ego_speed = -VT_Q16_ONE;
     memset(&p->pitch, 0, sizeof(p->pitch));
@@ -195,6 +203,15 @@ vt_status vt_pipeline_set_flow_ws(vt_pipeline *p, vt_flow_state *st)
         memset(&p->flow, 0, sizeof(p->flow));
     }
     return s;
+}
+
+vt_status vt_pipeline_set_model_ws(vt_pipeline *p, vt_model_ws *ws)
+{
+    if (p == NULL) {
+        return VT_E_ARG;
+    }
+    p->model_ws = ws;
+    return VT_OK;
 }
 
 vt_status vt_pipeline_set_ego_speed(vt_pipeline *p, vt_q16 speed)
@@ -538,6 +555,91 @@ static vt_status vt__flow(vt_pipeline *p, const vt_image_u8 *frame, vt_frame_out
     return VT_OK;
 }
 
+/* IoU(a, b) >= pct / 100, exact in int64. */
+static int32_t vt__iou_at_least(const vt_box *a, const vt_box *b, int32_t pct)
+{
+    int64_t in = vt__inter(a, b);
+    int64_t ua = ((int64_t)a->right - a->left + 1) * ((int64_t)a->bottom - a->top + 1);
+    int64_t ub = ((int64_t)b->right - b->left + 1) * ((int64_t)b->bottom - b->top + 1);
+    return in * 100 >= (int64_t)pct * (ua + ub - in);
+}
+
+/* The vehicle model for the tracks the previous step left coasting (see
+ * vt_pipeline_set_model_ws): their refined boxes appended at out->boxes[n..]
+ * (while VT_MAX_BOXES allows; all counted in *n_in), *n_model of them. */
+static void vt__model(vt_pipeline *p, const vt_image_u8 *frame, vt_frame_out *out, int32_t n,
+                      int32_t *n_in, int32_t *n_model)
+{
+    const vt_model_cfg *mc0 = &p->cfg.model;
+    vt_model_cfg mc;
+    vt_model_search se;
+    vt_model_result res;
+    int32_t k, fits = 0, w, h, horizon;
+    int64_t wpr;
+    *n_model = 0;
+    horizon = p->horizon_known ? p->horizon_y
+                               : vt__frac_q16(frame->h, p->cfg.road_camera.horizon_q16);
+    for (k = 0; k < p->n_src && fits < p->cfg.model_fits; ++k) {
+        const vt_box *b = &p->tracks[k].box;
+        if (p->tracks[k].state != VT_TRACK_COASTING) {
+            continue;
+        }
+        w = b->right - b->left + 1;
+        h = b->bottom - b->top + 1;
+        if (b->bottom <= horizon || w < 1 || h < 1) {
+            continue;
+        }
+        se.roi.left = vt__clamp_i32(b->left - w / 2, 0, frame->w - 1);
+        se.roi.top = vt__clamp_i32(b->top - h / 2, 0, frame->h - 1);
+        se.roi.right = vt__clamp_i32(b->right + w / 2, 0, frame->w - 1);
+        se.roi.bottom = vt__clamp_i32(b->bottom + h / 2, 0, frame->h - 1);
+        if ((int64_t)(se.roi.right - se.roi.left + 1) * (se.roi.bottom - se.roi.top + 1) >
+            VT_MODEL_MAX_ROI_PIXELS) {
+            continue;
+        }
+        wpr = (int64_t)w * 65536 / (b->bottom - horizon);
+        if (wpr < 1 || wpr > INT32_MAX) {
+            continue;
+        }
+        mc = *mc0;
+        mc.horizon_row = horizon;
+        mc.width_per_row = (vt_q16)wpr;
+        se.y_min = b->bottom - h / 4;
+        se.y_max = b->bottom + h / 4;
+        se.tracking = 1;
+        se.pred.x = b->left + w / 2;
+        se.pred.y = b->bottom;
+        se.pred.w = w;
+        se.pred.h = h;
+        se.pred.wind = (mc.wind_min + mc.wind_max) / 2;
+        se.pred.bump = (mc.bump_min + mc.bump_max) / 2;
+        se.pred.roof = mc.roof_max / 2;
+        se.sigma.x = w / 8;
+        se.sigma.y = h / 8;
+        se.sigma.w = w / 8;
+        se.sigma.h = h / 8;
+        se.sigma.wind = 5;
+        se.sigma.bump = 5;
+        se.sigma.roof = 5;
+        ++fits; /* the bound counts attempts: a failed fit cost its GA too */
+        if (vt_model_fit(frame, &mc, &se, p->model_ws, &res) != VT_OK ||
+            res.fitness < p->cfg.model_min_fitness ||
+            !vt__iou_at_least(&res.box, b, p->cfg.tracker.match_iou_percent)) {
+            continue;
+        }
+        ++*n_in;
+        ++*n_model;
+        if (n < VT_MAX_BOXES) {
+            p->det.box[n] = res.box;
+            out->boxes[n].box = res.box;
+            out->boxes[n].source = VT_SRC_MODEL;
+            out->boxes[n].score = res.fitness;
+            ++n;
+        }
+    }
+    out->n_boxes = n;
+}
+
 /* The step behind the three entry points. road: the caller's fallback road (or
  * NULL); dets/n_dets: the caller's detections when ext is 1. */
 static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_road_area *road,
@@ -545,7 +647,7 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
 {
     vt_status s;
     int32_t det_frame, run_lanes, lanes_ok = 0, n_boxes = 0, n_tracks = 0, n_ranges = 0, i;
-    int32_t whole, vp_valid = 0, n_in, fresh = 0, trk_det;
+    int32_t whole, vp_valid = 0, n_in, fresh = 0, trk_det, n_model = 0;
     vt_q16 vp_row = 0;
     const vt_box *boxes = p->det.box;
     if (frame->px == NULL) {
@@ -575,7 +677,8 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
     if (!whole && (p->model != NULL || (p->cfg.sources & VT_SRC_CLASSIFIER) != 0)) {
         return VT_E_ARG;
     }
-    if ((p->cfg.sources & VT_SRC_FLOW) != 0 && p->flow_st == NULL) {
+    if (((p->cfg.sources & VT_SRC_FLOW) != 0 && p->flow_st == NULL) ||
+        ((p->cfg.sources & VT_SRC_MODEL) != 0 && p->model_ws == NULL)) {
         return VT_E_ARG;
     }
     det_frame = ext || (p->cfg.sources != 0 && (p->frame % p->cfg.detect_every) == 0);
@@ -599,9 +702,9 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
     if (run_lanes) {
         out->lane_status = vt_lane_detect(&p->cfg.lane, &p->lane, frame, &out->lanes, &out->road);
         lanes_ok = out->lane_status == VT_OK;
-        /* The whole-road detector's horizon: the lanes' vanishing row, held while
-         * they are lost (the camera's pitch changes slowly). */
-        if (whole && lanes_ok &&
+        /* The horizon of the whole-road detector and the vehicle model: the lanes'
+         * vanishing row, held while they are lost (the camera's pitch changes slowly). */
+        if (lanes_ok &&
             vt_lane_vanishing_row(&out->lanes, frame->h, &vp_row, &vp_valid) == VT_OK && vp_valid) {
             p->horizon_y = (int32_t)vt__clamp64(vt__floor_div64((int64_t)vp_row + 32768, 65536),
                                                -VT_MAX_HEIGHT, VT_MAX_HEIGHT);
@@ -654,8 +757,9 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
     }
     out->n_boxes_in = n_boxes;
     trk_det = det_frame;
-    if ((p->cfg.sources & VT_SRC_FLOW) != 0) {
-        /* On a frame with the caller's boxes, the flow boxes go after the copied ones. */
+    if ((p->cfg.sources & (VT_SRC_FLOW | VT_SRC_MODEL)) != 0) {
+        /* On a frame with the caller's boxes, the flow and model boxes go after the
+         * copied ones. */
         n_in = n_boxes;
         if (ext) {
             boxes = p->det.box;
@@ -663,15 +767,20 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
                 p->det.box[i] = dets[i];
             }
         }
-        s = vt__flow(p, frame, out, out->n_boxes, &n_in, &fresh);
-        if (s != VT_OK) {
-            p->frame = vt__next_frame(p->frame);
-            return s;
+        if ((p->cfg.sources & VT_SRC_FLOW) != 0) {
+            s = vt__flow(p, frame, out, out->n_boxes, &n_in, &fresh);
+            if (s != VT_OK) {
+                p->frame = vt__next_frame(p->frame);
+                return s;
+            }
+        }
+        if ((p->cfg.sources & VT_SRC_MODEL) != 0 && p->cfg.track) {
+            vt__model(p, frame, out, out->n_boxes, &n_in, &n_model);
         }
         out->n_boxes_in = n_in;
         n_boxes = out->n_boxes;
-        if (!det_frame && fresh) {
-            trk_det = 1; /* an overtaking vehicle no track covers: hand it over now */
+        if (!det_frame && (fresh || n_model > 0)) {
+            trk_det = 1; /* an overtaking vehicle no track covers, or a refined track */
         } else if (!det_frame) {
             n_boxes = 0;
         }

@@ -42,7 +42,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from . import _native
+from . import _check, _native
 from . import config as _config
 from . import lane as _lane
 from ._native import ffi, lib
@@ -69,8 +69,10 @@ NO_ROAD = _NoRoad()
 @dataclass(frozen=True)
 class Box:
     box: tuple                 # (left, top, right, bottom), inclusive, input pixels
-    source: str                # "shadow" | "classifier" | "external"
-    score: float | None = None  # the source's confidence (classifier units), None if it has none
+    source: str                # "shadow" | "classifier" | "flow" | "model" | "external"
+    score: float | None = None  # the source's confidence, None if it has none: the classifier's
+                                # decision value (model units), the flow blob's cells, the
+                                # vehicle model's fitness
 
 
 @dataclass(frozen=True)
@@ -131,7 +133,7 @@ class Pipeline:
     def __init__(self, engine: str = "c", camera=None, model=None,
                  cfg: PipelineConfig | None = None, *, fps: float | None = None,
                  ego_speed: float | None = None, reference_quantized: bool = True,
-                 road_camera=None, fullroad=None, flow=None, **config):
+                 road_camera=None, fullroad=None, flow=None, vehicle_model=None, **config):
         if engine not in ENGINES:
             raise ValueError(f"engine: expected one of {ENGINES}, got {engine!r}")
         if camera is not None:
@@ -154,6 +156,7 @@ class Pipeline:
         self._ccfg = _config.to_c(self.cfg)  # checks the whole config once, for both engines
         self._setup_classifier(model, road_camera, fullroad)
         self._setup_flow(flow)
+        self._setup_vehicle_model(vehicle_model)
         self.max_w, self.max_h = int(lib.VT_MAX_WIDTH), int(lib.VT_MAX_HEIGHT)
         self._warned = False
         self.reset()
@@ -216,6 +219,30 @@ class Pipeline:
         fc = _flow.make_cfg(**(flow or {}))
         self._ccfg.flow = fc[0]
         self._flow_fields = {f: int(getattr(fc, f)) for f in _flow.CFG_FIELDS}
+        _native.pipeline_cfg_check(self._ccfg)
+
+    def _setup_vehicle_model(self, vm) -> None:
+        """The vehicle model's settings (sources "model"): a dict of vt_model_cfg fields
+        replacing the core's defaults (pyvehtrack.vehicle_model.make_cfg checks them) and
+        "fits", the most fits per frame (vt_pipeline_cfg.model_fits)."""
+        self._model_ws = None
+        if "model" not in self.cfg.sources:
+            if vm is not None:
+                raise ValueError("vehicle_model: the vehicle model's settings need sources including 'model'")
+            return
+        if vm is not None and not isinstance(vm, dict):
+            raise TypeError(f"vehicle_model: expected a dict of vt_model_cfg fields, got {type(vm).__name__}")
+        from . import vehicle_model as _vm  # noqa: PLC0415
+        vm = dict(vm or {})
+        fits = vm.pop("fits", int(self._ccfg.model_fits))
+        fits = _check.integer(fits, "vehicle_model['fits']", lo=0, hi=int(lib.VT_MAX_TRACKS))
+        min_fit = _check.integer(vm.pop("min_fitness", int(self._ccfg.model_min_fitness)),
+                                 "vehicle_model['min_fitness']", lo=0)
+        self._ccfg.model_min_fitness = min_fit
+        mc = _vm.make_cfg(**vm)
+        self._ccfg.model = mc[0]
+        self._ccfg.model_fits = fits
+        self._model_oracle_cfg = _vm.oracle_cfg(mc)
         _native.pipeline_cfg_check(self._ccfg)
 
     def _ref_score(self):
@@ -300,6 +327,11 @@ class Pipeline:
                 if self._flow_st is None:
                     self._flow_st = ffi.new("vt_flow_state *")
                 _native.check("vt_pipeline_set_flow_ws", lib.vt_pipeline_set_flow_ws(self._p, self._flow_st))
+            if "model" in self.cfg.sources:
+                # the vehicle model's scratch (sizeof(vt_model_ws), ~0.4 MB by default)
+                if self._model_ws is None:
+                    self._model_ws = ffi.new("vt_model_ws *")
+                _native.check("vt_pipeline_set_model_ws", lib.vt_pipeline_set_model_ws(self._p, self._model_ws))
             # The edge-curve measurement's workspace (sizeof(vt_edge_ws), 320 KB at the
             # default VT_EDGE_MAX_PIXELS) exists only when that measurement runs; it is
             # scratch, so one per Pipeline serves every run (init detaches it).
@@ -315,6 +347,11 @@ class Pipeline:
             geom = (self._cam_params, self._range_params) if self._geom is not None else None
             rcfg = _config.to_reference(self.cfg, self._ref_quantized)
             score = None
+            if "model" in self.cfg.sources:
+                import dataclasses  # noqa: PLC0415
+                rcfg = dataclasses.replace(rcfg, model=self._model_oracle_cfg,
+                                           model_fits=int(self._ccfg.model_fits),
+                                           model_min_fitness=int(self._ccfg.model_min_fitness))
             if "flow" in self.cfg.sources:
                 import dataclasses  # noqa: PLC0415
                 from types import SimpleNamespace  # noqa: PLC0415
@@ -412,7 +449,7 @@ class Pipeline:
                        np.int64).reshape(-1, 3)
         boxes = [Box((int(b.box.left), int(b.box.top), int(b.box.right), int(b.box.bottom)),
                      SOURCE_NAMES.get(int(b.source), "unknown"),
-                     None if b.score == lib.VT_UNKNOWN else b.score / 65536)
+                     _score(int(b.source), None if b.score == lib.VT_UNKNOWN else int(b.score)))
                  for b in (o.boxes[i] for i in range(o.n_boxes))]
         tracks = [Track(int(t.id), STATES[int(t.state)],
                         (int(t.box.left), int(t.box.top), int(t.box.right), int(t.box.bottom)),
@@ -448,13 +485,24 @@ class Pipeline:
         road = np.zeros((0, 2), np.int64)
         if r.road is not None:
             road = _polygon(r.road.x_left, r.road.x_right, r.road.y_top, r.road.y_bottom)
-        boxes = [Box(tuple(int(v) for v in b), s, None if sc is None else sc / 65536)
+        boxes = [Box(tuple(int(v) for v in b), s, _score(s, sc))
                  for b, s, sc in zip(r.boxes, r.box_source, r.box_score)]
         tracks = [Track(int(i), STATES[int(s)], b, (float(vx), float(vy)), d, ttc, wn, src)
                   for (i, s, b, vx, vy, d, ttc, wn), src in zip(r.tracks, r.track_source)]
         return FrameResult(r.frame, r.detection_frame, lanes, road, r.road_source,
                            np.asarray(r.hypotheses, np.int64).reshape(-1, 3), boxes, tracks, 1.0,
                            dict(r.stats), bool(getattr(r, "flow_ready", False)))
+
+
+def _score(source, v):
+    """A box's score in its source's unit: the classifier's decision value (Q16 -> float,
+    for the whole-road detector's boxes), the flow blob's cells and the model's fitness
+    as the integers they are; None where the source has none."""
+    if v is None:
+        return None
+    if source in (1, 2, "shadow", "classifier"):
+        return v / 65536
+    return v
 
 
 def replace_sources(det, srcs):

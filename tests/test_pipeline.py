@@ -336,7 +336,7 @@ def test_python_bad_arguments():
     with pytest.raises(ValueError, match="road"):
         Pipeline(road="sky")
     with pytest.raises(ValueError, match="sources"):
-        Pipeline(sources=("model",))
+        Pipeline(sources=("radar",))
     with pytest.raises(ValueError, match="sources"):
         Pipeline(sources="shadow")
     with pytest.raises(TypeError, match="track"):

@@ -30,6 +30,7 @@
 #include "vehtrack/road.h"
 #include "vehtrack/status.h"
 #include "vehtrack/tracker.h"
+#include "vehtrack/vehicle_model.h"
 
 /* Hypothesis sources (bit mask in vt_pipeline_cfg.sources). Shadow and classifier
  * are built; asking for another one is VT_E_ARG at init.
@@ -42,9 +43,10 @@
 #define VT_SRC_CLASSIFIER 2 /* classifier windows over the whole road (needs a classifier) */
 #define VT_SRC_FLOW 4       /* overtaking vehicles from lateral SAD flow (every frame; needs
                                its state attached: vt_pipeline_set_flow_ws)               */
-#define VT_SRC_MODEL 8      /* the 7-parameter vehicle model fitted by a GA */
+#define VT_SRC_MODEL 8      /* the 7-parameter vehicle model fitted by a GA, for tracks
+                               whose ROI search failed (needs vt_pipeline_set_model_ws)   */
 #define VT_SRC_EXTERNAL 16  /* the caller's detections (vt_pipeline_step_dets); not a policy bit */
-#define VT_SRC_BUILT (VT_SRC_SHADOW | VT_SRC_CLASSIFIER | VT_SRC_FLOW)
+#define VT_SRC_BUILT (VT_SRC_SHADOW | VT_SRC_CLASSIFIER | VT_SRC_FLOW | VT_SRC_MODEL)
 
 /* Where the road area of a frame came from (vt_frame_out.road_source) and which
  * the pipeline may use (vt_pipeline_cfg.road_policy). */
@@ -118,13 +120,21 @@ typedef struct {
                                 `sources` field is ignored: the pipeline's bits decide */
     vt_road_camera road_camera; /* its camera (with a classifier)                        */
     vt_flow_cfg flow;        /* the overtaking stage (VT_SRC_FLOW)                       */
+    vt_model_cfg model;      /* the vehicle model's GA (VT_SRC_MODEL); its road fields
+                                are set per fit (see vt_pipeline_set_model_ws)          */
+    int32_t model_fits;      /* most model fits per frame, 0..VT_MAX_TRACKS (the cost
+                                bound with the GA's pop x gens)                         */
+    int32_t model_min_fitness; /* a fit below this is not used, >= 0. Default 256: more
+                                than a featureless patch scores (255 w_sym: perfectly
+                                symmetric, no edge, no shadow) at the default weights  */
 } vt_pipeline_cfg;
 
 #define VT_PIPELINE_CFG_DEFAULT                                                            \
     {                                                                                      \
         VT_LANE_CFG_DEFAULT, VT_DETECT_CFG_DEFAULT, VT_TRACKER_CFG_DEFAULT,                \
             VT_RANGE_CFG_DEFAULT, VT_FIXED_ROAD_DEFAULT, 10, VT_ROAD_AUTO, 0, VT_SRC_SHADOW, 1, \
-            VT_FULLDET_CFG_DEFAULT, VT_ROAD_CAMERA_DEFAULT, VT_FLOW_CFG_DEFAULT            \
+            VT_FULLDET_CFG_DEFAULT, VT_ROAD_CAMERA_DEFAULT, VT_FLOW_CFG_DEFAULT,           \
+            VT_MODEL_CFG_DEFAULT, 2, 256                                                   \
     }
 
 /* The whole-road detector's scratch, owned by the caller and attached with
@@ -150,6 +160,7 @@ typedef struct {
     int32_t horizon_known;       /* 1 once the lanes gave one (this run)                  */
     vt_flow_state *flow_st;      /* the overtaking stage's state (NULL: none attached)    */
     vt_flow_result flow;         /* its last result                                       */
+    vt_model_ws *model_ws;       /* the vehicle model's workspace (NULL: none attached)   */
     int32_t frame;    /* frames stepped so far */
     vt_q16 ego_speed; /* m/s, negative = unknown (vt_pipeline_set_ego_speed) */
     vt_lane_state lane;
@@ -276,6 +287,29 @@ vt_status vt_pipeline_set_edge_ws(vt_pipeline *p, vt_edge_ws *ws);
  * for the next detection frame): that frame is then a detection frame for the tracker
  * with the flow boxes alone (out->detection_frame still says whether the detector ran). */
 vt_status vt_pipeline_set_flow_ws(vt_pipeline *p, vt_flow_state *st);
+
+/* Attach the caller's workspace of the vehicle model (vehtrack/vehicle_model.h;
+ * 416,760 bytes at the default VT_MODEL_MAX_ROI_PIXELS; scratch, rewritten by every
+ * fit). Call after vt_pipeline_init (which detaches it); ws NULL detaches. With
+ * VT_SRC_MODEL on and no workspace every step is VT_E_ARG. VT_E_ARG for p NULL.
+ *
+ * Policy (vt_pipeline_step): the model runs only where tracking asks for it: for the
+ * tracks the previous step left COASTING (their ROI search failed and no detection
+ * matched), in output order, at most cfg.model_fits per frame, before the tracker.
+ * For a track with last box (l, t, r, b), w = r - l + 1, h = b - t + 1: a tracking
+ * search (the GA's individuals start around the prediction within 3 sigma) with
+ * prediction x = l + w / 2, y = b, w, h and the middle of each shape range, sigma
+ * (w / 8, h / 8, w / 8, h / 8, 5, 5, 5), the bottom row within b -+ h / 4, in the ROI
+ * (l - w / 2, t - h / 2, r + w / 2, b + h / 2) clipped to the frame (skipped when
+ * larger than VT_MODEL_MAX_ROI_PIXELS); the road constraint through the track: horizon = the
+ * whole-road detector's horizon (the lanes' vanishing row once known, else
+ * cfg.road_camera), width_per_row = floor(w * 65536 / (b - horizon)) (skipped for b at
+ * or above the horizon). A fit that fails (VT_E_SINGULAR, VT_E_SIZE: no model fits)
+ * or scores below cfg.model_min_fitness is skipped; one whose box overlaps the track's last box with IoU >= the tracker's
+ * match_iou_percent is a box of source VT_SRC_MODEL (score = its fitness), after the
+ * detector's and the flow's boxes, and makes this a detection frame for the tracker
+ * (as a fresh flow box does), so it updates the track it refines. */
+vt_status vt_pipeline_set_model_ws(vt_pipeline *p, vt_model_ws *ws);
 
 /* The ego vehicle's speed for the next steps (the camera stage's lead class), Q16
  * m/s; negative = unknown. VT_E_ARG for NULL. */

@@ -46,6 +46,9 @@ typedef struct {
     vt_fulldet_cfg fulldet;
     vt_road_camera road_camera;
     vt_flow_cfg flow;
+    vt_model_cfg model;
+    int32_t model_fits;
+    int32_t model_min_fitness;
 } vt_pipeline_cfg;
 
 typedef struct {
@@ -63,6 +66,7 @@ typedef struct {
     int32_t horizon_known;
     vt_flow_state *flow_st;
     vt_flow_result flow;
+    vt_model_ws *model_ws;
     int32_t frame;
     vt_q16 ego_speed;
     vt_lane_state lane;
@@ -117,6 +121,7 @@ vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
 vt_status vt_pipeline_set_cls_ws(vt_pipeline *p, vt_pipe_cls_ws *ws, const vt_window_scorer *scorer);
 vt_status vt_pipeline_set_edge_ws(vt_pipeline *p, vt_edge_ws *ws);
 vt_status vt_pipeline_set_flow_ws(vt_pipeline *p, vt_flow_state *st);
+vt_status vt_pipeline_set_model_ws(vt_pipeline *p, vt_model_ws *ws);
 vt_status vt_pipeline_set_ego_speed(vt_pipeline *p, vt_q16 speed);
 vt_status vt_pipeline_step(vt_pipeline *p, const vt_image_u8 *frame, vt_frame_out *out);
 vt_status vt_pipeline_step_road(vt_pipeline *p, const vt_image_u8 *frame,

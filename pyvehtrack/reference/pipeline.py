@@ -28,6 +28,7 @@ from . import fulldet as rfd
 from . import lane as rlane
 from . import shadow as rshadow
 from . import tracker as rtrk
+from . import vehicle_model as rvm
 from . import verify as rverify
 from . import windows as rw
 from .shadow import RoadArea, ShadowConfig, trapezoid_road
@@ -37,6 +38,7 @@ ROAD_AUTO, ROAD_LANES, ROAD_FIXED = "auto", "lanes", "fixed"
 SRC_SHADOW = "shadow"
 SRC_CLASSIFIER = "classifier"
 SRC_FLOW = "flow"
+SRC_MODEL = "model"
 
 
 @dataclass
@@ -86,6 +88,7 @@ class Capacities:
     max_flow_hyps: int = 16         # VT_FLOW_MAX_HYPS
     max_flow_seeds: int = 4         # VT_FLOW_MAX_SEEDS
     max_flow_blobs: int = 32        # VT_FLOW_MAX_BLOBS
+    max_model_roi_pixels: int = 320 * 240  # VT_MODEL_MAX_ROI_PIXELS
     coord_lim: int = 7680           # 4 * max(VT_MAX_WIDTH, VT_MAX_HEIGHT): the tracker's box limit
 
 
@@ -104,6 +107,9 @@ class PipelineRefConfig:
     fulldet: rfd.FullDetConfig = field(default_factory=rfd.FullDetConfig)  # its sources: ours
     road_camera: RoadCameraRef = field(default_factory=RoadCameraRef)
     flow: object = None   # the overtaking stage's settings (the fields of vt_flow_cfg), with "flow"
+    model: object = None  # the vehicle model's settings (reference.vehicle_model's cfg), with "model"
+    model_fits: int = 2   # most model fits per frame
+    model_min_fitness: int = 256  # a fit below this is not used
 
 
 @dataclass
@@ -165,8 +171,11 @@ class Pipeline:
             raise ValueError(f"detect_every must be >= 1, got {self.cfg.detect_every}")
         if self.cfg.road_policy not in (ROAD_AUTO, ROAD_LANES, ROAD_FIXED):
             raise ValueError(f"road_policy: expected 'auto', 'lanes' or 'fixed', got {self.cfg.road_policy!r}")
-        if not set(self.cfg.sources) <= {SRC_SHADOW, SRC_CLASSIFIER, SRC_FLOW}:
-            raise ValueError(f"sources: only 'shadow', 'classifier' and 'flow' are built, got {self.cfg.sources!r}")
+        if not set(self.cfg.sources) <= {SRC_SHADOW, SRC_CLASSIFIER, SRC_FLOW, SRC_MODEL}:
+            raise ValueError(f"sources: only 'shadow', 'classifier', 'flow' and 'model' are built, "
+                             f"got {self.cfg.sources!r}")
+        if SRC_MODEL in self.cfg.sources and self.cfg.model is None:
+            raise ValueError("sources: 'model' needs cfg.model (the vehicle model's settings)")
         self.flow = None
         if SRC_FLOW in self.cfg.sources:
             if self.cfg.flow is None:
@@ -174,6 +183,7 @@ class Pipeline:
             self.flow = rflow.FlowOracle(self.cfg.flow, self.caps.max_flow_hyps, self.caps.max_flow_seeds,
                                          self.caps.max_flow_blobs)
         self.last_boxes = []       # the previous step's track boxes (the flow hand-over rule)
+        self.last_tracks = []      # the previous step's tracks (the vehicle model's rule)
         if SRC_CLASSIFIER in self.cfg.sources and score is None:
             raise ValueError("sources: 'classifier' needs a classifier (score)")
         self.lane = rlane.LaneDetector(self.cfg.lane, max_height=self.caps.max_height,
@@ -228,7 +238,7 @@ class Pipeline:
             lanes_ok = True
         lane_road = _road_from_lane_frame(lanes) if lanes_ok else None
         whole = self.score is not None
-        if whole and lanes_ok:
+        if lanes_ok:
             vp = self._vanishing_row(lanes)
             if vp is not None:
                 self.horizon_y = int(min(max(np.floor(vp + 0.5), -self.caps.max_height), self.caps.max_height))
@@ -263,19 +273,31 @@ class Pipeline:
             road, source = lane_road, "lanes"
         trk_det, trk_boxes = det_frame, boxes
         flow_ready = False
-        if self.flow is not None:
-            flow_ready, fboxes, fcells, fresh = self._flow(gray)
+        if self.flow is not None or (SRC_MODEL in c.sources and c.track):
             box_source = [box_source] * len(boxes) if isinstance(box_source, str) else list(box_source)
             scores = [None] * len(boxes) if scores is None else list(scores)
-            room = max(0, self.caps.max_boxes - min(len(boxes), self.caps.max_boxes))
-            boxes = np.concatenate([boxes[:self.caps.max_boxes] if ext else boxes,
-                                    np.asarray(fboxes[:room], np.int64).reshape(-1, 4)])
-            box_source += [SRC_FLOW] * len(fboxes[:room])
-            scores += fcells[:room]
+            boxes = boxes[:self.caps.max_boxes] if ext else boxes
+            extra, extra_src, extra_sc = [], [], []
+            fresh, n_model = False, 0
+            if self.flow is not None:
+                flow_ready, fboxes, fcells, fresh = self._flow(gray)
+                extra += fboxes
+                extra_src += [SRC_FLOW] * len(fboxes)
+                extra_sc += fcells
+            if SRC_MODEL in c.sources and c.track:
+                mboxes, mfit = self._model(gray)
+                n_model = len(mboxes)
+                extra += mboxes
+                extra_src += [SRC_MODEL] * len(mboxes)
+                extra_sc += mfit
+            room = max(0, self.caps.max_boxes - len(boxes))
+            boxes = np.concatenate([boxes, np.asarray(extra[:room], np.int64).reshape(-1, 4)])
+            box_source += extra_src[:room]
+            scores += extra_sc[:room]
             trk_boxes = boxes
             if not det_frame:
-                trk_det = fresh
-                if not fresh:
+                trk_det = fresh or n_model > 0
+                if not trk_det:
                     trk_boxes = np.zeros((0, 4), np.int64)
         rows = self.tracker.step(gray, trk_det, trk_boxes) if c.track else []
         geo = {}
@@ -291,9 +313,62 @@ class Pipeline:
                        tracks, stats, [None] * len(boxes) if scores is None else scores, tsrc)
         out.flow_ready = flow_ready
         self.last_boxes = [t[2] for t in tracks]
+        self.last_tracks = tracks
         self.frame = self.frame + 1 if self.frame < 2**31 - 1 else 0
         return out
 
+
+    def _model(self, gray):
+        """The vehicle model for the tracks the previous step left coasting
+        (c/pipeline.c's vt__model; the rules in vt_pipeline_set_model_ws): the refined
+        boxes and their fitnesses."""
+        from types import SimpleNamespace  # noqa: PLC0415
+        c = self.cfg
+        h_img, w_img = gray.shape
+        horizon = self.horizon_y if self.horizon_y is not None else \
+            c.road_camera.for_frame(h_img, w_img, None).horizon_y
+        out, fit_ = [], []
+        fits = 0
+        for t in self.last_tracks:
+            if fits >= c.model_fits:
+                break
+            if t[1] != rtrk.COASTING:
+                continue
+            l, tp, r, b = t[2]
+            w, h = r - l + 1, b - tp + 1
+            if b <= horizon or w < 1 or h < 1:
+                continue
+            roi = (min(max(l - w // 2, 0), w_img - 1), min(max(tp - h // 2, 0), h_img - 1),
+                   min(max(r + w // 2, 0), w_img - 1), min(max(b + h // 2, 0), h_img - 1))
+            if (roi[2] - roi[0] + 1) * (roi[3] - roi[1] + 1) > self.caps.max_model_roi_pixels:
+                continue
+            wpr = w * 65536 // (b - horizon)
+            if wpr < 1 or wpr > 2**31 - 1:
+                continue
+            m = c.model
+            cfg = SimpleNamespace(**dict(vars(m), horizon_row=horizon, width_per_row=wpr))
+            pred = (l + w // 2, b, w, h, (m.wind_min + m.wind_max) // 2, (m.bump_min + m.bump_max) // 2,
+                    m.roof_max // 2)
+            sigma = (w // 8, h // 8, w // 8, h // 8, 5, 5, 5)
+            search = SimpleNamespace(roi=roi, y_min=b - h // 4, y_max=b + h // 4, tracking=True,
+                                     pred=pred, sigma=sigma)
+            fits += 1
+            try:
+                res = rvm.fit(gray, cfg, search)
+            except ValueError:          # no model fits (C: VT_E_SINGULAR / VT_E_SIZE)
+                continue
+            if res.fitness < c.model_min_fitness:
+                continue
+            box = tuple(int(v) for v in res.box)
+            iw = min(box[2], r) - max(box[0], l) + 1
+            ih = min(box[3], b) - max(box[1], tp) + 1
+            inter = iw * ih if iw > 0 and ih > 0 else 0
+            ua = (box[2] - box[0] + 1) * (box[3] - box[1] + 1)
+            if inter * 100 < c.tracker.match_iou_percent * (ua + w * h - inter):
+                continue
+            out.append(box)
+            fit_.append(int(res.fitness))
+        return out, fit_
 
     def _flow(self, gray):
         """The overtaking stage on this frame (c/pipeline.c's vt__flow): (ready, boxes,
