@@ -123,7 +123,8 @@ typedef struct {
     vt_model_cfg model;      /* the vehicle model's GA (VT_SRC_MODEL); its road fields
                                 are set per fit (see vt_pipeline_set_model_ws)          */
     int32_t model_fits;      /* most model fits per frame, 0..VT_MAX_TRACKS (the cost
-                                bound with the GA's pop x gens)                         */
+                                bound with the GA's pop x gens; default 2, or
+                                VT_MAX_TRACKS if smaller)                               */
     int32_t model_min_fitness; /* a fit below this is not used, >= 0. Default 256: more
                                 than a featureless patch scores (255 w_sym: perfectly
                                 symmetric, no edge, no shadow) at the default weights  */
@@ -134,7 +135,7 @@ typedef struct {
         VT_LANE_CFG_DEFAULT, VT_DETECT_CFG_DEFAULT, VT_TRACKER_CFG_DEFAULT,                \
             VT_RANGE_CFG_DEFAULT, VT_FIXED_ROAD_DEFAULT, 10, VT_ROAD_AUTO, 0, VT_SRC_SHADOW, 1, \
             VT_FULLDET_CFG_DEFAULT, VT_ROAD_CAMERA_DEFAULT, VT_FLOW_CFG_DEFAULT,           \
-            VT_MODEL_CFG_DEFAULT, 2, 256                                                   \
+            VT_MODEL_CFG_DEFAULT, ((VT_MAX_TRACKS) < 2 ? (VT_MAX_TRACKS) : 2), 256          \
     }
 
 /* The whole-road detector's scratch, owned by the caller and attached with
