@@ -438,11 +438,6 @@ static vt_status vt__geometry(vt_pipeline *p, const vt_image_u8 *frame, const vt
     return s;
 }
 
-static int64_t vt__clamp64(int64_t v, int64_t lo, int64_t hi)
-{
-    return v < lo ? lo : (v > hi ? hi : v);
-}
-
 /* round(h * q / 65536), half up, exact (|h q| < 2^32). */
 static int32_t vt__frac_q16(int32_t h, int32_t q)
 {
@@ -647,8 +642,7 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
 {
     vt_status s;
     int32_t det_frame, run_lanes, lanes_ok = 0, n_boxes = 0, n_tracks = 0, n_ranges = 0, i;
-    int32_t whole, vp_valid = 0, n_in, fresh = 0, trk_det, n_model = 0;
-    vt_q16 vp_row = 0;
+    int32_t whole, n_in, fresh = 0, trk_det, n_model = 0;
     const vt_box *boxes = p->det.box;
     if (frame->px == NULL) {
         return VT_E_ARG;
@@ -702,12 +696,13 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
     if (run_lanes) {
         out->lane_status = vt_lane_detect(&p->cfg.lane, &p->lane, frame, &out->lanes, &out->road);
         lanes_ok = out->lane_status == VT_OK;
-        /* The horizon of the whole-road detector and the vehicle model: the lanes'
-         * vanishing row, held while they are lost (the camera's pitch changes slowly). */
-        if (lanes_ok &&
-            vt_lane_vanishing_row(&out->lanes, frame->h, &vp_row, &vp_valid) == VT_OK && vp_valid) {
-            p->horizon_y = (int32_t)vt__clamp64(vt__floor_div64((int64_t)vp_row + 32768, 65536),
-                                               -VT_MAX_HEIGHT, VT_MAX_HEIGHT);
+        /* The horizon of the whole-road detector and the vehicle model: the lane
+         * stage's own vanishing row (the two ego lines meeting inside its plausible
+         * rows, vp_known), in input rows (vp_y + 1/2) 2^shift - 1/2 rounded half up,
+         * held while the lanes are lost (the camera's pitch changes slowly). */
+        if (lanes_ok && out->lanes.vp_known && out->lanes.shift >= 0 && out->lanes.shift <= 3) {
+            p->horizon_y = vt__clamp_i32(((2 * out->lanes.vp_y + 1) << out->lanes.shift) >> 1,
+                                         -VT_MAX_HEIGHT, VT_MAX_HEIGHT);
             p->horizon_known = 1;
         }
     }

@@ -10,9 +10,9 @@ Tolerances, from the arithmetic:
   an integer-exact twin (tests/test_pipeline.py). So with road="fixed" (no lanes: the
   horizon is the configured fraction) hypotheses, boxes, scores, sources, track ids,
   states and boxes must be EQUAL, velocities within 0.05 px/frame (Kalman Q16 vs float64).
-- With road="auto" the horizon is the lanes' vanishing row, rounded to a row: C's
-  refined lines and the oracle's agree to about 1 px (tests/test_lane.py), so the
-  horizon may differ by a row; on sequences where it never differs everything is EQUAL
+- With road="auto" the horizon is the lane stage's vanishing row (vp_y, a working
+  row, mapped to input rows): C's lane stage and the oracle's agree to about 1 px
+  (tests/test_lane.py), so the horizon may differ by a row; on sequences where it never differs everything is EQUAL
   as above, otherwise only the ids/states are compared up to the first difference.
 - With the real HOG model the C engine scores sliding windows from a prepared band
   (vt_hog_scorer_level) and the reference engine scores each window alone (the same C

@@ -89,8 +89,9 @@ typedef struct {
  *   horizon_y = floor((h * horizon_q16 + 32768) / 65536)   (half up; Q16 of h)
  *   hood_y    = max(1, floor((h * hood_q16 + 32768) / 65536))
  *   fx_q4     = max(16, floor((w * fx_per_w_q16 + 2048) / 4096))  (fx = w * fx_per_w, Q4)
- * exact in int64. The lanes' vanishing row (vt_lane_vanishing_row, rounded half up)
- * replaces the horizon when the lane stage finds one, and is held while they are lost.
+ * exact in int64. The lane stage's vanishing row (vt_lane_result vp_y when vp_known, in
+ * input rows (vp_y + 1/2) 2^shift - 1/2 rounded half up) replaces the horizon when the
+ * lane stage finds one, and is held while they are lost.
  * Defaults: horizon 330/720 of h (fitted on tusimple-vehicles-dev TRAIN), hood from
  * 0.93 h, 1.8 m camera, fx = 714.15/1280 of w (TuSimple), as pyvehtrack.fullroad.Camera. */
 typedef struct {

@@ -238,10 +238,10 @@ class Pipeline:
             lanes_ok = True
         lane_road = _road_from_lane_frame(lanes) if lanes_ok else None
         whole = self.score is not None
-        if lanes_ok:
-            vp = self._vanishing_row(lanes)
-            if vp is not None:
-                self.horizon_y = int(min(max(np.floor(vp + 0.5), -self.caps.max_height), self.caps.max_height))
+        if lanes_ok and lanes.vp_known:
+            # the lane stage's own vanishing row in input rows, (vp + 1/2) 2^s - 1/2 half up
+            vp = (lanes.vp_y + 0.5) * 2 ** lanes.shift - 0.5
+            self.horizon_y = int(min(max(np.floor(vp + 0.5), -self.caps.max_height), self.caps.max_height))
         hyp = np.zeros((0, 3), np.int64)
         boxes = np.zeros((0, 4), np.int64)
         stats = {}
