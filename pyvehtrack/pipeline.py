@@ -33,6 +33,13 @@ value, model units = Q16 / 65536). road_camera (pyvehtrack.fullroad.Camera) plac
 road; fullroad (a fullroad.FullRoadConfig) tunes it. The C engine allocates the
 detector's workspace (sizeof(vt_pipe_cls_ws)) and attaches it with
 vt_pipeline_set_cls_ws.
+
+sources "flow" (Pipeline(sources=("shadow", "flow"), flow={"sides": 3})): the overtaking
+stage (c/flow.c) on every frame, its blobs handed to the tracker (source "flow");
+sources "model" (vehicle_model={"fits": 2, ...}): the GA vehicle model refits the
+tracks whose ROI search failed (source "model"). Their state / workspace is allocated
+and attached here (vt_pipeline_set_flow_ws, vt_pipeline_set_model_ws). Each track says
+which source started it (Track.source).
 """
 from __future__ import annotations
 

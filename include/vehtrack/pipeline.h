@@ -13,8 +13,14 @@
  * caller's output (lanes, road area, boxes, tracks). The tracker's edge-curve
  * measurement needs a vt_edge_ws more (327,704 bytes at the defaults), owned by
  * the caller and attached with vt_pipeline_set_edge_ws only when that measurement
- * is used. Work: the stages' own (see their headers); detection runs only every detect_every frames. Stack: the
- * stages' (about 2 KB, the Kalman update), measured in firmware_demo/. */
+ * is used. Likewise caller-owned and attached only for their sources: the whole-road
+ * detector's vt_pipe_cls_ws (vt_pipeline_set_cls_ws; 1,176,248 bytes at the default
+ * capacities, 568,488 at VGA), the overtaking stage's vt_flow_state
+ * (vt_pipeline_set_flow_ws; 1,917,112 / 592,312) and the vehicle model's vt_model_ws
+ * (vt_pipeline_set_model_ws; 416,760). Work: the stages' own (see their headers);
+ * detection runs only every detect_every frames, the flow stage on every frame, the
+ * vehicle model at most model_fits times per frame. Stack: measured in firmware_demo/
+ * (`stack step`: 4.8 KB with every source on). */
 #ifndef VEHTRACK_PIPELINE_H
 #define VEHTRACK_PIPELINE_H
 
