@@ -60,9 +60,9 @@ def render(rows: list[dict]) -> str:
              "(status 0 = VT_OK; lane status -3 would mean the lane capacities are too small "
              "for that frame).", "",
              "| build | max frame | tracks | vt_pipeline | KiB | lane state | tracker | detect "
-             "scratch + result | camera (range) | vt_frame_out | edge ws (edges only) | frame run | "
-             "status / lane / boxes / tracks |",
-             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|"]
+             "scratch + result | camera (range) | vt_frame_out | edge ws (edges only) | classifier ws | "
+             "flow state | frame run | status / lane / boxes / tracks |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|"]
     for r in rows:
         frame = r.get("frame", "—")
         st = (f"{r['status']} / {r['lane_status']} / {r['boxes']} / {r['tracks']}"
@@ -71,7 +71,8 @@ def render(rows: list[dict]) -> str:
             f"| {r['build']} | {r['max_width']}x{r['max_height']} | {r['max_tracks']} | "
             f"{r['vt_pipeline']:,} | {r['vt_pipeline'] / kib:.1f} | {r['vt_lane_state']:,} | "
             f"{r['vt_tracker']:,} | {r['vt_detect_state'] + r['vt_detect_result']:,} | "
-            f"{r['vt_range_state']:,} | {r['vt_frame_out']:,} | {r['vt_edge_ws']:,} | {frame} | {st} |")
+            f"{r['vt_range_state']:,} | {r['vt_frame_out']:,} | {r['vt_edge_ws']:,} | "
+            f"{r['vt_pipe_cls_ws']:,} | {r['vt_flow_state']:,} | {frame} | {st} |")
     lines += ["", "Builds:"] + [f"- {r['build']}: {NOTES.get(r['build'], '')}" for r in rows]
     lines += ["", "The tracker's edge-curve measurement (GIST paper, `measurement` = "
               "VT_MEAS_EDGE_CURVES) needs one `vt_edge_ws` more (the column \"edge ws\": 5 bytes per "
@@ -80,6 +81,14 @@ def render(rows: list[dict]) -> str:
               "used; it is not in vt_pipeline. Each track keeps its edge template "
               f"(`vt_edge_template`, {rows[0]['vt_edge_template']:,} bytes) inside vt_track, so it "
               "is in the tracker column whichever measurement runs."]
+    lines += ["", "With a classifier (VT_SRC_CLASSIFIER, or a model given to vt_pipeline_init) the "
+              "whole-road detector needs one `vt_pipe_cls_ws` (column \"classifier ws\": its pyramid "
+              "of the largest frame, window and candidate lists, the HOG band), attached with "
+              "`vt_pipeline_set_cls_ws`; with VT_SRC_FLOW the overtaking stage needs one "
+              "`vt_flow_state` (column \"flow state\": two level images and the cell tables), "
+              "attached with `vt_pipeline_set_flow_ws`. Both are caller-owned and outside "
+              "vt_pipeline; a firmware build sizes them with VT_MAX_WIDTH/HEIGHT (and "
+              "VT_FULLDET_MAX_*, VT_FLOW_MAX_*, VT_CLS_MAX_*)."]
     lines += ["", "The camera stage's state (per-track range filters) is in vt_pipeline whether or "
               "not a camera is given.", "", "Stack: the high-water mark of one `vt_pipeline_step` is measured by stack "
               "painting in the firmware image (`make firmware-run`, line `stack step`)."]

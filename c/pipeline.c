@@ -1,6 +1,8 @@
 /* pipeline.c -- the per-frame order of the whole system (thesis fig. 4.1 for
  * detection, ch. 3 for tracking): lanes and the road area (sec. 2.4.1), shadow
- * hypotheses and their verification (sec. 2.4.2) every detect_every frames, the
+ * hypotheses and their verification (sec. 2.4.2) -- or, with a classifier, the
+ * whole-road detector (IVVI paper sec. 4/5 windows, GIST paper sec. III
+ * classifier, c/fulldet.c) -- every detect_every frames, the
  * tracker on every frame (sec. 3.5-3.6), and with a camera the distance, TTC and
  * warning per track (IVVI paper sec. 4, c/camera.c). It only composes the stages through
  * their public functions; the firmware, the bench driver and Python all call
@@ -33,8 +35,28 @@ static vt_status vt__fixed_road_check(const vt_fixed_road *fr)
     return VT_OK;
 }
 
+static vt_status vt__road_camera_check(const vt_road_camera *rc)
+{
+    if (rc->horizon_q16 < -65536 || rc->horizon_q16 > 65536 || rc->hood_q16 < 3277 ||
+        rc->hood_q16 > 131072 || rc->height_mm < 100 || rc->height_mm > 20000 ||
+        rc->fx_per_w_q16 < 3277 || rc->fx_per_w_q16 > 1310720) {
+        return VT_E_ARG;
+    }
+    return VT_OK;
+}
+
+/* The whole-road detector's configuration as the pipeline runs it: its own
+ * `sources` replaced by the pipeline's bits (0 when neither is on). */
+static void vt__fulldet_cfg(const vt_pipeline_cfg *cfg, vt_fulldet_cfg *fc)
+{
+    *fc = cfg->fulldet;
+    fc->sources = ((cfg->sources & VT_SRC_SHADOW) ? VT_FULLDET_SHADOW : 0) |
+                  ((cfg->sources & VT_SRC_CLASSIFIER) ? VT_FULLDET_WINDOWS : 0);
+}
+
 vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg)
 {
+    vt_fulldet_cfg fc;
     vt_status s;
     if (cfg == NULL) {
         return VT_E_ARG;
@@ -57,15 +79,35 @@ vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg)
     if (s == VT_OK) {
         s = vt_tracker_cfg_check(&cfg->tracker);
     }
+    if (s == VT_OK) {
+        /* Checked whatever the sources, with both of its sources on, so that a
+         * classifier attached later never meets a bad configuration. */
+        vt__fulldet_cfg(cfg, &fc);
+        fc.sources = VT_FULLDET_SHADOW | VT_FULLDET_WINDOWS;
+        s = vt_fulldet_cfg_check(&fc);
+    }
+    if (s == VT_OK) {
+        s = vt__road_camera_check(&cfg->road_camera);
+    }
+    if (s == VT_OK) {
+        s = vt_flow_cfg_check(&cfg->flow);
+    }
+    if (s == VT_OK) {
+        s = vt_model_cfg_check(&cfg->model);
+    }
+    if (s == VT_OK && (cfg->model_fits < 0 || cfg->model_fits > VT_MAX_TRACKS ||
+                       cfg->model_min_fitness < 0)) {
+        s = VT_E_ARG;
+    }
     return s;
 }
 
 vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
-                           const vt_camera_cfg *camera, const struct vt_svm_model *model)
+                           const vt_camera_cfg *camera, const vt_svm_model *model)
 {
     vt_status s;
-    if (p == NULL || cfg == NULL || model != NULL) {
-        return VT_E_ARG; /* the classifier stage is not built in yet */
+    if (p == NULL || cfg == NULL || (model != NULL && vt_svm_model_check(model) != VT_OK)) {
+        return VT_E_ARG;
     }
     s = vt_pipeline_cfg_check(cfg);
     if (s == VT_OK && camera != NULL) {
@@ -81,6 +123,13 @@ vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
     memmove(&p->cfg, cfg, sizeof(p->cfg));
     p->model = model;
     p->camera = camera;
+    p->cls_ws = NULL;
+    memset(&p->scorer, 0, sizeof(p->scorer));
+    p->horizon_y = 0;
+    p->horizon_known = 0;
+    p->flow_st = NULL;
+    memset(&p->flow, 0, sizeof(p->flow));
+    p->model_ws = NULL;
     p->frame = 0;
     p->ego_speed = -VT_Q16_ONE;
     memset(&p->pitch, 0, sizeof(p->pitch));
@@ -95,6 +144,7 @@ vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
     memset(&p->detect, 0, sizeof(p->detect));
     memset(&p->det, 0, sizeof(p->det));
     memset(p->tracks, 0, sizeof(p->tracks));
+    p->n_src = 0;
     s = vt_lane_reset(&p->lane);
     if (s == VT_OK) {
         s = vt_tracker_init(&p->tracker);
@@ -108,6 +158,60 @@ vt_status vt_pipeline_set_edge_ws(vt_pipeline *p, vt_edge_ws *ws)
         return VT_E_ARG;
     }
     return vt_tracker_set_edge_ws(&p->tracker, ws);
+}
+
+vt_status vt_pipeline_set_cls_ws(vt_pipeline *p, vt_pipe_cls_ws *ws, const vt_window_scorer *scorer)
+{
+    vt_status s;
+    if (p == NULL || (scorer != NULL && (scorer->score == NULL || ws == NULL))) {
+        return VT_E_ARG;
+    }
+    if (ws == NULL) {
+        p->cls_ws = NULL;
+        memset(&p->scorer, 0, sizeof(p->scorer));
+        return VT_OK;
+    }
+    if (scorer == NULL) {
+        if (p->model == NULL) {
+            return VT_E_ARG;
+        }
+        s = vt_hog_scorer_init(&ws->hog, p->model);
+        if (s != VT_OK) {
+            return s;
+        }
+        p->scorer.level = vt_hog_scorer_level;
+        p->scorer.score = vt_hog_scorer_score;
+        p->scorer.ctx = &ws->hog;
+    } else {
+        p->scorer = *scorer;
+    }
+    p->cls_ws = ws;
+    return VT_OK;
+}
+
+vt_status vt_pipeline_set_flow_ws(vt_pipeline *p, vt_flow_state *st)
+{
+    vt_status s = VT_OK;
+    if (p == NULL) {
+        return VT_E_ARG;
+    }
+    if (st != NULL) {
+        s = vt_flow_init(st);
+    }
+    if (s == VT_OK) {
+        p->flow_st = st;
+        memset(&p->flow, 0, sizeof(p->flow));
+    }
+    return s;
+}
+
+vt_status vt_pipeline_set_model_ws(vt_pipeline *p, vt_model_ws *ws)
+{
+    if (p == NULL) {
+        return VT_E_ARG;
+    }
+    p->model_ws = ws;
+    return VT_OK;
 }
 
 vt_status vt_pipeline_set_ego_speed(vt_pipeline *p, vt_q16 speed)
@@ -144,6 +248,8 @@ vt_status vt_pipeline_work_size(int32_t w, int32_t h, int32_t max_w, int32_t max
     }
     return VT_OK;
 }
+
+static int64_t vt__inter(const vt_box *a, const vt_box *b);
 
 /* floor(n / d) for d > 0 (n may be negative). */
 static int64_t vt__floor_div64(int64_t n, int64_t d)
@@ -235,6 +341,50 @@ static int32_t vt__q16_milli(vt_q16 v)
     return m > INT32_MAX ? INT32_MAX : (m <= INT32_MIN ? INT32_MIN + 1 : (int32_t)m);
 }
 
+/* Intersection area of two inclusive boxes (0 if disjoint), exact in int64. */
+static int64_t vt__inter(const vt_box *a, const vt_box *b)
+{
+    int64_t w = (int64_t)(a->right < b->right ? a->right : b->right) -
+                (a->left > b->left ? a->left : b->left) + 1;
+    int64_t h = (int64_t)(a->bottom < b->bottom ? a->bottom : b->bottom) -
+                (a->top > b->top ? a->top : b->top) + 1;
+    return (w > 0 && h > 0) ? w * h : 0;
+}
+
+/* The source that started each output track (see vt_pipe_track.source): kept from the
+ * table for known ids, else taken from this frame's boxes; then the table is rewritten
+ * with the live tracks only (after every lookup, so no entry is read once overwritten). */
+static void vt__track_sources(vt_pipeline *p, vt_frame_out *out)
+{
+    int32_t i, k, n_old = p->n_src, src;
+    int64_t best, a;
+    for (i = 0; i < out->n_tracks; ++i) {
+        src = 0;
+        for (k = 0; k < n_old; ++k) {
+            if (p->src_id[k] == out->tracks[i].id) {
+                src = p->src_of[k];
+                break;
+            }
+        }
+        if (k == n_old) {
+            best = 0;
+            for (k = 0; k < out->n_boxes; ++k) {
+                a = vt__inter(&out->tracks[i].box, &out->boxes[k].box);
+                if (a > best) {
+                    best = a;
+                    src = out->boxes[k].source;
+                }
+            }
+        }
+        out->tracks[i].source = src;
+    }
+    for (i = 0; i < out->n_tracks; ++i) {
+        p->src_id[i] = out->tracks[i].id;
+        p->src_of[i] = out->tracks[i].source;
+    }
+    p->n_src = out->n_tracks;
+}
+
 static void vt__out_tracks(const vt_pipeline *p, int32_t n, int32_t n_ranges, vt_frame_out *out)
 {
     int32_t i, k;
@@ -249,6 +399,7 @@ static void vt__out_tracks(const vt_pipeline *p, int32_t n, int32_t n_ranges, vt
         o->distance_mm = VT_UNKNOWN;
         o->ttc_ms = VT_UNKNOWN;
         o->warning = p->camera != NULL ? VT_FCW_NONE : VT_FCW_UNKNOWN;
+        o->source = 0;
         for (k = 0; k < n_ranges; ++k) {
             const vt_range_out *r = &p->ranges[k];
             if (r->id != t->id) {
@@ -287,6 +438,203 @@ static vt_status vt__geometry(vt_pipeline *p, const vt_image_u8 *frame, const vt
     return s;
 }
 
+/* round(h * q / 65536), half up, exact (|h q| < 2^32). */
+static int32_t vt__frac_q16(int32_t h, int32_t q)
+{
+    return (int32_t)vt__floor_div64((int64_t)h * q + 32768, 65536);
+}
+
+/* The whole-road detector on a detection frame: its camera (the road camera of the
+ * frame's size, the horizon the last lanes' vanishing row once known), the road (the
+ * caller's when given, else the camera road), vt_fulldet, and its boxes into out and
+ * p->det (the tracker's input). */
+static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
+                                  const vt_road_area *given, vt_frame_out *out)
+{
+    vt_fulldet_cfg fc;
+    vt_camera_min cam;
+    vt_pipe_cls_ws *ws = p->cls_ws;
+    const vt_road_camera *rc = &p->cfg.road_camera;
+    int32_t i, fx;
+    vt_status s;
+    vt__fulldet_cfg(&p->cfg, &fc);
+    cam.horizon_y = p->horizon_known ? p->horizon_y : vt__frac_q16(frame->h, rc->horizon_q16);
+    cam.hood_y = vt__frac_q16(frame->h, rc->hood_q16);
+    cam.hood_y = cam.hood_y < 1 ? 1 : cam.hood_y;
+    fx = (int32_t)(((int64_t)frame->w * rc->fx_per_w_q16 + 2048) >> 12);
+    cam.fx_q4 = fx < 16 ? 16 : fx;
+    cam.height_mm = rc->height_mm;
+    out->road.valid = 0;
+    out->road_source = VT_ROAD_SRC_NONE;
+    if (given != NULL) {
+        if (given->valid) {
+            out->road = *given;
+            out->road_source = VT_ROAD_SRC_FIXED;
+        }
+    } else {
+        s = vt_road_from_camera(&fc.win, &cam, frame->w, frame->h, &out->road);
+        if (s != VT_OK) {
+            return s;
+        }
+        out->road_source = out->road.valid ? VT_ROAD_SRC_CAMERA : VT_ROAD_SRC_NONE;
+    }
+    p->det.n_hyp = 0;
+    p->det.n_boxes = 0;
+    if (out->road_source == VT_ROAD_SRC_NONE) {
+        return VT_OK;
+    }
+    s = vt_fulldet(&ws->st, &fc, &cam, frame, &out->road, &p->scorer, &ws->res);
+    if (s != VT_OK) {
+        return s;
+    }
+    /* The shadow source's hypotheses (fulldet keeps them in its detect result). */
+    if (fc.sources & VT_FULLDET_SHADOW) {
+        out->n_hyp = ws->st.dres.n_hyp;
+        for (i = 0; i < ws->st.dres.n_hyp; ++i) {
+            out->hyp[i] = ws->st.dres.hyp[i];
+        }
+    }
+    for (i = 0; i < ws->res.n_boxes && i < VT_MAX_BOXES; ++i) {
+        p->det.box[i] = ws->res.box[i].box;
+        out->boxes[i].box = ws->res.box[i].box;
+        out->boxes[i].source = ws->res.box[i].source == VT_FULLDET_WINDOWS ? VT_SRC_CLASSIFIER
+                                                                            : VT_SRC_SHADOW;
+        out->boxes[i].score = ws->res.box[i].score;
+    }
+    p->det.n_boxes = i;
+    out->n_boxes = i;
+    return VT_OK;
+}
+
+/* The overtaking stage on this frame (every frame: it compares consecutive ones); a
+ * frame of another size restarts it. Its boxes are appended to out->boxes and
+ * p->det.box from index n (while VT_MAX_BOXES allows; all counted in *n_in).
+ * *fresh = 1 if one of them meets no track of the previous step. */
+static vt_status vt__flow(vt_pipeline *p, const vt_image_u8 *frame, vt_frame_out *out, int32_t n,
+                          int32_t *n_in, int32_t *fresh)
+{
+    int32_t i, k;
+    vt_status s = vt_flow_step(p->flow_st, &p->cfg.flow, frame, &p->flow);
+    *fresh = 0;
+    if (s == VT_E_SIZE) {
+        s = vt_flow_reset(p->flow_st);
+        if (s == VT_OK) {
+            s = vt_flow_step(p->flow_st, &p->cfg.flow, frame, &p->flow);
+        }
+    }
+    if (s != VT_OK) {
+        p->flow.n = 0;
+        return s;
+    }
+    out->flow_ready = p->flow.ready;
+    for (i = 0; i < p->flow.n; ++i) {
+        const vt_box *b = &p->flow.hyp[i].box;
+        for (k = 0; k < p->n_src; ++k) {
+            if (vt__inter(b, &p->tracks[k].box) > 0) {
+                break;
+            }
+        }
+        if (k == p->n_src) {
+            *fresh = 1;
+        }
+        if (n < VT_MAX_BOXES) {
+            p->det.box[n] = *b;
+            out->boxes[n].box = *b;
+            out->boxes[n].source = VT_SRC_FLOW;
+            out->boxes[n].score = p->flow.hyp[i].cells;
+            ++n;
+        }
+    }
+    out->n_boxes = n;
+    *n_in += p->flow.n;
+    return VT_OK;
+}
+
+/* IoU(a, b) >= pct / 100, exact in int64. */
+static int32_t vt__iou_at_least(const vt_box *a, const vt_box *b, int32_t pct)
+{
+    int64_t in = vt__inter(a, b);
+    int64_t ua = ((int64_t)a->right - a->left + 1) * ((int64_t)a->bottom - a->top + 1);
+    int64_t ub = ((int64_t)b->right - b->left + 1) * ((int64_t)b->bottom - b->top + 1);
+    return in * 100 >= (int64_t)pct * (ua + ub - in);
+}
+
+/* The vehicle model for the tracks the previous step left coasting (see
+ * vt_pipeline_set_model_ws): their refined boxes appended at out->boxes[n..]
+ * (while VT_MAX_BOXES allows; all counted in *n_in), *n_model of them. */
+static void vt__model(vt_pipeline *p, const vt_image_u8 *frame, vt_frame_out *out, int32_t n,
+                      int32_t *n_in, int32_t *n_model)
+{
+    const vt_model_cfg *mc0 = &p->cfg.model;
+    vt_model_cfg mc;
+    vt_model_search se;
+    vt_model_result res;
+    int32_t k, fits = 0, w, h, horizon;
+    int64_t wpr;
+    *n_model = 0;
+    horizon = p->horizon_known ? p->horizon_y
+                               : vt__frac_q16(frame->h, p->cfg.road_camera.horizon_q16);
+    for (k = 0; k < p->n_src && fits < p->cfg.model_fits; ++k) {
+        const vt_box *b = &p->tracks[k].box;
+        if (p->tracks[k].state != VT_TRACK_COASTING) {
+            continue;
+        }
+        w = b->right - b->left + 1;
+        h = b->bottom - b->top + 1;
+        if (b->bottom <= horizon || w < 1 || h < 1) {
+            continue;
+        }
+        se.roi.left = vt__clamp_i32(b->left - w / 2, 0, frame->w - 1);
+        se.roi.top = vt__clamp_i32(b->top - h / 2, 0, frame->h - 1);
+        se.roi.right = vt__clamp_i32(b->right + w / 2, 0, frame->w - 1);
+        se.roi.bottom = vt__clamp_i32(b->bottom + h / 2, 0, frame->h - 1);
+        if ((int64_t)(se.roi.right - se.roi.left + 1) * (se.roi.bottom - se.roi.top + 1) >
+            VT_MODEL_MAX_ROI_PIXELS) {
+            continue;
+        }
+        wpr = (int64_t)w * 65536 / (b->bottom - horizon);
+        if (wpr < 1 || wpr > INT32_MAX) {
+            continue;
+        }
+        mc = *mc0;
+        mc.horizon_row = horizon;
+        mc.width_per_row = (vt_q16)wpr;
+        se.y_min = b->bottom - h / 4;
+        se.y_max = b->bottom + h / 4;
+        se.tracking = 1;
+        se.pred.x = b->left + w / 2;
+        se.pred.y = b->bottom;
+        se.pred.w = w;
+        se.pred.h = h;
+        se.pred.wind = (mc.wind_min + mc.wind_max) / 2;
+        se.pred.bump = (mc.bump_min + mc.bump_max) / 2;
+        se.pred.roof = mc.roof_max / 2;
+        se.sigma.x = w / 8;
+        se.sigma.y = h / 8;
+        se.sigma.w = w / 8;
+        se.sigma.h = h / 8;
+        se.sigma.wind = 5;
+        se.sigma.bump = 5;
+        se.sigma.roof = 5;
+        ++fits; /* the bound counts attempts: a failed fit cost its GA too */
+        if (vt_model_fit(frame, &mc, &se, p->model_ws, &res) != VT_OK ||
+            res.fitness < p->cfg.model_min_fitness ||
+            !vt__iou_at_least(&res.box, b, p->cfg.tracker.match_iou_percent)) {
+            continue;
+        }
+        ++*n_in;
+        ++*n_model;
+        if (n < VT_MAX_BOXES) {
+            p->det.box[n] = res.box;
+            out->boxes[n].box = res.box;
+            out->boxes[n].source = VT_SRC_MODEL;
+            out->boxes[n].score = res.fitness;
+            ++n;
+        }
+    }
+    out->n_boxes = n;
+}
+
 /* The step behind the three entry points. road: the caller's fallback road (or
  * NULL); dets/n_dets: the caller's detections when ext is 1. */
 static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_road_area *road,
@@ -294,6 +642,7 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
 {
     vt_status s;
     int32_t det_frame, run_lanes, lanes_ok = 0, n_boxes = 0, n_tracks = 0, n_ranges = 0, i;
+    int32_t whole, n_in, fresh = 0, trk_det, n_model = 0;
     const vt_box *boxes = p->det.box;
     if (frame->px == NULL) {
         return VT_E_ARG;
@@ -316,6 +665,16 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
         p->tracker.edge_ws == NULL) {
         return VT_E_ARG;
     }
+    /* A classifier asked for (a model, or the classifier source) needs its
+     * workspace and scorer attached (vt_pipeline_set_cls_ws). */
+    whole = p->cls_ws != NULL && p->scorer.score != NULL;
+    if (!whole && (p->model != NULL || (p->cfg.sources & VT_SRC_CLASSIFIER) != 0)) {
+        return VT_E_ARG;
+    }
+    if (((p->cfg.sources & VT_SRC_FLOW) != 0 && p->flow_st == NULL) ||
+        ((p->cfg.sources & VT_SRC_MODEL) != 0 && p->model_ws == NULL)) {
+        return VT_E_ARG;
+    }
     det_frame = ext || (p->cfg.sources != 0 && (p->frame % p->cfg.detect_every) == 0);
     run_lanes = !ext && p->cfg.road_policy != VT_ROAD_FIXED &&
                 ((det_frame && p->cfg.sources != 0) || p->cfg.lanes_every_frame);
@@ -330,12 +689,22 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
     out->n_hyp = 0;
     out->n_boxes = 0;
     out->n_boxes_in = 0;
+    out->flow_ready = 0;
     out->n_tracks = 0;
     memset(&out->lanes, 0, sizeof(out->lanes));
 
     if (run_lanes) {
         out->lane_status = vt_lane_detect(&p->cfg.lane, &p->lane, frame, &out->lanes, &out->road);
         lanes_ok = out->lane_status == VT_OK;
+        /* The horizon of the whole-road detector and the vehicle model: the lane
+         * stage's own vanishing row (the two ego lines meeting inside its plausible
+         * rows, vp_known), in input rows (vp_y + 1/2) 2^shift - 1/2 rounded half up,
+         * held while the lanes are lost (the camera's pitch changes slowly). */
+        if (lanes_ok && out->lanes.vp_known && out->lanes.shift >= 0 && out->lanes.shift <= 3) {
+            p->horizon_y = vt__clamp_i32(((2 * out->lanes.vp_y + 1) << out->lanes.shift) >> 1,
+                                         -VT_MAX_HEIGHT, VT_MAX_HEIGHT);
+            p->horizon_known = 1;
+        }
     }
     if (ext) {
         boxes = dets;
@@ -346,6 +715,14 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
             out->boxes[i].score = VT_UNKNOWN;
         }
         out->n_boxes = i;
+    } else if (det_frame && whole) {
+        s = vt__detect_whole(p, frame, road, out);
+        if (s != VT_OK) {
+            out->n_boxes = 0;
+            p->frame = vt__next_frame(p->frame);
+            return s;
+        }
+        n_boxes = p->det.n_boxes;
     } else if (det_frame) {
         vt__road(p, frame, road, out, lanes_ok);
         p->det.n_hyp = 0;
@@ -374,9 +751,38 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
         out->road.valid = 0;
     }
     out->n_boxes_in = n_boxes;
+    trk_det = det_frame;
+    if ((p->cfg.sources & (VT_SRC_FLOW | VT_SRC_MODEL)) != 0) {
+        /* On a frame with the caller's boxes, the flow and model boxes go after the
+         * copied ones. */
+        n_in = n_boxes;
+        if (ext) {
+            boxes = p->det.box;
+            for (i = 0; i < out->n_boxes; ++i) {
+                p->det.box[i] = dets[i];
+            }
+        }
+        if ((p->cfg.sources & VT_SRC_FLOW) != 0) {
+            s = vt__flow(p, frame, out, out->n_boxes, &n_in, &fresh);
+            if (s != VT_OK) {
+                p->frame = vt__next_frame(p->frame);
+                return s;
+            }
+        }
+        if ((p->cfg.sources & VT_SRC_MODEL) != 0 && p->cfg.track) {
+            vt__model(p, frame, out, out->n_boxes, &n_in, &n_model);
+        }
+        out->n_boxes_in = n_in;
+        n_boxes = out->n_boxes;
+        if (!det_frame && (fresh || n_model > 0)) {
+            trk_det = 1; /* an overtaking vehicle no track covers, or a refined track */
+        } else if (!det_frame) {
+            n_boxes = 0;
+        }
+    }
     s = VT_OK;
     if (p->cfg.track) {
-        s = vt_tracker_step(&p->tracker, &p->cfg.tracker, frame, det_frame, boxes, n_boxes,
+        s = vt_tracker_step(&p->tracker, &p->cfg.tracker, frame, trk_det, boxes, n_boxes,
                             p->tracks, VT_MAX_TRACKS, &n_tracks);
     }
     p->frame = vt__next_frame(p->frame);
@@ -391,6 +797,7 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
         }
     }
     vt__out_tracks(p, n_tracks, n_ranges, out);
+    vt__track_sources(p, out);
     return s;
 }
 

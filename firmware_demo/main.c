@@ -6,7 +6,9 @@
  * its one call: a static vt_pipeline stepped once per frame (lanes on every
  * frame, detection on the first in the lanes' road area, the tracker on all
  * three), printing every frame's road area, boxes and tracks and a checksum of
- * every vt_frame_out (the host test repeats them too).
+ * every vt_frame_out (the host test repeats them too); then once more with every
+ * hypothesis source built: the whole-road detector with the default classifier
+ * model (c/tables, in flash) and the overtaking flow stage (run_pipeline).
  * Equal checksums mean the same C gives the same bits on ARM and on the host.
  *
  * Every buffer is static (.bss), so the linker's size table is the RAM bill.
@@ -45,6 +47,10 @@ static vt_pipeline_cfg g_pipe_cfg;
 static vt_camera_cfg g_cam;
 static vt_pipeline g_pipe;
 static vt_frame_out g_out;
+/* The workspaces the second run attaches: the whole-road detector's scratch
+ * (classifier windows, pyramid) and the overtaking stage's state (two level images). */
+static vt_pipe_cls_ws g_cls_ws;
+static vt_flow_state g_flow;
 
 /* ---------------------------------------------------------------- FNV-1a 32 */
 #define FNV_BASIS 2166136261u
@@ -499,7 +505,7 @@ static uint32_t hash_frame_out(uint32_t h, vt_status s, const vt_frame_out *o)
     for (i = 0; i < o->n_hyp && i < VT_MAX_HYPOTHESES; ++i) {
         h = fnv_s32(fnv_s32(fnv_s32(h, o->hyp[i].row), o->hyp[i].x_start), o->hyp[i].x_end);
     }
-    h = fnv_s32(h, o->n_boxes);
+    h = fnv_s32(fnv_s32(h, o->n_boxes), o->flow_ready);
     fw_line_str("boxes ");
     fw_line_s32(f);
     line_sp(o->n_boxes);
@@ -525,6 +531,7 @@ static uint32_t hash_frame_out(uint32_t h, vt_status s, const vt_frame_out *o)
         h = fnv_box(h, &t->box);
         h = fnv_s32(fnv_s32(h, t->vx), t->vy);
         h = fnv_s32(fnv_s32(fnv_s32(h, t->distance_mm), t->ttc_ms), t->warning);
+        h = fnv_s32(h, t->source);
         fw_line_str("track ");
         fw_line_s32(f);
         line_sp(t->id);
@@ -536,6 +543,7 @@ static uint32_t hash_frame_out(uint32_t h, vt_status s, const vt_frame_out *o)
         line_sp(t->distance_mm);
         line_sp(t->ttc_ms);
         line_sp(t->warning);
+        line_sp(t->source);
         fw_line_end();
     }
     return h;
@@ -544,8 +552,10 @@ static uint32_t hash_frame_out(uint32_t h, vt_status s, const vt_frame_out *o)
 #if FW_CLIP_N != 3
 #error "run_pipeline() names one checksum and insns line per clip frame: update g_step_names"
 #endif
-static const char *const g_step_names[FW_CLIP_N] = {"step_frame0", "step_frame1", "step_frame2"};
-static const char *const g_out_names[FW_CLIP_N] = {"frame_out0", "frame_out1", "frame_out2"};
+static const char *const g_step_names[2][FW_CLIP_N] = {
+    {"step_frame0", "step_frame1", "step_frame2"}, {"step_full0", "step_full1", "step_full2"}};
+static const char *const g_out_names[2][FW_CLIP_N] = {
+    {"frame_out0", "frame_out1", "frame_out2"}, {"full_out0", "full_out1", "full_out2"}};
 
 /* The whole system through its one call: a static vt_pipeline with the default
  * configuration but lanes on every frame (as a detector keeps its lane tracker
@@ -557,15 +567,21 @@ static const char *const g_out_names[FW_CLIP_N] = {"frame_out0", "frame_out1", "
  * high-water mark of one step is measured by painting the stack right before
  * each step and scanning it right after (the largest of the three); it counts
  * from the top of the stack, so main's and this function's frames (a few dozen
- * bytes) are included: an upper bound, the reserve a step needs. */
+ * bytes) are included: an upper bound, the reserve a step needs.
+ * full = 1: the second run, every hypothesis source built: the whole-road detector
+ * with the core's default HOG model (c/tables, in flash) -- classified shadow
+ * hypotheses and classifier windows -- detecting on every frame, and the overtaking
+ * stage on both sides (every frame; it reports from frame 1 on), its checksums
+ * full_out0..2 and pipeline_full. */
 static uint32_t g_stack_step;
 
-static void run_pipeline(void)
+static void run_pipeline(int32_t full)
 {
     uint32_t h, hf, used;
     vt_image_u8 img;
     vt_status s;
     int32_t f;
+    const vt_svm_model *model = NULL;
 
     fw_line_str("clip ");
     fw_line_u32(FW_CLIP_W);
@@ -585,7 +601,28 @@ static void run_pipeline(void)
     g_cam.img_h = FW_CLIP_H;
     g_cam.cx -= 300 * VT_Q16_ONE;
     g_cam.cy -= 118 * VT_Q16_ONE;
-    h = fnv_status(h, vt_pipeline_init(&g_pipe, &g_pipe_cfg, &g_cam, NULL));
+    if (full) {
+        g_pipe_cfg.sources = VT_SRC_SHADOW | VT_SRC_CLASSIFIER | VT_SRC_FLOW;
+        g_pipe_cfg.detect_every = 1;
+        g_pipe_cfg.flow.sides = VT_FLOW_SIDE_BOTH;
+        g_pipe_cfg.flow.min_age = 1; /* report from frame 1: the clip has three frames */
+        h = fnv_status(h, vt_svm_default_model(VT_DESC_HOG, &model));
+        if (model != NULL) {
+            /* Windows of the model's own size a cell apart, as pyvehtrack's
+             * Pipeline(model=...) lays them (scored from the prepared HOG band;
+             * other sizes would be resampled window by window, ~10x the work). */
+            g_pipe_cfg.fulldet.win.n_sizes = 1;
+            g_pipe_cfg.fulldet.win.size[0] = model->win_w;
+            g_pipe_cfg.fulldet.win.step_q8 = 8 * 256 / model->win_w;
+            g_pipe_cfg.fulldet.window_score_min = model->threshold_q16;
+            g_pipe_cfg.fulldet.shadow_score_min = model->threshold_q16;
+        }
+    }
+    h = fnv_status(h, vt_pipeline_init(&g_pipe, &g_pipe_cfg, &g_cam, model));
+    if (full) {
+        h = fnv_status(h, vt_pipeline_set_cls_ws(&g_pipe, &g_cls_ws, NULL));
+        h = fnv_status(h, vt_pipeline_set_flow_ws(&g_pipe, &g_flow));
+    }
     img.w = FW_CLIP_W;
     img.h = FW_CLIP_H;
     img.stride = FW_CLIP_W;
@@ -595,14 +632,14 @@ static void run_pipeline(void)
         fw_stack_paint();
         start();
         s = vt_pipeline_step(&g_pipe, &img, &g_out);
-        stop(g_step_names[f]);
+        stop(g_step_names[full][f]);
         used = fw_stack_used();
         g_stack_step = used > g_stack_step ? used : g_stack_step;
         hf = hash_frame_out(FNV_BASIS, s, &g_out);
-        print_checksum(g_out_names[f], hf);
+        print_checksum(g_out_names[full][f], hf);
         h = fnv_u32(h, hf);
     }
-    print_checksum("pipeline", h);
+    print_checksum(full ? "pipeline_full" : "pipeline", h);
 }
 
 int main(void)
@@ -634,7 +671,8 @@ int main(void)
     /* The pipeline's own stack: paint again, run, scan. */
     stack_primitives = fw_stack_used();
     fw_stack_paint();
-    run_pipeline();
+    run_pipeline(0);
+    run_pipeline(1);
     stack_pipeline = fw_stack_used();
 
     /* The RAM bill, from sizeof: the static outputs, then the stack. */
@@ -650,6 +688,8 @@ int main(void)
     print_size("ram pipeline.range", (uint32_t)sizeof g_pipe.range);
     print_size("ram pipeline.cfg", (uint32_t)sizeof g_pipe.cfg);
     print_size("ram frame_out", (uint32_t)sizeof g_out);
+    print_size("ram pipe_cls_ws", (uint32_t)sizeof g_cls_ws);
+    print_size("ram flow_state", (uint32_t)sizeof g_flow);
     print_size("ram pipeline_cfg", (uint32_t)sizeof g_pipe_cfg);
     print_size("sizeof vt_image_u8", (uint32_t)sizeof(vt_image_u8));
     print_size("sizeof vt_road_area", (uint32_t)sizeof(vt_road_area));

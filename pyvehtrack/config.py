@@ -260,7 +260,7 @@ def to_c(cfg: PipelineConfig):
     for s in src:
         c.sources |= getattr(lib, SOURCES[s])
     if c.sources & ~lib.VT_SRC_BUILT:
-        raise ValueError(f"sources: {cfg.sources!r} asks for a stage not built yet (built: shadow)")
+        raise ValueError(f"sources: {cfg.sources!r} asks for a stage not built yet (built: shadow, classifier, flow, model)")
     checks = [("lane", "vt_lane_cfg_check", ffi.addressof(c, "lane")),
               ("shadow", "vt_shadow_cfg_check", ffi.addressof(c.detect, "shadow")),
               ("verify", "vt_verify_cfg_check", ffi.addressof(c.detect, "verify")),
@@ -332,7 +332,11 @@ def to_reference(cfg: PipelineConfig, quantize: bool = True):
 def reference_capacities():
     """The C build's capacities for the oracle (reference.pipeline.Capacities)."""
     from .reference.pipeline import Capacities  # noqa: PLC0415
-    return Capacities(max_width=int(lib.VT_MAX_WIDTH), max_height=int(lib.VT_MAX_HEIGHT),
+    return Capacities(max_windows=int(lib.VT_FULLDET_MAX_WINDOWS), max_cand=int(lib.VT_FULLDET_MAX_CAND),
+                      max_flow_hyps=int(lib.VT_FLOW_MAX_HYPS), max_flow_seeds=int(lib.VT_FLOW_MAX_SEEDS),
+                      max_flow_blobs=int(lib.VT_FLOW_MAX_BLOBS),
+                      max_model_roi_pixels=int(lib.VT_MODEL_MAX_ROI_PIXELS),
+                      max_width=int(lib.VT_MAX_WIDTH), max_height=int(lib.VT_MAX_HEIGHT),
                       max_tracks=int(lib.VT_MAX_TRACKS), max_hypotheses=int(lib.VT_MAX_HYPOTHESES),
                       max_boxes=int(lib.VT_MAX_BOXES),
                       max_shadow_active=int(lib.VT_MAX_SHADOW_ACTIVE),

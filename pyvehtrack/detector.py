@@ -213,11 +213,20 @@ class Detector:
             return None
         over = self._stage_overrides()
         over["road"] = self.road
+        if self.full is not None:
+            # full-road mode: the pipeline's classifier source with this Detector's model
+            over.update(model=self.full.model if self.full.model is not None else "default",
+                        road_camera=self.full.camera, fullroad=self.full.cfg,
+                        sources=tuple({"shadow": "shadow", "windows": "classifier"}[x]
+                                      for x in self.full.sources))
         return over
 
     def fallback_road(self, h: int, w: int):
         """The road the pipeline uses where the lanes give none (road "auto") or always
-        ("fixed"): this Detector's fixed trapezoid for an h x w processed frame."""
+        ("fixed"): this Detector's fixed trapezoid for an h x w processed frame; None in
+        the full-road mode (the pipeline's camera road)."""
+        if self.full is not None:
+            return None
         return self.fixed_road.make(h, w)
 
     # ------------------------------------------------------------------ road
@@ -306,12 +315,52 @@ class Detector:
         return (np.zeros((0, 3), np.int64), out[:, :4].astype(np.int64), out[:, 4].copy(), names, road,
                 lanes, source, dict(self.full.last_stats, horizon_y=self.full.camera_for(h, w, horizon).horizon_y))
 
+    def _whole_road_pipeline(self):
+        """The pipeline running this Detector's full-road mode (vt_pipeline_step with the
+        classifier), built from self.full (rebuilt if a caller replaced it), or None when a
+        caller's lane detector supplies the horizon (then the stage runs beside it)."""
+        if self.lane_detector is not None and not self._own_lanes:
+            return None
+        full = self.full
+        if getattr(self, "_whole_for", None) is not full:
+            from .pipeline import Pipeline  # noqa: PLC0415
+            srcs = tuple({"shadow": "shadow", "windows": "classifier"}[x] for x in full.sources)
+            model = full.model if full.model is not None else "default"
+            self._whole = Pipeline(self.engine, model=model, road_camera=full.camera, fullroad=full.cfg,
+                                   detect_every=1, track=False, sources=srcs,
+                                   road=self.road if isinstance(self.road, str) else "fixed")
+            self._whole_for = full
+        return self._whole
+
+    def _detect_whole(self, gray):
+        """Full-road mode through the pipeline: as _detect_full."""
+        pipe = self._whole_road_pipeline()
+        given = None
+        if not isinstance(self.road, str):
+            given = self.road(gray) if callable(self.road) else self.road
+            if given is None:
+                from .pipeline import NO_ROAD  # noqa: PLC0415
+                given = NO_ROAD
+        res = pipe.step_gray(gray, road=given)
+        lanes = []
+        for ln in (res.lanes.lanes if res.lanes is not None else []):
+            if len(ln.points):
+                lanes.append((ln.side, np.asarray(ln.points, np.float64).reshape(-1, 2)))
+        source = {"fixed": "given"}.get(res.road_source, res.road_source)
+        names = np.array(["windows" if b.source == "classifier" else b.source for b in res.boxes], dtype=object)
+        names = names.astype(str) if len(names) else np.zeros(0, "<U7")
+        scores = np.array([b.score for b in res.boxes], np.float64)
+        self.full.last_stats = {k: v for k, v in res.stats.items() if k != "horizon_y"}
+        return (res.hypotheses, res.box_array, scores, names, res.road, lanes, source, dict(res.stats))
+
     def detect(self, frame) -> DetectionResult:
         gray, (sx, sy) = self._prepare(frame)
         scores = names = None
-        if self.full is not None:
-            # full-road mode (classifier-verified hypotheses over every lane): not a pipeline
-            # source yet, so it runs beside the pipeline's ego-lane detector
+        if self.full is not None and self._whole_road_pipeline() is not None:
+            # full-road mode: the pipeline's classifier source (vt_pipeline_step)
+            hyp, box, scores, names, poly, lanes, source, stats = self._detect_whole(gray)
+        elif self.full is not None:
+            # a caller's lane detector gives the horizon: the stage runs beside the pipeline
             hyp, box, scores, names, road, lanes, source, stats = self._detect_full(gray)
             poly = _road_polygon(road)
         else:

@@ -204,6 +204,75 @@ def _c_cfg(cfg: rfd.FullDetConfig):
     return c
 
 
+def setup(model=None, sources=SOURCES, camera: Camera | None = None, cfg: FullRoadConfig | None = None):
+    """The checked pieces of a whole-road detector, shared by FullRoadDetector and
+    pyvehtrack.Pipeline(model=...): (model, sources, camera, cfg, the oracle's
+    FullDetConfig as run). model: a path, an SvmModel / MlpModel, or None for the core's
+    built-in one; the window sizes follow the model's scan sizes and the score thresholds
+    its threshold plus cfg.score_offset."""
+    if isinstance(sources, str):
+        sources = (sources,)
+    sources = tuple(sources)
+    bad = [s for s in sources if s not in SOURCES]
+    if bad or not sources:
+        raise ValueError(f"sources: expected a non-empty subset of {SOURCES}, got {sources!r}")
+    if model is None:
+        model = default_model()
+    elif isinstance(model, (SvmModel, MlpModel)):
+        pass
+    elif isinstance(model, (str, os.PathLike)):
+        model = load_model(model)
+    else:
+        raise TypeError(f"model: expected a path, an SvmModel, an MlpModel or None, got {type(model).__name__}")
+    if model is None and "windows" in sources:
+        raise ValueError("sources: 'windows' needs a classifier model, and this build has no default "
+                         "model: pass model=PATH.npz (see `pyvehtrack train`)")
+    camera = camera if camera is not None else Camera()
+    if not isinstance(camera, Camera):
+        raise TypeError(f"camera: expected a Camera, got {type(camera).__name__}")
+    cfg = cfg if cfg is not None else FullRoadConfig()
+    if not isinstance(cfg, FullRoadConfig):
+        raise TypeError(f"cfg: expected a FullRoadConfig, got {type(cfg).__name__}")
+    det = cfg.det
+    thr = 0
+    if model is not None:
+        thr = model.threshold_q16 + int(round(cfg.score_offset * 65536))
+        sizes = model.scan_sizes or (model.win_w,)
+        if det.win.sizes != sizes and model.win_w == model.win_h:
+            det = replace(det, win=replace(det.win, sizes=sizes, step=8 / model.win_w))
+    det = replace(det, shadow_source="shadow" in sources, window_source="windows" in sources,
+                  window_score_min=thr, shadow_score_min=thr,
+                  shadow_classify=det.shadow_classify and model is not None)
+    return model, sources, camera, cfg, det
+
+
+def road_camera_to_c(cam: Camera):
+    """The frame-relative camera as the pipeline holds it (vt_road_camera, Q16 fractions;
+    pipeline.h gives the per-frame rounding)."""
+    c = ffi.new("vt_road_camera *")
+    c.horizon_q16 = int(round(cam.horizon_frac * 65536))
+    c.hood_q16 = int(round(cam.hood_frac * 65536))
+    c.height_mm = int(round(cam.height_m * 1000))
+    c.fx_per_w_q16 = int(round(cam.fx_per_width * 65536))
+    return c
+
+
+def c_scorer(model):
+    """(vt_window_scorer * or None, keepalive) for the C pipeline: None for an SVM model
+    (the pipeline's own HOG scorer on the model given to vt_pipeline_init), the MLP
+    scorer for an MlpModel."""
+    if not isinstance(model, MlpModel):
+        return None, None
+    m, keep = _c_model(model)
+    mlp = ffi.new("vt_mlp_scorer *")
+    _native.check("vt_mlp_scorer_init", lib.vt_mlp_scorer_init(mlp, m))
+    sc = ffi.new("vt_window_scorer *")
+    sc.level = ffi.NULL
+    sc.score = ffi.addressof(lib, "vt_mlp_scorer_score")
+    sc.ctx = mlp
+    return sc, (m, keep, mlp)
+
+
 class FullRoadDetector:
     """Shadow hypotheses and classifier windows over the whole road, merged by NMS.
 
@@ -218,39 +287,7 @@ class FullRoadDetector:
                  cfg: FullRoadConfig | None = None, engine: str = "c"):
         if engine not in ("c", "reference"):
             raise ValueError(f"engine: expected 'c' or 'reference', got {engine!r}")
-        if isinstance(sources, str):
-            sources = (sources,)
-        sources = tuple(sources)
-        bad = [s for s in sources if s not in SOURCES]
-        if bad or not sources:
-            raise ValueError(f"sources: expected a non-empty subset of {SOURCES}, got {sources!r}")
-        if model is None:
-            self.model = default_model()
-        elif isinstance(model, (SvmModel, MlpModel)):
-            self.model = model
-        elif isinstance(model, (str, os.PathLike)):
-            self.model = load_model(model)
-        else:
-            raise TypeError(f"model: expected a path, an SvmModel, an MlpModel or None, got {type(model).__name__}")
-        if self.model is None and "windows" in sources:
-            raise ValueError("sources: 'windows' needs a classifier model, and this build has no default "
-                             "model: pass model=PATH.npz (see `pyvehtrack train`)")
-        self.camera = camera if camera is not None else Camera()
-        if not isinstance(self.camera, Camera):
-            raise TypeError(f"camera: expected a Camera, got {type(self.camera).__name__}")
-        cfg = cfg if cfg is not None else FullRoadConfig()
-        if not isinstance(cfg, FullRoadConfig):
-            raise TypeError(f"cfg: expected a FullRoadConfig, got {type(cfg).__name__}")
-        det = cfg.det
-        thr = 0
-        if self.model is not None:
-            thr = self.model.threshold_q16 + int(round(cfg.score_offset * 65536))
-            sizes = self.model.scan_sizes or (self.model.win_w,)
-            if det.win.sizes != sizes and self.model.win_w == self.model.win_h:
-                det = replace(det, win=replace(det.win, sizes=sizes, step=8 / self.model.win_w))
-        det = replace(det, shadow_source="shadow" in sources, window_source="windows" in sources,
-                      window_score_min=thr, shadow_score_min=thr,
-                      shadow_classify=det.shadow_classify and self.model is not None)
+        self.model, sources, self.camera, cfg, det = setup(model, sources, camera, cfg)
         self.cfg, self.det_cfg, self.sources, self.engine = cfg, det, sources, engine
         self._cfg_c = _c_cfg(det)
         self._state = ffi.new("vt_fulldet_state *")
@@ -316,4 +353,4 @@ class FullRoadDetector:
 
 
 __all__ = ["Camera", "SvmModel", "MlpModel", "FullRoadConfig", "FullRoadDetector", "load_model", "default_model", "SOURCES",
-           "DEFAULT_SOURCES"]
+           "DEFAULT_SOURCES", "setup", "road_camera_to_c", "c_scorer"]

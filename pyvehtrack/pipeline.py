@@ -22,6 +22,24 @@ fps=10)) each track gets its filtered distance (m), the TTC from it and its rate
 and the forward-collision warning (c/camera.c: pitch from the lanes' vanishing row,
 a [d, rate, accel] filter per track, NHTSA thresholds); without one they are None.
 Box scores are None for the shadow source, which has no confidence.
+
+With a classifier (Pipeline(model="model.npz"), an SvmModel / MlpModel, "default" for
+the core's built-in model, or a callable score(level_image, level, size, x, y) -> int
+Q16) the detection frames run the whole-road detector (c/fulldet.c through
+vt_pipeline_step): shadow hypotheses over the camera road kept when the classifier
+accepts them (sources "shadow") and sliding windows scored by it ("classifier"),
+merged by NMS; every box carries its source and score (the classifier's decision
+value, model units = Q16 / 65536). road_camera (pyvehtrack.fullroad.Camera) places its
+road; fullroad (a fullroad.FullRoadConfig) tunes it. The C engine allocates the
+detector's workspace (sizeof(vt_pipe_cls_ws)) and attaches it with
+vt_pipeline_set_cls_ws.
+
+sources "flow" (Pipeline(sources=("shadow", "flow"), flow={"sides": 3})): the overtaking
+stage (c/flow.c) on every frame, its blobs handed to the tracker (source "flow");
+sources "model" (vehicle_model={"fits": 2, ...}): the GA vehicle model refits the
+tracks whose ROI search failed (source "model"). Their state / workspace is allocated
+and attached here (vt_pipeline_set_flow_ws, vt_pipeline_set_model_ws). Each track says
+which source started it (Track.source).
 """
 from __future__ import annotations
 
@@ -31,7 +49,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from . import _native
+from . import _check, _native
 from . import config as _config
 from . import lane as _lane
 from ._native import ffi, lib
@@ -40,7 +58,7 @@ from .frames import to_gray
 
 ENGINES = ("c", "reference")
 STATES = {1: "tentative", 2: "confirmed", 3: "coasting"}
-ROAD_SOURCES = {0: "none", 1: "lanes", 2: "fixed"}
+ROAD_SOURCES = {0: "none", 1: "lanes", 2: "fixed", 3: "camera"}
 SOURCE_NAMES = {1: "shadow", 2: "classifier", 4: "flow", 8: "model", 16: "external"}
 
 
@@ -58,8 +76,10 @@ NO_ROAD = _NoRoad()
 @dataclass(frozen=True)
 class Box:
     box: tuple                 # (left, top, right, bottom), inclusive, input pixels
-    source: str                # "shadow" (others as their stages plug in)
-    score: float | None = None  # the source's confidence, None if it has none
+    source: str                # "shadow" | "classifier" | "flow" | "model" | "external"
+    score: float | None = None  # the source's confidence, None if it has none: the classifier's
+                                # decision value (model units), the flow blob's cells, the
+                                # vehicle model's fitness
 
 
 @dataclass(frozen=True)
@@ -71,6 +91,8 @@ class Track:
     distance: float | None = None  # filtered distance, m (camera stage); None while unknown
     ttc: float | None = None       # time to collision from it and its rate, s; None if unknown
     warning: bool | None = None    # forward-collision warning; None without a camera
+    source: str | None = None      # the source that started the track ("shadow", "classifier",
+                                   # "external"); None if no box of its first frame met it
 
 
 @dataclass
@@ -85,6 +107,7 @@ class FrameResult:
     tracks: list                   # [Track]
     scale: float = 1.0             # input pixels per processed pixel (max of x, y)
     stats: dict = field(default_factory=dict)  # shadow stage statistics (detection frames)
+    flow_ready: bool = False       # the overtaking stage compared two frames (sources "flow")
 
     @property
     def box_array(self) -> np.ndarray:
@@ -101,8 +124,11 @@ class Pipeline:
     """Frame-by-frame detection and tracking of one video.
 
     engine: "c" (the fixed-point core) or "reference" (the float oracle).
-    camera, model: the camera geometry and classifier stages (not built in yet:
-    pass None). cfg: a pyvehtrack.config.PipelineConfig (default: the core's);
+    camera: a pyvehtrack.camera.Camera for distance, TTC and warning (with fps).
+    model: None (the ego-lane shadow detector), or the whole-road detector's classifier:
+    a model path, an SvmModel / MlpModel, "default" (the core's built-in model) or a
+    callable score(level_image, level, size, x, y) -> int (module doc); road_camera and
+    fullroad configure that detector. cfg: a pyvehtrack.config.PipelineConfig (default: the core's);
     keyword arguments replace its top-level fields, e.g. Pipeline(detect_every=5,
     road="fixed", tracker=TrackerConfig(confirm_hits=2)). reference_quantized: the
     reference engine runs the Kalman model and keep_ncc rounded as C holds them
@@ -113,7 +139,8 @@ class Pipeline:
 
     def __init__(self, engine: str = "c", camera=None, model=None,
                  cfg: PipelineConfig | None = None, *, fps: float | None = None,
-                 ego_speed: float | None = None, reference_quantized: bool = True, **config):
+                 ego_speed: float | None = None, reference_quantized: bool = True,
+                 road_camera=None, fullroad=None, flow=None, vehicle_model=None, **config):
         if engine not in ENGINES:
             raise ValueError(f"engine: expected one of {ENGINES}, got {engine!r}")
         if camera is not None:
@@ -130,15 +157,127 @@ class Pipeline:
         self._geom = None          # (input w, h) the camera stage was set up for
         self.ego_speed = None
         self.set_ego_speed(ego_speed)
-        if model is not None:
-            raise ValueError("model: the classifier stage is not built into this version; pass None")
         self.engine = engine
         self._ref_quantized = bool(reference_quantized)
         self.cfg = _config.from_kwargs(cfg, **config)
         self._ccfg = _config.to_c(self.cfg)  # checks the whole config once, for both engines
+        self._setup_classifier(model, road_camera, fullroad)
+        self._setup_flow(flow)
+        self._setup_vehicle_model(vehicle_model)
         self.max_w, self.max_h = int(lib.VT_MAX_WIDTH), int(lib.VT_MAX_HEIGHT)
         self._warned = False
         self.reset()
+
+    def _setup_classifier(self, model, road_camera, fullroad) -> None:
+        """The whole-road detector's model, scorer and configuration (C and oracle)."""
+        from . import fullroad as _fr  # noqa: PLC0415
+        self.model, self._score_fn, self.whole_road = None, None, model is not None
+        self._cmodel = self._cscorer = None
+        if model is None:
+            if road_camera is not None or fullroad is not None:
+                raise ValueError("road_camera and fullroad configure the whole-road detector: pass model= too")
+            if "classifier" in self.cfg.sources:
+                raise ValueError("sources: 'classifier' needs a classifier: pass model=")
+            return
+        srcs = tuple({"shadow": "shadow", "classifier": "windows"}[s] for s in self.cfg.sources
+                     if s in ("shadow", "classifier"))
+        if isinstance(model, str) and model == "default":
+            model = None
+            if _fr.default_model() is None:
+                raise ValueError("model: this build has no built-in model; pass a path")
+        if callable(model) and not isinstance(model, (_fr.SvmModel, _fr.MlpModel)):
+            # any classifier: the configuration as given (thresholds in its own scale)
+            from dataclasses import replace  # noqa: PLC0415
+            self._score_fn, _m = model, None
+            cam = road_camera if road_camera is not None else _fr.Camera()
+            if not isinstance(cam, _fr.Camera):
+                raise TypeError(f"road_camera: expected a fullroad.Camera, got {type(cam).__name__}")
+            frc = fullroad if fullroad is not None else _fr.FullRoadConfig()
+            if not isinstance(frc, _fr.FullRoadConfig):
+                raise TypeError(f"fullroad: expected a fullroad.FullRoadConfig, got {type(frc).__name__}")
+            det = replace(frc.det, shadow_source="shadow" in srcs, window_source="windows" in srcs)
+        else:
+            _m, _, cam, _frc, det = _fr.setup(model, srcs or ("shadow",), road_camera, fullroad)
+            det = replace_sources(det, srcs)
+        self.model, self.road_camera, self._det_cfg = _m, cam, det
+        self._ccfg.fulldet = _fr._c_cfg(det)[0]
+        self._ccfg.road_camera = _fr.road_camera_to_c(cam)[0]
+        _native.pipeline_cfg_check(self._ccfg)
+        self._cmodel = None
+        if isinstance(_m, _fr.SvmModel):
+            self._cmodel = _fr._c_model(_m)           # (vt_svm_model *, keepalive)
+        self._cscorer = None
+        if self._score_fn is not None:
+            self._cscorer = _callback_scorer(self._score_fn)
+        elif isinstance(_m, _fr.MlpModel):
+            self._cscorer = _fr.c_scorer(_m)
+
+    def _setup_flow(self, flow) -> None:
+        """The overtaking stage's settings (sources "flow"): a dict of vt_flow_cfg fields
+        replacing the core's defaults (pyvehtrack.flow.make_cfg checks them)."""
+        self._flow_st = None
+        if "flow" not in self.cfg.sources:
+            if flow is not None:
+                raise ValueError("flow: the overtaking stage's settings need sources including 'flow'")
+            return
+        if flow is not None and not isinstance(flow, dict):
+            raise TypeError(f"flow: expected a dict of vt_flow_cfg fields, got {type(flow).__name__}")
+        from . import flow as _flow  # noqa: PLC0415
+        fc = _flow.make_cfg(**(flow or {}))
+        self._ccfg.flow = fc[0]
+        self._flow_fields = {f: int(getattr(fc, f)) for f in _flow.CFG_FIELDS}
+        _native.pipeline_cfg_check(self._ccfg)
+
+    def _setup_vehicle_model(self, vm) -> None:
+        """The vehicle model's settings (sources "model"): a dict of vt_model_cfg fields
+        replacing the core's defaults (pyvehtrack.vehicle_model.make_cfg checks them) and
+        "fits", the most fits per frame (vt_pipeline_cfg.model_fits)."""
+        self._model_ws = None
+        if "model" not in self.cfg.sources:
+            if vm is not None:
+                raise ValueError("vehicle_model: the vehicle model's settings need sources including 'model'")
+            return
+        if vm is not None and not isinstance(vm, dict):
+            raise TypeError(f"vehicle_model: expected a dict of vt_model_cfg fields, got {type(vm).__name__}")
+        from . import vehicle_model as _vm  # noqa: PLC0415
+        vm = dict(vm or {})
+        fits = vm.pop("fits", int(self._ccfg.model_fits))
+        fits = _check.integer(fits, "vehicle_model['fits']", lo=0, hi=int(lib.VT_MAX_TRACKS))
+        min_fit = _check.integer(vm.pop("min_fitness", int(self._ccfg.model_min_fitness)),
+                                 "vehicle_model['min_fitness']", lo=0)
+        self._ccfg.model_min_fitness = min_fit
+        mc = _vm.make_cfg(**vm)
+        self._ccfg.model = mc[0]
+        self._ccfg.model_fits = fits
+        self._model_oracle_cfg = _vm.oracle_cfg(mc)
+        _native.pipeline_cfg_check(self._ccfg)
+
+    def _ref_score(self):
+        """The classifier for the reference engine: the callable, else the C classifier
+        on the window alone (its own oracle lives with the classify stage)."""
+        if self._score_fn is not None:
+            return self._score_fn
+        if getattr(self, "_ref_scorer", None) is None:
+            from . import fullroad as _fr  # noqa: PLC0415
+            if isinstance(self.model, _fr.MlpModel):
+                sc, keep = _fr.c_scorer(self.model)
+            else:
+                m, keep = self._cmodel
+                hog = ffi.new("vt_hog_scorer *")
+                _native.check("vt_hog_scorer_init", lib.vt_hog_scorer_init(hog, m))
+                sc = ffi.new("vt_window_scorer *")
+                sc.level, sc.score, sc.ctx = ffi.NULL, ffi.addressof(lib, "vt_hog_scorer_score"), hog
+                keep = (keep, hog)
+            self._ref_scorer = (sc, keep)
+        sc = self._ref_scorer[0]
+
+        def score(img, level, s, x, y):
+            win = ffi.new("vt_window *", [level, s, x, y])
+            out = ffi.new("int32_t *")
+            v = _native.view(np.ascontiguousarray(img), "level_img")
+            _native.check("window scorer", sc.score(sc.ctx, v, win, out))
+            return int(out[0])
+        return score
 
     def set_ego_speed(self, speed: float | None) -> None:
         """The ego vehicle's speed (m/s, >= 0) for the next frames, or None (unknown):
@@ -179,8 +318,27 @@ class Pipeline:
         if self.engine == "c":
             self._p = ffi.new("vt_pipeline *")
             cam = self._ccam if self._geom is not None else ffi.NULL
-            _native.check("vt_pipeline_init", lib.vt_pipeline_init(self._p, self._ccfg, cam, ffi.NULL),
+            model = self._cmodel[0] if self._cmodel is not None else ffi.NULL
+            _native.check("vt_pipeline_init", lib.vt_pipeline_init(self._p, self._ccfg, cam, model),
                           "a stage configuration, policy or the camera is out of range")
+            if self.whole_road:
+                # the whole-road detector's scratch (sizeof(vt_pipe_cls_ws), ~1.2 MB at the
+                # default capacities): one per Pipeline serves every run (init detaches it)
+                if getattr(self, "_cls_ws", None) is None:
+                    self._cls_ws = ffi.new("vt_pipe_cls_ws *")
+                sc = self._cscorer[0] if self._cscorer is not None else ffi.NULL
+                _native.check("vt_pipeline_set_cls_ws", lib.vt_pipeline_set_cls_ws(self._p, self._cls_ws, sc))
+            if "flow" in self.cfg.sources:
+                # the overtaking stage's state (sizeof(vt_flow_state), ~1.9 MB at the default
+                # capacities): one per Pipeline, emptied by every attach
+                if self._flow_st is None:
+                    self._flow_st = ffi.new("vt_flow_state *")
+                _native.check("vt_pipeline_set_flow_ws", lib.vt_pipeline_set_flow_ws(self._p, self._flow_st))
+            if "model" in self.cfg.sources:
+                # the vehicle model's scratch (sizeof(vt_model_ws), ~0.4 MB by default)
+                if self._model_ws is None:
+                    self._model_ws = ffi.new("vt_model_ws *")
+                _native.check("vt_pipeline_set_model_ws", lib.vt_pipeline_set_model_ws(self._p, self._model_ws))
             # The edge-curve measurement's workspace (sizeof(vt_edge_ws), 320 KB at the
             # default VT_EDGE_MAX_PIXELS) exists only when that measurement runs; it is
             # scratch, so one per Pipeline serves every run (init detaches it).
@@ -194,8 +352,21 @@ class Pipeline:
         else:
             from .reference import pipeline as rpipe  # noqa: PLC0415  (the reference engine only)
             geom = (self._cam_params, self._range_params) if self._geom is not None else None
-            self._ref = rpipe.Pipeline(_config.to_reference(self.cfg, self._ref_quantized),
-                                       _config.reference_capacities(), camera=geom)
+            rcfg = _config.to_reference(self.cfg, self._ref_quantized)
+            score = None
+            if "model" in self.cfg.sources:
+                import dataclasses  # noqa: PLC0415
+                rcfg = dataclasses.replace(rcfg, model=self._model_oracle_cfg,
+                                           model_fits=int(self._ccfg.model_fits),
+                                           model_min_fitness=int(self._ccfg.model_min_fitness))
+            if "flow" in self.cfg.sources:
+                import dataclasses  # noqa: PLC0415
+                from types import SimpleNamespace  # noqa: PLC0415
+                rcfg = dataclasses.replace(rcfg, flow=SimpleNamespace(**self._flow_fields))
+            if self.whole_road:
+                rcfg = _whole_road_reference(rcfg, self._ccfg)
+                score = self._ref_score()
+            self._ref = rpipe.Pipeline(rcfg, _config.reference_capacities(), camera=geom, score=score)
         self.set_ego_speed(self.ego_speed)
 
     @property
@@ -285,22 +456,35 @@ class Pipeline:
                        np.int64).reshape(-1, 3)
         boxes = [Box((int(b.box.left), int(b.box.top), int(b.box.right), int(b.box.bottom)),
                      SOURCE_NAMES.get(int(b.source), "unknown"),
-                     None if b.score == lib.VT_UNKNOWN else float(b.score))
+                     _score(int(b.source), None if b.score == lib.VT_UNKNOWN else int(b.score)))
                  for b in (o.boxes[i] for i in range(o.n_boxes))]
         tracks = [Track(int(t.id), STATES[int(t.state)],
                         (int(t.box.left), int(t.box.top), int(t.box.right), int(t.box.bottom)),
                         (t.vx / 65536, t.vy / 65536),
                         None if t.distance_mm == lib.VT_UNKNOWN else t.distance_mm / 1000,
                         None if t.ttc_ms == lib.VT_UNKNOWN else t.ttc_ms / 1000,
-                        None if t.warning == lib.VT_FCW_UNKNOWN else bool(t.warning & lib.VT_FCW_WARNING))
+                        None if t.warning == lib.VT_FCW_UNKNOWN else bool(t.warning & lib.VT_FCW_WARNING),
+                        SOURCE_NAMES.get(int(t.source)))
                   for t in (o.tracks[i] for i in range(o.n_tracks))]
         stats = {}
-        if o.detection_frame:
+        if o.detection_frame and self.whole_road and detections is None:
+            r = self._cls_ws.res
+            stats = {k: int(getattr(r, k)) for k in ("n_windows", "n_windows_dropped", "n_window_hits",
+                                                      "n_shadow", "n_cand", "n_cand_dropped")}
+            stats["horizon_y"] = self._horizon_c(gray.shape)
+        elif o.detection_frame:
             s = self._p.detect.shadow
             stats = {"median": int(s.median), "mad": int(s.mad), "dark_limit": int(s.dark_limit),
                      "n_runs": int(s.n_runs), "n_dropped": int(s.n_dropped)}
         return FrameResult(int(o.frame), bool(o.detection_frame), lanes, road,
-                           ROAD_SOURCES[int(o.road_source)], hyp, boxes, tracks, 1.0, stats)
+                           ROAD_SOURCES[int(o.road_source)], hyp, boxes, tracks, 1.0, stats,
+                           bool(o.flow_ready))
+
+    def _horizon_c(self, shape) -> int:
+        """The horizon row the C whole-road detector used on this frame."""
+        if self._p.horizon_known:
+            return int(self._p.horizon_y)
+        return int(np.floor((shape[0] * int(self._ccfg.road_camera.horizon_q16) + 32768) / 65536))
 
     def _step_ref(self, gray: np.ndarray, road, detections) -> FrameResult:
         r = self._ref.step(gray, road=road, detections=detections)
@@ -308,12 +492,72 @@ class Pipeline:
         road = np.zeros((0, 2), np.int64)
         if r.road is not None:
             road = _polygon(r.road.x_left, r.road.x_right, r.road.y_top, r.road.y_bottom)
-        boxes = [Box(tuple(int(v) for v in b), s) for b, s in zip(r.boxes, r.box_source)]
-        tracks = [Track(int(i), STATES[int(s)], b, (float(vx), float(vy)), d, ttc, wn)
-                  for i, s, b, vx, vy, d, ttc, wn in r.tracks]
+        boxes = [Box(tuple(int(v) for v in b), s, _score(s, sc))
+                 for b, s, sc in zip(r.boxes, r.box_source, r.box_score)]
+        tracks = [Track(int(i), STATES[int(s)], b, (float(vx), float(vy)), d, ttc, wn, src)
+                  for (i, s, b, vx, vy, d, ttc, wn), src in zip(r.tracks, r.track_source)]
         return FrameResult(r.frame, r.detection_frame, lanes, road, r.road_source,
                            np.asarray(r.hypotheses, np.int64).reshape(-1, 3), boxes, tracks, 1.0,
-                           dict(r.stats))
+                           dict(r.stats), bool(getattr(r, "flow_ready", False)))
+
+
+def _score(source, v):
+    """A box's score in its source's unit: the classifier's decision value (Q16 -> float,
+    for the whole-road detector's boxes), the flow blob's cells and the model's fitness
+    as the integers they are; None where the source has none."""
+    if v is None:
+        return None
+    if source in (1, 2, "shadow", "classifier"):
+        return v / 65536
+    return v
+
+
+def replace_sources(det, srcs):
+    """det with exactly the sources srcs ("shadow", "windows")."""
+    import dataclasses  # noqa: PLC0415
+    return dataclasses.replace(det, shadow_source="shadow" in srcs, window_source="windows" in srcs)
+
+
+def _callback_scorer(fn):
+    """A vt_window_scorer calling the Python function fn(level_image, level, size, x, y)."""
+    @ffi.callback("vt_status(void *, const vt_image_u8 *, const vt_window *, int32_t *)", onerror=lambda *a: -1)
+    def score(ctx, img, win, out):
+        a = np.frombuffer(ffi.buffer(img.px, img.stride * img.h), np.uint8).reshape(img.h, img.stride)[:, :img.w]
+        v = int(fn(a, int(win.level), int(win.size), int(win.x), int(win.y)))
+        out[0] = max(-2**31, min(2**31 - 1, v))
+        return 0
+    sc = ffi.new("vt_window_scorer *")
+    sc.level, sc.score, sc.ctx = ffi.NULL, score, ffi.NULL
+    return sc, score
+
+
+def _whole_road_reference(rcfg, c):
+    """The oracle's whole-road configuration from the values C holds (vt_fulldet_cfg in
+    its integer units, vt_road_camera in Q16)."""
+    import dataclasses  # noqa: PLC0415
+    from .reference import fulldet as rfd  # noqa: PLC0415  (the reference engine only)
+    from .reference import pipeline as rpipe  # noqa: PLC0415
+    from .reference import shadow as rshadow  # noqa: PLC0415
+    from .reference import verify as rverify  # noqa: PLC0415
+    from .reference import windows as rw  # noqa: PLC0415
+    f, w = c.fulldet, c.fulldet.win
+    win = rw.WindowConfig(veh_w_min_m=w.veh_w_min_mm / 1000, veh_w_max_m=w.veh_w_max_mm / 1000,
+                          sizes=tuple(int(w.size[i]) for i in range(w.n_sizes)), step=w.step_q8 / 256,
+                          levels=int(w.levels), lane_w_m=w.lane_w_mm / 1000, top_margin=int(w.top_margin))
+    det = rfd.FullDetConfig(
+        win=win,
+        shadow=rshadow.ShadowConfig(**{k: int(getattr(f.det.shadow, k)) for k in
+                                       rshadow.ShadowConfig.__dataclass_fields__}),
+        verify=rverify.VerifyConfig(**{k: int(getattr(f.det.verify, k)) for k in
+                                       rverify.VerifyConfig.__dataclass_fields__}),
+        window_score_min=int(f.window_score_min), edge_check=bool(f.edge_check),
+        shadow_classify=bool(f.shadow_classify), shadow_score_min=int(f.shadow_score_min),
+        shadow_score=int(f.shadow_score), nms_iou=f.nms_iou_q8 / 256, nms_contain=f.nms_contain_q8 / 256,
+        box_height=f.box_height_q8 / 256)
+    rc = c.road_camera
+    cam = rpipe.RoadCameraRef(rc.horizon_q16 / 65536, rc.hood_q16 / 65536, rc.height_mm / 1000,
+                              rc.fx_per_w_q16 / 65536)
+    return dataclasses.replace(rcfg, fulldet=det, road_camera=cam)
 
 
 def _rescale(res: FrameResult, sx: float, sy: float, h0: int, w0: int) -> FrameResult:
@@ -339,8 +583,8 @@ def _rescale(res: FrameResult, sx: float, sy: float, h0: int, w0: int) -> FrameR
     return FrameResult(res.frame, res.detection_frame, res.lanes, road, res.road_source, hyp,
                        [Box(box(b.box), b.source, b.score) for b in res.boxes],
                        [Track(t.id, t.state, box(t.box), (t.velocity[0] * sx, t.velocity[1] * sy),
-                              t.distance, t.ttc, t.warning) for t in res.tracks],
-                       float(max(sx, sy)), res.stats)
+                              t.distance, t.ttc, t.warning, t.source) for t in res.tracks],
+                       float(max(sx, sy)), res.stats, res.flow_ready)
 
 
 __all__ = ["Pipeline", "FrameResult", "Box", "Track", "PipelineConfig", "NO_ROAD"]

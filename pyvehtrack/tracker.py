@@ -33,6 +33,8 @@ class Track:
     state: str            # "tentative" | "confirmed" | "coasting"
     box: tuple            # (left, top, right, bottom), inclusive, input pixels
     velocity: tuple       # (vx, vy) of the bottom edge, input px/frame
+    source: str = "shadow"  # the hypothesis source that started it: "shadow" | "classifier"
+                            # (boxes given to step() count as "shadow": the CLI's detections)
 
 
 def cfg_to_c(cfg: rtrk.TrackerCfg):
@@ -165,4 +167,6 @@ class Tracker:
         self.frame_index += 1
         res = self.pipeline.step(gray, road=road, detections=dets)
         self.last_was_detection = res.detection_frame
-        return [Track(t.id, t.state, t.box, t.velocity) for t in res.tracks]
+        return [Track(t.id, t.state, t.box, t.velocity,
+                      t.source if t.source in ("shadow", "classifier", "flow", "model") else "shadow")
+                for t in res.tracks]

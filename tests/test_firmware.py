@@ -270,9 +270,18 @@ def _fnv_box(h: int, b) -> int:
 
 
 def host_pipeline(frames: list[np.ndarray]) -> tuple[list[str], list[tuple[str, int]]]:
-    """main.c's run_pipeline(): the printed lines (clip, then per frame road/boxes/box/
+    """main.c's two run_pipeline() calls (the shadow source alone, then every source),
+    their lines and checksums concatenated in the order printed."""
+    la, sa = host_pipeline_run(frames, full=False)
+    lb, sb = host_pipeline_run(frames, full=True)
+    return la + lb, sa + sb
+
+
+def host_pipeline_run(frames: list[np.ndarray], full: bool) -> tuple[list[str], list[tuple[str, int]]]:
+    """main.c's run_pipeline(full): the printed lines (clip, then per frame road/boxes/box/
     tracks/track) and the checksums in the order printed, one per vt_frame_out
-    (frame_out0..2), then pipeline (the init statuses and the three)."""
+    (frame_out0..2 / full_out0..2), then pipeline / pipeline_full (the init statuses and
+    the three). full: the default classifier model and the flow stage attached."""
     h_, w_ = frames[0].shape
     lines = [f"clip {w_}x{h_}x{len(frames)}"]
     sums: list[tuple[str, int]] = []
@@ -285,7 +294,24 @@ def host_pipeline(frames: list[np.ndarray]) -> tuple[list[str], list[tuple[str, 
     cam.cx -= 300 * 65536
     cam.cy -= 118 * 65536
     p = ffi.new("vt_pipeline *")  # zeroed, as main.c's .bss one
-    total = fnv_s32(total, lib.vt_pipeline_init(p, cfg, cam, ffi.NULL))
+    model = ffi.new("const vt_svm_model **")
+    if full:
+        cfg.sources = lib.VT_SRC_SHADOW | lib.VT_SRC_CLASSIFIER | lib.VT_SRC_FLOW
+        cfg.detect_every = 1
+        cfg.flow.sides = lib.VT_FLOW_SIDE_BOTH
+        cfg.flow.min_age = 1
+        total = fnv_s32(total, lib.vt_svm_default_model(lib.VT_DESC_HOG, model))
+        m = model[0]
+        cfg.fulldet.win.n_sizes = 1
+        cfg.fulldet.win.size[0] = m.win_w
+        cfg.fulldet.win.step_q8 = 8 * 256 // m.win_w
+        cfg.fulldet.window_score_min = cfg.fulldet.shadow_score_min = m.threshold_q16
+    total = fnv_s32(total, lib.vt_pipeline_init(p, cfg, cam, model[0] if full else ffi.NULL))
+    keep = []
+    if full:
+        keep = [ffi.new("vt_pipe_cls_ws *"), ffi.new("vt_flow_state *")]
+        total = fnv_s32(total, lib.vt_pipeline_set_cls_ws(p, keep[0], ffi.NULL))
+        total = fnv_s32(total, lib.vt_pipeline_set_flow_ws(p, keep[1]))
     o = ffi.new("vt_frame_out *")
     for f, frame in enumerate(frames):
         s = lib.vt_pipeline_step(p, view(frame, "frame"), o)
@@ -310,7 +336,7 @@ def host_pipeline(frames: list[np.ndarray]) -> tuple[list[str], list[tuple[str, 
         for i in range(o.n_hyp):
             hy = o.hyp[i]
             h = fnv_s32(fnv_s32(fnv_s32(h, hy.row), hy.x_start), hy.x_end)
-        h = fnv_s32(h, o.n_boxes)
+        h = fnv_s32(fnv_s32(h, o.n_boxes), o.flow_ready)
         lines.append(f"boxes {f} {o.n_boxes}")
         for i in range(o.n_boxes):
             b = o.boxes[i]
@@ -321,13 +347,13 @@ def host_pipeline(frames: list[np.ndarray]) -> tuple[list[str], list[tuple[str, 
         for i in range(o.n_tracks):
             t = o.tracks[i]
             h = _fnv_box(fnv_s32(fnv_s32(h, t.id), t.state), t.box)
-            for v in (t.vx, t.vy, t.distance_mm, t.ttc_ms, t.warning):
+            for v in (t.vx, t.vy, t.distance_mm, t.ttc_ms, t.warning, t.source):
                 h = fnv_s32(h, v)
             lines.append(f"track {f} {t.id} {t.state} {_box_line(t.box)} {t.vx} {t.vy} "
-                         f"{t.distance_mm} {t.ttc_ms} {t.warning}")
-        sums.append((f"frame_out{f}", h))
+                         f"{t.distance_mm} {t.ttc_ms} {t.warning} {t.source}")
+        sums.append((f"{'full_out' if full else 'frame_out'}{f}", h))
         total = fnv_u32(total, h)
-    sums.append(("pipeline", total))
+    sums.append(("pipeline_full" if full else "pipeline", total))
     return lines, sums
 
 
@@ -419,11 +445,18 @@ def test_qemu_pipeline_equal_host(firmware_run, pipeline, core):
     assert len(got) == len(want), f"{core}: {len(got)} pipeline lines on QEMU, {len(want)} on the host"
 
 
+def _runs(lines: list[str]) -> tuple[list[str], list[str]]:
+    """The lines of main.c's first run (shadow source) and of its second (every source)."""
+    k = [i for i, ln in enumerate(lines) if ln.startswith("clip ")]
+    assert len(k) == 2, k
+    return lines[:k[1]], lines[k[1]:]
+
+
 def test_pipeline_exercises_detection_and_tracking(pipeline):
     """A proof over an empty pipeline would prove little: the detector finds at
     least one box on frame 0, and a track exists in every frame, so the tracked
     frames run the ROI search and the Kalman filter."""
-    lines = pipeline[0]
+    lines = _runs(pipeline[0])[0]
     assert int(next(ln for ln in lines if ln.startswith("boxes 0 ")).split()[2]) >= 1, lines
     for f in range(len(CLIP)):
         assert any(ln.startswith(f"track {f} ") for ln in lines), (f, lines)
@@ -434,7 +467,7 @@ def test_pipeline_detects_in_the_lane_road(pipeline):
     frame, and in it the lead car's track is confirmed by frame 2 (three hits:
     the detection and two ROI searches), as Detector + Tracker find on this clip
     (tests/test_tracker_real.py)."""
-    lines = pipeline[0]
+    lines = _runs(pipeline[0])[0]
     for f in range(len(CLIP)):
         road = next(ln for ln in lines if ln.startswith(f"road {f} ")).split()
         assert road[2:4] == [str(int(lib.VT_OK)), "1"], (f, road)
@@ -447,6 +480,21 @@ def test_pipeline_detects_in_the_lane_road(pipeline):
         if ln.startswith("track "):
             d = int(ln.split()[10])
             assert d != int(lib.VT_UNKNOWN) and 5000 < d < 15000, ln
+
+
+def test_full_run_exercises_every_source(pipeline):
+    """The second run is no empty proof either: every init/attach status is VT_OK (the
+    default model exists in this build), the whole-road detector works on the camera
+    road on every frame with classifier boxes among its boxes, and tracks say which
+    source started them."""
+    lines = _runs(pipeline[0])[1]
+    for f in range(len(CLIP)):
+        road = next(ln for ln in lines if ln.startswith(f"road {f} ")).split()
+        assert road[6] == str(int(lib.VT_ROAD_SRC_CAMERA)), (f, road)
+    srcs = {int(ln.split()[6]) for ln in lines if ln.startswith("box ")}
+    assert {int(lib.VT_SRC_CLASSIFIER), int(lib.VT_SRC_FLOW)} <= srcs, lines
+    tsrc = {int(ln.split()[-1]) for ln in lines if ln.startswith("track ")}
+    assert tsrc and tsrc <= {int(lib.VT_SRC_SHADOW), int(lib.VT_SRC_CLASSIFIER), int(lib.VT_SRC_FLOW)}, lines
 
 
 def test_host_recipe_sees_error_statuses():

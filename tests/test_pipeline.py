@@ -59,6 +59,8 @@ def _compare(ra, rb, exact: bool, where: str):
     if road_equal:
         assert np.array_equal(ra.hypotheses, rb.hypotheses), where
     assert [(t.id, t.state) for t in ra.tracks] == [(t.id, t.state) for t in rb.tracks], where
+    if road_equal:
+        assert [t.source for t in ra.tracks] == [t.source for t in rb.tracks], where
     for a, b in zip(ra.tracks, rb.tracks):
         assert max(abs(x - y) for x, y in zip(a.box, b.box)) <= box_tol, where
         if box_tol == 0:
@@ -241,10 +243,15 @@ def test_output_guard_bytes():
 
 @pytest.mark.parametrize("field,value", [
     ("detect_every", 0), ("detect_every", -3), ("road_policy", 3), ("road_policy", -1),
-    ("lanes_every_frame", 2), ("track", 2), ("track", -1), ("sources", 2), ("sources", 16)])
+    ("lanes_every_frame", 2), ("track", 2), ("track", -1), ("sources", 32), ("sources", 16),
+    ("road_camera.height_mm", 99), ("road_camera.horizon_q16", 65537)])
 def test_cfg_check_rejects_policies(field, value):
     c = _cfg()
-    setattr(c, field, value)
+    obj = c
+    *head, last = field.split(".")
+    for k in head:
+        obj = getattr(obj, k)
+    setattr(obj, last, value)
     assert lib.vt_pipeline_cfg_check(c) == lib.VT_E_ARG
     p = ffi.new("vt_pipeline *")
     assert lib.vt_pipeline_init(p, c, ffi.NULL, ffi.NULL) == lib.VT_E_ARG
@@ -254,7 +261,8 @@ def test_cfg_check_rejects_policies(field, value):
 @pytest.mark.parametrize("path,value", [
     ("fixed_road.vp_x_permille", 1001), ("fixed_road.bottom_left_permille", -1),
     ("fixed_road.top_margin", -1), ("lane.work_width_max", 0), ("detect.shadow.min_run", 0),
-    ("detect.verify.aspect_q8", 0), ("tracker.confirm_hits", 0)])
+    ("detect.verify.aspect_q8", 0), ("tracker.confirm_hits", 0),
+    ("fulldet.nms_iou_q8", 300), ("fulldet.win.levels", 0)])
 def test_cfg_check_rejects_stage_configs(path, value):
     c = _cfg()
     obj = c
@@ -272,16 +280,16 @@ def test_fixed_road_policy_skips_the_lane_check():
     assert lib.vt_pipeline_cfg_check(c) == lib.VT_OK
 
 
-def test_init_rejects_stages_not_built_and_nulls():
+def test_init_rejects_bad_models_and_nulls():
     p = ffi.new("vt_pipeline *")
     c = _cfg()
-    dummy = ffi.new("uint8_t[64]")
+    bad_model = ffi.new("vt_svm_model *")  # all zero: fails vt_svm_model_check
     assert lib.vt_pipeline_init(ffi.NULL, c, ffi.NULL, ffi.NULL) == lib.VT_E_ARG
     assert lib.vt_pipeline_init(p, ffi.NULL, ffi.NULL, ffi.NULL) == lib.VT_E_ARG
     bad_cam = ffi.new("vt_camera_cfg *")  # all zero: fails vt_camera_cfg_check (its code)
     assert lib.vt_pipeline_init(p, c, bad_cam, ffi.NULL) == lib.vt_camera_cfg_check(bad_cam) < 0
     assert p.cfg.detect_every == 0  # untouched
-    assert lib.vt_pipeline_init(p, c, ffi.NULL, ffi.cast("struct vt_svm_model *", dummy)) == lib.VT_E_ARG
+    assert lib.vt_pipeline_init(p, c, ffi.NULL, bad_model) == lib.VT_E_ARG
     assert lib.vt_pipeline_cfg_default(ffi.NULL) == lib.VT_E_ARG
     assert lib.vt_pipeline_cfg_check(ffi.NULL) == lib.VT_E_ARG
 
@@ -309,8 +317,14 @@ def test_python_bad_arguments():
         Pipeline("gpu")
     with pytest.raises(TypeError, match="camera"):
         Pipeline(camera=object(), fps=10)
-    with pytest.raises(ValueError, match="model"):
+    with pytest.raises(TypeError, match="model"):
         Pipeline(model=object())
+    with pytest.raises(ValueError, match="model"):
+        Pipeline(model="/no/such/model.npz")
+    with pytest.raises(ValueError, match="classifier"):
+        Pipeline(sources=("shadow", "classifier"))      # no classifier given
+    with pytest.raises(ValueError, match="road_camera"):
+        Pipeline(road_camera=object())                   # only with a model
     with pytest.raises(TypeError, match="unknown pipeline config"):
         Pipeline(detect_evry=3)
     with pytest.raises(ValueError, match="detect_every"):
@@ -322,7 +336,7 @@ def test_python_bad_arguments():
     with pytest.raises(ValueError, match="road"):
         Pipeline(road="sky")
     with pytest.raises(ValueError, match="sources"):
-        Pipeline(sources=("flow",))
+        Pipeline(sources=("radar",))
     with pytest.raises(ValueError, match="sources"):
         Pipeline(sources="shadow")
     with pytest.raises(TypeError, match="track"):

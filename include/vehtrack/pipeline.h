@@ -13,40 +13,53 @@
  * caller's output (lanes, road area, boxes, tracks). The tracker's edge-curve
  * measurement needs a vt_edge_ws more (327,704 bytes at the defaults), owned by
  * the caller and attached with vt_pipeline_set_edge_ws only when that measurement
- * is used. Work: the stages' own (see their headers); detection runs only every detect_every frames. Stack: the
- * stages' (about 2 KB, the Kalman update), measured in firmware_demo/. */
+ * is used. Likewise caller-owned and attached only for their sources: the whole-road
+ * detector's vt_pipe_cls_ws (vt_pipeline_set_cls_ws; 1,176,248 bytes at the default
+ * capacities, 568,488 at VGA), the overtaking stage's vt_flow_state
+ * (vt_pipeline_set_flow_ws; 1,917,112 / 592,312) and the vehicle model's vt_model_ws
+ * (vt_pipeline_set_model_ws; 416,760). Work: the stages' own (see their headers);
+ * detection runs only every detect_every frames, the flow stage on every frame, the
+ * vehicle model at most model_fits times per frame. Stack: measured in firmware_demo/
+ * (`stack step`: 4.8 KB with every source on). */
 #ifndef VEHTRACK_PIPELINE_H
 #define VEHTRACK_PIPELINE_H
 
 #include <stdint.h>
 #include "vehtrack/camera.h"
+#include "vehtrack/classify.h"
 #include "vehtrack/config.h"
 #include "vehtrack/detect.h"
+#include "vehtrack/flow.h"
+#include "vehtrack/fulldet.h"
 #include "vehtrack/image.h"
 #include "vehtrack/lane.h"
 #include "vehtrack/road.h"
 #include "vehtrack/status.h"
 #include "vehtrack/tracker.h"
+#include "vehtrack/vehicle_model.h"
 
-/* Stages that other modules provide and plug in here, by pointer; NULL means
- * "stage off". The classifier (its quantised weights) is not built in yet, so only
- * its slot exists; the camera (vehtrack/camera.h) is. */
-struct vt_svm_model;
-
-/* Hypothesis sources (bit mask in vt_pipeline_cfg.sources). Only the shadow
- * source is built today; asking for another one is VT_E_ARG at init. */
+/* Hypothesis sources (bit mask in vt_pipeline_cfg.sources). Shadow and classifier
+ * are built; asking for another one is VT_E_ARG at init.
+ * Without a classifier, detection is the ego-lane detector (vehtrack/detect.h) on
+ * the lanes' road. With one (a model at vt_pipeline_init, or a scorer given to
+ * vt_pipeline_set_cls_ws) detection is the whole-road detector (vehtrack/fulldet.h)
+ * on the camera road: VT_SRC_SHADOW its shadow hypotheses (classified by the model),
+ * VT_SRC_CLASSIFIER its sliding windows. */
 #define VT_SRC_SHADOW 1     /* shadow rows + vertical-edge verification (sec. 2.4.2) */
-#define VT_SRC_CLASSIFIER 2 /* classifier windows (needs a model) */
-#define VT_SRC_FLOW 4       /* overtaking vehicles from lateral SAD flow */
-#define VT_SRC_MODEL 8      /* the 7-parameter vehicle model fitted by a GA */
+#define VT_SRC_CLASSIFIER 2 /* classifier windows over the whole road (needs a classifier) */
+#define VT_SRC_FLOW 4       /* overtaking vehicles from lateral SAD flow (every frame; needs
+                               its state attached: vt_pipeline_set_flow_ws)               */
+#define VT_SRC_MODEL 8      /* the 7-parameter vehicle model fitted by a GA, for tracks
+                               whose ROI search failed (needs vt_pipeline_set_model_ws)   */
 #define VT_SRC_EXTERNAL 16  /* the caller's detections (vt_pipeline_step_dets); not a policy bit */
-#define VT_SRC_BUILT (VT_SRC_SHADOW)
+#define VT_SRC_BUILT (VT_SRC_SHADOW | VT_SRC_CLASSIFIER | VT_SRC_FLOW | VT_SRC_MODEL)
 
 /* Where the road area of a frame came from (vt_frame_out.road_source) and which
  * the pipeline may use (vt_pipeline_cfg.road_policy). */
 #define VT_ROAD_SRC_NONE 0
 #define VT_ROAD_SRC_LANES 1
 #define VT_ROAD_SRC_FIXED 2
+#define VT_ROAD_SRC_CAMERA 3 /* the whole-road detector's camera road (vt_road_from_camera) */
 
 #define VT_ROAD_AUTO 0  /* the lanes' road area, else the fixed trapezoid */
 #define VT_ROAD_LANES 1 /* the lanes' road area only (no detection without it) */
@@ -77,6 +90,25 @@ typedef struct {
 
 #define VT_FIXED_ROAD_DEFAULT {500, 450, 50, 950, 450, 4}
 
+/* The whole-road detector's flat-road camera relative to the frame, so one setting
+ * serves any frame size. For a w x h frame (vt_camera_min, input px):
+ *   horizon_y = floor((h * horizon_q16 + 32768) / 65536)   (half up; Q16 of h)
+ *   hood_y    = max(1, floor((h * hood_q16 + 32768) / 65536))
+ *   fx_q4     = max(16, floor((w * fx_per_w_q16 + 2048) / 4096))  (fx = w * fx_per_w, Q4)
+ * exact in int64. The lane stage's vanishing row (vt_lane_result vp_y when vp_known, in
+ * input rows (vp_y + 1/2) 2^shift - 1/2 rounded half up) replaces the horizon when the
+ * lane stage finds one, and is held while they are lost.
+ * Defaults: horizon 330/720 of h (fitted on tusimple-vehicles-dev TRAIN), hood from
+ * 0.93 h, 1.8 m camera, fx = 714.15/1280 of w (TuSimple), as pyvehtrack.fullroad.Camera. */
+typedef struct {
+    int32_t horizon_q16;  /* -65536..65536                   */
+    int32_t hood_q16;     /* 3277..131072 (0.05 .. 2 h)      */
+    int32_t height_mm;    /* 100..20000                      */
+    int32_t fx_per_w_q16; /* 3277..1310720 (0.05 .. 20 w)    */
+} vt_road_camera;
+
+#define VT_ROAD_CAMERA_DEFAULT {30037, 60948, 1800, 36564}
+
 typedef struct {
     vt_lane_cfg lane;
     vt_detect_cfg detect;
@@ -91,20 +123,52 @@ typedef struct {
     int32_t sources;         /* VT_SRC_* mask of hypothesis sources; 0: none (detections
                                 come only from the caller, vt_pipeline_step_dets)        */
     int32_t track;           /* 1: the tracker runs; 0: detection only (no tracks)       */
+    vt_fulldet_cfg fulldet;  /* the whole-road detector (with a classifier); its own
+                                `sources` field is ignored: the pipeline's bits decide */
+    vt_road_camera road_camera; /* its camera (with a classifier)                        */
+    vt_flow_cfg flow;        /* the overtaking stage (VT_SRC_FLOW)                       */
+    vt_model_cfg model;      /* the vehicle model's GA (VT_SRC_MODEL); its road fields
+                                are set per fit (see vt_pipeline_set_model_ws)          */
+    int32_t model_fits;      /* most model fits per frame, 0..VT_MAX_TRACKS (the cost
+                                bound with the GA's pop x gens; default 2, or
+                                VT_MAX_TRACKS if smaller)                               */
+    int32_t model_min_fitness; /* a fit below this is not used, >= 0. Default 256: more
+                                than a featureless patch scores (255 w_sym: perfectly
+                                symmetric, no edge, no shadow) at the default weights  */
 } vt_pipeline_cfg;
 
 #define VT_PIPELINE_CFG_DEFAULT                                                            \
     {                                                                                      \
         VT_LANE_CFG_DEFAULT, VT_DETECT_CFG_DEFAULT, VT_TRACKER_CFG_DEFAULT,                \
-            VT_RANGE_CFG_DEFAULT, VT_FIXED_ROAD_DEFAULT, 10, VT_ROAD_AUTO, 0, VT_SRC_SHADOW, 1                   \
+            VT_RANGE_CFG_DEFAULT, VT_FIXED_ROAD_DEFAULT, 10, VT_ROAD_AUTO, 0, VT_SRC_SHADOW, 1, \
+            VT_FULLDET_CFG_DEFAULT, VT_ROAD_CAMERA_DEFAULT, VT_FLOW_CFG_DEFAULT,           \
+            VT_MODEL_CFG_DEFAULT, ((VT_MAX_TRACKS) < 2 ? (VT_MAX_TRACKS) : 2), 256          \
     }
+
+/* The whole-road detector's scratch, owned by the caller and attached with
+ * vt_pipeline_set_cls_ws (too large for vt_pipeline: sizeof is the pyramid of a
+ * VT_MAX_WIDTH x VT_MAX_HEIGHT frame plus the window lists and the HOG band, about
+ * 1.2 MB at the default capacities, see `make ram-bill`). Rewritten every detection
+ * frame; nothing in it outlives a step. */
+typedef struct {
+    vt_fulldet_state st;
+    vt_fulldet_result res;
+    vt_hog_scorer hog;
+} vt_pipe_cls_ws;
 
 /* Everything the pipeline keeps. Caller-owned (static storage on firmware);
  * initialise with vt_pipeline_init. Fields are private: read the output. */
 typedef struct {
     vt_pipeline_cfg cfg; /* a checked copy */
-    const struct vt_svm_model *model;
+    const vt_svm_model *model;   /* NULL: no built-in classifier (see vt_pipeline_set_cls_ws) */
     const vt_camera_cfg *camera; /* NULL: no geometry */
+    vt_pipe_cls_ws *cls_ws;      /* the whole-road detector's scratch (NULL: none)        */
+    vt_window_scorer scorer;     /* its classifier (score NULL: none)                     */
+    int32_t horizon_y;           /* the last lanes' vanishing row, input px               */
+    int32_t horizon_known;       /* 1 once the lanes gave one (this run)                  */
+    vt_flow_state *flow_st;      /* the overtaking stage's state (NULL: none attached)    */
+    vt_flow_result flow;         /* its last result                                       */
+    vt_model_ws *model_ws;       /* the vehicle model's workspace (NULL: none attached)   */
     int32_t frame;    /* frames stepped so far */
     vt_q16 ego_speed; /* m/s, negative = unknown (vt_pipeline_set_ego_speed) */
     vt_lane_state lane;
@@ -115,10 +179,15 @@ typedef struct {
     vt_pitch_state pitch;  /* camera stage: pitch from the lanes' vanishing row */
     vt_range_state range;  /* camera stage: per-track range filter and FCW state */
     vt_range_out ranges[VT_MAX_TRACKS];
+    int32_t n_src;                      /* the source that started each live track:   */
+    int32_t src_id[VT_MAX_TRACKS];      /* track ids ...                               */
+    int32_t src_of[VT_MAX_TRACKS];      /* ... and their VT_SRC_* (0: not known)       */
 } vt_pipeline;
 
-/* A detected box and the source that proposed it. score: the source's confidence
- * (the shadow source has none and gives VT_UNKNOWN). */
+/* A detected box and the source that proposed it. score: the source's confidence:
+ * the classifier's decision value (Q16, the model's scale) for every box of the
+ * whole-road detector (a shadow box not classified: cfg.fulldet.shadow_score);
+ * VT_UNKNOWN for the ego-lane shadow source, which has none. */
 typedef struct {
     vt_box box;
     int32_t source; /* one VT_SRC_* bit */
@@ -138,6 +207,10 @@ typedef struct {
     int32_t distance_mm;
     int32_t ttc_ms;
     int32_t warning;
+    int32_t source;  /* VT_SRC_* of the detection that started the track: on the frame
+                        a track first appears, the source of the frame's box with the
+                        largest intersection with its box (the first of equals); 0 if
+                        no box meets it. Kept for the track's life. */
 } vt_pipe_track;
 
 /* One frame's results, all in the pixels of the frame given to vt_pipeline_step. */
@@ -147,13 +220,18 @@ typedef struct {
     int32_t lane_status;     /* vt_lane_detect's status (VT_OK if it did not run)    */
     int32_t lanes_ran;       /* 1 if the lane stage ran on this frame                */
     vt_lane_result lanes;    /* its lines (valid only when lanes_ran and lane_status == VT_OK) */
-    int32_t road_source;     /* VT_ROAD_SRC_*                                        */
+    int32_t road_source;     /* VT_ROAD_SRC_* (CAMERA: the whole-road detector's)     */
     vt_road_area road;       /* the road area used (valid = 0 if none)               */
-    int32_t n_hyp;           /* shadow hypotheses (nearest first)                    */
+    int32_t n_hyp;           /* shadow hypotheses (nearest first; of the whole-road
+                                detector's shadow source when a classifier runs)     */
     vt_hypothesis hyp[VT_MAX_HYPOTHESES];
-    int32_t n_boxes;         /* boxes handed to the tracker (the first VT_MAX_BOXES)  */
+    int32_t n_boxes;         /* boxes handed to the tracker (the first VT_MAX_BOXES);
+                                the flow boxes are listed on every frame, handed over
+                                as vt_pipeline_set_flow_ws says                      */
     int32_t n_boxes_in;      /* all of them: more than n_boxes only when the caller's
-                                detections (vt_pipeline_step_dets) exceed VT_MAX_BOXES */
+                                detections (vt_pipeline_step_dets) exceed VT_MAX_BOXES,
+                                or the flow boxes did not fit (not handed over)      */
+    int32_t flow_ready;      /* the overtaking stage compared two frames (VT_SRC_FLOW) */
     vt_pipe_box boxes[VT_MAX_BOXES];
     int32_t n_tracks;        /* live tracks                                          */
     vt_pipe_track tracks[VT_MAX_TRACKS];
@@ -173,10 +251,24 @@ vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg);
  * speed unknown. camera: NULL (no geometry) or a camera passing vt_camera_cfg_check
  * (kept by pointer: it must outlive the pipeline; may live in flash), whose img_w x
  * img_h every frame must then have (VT_E_SIZE at the step otherwise); with it the
- * range configuration must pass vt_range_cfg_check. model: NULL (a non-NULL one is
- * VT_E_ARG while the classifier is not built in). On error *p is left unchanged. */
+ * range configuration must pass vt_range_cfg_check. model: NULL, or a linear SVM
+ * passing vt_svm_model_check (kept by pointer, may live in flash, e.g.
+ * vt_svm_default_model): the classifier of the whole-road detector, which then runs
+ * on detection frames once its workspace is attached (vt_pipeline_set_cls_ws; until
+ * then every step is VT_E_ARG). The classifier source (VT_SRC_CLASSIFIER) needs a
+ * classifier: a model here or a scorer attached later (the step checks). init
+ * detaches the workspace and the scorer. On error *p is left unchanged. */
 vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
-                           const vt_camera_cfg *camera, const struct vt_svm_model *model);
+                           const vt_camera_cfg *camera, const vt_svm_model *model);
+
+/* Attach the whole-road detector's workspace (after vt_pipeline_init, which detaches
+ * it; ws NULL detaches it and the scorer). scorer: NULL for the HOG scorer of the
+ * model given at init (vt_hog_scorer in ws: VT_E_ARG without a model), or the
+ * caller's classifier (e.g. {NULL, vt_mlp_scorer_score, &mlp}; copied, its ctx must
+ * outlive the run). The pipeline keeps the pointer (*ws must outlive the run). With
+ * a classifier attached, detection frames run vt_fulldet (see VT_SRC_SHADOW). VT_E_ARG
+ * for p NULL, a scorer without `score`, or ws NULL with a scorer (nothing changes). */
+vt_status vt_pipeline_set_cls_ws(vt_pipeline *p, vt_pipe_cls_ws *ws, const vt_window_scorer *scorer);
 
 /* Attach the caller's workspace for the tracker's edge-curve measurement
  * (cfg.tracker.measurement == VT_MEAS_EDGE_CURVES; vehtrack/edge_track.h), as
@@ -188,6 +280,45 @@ vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
  * workspace can only be attached after it. VT_E_ARG for p NULL. */
 vt_status vt_pipeline_set_edge_ws(vt_pipeline *p, vt_edge_ws *ws);
 
+/* Attach the caller's state of the overtaking stage (vehtrack/flow.h; ~1.9 MB at the
+ * default capacities, which is why it is not in vt_pipeline: a firmware build sizes it
+ * with VT_MAX_WIDTH/HEIGHT or VT_FLOW_MAX_PIXELS/CELLS). It is emptied here
+ * (vt_flow_init) and then holds the previous frame: it must outlive the run and serve
+ * one pipeline only. Call after vt_pipeline_init (which detaches it); st NULL detaches.
+ * With VT_SRC_FLOW on and no state attached every step is VT_E_ARG. VT_E_ARG for p NULL.
+ *
+ * Policy (vt_pipeline_step): the stage runs on every frame (it compares consecutive
+ * frames; a frame of another size restarts it). Its hypotheses (overtaking blobs) are
+ * boxes of source VT_SRC_FLOW, score = the blob's cells, after the detector's boxes
+ * (while VT_MAX_BOXES allows). They reach the tracker on detection frames, and on any
+ * other frame where one of them meets no live track (an overtaking vehicle cannot wait
+ * for the next detection frame): that frame is then a detection frame for the tracker
+ * with the flow boxes alone (out->detection_frame still says whether the detector ran). */
+vt_status vt_pipeline_set_flow_ws(vt_pipeline *p, vt_flow_state *st);
+
+/* Attach the caller's workspace of the vehicle model (vehtrack/vehicle_model.h;
+ * 416,760 bytes at the default VT_MODEL_MAX_ROI_PIXELS; scratch, rewritten by every
+ * fit). Call after vt_pipeline_init (which detaches it); ws NULL detaches. With
+ * VT_SRC_MODEL on and no workspace every step is VT_E_ARG. VT_E_ARG for p NULL.
+ *
+ * Policy (vt_pipeline_step): the model runs only where tracking asks for it: for the
+ * tracks the previous step left COASTING (their ROI search failed and no detection
+ * matched), in output order, at most cfg.model_fits per frame, before the tracker.
+ * For a track with last box (l, t, r, b), w = r - l + 1, h = b - t + 1: a tracking
+ * search (the GA's individuals start around the prediction within 3 sigma) with
+ * prediction x = l + w / 2, y = b, w, h and the middle of each shape range, sigma
+ * (w / 8, h / 8, w / 8, h / 8, 5, 5, 5), the bottom row within b -+ h / 4, in the ROI
+ * (l - w / 2, t - h / 2, r + w / 2, b + h / 2) clipped to the frame (skipped when
+ * larger than VT_MODEL_MAX_ROI_PIXELS); the road constraint through the track: horizon = the
+ * whole-road detector's horizon (the lanes' vanishing row once known, else
+ * cfg.road_camera), width_per_row = floor(w * 65536 / (b - horizon)) (skipped for b at
+ * or above the horizon). A fit that fails (VT_E_SINGULAR, VT_E_SIZE: no model fits)
+ * or scores below cfg.model_min_fitness is skipped; one whose box overlaps the track's last box with IoU >= the tracker's
+ * match_iou_percent is a box of source VT_SRC_MODEL (score = its fitness), after the
+ * detector's and the flow's boxes, and makes this a detection frame for the tracker
+ * (as a fresh flow box does), so it updates the track it refines. */
+vt_status vt_pipeline_set_model_ws(vt_pipeline *p, vt_model_ws *ws);
+
 /* The ego vehicle's speed for the next steps (the camera stage's lead class), Q16
  * m/s; negative = unknown. VT_E_ARG for NULL. */
 vt_status vt_pipeline_set_ego_speed(vt_pipeline *p, vt_q16 speed);
@@ -195,8 +326,13 @@ vt_status vt_pipeline_set_ego_speed(vt_pipeline *p, vt_q16 speed);
 /* One frame: lanes (every frame or detection frames, per the policy) -> road area
  * (lanes, else the fixed trapezoid, per the policy) -> on detection frames (every
  * detect_every-th, when a hypothesis source is on) hypotheses and verification ->
- * tracker (if on) -> geometry. VT_E_ARG when the tracker runs the edge-curve
- * measurement without a workspace (vt_pipeline_set_edge_ws). frame: 1x1 ..
+ * tracker (if on) -> geometry. With a classifier attached (vt_pipeline_set_cls_ws)
+ * the detection frames run the whole-road detector instead: its road is the camera
+ * road (vt_road_from_camera with cfg.road_camera; the road policy then only says
+ * whether the lanes run, for the horizon), or the caller's road (step_road).
+ * VT_E_ARG when the tracker runs the edge-curve measurement without a workspace
+ * (vt_pipeline_set_edge_ws), or a classifier is asked for (a model at init, or
+ * VT_SRC_CLASSIFIER) without one attached (vt_pipeline_set_cls_ws). frame: 1x1 ..
  * VT_MAX_WIDTH x VT_MAX_HEIGHT (VT_E_SIZE otherwise; see vt_pipeline_work_size for
  * bringing a larger frame within it). A lane-stage error (e.g. a frame below its
  * 16x16 minimum) is not fatal: it is reported in out->lane_status and the road

@@ -6,6 +6,9 @@ frame by frame end to end.
       -> road area                        the lanes' area, else the fixed trapezoid
       -> shadow hypotheses (reference.shadow) -> verification (reference.verify)
                                           on frames 0, N, 2N, ...
+         or, with a classifier (score), the whole-road detector (reference.fulldet)
+         on the camera road (reference.windows.road_from_camera), the horizon the
+         lanes' vanishing row once they found one (held while they are lost)
       -> tracker (reference.tracker)      every frame
       -> geometry (reference.camera)      with a camera: pitch from the lanes' vanishing
                                           row, range filter, TTC and FCW per track
@@ -20,15 +23,38 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import camera as rcam
+from . import flow as rflow
+from . import fulldet as rfd
 from . import lane as rlane
 from . import shadow as rshadow
 from . import tracker as rtrk
+from . import vehicle_model as rvm
 from . import verify as rverify
+from . import windows as rw
 from .shadow import RoadArea, ShadowConfig, trapezoid_road
 from .verify import VerifyConfig
 
 ROAD_AUTO, ROAD_LANES, ROAD_FIXED = "auto", "lanes", "fixed"
 SRC_SHADOW = "shadow"
+SRC_CLASSIFIER = "classifier"
+SRC_FLOW = "flow"
+SRC_MODEL = "model"
+
+
+@dataclass
+class RoadCameraRef:
+    """The whole-road detector's camera relative to the frame (vt_road_camera): the
+    horizon and hood rows as fractions of h, rounded half up per frame; the camera
+    height; fx as a fraction of w (used for distances only, not by the windows)."""
+    horizon: float = 30037 / 65536
+    hood: float = 60948 / 65536
+    height_m: float = 1.8
+    fx_per_w: float = 36564 / 65536
+
+    def for_frame(self, h: int, w: int, horizon_y: int | None) -> rw.Camera:
+        hy = int(np.floor(h * self.horizon + 0.5)) if horizon_y is None else horizon_y
+        return rw.Camera(fx=max(1.0, self.fx_per_w * w), horizon_y=hy, height_m=self.height_m,
+                         hood_y=max(1, int(np.floor(h * self.hood + 0.5))))
 
 
 @dataclass
@@ -57,6 +83,12 @@ class Capacities:
     max_verts: int = 24
     max_edge_points: int = 256      # VT_EDGE_MAX_POINTS
     max_edge_pixels: int = 65536    # VT_EDGE_MAX_PIXELS
+    max_windows: int = 4096         # VT_FULLDET_MAX_WINDOWS
+    max_cand: int = 1024            # VT_FULLDET_MAX_CAND
+    max_flow_hyps: int = 16         # VT_FLOW_MAX_HYPS
+    max_flow_seeds: int = 4         # VT_FLOW_MAX_SEEDS
+    max_flow_blobs: int = 32        # VT_FLOW_MAX_BLOBS
+    max_model_roi_pixels: int = 320 * 240  # VT_MODEL_MAX_ROI_PIXELS
     coord_lim: int = 7680           # 4 * max(VT_MAX_WIDTH, VT_MAX_HEIGHT): the tracker's box limit
 
 
@@ -72,6 +104,12 @@ class PipelineRefConfig:
     lanes_every_frame: bool = False
     sources: tuple = (SRC_SHADOW,)
     track: bool = True
+    fulldet: rfd.FullDetConfig = field(default_factory=rfd.FullDetConfig)  # its sources: ours
+    road_camera: RoadCameraRef = field(default_factory=RoadCameraRef)
+    flow: object = None   # the overtaking stage's settings (the fields of vt_flow_cfg), with "flow"
+    model: object = None  # the vehicle model's settings (reference.vehicle_model's cfg), with "model"
+    model_fits: int = 2   # most model fits per frame
+    model_min_fitness: int = 256  # a fit below this is not used
 
 
 @dataclass
@@ -87,7 +125,10 @@ class RefFrame:
     boxes: np.ndarray             # (M, 4) inclusive
     box_source: list              # one source name per box
     tracks: list                  # (id, state, (l, t, r, b), vx, vy, distance_m, ttc_s, warning)
-    stats: dict                   # the shadow stage's statistics (detection frames)
+    stats: dict                   # the shadow stage's statistics (detection frames), or the
+                                  # whole-road detector's counters and horizon_y
+    box_score: list = field(default_factory=list)  # one score per box (None: no confidence)
+    track_source: list = field(default_factory=list)  # per track: the source that started it
 
 
 def _lane_fits(h: int, w: int, cfg: rlane.LaneConfig) -> bool:
@@ -112,10 +153,14 @@ class Pipeline:
     """One run over a video: step(gray) per frame, in order."""
 
     def __init__(self, cfg: PipelineRefConfig | None = None, caps: Capacities | None = None,
-                 camera=None):
+                 camera=None, score=None):
         """camera: None, or (reference.camera.CameraParams, RangeParams) for frames of
-        exactly the camera's img_w x img_h."""
+        exactly the camera's img_w x img_h. score: None (the ego-lane detector), or the
+        classifier of the whole-road detector, score(level_image, level, size, x, y) ->
+        int (see reference.fulldet)."""
         self.cfg = cfg or PipelineRefConfig()
+        self.score = score
+        self.horizon_y = None      # the last lanes' vanishing row (whole-road detector)
         self.caps = caps or Capacities()
         self.camera = camera
         self.ego_speed = None      # m/s or None (unknown)
@@ -126,8 +171,21 @@ class Pipeline:
             raise ValueError(f"detect_every must be >= 1, got {self.cfg.detect_every}")
         if self.cfg.road_policy not in (ROAD_AUTO, ROAD_LANES, ROAD_FIXED):
             raise ValueError(f"road_policy: expected 'auto', 'lanes' or 'fixed', got {self.cfg.road_policy!r}")
-        if tuple(self.cfg.sources) not in ((SRC_SHADOW,), ()):
-            raise ValueError(f"sources: only ('shadow',) or () is built, got {self.cfg.sources!r}")
+        if not set(self.cfg.sources) <= {SRC_SHADOW, SRC_CLASSIFIER, SRC_FLOW, SRC_MODEL}:
+            raise ValueError(f"sources: only 'shadow', 'classifier', 'flow' and 'model' are built, "
+                             f"got {self.cfg.sources!r}")
+        if SRC_MODEL in self.cfg.sources and self.cfg.model is None:
+            raise ValueError("sources: 'model' needs cfg.model (the vehicle model's settings)")
+        self.flow = None
+        if SRC_FLOW in self.cfg.sources:
+            if self.cfg.flow is None:
+                raise ValueError("sources: 'flow' needs cfg.flow (the vt_flow_cfg fields)")
+            self.flow = rflow.FlowOracle(self.cfg.flow, self.caps.max_flow_hyps, self.caps.max_flow_seeds,
+                                         self.caps.max_flow_blobs)
+        self.last_boxes = []       # the previous step's track boxes (the flow hand-over rule)
+        self.last_tracks = []      # the previous step's tracks (the vehicle model's rule)
+        if SRC_CLASSIFIER in self.cfg.sources and score is None:
+            raise ValueError("sources: 'classifier' needs a classifier (score)")
         self.lane = rlane.LaneDetector(self.cfg.lane, max_height=self.caps.max_height,
                                        max_verts=self.caps.max_verts)
         self.tracker = rtrk.Tracker(self.cfg.tracker, max_tracks=self.caps.max_tracks,
@@ -135,6 +193,27 @@ class Pipeline:
                                     max_edge_pixels=self.caps.max_edge_pixels,
                                     coord_lim=self.caps.coord_lim)
         self.frame = 0
+        self.track_src = {}        # id -> the source of the box that started the track
+
+    def _track_sources(self, tracks, boxes, box_source) -> list:
+        """The source that started each track (c/pipeline.c's vt__track_sources): kept
+        for a known id, else the source of this frame's box with the largest
+        intersection with the track's box (the first of equals), None if none meets it."""
+        out = []
+        for t in tracks:
+            if t[0] in self.track_src:
+                out.append(self.track_src[t[0]])
+                continue
+            best, src = 0, None
+            l, tp, r, b = t[2]
+            for bx, s in zip(boxes, box_source):
+                iw = min(r, int(bx[2])) - max(l, int(bx[0])) + 1
+                ih = min(b, int(bx[3])) - max(tp, int(bx[1])) + 1
+                if iw > 0 and ih > 0 and iw * ih > best:
+                    best, src = iw * ih, s
+            out.append(src)
+        self.track_src = {t[0]: s for t, s in zip(tracks, out)}
+        return out
 
     def step(self, gray: np.ndarray, road=None, detections=None) -> RefFrame:
         """One frame. road: a RoadArea (or one with valid False: no road) replacing the
@@ -158,13 +237,21 @@ class Pipeline:
             lanes = self.lane.detect(gray)
             lanes_ok = True
         lane_road = _road_from_lane_frame(lanes) if lanes_ok else None
+        whole = self.score is not None
+        if lanes_ok and lanes.vp_known:
+            # the lane stage's own vanishing row in input rows, (vp + 1/2) 2^s - 1/2 half up
+            vp = (lanes.vp_y + 0.5) * 2 ** lanes.shift - 0.5
+            self.horizon_y = int(min(max(np.floor(vp + 0.5), -self.caps.max_height), self.caps.max_height))
         hyp = np.zeros((0, 3), np.int64)
         boxes = np.zeros((0, 4), np.int64)
         stats = {}
         box_source = SRC_SHADOW
+        scores = None
         if ext:
             boxes = np.asarray(detections, np.int64).reshape(-1, 4)
             box_source = "external"
+        elif det_frame and whole:
+            road, source, hyp, boxes, box_source, scores, stats = self._detect_whole(gray, given)
         elif det_frame:
             if lane_road is not None:
                 road, source = lane_road, "lanes"
@@ -184,18 +271,164 @@ class Pipeline:
                 boxes = rverify.verify(gray, hyp, c.verify, max_out=self.caps.max_boxes)
         elif lane_road is not None:
             road, source = lane_road, "lanes"
-        rows = self.tracker.step(gray, det_frame, boxes) if c.track else []
+        trk_det, trk_boxes = det_frame, boxes
+        flow_ready = False
+        if self.flow is not None or (SRC_MODEL in c.sources and c.track):
+            box_source = [box_source] * len(boxes) if isinstance(box_source, str) else list(box_source)
+            scores = [None] * len(boxes) if scores is None else list(scores)
+            boxes = boxes[:self.caps.max_boxes] if ext else boxes
+            extra, extra_src, extra_sc = [], [], []
+            fresh, n_model = False, 0
+            if self.flow is not None:
+                flow_ready, fboxes, fcells, fresh = self._flow(gray)
+                extra += fboxes
+                extra_src += [SRC_FLOW] * len(fboxes)
+                extra_sc += fcells
+            if SRC_MODEL in c.sources and c.track:
+                mboxes, mfit = self._model(gray)
+                n_model = len(mboxes)
+                extra += mboxes
+                extra_src += [SRC_MODEL] * len(mboxes)
+                extra_sc += mfit
+            room = max(0, self.caps.max_boxes - len(boxes))
+            boxes = np.concatenate([boxes, np.asarray(extra[:room], np.int64).reshape(-1, 4)])
+            box_source += extra_src[:room]
+            scores += extra_sc[:room]
+            trk_boxes = boxes
+            if not det_frame:
+                trk_det = fresh or n_model > 0
+                if not trk_det:
+                    trk_boxes = np.zeros((0, 4), np.int64)
+        rows = self.tracker.step(gray, trk_det, trk_boxes) if c.track else []
         geo = {}
         if self.camera is not None and c.track:
             geo = self._geometry(lanes if lanes_ok else None, rows)
         tracks = [(i, s, tuple(int(v) for v in b), vx, vy) + geo.get(i, (None, None, None))
                   for i, s, b, vx, vy in rows]
+        if isinstance(box_source, str):
+            box_source = [box_source] * len(boxes)
+        tsrc = self._track_sources(tracks, boxes[:self.caps.max_boxes], box_source[:self.caps.max_boxes])
         out = RefFrame(self.frame, det_frame, bool(run_lanes), lanes_ok, lanes, source, road,
-                       np.asarray(hyp, np.int64).reshape(-1, 3), boxes, [box_source] * len(boxes),
-                       tracks, stats)
+                       np.asarray(hyp, np.int64).reshape(-1, 3), boxes, box_source,
+                       tracks, stats, [None] * len(boxes) if scores is None else scores, tsrc)
+        out.flow_ready = flow_ready
+        self.last_boxes = [t[2] for t in tracks]
+        self.last_tracks = tracks
         self.frame = self.frame + 1 if self.frame < 2**31 - 1 else 0
         return out
 
+
+    def _model(self, gray):
+        """The vehicle model for the tracks the previous step left coasting
+        (c/pipeline.c's vt__model; the rules in vt_pipeline_set_model_ws): the refined
+        boxes and their fitnesses."""
+        from types import SimpleNamespace  # noqa: PLC0415
+        c = self.cfg
+        h_img, w_img = gray.shape
+        horizon = self.horizon_y if self.horizon_y is not None else \
+            c.road_camera.for_frame(h_img, w_img, None).horizon_y
+        out, fit_ = [], []
+        fits = 0
+        for t in self.last_tracks:
+            if fits >= c.model_fits:
+                break
+            if t[1] != rtrk.COASTING:
+                continue
+            l, tp, r, b = t[2]
+            w, h = r - l + 1, b - tp + 1
+            if b <= horizon or w < 1 or h < 1:
+                continue
+            roi = (min(max(l - w // 2, 0), w_img - 1), min(max(tp - h // 2, 0), h_img - 1),
+                   min(max(r + w // 2, 0), w_img - 1), min(max(b + h // 2, 0), h_img - 1))
+            if (roi[2] - roi[0] + 1) * (roi[3] - roi[1] + 1) > self.caps.max_model_roi_pixels:
+                continue
+            wpr = w * 65536 // (b - horizon)
+            if wpr < 1 or wpr > 2**31 - 1:
+                continue
+            m = c.model
+            cfg = SimpleNamespace(**dict(vars(m), horizon_row=horizon, width_per_row=wpr))
+            pred = (l + w // 2, b, w, h, (m.wind_min + m.wind_max) // 2, (m.bump_min + m.bump_max) // 2,
+                    m.roof_max // 2)
+            sigma = (w // 8, h // 8, w // 8, h // 8, 5, 5, 5)
+            search = SimpleNamespace(roi=roi, y_min=b - h // 4, y_max=b + h // 4, tracking=True,
+                                     pred=pred, sigma=sigma)
+            fits += 1
+            try:
+                res = rvm.fit(gray, cfg, search)
+            except ValueError:          # no model fits (C: VT_E_SINGULAR / VT_E_SIZE)
+                continue
+            if res.fitness < c.model_min_fitness:
+                continue
+            box = tuple(int(v) for v in res.box)
+            iw = min(box[2], r) - max(box[0], l) + 1
+            ih = min(box[3], b) - max(box[1], tp) + 1
+            inter = iw * ih if iw > 0 and ih > 0 else 0
+            ua = (box[2] - box[0] + 1) * (box[3] - box[1] + 1)
+            if inter * 100 < c.tracker.match_iou_percent * (ua + w * h - inter):
+                continue
+            out.append(box)
+            fit_.append(int(res.fitness))
+        return out, fit_
+
+    def _flow(self, gray):
+        """The overtaking stage on this frame (c/pipeline.c's vt__flow): (ready, boxes,
+        their cells, whether one of them meets no track of the previous step). A frame
+        of another size restarts the stage."""
+        try:
+            ready, hyps = self.flow.step(gray)
+        except ValueError:
+            self.flow.reset()
+            ready, hyps = self.flow.step(gray)
+        boxes = [tuple(int(v) for v in h.box) for h in hyps]
+
+        def meets(a, b):
+            return min(a[2], b[2]) >= max(a[0], b[0]) and min(a[3], b[3]) >= max(a[1], b[1])
+        fresh = any(not any(meets(b, t) for t in self.last_boxes) for b in boxes)
+        return ready, boxes, [int(h.cells) for h in hyps], fresh
+
+    @staticmethod
+    def _vanishing_row(lane_frame):
+        left, right = lane_frame.lines[rlane.LEFT], lane_frame.lines[rlane.RIGHT]
+        return rcam.vanishing_row(None if left is None else (left.xb, left.slope),
+                                  None if right is None else (right.xb, right.slope),
+                                  lane_frame.H, lane_frame.shift)
+
+    def _detect_whole(self, gray: np.ndarray, given):
+        """The whole-road detector on a detection frame (c/pipeline.c's
+        vt__detect_whole): road, road source, hypotheses, boxes, their sources and
+        scores, and the detector's counters."""
+        c = self.cfg
+        h, w = gray.shape
+        cam = c.road_camera.for_frame(h, w, self.horizon_y)
+        stats = {"horizon_y": cam.horizon_y}
+        empty = np.zeros((0, 3), np.int64), np.zeros((0, 4), np.int64), [], []
+        if given is not None:
+            if not getattr(given, "valid", True):
+                return (None, "none") + empty + (stats,)
+            road, source = given, "fixed"
+        else:
+            ok, y0, y1, xl, xr, lw = rw.road_from_camera(cam, c.fulldet.win, w, h)
+            if not ok:
+                return (None, "none") + empty + (stats,)
+            road, source = RoadArea(y0, y1, xl, xr, lw, True), "camera"
+        from dataclasses import replace  # noqa: PLC0415
+        fc = replace(c.fulldet, shadow_source=SRC_SHADOW in c.sources,
+                     window_source=SRC_CLASSIFIER in c.sources)
+        arr, st = rfd.detect(gray, road, cam, fc, self.score, max_windows=self.caps.max_windows,
+                             max_cand=self.caps.max_cand, max_boxes=self.caps.max_boxes,
+                             max_hyp=self.caps.max_hypotheses,
+                             max_shadow_active=self.caps.max_shadow_active,
+                             max_shadow_cand=self.caps.max_shadow_cand)
+        stats.update(st)
+        hyp = np.zeros((0, 3), np.int64)
+        if fc.shadow_source:
+            hyp = rshadow.find_hypotheses(gray, road, fc.shadow, max_active=self.caps.max_shadow_active,
+                                          max_cand=self.caps.max_shadow_cand,
+                                          max_out=self.caps.max_hypotheses).hypotheses
+        boxes = arr[:, :4].astype(np.int64).reshape(-1, 4)
+        src = [SRC_CLASSIFIER if int(v) == 2 else SRC_SHADOW for v in arr[:, 5]]
+        return road, source, np.asarray(hyp, np.int64).reshape(-1, 3), boxes, src, \
+            [int(v) for v in arr[:, 4]], stats
 
     def _geometry(self, lane_frame, rows) -> dict:
         """The camera stage after the tracker (c/pipeline.c's vt__geometry): the pitch from

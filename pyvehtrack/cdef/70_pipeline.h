@@ -8,14 +8,13 @@
 #define VT_ROAD_SRC_NONE ...
 #define VT_ROAD_SRC_LANES ...
 #define VT_ROAD_SRC_FIXED ...
+#define VT_ROAD_SRC_CAMERA ...
 #define VT_ROAD_AUTO ...
 #define VT_ROAD_LANES ...
 #define VT_ROAD_FIXED ...
 #define VT_UNKNOWN ...
 #define VT_FCW_UNKNOWN ...
 #define VT_FCW_NONE ...
-
-struct vt_svm_model;
 
 typedef struct {
     int32_t vp_x_permille;
@@ -25,6 +24,13 @@ typedef struct {
     int32_t lane_bottom_permille;
     int32_t top_margin;
 } vt_fixed_road;
+
+typedef struct {
+    int32_t horizon_q16;
+    int32_t hood_q16;
+    int32_t height_mm;
+    int32_t fx_per_w_q16;
+} vt_road_camera;
 
 typedef struct {
     vt_lane_cfg lane;
@@ -37,10 +43,30 @@ typedef struct {
     int32_t lanes_every_frame;
     int32_t sources;
     int32_t track;
+    vt_fulldet_cfg fulldet;
+    vt_road_camera road_camera;
+    vt_flow_cfg flow;
+    vt_model_cfg model;
+    int32_t model_fits;
+    int32_t model_min_fitness;
 } vt_pipeline_cfg;
 
 typedef struct {
+    vt_fulldet_state st;
+    vt_fulldet_result res;
+    vt_hog_scorer hog;
+} vt_pipe_cls_ws;
+
+typedef struct {
     vt_pipeline_cfg cfg;
+    const vt_svm_model *model;
+    vt_pipe_cls_ws *cls_ws;
+    vt_window_scorer scorer;
+    int32_t horizon_y;
+    int32_t horizon_known;
+    vt_flow_state *flow_st;
+    vt_flow_result flow;
+    vt_model_ws *model_ws;
     int32_t frame;
     vt_q16 ego_speed;
     vt_lane_state lane;
@@ -67,6 +93,7 @@ typedef struct {
     int32_t distance_mm;
     int32_t ttc_ms;
     int32_t warning;
+    int32_t source;
 } vt_pipe_track;
 
 typedef struct {
@@ -81,6 +108,7 @@ typedef struct {
     vt_hypothesis hyp[...];
     int32_t n_boxes;
     int32_t n_boxes_in;
+    int32_t flow_ready;
     vt_pipe_box boxes[...];
     int32_t n_tracks;
     vt_pipe_track tracks[...];
@@ -89,8 +117,11 @@ typedef struct {
 vt_status vt_pipeline_cfg_default(vt_pipeline_cfg *cfg);
 vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg);
 vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
-                           const vt_camera_cfg *camera, const struct vt_svm_model *model);
+                           const vt_camera_cfg *camera, const vt_svm_model *model);
+vt_status vt_pipeline_set_cls_ws(vt_pipeline *p, vt_pipe_cls_ws *ws, const vt_window_scorer *scorer);
 vt_status vt_pipeline_set_edge_ws(vt_pipeline *p, vt_edge_ws *ws);
+vt_status vt_pipeline_set_flow_ws(vt_pipeline *p, vt_flow_state *st);
+vt_status vt_pipeline_set_model_ws(vt_pipeline *p, vt_model_ws *ws);
 vt_status vt_pipeline_set_ego_speed(vt_pipeline *p, vt_q16 speed);
 vt_status vt_pipeline_step(vt_pipeline *p, const vt_image_u8 *frame, vt_frame_out *out);
 vt_status vt_pipeline_step_road(vt_pipeline *p, const vt_image_u8 *frame,
