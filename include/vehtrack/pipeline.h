@@ -75,7 +75,15 @@ typedef struct {
     int32_t top_margin;
 } vt_fixed_road;
 
-#define VT_FIXED_ROAD_DEFAULT {500, 450, 50, 950, 450, 4}
+#define VT_FIXED_ROAD_DEFAULT         \
+    {                                 \
+        .vp_x_permille = 500,         \
+        .vp_y_permille = 450,         \
+        .bottom_left_permille = 50,   \
+        .bottom_right_permille = 950, \
+        .lane_bottom_permille = 450,  \
+        .top_margin = 4,              \
+    }
 
 typedef struct {
     vt_lane_cfg lane;
@@ -93,10 +101,18 @@ typedef struct {
     int32_t track;           /* 1: the tracker runs; 0: detection only (no tracks)       */
 } vt_pipeline_cfg;
 
-#define VT_PIPELINE_CFG_DEFAULT                                                            \
-    {                                                                                      \
-        VT_LANE_CFG_DEFAULT, VT_DETECT_CFG_DEFAULT, VT_TRACKER_CFG_DEFAULT,                \
-            VT_RANGE_CFG_DEFAULT, VT_FIXED_ROAD_DEFAULT, 10, VT_ROAD_AUTO, 0, VT_SRC_SHADOW, 1                   \
+#define VT_PIPELINE_CFG_DEFAULT              \
+    {                                        \
+        .lane = VT_LANE_CFG_DEFAULT,         \
+        .detect = VT_DETECT_CFG_DEFAULT,     \
+        .tracker = VT_TRACKER_CFG_DEFAULT,   \
+        .range = VT_RANGE_CFG_DEFAULT,       \
+        .fixed_road = VT_FIXED_ROAD_DEFAULT, \
+        .detect_every = 10,                  \
+        .road_policy = VT_ROAD_AUTO,         \
+        .lanes_every_frame = 0,              \
+        .sources = VT_SRC_SHADOW,            \
+        .track = 1,                          \
     }
 
 /* Everything the pipeline keeps. Caller-owned (static storage on firmware);

@@ -9,12 +9,9 @@
 
 #include <stdint.h>
 #include "vehtrack/config.h"
+#include "vehtrack/geometry.h" /* vt_box: the detector's boxes, which the tracker takes in */
 #include "vehtrack/image.h"
 #include "vehtrack/status.h"
-
-/* vt_box (inclusive pixel box: columns left..right, rows top..bottom) comes
- * from the detector's verification stage, whose boxes the tracker takes in. */
-#include "vehtrack/verify.h"
 
 /* Which border of the shadow is the bottom edge (as vt_shadow_cfg.polarity, so
  * the tracker measures the edge the detector found). */
@@ -53,7 +50,16 @@ typedef struct {
  * and the verification step's side rule. These three were chosen on the 78 KITTI
  * frames of tools/eval_kitti_track.py (the thesis's rules, bottom_percent 100 and
  * VT_SIDES_TWO_THRESHOLD, are one field away; the README gives both figures). */
-#define VT_TRACK_SEARCH_CFG_DEFAULT { VT_EDGE_DARK_ABOVE, 16, 60, 20, 20, 50, VT_SIDES_LARGEST }
+#define VT_TRACK_SEARCH_CFG_DEFAULT     \
+    {                                   \
+        .polarity = VT_EDGE_DARK_ABOVE, \
+        .h_thresh = 16,                 \
+        .v_thresh = 60,                 \
+        .min_h_percent = 20,            \
+        .min_v_percent = 20,            \
+        .bottom_percent = 50,           \
+        .side_mode = VT_SIDES_LARGEST,  \
+    }
 
 /* Projection vectors; caller-owned so the search allocates nothing. */
 typedef struct {

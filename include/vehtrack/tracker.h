@@ -68,11 +68,21 @@ typedef struct {
 #define VT_MEAS_ROI_SEARCH 0
 #define VT_MEAS_EDGE_CURVES 1
 
-#define VT_TRACKER_CFG_DEFAULT                                                     \
-    {                                                                              \
-        VT_TRACK_SEARCH_CFG_DEFAULT, VT_KF_MODEL_CFG_DEFAULT, 6, 0, 35, 10, 3, 6, 30,   \
-            (vt_q14)((VT_Q14_ONE * 7 + 5) / 10), 3 /* 0.7, rounded */,            \
-            VT_MEAS_ROI_SEARCH, VT_EDGE_CFG_DEFAULT                                \
+#define VT_TRACKER_CFG_DEFAULT                                              \
+    {                                                                       \
+        .search = VT_TRACK_SEARCH_CFG_DEFAULT,                              \
+        .model = VT_KF_MODEL_CFG_DEFAULT,                                   \
+        .roi_margin_min = 6,                                                \
+        .roi_margin_percent = 0,                                            \
+        .gate_percent = 35,                                                 \
+        .gate_bottom_percent = 10,                                          \
+        .confirm_hits = 3,                                                  \
+        .max_coast = 6,                                                     \
+        .match_iou_percent = 30,                                            \
+        .keep_ncc = (vt_q14)((VT_Q14_ONE * 7 + 5) / 10), /* 0.7, rounded */ \
+        .init_max_change = 3,                                               \
+        .measurement = VT_MEAS_ROI_SEARCH,                                  \
+        .edge = VT_EDGE_CFG_DEFAULT,                                        \
     }
 
 /* One track. Public so that callers can inspect and save it; change it only

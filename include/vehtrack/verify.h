@@ -12,6 +12,7 @@
 
 #include <stdint.h>
 #include "vehtrack/config.h"
+#include "vehtrack/geometry.h" /* vt_box, vt_hypothesis; included here so older includers keep them */
 #include "vehtrack/image.h"
 #include "vehtrack/shadow.h"
 #include "vehtrack/status.h"
@@ -34,20 +35,19 @@ typedef struct {
  * (the shadow between the wheels is narrower than the body), the edge threshold
  * 40 and the side fractions were chosen on the KITTI frames of
  * tools/eval_kitti_lead.py. */
-#define VT_VERIFY_CFG_DEFAULT                                                              \
-    {                                                                                      \
-        6, 26, 128, 40, 64, 3, 384, 128, 256                                               \
+#define VT_VERIFY_CFG_DEFAULT    \
+    {                            \
+        .widen_px = 6,           \
+        .widen_q8 = 26,          \
+        .roi_height_q8 = 128,    \
+        .vedge_threshold = 40,   \
+        .side_min_frac_q8 = 64,  \
+        .side_min_px = 3,        \
+        .side_contrast_q8 = 384, \
+        .min_width_q8 = 128,     \
+        .aspect_q8 = 256,        \
     }
 
-
-/* A vehicle box, inclusive pixel coordinates: columns left..right, rows
- * top..bottom (bottom = the shadow edge's row). The tracker takes these in. */
-typedef struct {
-    int32_t left;
-    int32_t top;
-    int32_t right;
-    int32_t bottom;
-} vt_box;
 
 /* Row scratch; the caller owns it. No content carries over between calls. */
 typedef struct {

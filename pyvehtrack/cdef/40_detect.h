@@ -25,9 +25,6 @@ typedef struct {
     int32_t reduce_height_q8;
 } vt_shadow_cfg;
 
-typedef struct { int32_t row; int32_t x_start; int32_t x_end; } vt_hypothesis;
-typedef struct { int32_t left; int32_t top; int32_t right; int32_t bottom; } vt_box;
-
 typedef struct {
     int32_t median;
     int32_t mad;
