@@ -83,11 +83,9 @@ vt_status vt_sobel_x(const vt_image_u8 *src, vt_image_s16 *dst)
     w = src->w;
     h = src->h;
     for (y = 0; y < h; ++y) {
-        /* Replicated border: the rows above/below the edge are the edge row. */
-        const uint8_t *pm = src->px + (size_t)(y > 0 ? y - 1 : 0) * (size_t)src->stride;
-        const uint8_t *p0 = src->px + (size_t)y * (size_t)src->stride;
-        const uint8_t *pp = src->px + (size_t)(y < h - 1 ? y + 1 : h - 1) * (size_t)src->stride;
+        const uint8_t *pm, *p0, *pp;
         int16_t *o = dst->px + (size_t)y * (size_t)dst->stride;
+        vt__sobel_rows(src, y, &pm, &p0, &pp);
         o[0] = vt__sx(pm, p0, pp, 0, w > 1 ? 1 : 0);
         /* The interior has no border test, so the compiler can vectorise it. */
         for (x = 1; x < w - 1; ++x) {
@@ -111,9 +109,10 @@ vt_status vt_sobel_y(const vt_image_u8 *src, vt_image_s16 *dst)
     w = src->w;
     h = src->h;
     for (y = 0; y < h; ++y) {
-        const uint8_t *pm = src->px + (size_t)(y > 0 ? y - 1 : 0) * (size_t)src->stride;
-        const uint8_t *pp = src->px + (size_t)(y < h - 1 ? y + 1 : h - 1) * (size_t)src->stride;
+        const uint8_t *pm, *p0, *pp;
         int16_t *o = dst->px + (size_t)y * (size_t)dst->stride;
+        vt__sobel_rows(src, y, &pm, &p0, &pp);
+        (void)p0; /* d/dy does not weigh the centre row */
         o[0] = vt__sy(pm, pp, 0, 0, w > 1 ? 1 : 0);
         for (x = 1; x < w - 1; ++x) {
             o[x] = (int16_t)((pp[x - 1] + 2 * pp[x] + pp[x + 1]) - (pm[x - 1] + 2 * pm[x] + pm[x + 1]));

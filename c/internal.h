@@ -5,6 +5,7 @@
 #include <stddef.h>
 #include <stdint.h>
 #include "vehtrack/config.h"
+#include "vehtrack/image.h"
 #include "vehtrack/status.h"
 
 /* Size check shared by every view type: VT_E_SIZE unless 1 <= w <= maxw,
@@ -45,6 +46,18 @@ static inline int32_t vt__reflect101(int32_t p, int32_t n)
         p = p < 0 ? -p : 2 * (n - 1) - p;
     }
     return p;
+}
+
+/* The three source rows a 3x3 Sobel reads at row y (0 <= y < img->h): above,
+ * at and below it, the edge row standing in for the row past the border
+ * (replicated border, as OpenCV's BORDER_REPLICATE). Every Sobel of the core
+ * (vt_sobel_x/y, the shadow scan, verification, the tracker's search) starts here. */
+static inline void vt__sobel_rows(const vt_image_u8 *img, int32_t y, const uint8_t **pm,
+                                  const uint8_t **p0, const uint8_t **pp)
+{
+    *pm = img->px + (size_t)(y > 0 ? y - 1 : 0) * (size_t)img->stride;
+    *p0 = img->px + (size_t)y * (size_t)img->stride;
+    *pp = img->px + (size_t)(y < img->h - 1 ? y + 1 : img->h - 1) * (size_t)img->stride;
 }
 
 #endif /* VEHTRACK_INTERNAL_H */

@@ -193,11 +193,8 @@ static void vt__run(vt_shadow_state *st, const vt_shadow_cfg *cfg, int32_t y, in
 static void vt__scan_row(vt_shadow_state *st, const vt_shadow_cfg *cfg, const vt_image_u8 *img,
                          int32_t y, int32_t xl, int32_t xr, int32_t *next_id)
 {
-    const int32_t w = img->w, h = img->h;
-    const uint8_t *pm = img->px + (size_t)(y > 0 ? y - 1 : 0) * (size_t)img->stride;
-    const uint8_t *pp = img->px + (size_t)(y < h - 1 ? y + 1 : h - 1) * (size_t)img->stride;
-    /* The dark side of the edge: above it for DARK_ABOVE, below it otherwise. */
-    const uint8_t *pd = cfg->polarity == VT_SHADOW_DARK_ABOVE ? pm : pp;
+    const int32_t w = img->w;
+    const uint8_t *pm, *p0, *pp, *pd;
     const int32_t sgn = cfg->polarity == VT_SHADOW_DARK_ABOVE ? 1 : -1;
     const int adaptive = cfg->threshold_mode == VT_SHADOW_ADAPTIVE;
     const int32_t thr = adaptive ? cfg->adapt_grad_min : cfg->grad_threshold;
@@ -205,6 +202,10 @@ static void vt__scan_row(vt_shadow_state *st, const vt_shadow_cfg *cfg, const vt
     int32_t a = xl > 0 ? xl - 1 : 0, b = xr < w - 1 ? xr + 1 : w - 1;
     int32_t x, rs = -1, re = -1;
     int16_t *dy = st->dy + 1; /* dy[-1] and dy[w] hold the replicated border */
+    vt__sobel_rows(img, y, &pm, &p0, &pp);
+    (void)p0; /* d/dy does not weigh the centre row */
+    /* The dark side of the edge: above it for DARK_ABOVE, below it otherwise. */
+    pd = cfg->polarity == VT_SHADOW_DARK_ABOVE ? pm : pp;
     for (x = a; x <= b; ++x) {
         dy[x] = (int16_t)(pp[x] - pm[x]);
     }

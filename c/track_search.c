@@ -5,15 +5,6 @@
 #include "vehtrack/track_search.h"
 #include "internal.h"
 
-/* Row pointers of the 3x3 neighbourhood of row y, the edge row replicated. */
-static void vt__rows(const vt_image_u8 *img, int32_t y, const uint8_t **pm, const uint8_t **p0,
-                     const uint8_t **pp)
-{
-    *pm = img->px + (size_t)(y > 0 ? y - 1 : 0) * (size_t)img->stride;
-    *p0 = img->px + (size_t)y * (size_t)img->stride;
-    *pp = img->px + (size_t)(y < img->h - 1 ? y + 1 : img->h - 1) * (size_t)img->stride;
-}
-
 /* Count of columns x in [l, r) of row y whose s * Sobel d/dy >= thr (edge replicated,
  * as vt_sobel_y). Columns 0 and w-1 take the clamped path; the rest none. */
 static int32_t vt__count_h(const vt_image_u8 *img, int32_t y, int32_t l, int32_t r, int32_t s,
@@ -21,7 +12,7 @@ static int32_t vt__count_h(const vt_image_u8 *img, int32_t y, int32_t l, int32_t
 {
     const uint8_t *pm, *p0, *pp;
     int32_t x, n = 0, lo = l > 1 ? l : 1, hi = r < img->w - 1 ? r : img->w - 1;
-    vt__rows(img, y, &pm, &p0, &pp);
+    vt__sobel_rows(img, y, &pm, &p0, &pp);
     for (x = l; x < lo && x < r; ++x) { /* column 0 */
         int32_t xr = img->w > 1 ? 1 : 0;
         n += s * ((pp[0] + 2 * pp[0] + pp[xr]) - (pm[0] + 2 * pm[0] + pm[xr])) >= thr;
@@ -138,7 +129,7 @@ vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg
         const uint8_t *pm, *p0, *pp;
         /* Only columns 0 and w-1 need the replicated border; the rest none. */
         int32_t lo = l > 1 ? l : 1, hi = r < img->w - 1 ? r : img->w - 1;
-        vt__rows(img, y, &pm, &p0, &pp);
+        vt__sobel_rows(img, y, &pm, &p0, &pp);
         for (x = l; x < r && x < lo; ++x) {
             ws->vproj[x] += vt__vedge(pm, p0, pp, 0, img->w > 1 ? 1 : 0, cfg->v_thresh);
         }

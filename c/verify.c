@@ -43,14 +43,13 @@ vt_status vt_verify_cfg_check(const vt_verify_cfg *cfg)
 static void vt__project(vt_verify_state *st, const vt_image_u8 *img, int32_t x0, int32_t x1,
                         int32_t top, int32_t bottom, int32_t thr)
 {
-    const int32_t w = img->w, h = img->h;
+    const int32_t w = img->w;
     const int32_t a = x0 > 0 ? x0 - 1 : 0, b = x1 < w - 1 ? x1 + 1 : w - 1;
     int32_t x, y;
     memset(st->proj, 0, (size_t)(x1 - x0 + 1) * sizeof st->proj[0]);
     for (y = top; y <= bottom; ++y) {
-        const uint8_t *pm = img->px + (size_t)(y > 0 ? y - 1 : 0) * (size_t)img->stride;
-        const uint8_t *p0 = img->px + (size_t)y * (size_t)img->stride;
-        const uint8_t *pp = img->px + (size_t)(y < h - 1 ? y + 1 : h - 1) * (size_t)img->stride;
+        const uint8_t *pm, *p0, *pp;
+        vt__sobel_rows(img, y, &pm, &p0, &pp);
         for (x = a; x <= b; ++x) {
             st->vsum[x] = (uint16_t)(pm[x] + 2 * p0[x] + pp[x]);
         }
