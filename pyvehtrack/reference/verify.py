@@ -24,24 +24,10 @@ Only integer counts are compared, so C and this oracle agree exactly wherever th
 Sobel values agree (they are exact integers in both)."""
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import cv2
 import numpy as np
 
-
-@dataclass(frozen=True)
-class VerifyConfig:
-    """Same fields, units and defaults as vt_verify_cfg (include/vehtrack/verify.h)."""
-    widen_px: int = 6              # thesis: 6 px on each side
-    widen_q8: int = 26             # plus this x edge length, 0.1 (thesis: 0)
-    roi_height_q8: int = 128       # thesis: half the edge length
-    vedge_threshold: int = 40      # |sobel_x| >= this (Sobel gain 4: a 10-level step)
-    side_min_frac_q8: int = 64     # a side needs vertical edges on 1/4 of the ROI rows
-    side_min_px: int = 3           # and on at least 3 rows
-    side_contrast_q8: int = 384    # and >= 1.5 x the ROI's mean column count
-    min_width_q8: int = 128        # sides >= 0.5 x edge length apart
-    aspect_q8: int = 256           # height / width = 1.0 (thesis default)
+from ..shared import VerifyConfig  # noqa: F401  (a plain type both engines share)
 
 
 def verify_one(gray: np.ndarray, hyp, cfg: VerifyConfig, sx_abs: np.ndarray | None = None):
