@@ -72,9 +72,9 @@ vt_status vt_track_search_cfg_check(const vt_track_search_cfg *cfg)
 {
     if (cfg == NULL ||
         (cfg->polarity != VT_EDGE_DARK_ABOVE && cfg->polarity != VT_EDGE_DARK_BELOW) ||
-        cfg->h_thresh < 1 || cfg->v_thresh < 1 || cfg->min_h_percent < 0 ||
-        cfg->min_h_percent > 100 || cfg->min_v_percent < 0 || cfg->min_v_percent > 100 ||
-        cfg->bottom_percent < 1 || cfg->bottom_percent > 100 ||
+        cfg->h_thresh < 1 || cfg->v_thresh < 1 || cfg->min_h_permille < 0 ||
+        cfg->min_h_permille > 1000 || cfg->min_v_permille < 0 || cfg->min_v_permille > 1000 ||
+        cfg->bottom_permille < 1 || cfg->bottom_permille > 1000 ||
         (cfg->side_mode != VT_SIDES_TWO_THRESHOLD && cfg->side_mode != VT_SIDES_LARGEST)) {
         return VT_E_ARG;
     }
@@ -112,14 +112,14 @@ vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg
         ws->hproj[y] = vt__count_h(img, y, l, r, sign, cfg->h_thresh);
     }
     /* Bottom edge: between the bottom row and the middle row, the lowest row whose
-     * count reaches bottom_percent of the largest count there (100: the largest
+     * count reaches bottom_permille of the largest count there (1000: the largest
      * itself, the thesis's rule; the lower row wins ties). */
     mid = t + (b - t) / 2;
     hbest = vt__max_range(ws->hproj, mid, b);
-    if (hbest == 0 || (int64_t)hbest * 100 < (int64_t)cfg->min_h_percent * (r - l)) {
+    if (hbest == 0 || (int64_t)hbest * 1000 < (int64_t)cfg->min_h_permille * (r - l)) {
         return VT_OK;
     }
-    ybest = vt__scan(ws->hproj, b - 1, mid - 1, -1, cfg->bottom_percent, 100, hbest);
+    ybest = vt__scan(ws->hproj, b - 1, mid - 1, -1, cfg->bottom_permille, 1000, hbest);
     rows = ybest - t + 1;
     /* Row by row (cache-friendly), accumulating per column. */
     for (x = l; x < r; ++x) {
@@ -143,8 +143,8 @@ vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg
     midx = l + (r - l) / 2;
     lmax = vt__max_range(ws->vproj, l, midx);
     rmax = vt__max_range(ws->vproj, midx, r);
-    if ((int64_t)lmax * 100 < (int64_t)cfg->min_v_percent * rows || lmax == 0 ||
-        (int64_t)rmax * 100 < (int64_t)cfg->min_v_percent * rows || rmax == 0) {
+    if ((int64_t)lmax * 1000 < (int64_t)cfg->min_v_permille * rows || lmax == 0 ||
+        (int64_t)rmax * 1000 < (int64_t)cfg->min_v_permille * rows || rmax == 0) {
         return VT_OK;
     }
     if (cfg->side_mode == VT_SIDES_LARGEST) {

@@ -84,12 +84,12 @@ vt_status vt_tracker_cfg_check(const vt_tracker_cfg *c)
         vt_kf_model_cfg_check(&c->model) != VT_OK) {
         return VT_E_ARG;
     }
-    if (c->roi_margin_min < 0 || c->roi_margin_min > VT_MAX_WIDTH || c->roi_margin_percent < 0 ||
-        c->roi_margin_percent > 400 || c->gate_percent < 0 || c->gate_percent > 400 ||
-        c->gate_bottom_percent < 0 || c->gate_bottom_percent > 400 ||
+    if (c->roi_margin_min < 0 || c->roi_margin_min > VT_MAX_WIDTH || c->roi_margin_permille < 0 ||
+        c->roi_margin_permille > 4000 || c->gate_permille < 0 || c->gate_permille > 4000 ||
+        c->gate_bottom_permille < 0 || c->gate_bottom_permille > 4000 ||
         c->confirm_hits < 1 || c->confirm_hits > VT_TRACK_MAX_FRAMES_CFG || c->max_coast < 0 ||
-        c->max_coast > VT_TRACK_MAX_FRAMES_CFG || c->match_iou_percent < 1 ||
-        c->match_iou_percent > 100 || c->keep_ncc < -VT_Q14_ONE || c->keep_ncc > VT_Q14_ONE ||
+        c->max_coast > VT_TRACK_MAX_FRAMES_CFG || c->match_iou_permille < 1 ||
+        c->match_iou_permille > 1000 || c->keep_ncc < -VT_Q14_ONE || c->keep_ncc > VT_Q14_ONE ||
         c->init_max_change < 0 || c->init_max_change > VT_MAX_WIDTH) {
         return VT_E_ARG;
     }
@@ -160,7 +160,7 @@ static vt_status vt__update(vt_track *t, int32_t left, int32_t bottom, int32_t r
 /* The ROI margin of a track `w` px wide (as the verification step widens an edge). */
 static int32_t vt__roi_margin(const vt_tracker_cfg *cfg, int32_t w)
 {
-    return vt__max_i32(cfg->roi_margin_min, (int32_t)((int64_t)w * cfg->roi_margin_percent / 100));
+    return vt__max_i32(cfg->roi_margin_min, (int32_t)((int64_t)w * cfg->roi_margin_permille / 1000));
 }
 
 /* VT_MEAS_EDGE_CURVES: the template is the curve points inside the track's box,
@@ -298,8 +298,8 @@ static int vt__predict_measure(vt_tracker *tr, vt_track *t, const vt_tracker_cfg
     vt__box_from_state(t);
     w = t->box.right - t->box.left + 1;
     m = vt__roi_margin(cfg, w);
-    gate = vt__max_i32(8, (int32_t)((int64_t)w * cfg->gate_percent / 100));
-    gate_b = vt__max_i32(4, (int32_t)((int64_t)w * cfg->gate_bottom_percent / 100));
+    gate = vt__max_i32(8, (int32_t)((int64_t)w * cfg->gate_permille / 1000));
+    gate_b = vt__max_i32(4, (int32_t)((int64_t)w * cfg->gate_bottom_permille / 1000));
     /* The ROI of the verification step (thesis sec. 3.6: "determined as
      * described in the hypothesis verification step"): the bottom edge widened
      * by the margin, half the edge length high; below it, as far as the bottom
@@ -383,7 +383,7 @@ static void vt__associate(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_im
                 vt__iou(&tr->tracks[i].box, &dets[j], &in, &un);
                 /* IoU >= threshold, and strictly better than the best so far
                  * (so the first of equal pairs, in slot then detection order, wins). */
-                if (in * 100 >= (int64_t)cfg->match_iou_percent * un && in * bun > bin * un) {
+                if (in * 1000 >= (int64_t)cfg->match_iou_permille * un && in * bun > bin * un) {
                     bi = i;
                     bj = j;
                     bin = in;

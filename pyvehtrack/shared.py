@@ -8,6 +8,7 @@ tests/test_detect.py and tests/test_fulldet.py check the defaults against the co
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -137,3 +138,42 @@ def road_polygon(road) -> np.ndarray:
     left = np.stack([np.asarray(road.x_left)[ys], ys], 1)
     right = np.stack([np.asarray(road.x_right)[ys], ys], 1)[::-1]
     return np.concatenate([left, right]).astype(np.int64)
+
+
+# Fields renamed when the configs moved to one unit for fractions (permille; issue 10
+# item 6): old name -> (new name, factor), the conversion exact (new = old * factor).
+TRACKER_RENAMED = {"roi_margin_percent": ("roi_margin_permille", 10), "gate_percent": ("gate_permille", 10),
+                   "gate_bottom_percent": ("gate_bottom_permille", 10),
+                   "match_iou_percent": ("match_iou_permille", 10)}
+SEARCH_RENAMED = {"min_h_percent": ("min_h_permille", 10), "min_v_percent": ("min_v_permille", 10),
+                  "bottom_percent": ("bottom_permille", 10)}
+
+
+def accept_renamed(cls, renamed: dict):
+    """Let dataclass `cls` still take the fields in `renamed` under their old names:
+    cls(old=v) sets new = v * factor, and obj.old reads new / factor, both with a
+    DeprecationWarning. A value that is not an int is passed on as it is, so the
+    config's own check names the field and the type."""
+    init = cls.__init__
+
+    def __init__(self, *args, **kw):
+        for old, (new, factor) in renamed.items():
+            if old in kw:
+                if new in kw:
+                    raise TypeError(f"{cls.__name__}: give {new} or the deprecated {old}, not both")
+                warnings.warn(f"{cls.__name__}.{old} is deprecated: use {new} (= {old} x {factor})",
+                              DeprecationWarning, stacklevel=2)
+                v = kw.pop(old)
+                kw[new] = v * factor if isinstance(v, (int, np.integer)) and not isinstance(v, bool) else v
+        init(self, *args, **kw)
+
+    __init__.__wrapped__ = init
+    cls.__init__ = __init__
+    for old, (new, factor) in renamed.items():
+        def _get(self, old=old, new=new, factor=factor):
+            warnings.warn(f"{type(self).__name__}.{old} is deprecated: use {new} (= {old} x {factor})",
+                          DeprecationWarning, stacklevel=2)
+            v = getattr(self, new)
+            return v // factor if v % factor == 0 else v / factor
+        setattr(cls, old, property(_get))
+    return cls

@@ -10,9 +10,16 @@ from pyvehtrack import _native
 
 TABLE = Path(__file__).resolve().parent / "data" / "cfg_defaults_before.tsv"
 
-# old flattened path suffix -> (new suffix, exact conversion of the old value). Only
+# old path suffix (last field, with its parent where the name is not unique) -> (new
+# last field, exact factor). Only
 # conversions that are exact on the recorded defaults are allowed (checked below).
-RENAMED: dict[str, tuple[str, int]] = {}
+RENAMED: dict[str, tuple[str, int]] = {
+    # percent -> permille (x 10, exact): tracker.h and track_search.h
+    "roi_margin_percent": ("roi_margin_permille", 10), "gate_percent": ("gate_permille", 10),
+    "gate_bottom_percent": ("gate_bottom_permille", 10), "match_iou_percent": ("match_iou_permille", 10),
+    "search.min_h_percent": ("min_h_permille", 10), "search.min_v_percent": ("min_v_permille", 10),
+    "search.bottom_percent": ("bottom_permille", 10),
+}
 
 
 def _flatten(cdata, ctype, prefix: str, out: dict[str, int]) -> None:
@@ -42,10 +49,9 @@ def _before() -> dict[str, int]:
 
 def _renamed(path: str, value: int) -> tuple[str, int]:
     """The path and value the old entry has today (the last field of the path may be renamed)."""
-    head, _, last = path.rpartition(".")
-    if last in RENAMED:
-        new, factor = RENAMED[last]
-        return f"{head}.{new}", value * factor
+    for old, (new, factor) in RENAMED.items():
+        if path.endswith("." + old):
+            return f"{path.rpartition('.')[0]}.{new}", value * factor
     return path, value
 
 
@@ -58,3 +64,29 @@ def test_every_default_value_is_unchanged():
     assert not missing and not added, f"fields vanished: {missing[:10]}; fields appeared: {added[:10]}"
     changed = {k: (before[k], now[k]) for k in before if before[k] != now[k]}
     assert not changed, f"default values changed (before, now): {changed}"
+
+
+def test_old_percent_names_still_work_with_a_warning():
+    """The tracker's and the search's percent fields became permille (issue 10 item 6);
+    the public Python configs still take and give the old names, with a DeprecationWarning."""
+    import warnings
+
+    import pytest
+
+    from pyvehtrack.config import SearchConfig, TrackerConfig
+    from pyvehtrack.reference.track_search import SearchCfg
+    from pyvehtrack.reference.tracker import TrackerCfg
+    for cls in (TrackerConfig, TrackerCfg):
+        with pytest.warns(DeprecationWarning, match="gate_permille"):
+            old = cls(gate_percent=40, match_iou_percent=25)
+        assert old == cls(gate_permille=400, match_iou_permille=250)
+        with pytest.warns(DeprecationWarning, match="gate_bottom_permille"):
+            assert cls(gate_bottom_permille=105).gate_bottom_percent == 10.5
+        with pytest.raises(TypeError, match="not both"):
+            cls(gate_percent=40, gate_permille=400)
+    for cls in (SearchConfig, SearchCfg):
+        with pytest.warns(DeprecationWarning, match="bottom_permille"):
+            assert cls(bottom_percent=100) == cls(bottom_permille=1000)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")             # the new names warn about nothing
+        assert TrackerConfig(gate_permille=350) == TrackerConfig()
