@@ -25,17 +25,11 @@ static vt_status vt__check_s16(const vt_image_s16 *img)
 static vt_status vt__check_src_dst(const vt_image_u8 *src, const vt_image_s16 *dst)
 {
     vt_status s = vt_image_u8_check(src);
+    s = s != VT_OK ? s : vt__check_s16(dst);
     if (s != VT_OK) {
         return s;
     }
-    s = vt__check_s16(dst);
-    if (s != VT_OK) {
-        return s;
-    }
-    if (dst->w != src->w || dst->h != src->h) {
-        return VT_E_SIZE;
-    }
-    return VT_OK;
+    return (dst->w == src->w && dst->h == src->h) ? VT_OK : VT_E_SIZE;
 }
 
 vt_status vt_filter_h101(const vt_image_u8 *src, vt_image_s16 *dst)
@@ -73,55 +67,63 @@ static int16_t vt__sy(const uint8_t *pm, const uint8_t *pp, int32_t xl, int32_t 
     return (int16_t)((pp[xl] + 2 * pp[x] + pp[xr]) - (pm[xl] + 2 * pm[x] + pm[xr]));
 }
 
-vt_status vt_sobel_x(const vt_image_u8 *src, vt_image_s16 *dst)
+/* One row of Sobel d/dx: the interior has no border test, so the compiler can
+ * vectorise it; the two border columns replicate their neighbour. */
+static void vt__sobel_x_row(const uint8_t *pm, const uint8_t *p0, const uint8_t *pp, int32_t w,
+                            int16_t *o)
 {
-    int32_t x, y, w, h;
+    int32_t x;
+    o[0] = vt__sx(pm, p0, pp, 0, w > 1 ? 1 : 0);
+    for (x = 1; x < w - 1; ++x) {
+        o[x] = (int16_t)((pm[x + 1] - pm[x - 1]) + 2 * (p0[x + 1] - p0[x - 1]) + (pp[x + 1] - pp[x - 1]));
+    }
+    if (w > 1) {
+        o[w - 1] = vt__sx(pm, p0, pp, w - 2, w - 1);
+    }
+}
+
+/* One row of Sobel d/dy (the centre row has weight 0), borders as above. */
+static void vt__sobel_y_row(const uint8_t *pm, const uint8_t *pp, int32_t w, int16_t *o)
+{
+    int32_t x;
+    o[0] = vt__sy(pm, pp, 0, 0, w > 1 ? 1 : 0);
+    for (x = 1; x < w - 1; ++x) {
+        o[x] = (int16_t)((pp[x - 1] + 2 * pp[x] + pp[x + 1]) - (pm[x - 1] + 2 * pm[x] + pm[x + 1]));
+    }
+    if (w > 1) {
+        o[w - 1] = vt__sy(pm, pp, w - 2, w - 1, w - 1);
+    }
+}
+
+/* Both Sobel images: the same checks and row set-up, then d/dx or d/dy per row. */
+static vt_status vt__sobel(const vt_image_u8 *src, vt_image_s16 *dst, int d_dy)
+{
+    int32_t y;
     vt_status s = vt__check_src_dst(src, dst);
     if (s != VT_OK) {
         return s;
     }
-    w = src->w;
-    h = src->h;
-    for (y = 0; y < h; ++y) {
+    for (y = 0; y < src->h; ++y) {
         const uint8_t *pm, *p0, *pp;
         int16_t *o = dst->px + (size_t)y * (size_t)dst->stride;
         vt__sobel_rows(src, y, &pm, &p0, &pp);
-        o[0] = vt__sx(pm, p0, pp, 0, w > 1 ? 1 : 0);
-        /* The interior has no border test, so the compiler can vectorise it. */
-        for (x = 1; x < w - 1; ++x) {
-            o[x] = (int16_t)((pm[x + 1] - pm[x - 1]) + 2 * (p0[x + 1] - p0[x - 1]) +
-                             (pp[x + 1] - pp[x - 1]));
-        }
-        if (w > 1) {
-            o[w - 1] = vt__sx(pm, p0, pp, w - 2, w - 1);
+        if (d_dy) {
+            vt__sobel_y_row(pm, pp, src->w, o);
+        } else {
+            vt__sobel_x_row(pm, p0, pp, src->w, o);
         }
     }
     return VT_OK;
 }
 
+vt_status vt_sobel_x(const vt_image_u8 *src, vt_image_s16 *dst)
+{
+    return vt__sobel(src, dst, 0);
+}
+
 vt_status vt_sobel_y(const vt_image_u8 *src, vt_image_s16 *dst)
 {
-    int32_t x, y, w, h;
-    vt_status s = vt__check_src_dst(src, dst);
-    if (s != VT_OK) {
-        return s;
-    }
-    w = src->w;
-    h = src->h;
-    for (y = 0; y < h; ++y) {
-        const uint8_t *pm, *p0, *pp;
-        int16_t *o = dst->px + (size_t)y * (size_t)dst->stride;
-        vt__sobel_rows(src, y, &pm, &p0, &pp);
-        (void)p0; /* d/dy does not weigh the centre row */
-        o[0] = vt__sy(pm, pp, 0, 0, w > 1 ? 1 : 0);
-        for (x = 1; x < w - 1; ++x) {
-            o[x] = (int16_t)((pp[x - 1] + 2 * pp[x] + pp[x + 1]) - (pm[x - 1] + 2 * pm[x] + pm[x + 1]));
-        }
-        if (w > 1) {
-            o[w - 1] = vt__sy(pm, pp, w - 2, w - 1, w - 1);
-        }
-    }
-    return VT_OK;
+    return vt__sobel(src, dst, 1);
 }
 
 vt_status vt_pyr_down(const vt_image_u8 *src, vt_image_u8_mut *dst)
@@ -233,10 +235,7 @@ vt_status vt_box_sum(const vt_image_u32 *ii, int32_t x, int32_t y, int32_t w, in
 static vt_status vt__check_pair(const vt_image_u8 *a, const vt_image_u8 *b)
 {
     vt_status s = vt_image_u8_check(a);
-    if (s != VT_OK) {
-        return s;
-    }
-    s = vt_image_u8_check(b);
+    s = s != VT_OK ? s : vt_image_u8_check(b);
     if (s != VT_OK) {
         return s;
     }

@@ -111,6 +111,20 @@ static vt__i128 vt__mul_rshr(int64_t a, int64_t b, int sh)
     return vt__i128_rshr(vt__mul_s64(a, b), sh);
 }
 
+/* acc + sum over k < n of a[k*as] * b[k*bs] >> VT_Q32_SHIFT: one row of a Q31.32
+ * matrix product, each product rounded down to Q31.32 and the sum exact in 128
+ * bits (the strides walk a row, 1, or a column, the row length, of a [row][col]
+ * array). */
+static vt__i128 vt__dot_q32(vt__i128 acc, const int64_t *a, int32_t as, const int64_t *b, int32_t bs,
+                            int32_t n)
+{
+    int32_t k;
+    for (k = 0; k < n; k++) {
+        acc = vt__i128_add(acc, vt__mul_rshr(a[k * as], b[k * bs], VT_Q32_SHIFT));
+    }
+    return acc;
+}
+
 /* Saturate to int64; *sat (if not NULL) is set to 1 when it saturated. */
 static int64_t vt__sat64(vt__i128 a, int *sat)
 {
@@ -306,20 +320,13 @@ vt_status vt_kf_predict(vt_kf *kf)
     /* P = (F P) F^T + Q, all Q31.32. */
     for (i = 0; i < n; i++) {
         for (j = 0; j < n; j++) {
-            vt__i128 acc = vt__i128_from_s64(0);
-            for (k = 0; k < n; k++) {
-                acc = vt__i128_add(acc, vt__mul_rshr(kf->F[i][k], kf->P[k][j], VT_Q32_SHIFT));
-            }
-            T[i][j] = vt__sat64(acc, NULL);
+            T[i][j] = vt__sat64(vt__dot_q32(vt__i128_from_s64(0), kf->F[i], 1, &kf->P[0][j], VT_KF_MAX_X, n),
+                                NULL);
         }
     }
     for (i = 0; i < n; i++) {
         for (j = 0; j < n; j++) {
-            vt__i128 acc = vt__i128_from_s64(kf->Q[i][j]);
-            for (k = 0; k < n; k++) {
-                acc = vt__i128_add(acc, vt__mul_rshr(T[i][k], kf->F[j][k], VT_Q32_SHIFT));
-            }
-            kf->P[i][j] = vt__sat64(acc, NULL);
+            kf->P[i][j] = vt__sat64(vt__dot_q32(vt__i128_from_s64(kf->Q[i][j]), T[i], 1, kf->F[j], 1, n), NULL);
         }
     }
     vt__kf_symmetrise(kf);
@@ -447,39 +454,24 @@ static void vt__kf_correct(vt_kf *kf, vt__kf_correct_scratch *w)
     }
     for (i = 0; i < n; i++) {
         for (j = 0; j < n; j++) {
-            vt__i128 acc = vt__i128_from_s64(i == j ? VT_Q32_ONE : 0);
-            for (k = 0; k < m; k++) {
-                acc = vt__i128_add(acc, vt__i128_neg(vt__mul_rshr(kf->K[i][k], kf->H[k][j], VT_Q32_SHIFT)));
-            }
-            A[i][j] = vt__sat64(acc, NULL);
+            /* I - K H: the negated sum is exact in 128 bits, as the terms were. */
+            vt__i128 kh = vt__dot_q32(vt__i128_from_s64(0), kf->K[i], 1, &kf->H[0][j], VT_KF_MAX_X, m);
+            A[i][j] = vt__sat64(vt__i128_add(vt__i128_from_s64(i == j ? VT_Q32_ONE : 0), vt__i128_neg(kh)), NULL);
         }
         for (j = 0; j < m; j++) {
-            vt__i128 acc = vt__i128_from_s64(0);
-            for (k = 0; k < m; k++) {
-                acc = vt__i128_add(acc, vt__mul_rshr(kf->K[i][k], kf->R[k][j], VT_Q32_SHIFT));
-            }
-            U[i][j] = vt__sat64(acc, NULL);
+            U[i][j] = vt__sat64(vt__dot_q32(vt__i128_from_s64(0), kf->K[i], 1, &kf->R[0][j], VT_KF_MAX_Z, m),
+                                NULL);
         }
     }
     for (i = 0; i < n; i++) {
         for (j = 0; j < n; j++) {
-            vt__i128 acc = vt__i128_from_s64(0);
-            for (k = 0; k < n; k++) {
-                acc = vt__i128_add(acc, vt__mul_rshr(A[i][k], kf->P[k][j], VT_Q32_SHIFT));
-            }
-            T[i][j] = vt__sat64(acc, NULL);
+            T[i][j] = vt__sat64(vt__dot_q32(vt__i128_from_s64(0), A[i], 1, &kf->P[0][j], VT_KF_MAX_X, n), NULL);
         }
     }
     for (i = 0; i < n; i++) {
         for (j = 0; j < n; j++) {
-            vt__i128 acc = vt__i128_from_s64(0);
-            for (k = 0; k < n; k++) {
-                acc = vt__i128_add(acc, vt__mul_rshr(T[i][k], A[j][k], VT_Q32_SHIFT));
-            }
-            for (k = 0; k < m; k++) {
-                acc = vt__i128_add(acc, vt__mul_rshr(U[i][k], kf->K[j][k], VT_Q32_SHIFT));
-            }
-            kf->P[i][j] = vt__sat64(acc, NULL);
+            vt__i128 acc = vt__dot_q32(vt__i128_from_s64(0), T[i], 1, A[j], 1, n);
+            kf->P[i][j] = vt__sat64(vt__dot_q32(acc, U[i], 1, kf->K[j], 1, m), NULL);
         }
     }
     vt__kf_symmetrise(kf);
@@ -519,20 +511,13 @@ vt_status vt_kf_update(vt_kf *kf, const vt_q16 *z)
     /* B = P H^T, S = H B + R. */
     for (i = 0; i < n; i++) {
         for (j = 0; j < m; j++) {
-            vt__i128 acc = vt__i128_from_s64(0);
-            for (k = 0; k < n; k++) {
-                acc = vt__i128_add(acc, vt__mul_rshr(kf->P[i][k], kf->H[j][k], VT_Q32_SHIFT));
-            }
-            B[i][j] = vt__sat64(acc, NULL);
+            B[i][j] = vt__sat64(vt__dot_q32(vt__i128_from_s64(0), kf->P[i], 1, kf->H[j], 1, n), NULL);
         }
     }
     for (i = 0; i < m; i++) {
         for (j = 0; j < m; j++) {
-            vt__i128 acc = vt__i128_from_s64(kf->R[i][j]);
-            for (k = 0; k < n; k++) {
-                acc = vt__i128_add(acc, vt__mul_rshr(kf->H[i][k], B[k][j], VT_Q32_SHIFT));
-            }
-            kf->S[i][j] = vt__sat64(acc, NULL);
+            kf->S[i][j] = vt__sat64(vt__dot_q32(vt__i128_from_s64(kf->R[i][j]), kf->H[i], 1, &B[0][j], VT_KF_MAX_Z,
+                                                n), NULL);
         }
     }
     s = vt__kf_gain(kf, &w.g);
@@ -613,6 +598,23 @@ static vt_status vt__kf_model_terms_get(const vt_kf_model_cfg *cfg, vt__kf_model
     return VT_OK;
 }
 
+/* The common start of the model filters: the model's terms, then an empty
+ * dim_x x dim_z filter (a valid size, so vt_kf_init cannot fail). */
+static vt_status vt__kf_model_start(vt_kf *kf, const vt_kf_model_cfg *cfg, int32_t dim_x, int32_t dim_z,
+                                    vt__kf_model_terms *t)
+{
+    vt_status s;
+    if (kf == NULL) {
+        return VT_E_ARG;
+    }
+    s = vt__kf_model_terms_get(cfg, t);
+    if (s != VT_OK) {
+        return s;
+    }
+    (void)vt_kf_init(kf, dim_x, dim_z);
+    return VT_OK;
+}
+
 vt_status vt_kf_init_bottom_edge(vt_kf *kf, const vt_kf_model_cfg *cfg, vt_q16 x1, vt_q16 y1,
                                  vt_q16 x2)
 {
@@ -620,14 +622,10 @@ vt_status vt_kf_init_bottom_edge(vt_kf *kf, const vt_kf_model_cfg *cfg, vt_q16 x
     vt_q32 dt;
     int32_t i;
     vt_status s;
-    if (kf == NULL) {
-        return VT_E_ARG;
-    }
-    s = vt__kf_model_terms_get(cfg, &t);
+    s = vt__kf_model_start(kf, cfg, VT_KF_BE_DIM_X, VT_KF_BE_DIM_Z, &t);
     if (s != VT_OK) {
         return s;
     }
-    (void)vt_kf_init(kf, VT_KF_BE_DIM_X, VT_KF_BE_DIM_Z);
     dt = (vt_q32)cfg->dt << 16; /* Q15.16 -> Q31.32, exact */
     for (i = 0; i < 3; i++) {
         kf->F[i][i + 3] = dt;
@@ -655,14 +653,10 @@ vt_status vt_kf_init_cv(vt_kf *kf, const vt_kf_model_cfg *cfg, vt_q16 x, vt_q16 
     vt_q32 dt3, dt4;
     int32_t a;
     vt_status s;
-    if (kf == NULL) {
-        return VT_E_ARG;
-    }
-    s = vt__kf_model_terms_get(cfg, &t);
+    s = vt__kf_model_start(kf, cfg, VT_KF_CV_DIM_X, VT_KF_CV_DIM_Z, &t);
     if (s != VT_OK) {
         return s;
     }
-    (void)vt_kf_init(kf, VT_KF_CV_DIM_X, VT_KF_CV_DIM_Z);
     /* dt^3, dt^4 in Q31.32 (saturating for dt > 1290 frames). */
     dt3 = vt__sat64(vt__mul_rshr(t.dt2, cfg->dt, 16), NULL);
     dt4 = vt__sat64(vt__mul_rshr(t.dt2, t.dt2, VT_Q32_SHIFT), NULL);
