@@ -21,6 +21,25 @@ static vt_status vt__check_s16(const vt_image_s16 *img)
     return vt__check_dims(img->w, img->h, img->stride, VT_MAX_WIDTH, VT_MAX_HEIGHT);
 }
 
+/* Checks a source, then an output view (present: its pointers are not NULL; w, h,
+ * stride its size) of (W + 1) / 2 x (H + 1) / 2 pixels for `half`, else of
+ * (W + 1) x (H + 1) (an integral image). */
+static vt_status vt__check_src_out(const vt_image_u8 *src, int present, int32_t w, int32_t h, int32_t stride,
+                                   int half)
+{
+    vt_status s = vt_image_u8_check(src);
+    if (s != VT_OK) {
+        return s;
+    }
+    if (!present) {
+        return VT_E_ARG;
+    }
+    if (half ? (w != (src->w + 1) / 2 || h != (src->h + 1) / 2) : (w != src->w + 1 || h != src->h + 1)) {
+        return VT_E_SIZE;
+    }
+    return stride >= w ? VT_OK : VT_E_SIZE;
+}
+
 /* Checks a source and a same-size int16 destination. */
 static vt_status vt__check_src_dst(const vt_image_u8 *src, const vt_image_s16 *dst)
 {
@@ -134,20 +153,15 @@ vt_status vt_pyr_down(const vt_image_u8 *src, vt_image_u8_mut *dst)
     uint16_t col[VT_MAX_WIDTH];
     static const int32_t k[5] = {1, 4, 6, 4, 1};
     int32_t ox, oy, ow, oh, w, h, i;
-    vt_status s = vt_image_u8_check(src);
+    vt_status s = vt__check_src_out(src, dst != NULL && dst->px != NULL, dst != NULL ? dst->w : 0,
+                                    dst != NULL ? dst->h : 0, dst != NULL ? dst->stride : 0, 1);
     if (s != VT_OK) {
         return s;
     }
-    if (dst == NULL || dst->px == NULL) {
-        return VT_E_ARG;
-    }
     w = src->w;
     h = src->h;
-    ow = (w + 1) / 2;
-    oh = (h + 1) / 2;
-    if (dst->w != ow || dst->h != oh || dst->stride < dst->w) {
-        return VT_E_SIZE;
-    }
+    ow = dst->w;
+    oh = dst->h;
     for (oy = 0; oy < oh; ++oy) {
         const uint8_t *r[5];
         int32_t x;
@@ -180,18 +194,13 @@ vt_status vt_pyr_down(const vt_image_u8 *src, vt_image_u8_mut *dst)
 vt_status vt_integral(const vt_image_u8 *src, vt_image_u32 *dst)
 {
     int32_t x, y, w, h;
-    vt_status s = vt_image_u8_check(src);
+    vt_status s = vt__check_src_out(src, dst != NULL && dst->px != NULL, dst != NULL ? dst->w : 0,
+                                    dst != NULL ? dst->h : 0, dst != NULL ? dst->stride : 0, 0);
     if (s != VT_OK) {
         return s;
     }
-    if (dst == NULL || dst->px == NULL) {
-        return VT_E_ARG;
-    }
     w = src->w;
     h = src->h;
-    if (dst->w != w + 1 || dst->h != h + 1 || dst->stride < dst->w) {
-        return VT_E_SIZE;
-    }
     for (x = 0; x <= w; ++x) {
         dst->px[x] = 0;
     }

@@ -160,13 +160,29 @@ static int vt__nlz64(uint64_t v)
     return n;
 }
 
+/* One 32-bit quotient digit of vt__divlu: the estimate num / vn1, corrected
+ * (at most twice) until digit * (vn1:vn0) <= (num:lo), lo the next dividend digit. */
+static uint64_t vt__divlu_digit(uint64_t num, uint64_t lo, uint64_t vn1, uint64_t vn0)
+{
+    const uint64_t b = (uint64_t)1 << 32;
+    uint64_t q = num / vn1, rhat = num - q * vn1;
+    while (q >= b || q * vn0 > b * rhat + lo) {
+        q -= 1u;
+        rhat += vn1;
+        if (rhat >= b) {
+            break;
+        }
+    }
+    return q;
+}
+
 /* (u1 * 2^64 + u0) / v for u1 < v (so the quotient fits 64 bits), v != 0;
  * remainder in *rem. Knuth's algorithm D with 32-bit digits, as Hacker's
  * Delight's divlu: two 64/32 estimate steps, each corrected at most twice. */
 static uint64_t vt__divlu(uint64_t u1, uint64_t u0, uint64_t v, uint64_t *rem)
 {
     const uint64_t b = (uint64_t)1 << 32;
-    uint64_t un1, un0, vn1, vn0, q1, q0, un32, un21, un10, rhat;
+    uint64_t un1, un0, vn1, vn0, q1, q0, un32, un21, un10;
     int s = vt__nlz64(v);
     v <<= s;
     vn1 = v >> 32;
@@ -180,25 +196,9 @@ static uint64_t vt__divlu(uint64_t u1, uint64_t u0, uint64_t v, uint64_t *rem)
     }
     un1 = un10 >> 32;
     un0 = un10 & VT__M32;
-    q1 = un32 / vn1;
-    rhat = un32 - q1 * vn1;
-    while (q1 >= b || q1 * vn0 > b * rhat + un1) {
-        q1 -= 1u;
-        rhat += vn1;
-        if (rhat >= b) {
-            break;
-        }
-    }
+    q1 = vt__divlu_digit(un32, un1, vn1, vn0);
     un21 = un32 * b + un1 - q1 * v; /* modulo 2^64; the true value is < v */
-    q0 = un21 / vn1;
-    rhat = un21 - q0 * vn1;
-    while (q0 >= b || q0 * vn0 > b * rhat + un0) {
-        q0 -= 1u;
-        rhat += vn1;
-        if (rhat >= b) {
-            break;
-        }
-    }
+    q0 = vt__divlu_digit(un21, un0, vn1, vn0);
     *rem = (un21 * b + un0 - q0 * v) >> s;
     return q1 * b + q0;
 }

@@ -166,6 +166,8 @@ class FrameReader:
 
     def __iter__(self):
         import cv2
+
+        from ..frames import read_video
         i = 0
         for kind, path in self.sources:
             if kind == "image":
@@ -182,16 +184,10 @@ class FrameReader:
                 raise CliError(f"{path}: cannot open as a video")
             declared = int(cap.get(cv2.CAP_PROP_FRAME_COUNT))
             k = 0
-            try:
-                while True:
-                    ok, img = cap.read()
-                    if not ok:
-                        break
-                    yield i, path, img
-                    i += 1
-                    k += 1
-            finally:
-                cap.release()
+            for img in read_video(cap):
+                yield i, path, img
+                i += 1
+                k += 1
             if k == 0:
                 raise CliError(f"{path}: the video has no readable frame")
             if declared > k:                    # the stream ends before its container says
