@@ -90,8 +90,8 @@ static void vt__flood(vt_edge_ws *ws, int32_t head, int32_t *tail, uint8_t from,
     }
 }
 
-vt_status vt_edge_map(const vt_image_u8 *img, const vt_edge_cfg *cfg, const vt_box *roi,
-                      vt_edge_ws *ws)
+vt_status vt_edge_map(vt_edge_ws *ws, const vt_edge_cfg *cfg, const vt_image_u8 *img,
+                      const vt_box *roi)
 {
     int32_t l, t, r, b, w, h, n, i, x, y, tail;
     vt_image_u8 crop;

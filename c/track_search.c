@@ -81,9 +81,9 @@ vt_status vt_track_search_cfg_check(const vt_track_search_cfg *cfg)
     return VT_OK;
 }
 
-vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg,
-                          const vt_box *roi, vt_track_sides *sides,
-                          vt_track_search_ws *ws, vt_box *meas, int32_t *found)
+vt_status vt_track_search(vt_track_search_ws *ws, vt_track_sides *sides,
+                          const vt_track_search_cfg *cfg, const vt_image_u8 *img,
+                          const vt_box *roi, vt_box *meas, int32_t *found)
 {
     int32_t l, t, r, b, x, y, ybest, hbest, mid, midx, lmax, rmax, xl, xr, rows, sign;
     vt_status s = vt_image_u8_check(img);

@@ -178,7 +178,7 @@ static void vt__edge_refresh(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *
     roi.bottom = t->box.bottom + m;
     t->edges.n = 0;
     t->edges.box = t->box;
-    if (vt_edge_map(img, &cfg->edge, &roi, tr->edge_ws) == VT_OK) {
+    if (vt_edge_map(tr->edge_ws, &cfg->edge, img, &roi) == VT_OK) {
         (void)vt_edge_template_set(tr->edge_ws, &t->box, &t->edges, NULL);
     }
 }
@@ -204,7 +204,7 @@ static void vt__edge_measure(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *
     roi.right = tb->right + cx + pad + grow;
     roi.top = tb->top + cy - pad - grow;
     roi.bottom = tb->bottom + cy + pad;
-    if (vt_edge_map(img, &cfg->edge, &roi, tr->edge_ws) != VT_OK ||
+    if (vt_edge_map(tr->edge_ws, &cfg->edge, img, &roi) != VT_OK ||
         vt_edge_match(tr->edge_ws, &cfg->edge, &t->edges, cx, cy, &dx, &dy, &sc, &score,
                       found) != VT_OK) {
         *found = 0;
@@ -313,7 +313,7 @@ static int vt__predict_measure(vt_tracker *tr, vt_track *t, const vt_tracker_cfg
         vt__edge_measure(tr, t, cfg, img, m, &meas, &found);
         s = VT_OK;
     } else {
-        s = vt_track_search(img, &cfg->search, &roi, &sides, &tr->ws, &meas, &found);
+        s = vt_track_search(&tr->ws, &sides, &cfg->search, img, &roi, &meas, &found);
     }
     if (s == VT_OK && found && vt__abs_i32(meas.left - t->box.left) <= gate &&
         vt__abs_i32(meas.right - t->box.right) <= gate &&

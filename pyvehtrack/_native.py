@@ -476,7 +476,7 @@ def _box(b, name: str):
 
 def edge_map(ws, cfg, img: np.ndarray, roi) -> None:
     v = view(img, "img")
-    check("vt_edge_map", lib.vt_edge_map(v, cfg, _box(roi, "roi"), ws),
+    check("vt_edge_map", lib.vt_edge_map(ws, cfg, v, _box(roi, "roi")),
           f"img {getattr(img, 'shape', None)}, roi {list(roi)}")
 
 

@@ -114,7 +114,7 @@ def run_track_search(cfg):
     sides = ffi.new("vt_track_sides *", (1, 20, 39, 2, 2))
     meas = ffi.new("vt_box *")
     found = ffi.new("int32_t *")
-    return [lib.vt_track_search(img_view(), cfg, roi, sides, ws, meas, found)]
+    return [lib.vt_track_search(ws, sides, cfg, img_view(), roi, meas, found)]
 
 
 def run_kf_model(cfg):
@@ -395,6 +395,6 @@ def test_track_search_side_memory_at_int32_edges():
     found = ffi.new("int32_t *")
     for prev in (I32_MIN, I32_MAX):
         sides = ffi.new("vt_track_sides *", (1, prev, prev, 0, 0))
-        assert lib.vt_track_search(img_view(), cfg, roi, sides, ws, meas, found) == lib.VT_OK
+        assert lib.vt_track_search(ws, sides, cfg, img_view(), roi, meas, found) == lib.VT_OK
         if found[0]:
             assert sides.max_change_left == I32_MAX or sides.max_change_left >= 0

@@ -158,7 +158,7 @@ def test_track_search_exact(seed, l, t, w, h, prev, polarity, bottom_permille, s
     ws = ffi.new("vt_track_search_ws *")
     meas = ffi.new("vt_box *")
     found = ffi.new("int32_t *")
-    assert lib.vt_track_search(_native.view(img, "img"), c_cfg, c_roi, c_sides, ws, meas, found) == lib.VT_OK
+    assert lib.vt_track_search(ws, c_sides, c_cfg, _native.view(img, "img"), c_roi, meas, found) == lib.VT_OK
     if ref is None:
         assert found[0] == 0
     else:

@@ -132,8 +132,8 @@ vt_status vt_edge_cfg_check(const vt_edge_cfg *cfg);
  * (nothing is computed: the caller must use a smaller crop), VT_E_SIZE if it is
  * empty (roi outside the image), VT_E_ARG for NULLs, a bad cfg or roi with
  * left > right / top > bottom or a coordinate beyond +-4 VT_MAX_WIDTH/HEIGHT. */
-vt_status vt_edge_map(const vt_image_u8 *img, const vt_edge_cfg *cfg, const vt_box *roi,
-                      vt_edge_ws *ws);
+vt_status vt_edge_map(vt_edge_ws *ws, const vt_edge_cfg *cfg, const vt_image_u8 *img,
+                      const vt_box *roi);
 
 /* The curve pixels of ws (after vt_edge_map) inside `box` (clipped to the crop)
  * become the template, box copied. More than VT_EDGE_MAX_POINTS pixels: every

@@ -94,8 +94,8 @@ typedef struct {
  * VT_E_ARG otherwise and for NULL. vt_track_search checks the same. */
 vt_status vt_track_search_cfg_check(const vt_track_search_cfg *cfg);
 
-vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg,
-                          const vt_box *roi, vt_track_sides *sides,
-                          vt_track_search_ws *ws, vt_box *meas, int32_t *found);
+vt_status vt_track_search(vt_track_search_ws *ws, vt_track_sides *sides,
+                          const vt_track_search_cfg *cfg, const vt_image_u8 *img,
+                          const vt_box *roi, vt_box *meas, int32_t *found);
 
 #endif /* VEHTRACK_TRACK_SEARCH_H */

@@ -26,9 +26,9 @@ typedef struct {
 } vt_track_sides;
 
 vt_status vt_track_search_cfg_check(const vt_track_search_cfg *cfg);
-vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg,
-                          const vt_box *roi, vt_track_sides *sides,
-                          vt_track_search_ws *ws, vt_box *meas, int32_t *found);
+vt_status vt_track_search(vt_track_search_ws *ws, vt_track_sides *sides,
+                          const vt_track_search_cfg *cfg, const vt_image_u8 *img,
+                          const vt_box *roi, vt_box *meas, int32_t *found);
 
 typedef enum { VT_TRACK_FREE, VT_TRACK_TENTATIVE, VT_TRACK_CONFIRMED, VT_TRACK_COASTING, ... } vt_track_state;
 
