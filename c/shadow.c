@@ -33,7 +33,7 @@ vt_status vt_shadow_cfg_check(const vt_shadow_cfg *cfg)
         !vt__in(cfg->min_run, 1, 4096) || !vt__in(cfg->max_gap, 0, 255) ||
         !vt__in(cfg->merge_rows, 0, 255) || !vt__in(cfg->width_min_q8, 0, 65535) ||
         !vt__in(cfg->width_max_q8, cfg->width_min_q8, 65535) ||
-        !vt__in(cfg->reduce_overlap_q8, 0, 256) || !vt__in(cfg->reduce_height_q8, 0, 65535)) {
+        !vt__in(cfg->reduce_overlap_permille, 0, 1000) || !vt__in(cfg->reduce_height_q8, 0, 65535)) {
         return VT_E_ARG;
     }
     return VT_OK;
@@ -272,7 +272,7 @@ static int32_t vt__reduce(vt_shadow_state *st, const vt_shadow_cfg *cfg)
             int64_t wk = (int64_t)k->x_end - k->x_start + 1;
             int64_t ov = (int64_t)(c.x_end < k->x_end ? c.x_end : k->x_end) -
                          (c.x_start > k->x_start ? c.x_start : k->x_start) + 1;
-            drop = ov > 0 && ov * 256 >= (wc < wk ? wc : wk) * cfg->reduce_overlap_q8 &&
+            drop = ov > 0 && ov * 1000 >= (wc < wk ? wc : wk) * cfg->reduce_overlap_permille &&
                    ((int64_t)k->bottom - c.bottom) * 256 <= wk * cfg->reduce_height_q8;
         }
         if (!drop) {

@@ -27,7 +27,7 @@ vt_status vt_verify_cfg_check(const vt_verify_cfg *cfg)
     }
     if (!vt__in(cfg->widen_px, 0, 4096) || !vt__in(cfg->widen_q8, 0, 1024) ||
         !vt__in(cfg->roi_height_q8, 1, 4096) ||
-        !vt__in(cfg->vedge_threshold, 1, 1020) || !vt__in(cfg->side_min_frac_q8, 0, 256) ||
+        !vt__in(cfg->vedge_threshold, 1, 1020) || !vt__in(cfg->side_min_frac_permille, 0, 1000) ||
         !vt__in(cfg->side_min_px, 0, 4096) || !vt__in(cfg->side_contrast_q8, 0, 4096) ||
         !vt__in(cfg->min_width_q8, 0, 4096) ||
         !vt__in(cfg->aspect_q8, 1, 4096)) {
@@ -71,7 +71,7 @@ static int vt__strong(const vt_verify_cfg *cfg, int32_t count, int32_t rows, int
                       int64_t total)
 {
     return count >= cfg->side_min_px &&
-           (int64_t)count * 256 >= (int64_t)rows * cfg->side_min_frac_q8 &&
+           (int64_t)count * 1000 >= (int64_t)rows * cfg->side_min_frac_permille &&
            (int64_t)count * n * 256 >= total * cfg->side_contrast_q8;
 }
 

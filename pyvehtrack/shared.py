@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass, field
+from fractions import Fraction
 
 import numpy as np
 
@@ -23,7 +24,8 @@ DARK_BELOW = 1
 class ShadowConfig:
     """Same fields, units and defaults as vt_shadow_cfg (include/vehtrack/shadow.h).
 
-    Fractions are Q8 integers (256 = 1.0) so the oracle uses exactly C's values."""
+    Fractions of at most one are permille, scale factors that may exceed one Q8 integers
+    (256 = 1.0), so the oracle uses exactly C's values."""
     threshold_mode: int = ADAPTIVE
     polarity: int = DARK_ABOVE     # the thesis's edge: dark shadow above the lit road
     grad_threshold: int = 48       # fixed: s*sobel_y >= this (Sobel gain 4: a 12-level step)
@@ -35,7 +37,7 @@ class ShadowConfig:
     merge_rows: int = 2            # thesis: rows within 2 px are combined
     width_min_q8: int = 77         # 0.30 of the lane width
     width_max_q8: int = 256        # 1.00 of the lane width
-    reduce_overlap_q8: int = 128   # 0.5 of the narrower edge
+    reduce_overlap_permille: int = 500  # 0.5 of the narrower edge
     reduce_height_q8: int = 256    # up to 1.0 x width above a kept edge
 
 
@@ -46,7 +48,7 @@ class VerifyConfig:
     widen_q8: int = 26             # plus this x edge length, 0.1 (thesis: 0)
     roi_height_q8: int = 128       # thesis: half the edge length
     vedge_threshold: int = 40      # |sobel_x| >= this (Sobel gain 4: a 10-level step)
-    side_min_frac_q8: int = 64     # a side needs vertical edges on 1/4 of the ROI rows
+    side_min_frac_permille: int = 250  # a side needs vertical edges on 1/4 of the ROI rows
     side_min_px: int = 3           # and on at least 3 rows
     side_contrast_q8: int = 384    # and >= 1.5 x the ROI's mean column count
     min_width_q8: int = 128        # sides >= 0.5 x edge length apart
@@ -147,13 +149,17 @@ TRACKER_RENAMED = {"roi_margin_percent": ("roi_margin_permille", 10), "gate_perc
                    "match_iou_percent": ("match_iou_permille", 10)}
 SEARCH_RENAMED = {"min_h_percent": ("min_h_permille", 10), "min_v_percent": ("min_v_permille", 10),
                   "bottom_percent": ("bottom_permille", 10)}
+# Q8 fractions of at most 1 (256 = 1.0): new = old * 1000 / 256, accepted only where exact.
+SHADOW_RENAMED = {"reduce_overlap_q8": ("reduce_overlap_permille", Fraction(1000, 256))}
+VERIFY_RENAMED = {"side_min_frac_q8": ("side_min_frac_permille", Fraction(1000, 256))}
 
 
 def accept_renamed(cls, renamed: dict):
     """Let dataclass `cls` still take the fields in `renamed` under their old names:
     cls(old=v) sets new = v * factor, and obj.old reads new / factor, both with a
     DeprecationWarning. A value that is not an int is passed on as it is, so the
-    config's own check names the field and the type."""
+    config's own check names the field and the type; an int whose new value would
+    not be a whole number is a ValueError (never rounded silently)."""
     init = cls.__init__
 
     def __init__(self, *args, **kw):
@@ -164,7 +170,13 @@ def accept_renamed(cls, renamed: dict):
                 warnings.warn(f"{cls.__name__}.{old} is deprecated: use {new} (= {old} x {factor})",
                               DeprecationWarning, stacklevel=2)
                 v = kw.pop(old)
-                kw[new] = v * factor if isinstance(v, (int, np.integer)) and not isinstance(v, bool) else v
+                if isinstance(v, (int, np.integer)) and not isinstance(v, bool):
+                    nv = Fraction(int(v)) * factor
+                    if nv.denominator != 1:
+                        raise ValueError(f"{cls.__name__}.{old}={v}: is {float(nv)} in {new}, not a whole "
+                                         f"number; give {new} instead")
+                    v = int(nv)
+                kw[new] = v
         init(self, *args, **kw)
 
     __init__.__wrapped__ = init
@@ -173,7 +185,11 @@ def accept_renamed(cls, renamed: dict):
         def _get(self, old=old, new=new, factor=factor):
             warnings.warn(f"{type(self).__name__}.{old} is deprecated: use {new} (= {old} x {factor})",
                           DeprecationWarning, stacklevel=2)
-            v = getattr(self, new)
-            return v // factor if v % factor == 0 else v / factor
+            v = Fraction(getattr(self, new)) / factor
+            return int(v) if v.denominator == 1 else float(v)
         setattr(cls, old, property(_get))
     return cls
+
+
+accept_renamed(ShadowConfig, SHADOW_RENAMED)  # the Q8 names of before issue 10
+accept_renamed(VerifyConfig, VERIFY_RENAMED)

@@ -4,6 +4,7 @@ renamed since then is looked up under its new name, and a field whose unit chang
 compared after the exact conversion stated in RENAMED. Nothing may appear or vanish."""
 from __future__ import annotations
 
+from fractions import Fraction
 from pathlib import Path
 
 from pyvehtrack import _native
@@ -13,12 +14,15 @@ TABLE = Path(__file__).resolve().parent / "data" / "cfg_defaults_before.tsv"
 # old path suffix (last field, with its parent where the name is not unique) -> (new
 # last field, exact factor). Only
 # conversions that are exact on the recorded defaults are allowed (checked below).
-RENAMED: dict[str, tuple[str, int]] = {
+RENAMED: dict[str, tuple[str, int | Fraction]] = {
     # percent -> permille (x 10, exact): tracker.h and track_search.h
     "roi_margin_percent": ("roi_margin_permille", 10), "gate_percent": ("gate_permille", 10),
     "gate_bottom_percent": ("gate_bottom_permille", 10), "match_iou_percent": ("match_iou_permille", 10),
     "search.min_h_percent": ("min_h_permille", 10), "search.min_v_percent": ("min_v_permille", 10),
     "search.bottom_percent": ("bottom_permille", 10),
+    # Q8 fractions of at most 1 -> permille (x 1000/256, exact on the recorded defaults)
+    "reduce_overlap_q8": ("reduce_overlap_permille", Fraction(1000, 256)),
+    "side_min_frac_q8": ("side_min_frac_permille", Fraction(1000, 256)),
 }
 
 
@@ -51,7 +55,9 @@ def _renamed(path: str, value: int) -> tuple[str, int]:
     """The path and value the old entry has today (the last field of the path may be renamed)."""
     for old, (new, factor) in RENAMED.items():
         if path.endswith("." + old):
-            return f"{path.rpartition('.')[0]}.{new}", value * factor
+            v = Fraction(value) * factor
+            assert v.denominator == 1, f"{path}: {value} has no exact value in {new}"
+            return f"{path.rpartition('.')[0]}.{new}", int(v)
     return path, value
 
 
@@ -90,3 +96,17 @@ def test_old_percent_names_still_work_with_a_warning():
     with warnings.catch_warnings():
         warnings.simplefilter("error")             # the new names warn about nothing
         assert TrackerConfig(gate_permille=350) == TrackerConfig()
+
+
+def test_old_q8_fraction_names_still_work_when_exact():
+    import pytest
+
+    from pyvehtrack import config, shared
+    for cls in (config.ShadowConfig, shared.ShadowConfig):
+        with pytest.warns(DeprecationWarning, match="reduce_overlap_permille"):
+            assert cls(reduce_overlap_q8=64) == cls(reduce_overlap_permille=250)
+        with pytest.warns(DeprecationWarning), pytest.raises(ValueError, match="reduce_overlap_permille"):
+            cls(reduce_overlap_q8=77)              # 300.78 permille: not taken by rounding
+    for cls in (config.VerifyConfig, shared.VerifyConfig):
+        with pytest.warns(DeprecationWarning, match="side_min_frac_permille"):
+            assert cls().side_min_frac_q8 == 64

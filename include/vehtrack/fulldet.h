@@ -104,7 +104,7 @@ typedef struct {
                 .widen_q8 = 26,              \
                 .roi_height_q8 = 128,        \
                 .vedge_threshold = 40,       \
-                .side_min_frac_q8 = 64,      \
+                .side_min_frac_permille = 250, \
                 .side_min_px = 3,            \
                 .side_contrast_q8 = 384,     \
                 .min_width_q8 = 128,         \

@@ -40,7 +40,9 @@
 #define VT_SHADOW_DARK_ABOVE 0 /* shadow above the lit road: sobel_y >= t */
 #define VT_SHADOW_DARK_BELOW 1 /* body above its shadow: -sobel_y >= t */
 
-/* Configuration (const: may live in flash). Fractions are Q8 (256 = 1.0).
+/* Configuration (const: may live in flash). Fractions of at most one are permille
+ * (1000 = 1.0); the scale factors that may exceed one (widths and heights relative
+ * to a width, k) are Q8 (256 = 1.0).
  * Sobel values carry a gain of 4: a sharp step of d gray levels gives 4d. */
 typedef struct {
     int32_t threshold_mode;    /* VT_SHADOW_FIXED or VT_SHADOW_ADAPTIVE */
@@ -55,7 +57,7 @@ typedef struct {
     int32_t merge_rows;        /* rows within this are combined (thesis: 2), 0..255 */
     int32_t width_min_q8;      /* edge width >= this x lane width at its row, 0..65535 */
     int32_t width_max_q8;      /* edge width <= this x lane width, width_min_q8..65535 */
-    int32_t reduce_overlap_q8; /* reduce: x overlap >= this x narrower width, 0..256 */
+    int32_t reduce_overlap_permille; /* reduce: x overlap >= this/1000 x narrower width, 0..1000 */
     int32_t reduce_height_q8;  /* reduce: at most this x kept width above, 0..65535 */
 } vt_shadow_cfg;
 
@@ -78,7 +80,7 @@ typedef struct {
         .merge_rows = 2,                      \
         .width_min_q8 = 77,                   \
         .width_max_q8 = 256,                  \
-        .reduce_overlap_q8 = 128,             \
+        .reduce_overlap_permille = 500,       \
         .reduce_height_q8 = 256,              \
     }
 

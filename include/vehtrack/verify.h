@@ -17,13 +17,15 @@
 #include "vehtrack/shadow.h"
 #include "vehtrack/status.h"
 
-/* Configuration (const: may live in flash). Fractions are Q8 (256 = 1.0). */
+/* Configuration (const: may live in flash). Fractions of at most one are permille
+ * (1000 = 1.0); the scale factors that may exceed one (widths, heights, aspect,
+ * contrast) are Q8 (256 = 1.0). */
 typedef struct {
     int32_t widen_px;         /* ROI = edge widened by widen_px + widen_q8 x edge length */
     int32_t widen_q8;         /* on each side (thesis: 6 px and 0), 0..4096 and 0..1024 */
     int32_t roi_height_q8;    /* ROI height = this x edge length (thesis: 1/2), 1..4096 */
     int32_t vedge_threshold;  /* |sobel_x| >= this is a vertical edge pixel, 1..1020 */
-    int32_t side_min_frac_q8; /* a side's column needs edges on >= this x ROI rows, 0..256 */
+    int32_t side_min_frac_permille; /* a side's column needs edges on >= this/1000 x ROI rows, 0..1000 */
     int32_t side_min_px;      /* and on >= this many rows, 0..4096 */
     int32_t side_contrast_q8; /* and >= this x the ROI's mean column count, 0..4096
                                  (a side stands out; texture and noise do not) */
@@ -41,7 +43,7 @@ typedef struct {
         .widen_q8 = 26,          \
         .roi_height_q8 = 128,    \
         .vedge_threshold = 40,   \
-        .side_min_frac_q8 = 64,  \
+        .side_min_frac_permille = 250, \
         .side_min_px = 3,        \
         .side_contrast_q8 = 384, \
         .min_width_q8 = 128,     \

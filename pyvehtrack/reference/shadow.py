@@ -199,7 +199,7 @@ def find_hypotheses(gray: np.ndarray, road, cfg: ShadowConfig = ShadowConfig(), 
         for k in kept:
             wk = k[3] - k[2] + 1
             ov = min(c[3], k[3]) - max(c[2], k[2]) + 1
-            if (ov > 0 and ov * 256 >= min(wc, wk) * cfg.reduce_overlap_q8
+            if (ov > 0 and ov * 1000 >= min(wc, wk) * cfg.reduce_overlap_permille
                     and (k[0] - c[0]) * 256 <= wk * cfg.reduce_height_q8):
                 drop = True
                 break

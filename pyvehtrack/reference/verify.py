@@ -13,7 +13,7 @@ For each bottom edge (row, x_start, x_end) from the shadow stage:
     mid..x1 with mid = (x0 + x1 + 1) // 2;
  4. a vehicle needs one horizontal edge (the shadow edge, present by construction)
     and two vertical edges: both sides need p >= side_min_px,
-    p * 256 >= roi_rows * side_min_frac_q8 and p >= side_contrast x the mean of p over
+    p * 1000 >= roi_rows * side_min_frac_permille and p >= side_contrast x the mean of p over
     the ROI (p * n * 256 >= sum(p) * side_contrast_q8: a vehicle's side stands out,
     road texture and noise do not; our addition), and the sides must be at least
     min_width_q8 of the edge length apart (right - left + 1);
@@ -55,7 +55,7 @@ def verify_one(gray: np.ndarray, hyp, cfg: VerifyConfig, sx_abs: np.ndarray | No
     total = int(p.sum())
 
     def strong(v):
-        return (v >= cfg.side_min_px and v * 256 >= rows * cfg.side_min_frac_q8
+        return (v >= cfg.side_min_px and v * 1000 >= rows * cfg.side_min_frac_permille
                 and v * n * 256 >= total * cfg.side_contrast_q8)
 
     if not (strong(p[li]) and strong(p[ri])):
