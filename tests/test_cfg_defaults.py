@@ -1,7 +1,9 @@
 """Every default config value, read through cffi, equals the table recorded before the
 C tidy-ups of issue 10 item 6 (designated initialisers, one unit for fractions): a field
 renamed since then is looked up under its new name, and a field whose unit changed is
-compared after the exact conversion stated in RENAMED. Nothing may appear or vanish."""
+compared after the exact conversion stated in RENAMED. Nothing recorded may vanish (a
+rename without its entry in RENAMED shows up so); fields and configs added since (other
+stages plugging in) are not in the table and are not compared."""
 from __future__ import annotations
 
 from fractions import Fraction
@@ -66,8 +68,7 @@ def test_every_default_value_is_unchanged():
     now = _now()
     assert len(before) > 400  # the table covers every config, not a sample
     missing = sorted(set(before) - set(now))
-    added = sorted(set(now) - set(before))
-    assert not missing and not added, f"fields vanished: {missing[:10]}; fields appeared: {added[:10]}"
+    assert not missing, f"fields vanished (renamed without an entry in RENAMED?): {missing[:10]}"
     changed = {k: (before[k], now[k]) for k in before if before[k] != now[k]}
     assert not changed, f"default values changed (before, now): {changed}"
 
