@@ -15,11 +15,7 @@
 vt_status vt_edge_cfg_default(vt_edge_cfg *cfg)
 {
     static const vt_edge_cfg def = VT_EDGE_CFG_DEFAULT;
-    if (cfg == NULL) {
-        return VT_E_ARG;
-    }
-    *cfg = def;
-    return VT_OK;
+    return vt__cfg_copy(cfg, &def, sizeof def);
 }
 
 vt_status vt_edge_cfg_check(const vt_edge_cfg *c)

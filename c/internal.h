@@ -4,6 +4,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include <string.h>
 #include "vehtrack/config.h"
 #include "vehtrack/image.h"
 #include "vehtrack/status.h"
@@ -16,6 +17,17 @@ static inline vt_status vt__check_dims(int32_t w, int32_t h, int32_t stride, int
     if (w < 1 || h < 1 || w > maxw || h > maxh || stride < w) {
         return VT_E_SIZE;
     }
+    return VT_OK;
+}
+
+/* The body of every vt_*_cfg_default(): *dst = the const default (n bytes);
+ * VT_E_ARG for a NULL dst. */
+static inline vt_status vt__cfg_copy(void *dst, const void *def, size_t n)
+{
+    if (dst == NULL) {
+        return VT_E_ARG;
+    }
+    memcpy(dst, def, n);
     return VT_OK;
 }
 

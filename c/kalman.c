@@ -7,6 +7,7 @@
  * The 128-bit helpers below are written in portable C99 on uint64 halves
  * (no __int128), so the same code runs on a Cortex-M. */
 #include "vehtrack/kalman.h"
+#include "internal.h"
 #include <stddef.h>
 #include <string.h>
 
@@ -548,11 +549,7 @@ vt_status vt_kf_accel_var(vt_q16 accel, vt_q16 p_max, vt_q16 p_zero, vt_q32 *var
 vt_status vt_kf_model_cfg_default(vt_kf_model_cfg *cfg)
 {
     static const vt_kf_model_cfg def = VT_KF_MODEL_CFG_DEFAULT;
-    if (cfg == NULL) {
-        return VT_E_ARG;
-    }
-    *cfg = def;
-    return VT_OK;
+    return vt__cfg_copy(cfg, &def, sizeof def);
 }
 
 /* The parts both models share: validated acceleration variances (Q31.32),

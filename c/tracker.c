@@ -123,11 +123,7 @@ vt_status vt_tracker_set_edge_ws(vt_tracker *tr, vt_edge_ws *ws)
 vt_status vt_tracker_cfg_default(vt_tracker_cfg *cfg)
 {
     static const vt_tracker_cfg def = VT_TRACKER_CFG_DEFAULT;
-    if (cfg == NULL) {
-        return VT_E_ARG;
-    }
-    *cfg = def;
-    return VT_OK;
+    return vt__cfg_copy(cfg, &def, sizeof def);
 }
 
 /* A successful measurement: lifecycle and template. */
