@@ -4,15 +4,12 @@
 #include <stddef.h>
 
 #include "vehtrack/detect.h"
+#include "internal.h"
 
 vt_status vt_detect_cfg_default(vt_detect_cfg *cfg)
 {
     static const vt_detect_cfg def = VT_DETECT_CFG_DEFAULT;
-    if (cfg == NULL) {
-        return VT_E_ARG;
-    }
-    *cfg = def;
-    return VT_OK;
+    return vt__cfg_copy(cfg, &def, sizeof def);
 }
 
 vt_status vt_detect_cfg_check(const vt_detect_cfg *cfg)

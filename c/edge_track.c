@@ -15,11 +15,7 @@
 vt_status vt_edge_cfg_default(vt_edge_cfg *cfg)
 {
     static const vt_edge_cfg def = VT_EDGE_CFG_DEFAULT;
-    if (cfg == NULL) {
-        return VT_E_ARG;
-    }
-    *cfg = def;
-    return VT_OK;
+    return vt__cfg_copy(cfg, &def, sizeof def);
 }
 
 vt_status vt_edge_cfg_check(const vt_edge_cfg *c)
@@ -90,8 +86,8 @@ static void vt__flood(vt_edge_ws *ws, int32_t head, int32_t *tail, uint8_t from,
     }
 }
 
-vt_status vt_edge_map(const vt_image_u8 *img, const vt_edge_cfg *cfg, const vt_box *roi,
-                      vt_edge_ws *ws)
+vt_status vt_edge_map(vt_edge_ws *ws, const vt_edge_cfg *cfg, const vt_image_u8 *img,
+                      const vt_box *roi)
 {
     int32_t l, t, r, b, w, h, n, i, x, y, tail;
     vt_image_u8 crop;

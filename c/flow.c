@@ -11,11 +11,7 @@
 vt_status vt_flow_cfg_default(vt_flow_cfg *cfg)
 {
     static const vt_flow_cfg def = VT_FLOW_CFG_DEFAULT;
-    if (cfg == NULL) {
-        return VT_E_ARG;
-    }
-    *cfg = def;
-    return VT_OK;
+    return vt__cfg_copy(cfg, &def, sizeof def);
 }
 
 static int vt__in(int32_t v, int32_t lo, int32_t hi)

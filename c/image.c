@@ -21,21 +21,34 @@ static vt_status vt__check_s16(const vt_image_s16 *img)
     return vt__check_dims(img->w, img->h, img->stride, VT_MAX_WIDTH, VT_MAX_HEIGHT);
 }
 
-/* Checks a source and a same-size int16 destination. */
-static vt_status vt__check_src_dst(const vt_image_u8 *src, const vt_image_s16 *dst)
+/* Checks a source, then an output view (present: its pointers are not NULL; w, h,
+ * stride its size) of (W + 1) / 2 x (H + 1) / 2 pixels for `half`, else of
+ * (W + 1) x (H + 1) (an integral image). */
+static vt_status vt__check_src_out(const vt_image_u8 *src, int present, int32_t w, int32_t h, int32_t stride,
+                                   int half)
 {
     vt_status s = vt_image_u8_check(src);
     if (s != VT_OK) {
         return s;
     }
-    s = vt__check_s16(dst);
+    if (!present) {
+        return VT_E_ARG;
+    }
+    if (half ? (w != (src->w + 1) / 2 || h != (src->h + 1) / 2) : (w != src->w + 1 || h != src->h + 1)) {
+        return VT_E_SIZE;
+    }
+    return stride >= w ? VT_OK : VT_E_SIZE;
+}
+
+/* Checks a source and a same-size int16 destination. */
+static vt_status vt__check_src_dst(const vt_image_u8 *src, const vt_image_s16 *dst)
+{
+    vt_status s = vt_image_u8_check(src);
+    s = s != VT_OK ? s : vt__check_s16(dst);
     if (s != VT_OK) {
         return s;
     }
-    if (dst->w != src->w || dst->h != src->h) {
-        return VT_E_SIZE;
-    }
-    return VT_OK;
+    return (dst->w == src->w && dst->h == src->h) ? VT_OK : VT_E_SIZE;
 }
 
 vt_status vt_filter_h101(const vt_image_u8 *src, vt_image_s16 *dst)
@@ -73,56 +86,63 @@ static int16_t vt__sy(const uint8_t *pm, const uint8_t *pp, int32_t xl, int32_t 
     return (int16_t)((pp[xl] + 2 * pp[x] + pp[xr]) - (pm[xl] + 2 * pm[x] + pm[xr]));
 }
 
-vt_status vt_sobel_x(const vt_image_u8 *src, vt_image_s16 *dst)
+/* One row of Sobel d/dx: the interior has no border test, so the compiler can
+ * vectorise it; the two border columns replicate their neighbour. */
+static void vt__sobel_x_row(const uint8_t *pm, const uint8_t *p0, const uint8_t *pp, int32_t w,
+                            int16_t *o)
 {
-    int32_t x, y, w, h;
+    int32_t x;
+    o[0] = vt__sx(pm, p0, pp, 0, w > 1 ? 1 : 0);
+    for (x = 1; x < w - 1; ++x) {
+        o[x] = (int16_t)((pm[x + 1] - pm[x - 1]) + 2 * (p0[x + 1] - p0[x - 1]) + (pp[x + 1] - pp[x - 1]));
+    }
+    if (w > 1) {
+        o[w - 1] = vt__sx(pm, p0, pp, w - 2, w - 1);
+    }
+}
+
+/* One row of Sobel d/dy (the centre row has weight 0), borders as above. */
+static void vt__sobel_y_row(const uint8_t *pm, const uint8_t *pp, int32_t w, int16_t *o)
+{
+    int32_t x;
+    o[0] = vt__sy(pm, pp, 0, 0, w > 1 ? 1 : 0);
+    for (x = 1; x < w - 1; ++x) {
+        o[x] = (int16_t)((pp[x - 1] + 2 * pp[x] + pp[x + 1]) - (pm[x - 1] + 2 * pm[x] + pm[x + 1]));
+    }
+    if (w > 1) {
+        o[w - 1] = vt__sy(pm, pp, w - 2, w - 1, w - 1);
+    }
+}
+
+/* Both Sobel images: the same checks and row set-up, then d/dx or d/dy per row. */
+static vt_status vt__sobel(const vt_image_u8 *src, vt_image_s16 *dst, int d_dy)
+{
+    int32_t y;
     vt_status s = vt__check_src_dst(src, dst);
     if (s != VT_OK) {
         return s;
     }
-    w = src->w;
-    h = src->h;
-    for (y = 0; y < h; ++y) {
-        /* Replicated border: the rows above/below the edge are the edge row. */
-        const uint8_t *pm = src->px + (size_t)(y > 0 ? y - 1 : 0) * (size_t)src->stride;
-        const uint8_t *p0 = src->px + (size_t)y * (size_t)src->stride;
-        const uint8_t *pp = src->px + (size_t)(y < h - 1 ? y + 1 : h - 1) * (size_t)src->stride;
+    for (y = 0; y < src->h; ++y) {
+        const uint8_t *pm, *p0, *pp;
         int16_t *o = dst->px + (size_t)y * (size_t)dst->stride;
-        o[0] = vt__sx(pm, p0, pp, 0, w > 1 ? 1 : 0);
-        /* The interior has no border test, so the compiler can vectorise it. */
-        for (x = 1; x < w - 1; ++x) {
-            o[x] = (int16_t)((pm[x + 1] - pm[x - 1]) + 2 * (p0[x + 1] - p0[x - 1]) +
-                             (pp[x + 1] - pp[x - 1]));
-        }
-        if (w > 1) {
-            o[w - 1] = vt__sx(pm, p0, pp, w - 2, w - 1);
+        vt__sobel_rows(src, y, &pm, &p0, &pp);
+        if (d_dy) {
+            vt__sobel_y_row(pm, pp, src->w, o);
+        } else {
+            vt__sobel_x_row(pm, p0, pp, src->w, o);
         }
     }
     return VT_OK;
 }
 
+vt_status vt_sobel_x(const vt_image_u8 *src, vt_image_s16 *dst)
+{
+    return vt__sobel(src, dst, 0);
+}
+
 vt_status vt_sobel_y(const vt_image_u8 *src, vt_image_s16 *dst)
 {
-    int32_t x, y, w, h;
-    vt_status s = vt__check_src_dst(src, dst);
-    if (s != VT_OK) {
-        return s;
-    }
-    w = src->w;
-    h = src->h;
-    for (y = 0; y < h; ++y) {
-        const uint8_t *pm = src->px + (size_t)(y > 0 ? y - 1 : 0) * (size_t)src->stride;
-        const uint8_t *pp = src->px + (size_t)(y < h - 1 ? y + 1 : h - 1) * (size_t)src->stride;
-        int16_t *o = dst->px + (size_t)y * (size_t)dst->stride;
-        o[0] = vt__sy(pm, pp, 0, 0, w > 1 ? 1 : 0);
-        for (x = 1; x < w - 1; ++x) {
-            o[x] = (int16_t)((pp[x - 1] + 2 * pp[x] + pp[x + 1]) - (pm[x - 1] + 2 * pm[x] + pm[x + 1]));
-        }
-        if (w > 1) {
-            o[w - 1] = vt__sy(pm, pp, w - 2, w - 1, w - 1);
-        }
-    }
-    return VT_OK;
+    return vt__sobel(src, dst, 1);
 }
 
 vt_status vt_pyr_down(const vt_image_u8 *src, vt_image_u8_mut *dst)
@@ -133,20 +153,15 @@ vt_status vt_pyr_down(const vt_image_u8 *src, vt_image_u8_mut *dst)
     uint16_t col[VT_MAX_WIDTH];
     static const int32_t k[5] = {1, 4, 6, 4, 1};
     int32_t ox, oy, ow, oh, w, h, i;
-    vt_status s = vt_image_u8_check(src);
+    vt_status s = vt__check_src_out(src, dst != NULL && dst->px != NULL, dst != NULL ? dst->w : 0,
+                                    dst != NULL ? dst->h : 0, dst != NULL ? dst->stride : 0, 1);
     if (s != VT_OK) {
         return s;
     }
-    if (dst == NULL || dst->px == NULL) {
-        return VT_E_ARG;
-    }
     w = src->w;
     h = src->h;
-    ow = (w + 1) / 2;
-    oh = (h + 1) / 2;
-    if (dst->w != ow || dst->h != oh || dst->stride < dst->w) {
-        return VT_E_SIZE;
-    }
+    ow = dst->w;
+    oh = dst->h;
     for (oy = 0; oy < oh; ++oy) {
         const uint8_t *r[5];
         int32_t x;
@@ -179,18 +194,13 @@ vt_status vt_pyr_down(const vt_image_u8 *src, vt_image_u8_mut *dst)
 vt_status vt_integral(const vt_image_u8 *src, vt_image_u32 *dst)
 {
     int32_t x, y, w, h;
-    vt_status s = vt_image_u8_check(src);
+    vt_status s = vt__check_src_out(src, dst != NULL && dst->px != NULL, dst != NULL ? dst->w : 0,
+                                    dst != NULL ? dst->h : 0, dst != NULL ? dst->stride : 0, 0);
     if (s != VT_OK) {
         return s;
     }
-    if (dst == NULL || dst->px == NULL) {
-        return VT_E_ARG;
-    }
     w = src->w;
     h = src->h;
-    if (dst->w != w + 1 || dst->h != h + 1 || dst->stride < dst->w) {
-        return VT_E_SIZE;
-    }
     for (x = 0; x <= w; ++x) {
         dst->px[x] = 0;
     }
@@ -234,10 +244,7 @@ vt_status vt_box_sum(const vt_image_u32 *ii, int32_t x, int32_t y, int32_t w, in
 static vt_status vt__check_pair(const vt_image_u8 *a, const vt_image_u8 *b)
 {
     vt_status s = vt_image_u8_check(a);
-    if (s != VT_OK) {
-        return s;
-    }
-    s = vt_image_u8_check(b);
+    s = s != VT_OK ? s : vt_image_u8_check(b);
     if (s != VT_OK) {
         return s;
     }

@@ -4,7 +4,9 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include <string.h>
 #include "vehtrack/config.h"
+#include "vehtrack/image.h"
 #include "vehtrack/status.h"
 
 /* Size check shared by every view type: VT_E_SIZE unless 1 <= w <= maxw,
@@ -15,6 +17,17 @@ static inline vt_status vt__check_dims(int32_t w, int32_t h, int32_t stride, int
     if (w < 1 || h < 1 || w > maxw || h > maxh || stride < w) {
         return VT_E_SIZE;
     }
+    return VT_OK;
+}
+
+/* The body of every vt_*_cfg_default(): *dst = the const default (n bytes);
+ * VT_E_ARG for a NULL dst. */
+static inline vt_status vt__cfg_copy(void *dst, const void *def, size_t n)
+{
+    if (dst == NULL) {
+        return VT_E_ARG;
+    }
+    memcpy(dst, def, n);
     return VT_OK;
 }
 
@@ -45,6 +58,18 @@ static inline int32_t vt__reflect101(int32_t p, int32_t n)
         p = p < 0 ? -p : 2 * (n - 1) - p;
     }
     return p;
+}
+
+/* The three source rows a 3x3 Sobel reads at row y (0 <= y < img->h): above,
+ * at and below it, the edge row standing in for the row past the border
+ * (replicated border, as OpenCV's BORDER_REPLICATE). Every Sobel of the core
+ * (vt_sobel_x/y, the shadow scan, verification, the tracker's search) starts here. */
+static inline void vt__sobel_rows(const vt_image_u8 *img, int32_t y, const uint8_t **pm,
+                                  const uint8_t **p0, const uint8_t **pp)
+{
+    *pm = img->px + (size_t)(y > 0 ? y - 1 : 0) * (size_t)img->stride;
+    *p0 = img->px + (size_t)y * (size_t)img->stride;
+    *pp = img->px + (size_t)(y < img->h - 1 ? y + 1 : img->h - 1) * (size_t)img->stride;
 }
 
 #endif /* VEHTRACK_INTERNAL_H */

@@ -7,6 +7,7 @@
  * The 128-bit helpers below are written in portable C99 on uint64 halves
  * (no __int128), so the same code runs on a Cortex-M. */
 #include "vehtrack/kalman.h"
+#include "internal.h"
 #include <stddef.h>
 #include <string.h>
 
@@ -111,6 +112,20 @@ static vt__i128 vt__mul_rshr(int64_t a, int64_t b, int sh)
     return vt__i128_rshr(vt__mul_s64(a, b), sh);
 }
 
+/* acc + sum over k < n of a[k*as] * b[k*bs] >> VT_Q32_SHIFT: one row of a Q31.32
+ * matrix product, each product rounded down to Q31.32 and the sum exact in 128
+ * bits (the strides walk a row, 1, or a column, the row length, of a [row][col]
+ * array). */
+static vt__i128 vt__dot_q32(vt__i128 acc, const int64_t *a, int32_t as, const int64_t *b, int32_t bs,
+                            int32_t n)
+{
+    int32_t k;
+    for (k = 0; k < n; k++) {
+        acc = vt__i128_add(acc, vt__mul_rshr(a[k * as], b[k * bs], VT_Q32_SHIFT));
+    }
+    return acc;
+}
+
 /* Saturate to int64; *sat (if not NULL) is set to 1 when it saturated. */
 static int64_t vt__sat64(vt__i128 a, int *sat)
 {
@@ -146,13 +161,29 @@ static int vt__nlz64(uint64_t v)
     return n;
 }
 
+/* One 32-bit quotient digit of vt__divlu: the estimate num / vn1, corrected
+ * (at most twice) until digit * (vn1:vn0) <= (num:lo), lo the next dividend digit. */
+static uint64_t vt__divlu_digit(uint64_t num, uint64_t lo, uint64_t vn1, uint64_t vn0)
+{
+    const uint64_t b = (uint64_t)1 << 32;
+    uint64_t q = num / vn1, rhat = num - q * vn1;
+    while (q >= b || q * vn0 > b * rhat + lo) {
+        q -= 1u;
+        rhat += vn1;
+        if (rhat >= b) {
+            break;
+        }
+    }
+    return q;
+}
+
 /* (u1 * 2^64 + u0) / v for u1 < v (so the quotient fits 64 bits), v != 0;
  * remainder in *rem. Knuth's algorithm D with 32-bit digits, as Hacker's
  * Delight's divlu: two 64/32 estimate steps, each corrected at most twice. */
 static uint64_t vt__divlu(uint64_t u1, uint64_t u0, uint64_t v, uint64_t *rem)
 {
     const uint64_t b = (uint64_t)1 << 32;
-    uint64_t un1, un0, vn1, vn0, q1, q0, un32, un21, un10, rhat;
+    uint64_t un1, un0, vn1, vn0, q1, q0, un32, un21, un10;
     int s = vt__nlz64(v);
     v <<= s;
     vn1 = v >> 32;
@@ -166,25 +197,9 @@ static uint64_t vt__divlu(uint64_t u1, uint64_t u0, uint64_t v, uint64_t *rem)
     }
     un1 = un10 >> 32;
     un0 = un10 & VT__M32;
-    q1 = un32 / vn1;
-    rhat = un32 - q1 * vn1;
-    while (q1 >= b || q1 * vn0 > b * rhat + un1) {
-        q1 -= 1u;
-        rhat += vn1;
-        if (rhat >= b) {
-            break;
-        }
-    }
+    q1 = vt__divlu_digit(un32, un1, vn1, vn0);
     un21 = un32 * b + un1 - q1 * v; /* modulo 2^64; the true value is < v */
-    q0 = un21 / vn1;
-    rhat = un21 - q0 * vn1;
-    while (q0 >= b || q0 * vn0 > b * rhat + un0) {
-        q0 -= 1u;
-        rhat += vn1;
-        if (rhat >= b) {
-            break;
-        }
-    }
+    q0 = vt__divlu_digit(un21, un0, vn1, vn0);
     *rem = (un21 * b + un0 - q0 * v) >> s;
     return q1 * b + q0;
 }
@@ -306,20 +321,13 @@ vt_status vt_kf_predict(vt_kf *kf)
     /* P = (F P) F^T + Q, all Q31.32. */
     for (i = 0; i < n; i++) {
         for (j = 0; j < n; j++) {
-            vt__i128 acc = vt__i128_from_s64(0);
-            for (k = 0; k < n; k++) {
-                acc = vt__i128_add(acc, vt__mul_rshr(kf->F[i][k], kf->P[k][j], VT_Q32_SHIFT));
-            }
-            T[i][j] = vt__sat64(acc, NULL);
+            T[i][j] = vt__sat64(vt__dot_q32(vt__i128_from_s64(0), kf->F[i], 1, &kf->P[0][j], VT_KF_MAX_X, n),
+                                NULL);
         }
     }
     for (i = 0; i < n; i++) {
         for (j = 0; j < n; j++) {
-            vt__i128 acc = vt__i128_from_s64(kf->Q[i][j]);
-            for (k = 0; k < n; k++) {
-                acc = vt__i128_add(acc, vt__mul_rshr(T[i][k], kf->F[j][k], VT_Q32_SHIFT));
-            }
-            kf->P[i][j] = vt__sat64(acc, NULL);
+            kf->P[i][j] = vt__sat64(vt__dot_q32(vt__i128_from_s64(kf->Q[i][j]), T[i], 1, kf->F[j], 1, n), NULL);
         }
     }
     vt__kf_symmetrise(kf);
@@ -447,39 +455,24 @@ static void vt__kf_correct(vt_kf *kf, vt__kf_correct_scratch *w)
     }
     for (i = 0; i < n; i++) {
         for (j = 0; j < n; j++) {
-            vt__i128 acc = vt__i128_from_s64(i == j ? VT_Q32_ONE : 0);
-            for (k = 0; k < m; k++) {
-                acc = vt__i128_add(acc, vt__i128_neg(vt__mul_rshr(kf->K[i][k], kf->H[k][j], VT_Q32_SHIFT)));
-            }
-            A[i][j] = vt__sat64(acc, NULL);
+            /* I - K H: the negated sum is exact in 128 bits, as the terms were. */
+            vt__i128 kh = vt__dot_q32(vt__i128_from_s64(0), kf->K[i], 1, &kf->H[0][j], VT_KF_MAX_X, m);
+            A[i][j] = vt__sat64(vt__i128_add(vt__i128_from_s64(i == j ? VT_Q32_ONE : 0), vt__i128_neg(kh)), NULL);
         }
         for (j = 0; j < m; j++) {
-            vt__i128 acc = vt__i128_from_s64(0);
-            for (k = 0; k < m; k++) {
-                acc = vt__i128_add(acc, vt__mul_rshr(kf->K[i][k], kf->R[k][j], VT_Q32_SHIFT));
-            }
-            U[i][j] = vt__sat64(acc, NULL);
+            U[i][j] = vt__sat64(vt__dot_q32(vt__i128_from_s64(0), kf->K[i], 1, &kf->R[0][j], VT_KF_MAX_Z, m),
+                                NULL);
         }
     }
     for (i = 0; i < n; i++) {
         for (j = 0; j < n; j++) {
-            vt__i128 acc = vt__i128_from_s64(0);
-            for (k = 0; k < n; k++) {
-                acc = vt__i128_add(acc, vt__mul_rshr(A[i][k], kf->P[k][j], VT_Q32_SHIFT));
-            }
-            T[i][j] = vt__sat64(acc, NULL);
+            T[i][j] = vt__sat64(vt__dot_q32(vt__i128_from_s64(0), A[i], 1, &kf->P[0][j], VT_KF_MAX_X, n), NULL);
         }
     }
     for (i = 0; i < n; i++) {
         for (j = 0; j < n; j++) {
-            vt__i128 acc = vt__i128_from_s64(0);
-            for (k = 0; k < n; k++) {
-                acc = vt__i128_add(acc, vt__mul_rshr(T[i][k], A[j][k], VT_Q32_SHIFT));
-            }
-            for (k = 0; k < m; k++) {
-                acc = vt__i128_add(acc, vt__mul_rshr(U[i][k], kf->K[j][k], VT_Q32_SHIFT));
-            }
-            kf->P[i][j] = vt__sat64(acc, NULL);
+            vt__i128 acc = vt__dot_q32(vt__i128_from_s64(0), T[i], 1, A[j], 1, n);
+            kf->P[i][j] = vt__sat64(vt__dot_q32(acc, U[i], 1, kf->K[j], 1, m), NULL);
         }
     }
     vt__kf_symmetrise(kf);
@@ -519,20 +512,13 @@ vt_status vt_kf_update(vt_kf *kf, const vt_q16 *z)
     /* B = P H^T, S = H B + R. */
     for (i = 0; i < n; i++) {
         for (j = 0; j < m; j++) {
-            vt__i128 acc = vt__i128_from_s64(0);
-            for (k = 0; k < n; k++) {
-                acc = vt__i128_add(acc, vt__mul_rshr(kf->P[i][k], kf->H[j][k], VT_Q32_SHIFT));
-            }
-            B[i][j] = vt__sat64(acc, NULL);
+            B[i][j] = vt__sat64(vt__dot_q32(vt__i128_from_s64(0), kf->P[i], 1, kf->H[j], 1, n), NULL);
         }
     }
     for (i = 0; i < m; i++) {
         for (j = 0; j < m; j++) {
-            vt__i128 acc = vt__i128_from_s64(kf->R[i][j]);
-            for (k = 0; k < n; k++) {
-                acc = vt__i128_add(acc, vt__mul_rshr(kf->H[i][k], B[k][j], VT_Q32_SHIFT));
-            }
-            kf->S[i][j] = vt__sat64(acc, NULL);
+            kf->S[i][j] = vt__sat64(vt__dot_q32(vt__i128_from_s64(kf->R[i][j]), kf->H[i], 1, &B[0][j], VT_KF_MAX_Z,
+                                                n), NULL);
         }
     }
     s = vt__kf_gain(kf, &w.g);
@@ -563,11 +549,7 @@ vt_status vt_kf_accel_var(vt_q16 accel, vt_q16 p_max, vt_q16 p_zero, vt_q32 *var
 vt_status vt_kf_model_cfg_default(vt_kf_model_cfg *cfg)
 {
     static const vt_kf_model_cfg def = VT_KF_MODEL_CFG_DEFAULT;
-    if (cfg == NULL) {
-        return VT_E_ARG;
-    }
-    *cfg = def;
-    return VT_OK;
+    return vt__cfg_copy(cfg, &def, sizeof def);
 }
 
 /* The parts both models share: validated acceleration variances (Q31.32),
@@ -613,6 +595,23 @@ static vt_status vt__kf_model_terms_get(const vt_kf_model_cfg *cfg, vt__kf_model
     return VT_OK;
 }
 
+/* The common start of the model filters: the model's terms, then an empty
+ * dim_x x dim_z filter (a valid size, so vt_kf_init cannot fail). */
+static vt_status vt__kf_model_start(vt_kf *kf, const vt_kf_model_cfg *cfg, int32_t dim_x, int32_t dim_z,
+                                    vt__kf_model_terms *t)
+{
+    vt_status s;
+    if (kf == NULL) {
+        return VT_E_ARG;
+    }
+    s = vt__kf_model_terms_get(cfg, t);
+    if (s != VT_OK) {
+        return s;
+    }
+    (void)vt_kf_init(kf, dim_x, dim_z);
+    return VT_OK;
+}
+
 vt_status vt_kf_init_bottom_edge(vt_kf *kf, const vt_kf_model_cfg *cfg, vt_q16 x1, vt_q16 y1,
                                  vt_q16 x2)
 {
@@ -620,14 +619,10 @@ vt_status vt_kf_init_bottom_edge(vt_kf *kf, const vt_kf_model_cfg *cfg, vt_q16 x
     vt_q32 dt;
     int32_t i;
     vt_status s;
-    if (kf == NULL) {
-        return VT_E_ARG;
-    }
-    s = vt__kf_model_terms_get(cfg, &t);
+    s = vt__kf_model_start(kf, cfg, VT_KF_BE_DIM_X, VT_KF_BE_DIM_Z, &t);
     if (s != VT_OK) {
         return s;
     }
-    (void)vt_kf_init(kf, VT_KF_BE_DIM_X, VT_KF_BE_DIM_Z);
     dt = (vt_q32)cfg->dt << 16; /* Q15.16 -> Q31.32, exact */
     for (i = 0; i < 3; i++) {
         kf->F[i][i + 3] = dt;
@@ -655,14 +650,10 @@ vt_status vt_kf_init_cv(vt_kf *kf, const vt_kf_model_cfg *cfg, vt_q16 x, vt_q16 
     vt_q32 dt3, dt4;
     int32_t a;
     vt_status s;
-    if (kf == NULL) {
-        return VT_E_ARG;
-    }
-    s = vt__kf_model_terms_get(cfg, &t);
+    s = vt__kf_model_start(kf, cfg, VT_KF_CV_DIM_X, VT_KF_CV_DIM_Z, &t);
     if (s != VT_OK) {
         return s;
     }
-    (void)vt_kf_init(kf, VT_KF_CV_DIM_X, VT_KF_CV_DIM_Z);
     /* dt^3, dt^4 in Q31.32 (saturating for dt > 1290 frames). */
     dt3 = vt__sat64(vt__mul_rshr(t.dt2, cfg->dt, 16), NULL);
     dt4 = vt__sat64(vt__mul_rshr(t.dt2, t.dt2, VT_Q32_SHIFT), NULL);

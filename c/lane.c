@@ -98,11 +98,7 @@ static int64_t vt__line_x(vt_q16 xb, vt_q16 slope, int32_t y, int32_t H)
 vt_status vt_lane_cfg_default(vt_lane_cfg *cfg)
 {
     static const vt_lane_cfg def = VT_LANE_CFG_DEFAULT;
-    if (cfg == NULL) {
-        return VT_E_ARG;
-    }
-    *cfg = def;
-    return VT_OK;
+    return vt__cfg_copy(cfg, &def, sizeof def);
 }
 
 vt_status vt_lane_cfg_check(const vt_lane_cfg *c)

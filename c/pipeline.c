@@ -551,12 +551,12 @@ static vt_status vt__flow(vt_pipeline *p, const vt_image_u8 *frame, vt_frame_out
 }
 
 /* IoU(a, b) >= pct / 100, exact in int64. */
-static int32_t vt__iou_at_least(const vt_box *a, const vt_box *b, int32_t pct)
+static int32_t vt__iou_at_least(const vt_box *a, const vt_box *b, int32_t permille)
 {
     int64_t in = vt__inter(a, b);
     int64_t ua = ((int64_t)a->right - a->left + 1) * ((int64_t)a->bottom - a->top + 1);
     int64_t ub = ((int64_t)b->right - b->left + 1) * ((int64_t)b->bottom - b->top + 1);
-    return in * 100 >= (int64_t)pct * (ua + ub - in);
+    return in * 1000 >= (int64_t)permille * (ua + ub - in);
 }
 
 /* The vehicle model for the tracks the previous step left coasting (see
@@ -619,7 +619,7 @@ static void vt__model(vt_pipeline *p, const vt_image_u8 *frame, vt_frame_out *ou
         ++fits; /* the bound counts attempts: a failed fit cost its GA too */
         if (vt_model_fit(frame, &mc, &se, p->model_ws, &res) != VT_OK ||
             res.fitness < p->cfg.model_min_fitness ||
-            !vt__iou_at_least(&res.box, b, p->cfg.tracker.match_iou_percent)) {
+            !vt__iou_at_least(&res.box, b, p->cfg.tracker.match_iou_permille)) {
             continue;
         }
         ++*n_in;

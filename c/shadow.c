@@ -9,11 +9,7 @@
 vt_status vt_shadow_cfg_default(vt_shadow_cfg *cfg)
 {
     static const vt_shadow_cfg def = VT_SHADOW_CFG_DEFAULT;
-    if (cfg == NULL) {
-        return VT_E_ARG;
-    }
-    *cfg = def;
-    return VT_OK;
+    return vt__cfg_copy(cfg, &def, sizeof def);
 }
 
 static int vt__in(int32_t v, int32_t lo, int32_t hi)
@@ -33,7 +29,7 @@ vt_status vt_shadow_cfg_check(const vt_shadow_cfg *cfg)
         !vt__in(cfg->min_run, 1, 4096) || !vt__in(cfg->max_gap, 0, 255) ||
         !vt__in(cfg->merge_rows, 0, 255) || !vt__in(cfg->width_min_q8, 0, 65535) ||
         !vt__in(cfg->width_max_q8, cfg->width_min_q8, 65535) ||
-        !vt__in(cfg->reduce_overlap_q8, 0, 256) || !vt__in(cfg->reduce_height_q8, 0, 65535)) {
+        !vt__in(cfg->reduce_overlap_permille, 0, 1000) || !vt__in(cfg->reduce_height_q8, 0, 65535)) {
         return VT_E_ARG;
     }
     return VT_OK;
@@ -193,11 +189,8 @@ static void vt__run(vt_shadow_state *st, const vt_shadow_cfg *cfg, int32_t y, in
 static void vt__scan_row(vt_shadow_state *st, const vt_shadow_cfg *cfg, const vt_image_u8 *img,
                          int32_t y, int32_t xl, int32_t xr, int32_t *next_id)
 {
-    const int32_t w = img->w, h = img->h;
-    const uint8_t *pm = img->px + (size_t)(y > 0 ? y - 1 : 0) * (size_t)img->stride;
-    const uint8_t *pp = img->px + (size_t)(y < h - 1 ? y + 1 : h - 1) * (size_t)img->stride;
-    /* The dark side of the edge: above it for DARK_ABOVE, below it otherwise. */
-    const uint8_t *pd = cfg->polarity == VT_SHADOW_DARK_ABOVE ? pm : pp;
+    const int32_t w = img->w;
+    const uint8_t *pm, *p0, *pp, *pd;
     const int32_t sgn = cfg->polarity == VT_SHADOW_DARK_ABOVE ? 1 : -1;
     const int adaptive = cfg->threshold_mode == VT_SHADOW_ADAPTIVE;
     const int32_t thr = adaptive ? cfg->adapt_grad_min : cfg->grad_threshold;
@@ -205,6 +198,10 @@ static void vt__scan_row(vt_shadow_state *st, const vt_shadow_cfg *cfg, const vt
     int32_t a = xl > 0 ? xl - 1 : 0, b = xr < w - 1 ? xr + 1 : w - 1;
     int32_t x, rs = -1, re = -1;
     int16_t *dy = st->dy + 1; /* dy[-1] and dy[w] hold the replicated border */
+    vt__sobel_rows(img, y, &pm, &p0, &pp);
+    (void)p0; /* d/dy does not weigh the centre row */
+    /* The dark side of the edge: above it for DARK_ABOVE, below it otherwise. */
+    pd = cfg->polarity == VT_SHADOW_DARK_ABOVE ? pm : pp;
     for (x = a; x <= b; ++x) {
         dy[x] = (int16_t)(pp[x] - pm[x]);
     }
@@ -271,7 +268,7 @@ static int32_t vt__reduce(vt_shadow_state *st, const vt_shadow_cfg *cfg)
             int64_t wk = (int64_t)k->x_end - k->x_start + 1;
             int64_t ov = (int64_t)(c.x_end < k->x_end ? c.x_end : k->x_end) -
                          (c.x_start > k->x_start ? c.x_start : k->x_start) + 1;
-            drop = ov > 0 && ov * 256 >= (wc < wk ? wc : wk) * cfg->reduce_overlap_q8 &&
+            drop = ov > 0 && ov * 1000 >= (wc < wk ? wc : wk) * cfg->reduce_overlap_permille &&
                    ((int64_t)k->bottom - c.bottom) * 256 <= wk * cfg->reduce_height_q8;
         }
         if (!drop) {

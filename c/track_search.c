@@ -5,15 +5,6 @@
 #include "vehtrack/track_search.h"
 #include "internal.h"
 
-/* Row pointers of the 3x3 neighbourhood of row y, the edge row replicated. */
-static void vt__rows(const vt_image_u8 *img, int32_t y, const uint8_t **pm, const uint8_t **p0,
-                     const uint8_t **pp)
-{
-    *pm = img->px + (size_t)(y > 0 ? y - 1 : 0) * (size_t)img->stride;
-    *p0 = img->px + (size_t)y * (size_t)img->stride;
-    *pp = img->px + (size_t)(y < img->h - 1 ? y + 1 : img->h - 1) * (size_t)img->stride;
-}
-
 /* Count of columns x in [l, r) of row y whose s * Sobel d/dy >= thr (edge replicated,
  * as vt_sobel_y). Columns 0 and w-1 take the clamped path; the rest none. */
 static int32_t vt__count_h(const vt_image_u8 *img, int32_t y, int32_t l, int32_t r, int32_t s,
@@ -21,7 +12,7 @@ static int32_t vt__count_h(const vt_image_u8 *img, int32_t y, int32_t l, int32_t
 {
     const uint8_t *pm, *p0, *pp;
     int32_t x, n = 0, lo = l > 1 ? l : 1, hi = r < img->w - 1 ? r : img->w - 1;
-    vt__rows(img, y, &pm, &p0, &pp);
+    vt__sobel_rows(img, y, &pm, &p0, &pp);
     for (x = l; x < lo && x < r; ++x) { /* column 0 */
         int32_t xr = img->w > 1 ? 1 : 0;
         n += s * ((pp[0] + 2 * pp[0] + pp[xr]) - (pm[0] + 2 * pm[0] + pm[xr])) >= thr;
@@ -81,18 +72,18 @@ vt_status vt_track_search_cfg_check(const vt_track_search_cfg *cfg)
 {
     if (cfg == NULL ||
         (cfg->polarity != VT_EDGE_DARK_ABOVE && cfg->polarity != VT_EDGE_DARK_BELOW) ||
-        cfg->h_thresh < 1 || cfg->v_thresh < 1 || cfg->min_h_percent < 0 ||
-        cfg->min_h_percent > 100 || cfg->min_v_percent < 0 || cfg->min_v_percent > 100 ||
-        cfg->bottom_percent < 1 || cfg->bottom_percent > 100 ||
+        cfg->h_thresh < 1 || cfg->v_thresh < 1 || cfg->min_h_permille < 0 ||
+        cfg->min_h_permille > 1000 || cfg->min_v_permille < 0 || cfg->min_v_permille > 1000 ||
+        cfg->bottom_permille < 1 || cfg->bottom_permille > 1000 ||
         (cfg->side_mode != VT_SIDES_TWO_THRESHOLD && cfg->side_mode != VT_SIDES_LARGEST)) {
         return VT_E_ARG;
     }
     return VT_OK;
 }
 
-vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg,
-                          const vt_box *roi, vt_track_sides *sides,
-                          vt_track_search_ws *ws, vt_box *meas, int32_t *found)
+vt_status vt_track_search(vt_track_search_ws *ws, vt_track_sides *sides,
+                          const vt_track_search_cfg *cfg, const vt_image_u8 *img,
+                          const vt_box *roi, vt_box *meas, int32_t *found)
 {
     int32_t l, t, r, b, x, y, ybest, hbest, mid, midx, lmax, rmax, xl, xr, rows, sign;
     vt_status s = vt_image_u8_check(img);
@@ -121,14 +112,14 @@ vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg
         ws->hproj[y] = vt__count_h(img, y, l, r, sign, cfg->h_thresh);
     }
     /* Bottom edge: between the bottom row and the middle row, the lowest row whose
-     * count reaches bottom_percent of the largest count there (100: the largest
+     * count reaches bottom_permille of the largest count there (1000: the largest
      * itself, the thesis's rule; the lower row wins ties). */
     mid = t + (b - t) / 2;
     hbest = vt__max_range(ws->hproj, mid, b);
-    if (hbest == 0 || (int64_t)hbest * 100 < (int64_t)cfg->min_h_percent * (r - l)) {
+    if (hbest == 0 || (int64_t)hbest * 1000 < (int64_t)cfg->min_h_permille * (r - l)) {
         return VT_OK;
     }
-    ybest = vt__scan(ws->hproj, b - 1, mid - 1, -1, cfg->bottom_percent, 100, hbest);
+    ybest = vt__scan(ws->hproj, b - 1, mid - 1, -1, cfg->bottom_permille, 1000, hbest);
     rows = ybest - t + 1;
     /* Row by row (cache-friendly), accumulating per column. */
     for (x = l; x < r; ++x) {
@@ -138,7 +129,7 @@ vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg
         const uint8_t *pm, *p0, *pp;
         /* Only columns 0 and w-1 need the replicated border; the rest none. */
         int32_t lo = l > 1 ? l : 1, hi = r < img->w - 1 ? r : img->w - 1;
-        vt__rows(img, y, &pm, &p0, &pp);
+        vt__sobel_rows(img, y, &pm, &p0, &pp);
         for (x = l; x < r && x < lo; ++x) {
             ws->vproj[x] += vt__vedge(pm, p0, pp, 0, img->w > 1 ? 1 : 0, cfg->v_thresh);
         }
@@ -152,8 +143,8 @@ vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg
     midx = l + (r - l) / 2;
     lmax = vt__max_range(ws->vproj, l, midx);
     rmax = vt__max_range(ws->vproj, midx, r);
-    if ((int64_t)lmax * 100 < (int64_t)cfg->min_v_percent * rows || lmax == 0 ||
-        (int64_t)rmax * 100 < (int64_t)cfg->min_v_percent * rows || rmax == 0) {
+    if ((int64_t)lmax * 1000 < (int64_t)cfg->min_v_permille * rows || lmax == 0 ||
+        (int64_t)rmax * 1000 < (int64_t)cfg->min_v_permille * rows || rmax == 0) {
         return VT_OK;
     }
     if (cfg->side_mode == VT_SIDES_LARGEST) {

@@ -84,12 +84,12 @@ vt_status vt_tracker_cfg_check(const vt_tracker_cfg *c)
         vt_kf_model_cfg_check(&c->model) != VT_OK) {
         return VT_E_ARG;
     }
-    if (c->roi_margin_min < 0 || c->roi_margin_min > VT_MAX_WIDTH || c->roi_margin_percent < 0 ||
-        c->roi_margin_percent > 400 || c->gate_percent < 0 || c->gate_percent > 400 ||
-        c->gate_bottom_percent < 0 || c->gate_bottom_percent > 400 ||
+    if (c->roi_margin_min < 0 || c->roi_margin_min > VT_MAX_WIDTH || c->roi_margin_permille < 0 ||
+        c->roi_margin_permille > 4000 || c->gate_permille < 0 || c->gate_permille > 4000 ||
+        c->gate_bottom_permille < 0 || c->gate_bottom_permille > 4000 ||
         c->confirm_hits < 1 || c->confirm_hits > VT_TRACK_MAX_FRAMES_CFG || c->max_coast < 0 ||
-        c->max_coast > VT_TRACK_MAX_FRAMES_CFG || c->match_iou_percent < 1 ||
-        c->match_iou_percent > 100 || c->keep_ncc < -VT_Q14_ONE || c->keep_ncc > VT_Q14_ONE ||
+        c->max_coast > VT_TRACK_MAX_FRAMES_CFG || c->match_iou_permille < 1 ||
+        c->match_iou_permille > 1000 || c->keep_ncc < -VT_Q14_ONE || c->keep_ncc > VT_Q14_ONE ||
         c->init_max_change < 0 || c->init_max_change > VT_MAX_WIDTH) {
         return VT_E_ARG;
     }
@@ -123,11 +123,7 @@ vt_status vt_tracker_set_edge_ws(vt_tracker *tr, vt_edge_ws *ws)
 vt_status vt_tracker_cfg_default(vt_tracker_cfg *cfg)
 {
     static const vt_tracker_cfg def = VT_TRACKER_CFG_DEFAULT;
-    if (cfg == NULL) {
-        return VT_E_ARG;
-    }
-    *cfg = def;
-    return VT_OK;
+    return vt__cfg_copy(cfg, &def, sizeof def);
 }
 
 /* A successful measurement: lifecycle and template. */
@@ -157,6 +153,12 @@ static vt_status vt__update(vt_track *t, int32_t left, int32_t bottom, int32_t r
     return s;
 }
 
+/* The ROI margin of a track `w` px wide (as the verification step widens an edge). */
+static int32_t vt__roi_margin(const vt_tracker_cfg *cfg, int32_t w)
+{
+    return vt__max_i32(cfg->roi_margin_min, (int32_t)((int64_t)w * cfg->roi_margin_permille / 1000));
+}
+
 /* VT_MEAS_EDGE_CURVES: the template is the curve points inside the track's box,
  * found in the box widened by the ROI margin `m` (so the box's own border is not
  * the crop's). A crop over capacity (or off the image) leaves no template, and
@@ -164,8 +166,7 @@ static vt_status vt__update(vt_track *t, int32_t left, int32_t bottom, int32_t r
 static void vt__edge_refresh(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *cfg,
                              const vt_image_u8 *img)
 {
-    int32_t w = t->box.right - t->box.left + 1;
-    int32_t m = vt__max_i32(cfg->roi_margin_min, (int32_t)((int64_t)w * cfg->roi_margin_percent / 100));
+    int32_t m = vt__roi_margin(cfg, t->box.right - t->box.left + 1);
     vt_box roi;
     roi.left = t->box.left - m;
     roi.right = t->box.right + m;
@@ -173,7 +174,7 @@ static void vt__edge_refresh(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *
     roi.bottom = t->box.bottom + m;
     t->edges.n = 0;
     t->edges.box = t->box;
-    if (vt_edge_map(img, &cfg->edge, &roi, tr->edge_ws) == VT_OK) {
+    if (vt_edge_map(tr->edge_ws, &cfg->edge, img, &roi) == VT_OK) {
         (void)vt_edge_template_set(tr->edge_ws, &t->box, &t->edges, NULL);
     }
 }
@@ -199,7 +200,7 @@ static void vt__edge_measure(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *
     roi.right = tb->right + cx + pad + grow;
     roi.top = tb->top + cy - pad - grow;
     roi.bottom = tb->bottom + cy + pad;
-    if (vt_edge_map(img, &cfg->edge, &roi, tr->edge_ws) != VT_OK ||
+    if (vt_edge_map(tr->edge_ws, &cfg->edge, img, &roi) != VT_OK ||
         vt_edge_match(tr->edge_ws, &cfg->edge, &t->edges, cx, cy, &dx, &dy, &sc, &score,
                       found) != VT_OK) {
         *found = 0;
@@ -239,14 +240,12 @@ static void vt__start(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *cfg,
     }
 }
 
-vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_image_u8 *img,
-                          int32_t detection_frame, const vt_box *dets, int32_t n_dets,
-                          vt_track_out *out, int32_t out_cap, int32_t *n_out)
+/* Every argument of vt_tracker_step, before anything is touched. */
+static vt_status vt__step_args(const vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_image_u8 *img,
+                               int32_t detection_frame, const vt_box *dets, int32_t n_dets,
+                               const vt_track_out *out, int32_t out_cap, const int32_t *n_out)
 {
-    int32_t i, j, n;
-    uint8_t measured[VT_MAX_TRACKS];
-    uint8_t track_matched[VT_MAX_TRACKS];
-    int16_t match_of_det[VT__MAX_DETS];
+    int32_t j;
     vt_status s = vt_image_u8_check(img);
     if (s != VT_OK) {
         return s;
@@ -275,165 +274,189 @@ vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_im
     if (cfg->measurement == VT_MEAS_EDGE_CURVES && tr->edge_ws == NULL) {
         return VT_E_ARG; /* the edge measurement needs its workspace (vt_tracker_set_edge_ws) */
     }
-    tr->frame = vt__inc_sat(tr->frame);
+    return VT_OK;
+}
 
-    /* 1. Every live track: predict, search the ROI, update or coast. */
-    for (i = 0; i < VT_MAX_TRACKS; ++i) {
-        vt_track *t = &tr->tracks[i];
-        vt_box roi, meas;
-        vt_track_sides sides;
-        int32_t found = 0, w, m, gate, gate_b;
-        measured[i] = 0;
-        track_matched[i] = 0;
-        if (t->state == VT_TRACK_FREE) {
-            continue;
-        }
-        t->age = vt__inc_sat(t->age);
-        if (vt_kf_predict(&t->kf) != VT_OK) {
-            t->state = VT_TRACK_FREE;
-            continue;
-        }
-        vt__box_from_state(t);
-        w = t->box.right - t->box.left + 1;
-        m = vt__max_i32(cfg->roi_margin_min, (int32_t)((int64_t)w * cfg->roi_margin_percent / 100));
-        gate = vt__max_i32(8, (int32_t)((int64_t)w * cfg->gate_percent / 100));
-        gate_b = vt__max_i32(4, (int32_t)((int64_t)w * cfg->gate_bottom_percent / 100));
-        /* The ROI of the verification step (thesis sec. 3.6: "determined as
-         * described in the hypothesis verification step"): the bottom edge widened
-         * by the margin, half the edge length high; below it, as far as the bottom
-         * gate lets the edge move. */
-        roi.left = t->box.left - m;
-        roi.right = t->box.right + m;
-        roi.top = t->box.bottom - w / 2;
-        roi.bottom = t->box.bottom + vt__max_i32(m, gate_b);
-        sides = t->sides;
-        if (cfg->measurement == VT_MEAS_EDGE_CURVES) {
-            vt__edge_measure(tr, t, cfg, img, m, &meas, &found);
-            s = VT_OK;
-        } else {
-            s = vt_track_search(img, &cfg->search, &roi, &sides, &tr->ws, &meas, &found);
-        }
-        if (s == VT_OK && found && vt__abs_i32(meas.left - t->box.left) <= gate &&
-            vt__abs_i32(meas.right - t->box.right) <= gate &&
-            vt__abs_i32(meas.bottom - t->box.bottom) <= gate_b &&
-            vt__update(t, meas.left, meas.bottom, meas.right) == VT_OK) {
-            t->sides = sides;
-            measured[i] = 1;
-            vt__hit(t, cfg, img);
-            if (cfg->measurement == VT_MEAS_EDGE_CURVES) {
-                vt__edge_refresh(tr, t, cfg, img);
-            }
-        } else {
-            t->misses = vt__inc_sat(t->misses);
-            if (t->state == VT_TRACK_CONFIRMED) {
-                t->state = VT_TRACK_COASTING;
-            }
-        }
+/* Phase 1, one live track: predict, search the ROI, update or coast. Returns 1
+ * if the track was measured. */
+static int vt__predict_measure(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *cfg,
+                               const vt_image_u8 *img)
+{
+    vt_box roi, meas;
+    vt_track_sides sides;
+    int32_t found = 0, w, m, gate, gate_b;
+    vt_status s;
+    t->age = vt__inc_sat(t->age);
+    if (vt_kf_predict(&t->kf) != VT_OK) {
+        t->state = VT_TRACK_FREE;
+        return 0;
     }
+    vt__box_from_state(t);
+    w = t->box.right - t->box.left + 1;
+    m = vt__roi_margin(cfg, w);
+    gate = vt__max_i32(8, (int32_t)((int64_t)w * cfg->gate_permille / 1000));
+    gate_b = vt__max_i32(4, (int32_t)((int64_t)w * cfg->gate_bottom_permille / 1000));
+    /* The ROI of the verification step (thesis sec. 3.6: "determined as
+     * described in the hypothesis verification step"): the bottom edge widened
+     * by the margin, half the edge length high; below it, as far as the bottom
+     * gate lets the edge move. */
+    roi.left = t->box.left - m;
+    roi.right = t->box.right + m;
+    roi.top = t->box.bottom - w / 2;
+    roi.bottom = t->box.bottom + vt__max_i32(m, gate_b);
+    sides = t->sides;
+    if (cfg->measurement == VT_MEAS_EDGE_CURVES) {
+        vt__edge_measure(tr, t, cfg, img, m, &meas, &found);
+        s = VT_OK;
+    } else {
+        s = vt_track_search(&tr->ws, &sides, &cfg->search, img, &roi, &meas, &found);
+    }
+    if (s == VT_OK && found && vt__abs_i32(meas.left - t->box.left) <= gate &&
+        vt__abs_i32(meas.right - t->box.right) <= gate &&
+        vt__abs_i32(meas.bottom - t->box.bottom) <= gate_b &&
+        vt__update(t, meas.left, meas.bottom, meas.right) == VT_OK) {
+        t->sides = sides;
+        vt__hit(t, cfg, img);
+        if (cfg->measurement == VT_MEAS_EDGE_CURVES) {
+            vt__edge_refresh(tr, t, cfg, img);
+        }
+        return 1;
+    }
+    t->misses = vt__inc_sat(t->misses);
+    if (t->state == VT_TRACK_CONFIRMED) {
+        t->state = VT_TRACK_COASTING;
+    }
+    return 0;
+}
 
-    /* 2. Detection frame: associate, re-check unmatched tracks, start new ones. */
-    if (detection_frame) {
-        for (j = 0; j < n_dets; ++j) {
-            match_of_det[j] = -1;
-        }
-        for (;;) {
-            int32_t bi = -1, bj = -1;
-            int64_t bin = 0, bun = 1;
-            for (i = 0; i < VT_MAX_TRACKS; ++i) {
-                if (tr->tracks[i].state == VT_TRACK_FREE || track_matched[i]) {
-                    continue;
-                }
-                for (j = 0; j < n_dets; ++j) {
-                    int64_t in, un;
-                    if (match_of_det[j] >= 0) {
-                        continue;
-                    }
-                    vt__iou(&tr->tracks[i].box, &dets[j], &in, &un);
-                    /* IoU >= threshold, and strictly better than the best so far
-                     * (so the first of equal pairs, in slot then detection order, wins). */
-                    if (in * 100 >= (int64_t)cfg->match_iou_percent * un && in * bun > bin * un) {
-                        bi = i;
-                        bj = j;
-                        bin = in;
-                        bun = un;
-                    }
-                }
-            }
-            if (bi < 0) {
-                break;
-            }
-            track_matched[bi] = 1;
-            match_of_det[bj] = (int16_t)bi;
-            {
-                /* The detection is a second, independent measurement of the same
-                 * bottom edge: it pulls back a search that drifted, and re-anchors
-                 * the aspect ratio and the side memory. */
-                vt_track *t = &tr->tracks[bi];
-                const vt_box *d = &dets[bj];
-                int32_t dw = d->right - d->left + 1;
-                if (vt__update(t, d->left, d->bottom, d->right) == VT_OK) {
-                    t->aspect_q8 = (int32_t)(((int64_t)(d->bottom - d->top + 1) * 256 + dw / 2) / dw);
-                    vt__box_from_state(t);
-                    t->sides.prev_left = d->left;
-                    t->sides.prev_right = d->right;
-                    if (!measured[bi]) {
-                        measured[bi] = 1;
-                        vt__hit(t, cfg, img);
-                    } else {
-                        vt__sample(img, &t->box, t->tmpl);
-                    }
-                    if (cfg->measurement == VT_MEAS_EDGE_CURVES) {
-                        vt__edge_refresh(tr, t, cfg, img);
-                    }
-                }
-            }
-        }
-        /* Tracks the detector no longer sees: keep only if the last template
-         * still correlates with the same place in this frame. */
+/* Phase 2a, a matched pair: the detection is a second, independent measurement
+ * of the same bottom edge: it pulls back a search that drifted, and re-anchors
+ * the aspect ratio and the side memory. */
+static void vt__absorb_detection(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *cfg,
+                                 const vt_image_u8 *img, const vt_box *d, uint8_t *measured)
+{
+    int32_t dw = d->right - d->left + 1;
+    if (vt__update(t, d->left, d->bottom, d->right) != VT_OK) {
+        return;
+    }
+    t->aspect_q8 = (int32_t)(((int64_t)(d->bottom - d->top + 1) * 256 + dw / 2) / dw);
+    vt__box_from_state(t);
+    t->sides.prev_left = d->left;
+    t->sides.prev_right = d->right;
+    if (!*measured) {
+        *measured = 1;
+        vt__hit(t, cfg, img);
+    } else {
+        vt__sample(img, &t->box, t->tmpl);
+    }
+    if (cfg->measurement == VT_MEAS_EDGE_CURVES) {
+        vt__edge_refresh(tr, t, cfg, img);
+    }
+}
+
+/* Phase 2a: greedy association by IoU, best pair first; match_of_det[j] is the
+ * slot detection j went to, or -1. */
+static void vt__associate(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_image_u8 *img,
+                          const vt_box *dets, int32_t n_dets, uint8_t *measured,
+                          uint8_t *track_matched, int16_t *match_of_det)
+{
+    int32_t i, j;
+    for (j = 0; j < n_dets; ++j) {
+        match_of_det[j] = -1;
+    }
+    for (;;) {
+        int32_t bi = -1, bj = -1;
+        int64_t bin = 0, bun = 1;
         for (i = 0; i < VT_MAX_TRACKS; ++i) {
-            vt_track *t = &tr->tracks[i];
-            uint8_t now[VT_TRACK_TEMPLATE * VT_TRACK_TEMPLATE];
-            vt_image_u8 a, b;
-            vt_q14 r = 0;
-            if (t->state == VT_TRACK_FREE || track_matched[i]) {
+            if (tr->tracks[i].state == VT_TRACK_FREE || track_matched[i]) {
                 continue;
             }
-            vt__sample(img, &t->box, now);
-            a.px = t->tmpl;
-            b.px = now;
-            a.w = b.w = a.h = b.h = a.stride = b.stride = VT_TRACK_TEMPLATE;
-            if (vt_ncc_u8(&a, &b, &r) != VT_OK || r < cfg->keep_ncc) {
-                t->state = VT_TRACK_FREE;
-            }
-        }
-        for (j = 0; j < n_dets; ++j) {
-            int overlaps = 0;
-            if (match_of_det[j] >= 0) {
-                continue;
-            }
-            for (i = 0; i < VT_MAX_TRACKS && !overlaps; ++i) {
+            for (j = 0; j < n_dets; ++j) {
                 int64_t in, un;
-                if (tr->tracks[i].state == VT_TRACK_FREE) {
+                if (match_of_det[j] >= 0) {
                     continue;
                 }
                 vt__iou(&tr->tracks[i].box, &dets[j], &in, &un);
-                overlaps = in * 10 >= un; /* IoU >= 10 %: the same vehicle, not a new one */
+                /* IoU >= threshold, and strictly better than the best so far
+                 * (so the first of equal pairs, in slot then detection order, wins). */
+                if (in * 1000 >= (int64_t)cfg->match_iou_permille * un && in * bun > bin * un) {
+                    bi = i;
+                    bj = j;
+                    bin = in;
+                    bun = un;
+                }
             }
-            if (overlaps) {
-                continue;
-            }
-            for (i = 0; i < VT_MAX_TRACKS && tr->tracks[i].state != VT_TRACK_FREE; ++i) {
-            }
-            if (i == VT_MAX_TRACKS || tr->next_id == INT32_MAX) {
-                /* Every slot used, or every id given out: ids are never reused. */
-                tr->dropped_full = vt__inc_sat(tr->dropped_full);
-                continue;
-            }
-            vt__start(tr, &tr->tracks[i], cfg, img, &dets[j]);
+        }
+        if (bi < 0) {
+            return;
+        }
+        track_matched[bi] = 1;
+        match_of_det[bj] = (int16_t)bi;
+        vt__absorb_detection(tr, &tr->tracks[bi], cfg, img, &dets[bj], &measured[bi]);
+    }
+}
+
+/* Phase 2b: tracks the detector no longer sees are kept only if the last
+ * template still correlates with the same place in this frame. */
+static void vt__drop_uncorrelated(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_image_u8 *img,
+                                  const uint8_t *track_matched)
+{
+    int32_t i;
+    for (i = 0; i < VT_MAX_TRACKS; ++i) {
+        vt_track *t = &tr->tracks[i];
+        uint8_t now[VT_TRACK_TEMPLATE * VT_TRACK_TEMPLATE];
+        vt_image_u8 a, b;
+        vt_q14 r = 0;
+        if (t->state == VT_TRACK_FREE || track_matched[i]) {
+            continue;
+        }
+        vt__sample(img, &t->box, now);
+        a.px = t->tmpl;
+        b.px = now;
+        a.w = b.w = a.h = b.h = a.stride = b.stride = VT_TRACK_TEMPLATE;
+        if (vt_ncc_u8(&a, &b, &r) != VT_OK || r < cfg->keep_ncc) {
+            t->state = VT_TRACK_FREE;
         }
     }
+}
 
-    /* 3. Lifecycle: drop tracks that coasted too long or left the frame. */
+/* Phase 2c: an unmatched detection that overlaps no live track starts one in
+ * the first free slot. */
+static void vt__births(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_image_u8 *img,
+                       const vt_box *dets, int32_t n_dets, const int16_t *match_of_det)
+{
+    int32_t i, j;
+    for (j = 0; j < n_dets; ++j) {
+        int overlaps = 0;
+        if (match_of_det[j] >= 0) {
+            continue;
+        }
+        for (i = 0; i < VT_MAX_TRACKS && !overlaps; ++i) {
+            int64_t in, un;
+            if (tr->tracks[i].state == VT_TRACK_FREE) {
+                continue;
+            }
+            vt__iou(&tr->tracks[i].box, &dets[j], &in, &un);
+            overlaps = in * 10 >= un; /* IoU >= 10 %: the same vehicle, not a new one */
+        }
+        if (overlaps) {
+            continue;
+        }
+        for (i = 0; i < VT_MAX_TRACKS && tr->tracks[i].state != VT_TRACK_FREE; ++i) {
+        }
+        if (i == VT_MAX_TRACKS || tr->next_id == INT32_MAX) {
+            /* Every slot used, or every id given out: ids are never reused. */
+            tr->dropped_full = vt__inc_sat(tr->dropped_full);
+            continue;
+        }
+        vt__start(tr, &tr->tracks[i], cfg, img, &dets[j]);
+    }
+}
+
+/* Phase 3, lifecycle: drop tracks that coasted too long or left the frame. */
+static void vt__expire(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_image_u8 *img)
+{
+    int32_t i;
     for (i = 0; i < VT_MAX_TRACKS; ++i) {
         vt_track *t = &tr->tracks[i];
         if (t->state == VT_TRACK_FREE) {
@@ -445,9 +468,12 @@ vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_im
             t->state = VT_TRACK_FREE;
         }
     }
+}
 
-    /* 4. Report. */
-    n = 0;
+/* Phase 4: the live tracks in slot order, at most out_cap of them. */
+static vt_status vt__report(const vt_tracker *tr, vt_track_out *out, int32_t out_cap, int32_t *n_out)
+{
+    int32_t i, n = 0;
     for (i = 0; i < VT_MAX_TRACKS; ++i) {
         const vt_track *t = &tr->tracks[i];
         if (t->state == VT_TRACK_FREE) {
@@ -464,4 +490,31 @@ vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_im
     }
     *n_out = n < out_cap ? n : out_cap;
     return n > out_cap ? VT_E_CAPACITY : VT_OK;
+}
+
+vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_image_u8 *img,
+                          int32_t detection_frame, const vt_box *dets, int32_t n_dets,
+                          vt_track_out *out, int32_t out_cap, int32_t *n_out)
+{
+    int32_t i;
+    uint8_t measured[VT_MAX_TRACKS];
+    uint8_t track_matched[VT_MAX_TRACKS];
+    int16_t match_of_det[VT__MAX_DETS];
+    vt_status s = vt__step_args(tr, cfg, img, detection_frame, dets, n_dets, out, out_cap, n_out);
+    if (s != VT_OK) {
+        return s;
+    }
+    tr->frame = vt__inc_sat(tr->frame);
+    for (i = 0; i < VT_MAX_TRACKS; ++i) {
+        track_matched[i] = 0;
+        measured[i] = (uint8_t)(tr->tracks[i].state != VT_TRACK_FREE &&
+                                vt__predict_measure(tr, &tr->tracks[i], cfg, img));
+    }
+    if (detection_frame) {
+        vt__associate(tr, cfg, img, dets, n_dets, measured, track_matched, match_of_det);
+        vt__drop_uncorrelated(tr, cfg, img, track_matched);
+        vt__births(tr, cfg, img, dets, n_dets, match_of_det);
+    }
+    vt__expire(tr, cfg, img);
+    return vt__report(tr, out, out_cap, n_out);
 }

@@ -23,7 +23,7 @@ vt_status vt_ttc_cfg_default(vt_ttc_cfg *cfg)
 vt_status vt_ttc_cfg_check(const vt_ttc_cfg *c)
 {
     if (c == NULL || !VT__IN(c->block, 4, VT_TTC_BLOCK) || !VT__IN(c->grid, 2, VT_TTC_GRID) ||
-        !VT__IN(c->margin_pct, 0, 40) || !VT__IN(c->radius, 1, 16) ||
+        !VT__IN(c->margin_permille, 0, 400) || !VT__IN(c->radius, 1, 16) ||
         !VT__IN(c->min_texture, 0, 255) || !VT__IN(c->max_sad, 1, 255) ||
         !VT__IN(c->lag, 1, VT_TTC_HIST - 1) || !VT__IN(c->min_pair_px, 1, 4096) ||
         !VT__IN(c->min_pairs, 1, VT_TTC_MAX_PAIRS) || !VT__IN(c->frame_dt, 1, VT_Q16_ONE) ||
@@ -279,7 +279,7 @@ static void vt__store(vt_ttc_track *t, const vt_ttc_cfg *c, const vt_image_u8 *i
 {
     vt_ttc_entry *e = &t->e[t->head];
     int64_t bw = (int64_t)bx->right - bx->left + 1, bh = (int64_t)bx->bottom - bx->top + 1;
-    int64_t mw = bw * c->margin_pct / 100, mh = bh * c->margin_pct / 100;
+    int64_t mw = bw * c->margin_permille / 1000, mh = bh * c->margin_permille / 1000;
     int64_t li = bx->left + mw, ti = bx->top + mh, wi = bw - 2 * mw, hi = bh - 2 * mh;
     int32_t b = c->block, gx, gy, i, j, need = c->min_texture * b * (b - 1);
     e->box = *bx;

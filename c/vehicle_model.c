@@ -18,11 +18,7 @@
 vt_status vt_model_cfg_default(vt_model_cfg *cfg)
 {
     static const vt_model_cfg def = VT_MODEL_CFG_DEFAULT;
-    if (cfg == NULL) {
-        return VT_E_ARG;
-    }
-    *cfg = def;
-    return VT_OK;
+    return vt__cfg_copy(cfg, &def, sizeof def);
 }
 
 static int vt__in(int32_t v, int32_t lo, int32_t hi)
@@ -135,7 +131,7 @@ typedef struct {
     int32_t ylo, yhi;               /* rows the bottom may take               */
 } vt__geom;
 
-static vt_status vt__geometry(const vt_image_u8 *frame, const vt_model_search *sr, vt__geom *g)
+static vt_status vt__geometry_of(const vt_image_u8 *frame, const vt_model_search *sr, vt__geom *g)
 {
     const vt_box *r = &sr->roi;
     if (r->left > r->right || r->top > r->bottom) {
@@ -158,6 +154,13 @@ static vt_status vt__geometry(const vt_image_u8 *frame, const vt_model_search *s
     g->ylo = vt__clamp_i32(sr->y_min, g->oy + 7, g->ey);
     g->yhi = vt__clamp_i32(sr->y_max, g->oy + 7, g->ey);
     return VT_OK;
+}
+
+/* The frame checked, then the search's geometry in it. */
+static vt_status vt__geometry(const vt_image_u8 *frame, const vt_model_search *sr, vt__geom *g)
+{
+    vt_status s = vt_image_u8_check(frame);
+    return s != VT_OK ? s : vt__geometry_of(frame, sr, g);
 }
 
 static vt_status vt__check_search(const vt_model_search *sr)
@@ -270,10 +273,7 @@ vt_status vt_model_prepare(const vt_image_u8 *frame, const vt_model_cfg *cfg,
         !vt__in(level, 0, cfg->levels - 1)) {
         return VT_E_ARG;
     }
-    s = vt_image_u8_check(frame);
-    if (s == VT_OK) {
-        s = vt__geometry(frame, search, &g);
-    }
+    s = vt__geometry(frame, search, &g);
     if (s != VT_OK) {
         return s;
     }
@@ -504,10 +504,7 @@ vt_status vt_model_fit(const vt_image_u8 *frame, const vt_model_cfg *cfg,
         vt_model_cfg_check(cfg) != VT_OK || vt__check_search(search) != VT_OK) {
         return VT_E_ARG;
     }
-    s = vt_image_u8_check(frame);
-    if (s == VT_OK) {
-        s = vt__geometry(frame, search, &g);
-    }
+    s = vt__geometry(frame, search, &g);
     if (s != VT_OK) {
         return s;
     }

@@ -8,11 +8,7 @@
 vt_status vt_verify_cfg_default(vt_verify_cfg *cfg)
 {
     static const vt_verify_cfg def = VT_VERIFY_CFG_DEFAULT;
-    if (cfg == NULL) {
-        return VT_E_ARG;
-    }
-    *cfg = def;
-    return VT_OK;
+    return vt__cfg_copy(cfg, &def, sizeof def);
 }
 
 static int vt__in(int32_t v, int32_t lo, int32_t hi)
@@ -27,7 +23,7 @@ vt_status vt_verify_cfg_check(const vt_verify_cfg *cfg)
     }
     if (!vt__in(cfg->widen_px, 0, 4096) || !vt__in(cfg->widen_q8, 0, 1024) ||
         !vt__in(cfg->roi_height_q8, 1, 4096) ||
-        !vt__in(cfg->vedge_threshold, 1, 1020) || !vt__in(cfg->side_min_frac_q8, 0, 256) ||
+        !vt__in(cfg->vedge_threshold, 1, 1020) || !vt__in(cfg->side_min_frac_permille, 0, 1000) ||
         !vt__in(cfg->side_min_px, 0, 4096) || !vt__in(cfg->side_contrast_q8, 0, 4096) ||
         !vt__in(cfg->min_width_q8, 0, 4096) ||
         !vt__in(cfg->aspect_q8, 1, 4096)) {
@@ -43,14 +39,13 @@ vt_status vt_verify_cfg_check(const vt_verify_cfg *cfg)
 static void vt__project(vt_verify_state *st, const vt_image_u8 *img, int32_t x0, int32_t x1,
                         int32_t top, int32_t bottom, int32_t thr)
 {
-    const int32_t w = img->w, h = img->h;
+    const int32_t w = img->w;
     const int32_t a = x0 > 0 ? x0 - 1 : 0, b = x1 < w - 1 ? x1 + 1 : w - 1;
     int32_t x, y;
     memset(st->proj, 0, (size_t)(x1 - x0 + 1) * sizeof st->proj[0]);
     for (y = top; y <= bottom; ++y) {
-        const uint8_t *pm = img->px + (size_t)(y > 0 ? y - 1 : 0) * (size_t)img->stride;
-        const uint8_t *p0 = img->px + (size_t)y * (size_t)img->stride;
-        const uint8_t *pp = img->px + (size_t)(y < h - 1 ? y + 1 : h - 1) * (size_t)img->stride;
+        const uint8_t *pm, *p0, *pp;
+        vt__sobel_rows(img, y, &pm, &p0, &pp);
         for (x = a; x <= b; ++x) {
             st->vsum[x] = (uint16_t)(pm[x] + 2 * p0[x] + pp[x]);
         }
@@ -72,7 +67,7 @@ static int vt__strong(const vt_verify_cfg *cfg, int32_t count, int32_t rows, int
                       int64_t total)
 {
     return count >= cfg->side_min_px &&
-           (int64_t)count * 256 >= (int64_t)rows * cfg->side_min_frac_q8 &&
+           (int64_t)count * 1000 >= (int64_t)rows * cfg->side_min_frac_permille &&
            (int64_t)count * n * 256 >= total * cfg->side_contrast_q8;
 }
 

@@ -32,8 +32,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     sides.max_change_left = fz_edge(&f, 64);
     sides.max_change_right = fz_edge(&f, 64);
     fz_status(vt_track_search_cfg_check((nulls & 64) ? NULL : &cfg));
-    s = vt_track_search(&img, (nulls & 1) ? NULL : &cfg, (nulls & 2) ? NULL : &roi,
-                        (nulls & 4) ? NULL : &sides, (nulls & 8) ? NULL : &g_ws,
+    s = vt_track_search((nulls & 8) ? NULL : &g_ws, (nulls & 4) ? NULL : &sides,
+                        (nulls & 1) ? NULL : &cfg, &img, (nulls & 2) ? NULL : &roi,
                         (nulls & 16) ? NULL : &meas, (nulls & 32) ? NULL : &found);
     fz_status(s);
     if (s == VT_OK && found == 1) {

@@ -476,7 +476,7 @@ def _box(b, name: str):
 
 def edge_map(ws, cfg, img: np.ndarray, roi) -> None:
     v = view(img, "img")
-    check("vt_edge_map", lib.vt_edge_map(v, cfg, _box(roi, "roi"), ws),
+    check("vt_edge_map", lib.vt_edge_map(ws, cfg, v, _box(roi, "roi")),
           f"img {getattr(img, 'shape', None)}, roi {list(roi)}")
 
 
@@ -787,15 +787,21 @@ def hog_scan(ws, model, cx0: int, cy0: int, ncx: int, ncy: int) -> np.ndarray:
     return out
 
 
-def svm_decision(model, desc: np.ndarray) -> int:
+def _decision(function: str, model, desc: np.ndarray, detail: str = "") -> int:
+    """A classifier's decision value (vt_svm_decision / vt_mlp_decision) for a 1-D
+    uint16 descriptor."""
     d = np.ascontiguousarray(desc, dtype=np.uint16)
     if d.ndim != 1:
         raise ValueError(f"desc: expected a 1-D array, got shape {d.shape}")
     out = ffi.new("int32_t *")
     p = ffi.cast("uint16_t *", d.ctypes.data) if d.size else ffi.NULL
-    check("vt_svm_decision", lib.vt_svm_decision(model, p, d.shape[0], out),
-          f"descriptor of {d.shape[0]} values, model dim {model.dim if model != ffi.NULL else 'NULL'}")
+    check(function, getattr(lib, function)(model, p, d.shape[0], out), f"descriptor of {d.shape[0]} values{detail}")
     return int(out[0])
+
+
+def svm_decision(model, desc: np.ndarray) -> int:
+    return _decision("vt_svm_decision", model, desc,
+                     f", model dim {model.dim if model != ffi.NULL else 'NULL'}")
 
 
 def resample_area(src: np.ndarray, box, out_w: int, out_h: int) -> np.ndarray:
@@ -809,13 +815,17 @@ def resample_area(src: np.ndarray, box, out_w: int, out_h: int) -> np.ndarray:
     return dst
 
 
-def classify_box(ws, model, frame: np.ndarray, box) -> int:
+def _classify_box(function: str, ws, model, frame: np.ndarray, box) -> int:
+    """vt_classify_box / vt_classify_box_mlp: the score of one box of a frame."""
     v = view(frame, "frame")
     b = ffi.new("vt_box *", [int(x) for x in box])
     out = ffi.new("int32_t *")
-    check("vt_classify_box", lib.vt_classify_box(ws, model, v, b, out),
-          f"frame {frame.shape}, box {list(box)}")
+    check(function, getattr(lib, function)(ws, model, v, b, out), f"frame {frame.shape}, box {list(box)}")
     return int(out[0])
+
+
+def classify_box(ws, model, frame: np.ndarray, box) -> int:
+    return _classify_box("vt_classify_box", ws, model, frame, box)
 
 
 def mlp_model(kind: int, win_w: int, win_h: int, w1_q, w1_shift: int, b1_q16, w2_q, w2_shift: int,
@@ -844,23 +854,11 @@ def mlp_default_model():
 
 
 def mlp_decision(model, desc: np.ndarray) -> int:
-    d = np.ascontiguousarray(desc, dtype=np.uint16)
-    if d.ndim != 1:
-        raise ValueError(f"desc: expected a 1-D array, got shape {d.shape}")
-    out = ffi.new("int32_t *")
-    p = ffi.cast("uint16_t *", d.ctypes.data) if d.size else ffi.NULL
-    check("vt_mlp_decision", lib.vt_mlp_decision(model, p, d.shape[0], out),
-          f"descriptor of {d.shape[0]} values")
-    return int(out[0])
+    return _decision("vt_mlp_decision", model, desc)
 
 
 def classify_box_mlp(ws, model, frame: np.ndarray, box) -> int:
-    v = view(frame, "frame")
-    b = ffi.new("vt_box *", [int(x) for x in box])
-    out = ffi.new("int32_t *")
-    check("vt_classify_box_mlp", lib.vt_classify_box_mlp(ws, model, v, b, out),
-          f"frame {frame.shape}, box {list(box)}")
-    return int(out[0])
+    return _classify_box("vt_classify_box_mlp", ws, model, frame, box)
 # ================================================================ end classify.h
 # ================================================================ flow.h
 FLOW_HYP_DTYPE = np.dtype([("left", np.int32), ("top", np.int32), ("right", np.int32),

@@ -413,7 +413,7 @@ class ScaleTtc:
         p = dataclasses.replace(rts.TtcScaleParams(frame_dt=1.0 / float(fps)), **params)
         self._n = _native
         self._c = _native.ffi.new("vt_ttc_cfg *")
-        for f in ("block", "grid", "margin_pct", "radius", "min_texture", "max_sad", "lag",
+        for f in ("block", "grid", "margin_permille", "radius", "min_texture", "max_sad", "lag",
                   "min_pair_px", "min_pairs", "anchor_radius"):
             v = getattr(p, f)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not -(2**31) <= v < 2**31:

@@ -24,6 +24,7 @@ import numpy as np
 from . import _check, _native
 from ._native import ffi, lib
 from .kalman import ModelConfig, Q16_ONE
+from .shared import SEARCH_RENAMED, SHADOW_RENAMED, TRACKER_RENAMED, VERIFY_RENAMED, accept_renamed
 
 def _int_config(name: str, ctype: str, doc: str, c=None):
     """A frozen dataclass with one int field per field of C struct `ctype`, in the
@@ -37,13 +38,15 @@ def _int_config(name: str, ctype: str, doc: str, c=None):
 
 LaneConfig = _int_config("LaneConfig", "vt_lane_cfg",
                          "vt_lane_cfg (vehtrack/lane.h): lane lines and the road area.")
-ShadowConfig = _int_config("ShadowConfig", "vt_shadow_cfg",
-                           "vt_shadow_cfg (vehtrack/shadow.h): shadow hypotheses.")
-VerifyConfig = _int_config("VerifyConfig", "vt_verify_cfg",
-                           "vt_verify_cfg (vehtrack/verify.h): vertical-edge verification.")
-SearchConfig = _int_config("SearchConfig", "vt_track_search_cfg",
-                           "vt_track_search_cfg (vehtrack/track_search.h): ROI measurement.",
-                           _native.tracker_cfg_default().search)
+ShadowConfig = accept_renamed(_int_config("ShadowConfig", "vt_shadow_cfg",
+                                          "vt_shadow_cfg (vehtrack/shadow.h): shadow hypotheses."),
+                              SHADOW_RENAMED)
+VerifyConfig = accept_renamed(_int_config("VerifyConfig", "vt_verify_cfg",
+                                          "vt_verify_cfg (vehtrack/verify.h): vertical-edge verification."),
+                              VERIFY_RENAMED)
+SearchConfig = accept_renamed(_int_config("SearchConfig", "vt_track_search_cfg",
+                                          "vt_track_search_cfg (vehtrack/track_search.h): ROI measurement.",
+                                          _native.tracker_cfg_default().search), SEARCH_RENAMED)
 EdgeConfig = _int_config("EdgeConfig", "vt_edge_cfg",
                          "vt_edge_cfg (vehtrack/edge_track.h): the edge-curve measurement "
                          "(GIST paper sec. III.B), used when TrackerConfig.measurement is "
@@ -80,6 +83,7 @@ TrackerConfig = make_dataclass(
                           "measurement: MEASUREMENTS['roi'] (ROI search, default) or "
                           "MEASUREMENTS['edges'] (edge curves); the rest C's ints."})
 TrackerConfig.__module__ = __name__
+accept_renamed(TrackerConfig, TRACKER_RENAMED)
 del _TD
 
 

@@ -24,10 +24,7 @@ import numpy as np
 
 from . import _check, _native
 from ._native import ffi, lib
-from .reference import shadow as rshadow
-from .reference import verify as rverify
-from .reference.shadow import RoadArea, ShadowConfig, trapezoid_road
-from .reference.verify import VerifyConfig
+from .shared import RoadArea, ShadowConfig, VerifyConfig, road_polygon, trapezoid_road
 from .frames import to_gray  # noqa: F401  (re-exported: pyvehtrack.detector.to_gray)
 
 ENGINES = ("c", "reference")
@@ -42,7 +39,7 @@ class DetectConfig:
 
 @dataclass(frozen=True)
 class FixedRoad:
-    """A fixed trapezoid road area (see reference.shadow.trapezoid_road): the
+    """A fixed trapezoid road area (see shared.trapezoid_road): the
     vanishing point and the road's bottom span as fractions of the frame, the ego lane
     width at the bottom row as a fraction of the frame width."""
     vp: tuple = (0.5, 0.45)
@@ -269,6 +266,8 @@ class Detector:
             stats = {"median": s.median, "mad": s.mad, "dark_limit": s.dark_limit,
                      "n_runs": s.n_runs, "n_dropped": s.n_dropped}
             return hyp.astype(np.int64), box.astype(np.int64), stats
+        from .reference import shadow as rshadow  # noqa: PLC0415  (the reference engine only)
+        from .reference import verify as rverify  # noqa: PLC0415
         res = rshadow.find_hypotheses(gray, road, self.cfg.shadow,
                                       max_active=int(lib.VT_MAX_SHADOW_ACTIVE),
                                       max_cand=int(lib.VT_MAX_SHADOW_CAND),
@@ -306,10 +305,7 @@ class Detector:
         if given is not None:
             road, source = given, "given"
         else:
-            from .reference import windows as rw  # noqa: PLC0415
-            cam = self.full.camera_for(h, w, horizon)
-            ok, y0, y1, xl, xr, lw = rw.road_from_camera(cam, self.full.det_cfg.win, w, h)
-            road = RoadArea(y0, y1, xl, xr, lw, ok) if ok else None
+            road = self.full.camera_road(h, w, horizon)
             source = "camera"
         names = np.array(["", "shadow", "windows"])[out[:, 5].astype(np.int64)]
         return (np.zeros((0, 3), np.int64), out[:, :4].astype(np.int64), out[:, 4].copy(), names, road,
@@ -400,7 +396,7 @@ class Detector:
 
 def _road_polygon(road) -> np.ndarray:
     """The outline of a road area (full-road mode), empty when there is none."""
-    return rshadow.road_polygon(road) if road is not None else np.zeros((0, 2), np.int64)
+    return road_polygon(road) if road is not None else np.zeros((0, 2), np.int64)
 
 
 def _full_road(engine, model, sources, camera, score_offset):

@@ -25,3 +25,17 @@ def to_gray(frame) -> np.ndarray:
     if frame.shape[0] == 0 or frame.shape[1] == 0:
         raise ValueError(f"frame: empty image of shape {frame.shape}")
     return np.ascontiguousarray(frame)
+
+
+def read_video(cap):
+    """Every frame an opened cv2.VideoCapture gives, in order; the capture is released
+    when the frames run out or the reader stops (the one read loop of the CLI and the
+    report)."""
+    try:
+        while True:
+            ok, img = cap.read()
+            if not ok:
+                return
+            yield img
+    finally:
+        cap.release()

@@ -25,8 +25,8 @@ import numpy as np
 
 from . import _native
 from ._native import ffi, lib
-from .reference import fulldet as rfd
-from .reference import windows as rw
+from .shared import Camera as FrameCamera
+from .shared import FullDetConfig, RoadArea
 
 SOURCES = ("shadow", "windows")
 # What Detector(model=...) uses when no sources are given: with the HOG 32x32 window
@@ -60,9 +60,9 @@ class Camera:
             if not lo <= v <= hi:
                 raise ValueError(f"camera {name}: expected {lo}..{hi}, got {v}")
 
-    def for_frame(self, h: int, w: int, horizon_y: int | None = None) -> rw.Camera:
+    def for_frame(self, h: int, w: int, horizon_y: int | None = None) -> FrameCamera:
         hy = int(round(self.horizon_frac * h)) if horizon_y is None else int(horizon_y)
-        return rw.Camera(fx=self.fx_per_width * w, horizon_y=hy, height_m=self.height_m,
+        return FrameCamera(fx=self.fx_per_width * w, horizon_y=hy, height_m=self.height_m,
                          hood_y=max(1, int(round(self.hood_frac * h))))
 
 
@@ -174,11 +174,11 @@ class FullRoadConfig:
     """Everything but the camera and the model: the oracle's FullDetConfig fields
     (windows, shadow/verify stages, thresholds, NMS); `score_offset` (float, the SVM's
     units) is added to the model's own threshold for windows and shadow boxes."""
-    det: rfd.FullDetConfig = field(default_factory=rfd.FullDetConfig)
+    det: FullDetConfig = field(default_factory=FullDetConfig)
     score_offset: float = 0.0
 
 
-def _c_cfg(cfg: rfd.FullDetConfig):
+def _c_cfg(cfg: FullDetConfig):
     c = _native.fulldet_cfg_default()
     c.sources = (1 if cfg.shadow_source else 0) | (2 if cfg.window_source else 0)
     w = cfg.win
@@ -311,8 +311,28 @@ class FullRoadDetector:
             self._scorer.ctx = self._hog
         self.last_stats: dict = {}
 
-    def camera_for(self, h: int, w: int, horizon_y: int | None = None) -> rw.Camera:
+    def camera_for(self, h: int, w: int, horizon_y: int | None = None) -> FrameCamera:
         return self.camera.for_frame(h, w, horizon_y)
+
+    @staticmethod
+    def _c_camera(cam: FrameCamera):
+        return _native.camera_min(cam.fx, cam.horizon_y, round(cam.height_m * 1000), cam.hood_y)
+
+    def camera_road(self, h: int, w: int, horizon_y: int | None = None) -> RoadArea | None:
+        """The road the camera alone gives an h x w frame (every column between the
+        horizon and the hood, rows where a vehicle of the window band fits), from this
+        detector's engine (the two agree exactly: tests/test_windows.py), or None."""
+        cam = self.camera_for(h, w, horizon_y)
+        if self.engine == "c":
+            r = _native.road_from_camera(ffi.addressof(self._cfg_c, "win"), self._c_camera(cam), w, h)
+            if not r.valid:
+                return None
+            rows = [np.frombuffer(ffi.buffer(getattr(r, k)), np.int16)[:h].copy()
+                    for k in ("x_left", "x_right", "lane_width")]
+            return RoadArea(int(r.y_top), int(r.y_bottom), *rows, True)
+        from .reference import windows as rw  # noqa: PLC0415  (the reference engine only)
+        ok, y0, y1, xl, xr, lw = rw.road_from_camera(cam, self.det_cfg.win, w, h)
+        return RoadArea(y0, y1, xl, xr, lw, ok) if ok else None
 
     def _score_py(self, img, level, s, x, y):
         """The C classifier on one window, for the reference engine."""
@@ -329,10 +349,13 @@ class FullRoadDetector:
         between the horizon and the hood). Scores are in the model's units (Q16 / 65536)."""
         h, w = gray.shape
         cam = self.camera_for(h, w, horizon_y)
-        ccam = _native.camera_min(cam.fx, cam.horizon_y, round(cam.height_m * 1000), cam.hood_y)
+        ccam = self._c_camera(cam)
         if road is None:
             road_c = _native.road_from_camera(ffi.addressof(self._cfg_c, "win"), ccam, w, h)
-            road_r = rw.road_from_camera(cam, self.det_cfg.win, w, h) if self.engine != "c" else None
+            road_r = None
+            if self.engine != "c":
+                from .reference import windows as rw  # noqa: PLC0415  (the reference engine only)
+                road_r = rw.road_from_camera(cam, self.det_cfg.win, w, h)
         else:
             road_c = _native.road_area(road, h)
             road_r = road
@@ -343,6 +366,7 @@ class FullRoadDetector:
                                 "n_cand_dropped")}
             arr = np.stack([a[k] for k in ("left", "top", "right", "bottom", "score", "source")], 1)
         else:
+            from .reference import fulldet as rfd  # noqa: PLC0415  (the reference engine only)
             arr, self.last_stats = rfd.detect(
                 gray, road_r, cam, self.det_cfg, self._score_py if self._scorer is not None else None,
                 max_windows=int(lib.VT_FULLDET_MAX_WINDOWS), max_cand=int(lib.VT_FULLDET_MAX_CAND),

@@ -69,16 +69,7 @@ def make_sequence(scenario: str, seed: int = 0, *, camera: S.Camera | None = Non
                   n_frames: int | None = None, fps: float = 30.0, ego_speed: float | None = None,
                   noise_sigma: float = 2.0, blur_sigma: float = 0.6) -> S.Sequence:
     """One motion scenario, deterministic in (scenario, seed, arguments)."""
-    if scenario not in SCENARIOS:
-        raise ValueError(f"scenario: unknown {scenario!r}; choose from {sorted(SCENARIOS)}")
-    if int(seed) < 0:
-        raise ValueError("seed must be >= 0")
-    if not fps > 0:
-        raise ValueError("fps must be > 0")
-    builder, default_n = SCENARIOS[scenario]
-    n = int(round(default_n * fps / 30.0)) if n_frames is None else int(n_frames)
-    if n < 1:
-        raise ValueError("n_frames must be >= 1")
+    builder, n = S.scenario_args(SCENARIOS, scenario, seed, n_frames, fps)
     rng = np.random.default_rng([int(seed), zlib.crc32(scenario.encode()), 0x40710])
     for _ in range(100):
         vehicles = builder(rng, n, 1.0 / fps)

@@ -114,7 +114,7 @@ def run_track_search(cfg):
     sides = ffi.new("vt_track_sides *", (1, 20, 39, 2, 2))
     meas = ffi.new("vt_box *")
     found = ffi.new("int32_t *")
-    return [lib.vt_track_search(img_view(), cfg, roi, sides, ws, meas, found)]
+    return [lib.vt_track_search(ws, sides, cfg, img_view(), roi, meas, found)]
 
 
 def run_kf_model(cfg):
@@ -204,14 +204,14 @@ KF_BOUNDS = [
     ("p_max", 0, Q16 // 2), ("p_zero", 0, Q16 - 2 * (Q16 // 10)),  # 2 P1 + P2 <= 1
 ]
 TRACKER_BOUNDS = [
-    ("roi_margin_min", 0, lib.VT_MAX_WIDTH), ("roi_margin_percent", 0, 400),
-    ("gate_percent", 0, 400), ("gate_bottom_percent", 0, 400),
+    ("roi_margin_min", 0, lib.VT_MAX_WIDTH), ("roi_margin_permille", 0, 4000),
+    ("gate_permille", 0, 4000), ("gate_bottom_permille", 0, 4000),
     ("confirm_hits", 1, lib.VT_TRACK_MAX_FRAMES_CFG), ("max_coast", 0, lib.VT_TRACK_MAX_FRAMES_CFG),
-    ("match_iou_percent", 1, 100), ("init_max_change", 0, lib.VT_MAX_WIDTH),
+    ("match_iou_permille", 1, 1000), ("init_max_change", 0, lib.VT_MAX_WIDTH),
     ("keep_ncc", -16384, 16384),
     ("search.h_thresh", 1, I32_MAX), ("search.v_thresh", 1, I32_MAX),
-    ("search.min_h_percent", 0, 100), ("search.min_v_percent", 0, 100),
-    ("search.bottom_percent", 1, 100), ("search.polarity", 0, 1), ("search.side_mode", 0, 1),
+    ("search.min_h_permille", 0, 1000), ("search.min_v_permille", 0, 1000),
+    ("search.bottom_permille", 1, 1000), ("search.polarity", 0, 1), ("search.side_mode", 0, 1),
 ]
 
 
@@ -395,6 +395,6 @@ def test_track_search_side_memory_at_int32_edges():
     found = ffi.new("int32_t *")
     for prev in (I32_MIN, I32_MAX):
         sides = ffi.new("vt_track_sides *", (1, prev, prev, 0, 0))
-        assert lib.vt_track_search(img_view(), cfg, roi, sides, ws, meas, found) == lib.VT_OK
+        assert lib.vt_track_search(ws, sides, cfg, img_view(), roi, meas, found) == lib.VT_OK
         if found[0]:
             assert sides.max_change_left == I32_MAX or sides.max_change_left >= 0

@@ -56,3 +56,15 @@ def test_no_float_in_core():
         code = _strip_comments(p.read_text())
         assert not re.search(r"\b(float|double)\b", code), p
         assert not re.search(r"\b(malloc|calloc|realloc|free)\s*\(", code), p
+
+
+def test_shared_geometry_types_have_one_home():
+    """vt_box and vt_hypothesis (what the stages hand each other) are defined in
+    vehtrack/geometry.h only (issue 10 item 6), in the headers and in the cdef."""
+    for name in ("vt_box", "vt_hypothesis"):
+        where = [p.name for p in sorted((ROOT / "include" / "vehtrack").glob("*.h"))
+                 if re.search(r"\}\s*" + name + r"\s*;", _strip_comments(p.read_text()))]
+        assert where == ["geometry.h"], (name, where)
+        cdef = [p.name for p in sorted((ROOT / "pyvehtrack" / "cdef").glob("*.h"))
+                if re.search(r"\}\s*" + name + r"\s*;", _strip_comments(p.read_text()))]
+        assert cdef == ["00_core.h"], (name, cdef)

@@ -138,11 +138,11 @@ shadow_cfgs = st.builds(
     adapt_grad_min=st.integers(1, 120), stat_step=st.integers(1, 5),
     min_run=st.integers(1, 20), max_gap=st.integers(0, 4), merge_rows=st.integers(0, 5),
     width_min_q8=st.integers(0, 128), width_max_q8=st.integers(128, 400),
-    reduce_overlap_q8=st.integers(0, 256), reduce_height_q8=st.integers(0, 512))
+    reduce_overlap_permille=st.integers(0, 1000), reduce_height_q8=st.integers(0, 512))
 verify_cfgs = st.builds(
     VerifyConfig, widen_px=st.integers(0, 12), widen_q8=st.integers(0, 80),
     roi_height_q8=st.integers(16, 400), vedge_threshold=st.integers(1, 200),
-    side_min_frac_q8=st.integers(0, 256), side_min_px=st.integers(0, 6),
+    side_min_frac_permille=st.integers(0, 1000), side_min_px=st.integers(0, 6),
     min_width_q8=st.integers(0, 300), aspect_q8=st.integers(64, 512))
 
 
@@ -451,7 +451,7 @@ def test_outputs_never_written_past_capacity(seed, cap):
     assert (buf[cap:] == 0).all()
     full, _, _ = c_shadow(gray, road, cfg)
     assert np.array_equal(hyp, full[:cap])        # truncation keeps the nearest
-    boxes, bbuf = c_verify(gray, full, VerifyConfig(side_min_px=0, side_min_frac_q8=0), cap=cap)
+    boxes, bbuf = c_verify(gray, full, VerifyConfig(side_min_px=0, side_min_frac_permille=0), cap=cap)
     assert (bbuf[cap:] == 0).all() and len(boxes) <= cap
 
 
@@ -469,7 +469,7 @@ def test_structs_not_written_past_their_end():
     out = ffi.cast("vt_detect_result *", raw["vt_detect_result"])
     cfg = _native.detect_cfg_default()
     cfg.shadow.min_run, cfg.shadow.width_min_q8, cfg.shadow.width_max_q8 = 3, 0, 4000
-    cfg.verify.side_min_px, cfg.verify.side_min_frac_q8 = 0, 0
+    cfg.verify.side_min_px, cfg.verify.side_min_frac_permille = 0, 0
     noisy = np.clip(gray.astype(int) + np.random.default_rng(1).integers(-60, 60, gray.shape), 0, 255)
     for img in (gray, noisy.astype(np.uint8)):
         _native.detect(st_, cfg, img, _native.road_area(road, img.shape[0]), out)

@@ -249,10 +249,10 @@ def test_bad_arguments():
     i32 = [ffi.new("int32_t *") for _ in range(5)]
     assert lib.vt_edge_cfg_default(ffi.NULL) == lib.VT_E_ARG
     assert lib.vt_edge_cfg_check(ffi.NULL) == lib.VT_E_ARG
-    assert lib.vt_edge_map(ffi.NULL, cfg, roi, ws) == lib.VT_E_ARG
-    assert lib.vt_edge_map(v, ffi.NULL, roi, ws) == lib.VT_E_ARG
-    assert lib.vt_edge_map(v, cfg, ffi.NULL, ws) == lib.VT_E_ARG
-    assert lib.vt_edge_map(v, cfg, roi, ffi.NULL) == lib.VT_E_ARG
+    assert lib.vt_edge_map(ws, cfg, ffi.NULL, roi) == lib.VT_E_ARG
+    assert lib.vt_edge_map(ws, ffi.NULL, v, roi) == lib.VT_E_ARG
+    assert lib.vt_edge_map(ws, cfg, v, ffi.NULL) == lib.VT_E_ARG
+    assert lib.vt_edge_map(ffi.NULL, cfg, v, roi) == lib.VT_E_ARG
     # a never-filled workspace holds no crop
     assert lib.vt_edge_template_set(ws, roi, tpl, ffi.NULL) == lib.VT_E_SIZE
     assert lib.vt_edge_match(ws, cfg, tpl, 0, 0, *i32) == lib.VT_E_SIZE
@@ -263,17 +263,17 @@ def test_bad_arguments():
         c2 = _native.edge_cfg_default()
         setattr(c2, f, bad)
         assert lib.vt_edge_cfg_check(c2) == lib.VT_E_ARG, f
-        assert lib.vt_edge_map(v, c2, roi, ws) == lib.VT_E_ARG, f
+        assert lib.vt_edge_map(ws, c2, v, roi) == lib.VT_E_ARG, f
     for box, status in [([5, 0, 4, 19], lib.VT_E_ARG), ([0, 5, 29, 4], lib.VT_E_ARG),
                         ([-(2**31), 0, 2**31 - 1, 5], lib.VT_E_ARG),
                         ([30, 0, 40, 19], lib.VT_E_SIZE), ([-10, -10, -1, 5], lib.VT_E_SIZE)]:
-        assert lib.vt_edge_map(v, cfg, ffi.new("vt_box *", box), ws) == status, box
+        assert lib.vt_edge_map(ws, cfg, v, ffi.new("vt_box *", box)) == status, box
     side = math.isqrt(int(lib.VT_EDGE_MAX_PIXELS)) + 1
     if side <= min(int(lib.VT_MAX_WIDTH), int(lib.VT_MAX_HEIGHT)):
         big = np.zeros((side, side), np.uint8)
-        assert lib.vt_edge_map(_native.view(big, "big"), cfg, ffi.new("vt_box *", [0, 0, side - 1, side - 1]),
-                               ws) == lib.VT_E_CAPACITY
-    assert lib.vt_edge_map(v, cfg, roi, ws) == lib.VT_OK
+        assert lib.vt_edge_map(ws, cfg, _native.view(big, "big"),
+                               ffi.new("vt_box *", [0, 0, side - 1, side - 1])) == lib.VT_E_CAPACITY
+    assert lib.vt_edge_map(ws, cfg, v, roi) == lib.VT_OK
     assert lib.vt_edge_template_set(ffi.NULL, roi, tpl, ffi.NULL) == lib.VT_E_ARG
     assert lib.vt_edge_template_set(ws, ffi.NULL, tpl, ffi.NULL) == lib.VT_E_ARG
     assert lib.vt_edge_template_set(ws, roi, ffi.NULL, ffi.NULL) == lib.VT_E_ARG

@@ -146,3 +146,94 @@ def test_kitti_reader_refuses_fractional_frame(tmp_path):
         kitti.read_kitti(p)
     p.write_text("2.0 1 Car 0 0 0 1 2 3 4\n")       # an integer written as a float is fine
     assert kitti.read_kitti(p)["frame"][0] == 2
+
+
+# ---------------------------------------------------------------- the friendly layer and the oracle
+# Issue 10 item 4: the friendly layer (pyvehtrack/*.py and its packages, outside reference/)
+# imports pyvehtrack.reference only to construct the reference engine, i.e. inside the
+# function that runs it, never at module level. These modules still take a config class
+# or a helper from the oracle at module level; each is to move to the friendly layer or
+# the C path (the list must shrink, never grow: a module that no longer needs its entry
+# fails the test until the entry is removed).
+STILL_IMPORTING_AT_MODULE_LEVEL = {
+    "camera.py": "parameter records and the pitch/range oracle classes",
+    "classify.py": "the HOG/GIST descriptor oracle used by training",
+    "flow.py": "FlowConfig and the oracle's result records",
+    "lane.py": "LaneConfig and the lane record types",
+    "tracker.py": "TrackerCfg and the track record types",
+    "train.py": "the descriptor oracle (training runs in float)",
+    "vehicle_model.py": "the model's config and parameter records",
+}
+# Evaluation code may run the oracle as a baseline (the SORT tracker, synthetic scenes).
+NOT_FRIENDLY = ("reference/", "eval/")
+
+
+def _module_level_reference_imports(path: Path) -> list[int]:
+    import ast
+    tree = ast.parse(path.read_text(), str(path))
+    rel = path.relative_to(ROOT / "pyvehtrack")
+    depth = len(rel.parts) - 1                     # package depth of the module
+
+    def names_reference(node) -> bool:
+        if isinstance(node, ast.ImportFrom):
+            mod = node.module or ""
+            if node.level == 0:
+                return mod.startswith("pyvehtrack.reference")
+            if node.level == depth + 1:            # relative to the pyvehtrack package
+                return mod.split(".")[0] == "reference" or (
+                    not mod and any(a.name == "reference" for a in node.names))
+            return False
+        return isinstance(node, ast.Import) and any(a.name.startswith("pyvehtrack.reference")
+                                                    for a in node.names)
+
+    lines = []
+    for node in tree.body:                         # module level only (also inside if/try)
+        for sub in ast.walk(node) if isinstance(node, (ast.If, ast.Try)) else [node]:
+            if isinstance(sub, (ast.Import, ast.ImportFrom)) and names_reference(sub):
+                lines.append(sub.lineno)
+    return lines
+
+
+def test_friendly_layer_imports_reference_only_for_the_reference_engine():
+    found = {}
+    for p in sorted((ROOT / "pyvehtrack").rglob("*.py")):
+        rel = p.relative_to(ROOT / "pyvehtrack").as_posix()
+        if rel.startswith(NOT_FRIENDLY):
+            continue
+        lines = _module_level_reference_imports(p)
+        if lines:
+            found[rel] = lines
+    assert "detector.py" not in found and "fullroad.py" not in found, found
+    unexpected = {k: v for k, v in found.items() if k not in STILL_IMPORTING_AT_MODULE_LEVEL}
+    assert not unexpected, f"module-level imports of pyvehtrack.reference in the friendly layer: {unexpected}"
+    stale = sorted(set(STILL_IMPORTING_AT_MODULE_LEVEL) - set(found))
+    assert not stale, f"no longer import the oracle: drop them from STILL_IMPORTING_AT_MODULE_LEVEL: {stale}"
+
+
+def test_the_scanner_sees_a_module_level_import(tmp_path, monkeypatch):
+    """The check above can fail: a module-level import is found, one inside a function is not."""
+    pkg = tmp_path / "pyvehtrack"
+    (pkg / "cli").mkdir(parents=True)
+    (pkg / "a.py").write_text("from .reference import shadow\n")
+    (pkg / "b.py").write_text("def f():\n    from .reference import shadow\n")
+    (pkg / "cli" / "c.py").write_text("try:\n    from ..reference.lane import LaneConfig\nexcept ImportError:\n    pass\n")
+    (pkg / "d.py").write_text("from . import reference\n")
+    monkeypatch.setattr(sys.modules[__name__], "ROOT", tmp_path)
+    assert _module_level_reference_imports(pkg / "a.py") == [1]
+    assert _module_level_reference_imports(pkg / "b.py") == []
+    assert _module_level_reference_imports(pkg / "cli" / "c.py") == [2]
+    assert _module_level_reference_imports(pkg / "d.py") == [1]
+
+
+def test_c_engine_detection_never_loads_the_oracle():
+    """The C engine's whole-road detector and the Detector module run without
+    pyvehtrack.reference ever being imported."""
+    r = _fresh_python(
+        "import sys, numpy as np\n"
+        "import pyvehtrack.detector, pyvehtrack.fullroad as fr\n"
+        "det = fr.FullRoadDetector(sources=('shadow',), model=None)\n"
+        "g = np.full((96, 160), 120, np.uint8); g[60:64, 50:90] = 20\n"
+        "det.detect_gray(g); det.camera_road(96, 160)\n"
+        "print(sorted(m for m in sys.modules if m.startswith('pyvehtrack.reference')))\n")
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == "[]"

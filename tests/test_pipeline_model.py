@@ -50,7 +50,7 @@ def test_c_matches_reference_and_the_model_refines_the_coasting_track():
     assert states[4] == ["coasting"] and states[5] == ["coasting"], states
     # ... on the flat frame 5 the model fits nothing better than a featureless patch
     # (fitness 255 < model_min_fitness 256); on frame 6 it refines the track (a box
-    # of IoU >= match_iou_percent with its last box, its fitness as score), and the
+    # of IoU >= match_iou_permille with its last box, its fitness as score), and the
     # track is confirmed again
     assert model_boxes[5] == [] and len(model_boxes[6]) == 1, model_boxes
     assert model_boxes[6][0].score >= 256

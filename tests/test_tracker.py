@@ -141,24 +141,24 @@ def test_ids_never_reused_and_full_capacity_is_defined():
 @settings(max_examples=100)
 @given(seed=st.integers(0, 2**31), l=st.integers(-20, 300), t=st.integers(-20, 220),
        w=st.integers(-5, 120), h=st.integers(-5, 120), prev=st.booleans(), polarity=st.sampled_from([0, 1]),
-       bottom_percent=st.sampled_from([1, 50, 77, 100]), side_mode=st.sampled_from([0, 1]),
+       bottom_permille=st.sampled_from([1, 10, 500, 770, 999, 1000]), side_mode=st.sampled_from([0, 1]),
        h_thresh=st.sampled_from([16, 48, 200]))
-def test_track_search_exact(seed, l, t, w, h, prev, polarity, bottom_percent, side_mode, h_thresh):
+def test_track_search_exact(seed, l, t, w, h, prev, polarity, bottom_permille, side_mode, h_thresh):
     """Integer counts and comparisons on both sides: exact equality, box and sides."""
     rng = np.random.default_rng(seed)
     img, _ = make_scene(rng, [(rng.integers(0, 250), rng.integers(60, 230), rng.integers(20, 70), 0, 0, 0)], 0)
     roi = (l, t, l + w, t + h)
-    cfg = rts.SearchCfg(polarity=polarity, bottom_percent=bottom_percent, side_mode=side_mode, h_thresh=h_thresh)
+    cfg = rts.SearchCfg(polarity=polarity, bottom_permille=bottom_permille, side_mode=side_mode, h_thresh=h_thresh)
     sides_r = rts.Sides(True, l + 3, l + w - 3, 2, 2) if prev else None
     ref = rts.track_search(img, cfg, roi, sides_r)
-    c_cfg = ffi.new("vt_track_search_cfg *", [cfg.polarity, cfg.h_thresh, cfg.v_thresh, cfg.min_h_percent,
-                                               cfg.min_v_percent, cfg.bottom_percent, cfg.side_mode])
+    c_cfg = ffi.new("vt_track_search_cfg *", [cfg.polarity, cfg.h_thresh, cfg.v_thresh, cfg.min_h_permille,
+                                               cfg.min_v_permille, cfg.bottom_permille, cfg.side_mode])
     c_roi = ffi.new("vt_box *", list(roi))
     c_sides = ffi.new("vt_track_sides *", [1, l + 3, l + w - 3, 2, 2]) if prev else ffi.NULL
     ws = ffi.new("vt_track_search_ws *")
     meas = ffi.new("vt_box *")
     found = ffi.new("int32_t *")
-    assert lib.vt_track_search(_native.view(img, "img"), c_cfg, c_roi, c_sides, ws, meas, found) == lib.VT_OK
+    assert lib.vt_track_search(ws, c_sides, c_cfg, _native.view(img, "img"), c_roi, meas, found) == lib.VT_OK
     if ref is None:
         assert found[0] == 0
     else:
@@ -175,15 +175,15 @@ def test_python_defaults_equal_c_defaults():
     e.g. 0.1 -> 6553), the Python ones round (6554): 1 LSB of Q16 apart at most."""
     c = _native.tracker_cfg_default()
     p = cfg_to_c(rtrk.TrackerCfg())
-    for f in ("polarity", "h_thresh", "v_thresh", "min_h_percent", "min_v_percent", "bottom_percent",
+    for f in ("polarity", "h_thresh", "v_thresh", "min_h_permille", "min_v_permille", "bottom_permille",
               "side_mode"):
         assert getattr(c.search, f) == getattr(p.search, f), f
     for f in ("dt", "accel_x", "accel_y", "p_max", "p_zero", "meas_sigma_x", "meas_sigma_y",
               "init_sigma_pos", "init_sigma_vel"):
         assert abs(getattr(c.model, f) - getattr(p.model, f)) <= 1, f
-    for f in ("roi_margin_min", "roi_margin_percent", "gate_percent", "gate_bottom_percent",
+    for f in ("roi_margin_min", "roi_margin_permille", "gate_permille", "gate_bottom_permille",
               "confirm_hits", "max_coast",
-              "match_iou_percent", "keep_ncc", "init_max_change"):
+              "match_iou_permille", "keep_ncc", "init_max_change"):
         assert getattr(c, f) == getattr(p, f), f
 
 
@@ -209,7 +209,7 @@ def test_tracker_bad_arguments():
     assert step(tr, cfg, v, 1, bad, 1, out, 4, n) == lib.VT_E_ARG
     huge = ffi.new("vt_box[1]", [[-(2**31), 0, 2**31 - 1, 10]])
     assert step(tr, cfg, v, 1, huge, 1, out, 4, n) == lib.VT_E_ARG
-    for field, value in [("confirm_hits", 0), ("match_iou_percent", 0), ("match_iou_percent", 101),
+    for field, value in [("confirm_hits", 0), ("match_iou_permille", 0), ("match_iou_permille", 1001),
                          ("max_coast", -1), ("keep_ncc", 16385), ("roi_margin_min", -1)]:
         c2 = _native.tracker_cfg_default()
         setattr(c2, field, value)
@@ -217,8 +217,8 @@ def test_tracker_bad_arguments():
     c2 = _native.tracker_cfg_default()
     c2.model.dt = 0
     assert step(tr, c2, v, 0, ffi.NULL, 0, out, 4, n) == lib.VT_E_ARG
-    for field, value in [("h_thresh", 0), ("bottom_percent", 0), ("bottom_percent", 101), ("side_mode", 2),
-                         ("polarity", -1), ("min_v_percent", 101)]:
+    for field, value in [("h_thresh", 0), ("bottom_permille", 0), ("bottom_permille", 1001), ("side_mode", 2),
+                         ("polarity", -1), ("min_v_permille", 1001)]:
         c2 = _native.tracker_cfg_default()
         setattr(c2.search, field, value)
         assert step(tr, c2, v, 0, ffi.NULL, 0, out, 4, n) == lib.VT_E_ARG, field

@@ -195,7 +195,7 @@ def test_c_bad_arguments_and_guards():
     for f, val in (("block", 3), ("block", lib.VT_TTC_BLOCK + 1), ("grid", 1), ("lag", 0),
                    ("lag", lib.VT_TTC_HIST), ("radius", 0), ("radius", 17), ("max_sad", 0),
                    ("min_pairs", 0), ("min_pairs", lib.VT_TTC_MAX_PAIRS + 1), ("frame_dt", 0),
-                   ("ttc_max", 0), ("margin_pct", 41), ("min_pair_px", 0),
+                   ("ttc_max", 0), ("margin_permille", 401), ("min_pair_px", 0),
                    ("anchor_radius", 6), ("anchor_radius", 49), ("anchor_radius", -1)):
         c2 = _native.ttc_cfg_default()
         setattr(c2, f, val)

@@ -80,10 +80,26 @@ typedef struct vt_camera_cfg {
 
 /* 1242 x 375 KITTI-like defaults (f = 721.5 px, 1.65 m, no pitch); a real camera
  * needs its own values (pyvehtrack.camera builds them from a camera file). */
-#define VT_CAMERA_CFG_DEFAULT                                                          \
-    {1242, 375, 47286695, 47286695, 39948078, 11328160, 108134, 0,                     \
-     -3434 /* tan(-3 deg) */, 3434 /* tan(3 deg) */, 1311 /* 0.02 */, 64, 5,           \
-     VT_Q16_ONE, VT_Q16_ONE / 2, 117965 /* 1.8 m */, 25}
+#define VT_CAMERA_CFG_DEFAULT                     \
+    {                                             \
+        .img_w = 1242,                            \
+        .img_h = 375,                             \
+        .fx = 47286695,                           \
+        .fy = 47286695,                           \
+        .cx = 39948078,                           \
+        .cy = 11328160,                           \
+        .height = 108134,                         \
+        .tan_pitch = 0,                           \
+        .tan_pitch_min = -3434, /* tan(-3 deg) */ \
+        .tan_pitch_max = 3434, /* tan(3 deg) */   \
+        .pitch_max_step = 1311, /* 0.02 */        \
+        .pitch_alpha_q8 = 64,                     \
+        .pitch_reacquire = 5,                     \
+        .delta_px = VT_Q16_ONE,                   \
+        .bottom_offset = VT_Q16_ONE / 2,          \
+        .vehicle_width = 117965, /* 1.8 m */      \
+        .width_tol_percent = 25,                  \
+    }
 
 /* VT_OK if every field is in range, else VT_E_ARG (VT_E_SIZE for img_w/img_h). */
 vt_status vt_camera_cfg_check(const vt_camera_cfg *cam);
@@ -230,10 +246,30 @@ typedef struct vt_range_cfg {
 
 /* jerk 5 m/s^3, margin 0.7 s and release 10 frames were chosen on the synthetic NHTSA
  * scenes' seeds 0-2 at 30 fps (tools/eval_synth_fcw.py reports other seeds). */
-#define VT_RANGE_CFG_DEFAULT                                                            \
-    {6554 /* 0.1 s */, 5 * VT_Q16_ONE, 10 * VT_Q16_ONE, 3 * VT_Q16_ONE,                \
-     3277 /* 0.05 m */, 3, 5, 20 * VT_Q16_ONE, 137626 /* 2.1 */, 131072 /* 2.0 */,      \
-     157286 /* 2.4 */, 45875 /* 0.7 */, 3, 30, 10, 19661 /* 0.3 */, VT_Q16_ONE, VT_Q16_ONE, 3, 16, 0}
+#define VT_RANGE_CFG_DEFAULT                \
+    {                                       \
+        .frame_dt = 6554, /* 0.1 s */       \
+        .jerk_sigma = 5 * VT_Q16_ONE,       \
+        .init_sigma_rate = 10 * VT_Q16_ONE, \
+        .init_sigma_accel = 3 * VT_Q16_ONE, \
+        .sigma_min = 3277, /* 0.05 m */     \
+        .min_frames = 3,                    \
+        .scale_lag = 5,                     \
+        .ttc_max = 20 * VT_Q16_ONE,         \
+        .ttc_stopped = 137626, /* 2.1 */    \
+        .ttc_slower = 131072, /* 2.0 */     \
+        .ttc_decel = 157286, /* 2.4 */      \
+        .ttc_margin = 45875, /* 0.7 */      \
+        .confirm_frames = 3,                \
+        .rearm_frames = 30,                 \
+        .release_frames = 10,               \
+        .min_closing = 19661, /* 0.3 */     \
+        .stopped_speed = VT_Q16_ONE,        \
+        .decel_thresh = VT_Q16_ONE,         \
+        .width_min_frames = 3,              \
+        .width_window = 16,                 \
+        .rear_offset = 0,                   \
+    }
 
 /* VT_OK if every field is in range (see the comments above), else VT_E_ARG. */
 vt_status vt_range_cfg_check(const vt_range_cfg *cfg);

@@ -22,9 +22,10 @@ typedef struct {
     vt_verify_cfg verify;
 } vt_detect_cfg;
 
-#define VT_DETECT_CFG_DEFAULT                                                              \
-    {                                                                                      \
-        VT_SHADOW_CFG_DEFAULT, VT_VERIFY_CFG_DEFAULT                                       \
+#define VT_DETECT_CFG_DEFAULT            \
+    {                                    \
+        .shadow = VT_SHADOW_CFG_DEFAULT, \
+        .verify = VT_VERIFY_CFG_DEFAULT, \
     }
 
 typedef struct {

@@ -22,9 +22,9 @@
 
 #include <stdint.h>
 #include "vehtrack/config.h"
+#include "vehtrack/geometry.h" /* vt_box */
 #include "vehtrack/image.h"
 #include "vehtrack/status.h"
-#include "vehtrack/verify.h" /* vt_box */
 
 typedef struct {
     /* Hysteresis thresholds on the L1 magnitude |gx| + |gy| of the Sobel
@@ -62,7 +62,18 @@ typedef struct {
  * frame). A stricter mean of 1 px (768) halved the false positives on the
  * synthetic set of seed 1 but changed nothing on seed 0 and lost the KITTI lead
  * car (real edges are not that clean), so the a-priori value stays. */
-#define VT_EDGE_CFG_DEFAULT { 40, 100, 10, 8, 15, 1536, 16, 2, 4 }
+#define VT_EDGE_CFG_DEFAULT  \
+    {                        \
+        .low = 40,           \
+        .high = 100,         \
+        .min_len = 10,       \
+        .radius = 8,         \
+        .trunc = 15,         \
+        .max_mean_q8 = 1536, \
+        .min_points = 16,    \
+        .scale_steps = 2,    \
+        .scale_step_q8 = 4,  \
+    }
 
 /* Workspace of one crop. After vt_edge_map: lab[y * w + x] is 1 on a curve
  * pixel, else 0, and dt[y * w + x] its 3-4 chamfer distance to the nearest
@@ -121,8 +132,8 @@ vt_status vt_edge_cfg_check(const vt_edge_cfg *cfg);
  * (nothing is computed: the caller must use a smaller crop), VT_E_SIZE if it is
  * empty (roi outside the image), VT_E_ARG for NULLs, a bad cfg or roi with
  * left > right / top > bottom or a coordinate beyond +-4 VT_MAX_WIDTH/HEIGHT. */
-vt_status vt_edge_map(const vt_image_u8 *img, const vt_edge_cfg *cfg, const vt_box *roi,
-                      vt_edge_ws *ws);
+vt_status vt_edge_map(vt_edge_ws *ws, const vt_edge_cfg *cfg, const vt_image_u8 *img,
+                      const vt_box *roi);
 
 /* The curve pixels of ws (after vt_edge_map) inside `box` (clipped to the crop)
  * become the template, box copied. More than VT_EDGE_MAX_POINTS pixels: every

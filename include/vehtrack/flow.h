@@ -135,8 +135,27 @@ typedef struct {
  * at least 1 px at the level, blobs of 4 cells (16x16 level px), cells with a
  * mean horizontal difference of at least 3 grey levels, blobs seen in 3 frames
  * in a row, vectors that the backward search confirms within 1 px. */
-#define VT_FLOW_CFG_DEFAULT \
-    { 1, VT_FLOW_SIDE_LEFT, 30, 40, 100, 8, 6, 3, 12, 25, 1, 9, 24, 4, 25, 3, 3, 1 }
+#define VT_FLOW_CFG_DEFAULT         \
+    {                               \
+        .level = 1,                 \
+        .sides = VT_FLOW_SIDE_LEFT, \
+        .strip_percent = 30,        \
+        .top_percent = 40,          \
+        .bottom_percent = 100,      \
+        .cell = 8,                  \
+        .search_x = 6,              \
+        .search_y = 3,              \
+        .diff_thresh = 12,          \
+        .diff_min_percent = 25,     \
+        .min_inward = 1,            \
+        .max_mag = 9,               \
+        .max_sad_per_px = 24,       \
+        .min_blob_cells = 4,        \
+        .seed_min_visible = 25,     \
+        .min_texture = 3,           \
+        .min_age = 3,               \
+        .back_tol = 1,              \
+    }
 
 /* One hypothesis: box in input pixels (inclusive, as vt_box), the side it is on
  * (VT_FLOW_SIDE_LEFT/RIGHT; for a hand-over track the side its centre is on),

@@ -93,10 +93,32 @@ typedef struct {
  * shadow boxes classified with the same boundary, NMS at IoU 0.3 and 0.7 of the
  * smaller box, window boxes 3/4 as high as wide (the median box of
  * tusimple-vehicles-dev TRAIN is 0.59 as high as wide: rear and side views). */
-#define VT_FULLDET_CFG_DEFAULT                                                           \
-    {                                                                                    \
-        3, VT_WIN_CFG_DEFAULT, {VT_SHADOW_CFG_DEFAULT, {6, 26, 128, 40, 64, 3, 384, 128, 192}}, \
-            0, 1, 1, 0, 0, 77, 179, 192            \
+#define VT_FULLDET_CFG_DEFAULT               \
+    {                                        \
+        .sources = 3,                        \
+        .win = VT_WIN_CFG_DEFAULT,           \
+        .det = {                             \
+            .shadow = VT_SHADOW_CFG_DEFAULT, \
+            .verify = {                      \
+                .widen_px = 6,               \
+                .widen_q8 = 26,              \
+                .roi_height_q8 = 128,        \
+                .vedge_threshold = 40,       \
+                .side_min_frac_permille = 250, \
+                .side_min_px = 3,            \
+                .side_contrast_q8 = 384,     \
+                .min_width_q8 = 128,         \
+                .aspect_q8 = 192,            \
+            },                               \
+        },                                   \
+        .window_score_min = 0,               \
+        .edge_check = 1,                     \
+        .shadow_classify = 1,                \
+        .shadow_score_min = 0,               \
+        .shadow_score = 0,                   \
+        .nms_iou_q8 = 77,                    \
+        .nms_contain_q8 = 179,               \
+        .box_height_q8 = 192,                \
     }
 
 typedef struct {

@@ -130,17 +130,17 @@ typedef struct {
 /* Plausible values for a 640x480 camera at 25-30 fps: a vehicle's image
  * acceleration rarely exceeds 1 px/frame^2, a shadow-edge / vertical-edge
  * measurement is good to about 2 px, and a detection says nothing of velocity. */
-#define VT_KF_MODEL_CFG_DEFAULT                                                  \
-    {                                                                            \
-        VT_Q16_ONE,                /* dt = 1 frame */                            \
-        VT_Q16_ONE,                /* accel_x = 1 px/frame^2 */                  \
-        VT_Q16_ONE / 2,            /* accel_y = 0.5 px/frame^2 */                \
-        VT_Q16_ONE / 10,           /* p_max = 0.1 */                             \
-        VT_Q16_ONE * 3 / 10,       /* p_zero = 0.3 */                            \
-        2 * VT_Q16_ONE,            /* meas_sigma_x = 2 px */                     \
-        2 * VT_Q16_ONE,            /* meas_sigma_y = 2 px */                     \
-        4 * VT_Q16_ONE,            /* init_sigma_pos = 4 px */                   \
-        5 * VT_Q16_ONE             /* init_sigma_vel = 5 px/frame */             \
+#define VT_KF_MODEL_CFG_DEFAULT                                             \
+    {                                                                       \
+        .dt = VT_Q16_ONE, /* 1 frame */                                \
+        .accel_x = VT_Q16_ONE, /* 1 px/frame^2 */                 \
+        .accel_y = VT_Q16_ONE / 2, /* 0.5 px/frame^2 */           \
+        .p_max = VT_Q16_ONE / 10, /* 0.1 */                         \
+        .p_zero = VT_Q16_ONE * 3 / 10, /* 0.3 */                   \
+        .meas_sigma_x = 2 * VT_Q16_ONE, /* 2 px */           \
+        .meas_sigma_y = 2 * VT_Q16_ONE, /* 2 px */           \
+        .init_sigma_pos = 4 * VT_Q16_ONE, /* 4 px */       \
+        .init_sigma_vel = 5 * VT_Q16_ONE, /* 5 px/frame */ \
     }
 
 /* The domain of a vt_kf_model_cfg (all Q15.16). Why these bounds: with them

@@ -118,11 +118,59 @@ typedef struct {
                                      floor * this / 1000 (1000: no extra demand)         */
 } vt_lane_cfg;
 
-/* The defaults (field order as above). */
-#define VT_LANE_CFG_DEFAULT                                                          \
-    {320, 240, 250, 500, 12, 48, 6, 40, 0, 8, 24, 4096, 16, 320, 4, 0, 8, 80, 4, 8, 6, \
-     19, 48, 260, 500, 250, 700, 15, 2, 250, 2000, 2, 16, 2, 6, 3, 500, 128, 2, 150, 1, \
-     20, 2, 2, 37, 128, 5, 31, 1500}
+/* The defaults, each value named by its field. */
+#define VT_LANE_CFG_DEFAULT             \
+    {                                   \
+        .work_width_max = 320,          \
+        .work_height_max = 240,         \
+        .roi_top_permille = 250,        \
+        .hough_top_permille = 500,      \
+        .grad_min = 12,                 \
+        .noise_gain_q4 = 48,            \
+        .mark_w_top_permille = 6,       \
+        .mark_w_bottom_permille = 40,   \
+        .mark_wmin_top_permille = 0,    \
+        .mark_wmin_bottom_permille = 8, \
+        .marks_per_row_max = 24,        \
+        .marks_max = 4096,              \
+        .theta_min_qdeg = 16,           \
+        .theta_max_qdeg = 320,          \
+        .theta_step_qdeg = 4,           \
+        .rho_step_shift = 0,            \
+        .vote_min = 8,                  \
+        .vote_min_permille = 80,        \
+        .nms_theta_bins = 4,            \
+        .nms_rho_bins = 8,              \
+        .max_peaks = 6,                 \
+        .merge_permille = 19,           \
+        .min_dtheta_qdeg = 48,          \
+        .ego_theta_max_qdeg = 260,      \
+        .ego_vote_permille = 500,       \
+        .vp_x_permille = 250,           \
+        .vp_low_permille = 700,         \
+        .vp_tol_permille = 15,          \
+        .vp_tol_min = 2,                \
+        .lane_w_min_permille = 250,     \
+        .lane_w_max_permille = 2000,    \
+        .refine_iters = 2,              \
+        .refine_tol_permille = 16,      \
+        .refine_tol_min = 2,            \
+        .fit_min_points = 6,            \
+        .seg_min = 3,                   \
+        .seg_permille = 500,            \
+        .bend_q8 = 128,                 \
+        .seg_count_min = 2,             \
+        .seg_count_permille = 150,      \
+        .seg_miss_max = 1,              \
+        .win_bottom_permille = 20,      \
+        .win_top = 2,                   \
+        .vp_margin = 2,                 \
+        .top_margin_permille = 37,      \
+        .track_alpha_q8 = 128,          \
+        .track_hold = 5,                \
+        .track_gate_permille = 31,      \
+        .solo_vote_permille = 1500,     \
+    }
 
 /* One lane line. A line is x(y) = xb + slope * (y - (H-1)) over the Hough band; above
  * it, the polyline through vy/vx (vy decreasing from H-1 to y_top) follows the

@@ -88,7 +88,15 @@ typedef struct {
     int32_t top_margin;
 } vt_fixed_road;
 
-#define VT_FIXED_ROAD_DEFAULT {500, 450, 50, 950, 450, 4}
+#define VT_FIXED_ROAD_DEFAULT         \
+    {                                 \
+        .vp_x_permille = 500,         \
+        .vp_y_permille = 450,         \
+        .bottom_left_permille = 50,   \
+        .bottom_right_permille = 950, \
+        .lane_bottom_permille = 450,  \
+        .top_margin = 4,              \
+    }
 
 /* The whole-road detector's flat-road camera relative to the frame, so one setting
  * serves any frame size. For a w x h frame (vt_camera_min, input px):
@@ -107,7 +115,8 @@ typedef struct {
     int32_t fx_per_w_q16; /* 3277..1310720 (0.05 .. 20 w)    */
 } vt_road_camera;
 
-#define VT_ROAD_CAMERA_DEFAULT {30037, 60948, 1800, 36564}
+#define VT_ROAD_CAMERA_DEFAULT \
+    {.horizon_q16 = 30037, .hood_q16 = 60948, .height_mm = 1800, .fx_per_w_q16 = 36564}
 
 typedef struct {
     vt_lane_cfg lane;
@@ -137,12 +146,24 @@ typedef struct {
                                 symmetric, no edge, no shadow) at the default weights  */
 } vt_pipeline_cfg;
 
-#define VT_PIPELINE_CFG_DEFAULT                                                            \
-    {                                                                                      \
-        VT_LANE_CFG_DEFAULT, VT_DETECT_CFG_DEFAULT, VT_TRACKER_CFG_DEFAULT,                \
-            VT_RANGE_CFG_DEFAULT, VT_FIXED_ROAD_DEFAULT, 10, VT_ROAD_AUTO, 0, VT_SRC_SHADOW, 1, \
-            VT_FULLDET_CFG_DEFAULT, VT_ROAD_CAMERA_DEFAULT, VT_FLOW_CFG_DEFAULT,           \
-            VT_MODEL_CFG_DEFAULT, ((VT_MAX_TRACKS) < 2 ? (VT_MAX_TRACKS) : 2), 256          \
+#define VT_PIPELINE_CFG_DEFAULT                                   \
+    {                                                             \
+        .lane = VT_LANE_CFG_DEFAULT,                              \
+        .detect = VT_DETECT_CFG_DEFAULT,                          \
+        .tracker = VT_TRACKER_CFG_DEFAULT,                        \
+        .range = VT_RANGE_CFG_DEFAULT,                            \
+        .fixed_road = VT_FIXED_ROAD_DEFAULT,                      \
+        .detect_every = 10,                                       \
+        .road_policy = VT_ROAD_AUTO,                              \
+        .lanes_every_frame = 0,                                   \
+        .sources = VT_SRC_SHADOW,                                 \
+        .track = 1,                                               \
+        .fulldet = VT_FULLDET_CFG_DEFAULT,                        \
+        .road_camera = VT_ROAD_CAMERA_DEFAULT,                    \
+        .flow = VT_FLOW_CFG_DEFAULT,                              \
+        .model = VT_MODEL_CFG_DEFAULT,                            \
+        .model_fits = ((VT_MAX_TRACKS) < 2 ? (VT_MAX_TRACKS) : 2), \
+        .model_min_fitness = 256,                                 \
     }
 
 /* The whole-road detector's scratch, owned by the caller and attached with

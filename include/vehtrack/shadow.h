@@ -28,6 +28,7 @@
 
 #include <stdint.h>
 #include "vehtrack/config.h"
+#include "vehtrack/geometry.h" /* vt_hypothesis */
 #include "vehtrack/image.h"
 #include "vehtrack/road.h"
 #include "vehtrack/status.h"
@@ -39,7 +40,9 @@
 #define VT_SHADOW_DARK_ABOVE 0 /* shadow above the lit road: sobel_y >= t */
 #define VT_SHADOW_DARK_BELOW 1 /* body above its shadow: -sobel_y >= t */
 
-/* Configuration (const: may live in flash). Fractions are Q8 (256 = 1.0).
+/* Configuration (const: may live in flash). Fractions of at most one are permille
+ * (1000 = 1.0); the scale factors that may exceed one (widths and heights relative
+ * to a width, k) are Q8 (256 = 1.0).
  * Sobel values carry a gain of 4: a sharp step of d gray levels gives 4d. */
 typedef struct {
     int32_t threshold_mode;    /* VT_SHADOW_FIXED or VT_SHADOW_ADAPTIVE */
@@ -54,7 +57,7 @@ typedef struct {
     int32_t merge_rows;        /* rows within this are combined (thesis: 2), 0..255 */
     int32_t width_min_q8;      /* edge width >= this x lane width at its row, 0..65535 */
     int32_t width_max_q8;      /* edge width <= this x lane width, width_min_q8..65535 */
-    int32_t reduce_overlap_q8; /* reduce: x overlap >= this x narrower width, 0..256 */
+    int32_t reduce_overlap_permille; /* reduce: x overlap >= this/1000 x narrower width, 0..1000 */
     int32_t reduce_height_q8;  /* reduce: at most this x kept width above, 0..65535 */
 } vt_shadow_cfg;
 
@@ -64,18 +67,22 @@ typedef struct {
  * step) and the width band 0.3..1.0 lane widths were chosen on the 78 KITTI
  * frames of tools/eval_kitti_lead.py, so that figure is not an unseen-data
  * figure. grad_threshold 48 (a 12-level step) is for the fixed mode. */
-#define VT_SHADOW_CFG_DEFAULT                                                            \
-    {                                                                                    \
-        VT_SHADOW_ADAPTIVE, VT_SHADOW_DARK_ABOVE, 48, 96, 8, 2, 12, 2, 2, 77, 256, 128, 256 \
+#define VT_SHADOW_CFG_DEFAULT                 \
+    {                                         \
+        .threshold_mode = VT_SHADOW_ADAPTIVE, \
+        .polarity = VT_SHADOW_DARK_ABOVE,     \
+        .grad_threshold = 48,                 \
+        .adapt_k_q8 = 96,                     \
+        .adapt_grad_min = 8,                  \
+        .stat_step = 2,                       \
+        .min_run = 12,                        \
+        .max_gap = 2,                         \
+        .merge_rows = 2,                      \
+        .width_min_q8 = 77,                   \
+        .width_max_q8 = 256,                  \
+        .reduce_overlap_permille = 500,       \
+        .reduce_height_q8 = 256,              \
     }
-
-/* A hypothesis: the vehicle's bottom edge at image row `row`, columns
- * x_start..x_end inclusive. */
-typedef struct {
-    int32_t row;
-    int32_t x_start;
-    int32_t x_end;
-} vt_hypothesis;
 
 /* A group of shadow edges being merged (rows bottom..last, last <= bottom). */
 typedef struct {

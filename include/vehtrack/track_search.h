@@ -9,12 +9,9 @@
 
 #include <stdint.h>
 #include "vehtrack/config.h"
+#include "vehtrack/geometry.h" /* vt_box: the detector's boxes, which the tracker takes in */
 #include "vehtrack/image.h"
 #include "vehtrack/status.h"
-
-/* vt_box (inclusive pixel box: columns left..right, rows top..bottom) comes
- * from the detector's verification stage, whose boxes the tracker takes in. */
-#include "vehtrack/verify.h"
 
 /* Which border of the shadow is the bottom edge (as vt_shadow_cfg.polarity, so
  * the tracker measures the edge the detector found). */
@@ -28,17 +25,17 @@ typedef struct {
     int32_t h_thresh;
     /* A vertical edge pixel has |Sobel d/dx| >= v_thresh. */
     int32_t v_thresh;
-    /* The bottom edge needs at least this many edge pixels in its row, as a
-     * percentage of the ROI width (so a blank ROI is "not found"). */
-    int32_t min_h_percent;
-    /* A side needs at least this many edge pixels in its column, as a percentage
-     * of the searched height. */
-    int32_t min_v_percent;
+    /* The bottom edge needs at least this many edge pixels in its row, in
+     * permille of the ROI width (so a blank ROI is "not found"). 0..1000. */
+    int32_t min_h_permille;
+    /* A side needs at least this many edge pixels in its column, in permille of
+     * the searched height. 0..1000. */
+    int32_t min_v_permille;
     /* The bottom edge is the lowest row (between the ROI's bottom and middle)
-     * whose count reaches this % of the largest count there: 100 is the thesis's
-     * "largest projection value"; lower values prefer the shadow's border, which
-     * is weaker than a bumper edge above it. 1..100. */
-    int32_t bottom_percent;
+     * whose count reaches this permille of the largest count there: 1000 is the
+     * thesis's "largest projection value"; lower values prefer the shadow's
+     * border, which is weaker than a bumper edge above it. 1..1000. */
+    int32_t bottom_permille;
     /* VT_SIDES_TWO_THRESHOLD: the thesis's tracking rule (half the largest value,
      * then the largest when the side jumps more than ever before);
      * VT_SIDES_LARGEST: the verification step's rule (the largest value). */
@@ -51,9 +48,18 @@ typedef struct {
 /* Defaults: 60 as vt_verify_cfg's vertical-edge threshold; a weak 16 (a
  * 4-level step) for the shadow border, the lowest row at half the largest count,
  * and the verification step's side rule. These three were chosen on the 78 KITTI
- * frames of tools/eval_kitti_track.py (the thesis's rules, bottom_percent 100 and
+ * frames of tools/eval_kitti_track.py (the thesis's rules, bottom_permille 1000 and
  * VT_SIDES_TWO_THRESHOLD, are one field away; the README gives both figures). */
-#define VT_TRACK_SEARCH_CFG_DEFAULT { VT_EDGE_DARK_ABOVE, 16, 60, 20, 20, 50, VT_SIDES_LARGEST }
+#define VT_TRACK_SEARCH_CFG_DEFAULT     \
+    {                                   \
+        .polarity = VT_EDGE_DARK_ABOVE, \
+        .h_thresh = 16,                 \
+        .v_thresh = 60,                 \
+        .min_h_permille = 200,          \
+        .min_v_permille = 200,          \
+        .bottom_permille = 500,         \
+        .side_mode = VT_SIDES_LARGEST,  \
+    }
 
 /* Projection vectors; caller-owned so the search allocates nothing. */
 typedef struct {
@@ -73,7 +79,7 @@ typedef struct {
 /* Search `roi` (clipped to the image) of `img`:
  * 1. horizontal-edge projection per row (count of shadow-edge pixels); searched
  *    from the bottom row up to the middle row, the first row reaching
- *    bottom_percent of the largest value there is the bottom edge;
+ *    bottom_permille of the largest value there is the bottom edge;
  * 2. vertical-edge projection per column over rows roi.top..bottom edge; the left
  *    half is searched from the left, the right half from the right: with
  *    VT_SIDES_LARGEST for the largest value, with VT_SIDES_TWO_THRESHOLD for the
@@ -84,12 +90,12 @@ typedef struct {
  * were found, else 0 (and *meas untouched). Exact integer arithmetic throughout.
  * `sides` may be NULL (no history: first threshold only). */
 /* VT_OK if every field of *cfg is in its domain (polarity and side_mode one of
- * their constants, thresholds >= 1, percentages 0..100, bottom_percent 1..100);
+ * their constants, thresholds >= 1, min_h/min_v_permille 0..1000, bottom_permille 1..1000);
  * VT_E_ARG otherwise and for NULL. vt_track_search checks the same. */
 vt_status vt_track_search_cfg_check(const vt_track_search_cfg *cfg);
 
-vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg,
-                          const vt_box *roi, vt_track_sides *sides,
-                          vt_track_search_ws *ws, vt_box *meas, int32_t *found);
+vt_status vt_track_search(vt_track_search_ws *ws, vt_track_sides *sides,
+                          const vt_track_search_cfg *cfg, const vt_image_u8 *img,
+                          const vt_box *roi, vt_box *meas, int32_t *found);
 
 #endif /* VEHTRACK_TRACK_SEARCH_H */

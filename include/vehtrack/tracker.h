@@ -48,14 +48,14 @@ typedef struct {
     vt_track_search_cfg search;
     vt_kf_model_cfg model;
     int32_t roi_margin_min;      /* ROI = predicted box widened by the larger of   */
-    int32_t roi_margin_percent;  /* these two, px and % of the box width (thesis:
-                                    6 px, as the verification ROI)                  */
-    int32_t gate_percent;        /* a measurement moving a side more than this %
-                                    of the box width (or 8 px) is rejected          */
-    int32_t gate_bottom_percent; /* ... or the bottom more than this % (or 4 px)    */
+    int32_t roi_margin_permille; /* these two, px and permille of the box width
+                                    (thesis: 6 px, as the verification ROI)         */
+    int32_t gate_permille;       /* a measurement moving a side more than this
+                                    permille of the box width (or 8 px) is rejected */
+    int32_t gate_bottom_permille; /* ... or the bottom more than this (or 4 px)     */
     int32_t confirm_hits;        /* measurements before tentative -> confirmed      */
     int32_t max_coast;           /* frames without measurement before deletion      */
-    int32_t match_iou_percent;   /* detection <-> track association threshold       */
+    int32_t match_iou_permille;  /* detection <-> track association: IoU >= this/1000 */
     vt_q14 keep_ncc;             /* correlation that keeps an undetected track      */
     int32_t init_max_change;     /* px: the two-threshold rule's starting allowance */
     /* The per-frame measurement: VT_MEAS_ROI_SEARCH (thesis sec. 3.6.1, the
@@ -68,11 +68,21 @@ typedef struct {
 #define VT_MEAS_ROI_SEARCH 0
 #define VT_MEAS_EDGE_CURVES 1
 
-#define VT_TRACKER_CFG_DEFAULT                                                     \
-    {                                                                              \
-        VT_TRACK_SEARCH_CFG_DEFAULT, VT_KF_MODEL_CFG_DEFAULT, 6, 0, 35, 10, 3, 6, 30,   \
-            (vt_q14)((VT_Q14_ONE * 7 + 5) / 10), 3 /* 0.7, rounded */,            \
-            VT_MEAS_ROI_SEARCH, VT_EDGE_CFG_DEFAULT                                \
+#define VT_TRACKER_CFG_DEFAULT                                              \
+    {                                                                       \
+        .search = VT_TRACK_SEARCH_CFG_DEFAULT,                              \
+        .model = VT_KF_MODEL_CFG_DEFAULT,                                   \
+        .roi_margin_min = 6,                                                \
+        .roi_margin_permille = 0,                                           \
+        .gate_permille = 350,                                               \
+        .gate_bottom_permille = 100,                                        \
+        .confirm_hits = 3,                                                  \
+        .max_coast = 6,                                                     \
+        .match_iou_permille = 300,                                          \
+        .keep_ncc = (vt_q14)((VT_Q14_ONE * 7 + 5) / 10), /* 0.7, rounded */ \
+        .init_max_change = 3,                                               \
+        .measurement = VT_MEAS_ROI_SEARCH,                                  \
+        .edge = VT_EDGE_CFG_DEFAULT,                                        \
     }
 
 /* One track. Public so that callers can inspect and save it; change it only
@@ -119,9 +129,9 @@ typedef struct {
 
 /* VT_OK if every field of *cfg is in its domain: search as
  * vt_track_search_cfg_check, model as vt_kf_model_cfg_check, 0 <= roi_margin_min
- * <= VT_MAX_WIDTH, roi_margin_percent, gate_percent, gate_bottom_percent in
- * 0..400, 1 <= confirm_hits <= VT_TRACK_MAX_FRAMES_CFG, 0 <= max_coast <=
- * VT_TRACK_MAX_FRAMES_CFG, match_iou_percent in 1..100, keep_ncc in [-1, 1]
+ * <= VT_MAX_WIDTH, roi_margin_permille, gate_permille, gate_bottom_permille in
+ * 0..4000, 1 <= confirm_hits <= VT_TRACK_MAX_FRAMES_CFG, 0 <= max_coast <=
+ * VT_TRACK_MAX_FRAMES_CFG, match_iou_permille in 1..1000, keep_ncc in [-1, 1]
  * (Q14), 0 <= init_max_change <= VT_MAX_WIDTH. VT_E_ARG otherwise and for NULL.
  * vt_tracker_step checks the same before touching the tracker. */
 vt_status vt_tracker_cfg_check(const vt_tracker_cfg *cfg);
@@ -144,7 +154,7 @@ vt_status vt_tracker_set_edge_ws(vt_tracker *tr, vt_edge_ws *ws);
  * found (else it coasts). If `detection_frame` is non-zero, `dets[0..n_dets-1]`
  * are this frame's detections (n_dets may be 0; dets may be NULL only then):
  * each is matched to at most one track by IoU (greedy, best pair first, at least
- * match_iou_percent); a matched track is updated with the detection as a
+ * match_iou_permille); a matched track is updated with the detection as a
  * second measurement (counted as its hit when the search failed); a track no detection matched survives only if its template
  * correlates with the same box in `img` at >= keep_ncc; an unmatched detection
  * that overlaps no track starts a tentative track (or, when every slot is used,

@@ -6,7 +6,7 @@
  *
  * Per track, every frame:
  *   1. blocks of `block` x `block` px on a grid x grid lattice over the box's inner
- *      part (margin_pct cut from each side), kept if they have texture in both
+ *      part (margin_permille cut from each side), kept if they have texture in both
  *      directions, are stored with their positions in a ring of the last frames;
  *   2. the blocks stored `lag` frames ago are searched in this frame by exact integer
  *      SAD over +-radius px around where the box's own shift and size change put them;
@@ -63,7 +63,7 @@
 typedef struct vt_ttc_cfg {
     int32_t block;       /* block side, px, 4..VT_TTC_BLOCK                           */
     int32_t grid;        /* grid x grid blocks, 2..VT_TTC_GRID                        */
-    int32_t margin_pct;  /* cut from each side of the box, %, 0..40                   */
+    int32_t margin_permille; /* cut from each side of the box, 1/1000, 0..400         */
     int32_t radius;      /* search +-radius px, 1..16                                 */
     int32_t min_texture; /* mean |step| across and along a block, grey levels, 0..255 */
     int32_t max_sad;     /* mean |difference| of a match, grey levels, 1..255          */
@@ -83,7 +83,12 @@ typedef struct vt_ttc_cfg {
  * radius chosen on KITTI frames 0-38 only (tools/eval_kitti_range.py reports frames
  * 39-77). The anchors keep the blocks after the tracker's box jumps on a detection
  * frame (frames 15-18 of KITTI lost 85-95 % of their pairs without them). */
-#define VT_TTC_CFG_DEFAULT {8, 8, 10, 6, 2, 24, 5, 16, 10, 6554, 20 * VT_Q16_ONE, 12}
+#define VT_TTC_CFG_DEFAULT                                                             \
+    {                                                                                  \
+        .block = 8, .grid = 8, .margin_permille = 100, .radius = 6, .min_texture = 2, \
+        .max_sad = 24, .lag = 5, .min_pair_px = 16, .min_pairs = 10, .frame_dt = 6554, \
+        .ttc_max = 20 * VT_Q16_ONE, .anchor_radius = 12,                               \
+    }
 
 vt_status vt_ttc_cfg_default(vt_ttc_cfg *cfg);
 /* VT_OK if every field is in its range above, else VT_E_ARG. */

@@ -117,10 +117,29 @@ typedef struct {
  * road's own texture puts edges everywhere), so it is computed but off by default.
  * The road constraint is a placeholder (horizon at row 0, 1 px of width per row,
  * +-30 %): set horizon_row and width_per_row for your camera (vt_model_cfg_road). */
-#define VT_MODEL_CFG_DEFAULT                                                        \
-    {                                                                               \
-        3, {{128, 64, 64}, {64, 32, 32}}, {{40, 2, 2}, {10, 2, 2}}, 0x2545F491u, 15, \
-            1, 2, 0, 4, 160, 6, 0, (vt_q16)65536, 30, 60, 110, 25, 60, 10, 35, 25  \
+#define VT_MODEL_CFG_DEFAULT                  \
+    {                                         \
+        .levels = 3,                          \
+        .pop = {{128, 64, 64}, {64, 32, 32}}, \
+        .gens = {{40, 2, 2}, {10, 2, 2}},     \
+        .seed = 0x2545F491u,                  \
+        .mut_percent = 15,                    \
+        .w_sym = 1,                           \
+        .w_grad = 2,                          \
+        .w_dist = 0,                          \
+        .w_shadow = 4,                        \
+        .edge_thresh = 160,                   \
+        .dist_cap = 6,                        \
+        .horizon_row = 0,                     \
+        .width_per_row = (vt_q16)65536,       \
+        .width_tol_percent = 30,              \
+        .aspect_min_percent = 60,             \
+        .aspect_max_percent = 110,            \
+        .wind_min = 25,                       \
+        .wind_max = 60,                       \
+        .bump_min = 10,                       \
+        .bump_max = 35,                       \
+        .roof_max = 25,                       \
     }
 
 /* The search: the ROI (input pixels, inclusive; clipped to the frame) the model

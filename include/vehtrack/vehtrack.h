@@ -9,6 +9,7 @@
 #include "vehtrack/fixed.h"
 #include "vehtrack/trig.h"
 #include "vehtrack/image.h"
+#include "vehtrack/geometry.h"
 #include "vehtrack/road.h"
 #include "vehtrack/lane.h"
 #include "vehtrack/shadow.h"

@@ -12,17 +12,20 @@
 
 #include <stdint.h>
 #include "vehtrack/config.h"
+#include "vehtrack/geometry.h" /* vt_box, vt_hypothesis; included here so older includers keep them */
 #include "vehtrack/image.h"
 #include "vehtrack/shadow.h"
 #include "vehtrack/status.h"
 
-/* Configuration (const: may live in flash). Fractions are Q8 (256 = 1.0). */
+/* Configuration (const: may live in flash). Fractions of at most one are permille
+ * (1000 = 1.0); the scale factors that may exceed one (widths, heights, aspect,
+ * contrast) are Q8 (256 = 1.0). */
 typedef struct {
     int32_t widen_px;         /* ROI = edge widened by widen_px + widen_q8 x edge length */
     int32_t widen_q8;         /* on each side (thesis: 6 px and 0), 0..4096 and 0..1024 */
     int32_t roi_height_q8;    /* ROI height = this x edge length (thesis: 1/2), 1..4096 */
     int32_t vedge_threshold;  /* |sobel_x| >= this is a vertical edge pixel, 1..1020 */
-    int32_t side_min_frac_q8; /* a side's column needs edges on >= this x ROI rows, 0..256 */
+    int32_t side_min_frac_permille; /* a side's column needs edges on >= this/1000 x ROI rows, 0..1000 */
     int32_t side_min_px;      /* and on >= this many rows, 0..4096 */
     int32_t side_contrast_q8; /* and >= this x the ROI's mean column count, 0..4096
                                  (a side stands out; texture and noise do not) */
@@ -34,20 +37,19 @@ typedef struct {
  * (the shadow between the wheels is narrower than the body), the edge threshold
  * 40 and the side fractions were chosen on the KITTI frames of
  * tools/eval_kitti_lead.py. */
-#define VT_VERIFY_CFG_DEFAULT                                                              \
-    {                                                                                      \
-        6, 26, 128, 40, 64, 3, 384, 128, 256                                               \
+#define VT_VERIFY_CFG_DEFAULT    \
+    {                            \
+        .widen_px = 6,           \
+        .widen_q8 = 26,          \
+        .roi_height_q8 = 128,    \
+        .vedge_threshold = 40,   \
+        .side_min_frac_permille = 250, \
+        .side_min_px = 3,        \
+        .side_contrast_q8 = 384, \
+        .min_width_q8 = 128,     \
+        .aspect_q8 = 256,        \
     }
 
-
-/* A vehicle box, inclusive pixel coordinates: columns left..right, rows
- * top..bottom (bottom = the shadow edge's row). The tracker takes these in. */
-typedef struct {
-    int32_t left;
-    int32_t top;
-    int32_t right;
-    int32_t bottom;
-} vt_box;
 
 /* Row scratch; the caller owns it. No content carries over between calls. */
 typedef struct {

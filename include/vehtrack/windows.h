@@ -67,9 +67,16 @@ typedef struct {
 /* Defaults: the IVVI paper's 1.4-2.6 m band, 32 and 45 px windows (a half-octave
  * apart: two sizes per pyramid level cover every width at <= 2^(1/4) ratio),
  * a quarter-window step, five levels (32 .. 720 px at the input), a 3.7 m lane. */
-#define VT_WIN_CFG_DEFAULT                                                         \
-    {                                                                              \
-        1400, 2600, 2, {32, 45, 0, 0}, 64, 5, 3700, 2                              \
+#define VT_WIN_CFG_DEFAULT      \
+    {                           \
+        .veh_w_min_mm = 1400,   \
+        .veh_w_max_mm = 2600,   \
+        .n_sizes = 2,           \
+        .size = {32, 45, 0, 0}, \
+        .step_q8 = 64,          \
+        .levels = 5,            \
+        .lane_w_mm = 3700,      \
+        .top_margin = 2,        \
     }
 
 /* One window: level, side, top-left corner in level pixels. Its box in input

@@ -25,6 +25,10 @@ typedef struct { uint8_t *px; int32_t w; int32_t h; int32_t stride; } vt_image_u
 typedef struct { int16_t *px; int32_t w; int32_t h; int32_t stride; } vt_image_s16;
 typedef struct { uint32_t *px; int32_t w; int32_t h; int32_t stride; } vt_image_u32;
 
+/* geometry.h */
+typedef struct { int32_t left; int32_t top; int32_t right; int32_t bottom; } vt_box;
+typedef struct { int32_t row; int32_t x_start; int32_t x_end; } vt_hypothesis;
+
 /* status.h */
 vt_status vt_status_name(int code, const char **name);
 

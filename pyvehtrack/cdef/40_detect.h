@@ -21,12 +21,9 @@ typedef struct {
     int32_t merge_rows;
     int32_t width_min_q8;
     int32_t width_max_q8;
-    int32_t reduce_overlap_q8;
+    int32_t reduce_overlap_permille;
     int32_t reduce_height_q8;
 } vt_shadow_cfg;
-
-typedef struct { int32_t row; int32_t x_start; int32_t x_end; } vt_hypothesis;
-typedef struct { int32_t left; int32_t top; int32_t right; int32_t bottom; } vt_box;
 
 typedef struct {
     int32_t median;
@@ -49,7 +46,7 @@ typedef struct {
     int32_t widen_q8;
     int32_t roi_height_q8;
     int32_t vedge_threshold;
-    int32_t side_min_frac_q8;
+    int32_t side_min_frac_permille;
     int32_t side_min_px;
     int32_t side_contrast_q8;
     int32_t min_width_q8;

@@ -40,8 +40,8 @@ typedef struct {
 
 vt_status vt_edge_cfg_default(vt_edge_cfg *cfg);
 vt_status vt_edge_cfg_check(const vt_edge_cfg *cfg);
-vt_status vt_edge_map(const vt_image_u8 *img, const vt_edge_cfg *cfg, const vt_box *roi,
-                      vt_edge_ws *ws);
+vt_status vt_edge_map(vt_edge_ws *ws, const vt_edge_cfg *cfg, const vt_image_u8 *img,
+                      const vt_box *roi);
 vt_status vt_edge_template_set(const vt_edge_ws *ws, const vt_box *box, vt_edge_template *tpl,
                                int32_t *n_out);
 vt_status vt_edge_match(const vt_edge_ws *ws, const vt_edge_cfg *cfg, const vt_edge_template *tpl,

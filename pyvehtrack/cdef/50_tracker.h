@@ -8,9 +8,9 @@ typedef struct {
     int32_t polarity;
     int32_t h_thresh;
     int32_t v_thresh;
-    int32_t min_h_percent;
-    int32_t min_v_percent;
-    int32_t bottom_percent;
+    int32_t min_h_permille;
+    int32_t min_v_permille;
+    int32_t bottom_permille;
     int32_t side_mode;
 } vt_track_search_cfg;
 #define VT_SIDES_TWO_THRESHOLD ...
@@ -26,9 +26,9 @@ typedef struct {
 } vt_track_sides;
 
 vt_status vt_track_search_cfg_check(const vt_track_search_cfg *cfg);
-vt_status vt_track_search(const vt_image_u8 *img, const vt_track_search_cfg *cfg,
-                          const vt_box *roi, vt_track_sides *sides,
-                          vt_track_search_ws *ws, vt_box *meas, int32_t *found);
+vt_status vt_track_search(vt_track_search_ws *ws, vt_track_sides *sides,
+                          const vt_track_search_cfg *cfg, const vt_image_u8 *img,
+                          const vt_box *roi, vt_box *meas, int32_t *found);
 
 typedef enum { VT_TRACK_FREE, VT_TRACK_TENTATIVE, VT_TRACK_CONFIRMED, VT_TRACK_COASTING, ... } vt_track_state;
 
@@ -36,12 +36,12 @@ typedef struct {
     vt_track_search_cfg search;
     vt_kf_model_cfg model;
     int32_t roi_margin_min;
-    int32_t roi_margin_percent;
-    int32_t gate_percent;
-    int32_t gate_bottom_percent;
+    int32_t roi_margin_permille;
+    int32_t gate_permille;
+    int32_t gate_bottom_permille;
     int32_t confirm_hits;
     int32_t max_coast;
-    int32_t match_iou_percent;
+    int32_t match_iou_permille;
     vt_q14 keep_ncc;
     int32_t init_max_change;
     int32_t measurement;

@@ -12,7 +12,7 @@
 typedef struct vt_ttc_cfg {
     int32_t block;
     int32_t grid;
-    int32_t margin_pct;
+    int32_t margin_permille;
     int32_t radius;
     int32_t min_texture;
     int32_t max_sad;

@@ -6,9 +6,7 @@
 The naming rule for truth and camera files and the output layout: pyvehtrack.batch."""
 from __future__ import annotations
 
-from pathlib import Path
-
-from .common import CliError
+from .common import CliError, out_folder
 
 EXAMPLES = """examples:
   pyvehtrack batch recordings/* --out results/                 # LocalCluster, 2 workers
@@ -51,11 +49,7 @@ def run(args) -> int:
         raise CliError(f"--workers {args.workers}: must be >= 1")
     if args.detect_every < 1:
         raise CliError(f"--detect-every {args.detect_every}: must be >= 1")
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise CliError(f"--out {args.out}: exists and is not a folder")
-    if not out.parent.exists():
-        raise CliError(f"--out {args.out}: folder {out.parent} does not exist")
+    out = out_folder(args.out)
     if args.scheduler and "://" not in args.scheduler:
         raise CliError(f"--scheduler {args.scheduler}: expected an address like tcp://host:8786")
     try:

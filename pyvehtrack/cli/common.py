@@ -40,6 +40,29 @@ def add_model_arg(p) -> None:
                         "sliding windows); without --model the built-in classifier is used")
 
 
+def load_camera(path: str, hint: str = ""):
+    """The camera file given with --camera, which must hold the camera height (the
+    distances need it); CliError naming the flag otherwise."""
+    from ..camera import Camera, CameraFileError
+    try:
+        cam = Camera.load(path)
+    except CameraFileError as e:
+        raise CliError(f"--camera: {e}") from None
+    if cam.height_m is None:
+        raise CliError(f"--camera {path}: 'height_m' (camera height above the road) is missing{hint}")
+    return cam
+
+
+def out_folder(path: str) -> Path:
+    """The --out folder of `batch` and `report`: may exist (as a folder); its parent must."""
+    out = Path(path)
+    if out.exists() and not out.is_dir():
+        raise CliError(f"--out {path}: exists and is not a folder")
+    if not out.parent.exists():
+        raise CliError(f"--out {path}: folder {out.parent} does not exist")
+    return out
+
+
 def make_detector(args):
     """The Detector of `detect` and `track`, with the user's mistakes as CliError."""
     from ..detector import Detector
@@ -143,6 +166,8 @@ class FrameReader:
 
     def __iter__(self):
         import cv2
+
+        from ..frames import read_video
         i = 0
         for kind, path in self.sources:
             if kind == "image":
@@ -159,16 +184,10 @@ class FrameReader:
                 raise CliError(f"{path}: cannot open as a video")
             declared = int(cap.get(cv2.CAP_PROP_FRAME_COUNT))
             k = 0
-            try:
-                while True:
-                    ok, img = cap.read()
-                    if not ok:
-                        break
-                    yield i, path, img
-                    i += 1
-                    k += 1
-            finally:
-                cap.release()
+            for img in read_video(cap):
+                yield i, path, img
+                i += 1
+                k += 1
             if k == 0:
                 raise CliError(f"{path}: the video has no readable frame")
             if declared > k:                    # the stream ends before its container says

@@ -15,7 +15,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from .common import (CliError, add_model_arg, make_detector, FrameReader, Outputs, VideoOut, count_frames, frame_sources,
+from .common import (CliError, add_model_arg, load_camera, make_detector, FrameReader, Outputs, VideoOut, count_frames, frame_sources,
                      output_kind, progress)
 
 EXAMPLES = """examples:
@@ -109,14 +109,9 @@ def run(args) -> int:
     multi = total is None or total > 1
     cam = ranger = lanes = None
     if args.camera:
-        from ..camera import Camera, CameraFileError, RangeEstimator, lane_vanishing_row
+        from ..camera import RangeEstimator, lane_vanishing_row
         from ..lane import LaneDetector
-        try:
-            cam = Camera.load(args.camera)
-        except CameraFileError as e:
-            raise CliError(f"--camera: {e}") from None
-        if cam.height_m is None:
-            raise CliError(f"--camera {args.camera}: 'height_m' (camera height above the road) is missing")
+        cam = load_camera(args.camera)
     det = make_detector(args)
     with Outputs() as outs:
         json_tmp = outs.reserve("--json", args.json) if args.json else None

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .common import CliError
+from .common import CliError, out_folder
 
 EXAMPLES = """examples:
   pyvehtrack report tests/data/kitti_clip --out r/
@@ -55,11 +55,7 @@ def run(args) -> int:
         raise CliError(f"--detect-every {args.detect_every}: must be >= 1")
     if args.fps is not None and not args.fps > 0:
         raise CliError(f"--fps {args.fps}: must be > 0")
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise CliError(f"--out {args.out}: exists and is not a folder")
-    if not out.parent.exists():
-        raise CliError(f"--out {args.out}: folder {out.parent} does not exist")
+    out = out_folder(args.out)
     if args.camera and not Path(args.camera).is_file():
         raise CliError(f"--camera {args.camera}: no such file")
     for t in args.truth or []:

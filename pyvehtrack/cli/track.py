@@ -25,7 +25,7 @@ import colorsys
 from pathlib import Path
 
 from ..eval.kitti import track_line
-from .common import (CliError, add_model_arg, make_detector, FrameReader, Outputs, VideoOut, count_frames, frame_sources,
+from .common import (CliError, add_model_arg, load_camera, make_detector, FrameReader, Outputs, VideoOut, count_frames, frame_sources,
                      output_kind, progress)
 
 STATE_SCORE = {"confirmed": 1.0, "coasting": 0.5, "tentative": 0.25}
@@ -157,14 +157,7 @@ def run(args) -> int:
     if args.camera:
         import math
 
-        from ..camera import Camera, CameraFileError
-        try:
-            cam = Camera.load(args.camera)
-        except CameraFileError as e:
-            raise CliError(f"--camera: {e}") from None
-        if cam.height_m is None:
-            raise CliError(f"--camera {args.camera}: 'height_m' (camera height above the road) is missing; "
-                           "a chessboard cannot give it, add it to the file")
+        cam = load_camera(args.camera, "; a chessboard cannot give it, add it to the file")
         if args.fps is not None and not (math.isfinite(args.fps) and args.fps >= 1):
             raise CliError(f"--fps {args.fps}: must be >= 1")
         if args.ego_speed is not None and not (math.isfinite(args.ego_speed) and args.ego_speed >= 0):

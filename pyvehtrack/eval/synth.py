@@ -631,20 +631,27 @@ SCENARIOS: dict[str, tuple[Callable, int]] = {
 """name -> (builder(rng, n_frames, dt) -> [Vehicle], default number of frames at 30 fps)."""
 
 
-def make_sequence(scenario: str = "follow", seed: int = 0, *, camera: Camera | None = None,
-                  n_frames: int | None = None, fps: float = 30.0, noise_sigma: float = 2.0,
-                  blur_sigma: float = 0.6, ego_speed: float | None = None) -> Sequence:
-    """One named scenario (see SCENARIOS), deterministic in (scenario, seed, arguments)."""
-    if scenario not in SCENARIOS:
-        raise ValueError(f"unknown scenario {scenario!r}; choose from {sorted(SCENARIOS)}")
+def scenario_args(scenarios: dict, scenario: str, seed: int, n_frames: int | None, fps: float):
+    """(builder, number of frames) of a scenario table entry, the arguments checked
+    (ValueError naming the one that is wrong); shared with pyvehtrack.synth_motion."""
+    if scenario not in scenarios:
+        raise ValueError(f"scenario: unknown {scenario!r}; choose from {sorted(scenarios)}")
     if not fps > 0:
         raise ValueError("fps must be > 0")
-    builder, default_n = SCENARIOS[scenario]
+    builder, default_n = scenarios[scenario]
     n = int(round(default_n * fps / 30.0)) if n_frames is None else int(n_frames)
     if n < 1:
         raise ValueError("n_frames must be >= 1")
     if int(seed) < 0:
         raise ValueError("seed must be >= 0")
+    return builder, n
+
+
+def make_sequence(scenario: str = "follow", seed: int = 0, *, camera: Camera | None = None,
+                  n_frames: int | None = None, fps: float = 30.0, noise_sigma: float = 2.0,
+                  blur_sigma: float = 0.6, ego_speed: float | None = None) -> Sequence:
+    """One named scenario (see SCENARIOS), deterministic in (scenario, seed, arguments)."""
+    builder, n = scenario_args(SCENARIOS, scenario, seed, n_frames, fps)
     # the scenario's name (not its position in SCENARIOS) enters the stream, so adding a scenario
     # never changes the others
     rng = np.random.default_rng([int(seed), zlib.crc32(scenario.encode())])

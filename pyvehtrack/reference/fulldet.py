@@ -17,33 +17,13 @@ same scale as the C scorer), so C and oracle can share one.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numpy as np
 
 from . import shadow as rshadow
 from . import verify as rverify
 from . import windows as rw
 from .image import pyr_down
-from .shadow import ShadowConfig
-from .verify import VerifyConfig
-
-
-@dataclass(frozen=True)
-class FullDetConfig:
-    shadow_source: bool = True
-    window_source: bool = True
-    win: rw.WindowConfig = field(default_factory=rw.WindowConfig)
-    shadow: ShadowConfig = field(default_factory=ShadowConfig)
-    verify: VerifyConfig = field(default_factory=lambda: VerifyConfig(aspect_q8=192))
-    window_score_min: int = 0
-    edge_check: bool = True
-    shadow_classify: bool = True
-    shadow_score_min: int = 0
-    shadow_score: int = 0
-    nms_iou: float = 77 / 256
-    nms_contain: float = 179 / 256
-    box_height: float = 192 / 256     # window box height / width (bottom row kept)
+from ..shared import FullDetConfig  # noqa: F401  (a plain type both engines share)
 
 
 def detect(gray: np.ndarray, road, cam: rw.Camera, cfg: FullDetConfig, score=None, *,

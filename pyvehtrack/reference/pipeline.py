@@ -364,7 +364,7 @@ class Pipeline:
             ih = min(box[3], b) - max(box[1], tp) + 1
             inter = iw * ih if iw > 0 and ih > 0 else 0
             ua = (box[2] - box[0] + 1) * (box[3] - box[1] + 1)
-            if inter * 100 < c.tracker.match_iou_percent * (ua + w * h - inter):
+            if inter * 1000 < c.tracker.match_iou_permille * (ua + w * h - inter):
                 continue
             out.append(box)
             fit_.append(int(res.fitness))

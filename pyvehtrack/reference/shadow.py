@@ -43,48 +43,9 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-FIXED = 0
-ADAPTIVE = 1
-DARK_ABOVE = 0
-DARK_BELOW = 1
-
-
-@dataclass(frozen=True)
-class ShadowConfig:
-    """Same fields, units and defaults as vt_shadow_cfg (include/vehtrack/shadow.h).
-
-    Fractions are Q8 integers (256 = 1.0) so the oracle uses exactly C's values."""
-    threshold_mode: int = ADAPTIVE
-    polarity: int = DARK_ABOVE     # the thesis's edge: dark shadow above the lit road
-    grad_threshold: int = 48       # fixed: s*sobel_y >= this (Sobel gain 4: a 12-level step)
-    adapt_k_q8: int = 96           # adaptive: dark = I < median - k*MAD, k = 0.375
-    adapt_grad_min: int = 8        # adaptive: and s*sobel_y >= this (a 2-level step)
-    stat_step: int = 2             # adaptive: statistics on every 2nd row and column
-    min_run: int = 12              # thesis: 10-15 px
-    max_gap: int = 2               # gaps bridged inside a run
-    merge_rows: int = 2            # thesis: rows within 2 px are combined
-    width_min_q8: int = 77         # 0.30 of the lane width
-    width_max_q8: int = 256        # 1.00 of the lane width
-    reduce_overlap_q8: int = 128   # 0.5 of the narrower edge
-    reduce_height_q8: int = 256    # up to 1.0 x width above a kept edge
-
-
-@dataclass
-class RoadArea:
-    """Python twin of vt_road_area (include/vehtrack/road.h): per-row road span
-    x_left[y]..x_right[y] (inclusive) for y_top <= y <= y_bottom and the ego lane
-    width per row. Arrays have one entry per image row."""
-    y_top: int
-    y_bottom: int
-    x_left: np.ndarray
-    x_right: np.ndarray
-    lane_width: np.ndarray
-    valid: bool = True
-
-    @property
-    def height(self) -> int:
-        return len(self.x_left)
-
+# The config, road type and road helpers are plain types both engines share.
+from ..shared import (ADAPTIVE, DARK_ABOVE, DARK_BELOW, FIXED, RoadArea, ShadowConfig,  # noqa: F401
+                      road_polygon, trapezoid_road)
 
 @dataclass
 class ShadowResult:
@@ -238,7 +199,7 @@ def find_hypotheses(gray: np.ndarray, road, cfg: ShadowConfig = ShadowConfig(), 
         for k in kept:
             wk = k[3] - k[2] + 1
             ov = min(c[3], k[3]) - max(c[2], k[2]) + 1
-            if (ov > 0 and ov * 256 >= min(wc, wk) * cfg.reduce_overlap_q8
+            if (ov > 0 and ov * 1000 >= min(wc, wk) * cfg.reduce_overlap_permille
                     and (k[0] - c[0]) * 256 <= wk * cfg.reduce_height_q8):
                 drop = True
                 break
@@ -249,35 +210,3 @@ def find_hypotheses(gray: np.ndarray, road, cfg: ShadowConfig = ShadowConfig(), 
         kept = kept[:max_out]
     res.hypotheses = np.array([[k[0], k[2], k[3]] for k in kept], np.int64).reshape(-1, 3)
     return res
-
-
-def trapezoid_road(h: int, w: int, *, vp=(0.5, 0.45), bottom=(0.0, 1.0),
-                   lane_bottom: float = 0.5, top_margin: int = 4) -> RoadArea:
-    """A fixed road area for frames without lane lines: a trapezoid from the frame's
-    bottom row (columns bottom[0]*w .. bottom[1]*w) toward the vanishing point
-    vp = (x, y) (fractions of w, h), cut `top_margin` rows below it. The ego lane
-    width grows linearly from 0 at the vanishing point to lane_bottom*w at the
-    bottom row (flat road, straight lanes). Integer arrays, as C gets them."""
-    vx, vy = vp[0] * (w - 1), vp[1] * (h - 1)
-    yb = h - 1
-    yt = int(np.ceil(vy)) + top_margin
-    ys = np.arange(h, dtype=np.float64)
-    span = yb - vy if yb > vy else 1.0
-    t = np.clip((ys - vy) / span, 0.0, 1.0)
-    xl = np.floor(vx + t * (bottom[0] * (w - 1) - vx) + 0.5)
-    xr = np.floor(vx + t * (bottom[1] * (w - 1) - vx) + 0.5)
-    lw = np.floor(t * lane_bottom * w + 0.5)
-    yt = min(max(yt, 0), yb)
-    return RoadArea(y_top=yt, y_bottom=yb, x_left=xl.astype(np.int16),
-                    x_right=xr.astype(np.int16), lane_width=lw.astype(np.int16))
-
-
-def road_polygon(road) -> np.ndarray:
-    """The road area's outline as an (N, 2) int array of (x, y), clockwise from the
-    top-left: left border downward, then right border upward."""
-    if road is None or not road.valid or road.y_top > road.y_bottom:
-        return np.zeros((0, 2), np.int64)
-    ys = np.arange(road.y_top, road.y_bottom + 1)
-    left = np.stack([np.asarray(road.x_left)[ys], ys], 1)
-    right = np.stack([np.asarray(road.x_right)[ys], ys], 1)[::-1]
-    return np.concatenate([left, right]).astype(np.int64)

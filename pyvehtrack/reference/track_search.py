@@ -3,7 +3,7 @@ specification of c/track_search.c.
 
 Within the predicted ROI: count shadow-edge pixels (s * Sobel d/dy >= h_thresh) per
 row; searched from the bottom row up to the middle row, the first row reaching
-bottom_percent of the largest count there is the bottom edge (100: the thesis's
+bottom_permille of the largest count there is the bottom edge (1000: the thesis's
 largest); count vertical-edge pixels (|Sobel d/dx| >= v_thresh) per column above
 it; the left half searched from the left and the right half from the right for the
 largest count (LARGEST, the verification step's rule) or (TWO_THRESHOLD, the
@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import image as rimg
+from ..shared import SEARCH_RENAMED, accept_renamed
 
 
 DARK_ABOVE, DARK_BELOW = 0, 1
@@ -28,10 +29,13 @@ class SearchCfg:
     polarity: int = DARK_ABOVE   # shadow above the lit road: sobel_y >= h_thresh
     h_thresh: int = 16
     v_thresh: int = 60
-    min_h_percent: int = 20
-    min_v_percent: int = 20
-    bottom_percent: int = 50      # 100: the thesis's largest value
+    min_h_permille: int = 200
+    min_v_permille: int = 200
+    bottom_permille: int = 500    # 1000: the thesis's largest value
     side_mode: int = LARGEST      # TWO_THRESHOLD: the thesis's tracking rule
+
+
+accept_renamed(SearchCfg, SEARCH_RENAMED)  # the percent names of before issue 10
 
 
 @dataclass
@@ -66,15 +70,15 @@ def track_search(img: np.ndarray, cfg: SearchCfg, roi, sides: Sides | None = Non
     hproj = (sign * gy[t:b, l:r] >= cfg.h_thresh).sum(axis=1)
     mid = t + (b - t) // 2
     best = int(hproj[mid - t:].max(initial=0))
-    if best == 0 or best * 100 < cfg.min_h_percent * (r - l):
+    if best == 0 or best * 1000 < cfg.min_h_permille * (r - l):
         return None
-    ybest = next(y for y in range(b - 1, mid - 1, -1) if hproj[y - t] * 100 >= best * cfg.bottom_percent)
+    ybest = next(y for y in range(b - 1, mid - 1, -1) if hproj[y - t] * 1000 >= best * cfg.bottom_permille)
     rows = ybest - t + 1
     vproj = np.zeros(w)
     vproj[l:r] = (np.abs(gx[t:ybest + 1, l:r]) >= cfg.v_thresh).sum(axis=0)
     midx = l + (r - l) // 2
     lmax, rmax = vproj[l:midx].max(initial=0), vproj[midx:r].max(initial=0)
-    if lmax == 0 or rmax == 0 or lmax * 100 < cfg.min_v_percent * rows or rmax * 100 < cfg.min_v_percent * rows:
+    if lmax == 0 or rmax == 0 or lmax * 1000 < cfg.min_v_permille * rows or rmax * 1000 < cfg.min_v_permille * rows:
         return None
     left_idx, right_idx = range(l, midx), range(r - 1, midx - 1, -1)
     first = 1.0 if cfg.side_mode == LARGEST else 0.5

@@ -26,6 +26,7 @@ from . import edge_track as redge
 from . import image as rimg
 from .kalman import bottom_edge_filter
 from .track_search import SearchCfg, Sides, track_search
+from ..shared import TRACKER_RENAMED, accept_renamed
 
 FREE, TENTATIVE, CONFIRMED, COASTING = 0, 1, 2, 3
 TEMPLATE = 16
@@ -52,16 +53,19 @@ class TrackerCfg:
     search: SearchCfg = field(default_factory=SearchCfg)
     model: ModelCfg = field(default_factory=ModelCfg)
     roi_margin_min: int = 6        # thesis: the verification ROI's 6 px
-    roi_margin_percent: int = 0
-    gate_percent: int = 35
-    gate_bottom_percent: int = 10
+    roi_margin_permille: int = 0
+    gate_permille: int = 350
+    gate_bottom_permille: int = 100
     confirm_hits: int = 3
     max_coast: int = 6
-    match_iou_percent: int = 30
+    match_iou_permille: int = 300
     keep_ncc: float = 0.7
     init_max_change: int = 3
     measurement: int = MEAS_ROI_SEARCH
     edge: redge.EdgeCfg = field(default_factory=redge.EdgeCfg)
+
+
+accept_renamed(TrackerCfg, TRACKER_RENAMED)  # the percent names of before issue 10
 
 
 def _round(v: float) -> int:
@@ -144,7 +148,7 @@ class Tracker:
 
     def _margin(self, box) -> int:
         w = box[2] - box[0] + 1
-        return max(self.cfg.roi_margin_min, (w * self.cfg.roi_margin_percent) // 100)
+        return max(self.cfg.roi_margin_min, (w * self.cfg.roi_margin_permille) // 1000)
 
     def _edge_map(self, img, roi):
         """edge_map, or None where C's vt_edge_map fails (empty, over capacity, out of range)."""
@@ -221,9 +225,9 @@ class Tracker:
             t.box_from_state()
             l, top, r, b = t.box
             w = r - l + 1
-            m = max(c.roi_margin_min, (w * c.roi_margin_percent) // 100)
-            gate = max(8, (w * c.gate_percent) // 100)
-            gate_b = max(4, (w * c.gate_bottom_percent) // 100)
+            m = max(c.roi_margin_min, (w * c.roi_margin_permille) // 1000)
+            gate = max(8, (w * c.gate_permille) // 1000)
+            gate_b = max(4, (w * c.gate_bottom_permille) // 1000)
             sides = Sides(**vars(t.sides))
             # the verification step's ROI: half the edge length high; below, as far
             # as the bottom gate lets the edge move
@@ -255,7 +259,7 @@ class Tracker:
                         if match_of_det[j] >= 0:
                             continue
                         inter, uni = iou_frac(t.box, d)
-                        if inter * 100 >= c.match_iou_percent * uni and \
+                        if inter * 1000 >= c.match_iou_permille * uni and \
                                 (best is None or inter * best[1] > best[0] * uni):
                             best = (inter, uni, i, j)
                 if best is None:

@@ -33,7 +33,7 @@ import numpy as np
 class TtcScaleParams:
     block: int = 8            # block side, px, 4..16
     grid: int = 8             # G x G blocks over the inner box, 2..VT_TTC_GRID
-    margin_pct: int = 10      # inner box: this % of the width/height cut from each side, 0..40
+    margin_permille: int = 100  # inner box: this many thousandths of the width/height cut from each side, 0..400
     radius: int = 6           # search +-radius px around the prediction, 1..16
     min_texture: int = 2      # mean |horizontal| and |vertical| step in a block, grey levels, 0..255
     max_sad: int = 24         # mean |difference| of a match, grey levels, 1..255
@@ -86,8 +86,8 @@ def grid_blocks(p: TtcScaleParams, box, w: int, h: int) -> list[tuple[int, int]]
     """Top-left corners of the grid's blocks inside the box's inner part (integer rule)."""
     l, t, r, b = box
     bw, bh = r - l + 1, b - t + 1
-    li, ti = l + bw * p.margin_pct // 100, t + bh * p.margin_pct // 100
-    wi, hi = bw - 2 * (bw * p.margin_pct // 100), bh - 2 * (bh * p.margin_pct // 100)
+    li, ti = l + bw * p.margin_permille // 1000, t + bh * p.margin_permille // 1000
+    wi, hi = bw - 2 * (bw * p.margin_permille // 1000), bh - 2 * (bh * p.margin_permille // 1000)
     if wi < p.block or hi < p.block:
         return []
     out = []

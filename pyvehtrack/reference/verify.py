@@ -13,7 +13,7 @@ For each bottom edge (row, x_start, x_end) from the shadow stage:
     mid..x1 with mid = (x0 + x1 + 1) // 2;
  4. a vehicle needs one horizontal edge (the shadow edge, present by construction)
     and two vertical edges: both sides need p >= side_min_px,
-    p * 256 >= roi_rows * side_min_frac_q8 and p >= side_contrast x the mean of p over
+    p * 1000 >= roi_rows * side_min_frac_permille and p >= side_contrast x the mean of p over
     the ROI (p * n * 256 >= sum(p) * side_contrast_q8: a vehicle's side stands out,
     road texture and noise do not; our addition), and the sides must be at least
     min_width_q8 of the edge length apart (right - left + 1);
@@ -24,24 +24,10 @@ Only integer counts are compared, so C and this oracle agree exactly wherever th
 Sobel values agree (they are exact integers in both)."""
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import cv2
 import numpy as np
 
-
-@dataclass(frozen=True)
-class VerifyConfig:
-    """Same fields, units and defaults as vt_verify_cfg (include/vehtrack/verify.h)."""
-    widen_px: int = 6              # thesis: 6 px on each side
-    widen_q8: int = 26             # plus this x edge length, 0.1 (thesis: 0)
-    roi_height_q8: int = 128       # thesis: half the edge length
-    vedge_threshold: int = 40      # |sobel_x| >= this (Sobel gain 4: a 10-level step)
-    side_min_frac_q8: int = 64     # a side needs vertical edges on 1/4 of the ROI rows
-    side_min_px: int = 3           # and on at least 3 rows
-    side_contrast_q8: int = 384    # and >= 1.5 x the ROI's mean column count
-    min_width_q8: int = 128        # sides >= 0.5 x edge length apart
-    aspect_q8: int = 256           # height / width = 1.0 (thesis default)
+from ..shared import VerifyConfig  # noqa: F401  (a plain type both engines share)
 
 
 def verify_one(gray: np.ndarray, hyp, cfg: VerifyConfig, sx_abs: np.ndarray | None = None):
@@ -69,7 +55,7 @@ def verify_one(gray: np.ndarray, hyp, cfg: VerifyConfig, sx_abs: np.ndarray | No
     total = int(p.sum())
 
     def strong(v):
-        return (v >= cfg.side_min_px and v * 256 >= rows * cfg.side_min_frac_q8
+        return (v >= cfg.side_min_px and v * 1000 >= rows * cfg.side_min_frac_permille
                 and v * n * 256 >= total * cfg.side_contrast_q8)
 
     if not (strong(p[li]) and strong(p[ri])):

@@ -16,31 +16,11 @@ inside it).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 from fractions import Fraction
 
 import numpy as np
 
-
-@dataclass(frozen=True)
-class Camera:
-    """Minimal flat-road camera: focal length (px), horizon row, camera height (m),
-    first hood row (rows at or below it are not road)."""
-    fx: float = 714.0
-    horizon_y: int = 376
-    height_m: float = 1.8
-    hood_y: int = 720
-
-
-@dataclass(frozen=True)
-class WindowConfig:
-    veh_w_min_m: float = 1.4
-    veh_w_max_m: float = 2.6
-    sizes: tuple = (32, 45)
-    step: float = 0.25          # fraction of the window side (C: step_q8 / 256)
-    levels: int = 5
-    lane_w_m: float = 3.7
-    top_margin: int = 2
+from ..shared import Camera, WindowConfig  # noqa: F401  (plain types both engines share)
 
 
 def _frac(x) -> Fraction:

@@ -425,16 +425,11 @@ def recording_frames(path):
         n = int(cap.get(cv2.CAP_PROP_FRAME_COUNT))
 
         def gen_video():
+            from ..frames import read_video
             k = 0
-            try:
-                while True:
-                    ok, img = cap.read()
-                    if not ok:
-                        break
-                    yield f"{p}#{k}", img
-                    k += 1
-            finally:
-                cap.release()
+            for img in read_video(cap):
+                yield f"{p}#{k}", img
+                k += 1
             if k == 0:
                 raise ValueError(f"{path}: the video has no readable frame")
         return (n if n > 0 else None), gen_video()
