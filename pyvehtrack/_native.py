@@ -662,6 +662,12 @@ def fulldet(st, cfg, cam, img: np.ndarray, road, scorer, out) -> np.ndarray:
     n = out.n_boxes
     a = np.frombuffer(ffi.buffer(out.box), SCORED_BOX_DTYPE)[:n].copy()
     return a
+def fulldet_verify(ws, model, img: np.ndarray, score_min: int, out) -> np.ndarray:
+    """vt_fulldet_verify on the result `out` in place -> the kept boxes (a copy)."""
+    v = view(img, "img")
+    check("vt_fulldet_verify", lib.vt_fulldet_verify(ws, model, v, int(score_min), out),
+          f"img {img.shape}, {out.n_boxes} boxes")
+    return np.frombuffer(ffi.buffer(out.box), SCORED_BOX_DTYPE)[:out.n_boxes].copy()
 # ================================================================ end fulldet.h
 
 # ================================================================ classify.h
