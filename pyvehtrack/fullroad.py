@@ -17,8 +17,9 @@ two sizes per octave (default: the model's window alone). Sides other than the m
 window are resampled to it per window (vt_classify_box: slower, same classifier).
 Optionally `detector_json`, the detector settings chosen with the model (so
 `pyvehtrack detect --model M.npz` runs as it was validated): a JSON object with any of
-"sources" (list), "nms_iou", "nms_contain", "box_height", "merge_iou" (floats, as
-FullDetConfig) and "verify_min" (float: a second stage, the built-in HOG 64x64 MLP on
+"sources" (list), "score_offset" (float, added to threshold_q16 for detection only, the
+caller's score_offset adds on top), "nms_iou", "nms_contain", "box_height", "merge_iou"
+(floats, as FullDetConfig) and "verify_min" (float: a second stage, the built-in HOG 64x64 MLP on
 each box, keeps boxes it scores >= this; vt_fulldet_verify). Explicit arguments win.
 """
 from __future__ import annotations
@@ -110,7 +111,7 @@ class MlpModel:
     settings: dict = field(default_factory=dict)
 
 
-_SETTINGS = {"nms_iou": (0.0, 1.0), "nms_contain": (0.0, 1.0), "box_height": (1 / 256, 4.0),
+_SETTINGS = {"score_offset": (-32768.0, 32767.0), "nms_iou": (0.0, 1.0), "nms_contain": (0.0, 1.0), "box_height": (1 / 256, 4.0),
              "merge_iou": (0.0, 1.0), "verify_min": (-32768.0, 32767.0)}
 
 
@@ -301,7 +302,8 @@ class FullRoadDetector:
         cfg = replace(cfg, det=det)
         thr = 0
         if self.model is not None:
-            thr = self.model.threshold_q16 + int(round(cfg.score_offset * 65536))
+            thr = self.model.threshold_q16 + int(round((cfg.score_offset + float(st.get("score_offset", 0.0)))
+                                                       * 65536))
             sizes = self.model.scan_sizes or (self.model.win_w,)
             if det.win.sizes != sizes and self.model.win_w == self.model.win_h:
                 det = replace(det, win=replace(det.win, sizes=sizes, step=8 / self.model.win_w))
