@@ -307,6 +307,9 @@ class FullRoadDetector:
             sizes = self.model.scan_sizes or (self.model.win_w,)
             if det.win.sizes != sizes and self.model.win_w == self.model.win_h:
                 det = replace(det, win=replace(det.win, sizes=sizes, step=8 / self.model.win_w))
+        # the C core holds these in Q8: give the oracle the same quantised values
+        det = replace(det, **{k: round(getattr(det, k) * 256) / 256
+                              for k in ("nms_iou", "nms_contain", "box_height", "merge_iou")})
         det = replace(det, shadow_source="shadow" in sources, window_source="windows" in sources,
                       window_score_min=thr, shadow_score_min=thr,
                       shadow_classify=det.shadow_classify and self.model is not None)
