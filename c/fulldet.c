@@ -37,10 +37,58 @@ vt_status vt_fulldet_cfg_check(const vt_fulldet_cfg *cfg)
     if (cfg->sources < 1 || cfg->sources > 3 || (cfg->edge_check & ~1) != 0 ||
         (cfg->shadow_classify & ~1) != 0 || cfg->nms_iou_q8 < 0 || cfg->nms_iou_q8 > 256 ||
         cfg->nms_contain_q8 < 0 || cfg->nms_contain_q8 > 256 || cfg->box_height_q8 < 1 ||
-        cfg->box_height_q8 > 1024) {
+        cfg->box_height_q8 > 1024 || cfg->merge_iou_q8 < 0 || cfg->merge_iou_q8 > 256) {
         return VT_E_ARG;
     }
     return VT_OK;
+}
+
+/* floor((2 sum + n) / (2 n)), n > 0: the mean rounded half up, for any sign. */
+static int32_t vt__mean_round(int64_t sum, int64_t n)
+{
+    int64_t a = 2 * sum + n, d = 2 * n, q = a / d;
+    if ((a % d != 0) && (a < 0)) {
+        --q;
+    }
+    return (int32_t)q;
+}
+
+/* Box refinement (fulldet.h, merge_iou_q8): *k becomes the mean of the
+ * candidates overlapping it by IoU >= merge_q8 / 256 (k itself among them). */
+static void vt__merge(const vt_scored_box *cand, int32_t n, int32_t merge_q8, vt_scored_box *k)
+{
+    int64_t sl = 0, st = 0, sr = 0, sb = 0, cnt = 0;
+    const vt_box *a = &k->box;
+    int64_t aa = ((int64_t)a->right - a->left + 1) * ((int64_t)a->bottom - a->top + 1);
+    int32_t j;
+    for (j = 0; j < n; ++j) {
+        const vt_box *b = &cand[j].box;
+        int64_t iw = (int64_t)(a->right < b->right ? a->right : b->right) -
+                     (a->left > b->left ? a->left : b->left) + 1;
+        int64_t ih = (int64_t)(a->bottom < b->bottom ? a->bottom : b->bottom) -
+                     (a->top > b->top ? a->top : b->top) + 1;
+        int64_t inter, uni;
+        if (iw <= 0 || ih <= 0) {
+            continue;
+        }
+        inter = iw * ih;
+        uni = aa + ((int64_t)b->right - b->left + 1) * ((int64_t)b->bottom - b->top + 1) - inter;
+        if (inter * 256 >= (int64_t)merge_q8 * uni) {
+            sl += b->left;
+            st += b->top;
+            sr += b->right;
+            sb += b->bottom;
+            ++cnt;
+        }
+    }
+    if (cnt > 0) {
+        vt_box m;
+        m.left = vt__mean_round(sl, cnt);
+        m.top = vt__mean_round(st, cnt);
+        m.right = vt__mean_round(sr, cnt);
+        m.bottom = vt__mean_round(sb, cnt);
+        k->box = m;
+    }
 }
 
 /* Add a candidate; when full, it replaces the lowest-scoring one if it scores higher. */
@@ -249,8 +297,60 @@ vt_status vt_fulldet(vt_fulldet_state *st, const vt_fulldet_cfg *cfg, const vt_c
         out->n_boxes = kept < VT_MAX_BOXES ? kept : VT_MAX_BOXES;
         for (i = 0; i < out->n_boxes; ++i) {
             out->box[i] = st->cand[i];
+            if (cfg->merge_iou_q8 > 0) {
+                vt__merge(st->cand, out->n_cand, cfg->merge_iou_q8, &out->box[i]);
+            }
         }
     }
+    return VT_OK;
+}
+
+vt_status vt_fulldet_verify(vt_cls_box_ws *ws, const vt_mlp_model *m, const vt_image_u8 *img,
+                            int32_t score_min, vt_fulldet_result *res)
+{
+    vt_status s;
+    int32_t i, n = 0;
+    if (ws == NULL || m == NULL || img == NULL || res == NULL) {
+        return VT_E_ARG;
+    }
+    s = vt_mlp_model_check(m);
+    if (s == VT_OK) {
+        s = vt_image_u8_check(img);
+    }
+    if (s != VT_OK) {
+        return s;
+    }
+    if (res->n_boxes < 0 || res->n_boxes > VT_MAX_BOXES) {
+        return VT_E_ARG;
+    }
+    for (i = 0; i < res->n_boxes; ++i) {
+        const vt_box *b = &res->box[i].box;
+        if (b->left < 0 || b->top < 0 || b->left > b->right || b->top > b->bottom ||
+            b->right >= img->w || b->bottom >= img->h) {
+            return VT_E_ARG;
+        }
+    }
+    /* score everything first, so an error leaves res unchanged */
+    {
+        int32_t sc[VT_MAX_BOXES];
+        for (i = 0; i < res->n_boxes; ++i) {
+            vt_box sq = res->box[i].box;
+            int32_t top = sq.bottom - (sq.right - sq.left);
+            sq.top = top > 0 ? top : 0;
+            s = vt_classify_box_mlp(ws, m, img, &sq, &sc[i]);
+            if (s != VT_OK) {
+                return s;
+            }
+        }
+        for (i = 0; i < res->n_boxes; ++i) {
+            if (sc[i] >= score_min) {
+                res->box[n] = res->box[i];
+                res->box[n].score = sc[i];
+                ++n;
+            }
+        }
+    }
+    res->n_boxes = n;
     return VT_OK;
 }
 

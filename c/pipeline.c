@@ -96,7 +96,7 @@ vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg)
         s = vt_model_cfg_check(&cfg->model);
     }
     if (s == VT_OK && (cfg->model_fits < 0 || cfg->model_fits > VT_MAX_TRACKS ||
-                       cfg->model_min_fitness < 0)) {
+                       cfg->model_min_fitness < 0 || (cfg->verify != 0 && cfg->verify != 1))) {
         s = VT_E_ARG;
     }
     return s;
@@ -484,6 +484,13 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
         return VT_OK;
     }
     s = vt_fulldet(&ws->st, &fc, &cam, frame, &out->road, &p->scorer, &ws->res);
+    if (s == VT_OK && p->cfg.verify) {
+        const vt_mlp_model *m = NULL;
+        s = vt_mlp_default_model(&m);
+        if (s == VT_OK) {
+            s = vt_fulldet_verify(&ws->box, m, frame, p->cfg.verify_min, &ws->res);
+        }
+    }
     if (s != VT_OK) {
         return s;
     }

@@ -698,6 +698,12 @@ def fulldet(st, cfg, cam, img: np.ndarray, road, scorer, out) -> np.ndarray:
     n = out.n_boxes
     a = np.frombuffer(ffi.buffer(out.box), SCORED_BOX_DTYPE)[:n].copy()
     return a
+def fulldet_verify(ws, model, img: np.ndarray, score_min: int, out) -> np.ndarray:
+    """vt_fulldet_verify on the result `out` in place -> the kept boxes (a copy)."""
+    v = view(img, "img")
+    check("vt_fulldet_verify", lib.vt_fulldet_verify(ws, model, v, int(score_min), out),
+          f"img {img.shape}, {out.n_boxes} boxes")
+    return np.frombuffer(ffi.buffer(out.box), SCORED_BOX_DTYPE)[:out.n_boxes].copy()
 # ================================================================ end fulldet.h
 
 # ================================================================ classify.h
@@ -859,6 +865,17 @@ def mlp_decision(model, desc: np.ndarray) -> int:
 
 def classify_box_mlp(ws, model, frame: np.ndarray, box) -> int:
     return _classify_box("vt_classify_box_mlp", ws, model, frame, box)
+
+
+_BOX_MLP = {}
+
+
+def classify_box_mlp_default(frame: np.ndarray, l: int, t: int, r: int, b: int) -> int:
+    """The built-in MLP's score of one box (the whole-road detector's second stage, as
+    the reference engine runs it: the classifier is the C one in both engines)."""
+    if not _BOX_MLP:
+        _BOX_MLP["ws"], _BOX_MLP["m"] = box_ws_new(), mlp_default_model()
+    return classify_box_mlp(_BOX_MLP["ws"], _BOX_MLP["m"], np.ascontiguousarray(frame), (l, t, r, b))
 # ================================================================ end classify.h
 # ================================================================ flow.h
 FLOW_HYP_DTYPE = np.dtype([("left", np.int32), ("top", np.int32), ("right", np.int32),

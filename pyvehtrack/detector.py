@@ -18,6 +18,8 @@ module is present and finds lanes; otherwise from a fixed trapezoid
 """
 from __future__ import annotations
 
+import os
+
 from dataclasses import dataclass, field, fields
 
 import numpy as np
@@ -415,7 +417,10 @@ def _full_road(engine, model, sources, camera, score_offset):
             # full-road mode with the built-in model finds 30.8% of the lead cars at
             # IoU >= 0.6 against 97.4% (tools/eval_kitti_lead.py --sources shadow)
             return None
-        sources = fullroad.DEFAULT_SOURCES
+        if isinstance(model, (str, os.PathLike)):
+            model = fullroad.load_model(model)
+        # a model may name the sources it was validated with (its detector_json)
+        sources = tuple((getattr(model, "settings", {}) or {}).get("sources", fullroad.DEFAULT_SOURCES))
     cfg = fullroad.FullRoadConfig(score_offset=float(score_offset))
     return fullroad.FullRoadDetector(model, sources=sources, camera=camera, cfg=cfg, engine=engine)
 

@@ -15,6 +15,12 @@ optionally threshold_q16 and scan_sizes: the window sides (level pixels, increas
 model's window among them) the detector lays on each pyramid level, e.g. [32, 45] for
 two sizes per octave (default: the model's window alone). Sides other than the model's
 window are resampled to it per window (vt_classify_box: slower, same classifier).
+Optionally `detector_json`, the detector settings chosen with the model (so
+`pyvehtrack detect --model M.npz` runs as it was validated): a JSON object with any of
+"sources" (list), "score_offset" (float, added to threshold_q16 for detection only, the
+caller's score_offset adds on top), "nms_iou", "nms_contain", "box_height", "merge_iou"
+(floats, as FullDetConfig) and "verify_min" (float: a second stage, the built-in HOG 64x64 MLP on
+each box, keeps boxes it scores >= this; vt_fulldet_verify). Explicit arguments win.
 """
 from __future__ import annotations
 
@@ -77,6 +83,7 @@ class SvmModel:
     threshold_q16: int = 0
     path: str = "<built-in>"
     scan_sizes: tuple = ()
+    settings: dict = field(default_factory=dict)
 
     def score_float(self, desc_q15: np.ndarray) -> float:
         """The model's decision value (real units) for a Q15 descriptor, in float."""
@@ -101,6 +108,35 @@ class MlpModel:
     threshold_q16: int = 0
     path: str = "<in memory>"
     scan_sizes: tuple = ()
+    settings: dict = field(default_factory=dict)
+
+
+_SETTINGS = {"score_offset": (-32768.0, 32767.0), "nms_iou": (0.0, 1.0), "nms_contain": (0.0, 1.0), "box_height": (1 / 256, 4.0),
+             "merge_iou": (0.0, 1.0), "verify_min": (-32768.0, 32767.0)}
+
+
+def _settings(z, p) -> dict:
+    if "detector_json" not in z.files:
+        return {}
+    import json  # noqa: PLC0415
+    try:
+        d = json.loads(str(z["detector_json"]))
+    except ValueError as e:
+        raise ValueError(f"model: {p}: detector_json is not JSON ({e})") from None
+    if not isinstance(d, dict):
+        raise ValueError(f"model: {p}: detector_json must be a JSON object")
+    for k, v in d.items():
+        if k == "sources":
+            if not isinstance(v, list) or not v or any(x not in SOURCES for x in v):
+                raise ValueError(f"model: {p}: detector_json sources must be a non-empty subset of {SOURCES}")
+        elif k in _SETTINGS:
+            lo, hi = _SETTINGS[k]
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not lo <= v <= hi:
+                raise ValueError(f"model: {p}: detector_json {k} must be a number in {lo}..{hi}, got {v!r}")
+        else:
+            raise ValueError(f"model: {p}: detector_json has an unknown key {k!r} "
+                             f"(known: sources, {', '.join(_SETTINGS)})")
+    return d
 
 
 def load_model(path) -> SvmModel | MlpModel:
@@ -123,20 +159,21 @@ def load_model(path) -> SvmModel | MlpModel:
     if kind is None:
         raise ValueError(f"model: {p}: kind must be 'hog' or 'gist', got {z['kind'].item()!r}")
     scan = _scan_sizes(z, p)
+    settings = _settings(z, p)
     thr = int(z["threshold_q16"]) if "threshold_q16" in z.files else 0
     if mlp:
         arrs = [np.asarray(z[k]) for k in ("w1_q", "b1_q16", "w2_q")]
         if any(not np.issubdtype(a.dtype, np.integer) for a in arrs) or arrs[0].ndim != 2:
             raise ValueError(f"model: {p}: w1_q (2-D), b1_q16 and w2_q must be integer arrays")
         m = MlpModel(kind, int(z["win_w"]), int(z["win_h"]), arrs[0], int(z["w1_shift"]), arrs[1], arrs[2],
-                     int(z["w2_shift"]), int(z["b2_q16"]), thr, p, scan)
+                     int(z["w2_shift"]), int(z["b2_q16"]), thr, p, scan, settings)
         _c_model(m)   # validates shapes, shifts and window against the C core
         return m
     w = np.asarray(z["w_q"])
     if w.ndim != 1 or not np.issubdtype(w.dtype, np.integer) or (np.abs(w.astype(np.int64)) > 32767).any():
         raise ValueError(f"model: {p}: w_q must be a 1-D array of int16 values")
     m = SvmModel(kind, int(z["win_w"]), int(z["win_h"]), w.astype(np.int16), int(z["w_shift"]),
-                 int(z["bias_q16"]), thr, p, scan)
+                 int(z["bias_q16"]), thr, p, scan, settings)
     _c_model(m)   # validates window, dim and shift against the C core
     return m
 
@@ -172,10 +209,15 @@ def _c_model(m):
 @dataclass(frozen=True)
 class FullRoadConfig:
     """Everything but the camera and the model: the oracle's FullDetConfig fields
-    (windows, shadow/verify stages, thresholds, NMS); `score_offset` (float, the SVM's
-    units) is added to the model's own threshold for windows and shadow boxes."""
-    det: FullDetConfig = field(default_factory=FullDetConfig)
+    (windows, shadow/verify stages, thresholds, NMS; None: the library defaults with the
+    model's detector_json settings applied); `score_offset` (float, the SVM's units) is
+    added to the model's own threshold for windows and shadow boxes; `verify_min`
+    (float, or None: the model's setting, else off) turns on the second stage: the
+    built-in HOG 64x64 MLP scores each box (the square on its bottom row) and boxes
+    below verify_min are dropped (vt_fulldet_verify)."""
+    det: FullDetConfig | None = None
     score_offset: float = 0.0
+    verify_min: float | None = None
 
 
 def _c_cfg(cfg: FullDetConfig):
@@ -200,6 +242,7 @@ def _c_cfg(cfg: FullDetConfig):
     c.shadow_score_min, c.shadow_score = int(cfg.shadow_score_min), int(cfg.shadow_score)
     c.nms_iou_q8, c.nms_contain_q8 = round(cfg.nms_iou * 256), round(cfg.nms_contain * 256)
     c.box_height_q8 = round(cfg.box_height * 256)
+    c.merge_iou_q8 = round(cfg.merge_iou * 256)
     _native.check("vt_fulldet_cfg_check", lib.vt_fulldet_cfg_check(c), f"config {cfg}")
     return c
 
@@ -233,13 +276,27 @@ def setup(model=None, sources=SOURCES, camera: Camera | None = None, cfg: FullRo
     cfg = cfg if cfg is not None else FullRoadConfig()
     if not isinstance(cfg, FullRoadConfig):
         raise TypeError(f"cfg: expected a FullRoadConfig, got {type(cfg).__name__}")
+    st = getattr(model, "settings", {}) or {}
     det = cfg.det
+    if det is None:
+        det = replace(FullDetConfig(), **{k: float(st[k]) for k in ("nms_iou", "nms_contain", "box_height",
+                                                                     "merge_iou") if k in st})
+    elif not isinstance(det, FullDetConfig):
+        raise TypeError(f"cfg.det: expected a FullDetConfig or None, got {type(det).__name__}")
+    vmin = cfg.verify_min if cfg.verify_min is not None else st.get("verify_min")
+    if vmin is not None and (isinstance(vmin, bool) or not isinstance(vmin, (int, float))
+                             or not np.isfinite(vmin)):
+        raise TypeError(f"cfg.verify_min: expected a finite number or None, got {vmin!r}")
+    cfg = replace(cfg, det=det, verify_min=None if vmin is None else float(vmin))
     thr = 0
     if model is not None:
-        thr = model.threshold_q16 + int(round(cfg.score_offset * 65536))
+        thr = model.threshold_q16 + int(round((cfg.score_offset + float(st.get("score_offset", 0.0))) * 65536))
         sizes = model.scan_sizes or (model.win_w,)
         if det.win.sizes != sizes and model.win_w == model.win_h:
             det = replace(det, win=replace(det.win, sizes=sizes, step=8 / model.win_w))
+    # the C core holds these in Q8: give the oracle the same quantised values
+    det = replace(det, **{k: round(getattr(det, k) * 256) / 256
+                          for k in ("nms_iou", "nms_contain", "box_height", "merge_iou")})
     det = replace(det, shadow_source="shadow" in sources, window_source="windows" in sources,
                   window_score_min=thr, shadow_score_min=thr,
                   shadow_classify=det.shadow_classify and model is not None)
@@ -288,6 +345,10 @@ class FullRoadDetector:
         if engine not in ("c", "reference"):
             raise ValueError(f"engine: expected 'c' or 'reference', got {engine!r}")
         self.model, sources, self.camera, cfg, det = setup(model, sources, camera, cfg)
+        vmin = cfg.verify_min
+        self.verify_min_q16 = None if vmin is None else int(round(float(vmin) * 65536))
+        self._vmodel = _native.mlp_default_model() if vmin is not None else None
+        self._vws = _native.box_ws_new() if vmin is not None else None
         self.cfg, self.det_cfg, self.sources, self.engine = cfg, det, sources, engine
         self._cfg_c = _c_cfg(det)
         self._state = ffi.new("vt_fulldet_state *")
@@ -342,6 +403,14 @@ class FullRoadDetector:
         _native.check("window scorer", self._scorer.score(self._scorer.ctx, v, win, out))
         return int(out[0])
 
+    def _score_box(self, img, l, t, r, b):
+        """The second-stage classifier (C, vt_classify_box_mlp) on one box, for the reference engine."""
+        box = ffi.new("vt_box *", [l, t, r, b])
+        out = ffi.new("int32_t *")
+        v = _native.view(np.ascontiguousarray(img), "img")
+        _native.check("vt_classify_box_mlp", lib.vt_classify_box_mlp(self._vws, self._vmodel, v, box, out))
+        return int(out[0])
+
     def detect_gray(self, gray: np.ndarray, road=None, horizon_y: int | None = None) -> np.ndarray:
         """Boxes (N, 6) float [left, top, right, bottom, score, source] in the pixels of
         `gray` (uint8 (h, w), within the core's maximum size), highest score first.
@@ -364,6 +433,9 @@ class FullRoadDetector:
             self.last_stats = {k: int(getattr(self._out, k)) for k in
                                ("n_windows", "n_windows_dropped", "n_window_hits", "n_shadow", "n_cand",
                                 "n_cand_dropped")}
+            if self.verify_min_q16 is not None:
+                a = _native.fulldet_verify(self._vws, self._vmodel, gray, self.verify_min_q16, self._out)
+                self.last_stats["n_verified"] = len(a)
             arr = np.stack([a[k] for k in ("left", "top", "right", "bottom", "score", "source")], 1)
         else:
             from .reference import fulldet as rfd  # noqa: PLC0415  (the reference engine only)
@@ -371,6 +443,9 @@ class FullRoadDetector:
                 gray, road_r, cam, self.det_cfg, self._score_py if self._scorer is not None else None,
                 max_windows=int(lib.VT_FULLDET_MAX_WINDOWS), max_cand=int(lib.VT_FULLDET_MAX_CAND),
                 max_boxes=int(lib.VT_MAX_BOXES), max_hyp=int(lib.VT_MAX_HYPOTHESES))
+            if self.verify_min_q16 is not None:
+                arr = rfd.verify_boxes(arr, lambda l, t, r, b: self._score_box(gray, l, t, r, b), self.verify_min_q16)
+                self.last_stats["n_verified"] = len(arr)
         out = np.asarray(arr, np.float64).reshape(-1, 6)
         out[:, 4] /= 65536.0
         return out

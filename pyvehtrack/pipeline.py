@@ -199,6 +199,8 @@ class Pipeline:
         else:
             _m, _, cam, _frc, det = _fr.setup(model, srcs or ("shadow",), road_camera, fullroad)
             det = replace_sources(det, srcs)
+            if _frc.verify_min is not None:   # the model's second stage (vt_fulldet_verify)
+                self._ccfg.verify, self._ccfg.verify_min = 1, int(round(_frc.verify_min * 65536))
         self.model, self.road_camera, self._det_cfg = _m, cam, det
         self._ccfg.fulldet = _fr._c_cfg(det)[0]
         self._ccfg.road_camera = _fr.road_camera_to_c(cam)[0]
@@ -363,10 +365,16 @@ class Pipeline:
                 import dataclasses  # noqa: PLC0415
                 from types import SimpleNamespace  # noqa: PLC0415
                 rcfg = dataclasses.replace(rcfg, flow=SimpleNamespace(**self._flow_fields))
+            box_score = None
             if self.whole_road:
                 rcfg = _whole_road_reference(rcfg, self._ccfg)
                 score = self._ref_score()
-            self._ref = rpipe.Pipeline(rcfg, _config.reference_capacities(), camera=geom, score=score)
+                if self._ccfg.verify:
+                    import dataclasses  # noqa: PLC0415
+                    rcfg = dataclasses.replace(rcfg, verify_min=int(self._ccfg.verify_min))
+                    box_score = _native.classify_box_mlp_default
+            self._ref = rpipe.Pipeline(rcfg, _config.reference_capacities(), camera=geom, score=score,
+                                       box_score=box_score)
         self.set_ego_speed(self.ego_speed)
 
     @property

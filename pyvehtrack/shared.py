@@ -91,6 +91,7 @@ class FullDetConfig:
     nms_iou: float = 77 / 256
     nms_contain: float = 179 / 256
     box_height: float = 192 / 256     # window box height / width (bottom row kept)
+    merge_iou: float = 0.0            # 0: off; else each kept box -> mean of candidates with IoU >= this
 
 
 @dataclass

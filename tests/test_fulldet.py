@@ -69,6 +69,7 @@ def c_cfg(cfg: rfd.FullDetConfig):
         cfg.shadow_score
     c.nms_iou_q8, c.nms_contain_q8 = round(cfg.nms_iou * 256), round(cfg.nms_contain * 256)
     c.box_height_q8 = round(cfg.box_height * 256)
+    c.merge_iou_q8 = round(cfg.merge_iou * 256)
     assert lib.vt_fulldet_cfg_check(c) == 0
     return c
 
@@ -183,7 +184,7 @@ def test_c_default_config_equals_oracle_default():
     assert lib.vt_fulldet_cfg_check(c) == 0
     cc = c_cfg(rfd.FullDetConfig())
     for name in ("sources", "window_score_min", "edge_check", "shadow_classify", "shadow_score_min", "shadow_score",
-                 "nms_iou_q8", "nms_contain_q8", "box_height_q8"):
+                 "nms_iou_q8", "nms_contain_q8", "box_height_q8", "merge_iou_q8"):
         assert getattr(c, name) == getattr(cc, name), name
     assert bytes(ffi.buffer(ffi.addressof(c, "win"))) == bytes(ffi.buffer(ffi.addressof(cc, "win")))
     ref = rfd.FullDetConfig()
@@ -191,3 +192,94 @@ def test_c_default_config_equals_oracle_default():
         assert getattr(c.det.verify, f) == getattr(ref.verify, f), f
     for f in ref.shadow.__dataclass_fields__:
         assert getattr(c.det.shadow, f) == getattr(ref.shadow, f), f
+
+
+# ---------------------------------------------------------------- box refinement (merge_iou_q8)
+@settings(max_examples=12)
+@given(st.integers(0, 2 ** 31 - 1), st.integers(1, 256), st.integers(0, 256), st.integers(-20, 10))
+def test_merge_matches_oracle(seed, merge, iou, smin):
+    """With merge_iou_q8 > 0 each kept box is the mean (rounded half up) of the
+    candidates overlapping it: C and oracle agree exactly, scores and sources untouched."""
+    rng = np.random.default_rng(seed)
+    h, w = int(rng.integers(40, min(MAXH, 160))), int(rng.integers(40, min(MAXW, 220)))
+    gray = np.clip(np.full((h, w), 120) + rng.integers(-40, 40, (h, w)), 0, 255).astype(np.uint8)
+    cam = rw.Camera(fx=300.0, horizon_y=int(rng.integers(0, h // 3)), height_m=1.5, hood_y=h)
+    base = rfd.FullDetConfig(win=rw.WindowConfig(sizes=(8, 11, 16), levels=3, step=0.25), edge_check=False,
+                             window_score_min=smin, shadow_score_min=smin, nms_iou=iou / 256,
+                             nms_contain=1.0)
+    plain = run_both(gray, cam, base)
+    from dataclasses import replace
+    got, ref, cst, rst, _ = run_both(gray, cam, replace(base, merge_iou=merge / 256))
+    assert cst == rst
+    assert np.array_equal(got, ref)
+    # the same boxes were kept: merging moves them, it does not add or drop any
+    assert len(got) == len(plain[0]) and np.array_equal(got[:, 4:], plain[0][:, 4:])
+
+
+def test_merge_moves_a_box_to_its_neighbours_mean():
+    gray = kitti_frame()
+    from dataclasses import replace
+    cfg = rfd.FullDetConfig(win=rw.WindowConfig(sizes=(16, 23), levels=4), edge_check=False, nms_iou=0.3)
+    plain, *_ = run_both(gray, KITTI_CAM, cfg)
+    got, ref, *_ = run_both(gray, KITTI_CAM, replace(cfg, merge_iou=0.3))
+    assert np.array_equal(got, ref) and len(got) == len(plain)
+    assert (got[:, :4] != plain[:, :4]).any()        # some box moved (it had overlapping neighbours)
+    bad = _native.fulldet_cfg_default()
+    for v in (-1, 257):
+        bad.merge_iou_q8 = v
+        assert lib.vt_fulldet_cfg_check(bad) == lib.VT_E_ARG
+
+
+# ---------------------------------------------------------------- second stage (vt_fulldet_verify)
+def _result(boxes):
+    out = ffi.new("vt_fulldet_result *")
+    out.n_boxes = len(boxes)
+    for i, (l, t, r, b, sc, src) in enumerate(boxes):
+        out.box[i].box.left, out.box[i].box.top, out.box[i].box.right, out.box[i].box.bottom = l, t, r, b
+        out.box[i].score, out.box[i].source = sc, src
+    return out
+
+
+def test_verify_matches_oracle_and_rejects_bad_arguments():
+    """vt_fulldet_verify = reference.fulldet.verify_boxes with the same box scorer
+    (vt_classify_box_mlp, exact against its own oracle in tests/test_classify.py)."""
+    gray = kitti_frame()
+    h, w = gray.shape
+    rng = np.random.default_rng(3)
+    boxes = []
+    for _ in range(int(lib.VT_MAX_BOXES)):
+        l = int(rng.integers(0, w - 20)); r = int(rng.integers(l + 4, min(w, l + 120)))
+        b = int(rng.integers(10, h)); t = int(rng.integers(max(0, b - 80), b + 1))
+        boxes.append((l, t, r, b, int(rng.integers(-9, 9)), int(rng.integers(1, 3))))
+    m = _native.mlp_default_model()
+    ws = _native.box_ws_new()
+
+    def score_box(l, t, r, b):
+        out = ffi.new("int32_t *")
+        bx = ffi.new("vt_box *", [l, t, r, b])
+        assert lib.vt_classify_box_mlp(ws, m, _native.view(gray, "img"), bx, out) == 0
+        return int(out[0])
+
+    all_scores = [score_box(l, max(0, b - (r - l)), r, b) for l, t, r, b, _, _ in boxes]
+    for smin in (-2 ** 31, int(np.median(all_scores)), 2 ** 31 - 1):
+        res = _result(boxes)
+        got = _native.fulldet_verify(ws, m, gray, smin, res)
+        got_a = np.stack([got[k] for k in ("left", "top", "right", "bottom", "score", "source")], 1).reshape(-1, 6)
+        ref = rfd.verify_boxes(np.array(boxes, np.int64), score_box, smin)
+        assert np.array_equal(got_a, ref)
+    assert 0 < len(rfd.verify_boxes(np.array(boxes), score_box, int(np.median(all_scores)))) < len(boxes)
+    # bad arguments: clear status, result unchanged
+    v = _native.view(gray, "img")
+    res = _result(boxes[:3])
+    for args in ((ffi.NULL, m, v, 0, res), (ws, ffi.NULL, v, 0, res), (ws, m, ffi.NULL, 0, res),
+                 (ws, m, v, 0, ffi.NULL)):
+        assert lib.vt_fulldet_verify(*args) == lib.VT_E_ARG
+    for bad in ([(0, 0, w, 5, 0, 1)], [(5, 5, 4, 9, 0, 1)], [(-1, 0, 5, 5, 0, 1)], [(0, 0, 5, h, 0, 1)]):
+        r2 = _result(bad)
+        assert lib.vt_fulldet_verify(ws, m, v, 0, r2) == lib.VT_E_ARG and r2.n_boxes == 1
+    res.n_boxes = int(lib.VT_MAX_BOXES) + 1
+    assert lib.vt_fulldet_verify(ws, m, v, 0, res) == lib.VT_E_ARG and res.n_boxes == int(lib.VT_MAX_BOXES) + 1
+    res.n_boxes = -1
+    assert lib.vt_fulldet_verify(ws, m, v, 0, res) == lib.VT_E_ARG
+    with pytest.raises(VtError, match="vt_fulldet_verify"):
+        _native.fulldet_verify(ws, m, np.zeros((0, 4), np.uint8), 0, _result([]))

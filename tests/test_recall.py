@@ -117,3 +117,60 @@ def test_shipped_mlp_model_loads():
     see tests/data/README.md) loads and scans two sizes per octave."""
     m = fullroad.load_model(MLP_MODEL)
     assert isinstance(m, fullroad.MlpModel) and m.win_w == 32 and m.scan_sizes == (32, 45)
+
+
+def test_full_road_merge_and_second_stage_c_equals_reference():
+    """Box refinement (merge_iou) and the second stage (verify_min: the built-in HOG 64
+    MLP on each box, vt_fulldet_verify) keep the C detector and the oracle identical."""
+    from dataclasses import replace
+
+    from pyvehtrack.reference import fulldet as rfd
+    gray = kitti_frame()
+    m = random_mlp(2, scan=(32, 45))
+    cam = fullroad.Camera(horizon_frac=88 / 188, hood_frac=0.99, height_m=1.65, fx_per_width=360 / 621)
+    outs = []
+    for engine in ("c", "reference"):
+        cfg = fullroad.FullRoadConfig(det=replace(rfd.FullDetConfig(), merge_iou=0.3, nms_iou=0.2), verify_min=-40.0)
+        det = fullroad.FullRoadDetector(m, sources=("shadow", "windows"), camera=cam, engine=engine, cfg=cfg)
+        outs.append((det.detect_gray(gray), dict(det.last_stats)))
+    (a, sa), (b, sb) = outs
+    assert sa == sb and sa["n_windows"] > 50 and 0 < sa["n_verified"]
+    assert np.array_equal(a, b)
+
+
+def test_model_detector_settings(tmp_path):
+    """detector_json in a model file sets the detector (sources, offset, NMS, box
+    height, merge, second stage); explicit arguments win; bad settings are clear errors."""
+    import json
+
+    from pyvehtrack.detector import Detector
+    good = {"sources": ["windows"], "score_offset": 1.5, "nms_iou": 0.25, "nms_contain": 0.5, "box_height": 0.875,
+            "merge_iou": 0.3, "verify_min": 2.0}
+    p = _save(tmp_path, "set.npz", detector_json=np.array(json.dumps(good)))
+    m = fullroad.load_model(p)
+    assert m.settings == good
+    det = fullroad.FullRoadDetector(m, sources=("shadow", "windows"))
+    d = det.det_cfg
+    assert (d.nms_iou, d.nms_contain, d.box_height, d.merge_iou) == (0.25, 0.5, 0.875, 77 / 256)   # Q8, as in C
+    assert d.window_score_min == m.threshold_q16 + round(1.5 * 65536) and det.verify_min_q16 == 2 * 65536
+    det2 = fullroad.FullRoadDetector(m, cfg=fullroad.FullRoadConfig(score_offset=1.0, verify_min=-1.0))
+    assert det2.det_cfg.window_score_min == m.threshold_q16 + round(2.5 * 65536) and det2.verify_min_q16 == -65536
+    assert Detector(model=str(p)).full.sources == ("windows",)
+    assert Detector(model=str(p), sources=("shadow",)).full.sources == ("shadow",)
+    for bad, what in (("{", "not JSON"), ("[1]", "JSON object"), ('{"nms_iou": 2}', "nms_iou"),
+                      ('{"sources": ["trees"]}', "sources"), ('{"colour": 1}', "unknown key"),
+                      ('{"verify_min": true}', "verify_min")):
+        with pytest.raises(ValueError, match=what):
+            fullroad.load_model(_save(tmp_path, "bad.npz", detector_json=np.array(bad)))
+    with pytest.raises(TypeError, match="verify_min"):
+        fullroad.FullRoadDetector(m, cfg=fullroad.FullRoadConfig(verify_min=float("nan")))
+    with pytest.raises(TypeError, match="cfg.det"):
+        fullroad.FullRoadDetector(m, cfg=fullroad.FullRoadConfig(det="fast"))
+
+
+def test_shipped_model_carries_its_settings():
+    """The shipped window model names the settings chosen for it on the 'val' frames."""
+    m = fullroad.load_model(MLP_MODEL)
+    assert m.settings["sources"] == ["shadow", "windows"] and m.settings["verify_min"] > 0
+    det = fullroad.FullRoadDetector(m)
+    assert det.verify_min_q16 is not None and det.det_cfg.merge_iou > 0

@@ -44,6 +44,10 @@ def main(argv=None) -> int:
     ap.add_argument("--nms-contain", type=float, default=None, help="full-road NMS containment (default: FullDetConfig's)")
     ap.add_argument("--box-height", type=float, default=None,
                     help="full-road window box height / width (default: FullDetConfig's 0.75)")
+    ap.add_argument("--merge-iou", type=float, default=None,
+                    help="box refinement: each kept box -> mean of candidates with IoU >= this (0: off)")
+    ap.add_argument("--verify-min", type=float, default=None,
+                    help="second stage: built-in HOG 64 MLP on each box, keep score >= this (default: the model's)")
     ap.add_argument("--limit", type=int, default=0)
     ap.add_argument("--out", default=None, help="write the predictions (detect --json format)")
     ap.add_argument("--draw", default=None, help="folder for annotated frames (green: found, red: truth)")
@@ -56,17 +60,21 @@ def main(argv=None) -> int:
         frames = frames[: args.limit]
     det = Detector(model=args.model, sources=tuple(args.sources) if args.sources else None,
                    score_offset=args.offset)
-    if (args.nms_iou is not None or args.nms_contain is not None or args.box_height is not None) and \
-            det.full is not None:
+    if (args.nms_iou is not None or args.nms_contain is not None or args.box_height is not None
+            or args.merge_iou is not None or args.verify_min is not None) and det.full is not None:
         from dataclasses import replace
 
         from pyvehtrack import fullroad
         d = det.full.cfg.det
         d = replace(d, nms_iou=d.nms_iou if args.nms_iou is None else args.nms_iou,
                     nms_contain=d.nms_contain if args.nms_contain is None else args.nms_contain,
-                    box_height=d.box_height if args.box_height is None else args.box_height)
+                    box_height=d.box_height if args.box_height is None else args.box_height,
+                    merge_iou=d.merge_iou if args.merge_iou is None else args.merge_iou)
+        c = replace(det.full.cfg, det=d)
+        if args.verify_min is not None:
+            c = replace(c, verify_min=args.verify_min)
         det.full = fullroad.FullRoadDetector(det.full.model, sources=det.full.sources, camera=det.full.camera,
-                                             cfg=replace(det.full.cfg, det=d))
+                                             cfg=c)
     preds, t0 = [], time.time()
     for i, e in enumerate(frames):
         img = cv2.imread(str(data / e["file_name"]))

@@ -9,7 +9,12 @@ user-facing one and writes the same .npz keys).
 The shipped full-road model tests/data/window_mlp_hog32.npz was made with
     --fit-only --scan-sizes 32 45 --rounds 1 --mlp 32 --mlp-iter 40
 (--fit-only keeps the 'val' part of TRAIN unseen, for choosing thresholds and NMS with
-tools/eval_tusimple_boxes.py --split val).
+tools/eval_tusimple_boxes.py --split val); its detector settings (detector_json: score
+offset, NMS, box height, merge, second stage) were then chosen on 'val' and written with
+--detector-json '{"sources": ["shadow", "windows"], "score_offset": 2.0, "nms_iou": 0.2,
+"nms_contain": 0.5, "box_height": 0.875, "merge_iou": 0.3, "verify_min": 4.0}'.
+A 64-unit MLP with 3 hard-negative rounds (--rounds 3 --mlp 64) was tried and was no
+better on 'val' (e.g. 31.4% recall >= 32 px at 48.8% precision against 31.9% / 48.3%).
 
 Data, TRAIN parts only (pyvehtrack.datasets splits; never the tusimple TEST frames):
   * positives: every box >= 20 px wide of the tusimple-vehicles-dev TRAIN frames, as a
@@ -101,6 +106,9 @@ def main(argv=None) -> int:
                     help="train a one-hidden-layer MLP (pyvehtrack.train.fit_mlp) with HIDDEN ReLU units "
                          "instead of the linear SVM (mining rounds then use the MLP)")
     ap.add_argument("--mlp-iter", type=int, default=60)
+    ap.add_argument("--detector-json", default=None,
+                    help="detector settings stored with the model (fullroad.load_model's detector_json), "
+                         "as a JSON object string")
     ap.add_argument("--fit-only", action="store_true",
                     help="train on the 'fit' part of TRAIN only (datasets.tusimple_subsplit), keeping 'val' unseen")
     args = ap.parse_args(argv)
@@ -207,6 +215,9 @@ def main(argv=None) -> int:
                     added += 1
         print(f"  hard negatives added: {added}", flush=True)
     extra = {"scan_sizes": np.asarray(scan, np.int32)} if args.scan_sizes else {}
+    if args.detector_json:
+        json.loads(args.detector_json)   # fail before writing anything unreadable
+        extra["detector_json"] = np.array(args.detector_json)
     if args.mlp:
         np.savez(args.out, model_type="mlp", kind="hog", win_w=win, win_h=win, w1_q=model.w1_q,
                  w1_shift=model.w1_shift, b1_q16=model.b1_q16, w2_q=model.w2_q, w2_shift=model.w2_shift,

@@ -86,6 +86,11 @@ typedef struct {
     int32_t nms_contain_q8;
     int32_t box_height_q8;    /* a window's box keeps its bottom row and width; its
                                  height is max(1, width * this >> 8), 1..1024        */
+    int32_t merge_iou_q8;     /* 0: off; 1..256: each box kept by NMS becomes the mean
+                                 of every candidate (kept or not, itself included)
+                                 whose IoU with it is >= this / 256 (box refinement:
+                                 the highest-scoring window is rarely the best
+                                 aligned one; the mean of its neighbours is closer) */
 } vt_fulldet_cfg;
 
 /* Defaults: both sources, windows as VT_WIN_CFG_DEFAULT, detection as
@@ -119,6 +124,7 @@ typedef struct {
         .nms_iou_q8 = 77,                    \
         .nms_contain_q8 = 179,               \
         .box_height_q8 = 192,                \
+        .merge_iou_q8 = 0,                   \
     }
 
 typedef struct {
@@ -147,6 +153,12 @@ vt_status vt_fulldet_cfg_default(vt_fulldet_cfg *cfg);
  * their checks, edge_check and shadow_classify are 0/1 and the NMS limits are in
  * 0..256; else that check's status (VT_E_ARG / VT_E_CAPACITY). */
 vt_status vt_fulldet_cfg_check(const vt_fulldet_cfg *cfg);
+
+/* The merge step (merge_iou_q8 > 0): box k of the NMS output is replaced by the
+ * mean of the candidates c with inter * 256 >= merge_iou_q8 * union (inclusive
+ * areas, exact in int64) against k's own box, each coordinate rounded half up:
+ * floor((2 sum + n) / (2 n)); sums are exact in int64 (|coord| <= 2^24, n <=
+ * VT_FULLDET_MAX_CAND). The score and source stay those of box k. */
 
 /* Detect vehicles in one gray frame.
  *   road: the road area (lanes or vt_road_from_camera), made for img's height;
@@ -218,5 +230,17 @@ vt_status vt_mlp_scorer_init(vt_mlp_scorer *sc, const vt_mlp_model *m);
 /* vt_window_scorer.score for ctx = a vt_mlp_scorer *. */
 vt_status vt_mlp_scorer_score(void *ctx, const vt_image_u8 *level_img, const vt_window *win,
                               int32_t *score);
+
+/* Second-stage verification of a result (a cascade: the window model proposes,
+ * a stronger model decides): every box of res is scored by the MLP m on the
+ * square standing on the box's bottom row (columns left..right, rows
+ * bottom - width + 1 .. bottom, cut at row 0) through vt_classify_box_mlp (so
+ * its arithmetic, classify.h); boxes scoring >= score_min (Q16) are kept in
+ * their order with that score, the others are dropped (res->n_boxes shrinks).
+ * Errors: NULL ws, m, img or res -> VT_E_ARG; m as vt_mlp_model_check; img as
+ * vt_image_u8_check; res->n_boxes outside 0..VT_MAX_BOXES or a box outside img
+ * -> VT_E_ARG. On error res is unchanged. */
+vt_status vt_fulldet_verify(vt_cls_box_ws *ws, const vt_mlp_model *m, const vt_image_u8 *img,
+                            int32_t score_min, vt_fulldet_result *res);
 
 #endif /* VEHTRACK_FULLDET_H */

@@ -144,6 +144,12 @@ typedef struct {
     int32_t model_min_fitness; /* a fit below this is not used, >= 0. Default 256: more
                                 than a featureless patch scores (255 w_sym: perfectly
                                 symmetric, no edge, no shadow) at the default weights  */
+    int32_t verify;          /* 0, or 1: a second stage on the whole-road detector's boxes
+                                (a cascade): the built-in HOG 64x64 MLP re-scores each
+                                box (vt_fulldet_verify) and those under verify_min are
+                                dropped; needs a classifier workspace and a build with
+                                the default MLP                                        */
+    vt_q16 verify_min;       /* that stage's threshold, a Q16 decision value            */
 } vt_pipeline_cfg;
 
 #define VT_PIPELINE_CFG_DEFAULT                                   \
@@ -164,6 +170,8 @@ typedef struct {
         .model = VT_MODEL_CFG_DEFAULT,                            \
         .model_fits = ((VT_MAX_TRACKS) < 2 ? (VT_MAX_TRACKS) : 2), \
         .model_min_fitness = 256,                                 \
+        .verify = 0,                                              \
+        .verify_min = 0,                                          \
     }
 
 /* The whole-road detector's scratch, owned by the caller and attached with
@@ -175,6 +183,7 @@ typedef struct {
     vt_fulldet_state st;
     vt_fulldet_result res;
     vt_hog_scorer hog;
+    vt_cls_box_ws box; /* the second stage's scratch (cfg.verify) */
 } vt_pipe_cls_ws;
 
 /* Everything the pipeline keeps. Caller-owned (static storage on firmware);

@@ -24,6 +24,7 @@ typedef struct {
     int32_t nms_iou_q8;
     int32_t nms_contain_q8;
     int32_t box_height_q8;
+    int32_t merge_iou_q8;
 } vt_fulldet_cfg;
 
 typedef struct { ...; } vt_fulldet_state;
@@ -41,6 +42,8 @@ typedef struct {
 
 vt_status vt_fulldet_cfg_default(vt_fulldet_cfg *cfg);
 vt_status vt_fulldet_cfg_check(const vt_fulldet_cfg *cfg);
+vt_status vt_fulldet_verify(vt_cls_box_ws *ws, const vt_mlp_model *m, const vt_image_u8 *img,
+                            int32_t score_min, vt_fulldet_result *res);
 vt_status vt_fulldet(vt_fulldet_state *st, const vt_fulldet_cfg *cfg, const vt_camera_min *cam,
                      const vt_image_u8 *img, const vt_road_area *road,
                      const vt_window_scorer *scorer, vt_fulldet_result *out);

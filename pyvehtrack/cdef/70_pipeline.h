@@ -49,12 +49,15 @@ typedef struct {
     vt_model_cfg model;
     int32_t model_fits;
     int32_t model_min_fitness;
+    int32_t verify;
+    vt_q16 verify_min;
 } vt_pipeline_cfg;
 
 typedef struct {
     vt_fulldet_state st;
     vt_fulldet_result res;
     vt_hog_scorer hog;
+    vt_cls_box_ws box;
 } vt_pipe_cls_ws;
 
 typedef struct {

@@ -11,7 +11,11 @@ The composition the IVVI paper (sec. 4/5) and the GIST paper (sec. III) describe
      2.4.2, reference.shadow / reference.verify); with shadow_classify, the window
      of the pyramid nearest each shadow box in width is scored and the box kept if
      it scores >= shadow_score_min;
-  4. greedy NMS of all boxes (reference.windows.nms).
+  4. greedy NMS of all boxes (reference.windows.nms);
+  5. with merge_iou > 0, box refinement: each kept box becomes the mean of every
+     candidate whose IoU with it is at least merge_iou (rounded half up);
+  6. (verify_boxes, a separate call) a second classifier on the square standing on
+     each box's bottom keeps the boxes it scores >= its minimum.
 The classifier is any function score(level_image, level, size, x, y) -> int (the
 same scale as the C scorer), so C and oracle can share one.
 """
@@ -102,7 +106,34 @@ def detect(gray: np.ndarray, road, cam: rw.Camera, cfg: FullDetConfig, score=Non
     stats["n_cand"] = len(cands)
     keep = rw.nms([c[:4] for c in cands], [c[4] for c in cands], cfg.nms_iou, cfg.nms_contain)
     out = np.array([cands[i] for i in keep], np.int64).reshape(-1, 6)[:max_boxes]
+    if cfg.merge_iou > 0:
+        from fractions import Fraction
+        lim = Fraction(round(cfg.merge_iou * 256), 256)
+        allc = [tuple(int(v) for v in c[:4]) for c in cands]
+        for k in range(len(out)):
+            a = tuple(int(v) for v in out[k, :4])
+            grp = []
+            for b in allc:
+                inter, union, _, _ = rw._iou_parts(a, b)
+                if inter > 0 and Fraction(inter, union) >= lim:
+                    grp.append(b)
+            if grp:   # mean rounded half up: floor(mean + 1/2)
+                out[k, :4] = [int(np.floor(Fraction(sum(g[i] for g in grp), len(grp)) + Fraction(1, 2)))
+                              for i in range(4)]
     return out, stats
 
 
-__all__ = ["FullDetConfig", "detect"]
+def verify_boxes(boxes: np.ndarray, score_box, score_min: int) -> np.ndarray:
+    """Second-stage check (twin of vt_fulldet_verify): score_box(l, t, r, b) -> int
+    on the square standing on each box's bottom (top cut at row 0); boxes scoring
+    >= score_min are kept in order, carrying that score."""
+    out = []
+    for row in np.asarray(boxes, np.int64).reshape(-1, 6):
+        l, t, r, b = (int(v) for v in row[:4])
+        sc = int(score_box(l, max(0, b - (r - l)), r, b))
+        if sc >= score_min:
+            out.append([l, t, r, b, sc, int(row[5])])
+    return np.array(out, np.int64).reshape(-1, 6)
+
+
+__all__ = ["FullDetConfig", "detect", "verify_boxes"]

@@ -110,6 +110,7 @@ class PipelineRefConfig:
     model: object = None  # the vehicle model's settings (reference.vehicle_model's cfg), with "model"
     model_fits: int = 2   # most model fits per frame
     model_min_fitness: int = 256  # a fit below this is not used
+    verify_min: int | None = None  # Q16: the whole-road boxes' second stage (box_score) and its threshold
 
 
 @dataclass
@@ -153,13 +154,17 @@ class Pipeline:
     """One run over a video: step(gray) per frame, in order."""
 
     def __init__(self, cfg: PipelineRefConfig | None = None, caps: Capacities | None = None,
-                 camera=None, score=None):
+                 camera=None, score=None, box_score=None):
         """camera: None, or (reference.camera.CameraParams, RangeParams) for frames of
         exactly the camera's img_w x img_h. score: None (the ego-lane detector), or the
         classifier of the whole-road detector, score(level_image, level, size, x, y) ->
-        int (see reference.fulldet)."""
+        int (see reference.fulldet). box_score: the second stage's classifier of one box,
+        box_score(gray, l, t, r, b) -> int (cfg.verify_min; see reference.fulldet.verify_boxes)."""
         self.cfg = cfg or PipelineRefConfig()
         self.score = score
+        self.box_score = box_score
+        if self.cfg.verify_min is not None and box_score is None:
+            raise ValueError("verify_min: the second stage needs box_score")
         self.horizon_y = None      # the last lanes' vanishing row (whole-road detector)
         self.caps = caps or Capacities()
         self.camera = camera
@@ -419,6 +424,8 @@ class Pipeline:
                              max_hyp=self.caps.max_hypotheses,
                              max_shadow_active=self.caps.max_shadow_active,
                              max_shadow_cand=self.caps.max_shadow_cand)
+        if c.verify_min is not None:
+            arr = rfd.verify_boxes(arr, lambda l, t, r, b: self.box_score(gray, l, t, r, b), c.verify_min)
         stats.update(st)
         hyp = np.zeros((0, 3), np.int64)
         if fc.shadow_source:
