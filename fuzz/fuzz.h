@@ -20,6 +20,7 @@
 #include <string.h>
 #include "vehtrack/config.h"
 #include "vehtrack/image.h"
+#include "vehtrack/road.h"
 #include "vehtrack/status.h"
 
 #define FZ_MAX_BLOCKS 16
@@ -274,6 +275,38 @@ static inline void fz_mutate_i32s(fz *f, void *cfg, size_t bytes)
             v = fz_edge(f, v > 0 ? v : 1);
         }
         memcpy(p + (size_t)idx * 4u, &v, 4);
+    }
+}
+
+/* A road area for a w x h frame: mostly plausible (a trapezoid-free band with
+ * the lane's middle half), sometimes every field from the bytes (rows out of
+ * the frame, crossed boundaries, a height not the frame's, valid not 0/1). */
+static inline void fz_road(fz *f, vt_road_area *road, int32_t w, int32_t h)
+{
+    int32_t y;
+    uint8_t plausible = fz_u8(f) < 200;
+    w = w > 0 && w <= VT_MAX_WIDTH ? w : 1;
+    h = h > 0 && h <= VT_MAX_HEIGHT ? h : 1;
+    road->valid = plausible ? 1 : fz_edge(f, 1);
+    road->height = plausible ? h : fz_edge(f, h);
+    road->y_top = plausible ? fz_range(f, 0, h - 1) : fz_edge(f, h);
+    road->y_bottom = plausible ? fz_range(f, road->y_top, h - 1) : fz_edge(f, h);
+    if (plausible) {
+        for (y = 0; y < VT_MAX_HEIGHT; y++) {
+            road->x_left[y] = (int16_t)(w / 4);
+            road->x_right[y] = (int16_t)(w - 1 - w / 4);
+            road->lane_width[y] = (int16_t)(w / 2);
+        }
+        return;
+    }
+    {
+        /* Three values repeated: per-row noise would cost 3 * VT_MAX_HEIGHT draws. */
+        int16_t l = (int16_t)fz_raw_i32(f), r = (int16_t)fz_raw_i32(f), lw = (int16_t)fz_raw_i32(f);
+        for (y = 0; y < VT_MAX_HEIGHT; y++) {
+            road->x_left[y] = l;
+            road->x_right[y] = r;
+            road->lane_width[y] = lw;
+        }
     }
 }
 
