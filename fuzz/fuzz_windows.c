@@ -66,7 +66,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     camera(&f, &cam, h > 0 && h <= VT_MAX_HEIGHT ? h : 100);
     fz_status(vt_camera_min_check((nulls & 32) ? NULL : &cam));
     if (op == 0) { /* camera road, row distance */
-        int32_t mm = -1, row = fz_u8(&f) < 200 ? fz_range(&f, -2, h + 2) : fz_edge(&f, h);
+        int32_t mm = -1, row = fz_u8(&f) < 200 ? fz_near(&f, h > 0 && h <= VT_MAX_HEIGHT ? 0 : 64, -2, 122) : fz_edge(&f, h);
         s = vt_road_from_camera((nulls & 1) ? NULL : &cfg, (nulls & 2) ? NULL : &cam, w, h,
                                 (nulls & 4) ? NULL : &g_road);
         fz_status(s);
@@ -81,15 +81,15 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     } else if (op == 1) { /* windows of one level */
         int32_t level = fz_u8(&f) < 220 ? fz_range(&f, 0, VT_WIN_MAX_LEVELS - 1) : fz_edge(&f, VT_WIN_MAX_LEVELS);
         int32_t cap = fz_u8(&f) < 128 ? fz_range(&f, 0, 64) : (fz_u8(&f) < 200 ? 4096 : fz_edge(&f, 4096));
-        size_t alloc = cap > 0 && cap <= 4096 ? (size_t)cap : 0;
-        vt_window *out = (vt_window *)fz_alloc(&f, alloc * sizeof(vt_window));
+        vt_window *out;
+        if (cap > 4096) {
+            cap = 4096; /* the array's size: a cap past it would be the harness lying */
+        }
+        out = (vt_window *)fz_alloc(&f, (size_t)(cap > 0 ? cap : 0) * sizeof(vt_window));
         if (fz_u8(&f) & 1) {
             fz_status(vt_road_from_camera(&cfg, &cam, w, h, &g_road));
         } else {
             fz_road(&f, &g_road, w, h);
-        }
-        if (cap > 4096) {
-            cap = 4096; /* the array's size: a cap past it would be the harness lying */
         }
         s = vt_windows_level((nulls & 1) ? NULL : &cfg, (nulls & 2) ? NULL : &cam,
                              (nulls & 4) ? NULL : &g_road, w, h, level, (nulls & 8) ? NULL : out, cap,
