@@ -8,6 +8,7 @@
 #include <string.h>
 #include "vehtrack/classify.h"
 #include "vehtrack/fulldet.h"
+#include "vehtrack/vehicle_model.h"
 #include "vehtrack/windows.h"
 
 static int g_fail;
@@ -52,8 +53,40 @@ static void scorer_window_overflow(void)
     }
 }
 
+static vt_model_ws g_model_ws;
+
+/* vt_model_fitness accepted level = -1 after a failed vt_model_prepare (which
+ * marks the workspace with level -1 but kept the last image): the fitness then
+ * shifted by a negative amount (UB) on a stale image. */
+static void model_fitness_level_minus_one(void)
+{
+    vt_image_u8 img = {g_px, 48, 48, 48};
+    vt_model_cfg cfg;
+    vt_model_search se;
+    vt_model_params p = {24, 40, 20, 16, 30, 20, 10};
+    int32_t fit = 1, i;
+    for (i = 0; i < 48 * 48; i++) {
+        g_px[i] = (uint8_t)(i * 7);
+    }
+    memset(&se, 0, sizeof se);
+    se.roi.left = 0;
+    se.roi.top = 0;
+    se.roi.right = 47;
+    se.roi.bottom = 47;
+    se.y_min = 10;
+    se.y_max = 47;
+    expect(vt_model_cfg_default(&cfg) == VT_OK && vt_model_prepare(&img, &cfg, &se, 0, &g_model_ws) == VT_OK,
+           "model prepare level 0");
+    expect(vt_model_prepare(NULL, &cfg, &se, 0, &g_model_ws) == VT_E_ARG, "model prepare NULL frame");
+    expect(vt_model_fitness(&img, &cfg, &se, -1, &g_model_ws, &p, &fit) == VT_E_ARG && fit == 0,
+           "model fitness at level -1 is VT_E_ARG");
+    expect(vt_model_fitness(&img, &cfg, &se, 0, &g_model_ws, &p, &fit) == VT_E_ARG,
+           "model fitness after a failed prepare is VT_E_ARG");
+}
+
 int main(void)
 {
     scorer_window_overflow();
+    model_fitness_level_minus_one();
     return g_fail;
 }
