@@ -6,6 +6,7 @@
 #include <stdint.h>
 #include <stdio.h>
 #include <string.h>
+#include "vehtrack/camera.h"
 #include "vehtrack/classify.h"
 #include "vehtrack/fulldet.h"
 #include "vehtrack/vehicle_model.h"
@@ -84,8 +85,48 @@ static void model_fitness_level_minus_one(void)
            "model fitness after a failed prepare is VT_E_ARG");
 }
 
+static vt_range_state g_range;
+
+/* vt_range_step: a filtered distance of ~20 m with a range rate of -3/65536 m/s
+ * gives d / -rate = 4e5 s, past int32 in Q16; the quotient was converted to
+ * int32 before the comparison with ttc_max, so it wrapped to a negative TTC that
+ * was reported valid (and a negative TTC is under every FCW threshold). The
+ * sequence is fuzz_camera's (a track jumping between two boxes). */
+static void range_ttc_wraps(void)
+{
+    static const vt_box boxes[5] = {{962, 135, 1166, 143}, {962, 135, 1166, 143}, {962, 135, 1166, 143},
+                                    {15, 29, 219, 37}, {962, 135, 1166, 143}};
+    static const int32_t states[5] = {2, 2, 3, 2, 2};
+    vt_camera_cfg cam;
+    vt_range_cfg rc;
+    vt_range_out out[4];
+    int32_t f, n = 0, bad = 0, seen_rate = 0;
+    expect(vt_camera_cfg_default(&cam) == VT_OK && vt_range_cfg_default(&rc) == VT_OK, "range cfgs");
+    cam.tan_pitch = -1;
+    cam.width_tol_percent = 146;
+    rc.stopped_speed = 65535;
+    expect(vt_range_init(&g_range) == VT_OK, "range init");
+    for (f = 0; f < 5; f++) {
+        vt_track_out t;
+        t.id = 2;
+        t.state = states[f];
+        t.box = boxes[f];
+        t.vx = f == 3 ? -89 : -1414;
+        t.vy = f == 4 ? 15492 : -1414;
+        expect(vt_range_step(&g_range, &rc, &cam, 8191, 2621439, &t, 1, out, 4, &n) == VT_OK && n == 1,
+               "range step");
+        seen_rate |= out[0].rate < 0 && out[0].rate > -16;
+        if ((out[0].flags & VT_RANGE_TTC_DIST_VALID) && out[0].ttc_dist < 0) {
+            bad = 1;
+        }
+    }
+    expect(seen_rate, "range: a tiny closing rate is reached");
+    expect(!bad, "range: a valid distance TTC is never negative");
+}
+
 int main(void)
 {
+    range_ttc_wraps();
     scorer_window_overflow();
     model_fitness_level_minus_one();
     return g_fail;
