@@ -476,9 +476,10 @@ static void vt__range_track_step(vt_range_track *t, const vt_range_cfg *cfg,
     /* TTC from the filtered distance and rate: d / -rate (Q16 / Q16 -> Q16 s) */
     ttc_ok = 0;
     if (t->updates >= cfg->min_frames && o->rate < 0 && o->dist_filt > 0) {
-        ttc = (vt_q16)vt__div_or((int64_t)o->dist_filt * VT_Q16_ONE, -(int64_t)o->rate,
-                                 (int64_t)INT32_MAX);
-        if (ttc <= cfg->ttc_max) {
+        /* compared in int64: a tiny rate gives a quotient past int32 */
+        q = vt__div_or((int64_t)o->dist_filt * VT_Q16_ONE, -(int64_t)o->rate, (int64_t)INT32_MAX);
+        if (q <= cfg->ttc_max) {
+            ttc = (vt_q16)q;
             o->ttc_dist = ttc;
             o->flags |= VT_RANGE_TTC_DIST_VALID;
             ttc_ok = 1;

@@ -445,8 +445,10 @@ vt_status vt_hog_scorer_score(void *ctx, const vt_image_u8 *level_img, const vt_
     if (s != VT_OK) {
         return s;
     }
-    if (win->size < 1 || win->x < 0 || win->y < 0 || win->x + win->size > level_img->w ||
-        win->y + win->size > level_img->h) {
+    /* x + size could overflow for a caller's window: compare against w - size */
+    if (win->size < 1 || win->x < 0 || win->y < 0 || win->size > level_img->w ||
+        win->size > level_img->h || win->x > level_img->w - win->size ||
+        win->y > level_img->h - win->size) {
         return VT_E_ARG;
     }
     m = sc->model;
@@ -507,8 +509,10 @@ vt_status vt_mlp_scorer_score(void *ctx, const vt_image_u8 *level_img, const vt_
     if (s != VT_OK) {
         return s;
     }
-    if (win->size < 1 || win->x < 0 || win->y < 0 || win->x + win->size > level_img->w ||
-        win->y + win->size > level_img->h) {
+    /* x + size could overflow for a caller's window: compare against w - size */
+    if (win->size < 1 || win->x < 0 || win->y < 0 || win->size > level_img->w ||
+        win->size > level_img->h || win->x > level_img->w - win->size ||
+        win->y > level_img->h - win->size) {
         return VT_E_ARG;
     }
     b.left = win->x;

@@ -266,7 +266,8 @@ vt_status vt_model_prepare(const vt_image_u8 *frame, const vt_model_cfg *cfg,
     vt_image_s16 gx, gy;
     int32_t l, x, y;
     if (ws != NULL) {
-        ws->level = -1;
+        ws->level = -1; /* nothing ready until this call succeeds */
+        ws->img = NULL;
     }
     if (frame == NULL || cfg == NULL || search == NULL || ws == NULL ||
         vt_model_cfg_check(cfg) != VT_OK || vt__check_search(search) != VT_OK ||
@@ -432,8 +433,8 @@ vt_status vt_model_fitness(const vt_image_u8 *frame, const vt_model_cfg *cfg,
         *fitness = 0;
     }
     if (frame == NULL || cfg == NULL || search == NULL || ws == NULL || p == NULL ||
-        fitness == NULL || vt_model_cfg_check(cfg) != VT_OK || ws->level != level ||
-        ws->img == NULL) {
+        fitness == NULL || vt_model_cfg_check(cfg) != VT_OK || !vt__in(level, 0, cfg->levels - 1) ||
+        ws->level != level || ws->img == NULL) {
         return VT_E_ARG;
     }
     if (!vt__in(p->x, -lim, lim) || !vt__in(p->y, -lim, lim) || !vt__in(p->w, 1, lim) ||

@@ -20,6 +20,7 @@
 #include <string.h>
 #include "vehtrack/config.h"
 #include "vehtrack/image.h"
+#include "vehtrack/road.h"
 #include "vehtrack/status.h"
 
 #define FZ_MAX_BLOCKS 16
@@ -182,16 +183,16 @@ static inline void fz_fill(fz *f, uint8_t *px, int32_t w, int32_t h, int32_t str
 }
 
 /* Geometry of a view: size and stride from the bytes (stride < w, negative and
- * huge ones included), within [1, maxw] x [1, maxh] most of the time. Returns
+ * huge ones included), within [1, small] x [1, small] most of the time. Returns
  * the elements the view spans, (h-1)*stride + w, or 0 when the geometry is
  * invalid or too large to allocate (then the caller points px at a 1-element
  * block: a correct core rejects the view before any access). */
-static inline size_t fz_geom(fz *f, int32_t maxw, int32_t maxh, int32_t *w, int32_t *h,
-                             int32_t *stride, size_t elem)
+static inline size_t fz_geom_small(fz *f, int32_t small, int32_t maxw, int32_t maxh, int32_t *w,
+                                   int32_t *h, int32_t *stride, size_t elem)
 {
     uint8_t k;
-    *w = fz_size(f, 48, maxw);
-    *h = fz_size(f, 48, maxh);
+    *w = fz_size(f, small, maxw);
+    *h = fz_size(f, small, maxh);
     k = fz_u8(f);
     {
         int64_t st = k < 160 ? *w : (k < 220 ? (int64_t)*w + (k & 15) :
@@ -218,12 +219,22 @@ static inline size_t fz_geom(fz *f, int32_t maxw, int32_t maxh, int32_t *w, int3
     }
 }
 
-/* A read-only 8-bit view from the bytes (px NULL sometimes). */
-static inline vt_image_u8 fz_image_u8(fz *f, int32_t maxw, int32_t maxh)
+/* fz_geom_small with the usual 1..48 sizes. */
+static inline size_t fz_geom(fz *f, int32_t maxw, int32_t maxh, int32_t *w, int32_t *h,
+                             int32_t *stride, size_t elem)
+{
+    return fz_geom_small(f, 48, maxw, maxh, w, h, stride, elem);
+}
+
+/* A read-only 8-bit view from the bytes (px NULL sometimes), mostly 1..small
+ * square (edges of 1..max sometimes): a harness whose stage costs much per
+ * pixel passes a smaller `small`, never a smaller max (a view the core accepts
+ * must be a view the harness allocated). */
+static inline vt_image_u8 fz_image_u8_small(fz *f, int32_t small, int32_t maxw, int32_t maxh)
 {
     vt_image_u8 v;
     int32_t w, h, stride;
-    size_t n = fz_geom(f, maxw, maxh, &w, &h, &stride, 1);
+    size_t n = fz_geom_small(f, small, maxw, maxh, &w, &h, &stride, 1);
     uint8_t *px = (uint8_t *)fz_alloc(f, n);
     if (px != NULL && n > 0) {
         fz_fill(f, px, w, h, stride);
@@ -233,6 +244,12 @@ static inline vt_image_u8 fz_image_u8(fz *f, int32_t maxw, int32_t maxh)
     v.h = h;
     v.stride = stride;
     return v;
+}
+
+/* A read-only 8-bit view, mostly 1..48 square. */
+static inline vt_image_u8 fz_image_u8(fz *f, int32_t maxw, int32_t maxh)
+{
+    return fz_image_u8_small(f, 48, maxw, maxh);
 }
 
 /* A writable output view of `elem`-byte pixels, exactly spanning its geometry. */
@@ -274,6 +291,38 @@ static inline void fz_mutate_i32s(fz *f, void *cfg, size_t bytes)
             v = fz_edge(f, v > 0 ? v : 1);
         }
         memcpy(p + (size_t)idx * 4u, &v, 4);
+    }
+}
+
+/* A road area for a w x h frame: mostly plausible (a trapezoid-free band with
+ * the lane's middle half), sometimes every field from the bytes (rows out of
+ * the frame, crossed boundaries, a height not the frame's, valid not 0/1). */
+static inline void fz_road(fz *f, vt_road_area *road, int32_t w, int32_t h)
+{
+    int32_t y;
+    uint8_t plausible = fz_u8(f) < 200;
+    w = w > 0 && w <= VT_MAX_WIDTH ? w : 1;
+    h = h > 0 && h <= VT_MAX_HEIGHT ? h : 1;
+    road->valid = plausible ? 1 : fz_edge(f, 1);
+    road->height = plausible ? h : fz_edge(f, h);
+    road->y_top = plausible ? fz_range(f, 0, h - 1) : fz_edge(f, h);
+    road->y_bottom = plausible ? fz_range(f, road->y_top, h - 1) : fz_edge(f, h);
+    if (plausible) {
+        for (y = 0; y < VT_MAX_HEIGHT; y++) {
+            road->x_left[y] = (int16_t)(w / 4);
+            road->x_right[y] = (int16_t)(w - 1 - w / 4);
+            road->lane_width[y] = (int16_t)(w / 2);
+        }
+        return;
+    }
+    {
+        /* Three values repeated: per-row noise would cost 3 * VT_MAX_HEIGHT draws. */
+        int16_t l = (int16_t)fz_raw_i32(f), r = (int16_t)fz_raw_i32(f), lw = (int16_t)fz_raw_i32(f);
+        for (y = 0; y < VT_MAX_HEIGHT; y++) {
+            road->x_left[y] = l;
+            road->x_right[y] = r;
+            road->lane_width[y] = lw;
+        }
     }
 }
 

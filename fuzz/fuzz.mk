@@ -35,9 +35,11 @@ FUZZ_ENV     := ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print
 .PHONY: fuzz fuzz-long fuzz-build $(addprefix fuzz-,$(FUZZ_NAMES))
 
 # The core is compiled once (instrumented, without libFuzzer's main: fuzzer-no-link)
-# and every harness links those objects: eight harnesses cost one core build.
+# and every harness links those objects: all harnesses cost one core build.
 FUZZ_CORE_FLAGS := $(subst -fsanitize=fuzzer$(comma),-fsanitize=fuzzer-no-link$(comma),$(FUZZ_FLAGS))
 FUZZ_OBJS    := $(patsubst c/%.c,$(FUZZ_OUT)/obj/%.o,$(CORE_SRCS))
+# Keep them between builds (make would delete them as intermediates).
+.SECONDARY: $(FUZZ_OBJS)
 
 $(FUZZ_OUT)/obj/%.o: c/%.c $(CORE_HDRS)
 	@command -v $(FUZZ_CC) >/dev/null || { echo "fuzz: $(FUZZ_CC) not found; run 'make setup' (apt-get install clang libclang-rt-14-dev)" >&2; exit 1; }

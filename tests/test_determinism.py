@@ -11,9 +11,21 @@ Cortex-M7 images under QEMU (`make firmware-run`). Every `checksum` line and
 every pipeline line must be identical across all of them: no tolerance, as the
 core is integer-only. (Lines that measure the machine -- insns, ram, stack,
 sizeof -- legitimately differ and are not compared.)
+
+The second run, tests/c/determinism_stages.c, covers the stages main.c does not
+run: classifier decisions on every window of a band (HOG blocks, SVM scores,
+GIST descriptors, MLP scores), whole-road detection boxes (fulldet with the HOG
+scorer), flow vectors of every cell and the overtaking / hand-over hypotheses,
+the GA's best model and last generation (detection, then tracking), and camera
+distances, the pitch filter and the range stage's distance / rate / TTC / FCW.
+Each is one FNV-1a digest line `stage NAME 0x...`; they must be identical under
+the same host matrix and on Cortex-M3 / M7 images of the same driver under QEMU
+(built here with the firmware's flags, link script and board). gcc -O3 builds
+with -Wall -Wextra -Werror, so -Wmaybe-uninitialized is an error there.
 """
 from __future__ import annotations
 
+import hashlib
 import re
 import shutil
 import subprocess
@@ -105,3 +117,105 @@ def test_word_size_really_differs():
     r = run(exe)
     sizes = dict(re.findall(r"^sizeof (\S+) (\d+)$", r.stdout, re.M))
     assert sizes["vt_image_u8"] == "16", sizes  # 4-byte pointer + 3 int32
+
+
+# ------------------------------------------------------------ the new stages
+STAGES_SOURCES = [ROOT / "tests" / "c" / "determinism_stages.c", ROOT / "tests" / "c" / "board_host.c"]
+# The clip's size as the capacities: the states then fit the boards' 4 MB of RAM.
+STAGES_DEFS = ["-DVT_MAX_WIDTH=640", "-DVT_MAX_HEIGHT=256"]
+STAGE_LINE = re.compile(r"^stage (\w+) (0x[0-9a-f]{8})$", re.M)
+STAGE_NAMES = {"classify", "fulldet", "flow", "model", "camera"}
+# firmware_demo/firmware.mk's flags: the Makefile's STRICT set, -O2, the cores.
+FW_STRICT = ["-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror", "-Wshadow", "-Wstrict-prototypes",
+             "-Wmissing-prototypes", "-Wcast-qual", "-Wdouble-promotion", "-Wfloat-equal"]
+FW_CORES = {
+    "cortex-m3": (["-mcpu=cortex-m3", "-mthumb", "-mfloat-abi=soft"], "mps2-an385"),
+    "cortex-m7": (["-mcpu=cortex-m7", "-mthumb", "-mfpu=fpv5-d16", "-mfloat-abi=hard"], "mps2-an500"),
+}
+
+
+def stage_digests(text: str) -> dict[str, str]:
+    return dict(STAGE_LINE.findall(text))
+
+
+@pytest.fixture(scope="module")
+def stages_host():
+    out = {}
+    for name, (cc, flags) in MATRIX.items():
+        need(cc)
+        if "-m32" in flags and not _multilib_ok():
+            pytest.skip("gcc -m32 cannot link: install gcc-multilib (make setup)")
+        exe = build(STAGES_SOURCES, shutil.which(cc), [*flags, *STAGES_DEFS, f"-I{FW}"],
+                    "stages-" + re.sub(r"\W+", "_", name))
+        r = run(exe)
+        assert r.returncode == 0 and r.stdout.rstrip().endswith("done"), f"{name}: {r.stdout[-2000:]}{r.stderr[-2000:]}"
+        out[name] = r.stdout
+    return out
+
+
+def _arm_image(core: str) -> "Path":
+    arch, _ = FW_CORES[core]
+    cc = "arm-none-eabi-gcc"
+    srcs = [*sorted((ROOT / "c").glob("*.c")), ROOT / "tests" / "c" / "determinism_stages.c"]
+    deps = [*srcs, FW / "board.c", FW / "board.h", FW / "link.ld", FW / "clip_data.h",
+            *sorted((ROOT / "include" / "vehtrack").glob("*.h")), *sorted((ROOT / "c").glob("*.h")),
+            *sorted((ROOT / "c" / "tables").glob("*.h"))]
+    h = hashlib.sha256(" ".join([core, *arch, *FW_STRICT, *STAGES_DEFS]).encode())
+    for f in deps:
+        h.update(f.read_bytes())
+    out_dir = ROOT / "build" / "cdrivers" / f"stages-{core}-{h.hexdigest()[:16]}"
+    elf = out_dir / "stages.elf"
+    if elf.exists():
+        return elf
+    out_dir.mkdir(parents=True, exist_ok=True)
+    env = clean_env()
+    common = [*FW_STRICT, "-O2", "-ffunction-sections", "-fdata-sections", *arch]
+    for src in srcs:
+        subprocess.run([cc, *common, *STAGES_DEFS, f"-I{ROOT / 'include'}", f"-I{FW}", "-c", str(src),
+                        "-o", str(out_dir / (src.stem + ".o"))], check=True, env=env, capture_output=True)
+    subprocess.run([cc, *common, "-ffreestanding", "-fno-tree-loop-distribute-patterns", f"-I{FW}", "-c",
+                    str(FW / "board.c"), "-o", str(out_dir / "fw_board.o")], check=True, env=env,
+                   capture_output=True)
+    subprocess.run([cc, *arch, "-nostdlib", "-nostartfiles", "-T", str(FW / "link.ld"), "-Wl,--gc-sections",
+                    "-o", str(elf), *map(str, sorted(out_dir.glob("*.o"))), "-lgcc"], check=True, env=env,
+                   capture_output=True)
+    return elf
+
+
+@pytest.fixture(scope="module")
+def stages_arm():
+    _require_tools()
+    out = {}
+    for core, (_, board) in FW_CORES.items():
+        elf = _arm_image(core)
+        r = subprocess.run(["timeout", "300", "qemu-system-arm", "-M", board, "-nographic", "-monitor", "none",
+                            "-semihosting-config", "enable=on,target=native", "-kernel", str(elf)],
+                           stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                           timeout=320, env=clean_env())
+        assert r.returncode == 0 and r.stdout.rstrip().endswith("done"), f"{core}: {r.stdout[-3000:]}"
+        out[core] = r.stdout
+    return out
+
+
+def test_stages_host_matrix_is_bit_identical(stages_host):
+    ref_name = "gcc -O0"
+    ref = stage_digests(stages_host[ref_name])
+    assert set(ref) == STAGE_NAMES, ref
+    # The stages must have done something, or equal digests would prove little.
+    text = stages_host[ref_name]
+    fd = re.search(r"^fulldet (\d+) (\d+) (\d+) (\d+)$", text, re.M)
+    assert fd and int(fd.group(1)) > 0 and int(fd.group(2)) > 100, text
+    cw = re.search(r"^classify_windows (\d+) (\d+) (\d+)", text, re.M)
+    assert cw and int(cw.group(1)) * int(cw.group(2)) > 100, text
+    fl = re.search(r"^flow (\d+) (\d+)", text, re.M)
+    assert fl and int(fl.group(2)) > 0, text  # some cells found a vector
+    fcw = re.search(r"^camera_fcw (-?\d+)", text, re.M)
+    assert fcw and int(fcw.group(1)) >= 0, text  # the approaching car raised a warning
+    for name, out in stages_host.items():
+        assert stage_digests(out) == ref, f"{name} differs from {ref_name}"
+
+
+def test_stages_arm_images_match_the_host(stages_host, stages_arm):
+    ref = stage_digests(stages_host["gcc -O0"])
+    for core, text in stages_arm.items():
+        assert stage_digests(text) == ref, core

@@ -201,7 +201,9 @@ vt_status vt_kf_init_cv(vt_kf *kf, const vt_kf_model_cfg *cfg, vt_q16 x, vt_q16 
 /* A measurement with its own noise (IVVI paper eq. 6: the error of a distance grows with
  * it, so each measurement brings its R): kf->R = r (dim_z x dim_z, row-major, Q31.32),
  * then vt_kf_update(kf, z). r must be symmetric with a non-negative diagonal, else
- * VT_E_ARG. On any error *kf is unchanged (R included). (c/kalman_r.c) */
+ * VT_E_ARG. It must also be positive semi-definite, which is not checked (a
+ * non-PSD r, e.g. [[a, b], [b, 1]] with b^2 > a, can leave a negative variance in
+ * P). On any error *kf is unchanged (R included). (c/kalman_r.c) */
 vt_status vt_kf_update_r(vt_kf *kf, const vt_q16 *z, const vt_q32 *r);
 
 #endif /* VEHTRACK_KALMAN_H */
