@@ -61,8 +61,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     if (cfg.scale_steps > 2) {
         cfg.scale_steps = cfg.scale_steps % 3;
     }
-    s = vt_edge_map((nulls & 1) ? NULL : &img, (nulls & 2) ? NULL : &cfg, (nulls & 4) ? NULL : &roi,
-                    (nulls & 8) ? NULL : &g_ws);
+    s = vt_edge_map((nulls & 8) ? NULL : &g_ws, (nulls & 2) ? NULL : &cfg, (nulls & 1) ? NULL : &img,
+                    (nulls & 4) ? NULL : &roi);
     fz_status(s);
     if (s == VT_OK) {
         FZ_ASSERT(g_ws.w >= 1 && g_ws.h >= 1 && (int64_t)g_ws.w * g_ws.h <= VT_EDGE_MAX_PIXELS);
