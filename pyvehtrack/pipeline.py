@@ -195,7 +195,10 @@ class Pipeline:
             frc = fullroad if fullroad is not None else _fr.FullRoadConfig()
             if not isinstance(frc, _fr.FullRoadConfig):
                 raise TypeError(f"fullroad: expected a fullroad.FullRoadConfig, got {type(frc).__name__}")
-            det = replace(frc.det, shadow_source="shadow" in srcs, window_source="windows" in srcs)
+            det = frc.det if frc.det is not None else _fr.FullDetConfig()   # None: the library defaults
+            det = replace(det, shadow_source="shadow" in srcs, window_source="windows" in srcs)
+            if frc.verify_min is not None:   # the second stage (vt_fulldet_verify)
+                self._ccfg.verify, self._ccfg.verify_min = 1, int(round(float(frc.verify_min) * 65536))
         else:
             _m, _, cam, _frc, det = _fr.setup(model, srcs or ("shadow",), road_camera, fullroad)
             det = replace_sources(det, srcs)

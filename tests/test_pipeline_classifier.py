@@ -250,3 +250,39 @@ def test_tracker_with_a_model_runs_the_classifier_source():
         assert [(t.id, t.state, t.box, t.source) for t in old] == [(t.id, t.state, t.box, t.source) for t in new], i
         seen |= {t.source for t in new}
     assert seen and seen <= {"shadow", "classifier"}
+
+
+@pytest.mark.skipif(MAXW < 640 or MAXH < 360, reason="needs a build that takes 640x360 frames")
+def test_second_stage_inside_the_pipeline():
+    """cfg.verify: the built-in HOG 64x64 MLP re-scores each whole-road box inside
+    vt_pipeline_step (vt_fulldet_verify), as the stand-alone stage does; the reference
+    engine applies reference.fulldet.verify_boxes with the same (C) box classifier, so
+    the shadow-only run is exact. A threshold no box reaches leaves no box, and none at
+    all (-inf) leaves the first stage's boxes: the stage is really applied."""
+    from pyvehtrack import fullroad
+    gray = cv2.cvtColor(cv2.imread(str(FRAME)), cv2.COLOR_BGR2GRAY)
+
+    def run(vmin, engine="c"):
+        cfg = fullroad.FullRoadConfig(verify_min=vmin)
+        return Pipeline(engine, model=str(MLP), sources=("shadow",), road="fixed", detect_every=1,
+                        track=False, fullroad=cfg).step(gray)
+
+    first = Pipeline(model=str(MLP), sources=("shadow",), road="fixed", detect_every=1, track=False,
+                     fullroad=fullroad.FullRoadConfig(verify_min=-30000.0)).step(gray)
+    assert len(first.boxes) >= 1
+    none = run(30000.0)
+    assert none.boxes == []
+    for vmin in (0.0, 4.0):
+        res = run(vmin)
+        alone = fullroad.FullRoadDetector(str(MLP), sources=("shadow",),
+                                          cfg=fullroad.FullRoadConfig(verify_min=vmin)).detect_gray(gray)
+        assert res.box_array.tolist() == alone[:, :4].astype(int).tolist()
+        assert [b.score for b in res.boxes] == alone[:, 4].tolist()
+        _compare(res, run(vmin, "reference"), f"udacity shadow, second stage >= {vmin}")
+        kept = {tuple(b.box) for b in res.boxes}
+        assert kept <= {tuple(b.box) for b in first.boxes}
+    cfg = ffi.new("vt_pipeline_cfg *")
+    assert lib.vt_pipeline_cfg_default(cfg) == lib.VT_OK
+    assert cfg.verify == 0
+    cfg.verify = 2
+    assert lib.vt_pipeline_cfg_check(cfg) == lib.VT_E_ARG
