@@ -4,7 +4,8 @@
  * whole-road detector (IVVI paper sec. 4/5 windows, GIST paper sec. III
  * classifier, c/fulldet.c) -- every detect_every frames, the
  * tracker on every frame (sec. 3.5-3.6), and with a camera the distance, TTC and
- * warning per track (IVVI paper sec. 4, c/camera.c). It only composes the stages through
+ * warning per track (IVVI paper sec. 4, c/camera.c), and the block-scale TTC per track
+ * (IVVI paper sec. 4's scale-change TTC, c/ttc_scale.c). It only composes the stages through
  * their public functions; the firmware, the bench driver and Python all call
  * vt_pipeline_step, so the order is written once. */
 #include "vehtrack/pipeline.h"
@@ -95,6 +96,9 @@ vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg)
     if (s == VT_OK) {
         s = vt_model_cfg_check(&cfg->model);
     }
+    if (s == VT_OK) {
+        s = vt_ttc_cfg_check(&cfg->ttc);
+    }
     if (s == VT_OK && (cfg->model_fits < 0 || cfg->model_fits > VT_MAX_TRACKS ||
                        cfg->model_min_fitness < 0 || (cfg->verify != 0 && cfg->verify != 1))) {
         s = VT_E_ARG;
@@ -130,6 +134,8 @@ vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
     p->flow_st = NULL;
     memset(&p->flow, 0, sizeof(p->flow));
     p->model_ws = NULL;
+    p->ttc_st = NULL;
+    p->n_ttc = 0;
     p->frame = 0;
     p->ego_speed = -VT_Q16_ONE;
     memset(&p->pitch, 0, sizeof(p->pitch));
@@ -212,6 +218,22 @@ vt_status vt_pipeline_set_model_ws(vt_pipeline *p, vt_model_ws *ws)
     }
     p->model_ws = ws;
     return VT_OK;
+}
+
+vt_status vt_pipeline_set_ttc_ws(vt_pipeline *p, vt_ttc_state *st)
+{
+    vt_status s = VT_OK;
+    if (p == NULL) {
+        return VT_E_ARG;
+    }
+    if (st != NULL) {
+        s = vt_ttc_init(st);
+    }
+    if (s == VT_OK) {
+        p->ttc_st = st;
+        p->n_ttc = 0;
+    }
+    return s;
 }
 
 vt_status vt_pipeline_set_ego_speed(vt_pipeline *p, vt_q16 speed)
@@ -400,6 +422,15 @@ static void vt__out_tracks(const vt_pipeline *p, int32_t n, int32_t n_ranges, vt
         o->ttc_ms = VT_UNKNOWN;
         o->warning = p->camera != NULL ? VT_FCW_NONE : VT_FCW_UNKNOWN;
         o->source = 0;
+        o->ttc_points_q16 = VT_UNKNOWN;
+        for (k = 0; k < p->n_ttc; ++k) {
+            if (p->ttc_out[k].id == t->id) {
+                if (p->ttc_out[k].flags & VT_TTC_VALID) {
+                    o->ttc_points_q16 = p->ttc_out[k].ttc;
+                }
+                break;
+            }
+        }
         for (k = 0; k < n_ranges; ++k) {
             const vt_range_out *r = &p->ranges[k];
             if (r->id != t->id) {
@@ -801,6 +832,18 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
         if (sg != VT_OK && sg != VT_E_CAPACITY) {
             n_ranges = 0;
             s = sg;
+        }
+    }
+    p->n_ttc = 0;
+    if (p->ttc_st != NULL && p->cfg.track) {
+        /* Capacity (more live tracks than VT_TTC_TRACKS) leaves the rest unknown; the
+         * tracker's tracks always pass vt_ttc_step's checks, so any other error is a bug
+         * worth returning. */
+        vt_status st = vt_ttc_step(p->ttc_st, &p->cfg.ttc, frame, p->tracks, n_tracks,
+                                   p->ttc_out, VT_MAX_TRACKS, &p->n_ttc);
+        if (st != VT_OK && st != VT_E_CAPACITY) {
+            p->n_ttc = 0;
+            s = st;
         }
     }
     vt__out_tracks(p, n_tracks, n_ranges, out);

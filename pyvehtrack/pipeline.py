@@ -40,6 +40,14 @@ sources "model" (vehicle_model={"fits": 2, ...}): the GA vehicle model refits th
 tracks whose ROI search failed (source "model"). Their state / workspace is allocated
 and attached here (vt_pipeline_set_flow_ws, vt_pipeline_set_model_ws). Each track says
 which source started it (Track.source).
+
+ttc_points=True (or a dict of reference.ttc_scale.TtcScaleParams fields, e.g.
+{"lag": 4}): the block-scale TTC (c/ttc_scale.c: the median scale change of SAD-matched
+blocks inside each track's box over `lag` frames) runs after the tracker on every frame
+(vt_pipeline_set_ttc_ws; its 113 KB state allocated here); Track.ttc_points is that TTC
+in s, None when unknown (fewer than lag frames, too few pairs, not closing, beyond
+ttc_max, or a track past the VT_TTC_TRACKS first). It needs no camera: frame_dt is 1/fps
+when fps is given, else the dict's frame_dt, else 0.1 s.
 """
 from __future__ import annotations
 
@@ -93,6 +101,7 @@ class Track:
     warning: bool | None = None    # forward-collision warning; None without a camera
     source: str | None = None      # the source that started the track ("shadow", "classifier",
                                    # "external"); None if no box of its first frame met it
+    ttc_points: float | None = None  # block-scale TTC, s (Pipeline(ttc_points=...)); None if unknown
 
 
 @dataclass
@@ -140,7 +149,8 @@ class Pipeline:
     def __init__(self, engine: str = "c", camera=None, model=None,
                  cfg: PipelineConfig | None = None, *, fps: float | None = None,
                  ego_speed: float | None = None, reference_quantized: bool = True,
-                 road_camera=None, fullroad=None, flow=None, vehicle_model=None, **config):
+                 road_camera=None, fullroad=None, flow=None, vehicle_model=None, ttc_points=None,
+                 **config):
         if engine not in ENGINES:
             raise ValueError(f"engine: expected one of {ENGINES}, got {engine!r}")
         if camera is not None:
@@ -151,8 +161,12 @@ class Pipeline:
                 raise ValueError("camera: 'height_m' (camera height above the road) is required")
             if isinstance(fps, bool) or not isinstance(fps, (int, float)) or not np.isfinite(fps) or fps < 1:
                 raise ValueError(f"fps: a camera needs the frame rate, a number >= 1; got {fps!r}")
-        elif fps is not None or ego_speed is not None:
-            raise ValueError("fps and ego_speed are for the camera stage: pass camera= too")
+        elif ego_speed is not None or (fps is not None and not ttc_points):
+            raise ValueError("fps and ego_speed are for the camera stage: pass camera= too "
+                             "(fps also sets the block-scale TTC's frame period, ttc_points=)")
+        elif fps is not None and (isinstance(fps, bool) or not isinstance(fps, (int, float))
+                                  or not np.isfinite(fps) or fps < 1):
+            raise ValueError(f"fps: the frame rate, a number >= 1; got {fps!r}")
         self.camera, self.fps = camera, fps
         self._geom = None          # (input w, h) the camera stage was set up for
         self.ego_speed = None
@@ -164,6 +178,7 @@ class Pipeline:
         self._setup_classifier(model, road_camera, fullroad)
         self._setup_flow(flow)
         self._setup_vehicle_model(vehicle_model)
+        self._setup_ttc_points(ttc_points, fps)
         self.max_w, self.max_h = int(lib.VT_MAX_WIDTH), int(lib.VT_MAX_HEIGHT)
         self._warned = False
         self.reset()
@@ -257,6 +272,40 @@ class Pipeline:
         self._model_oracle_cfg = _vm.oracle_cfg(mc)
         _native.pipeline_cfg_check(self._ccfg)
 
+    def _setup_ttc_points(self, tp, fps) -> None:
+        """The block-scale TTC's settings (vt_pipeline_cfg.ttc): None/False (not run), True
+        (the core's defaults) or a dict of reference.ttc_scale.TtcScaleParams fields; frame_dt
+        = 1/fps when fps is given."""
+        self._ttc_st = None
+        self._ttc_params = None
+        if tp is None or tp is False:
+            return
+        if tp is not True and not isinstance(tp, dict):
+            raise TypeError(f"ttc_points: expected True or a dict of TtcScaleParams fields, "
+                            f"got {type(tp).__name__}")
+        from .camera import ScaleTtc  # noqa: PLC0415
+        params = dict(tp) if isinstance(tp, dict) else {}
+        if fps is not None:
+            if "frame_dt" in params:
+                raise ValueError("ttc_points: give the frame period as fps= or as 'frame_dt', not both")
+            rate = float(fps)
+        else:
+            dt = params.pop("frame_dt", 0.1)
+            if isinstance(dt, bool) or not isinstance(dt, (int, float)) or not np.isfinite(dt) \
+                    or not 0 < dt <= 1:
+                raise ValueError(f"ttc_points: 'frame_dt' must be a number in (0, 1] s, got {dt!r}")
+            rate = 1.0 / float(dt)
+        try:
+            # ScaleTtc checks every field (names, int32, the core's ranges) and holds the
+            # vt_ttc_cfg and the values C runs (for the oracle); its reference engine
+            # allocates nothing big
+            est = ScaleTtc(rate, engine="reference", **params)
+        except (TypeError, ValueError) as e:
+            raise type(e)(f"ttc_points: {e}") from None
+        self._ccfg.ttc = est._c[0]
+        self._ttc_params = est.params
+        _native.pipeline_cfg_check(self._ccfg)
+
     def _ref_score(self):
         """The classifier for the reference engine: the callable, else the C classifier
         on the window alone (its own oracle lives with the classify stage)."""
@@ -344,6 +393,12 @@ class Pipeline:
                 if self._model_ws is None:
                     self._model_ws = ffi.new("vt_model_ws *")
                 _native.check("vt_pipeline_set_model_ws", lib.vt_pipeline_set_model_ws(self._p, self._model_ws))
+            if self._ttc_params is not None:
+                # the block-scale TTC's state (sizeof(vt_ttc_state), 113 KB at the default
+                # capacities): one per Pipeline, emptied by every attach
+                if self._ttc_st is None:
+                    self._ttc_st = ffi.new("vt_ttc_state *")
+                _native.check("vt_pipeline_set_ttc_ws", lib.vt_pipeline_set_ttc_ws(self._p, self._ttc_st))
             # The edge-curve measurement's workspace (sizeof(vt_edge_ws), 320 KB at the
             # default VT_EDGE_MAX_PIXELS) exists only when that measurement runs; it is
             # scratch, so one per Pipeline serves every run (init detaches it).
@@ -376,7 +431,13 @@ class Pipeline:
                     import dataclasses  # noqa: PLC0415
                     rcfg = dataclasses.replace(rcfg, verify_min=int(self._ccfg.verify_min))
                     box_score = _native.classify_box_mlp_default
-            self._ref = rpipe.Pipeline(rcfg, _config.reference_capacities(), camera=geom, score=score,
+            caps = _config.reference_capacities()
+            if self._ttc_params is not None:
+                import dataclasses  # noqa: PLC0415
+                rcfg = dataclasses.replace(rcfg, ttc_points=self._ttc_params)
+                caps = dataclasses.replace(caps, ttc_tracks=int(lib.VT_TTC_TRACKS),
+                                           ttc_hist=int(lib.VT_TTC_HIST))
+            self._ref = rpipe.Pipeline(rcfg, caps, camera=geom, score=score,
                                        box_score=box_score)
         self.set_ego_speed(self.ego_speed)
 
@@ -475,7 +536,8 @@ class Pipeline:
                         None if t.distance_mm == lib.VT_UNKNOWN else t.distance_mm / 1000,
                         None if t.ttc_ms == lib.VT_UNKNOWN else t.ttc_ms / 1000,
                         None if t.warning == lib.VT_FCW_UNKNOWN else bool(t.warning & lib.VT_FCW_WARNING),
-                        SOURCE_NAMES.get(int(t.source)))
+                        SOURCE_NAMES.get(int(t.source)),
+                        None if t.ttc_points_q16 == lib.VT_UNKNOWN else t.ttc_points_q16 / 65536)
                   for t in (o.tracks[i] for i in range(o.n_tracks))]
         stats = {}
         if o.detection_frame and self.whole_road and detections is None:
@@ -505,8 +567,9 @@ class Pipeline:
             road = _polygon(r.road.x_left, r.road.x_right, r.road.y_top, r.road.y_bottom)
         boxes = [Box(tuple(int(v) for v in b), s, _score(s, sc))
                  for b, s, sc in zip(r.boxes, r.box_source, r.box_score)]
-        tracks = [Track(int(i), STATES[int(s)], b, (float(vx), float(vy)), d, ttc, wn, src)
-                  for (i, s, b, vx, vy, d, ttc, wn), src in zip(r.tracks, r.track_source)]
+        pts = r.track_ttc_points or [None] * len(r.tracks)
+        tracks = [Track(int(i), STATES[int(s)], b, (float(vx), float(vy)), d, ttc, wn, src, tp)
+                  for (i, s, b, vx, vy, d, ttc, wn), src, tp in zip(r.tracks, r.track_source, pts)]
         return FrameResult(r.frame, r.detection_frame, lanes, road, r.road_source,
                            np.asarray(r.hypotheses, np.int64).reshape(-1, 3), boxes, tracks, 1.0,
                            dict(r.stats), bool(getattr(r, "flow_ready", False)))
@@ -594,7 +657,7 @@ def _rescale(res: FrameResult, sx: float, sy: float, h0: int, w0: int) -> FrameR
     return FrameResult(res.frame, res.detection_frame, res.lanes, road, res.road_source, hyp,
                        [Box(box(b.box), b.source, b.score) for b in res.boxes],
                        [Track(t.id, t.state, box(t.box), (t.velocity[0] * sx, t.velocity[1] * sy),
-                              t.distance, t.ttc, t.warning, t.source) for t in res.tracks],
+                              t.distance, t.ttc, t.warning, t.source, t.ttc_points) for t in res.tracks],
                        float(max(sx, sy)), res.stats, res.flow_ready)
 
 

@@ -35,6 +35,7 @@ class Track:
     velocity: tuple       # (vx, vy) of the bottom edge, input px/frame
     source: str = "shadow"  # the hypothesis source that started it: "shadow" | "classifier"
                             # (boxes given to step() count as "shadow": the CLI's detections)
+    ttc_points: float | None = None  # block-scale TTC, s (Tracker(ttc_points=...)); None if unknown
 
 
 def cfg_to_c(cfg: rtrk.TrackerCfg):
@@ -120,7 +121,8 @@ class Tracker:
     as the frame's detections."""
 
     def __init__(self, engine: str = "c", cfg: rtrk.TrackerCfg | None = None,
-                 detect_every: int = 10, detector=None, measurement: str | None = None):
+                 detect_every: int = 10, detector=None, measurement: str | None = None,
+                 ttc_points=None, fps: float | None = None):
         from .pipeline import Pipeline  # noqa: PLC0415  (pipeline imports this module's users)
         _check.choice(engine, "engine", ("c", "reference"))
         if measurement is not None:
@@ -144,6 +146,12 @@ class Tracker:
             over = dict(own())
         else:
             over["sources"] = ()   # detections come from step() or the detector object
+        if ttc_points:   # the pipeline's block-scale TTC (Pipeline(ttc_points=..., fps=...))
+            over["ttc_points"] = ttc_points
+            if fps is not None:
+                over["fps"] = fps
+        elif fps is not None:
+            raise ValueError("fps: the frame rate is for the block-scale TTC: pass ttc_points= too")
         self.pipeline = Pipeline(engine, tracker=tracker_config(self.cfg), detect_every=self.detect_every,
                                  reference_quantized=False, **over)
 
@@ -168,5 +176,6 @@ class Tracker:
         res = self.pipeline.step(gray, road=road, detections=dets)
         self.last_was_detection = res.detection_frame
         return [Track(t.id, t.state, t.box, t.velocity,
-                      t.source if t.source in ("shadow", "classifier", "flow", "model") else "shadow")
+                      t.source if t.source in ("shadow", "classifier", "flow", "model") else "shadow",
+                      t.ttc_points)
                 for t in res.tracks]

@@ -17,7 +17,8 @@
  * detector's vt_pipe_cls_ws (vt_pipeline_set_cls_ws; 1,176,248 bytes at the default
  * capacities, 568,488 at VGA), the overtaking stage's vt_flow_state
  * (vt_pipeline_set_flow_ws; 1,917,112 / 592,312) and the vehicle model's vt_model_ws
- * (vt_pipeline_set_model_ws; 416,760). Work: the stages' own (see their headers);
+ * (vt_pipeline_set_model_ws; 416,760), and the block-scale TTC's vt_ttc_state
+ * (vt_pipeline_set_ttc_ws; 113,048 at the defaults). Work: the stages' own (see their headers);
  * detection runs only every detect_every frames, the flow stage on every frame, the
  * vehicle model at most model_fits times per frame. Stack: measured in firmware_demo/
  * (`stack step`: 4.8 KB with every source on). */
@@ -36,6 +37,7 @@
 #include "vehtrack/road.h"
 #include "vehtrack/status.h"
 #include "vehtrack/tracker.h"
+#include "vehtrack/ttc_scale.h"
 #include "vehtrack/vehicle_model.h"
 
 /* Hypothesis sources (bit mask in vt_pipeline_cfg.sources). Shadow and classifier
@@ -150,6 +152,9 @@ typedef struct {
                                 dropped; needs a classifier workspace and a build with
                                 the default MLP                                        */
     vt_q16 verify_min;       /* that stage's threshold, a Q16 decision value            */
+    vt_ttc_cfg ttc;          /* the block-scale TTC (vehtrack/ttc_scale.h) run after the
+                                tracker when its state is attached (vt_pipeline_set_ttc_ws);
+                                frame_dt is the frame period (default 0.1 s)            */
 } vt_pipeline_cfg;
 
 #define VT_PIPELINE_CFG_DEFAULT                                   \
@@ -172,6 +177,7 @@ typedef struct {
         .model_min_fitness = 256,                                 \
         .verify = 0,                                              \
         .verify_min = 0,                                          \
+        .ttc = VT_TTC_CFG_DEFAULT,                                \
     }
 
 /* The whole-road detector's scratch, owned by the caller and attached with
@@ -212,6 +218,9 @@ typedef struct {
     int32_t n_src;                      /* the source that started each live track:   */
     int32_t src_id[VT_MAX_TRACKS];      /* track ids ...                               */
     int32_t src_of[VT_MAX_TRACKS];      /* ... and their VT_SRC_* (0: not known)       */
+    vt_ttc_state *ttc_st;               /* the block-scale TTC's state (NULL: none)    */
+    int32_t n_ttc;                      /* its outputs of the last step ...            */
+    vt_ttc_out ttc_out[VT_MAX_TRACKS];  /* ... (kept here, not on the stack)           */
 } vt_pipeline;
 
 /* A detected box and the source that proposed it. score: the source's confidence:
@@ -241,6 +250,11 @@ typedef struct {
                         a track first appears, the source of the frame's box with the
                         largest intersection with its box (the first of equals); 0 if
                         no box meets it. Kept for the track's life. */
+    vt_q16 ttc_points_q16; /* s, Q16: the block-scale TTC of the track (vt_ttc_step's ttc,
+                              VT_TTC_VALID), VT_UNKNOWN when not known: no state attached
+                              (vt_pipeline_set_ttc_ws), fewer than cfg.ttc.lag frames of
+                              the track, too few pairs, not closing, beyond ttc_max, or
+                              the track beyond the VT_TTC_TRACKS first of the output */
 } vt_pipe_track;
 
 /* One frame's results, all in the pixels of the frame given to vt_pipeline_step. */
@@ -348,6 +362,22 @@ vt_status vt_pipeline_set_flow_ws(vt_pipeline *p, vt_flow_state *st);
  * detector's and the flow's boxes, and makes this a detection frame for the tracker
  * (as a fresh flow box does), so it updates the track it refines. */
 vt_status vt_pipeline_set_model_ws(vt_pipeline *p, vt_model_ws *ws);
+
+/* Attach the caller's state of the block-scale TTC (vehtrack/ttc_scale.h; sizeof
+ * (vt_ttc_state), 113,048 bytes on x86-64 at the default VT_TTC_* capacities, which is
+ * why it is not in vt_pipeline; a firmware build lowers VT_TTC_TRACKS). It is emptied
+ * here (vt_ttc_init) and then holds the tracks' past blocks: it must outlive the run and
+ * serve one pipeline only. Call after vt_pipeline_init (which detaches it); st NULL
+ * detaches. VT_E_ARG for p NULL.
+ *
+ * Policy (vt_pipeline_step): with the state attached and the tracker on, vt_ttc_step
+ * runs on every frame after the tracker (and the camera stage) with cfg.ttc, the frame
+ * and the tracker's live tracks in output order (every state); it needs no camera (only
+ * cfg.ttc.frame_dt). Its TTC is each output track's ttc_points_q16. Only the first
+ * VT_TTC_TRACKS tracks of the output get a slot (the others VT_UNKNOWN; that capacity
+ * is not an error of the step); a track keeps its slot while its id stays live. A frame
+ * of another size restarts it (vt_ttc_step's rule). */
+vt_status vt_pipeline_set_ttc_ws(vt_pipeline *p, vt_ttc_state *st);
 
 /* The ego vehicle's speed for the next steps (the camera stage's lead class), Q16
  * m/s; negative = unknown. VT_E_ARG for NULL. */

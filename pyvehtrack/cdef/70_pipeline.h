@@ -51,6 +51,7 @@ typedef struct {
     int32_t model_min_fitness;
     int32_t verify;
     vt_q16 verify_min;
+    vt_ttc_cfg ttc;
 } vt_pipeline_cfg;
 
 typedef struct {
@@ -97,6 +98,7 @@ typedef struct {
     int32_t ttc_ms;
     int32_t warning;
     int32_t source;
+    vt_q16 ttc_points_q16;
 } vt_pipe_track;
 
 typedef struct {
@@ -125,6 +127,7 @@ vt_status vt_pipeline_set_cls_ws(vt_pipeline *p, vt_pipe_cls_ws *ws, const vt_wi
 vt_status vt_pipeline_set_edge_ws(vt_pipeline *p, vt_edge_ws *ws);
 vt_status vt_pipeline_set_flow_ws(vt_pipeline *p, vt_flow_state *st);
 vt_status vt_pipeline_set_model_ws(vt_pipeline *p, vt_model_ws *ws);
+vt_status vt_pipeline_set_ttc_ws(vt_pipeline *p, vt_ttc_state *st);
 vt_status vt_pipeline_set_ego_speed(vt_pipeline *p, vt_q16 speed);
 vt_status vt_pipeline_step(vt_pipeline *p, const vt_image_u8 *frame, vt_frame_out *out);
 vt_status vt_pipeline_step_road(vt_pipeline *p, const vt_image_u8 *frame,

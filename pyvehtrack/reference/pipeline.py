@@ -28,6 +28,7 @@ from . import fulldet as rfd
 from . import lane as rlane
 from . import shadow as rshadow
 from . import tracker as rtrk
+from . import ttc_scale as rttc
 from . import vehicle_model as rvm
 from . import verify as rverify
 from . import windows as rw
@@ -90,6 +91,8 @@ class Capacities:
     max_flow_blobs: int = 32        # VT_FLOW_MAX_BLOBS
     max_model_roi_pixels: int = 320 * 240  # VT_MODEL_MAX_ROI_PIXELS
     coord_lim: int = 7680           # 4 * max(VT_MAX_WIDTH, VT_MAX_HEIGHT): the tracker's box limit
+    ttc_tracks: int = 4             # VT_TTC_TRACKS
+    ttc_hist: int = 6               # VT_TTC_HIST
 
 
 @dataclass
@@ -111,6 +114,8 @@ class PipelineRefConfig:
     model_fits: int = 2   # most model fits per frame
     model_min_fitness: int = 256  # a fit below this is not used
     verify_min: int | None = None  # Q16: the whole-road boxes' second stage (box_score) and its threshold
+    ttc_points: object = None  # reference.ttc_scale.TtcScaleParams: the block-scale TTC after the
+    #                            tracker (vt_pipeline_set_ttc_ws attached); None: not run
 
 
 @dataclass
@@ -130,6 +135,7 @@ class RefFrame:
                                   # whole-road detector's counters and horizon_y
     box_score: list = field(default_factory=list)  # one score per box (None: no confidence)
     track_source: list = field(default_factory=list)  # per track: the source that started it
+    track_ttc_points: list = field(default_factory=list)  # per track: block-scale TTC, s (None: unknown)
 
 
 def _lane_fits(h: int, w: int, cfg: rlane.LaneConfig) -> bool:
@@ -197,6 +203,9 @@ class Pipeline:
                                     max_edge_points=self.caps.max_edge_points,
                                     max_edge_pixels=self.caps.max_edge_pixels,
                                     coord_lim=self.caps.coord_lim)
+        self.ttc = None            # the block-scale TTC (c/pipeline.c's vt_pipeline_set_ttc_ws)
+        if self.cfg.ttc_points is not None:
+            self.ttc = rttc.TtcScaleTracker(self.cfg.ttc_points, self.caps.ttc_tracks, self.caps.ttc_hist)
         self.frame = 0
         self.track_src = {}        # id -> the source of the box that started the track
 
@@ -313,9 +322,15 @@ class Pipeline:
         if isinstance(box_source, str):
             box_source = [box_source] * len(boxes)
         tsrc = self._track_sources(tracks, boxes[:self.caps.max_boxes], box_source[:self.caps.max_boxes])
+        pts = {}
+        if self.ttc is not None and c.track:
+            # after the tracker and the camera stage, on every live track in output order
+            # (c/pipeline.c: vt_ttc_step on p->tracks; tracks past its capacity: unknown)
+            pts = {o.id: o.ttc for o in self.ttc.step(gray, [(int(t[0]), t[2]) for t in tracks])}
         out = RefFrame(self.frame, det_frame, bool(run_lanes), lanes_ok, lanes, source, road,
                        np.asarray(hyp, np.int64).reshape(-1, 3), boxes, box_source,
-                       tracks, stats, [None] * len(boxes) if scores is None else scores, tsrc)
+                       tracks, stats, [None] * len(boxes) if scores is None else scores, tsrc,
+                       [pts.get(int(t[0])) for t in tracks])
         out.flow_ready = flow_ready
         self.last_boxes = [t[2] for t in tracks]
         self.last_tracks = tracks
