@@ -79,6 +79,7 @@ typedef struct {
     vt_tracker tracker;
     vt_pitch_state pitch;
     vt_range_state range;
+    vt_ttc_state *ttc_st;
     ...;
 } vt_pipeline;
 

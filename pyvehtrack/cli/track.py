@@ -18,7 +18,8 @@ TRACKS.json (--json) is a list of per-frame records
 with null where a value is unknown (no --camera: distance_m, ttc_s null and warning false).
 distance_m is the filtered distance, ttc_s the TTC from it and its rate (pyvehtrack.camera);
 "ttc_points_s" (added field) is the TTC from the scale change of SAD-matched blocks inside the
-box over 5 frames (pyvehtrack.camera.ScaleTtc, c/ttc_scale.c), null when unknown."""
+box over 5 frames (c/ttc_scale.c run inside vt_pipeline_step after the tracker:
+Pipeline(ttc_points=True)), null when unknown or without --camera."""
 from __future__ import annotations
 
 import colorsys
@@ -56,14 +57,14 @@ def kitti_line(frame: int, t, location=None) -> str:
 
 def track_record(t, r=None, p=None) -> dict:
     """One track's entry of TRACKS.json; r: its pyvehtrack.camera range output or None; p: its
-    ScaleTtc output or None."""
+    block-scale TTC in s (the pipeline's Track.ttc_points) or None."""
     return {"id": int(t.id), "box": [int(v) for v in t.box], "state": t.state,
             "velocity_px": [round(float(t.velocity[0]), 4), round(float(t.velocity[1]), 4)],
             "distance_m": None if r is None or r.dist_filt is None else round(r.dist_filt, 3),
             "ttc_s": None if r is None or r.ttc_dist is None else round(r.ttc_dist, 3),
             "warning": bool(r is not None and r.warning),
             "source": getattr(t, "source", "shadow"),
-            "ttc_points_s": None if p is None or p.ttc is None else round(p.ttc, 3)}
+            "ttc_points_s": None if p is None else round(p, 3)}
 
 
 def draw_tracks(frame, tracks, frame_index: int, detection_frame: bool, ranges=None):
@@ -172,11 +173,18 @@ def run(args) -> int:
         raise CliError("--fps, --ego-speed, --rear-offset and --bottom-height need --camera")
     det = make_detector(args)
     try:
+        # with a camera the pipeline also runs the block-scale TTC ("ttc_points_s") at the
+        # range stage's frame rate
+        fps = None
+        if cam is not None:
+            from .common import video_fps
+            fps = args.fps if args.fps is not None else video_fps(sources)
         trk = Tracker(engine=args.engine, detect_every=args.detect_every, detector=det,
-                      measurement=getattr(args, "measurement", "roi"))
+                      measurement=getattr(args, "measurement", "roi"), ttc_points=cam is not None,
+                      fps=fps)
     except (RuntimeError, ValueError, TypeError) as e:
         raise CliError(str(e)) from None
-    ranger = lanes = points = None
+    ranger = lanes = None
     records = []
     with Outputs() as outs:
         tracks_tmp = outs.reserve("--tracks", args.tracks) if args.tracks else None
@@ -193,12 +201,10 @@ def run(args) -> int:
                 for i, file, frame in reader:
                     try:
                         tracks = trk.step(frame)
-                        ranges, pts = {}, {}
+                        ranges = {}
                         if cam is not None:
                             if ranger is None:
                                 ranger, lanes = _range_stage(cam, frame, args, sources)
-                                from ..camera import ScaleTtc
-                                points = ScaleTtc(1.0 / ranger.params.frame_dt, engine=args.engine)
                             h, w = frame.shape[:2]
                             if (w, h) != ranger.size:
                                 raise ValueError(f"frame size {w}x{h} differs from the first frame's "
@@ -207,14 +213,13 @@ def run(args) -> int:
                             ranger.update_pitch(lane_vanishing_row(lanes.detect(frame)))
                             ranges = {r.id: r for r in ranger.step(
                                 [(t.id, cam.undistort_box(t.box)) for t in tracks], args.ego_speed)}
-                            pts = {o.id: o for o in points.step(frame, [(t.id, t.box) for t in tracks])}
                     except (VtError, ValueError, TypeError) as e:
                         raise CliError(f"{file}: {e}") from None
                     for t in tracks:
                         if args.all_states or t.state != "tentative":
                             lines.append(kitti_line(i, t, _location(cam, t, ranges.get(t.id))))
                             ids.add(t.id)
-                    records.append({"frame": i, "tracks": [track_record(t, ranges.get(t.id), pts.get(t.id)) for t in tracks
+                    records.append({"frame": i, "tracks": [track_record(t, ranges.get(t.id), t.ttc_points) for t in tracks
                                                            if args.all_states or t.state != "tentative"]})
                     img = draw_tracks(frame, tracks, i, trk.last_was_detection, ranges)
                     if kind == "image":
