@@ -8,7 +8,8 @@
  * three), printing every frame's road area, boxes and tracks and a checksum of
  * every vt_frame_out (the host test repeats them too); then once more with every
  * hypothesis source built: the whole-road detector with the default classifier
- * model (c/tables, in flash) and the overtaking flow stage (run_pipeline).
+ * model (c/tables, in flash), the overtaking flow stage and the block-scale TTC
+ * (run_pipeline).
  * Equal checksums mean the same C gives the same bits on ARM and on the host.
  *
  * Every buffer is static (.bss), so the linker's size table is the RAM bill.
@@ -51,6 +52,8 @@ static vt_frame_out g_out;
  * (classifier windows, pyramid) and the overtaking stage's state (two level images). */
 static vt_pipe_cls_ws g_cls_ws;
 static vt_flow_state g_flow;
+/* ... and the block-scale TTC's state (VT_TTC_TRACKS slots of past blocks). */
+static vt_ttc_state g_ttc;
 
 /* ---------------------------------------------------------------- FNV-1a 32 */
 #define FNV_BASIS 2166136261u
@@ -532,6 +535,7 @@ static uint32_t hash_frame_out(uint32_t h, vt_status s, const vt_frame_out *o)
         h = fnv_s32(fnv_s32(h, t->vx), t->vy);
         h = fnv_s32(fnv_s32(fnv_s32(h, t->distance_mm), t->ttc_ms), t->warning);
         h = fnv_s32(h, t->source);
+        h = fnv_s32(h, t->ttc_points_q16);
         fw_line_str("track ");
         fw_line_s32(f);
         line_sp(t->id);
@@ -543,6 +547,7 @@ static uint32_t hash_frame_out(uint32_t h, vt_status s, const vt_frame_out *o)
         line_sp(t->distance_mm);
         line_sp(t->ttc_ms);
         line_sp(t->warning);
+        line_sp(t->ttc_points_q16);
         line_sp(t->source);
         fw_line_end();
     }
@@ -571,8 +576,9 @@ static const char *const g_out_names[2][FW_CLIP_N] = {
  * full = 1: the second run, every hypothesis source built: the whole-road detector
  * with the core's default HOG model (c/tables, in flash) -- classified shadow
  * hypotheses and classifier windows -- detecting on every frame, and the overtaking
- * stage on both sides (every frame; it reports from frame 1 on), its checksums
- * full_out0..2 and pipeline_full. */
+ * stage on both sides (every frame; it reports from frame 1 on), and the block-scale
+ * TTC after the tracker with lag 2 (the clip has three frames: frame 2 is measured
+ * against frame 0), its checksums full_out0..2 and pipeline_full. */
 static uint32_t g_stack_step;
 
 static void run_pipeline(int32_t full)
@@ -606,6 +612,7 @@ static void run_pipeline(int32_t full)
         g_pipe_cfg.detect_every = 1;
         g_pipe_cfg.flow.sides = VT_FLOW_SIDE_BOTH;
         g_pipe_cfg.flow.min_age = 1; /* report from frame 1: the clip has three frames */
+        g_pipe_cfg.ttc.lag = 2;      /* likewise: a TTC on frame 2 */
         h = fnv_status(h, vt_svm_default_model(VT_DESC_HOG, &model));
         if (model != NULL) {
             /* Windows of the model's own size a cell apart, as pyvehtrack's
@@ -622,6 +629,7 @@ static void run_pipeline(int32_t full)
     if (full) {
         h = fnv_status(h, vt_pipeline_set_cls_ws(&g_pipe, &g_cls_ws, NULL));
         h = fnv_status(h, vt_pipeline_set_flow_ws(&g_pipe, &g_flow));
+        h = fnv_status(h, vt_pipeline_set_ttc_ws(&g_pipe, &g_ttc));
     }
     img.w = FW_CLIP_W;
     img.h = FW_CLIP_H;
@@ -690,6 +698,7 @@ int main(void)
     print_size("ram frame_out", (uint32_t)sizeof g_out);
     print_size("ram pipe_cls_ws", (uint32_t)sizeof g_cls_ws);
     print_size("ram flow_state", (uint32_t)sizeof g_flow);
+    print_size("ram ttc_state", (uint32_t)sizeof g_ttc);
     print_size("ram pipeline_cfg", (uint32_t)sizeof g_pipe_cfg);
     print_size("sizeof vt_image_u8", (uint32_t)sizeof(vt_image_u8));
     print_size("sizeof vt_road_area", (uint32_t)sizeof(vt_road_area));

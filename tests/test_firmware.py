@@ -300,6 +300,7 @@ def host_pipeline_run(frames: list[np.ndarray], full: bool) -> tuple[list[str], 
         cfg.detect_every = 1
         cfg.flow.sides = lib.VT_FLOW_SIDE_BOTH
         cfg.flow.min_age = 1
+        cfg.ttc.lag = 2
         total = fnv_s32(total, lib.vt_svm_default_model(lib.VT_DESC_HOG, model))
         m = model[0]
         cfg.fulldet.win.n_sizes = 1
@@ -309,9 +310,10 @@ def host_pipeline_run(frames: list[np.ndarray], full: bool) -> tuple[list[str], 
     total = fnv_s32(total, lib.vt_pipeline_init(p, cfg, cam, model[0] if full else ffi.NULL))
     keep = []
     if full:
-        keep = [ffi.new("vt_pipe_cls_ws *"), ffi.new("vt_flow_state *")]
+        keep = [ffi.new("vt_pipe_cls_ws *"), ffi.new("vt_flow_state *"), ffi.new("vt_ttc_state *")]
         total = fnv_s32(total, lib.vt_pipeline_set_cls_ws(p, keep[0], ffi.NULL))
         total = fnv_s32(total, lib.vt_pipeline_set_flow_ws(p, keep[1]))
+        total = fnv_s32(total, lib.vt_pipeline_set_ttc_ws(p, keep[2]))
     o = ffi.new("vt_frame_out *")
     for f, frame in enumerate(frames):
         s = lib.vt_pipeline_step(p, view(frame, "frame"), o)
@@ -347,10 +349,10 @@ def host_pipeline_run(frames: list[np.ndarray], full: bool) -> tuple[list[str], 
         for i in range(o.n_tracks):
             t = o.tracks[i]
             h = _fnv_box(fnv_s32(fnv_s32(h, t.id), t.state), t.box)
-            for v in (t.vx, t.vy, t.distance_mm, t.ttc_ms, t.warning, t.source):
+            for v in (t.vx, t.vy, t.distance_mm, t.ttc_ms, t.warning, t.source, t.ttc_points_q16):
                 h = fnv_s32(h, v)
             lines.append(f"track {f} {t.id} {t.state} {_box_line(t.box)} {t.vx} {t.vy} "
-                         f"{t.distance_mm} {t.ttc_ms} {t.warning} {t.source}")
+                         f"{t.distance_mm} {t.ttc_ms} {t.warning} {t.ttc_points_q16} {t.source}")
         sums.append((f"{'full_out' if full else 'frame_out'}{f}", h))
         total = fnv_u32(total, h)
     sums.append(("pipeline_full" if full else "pipeline", total))
@@ -495,6 +497,10 @@ def test_full_run_exercises_every_source(pipeline):
     assert {int(lib.VT_SRC_CLASSIFIER), int(lib.VT_SRC_FLOW)} <= srcs, lines
     tsrc = {int(ln.split()[-1]) for ln in lines if ln.startswith("track ")}
     assert tsrc and tsrc <= {int(lib.VT_SRC_SHADOW), int(lib.VT_SRC_CLASSIFIER), int(lib.VT_SRC_FLOW)}, lines
+    # the block-scale TTC (lag 2) measures a track on frame 2; nothing before (no history)
+    pts = [(int(ln.split()[1]), int(ln.split()[-2])) for ln in lines if ln.startswith("track ")]
+    assert any(f == 2 and v != int(lib.VT_UNKNOWN) for f, v in pts), lines
+    assert all(v == int(lib.VT_UNKNOWN) for f, v in pts if f < 2), lines
 
 
 def test_host_recipe_sees_error_statuses():
