@@ -84,6 +84,7 @@ int main(int argc, char **argv)
            (unsigned long)sizeof(vt_edge_template));
     printf(" vt_pipe_cls_ws=%lu vt_flow_state=%lu", (unsigned long)sizeof(vt_pipe_cls_ws),
            (unsigned long)sizeof(vt_flow_state));
+    printf(" vt_ttc_state=%lu", (unsigned long)sizeof(vt_ttc_state));
     if (argc > 2) {
         int32_t s;
         if (read_pgm(argv[2], &img) != 0) {

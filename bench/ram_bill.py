@@ -61,8 +61,8 @@ def render(rows: list[dict]) -> str:
              "for that frame).", "",
              "| build | max frame | tracks | vt_pipeline | KiB | lane state | tracker | detect "
              "scratch + result | camera (range) | vt_frame_out | edge ws (edges only) | classifier ws | "
-             "flow state | frame run | status / lane / boxes / tracks |",
-             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|"]
+             "flow state | ttc state | frame run | status / lane / boxes / tracks |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|"]
     for r in rows:
         frame = r.get("frame", "—")
         st = (f"{r['status']} / {r['lane_status']} / {r['boxes']} / {r['tracks']}"
@@ -72,7 +72,8 @@ def render(rows: list[dict]) -> str:
             f"{r['vt_pipeline']:,} | {r['vt_pipeline'] / kib:.1f} | {r['vt_lane_state']:,} | "
             f"{r['vt_tracker']:,} | {r['vt_detect_state'] + r['vt_detect_result']:,} | "
             f"{r['vt_range_state']:,} | {r['vt_frame_out']:,} | {r['vt_edge_ws']:,} | "
-            f"{r['vt_pipe_cls_ws']:,} | {r['vt_flow_state']:,} | {frame} | {st} |")
+            f"{r['vt_pipe_cls_ws']:,} | {r['vt_flow_state']:,} | "
+            f"{r['vt_ttc_state']:,} | {frame} | {st} |")
     lines += ["", "Builds:"] + [f"- {r['build']}: {NOTES.get(r['build'], '')}" for r in rows]
     lines += ["", "The tracker's edge-curve measurement (GIST paper, `measurement` = "
               "VT_MEAS_EDGE_CURVES) needs one `vt_edge_ws` more (the column \"edge ws\": 5 bytes per "
@@ -88,7 +89,11 @@ def render(rows: list[dict]) -> str:
               "`vt_flow_state` (column \"flow state\": two level images and the cell tables), "
               "attached with `vt_pipeline_set_flow_ws`. Both are caller-owned and outside "
               "vt_pipeline; a firmware build sizes them with VT_MAX_WIDTH/HEIGHT (and "
-              "VT_FULLDET_MAX_*, VT_FLOW_MAX_*, VT_CLS_MAX_*)."]
+              "VT_FULLDET_MAX_*, VT_FLOW_MAX_*, VT_CLS_MAX_*). The block-scale TTC after the "
+              "tracker needs one `vt_ttc_state` (column \"ttc state\": VT_TTC_TRACKS slots of "
+              "VT_TTC_HIST frames of VT_TTC_GRID^2 blocks of VT_TTC_BLOCK^2 bytes, and the pair "
+              "scratch; independent of the frame size), attached with `vt_pipeline_set_ttc_ws`; "
+              "a firmware build lowers VT_TTC_TRACKS (about 28 KB a slot at the defaults)."]
     lines += ["", "The camera stage's state (per-track range filters) is in vt_pipeline whether or "
               "not a camera is given.", "", "Stack: the high-water mark of one `vt_pipeline_step` is measured by stack "
               "painting in the firmware image (`make firmware-run`, line `stack step`)."]
