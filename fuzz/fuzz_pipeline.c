@@ -5,7 +5,8 @@
  * four frames whose size may change between frames, through vt_pipeline_step,
  * vt_pipeline_step_road (any road area) and vt_pipeline_step_dets (any boxes,
  * counts past the limits), plus vt_pipeline_work_size and vt_fixed_road_area on
- * edge values. fuzz.mk builds this harness only where the header exists. */
+ * edge values; the block-scale TTC's state attached or not (vt_pipeline_set_ttc_ws),
+ * its ttc_points_q16 VT_UNKNOWN or within (0, ttc_max]. fuzz.mk builds this harness only where the header exists. */
 #include "fuzz.h"
 #include "vehtrack/pipeline.h"
 
@@ -13,6 +14,7 @@ static vt_pipeline g_p;
 static vt_frame_out g_out;
 static vt_road_area g_road;
 static vt_box g_dets[300];
+static vt_ttc_state g_ttc;
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
@@ -40,6 +42,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         fz_close(&f);
         return 0;
     }
+    fz_status(vt_pipeline_set_ttc_ws(fz_u8(&f) == 0xFF ? NULL : &g_p, (fz_u8(&f) & 1) ? &g_ttc : NULL));
     img = fz_image_u8(&f, VT_MAX_WIDTH, VT_MAX_HEIGHT);
     n = 1 + (fz_u8(&f) & 3);
     for (k = 0; k < n; k++) {
@@ -75,6 +78,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         if (s == VT_OK) {
             FZ_ASSERT(g_out.n_tracks >= 0 && g_out.n_tracks <= VT_MAX_TRACKS);
             FZ_ASSERT(g_out.n_boxes >= 0 && g_out.n_boxes <= VT_MAX_BOXES);
+            for (i = 0; i < g_out.n_tracks; i++) {
+                vt_q16 t = g_out.tracks[i].ttc_points_q16;
+                FZ_ASSERT(t == VT_UNKNOWN || (g_p.ttc_st != NULL && t > 0 && t <= g_p.cfg.ttc.ttc_max));
+            }
         }
     }
     fz_close(&f);

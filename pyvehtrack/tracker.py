@@ -118,7 +118,11 @@ class Tracker:
     A view onto pyvehtrack.Pipeline: with a pyvehtrack Detector of the same engine
     (and its own lane stage) the whole frame, detection included, is one pipeline
     step; any other detector's boxes, and boxes passed to step(), enter the pipeline
-    as the frame's detections."""
+    as the frame's detections.
+
+    ttc_points: True or a dict of reference.ttc_scale.TtcScaleParams fields: the pipeline's
+    block-scale TTC (Pipeline(ttc_points=...)) at frame rate fps (default 10), each Track's
+    ttc_points in s (None when unknown)."""
 
     def __init__(self, engine: str = "c", cfg: rtrk.TrackerCfg | None = None,
                  detect_every: int = 10, detector=None, measurement: str | None = None,

@@ -34,7 +34,9 @@ picks the one in the JSON rows and the PNG.
 Three TTCs, side by side: the range filter's distance / rate, the box's width change over 5
 frames (both vt_range_step), and the scale of SAD-matched blocks inside the box over 5 frames
 (vt_ttc_step, pyvehtrack.camera.ScaleTtc; its grid, texture, lag and anchor radius were chosen
-on frames 0-38). Each against the lidar TTC of the issue (5-frame centred fit), and for
+on frames 0-38), computed twice: by the stand-alone stage over the collected tracks and inside
+vt_pipeline_step (Tracker(ttc_points=True): vt_pipeline_set_ttc_ws, "TTC block scale (pipeline)"),
+which must agree frame by frame (printed). Each against the lidar TTC of the issue (5-frame centred fit), and for
 diagnosis against a trailing 5-frame fit (t-4..t, what a causal estimate can know) and a
 9-frame centred fit (less lidar noise); "lidar p05 vs lidar min" is the lidar's own spread.
 """
@@ -121,7 +123,7 @@ def collect(data: Path, engine: str):
     first = cv2.imread(str(files[0]), cv2.IMREAD_COLOR)
     h, w = first.shape[:2]
     det = Detector(engine=engine)
-    trk = Tracker(engine=engine, detect_every=10, detector=det)
+    trk = Tracker(engine=engine, detect_every=10, detector=det, ttc_points=True, fps=FPS)
     lanes = LaneDetector(engine=engine)
     frames = []
     for i, p in enumerate(files):
@@ -136,6 +138,7 @@ def collect(data: Path, engine: str):
         frames.append({"tracks": [(t.id, list(t.box)) for t in tracks], "vp": vp,
                        "grey": cv2.cvtColor(img, cv2.COLOR_BGR2GRAY),
                        "lead": None if best is None else best.id,
+                       "points_pipe": {t.id: t.ttc_points for t in tracks},
                        "iou": None if best is None else round(best_iou, 3)})
     return frames, (w, h)
 
@@ -171,6 +174,7 @@ def ranges(data: Path, engine: str, frames, size, points=None, bottom_height=0.0
             "ttc_dist_s": None if o is None else o.ttc_dist,
             "ttc_scale_s": None if o is None else o.ttc_scale,
             "ttc_points_s": None if po is None else po.ttc,
+            "ttc_points_pipeline_s": None if fr["lead"] is None else fr["points_pipe"].get(fr["lead"]),
             "scale_points": None if po is None else po.scale,
             "points_pairs": None if po is None else po.pairs,
             "warning": None if o is None else o.warning,
@@ -192,6 +196,7 @@ def summarise(rows) -> dict:
         return np.array([np.nan if r[key] is None else float(r[key]) for r in rows])
     d_f, d_m = arr("dist_filt_m"), arr("distance_m")
     t_d, t_s, t_p = arr("ttc_dist_s"), arr("ttc_scale_s"), arr("ttc_points_s")
+    t_pp = arr("ttc_points_pipeline_s")
     out = {"frames": n, "lead_tracked": int(np.sum([r["lead_id"] is not None for r in rows]))}
     halves = {"all": slice(0, n), "first_half": slice(0, n // 2), "second_half": slice(n // 2, n)}
     for name, sl in halves.items():
@@ -202,6 +207,9 @@ def summarise(rows) -> dict:
             "ttc_scale_rel": stats((t_s[sl] - ttc_l[sl]) / ttc_l[sl]),
             "ttc_points_rel": stats((t_p[sl] - ttc_l[sl]) / ttc_l[sl]),
             "ttc_points_reported": int(np.sum(np.isfinite(t_p[sl]) & np.isfinite(ttc_l[sl]))),
+            "ttc_points_pipeline_rel": stats((t_pp[sl] - ttc_l[sl]) / ttc_l[sl]),
+            "ttc_points_pipeline_equal": int(np.sum((t_pp[sl] == t_p[sl]) |
+                                                    (np.isnan(t_pp[sl]) & np.isnan(t_p[sl])))),
             # against the lidar TTC fitted over frames t-4..t (what a causal estimate can know)
             "trailing": {"ttc_dist_rel": stats((t_d[sl] - ttc_lc[sl]) / ttc_lc[sl]),
                          "ttc_scale_rel": stats((t_s[sl] - ttc_lc[sl]) / ttc_lc[sl]),
@@ -338,6 +346,8 @@ def main(argv=None) -> int:
         x = x0[name]
         print(f"[{a.engine}] {name}: TTC box scale change {f(x['ttc_scale_rel'])}")
         print(f"[{a.engine}] {name}: TTC block scale      {f(x['ttc_points_rel'])}")
+        print(f"[{a.engine}] {name}: TTC block scale (pipeline) {f(x['ttc_points_pipeline_rel'])}; "
+              f"equal to the stand-alone stage on {x['ttc_points_pipeline_equal']} of the frames")
         for key, lab in (("trailing", "lidar t-4..t"), ("smooth9", "lidar 9-frame fit")):
             t = x[key]
             print(f"[{a.engine}] {name}: vs {lab} ({t['frames_with_lidar_ttc']} frames): "
