@@ -35,6 +35,7 @@ import argparse
 import json
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import cv2
@@ -109,6 +110,10 @@ def main(argv=None) -> int:
     ap.add_argument("--detector-json", default=None,
                     help="detector settings stored with the model (fullroad.load_model's detector_json), "
                          "as a JSON object string")
+    ap.add_argument("--veh-w", nargs=2, type=float, default=None, metavar=("MIN", "MAX"),
+                    help="flat-road vehicle width band (m) of the window grid that negatives are mined from "
+                         "(default: WindowConfig's 1.4 2.6); give the detector the same with detector_json "
+                         "veh_w_min / veh_w_max")
     ap.add_argument("--fit-only", action="store_true",
                     help="train on the 'fit' part of TRAIN only (datasets.tusimple_subsplit), keeping 'val' unseen")
     args = ap.parse_args(argv)
@@ -149,6 +154,8 @@ def main(argv=None) -> int:
     # random windows of the detector's grid that hold no vehicle
     scan = tuple(args.scan_sizes) if args.scan_sizes else (win,)
     wcfg = rw.WindowConfig(sizes=scan, step=8 / win)
+    if args.veh_w:
+        wcfg = replace(wcfg, veh_w_min_m=args.veh_w[0], veh_w_max_m=args.veh_w[1])
     from pyvehtrack.fullroad import Camera
     camspec = Camera()
 
@@ -204,7 +211,9 @@ def main(argv=None) -> int:
               f"[{time.time() - t0:.0f}s]", flush=True)
         if rnd == args.rounds:
             break
-        det = FullRoadDetector(model, sources=("windows",), cfg=FullRoadConfig(det=rfd.FullDetConfig(edge_check=False)))
+        fdc = rfd.FullDetConfig(edge_check=False)
+        fdc = replace(fdc, win=replace(fdc.win, veh_w_min_m=wcfg.veh_w_min_m, veh_w_max_m=wcfg.veh_w_max_m))
+        det = FullRoadDetector(model, sources=("windows",), cfg=FullRoadConfig(det=fdc))
         added = 0
         for _, g, gt in frames:
             boxes = det.detect_gray(g)
