@@ -106,3 +106,12 @@ def test_band_beyond_default_max_alone_is_an_error_not_a_silent_clip(tmp_path):
     with pytest.raises(Exception, match="config|vt_fulldet_cfg_check"):
         fullroad.FullRoadDetector(m)
     assert replace(fullroad.setup(m)[4].win).veh_w_min_m == 3.0
+
+
+def test_shipped_model_names_its_band():
+    """The shipped window model carries the band chosen for it on the 'val' frames, and
+    the C core's window rules get it in mm."""
+    m = fullroad.load_model(DATA / "window_mlp_hog32.npz")
+    assert m.settings["veh_w_max"] == 3.0 and "veh_w_min" not in m.settings
+    det = fullroad.FullRoadDetector(m)
+    assert (det._cfg_c.win.veh_w_min_mm, det._cfg_c.win.veh_w_max_mm) == (1400, 3000)

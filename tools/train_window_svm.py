@@ -12,7 +12,10 @@ The shipped full-road model tests/data/window_mlp_hog32.npz was made with
 tools/eval_tusimple_boxes.py --split val); its detector settings (detector_json: score
 offset, NMS, box height, merge, second stage) were then chosen on 'val' and written with
 --detector-json '{"sources": ["shadow", "windows"], "score_offset": 2.0, "nms_iou": 0.2,
-"nms_contain": 0.5, "box_height": 0.875, "merge_iou": 0.3, "verify_min": 4.0}'.
+"nms_contain": 0.5, "box_height": 0.875, "merge_iou": 0.3, "verify_min": 4.0}'; later (wip/detect2)
+"veh_w_max": 3.0 was added, chosen on 'val' (the window band 1.4-3.0 m). Retraining with
+--veh-w 1.2 3.2 (negatives mined on the wider grid) was tried and was no better on 'val'
+(31.4% recall >= 32 px at 44.1% precision, score offset 2.0; 30.4% / 46.9% at 2.5).
 A 64-unit MLP with 3 hard-negative rounds (--rounds 3 --mlp 64) was tried and was no
 better on 'val' (e.g. 31.4% recall >= 32 px at 48.8% precision against 31.9% / 48.3%).
 
