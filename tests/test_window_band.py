@@ -14,7 +14,7 @@ import cv2
 import numpy as np
 import pytest
 
-from pyvehtrack import fullroad
+from pyvehtrack import _native, fullroad
 from pyvehtrack.reference import windows as rw
 
 DATA = Path(__file__).parent / "data"
@@ -103,7 +103,7 @@ def test_band_beyond_default_max_alone_is_an_error_not_a_silent_clip(tmp_path):
     """veh_w_min above the default 2.6 m maximum without a veh_w_max: the C core refuses
     the band (min > max) and the user gets the error, nothing is reordered."""
     m = fullroad.load_model(_model_file(tmp_path, "odd.npz", {"veh_w_min": 3.0}))
-    with pytest.raises(Exception, match="config|vt_fulldet_cfg_check"):
+    with pytest.raises(_native.VtError, match="vt_fulldet_cfg_check"):
         fullroad.FullRoadDetector(m)
     assert replace(fullroad.setup(m)[4].win).veh_w_min_m == 3.0
 
