@@ -19,7 +19,8 @@ Optionally `detector_json`, the detector settings chosen with the model (so
 `pyvehtrack detect --model M.npz` runs as it was validated): a JSON object with any of
 "sources" (list), "score_offset" (float, added to threshold_q16 for detection only, the
 caller's score_offset adds on top), "nms_iou", "nms_contain", "box_height", "merge_iou"
-(floats, as FullDetConfig) and "verify_min" (float: a second stage, the built-in HOG 64x64 MLP on
+(floats, as FullDetConfig), "veh_w_min", "veh_w_max" (floats, m: the flat-road
+vehicle width band of the windows, WindowConfig.veh_w_min_m / veh_w_max_m) and "verify_min" (float: a second stage, the built-in HOG 64x64 MLP on
 each box, keeps boxes it scores >= this; vt_fulldet_verify). Explicit arguments win.
 """
 from __future__ import annotations
@@ -112,7 +113,8 @@ class MlpModel:
 
 
 _SETTINGS = {"score_offset": (-32768.0, 32767.0), "nms_iou": (0.0, 1.0), "nms_contain": (0.0, 1.0), "box_height": (1 / 256, 4.0),
-             "merge_iou": (0.0, 1.0), "verify_min": (-32768.0, 32767.0)}
+             "merge_iou": (0.0, 1.0), "verify_min": (-32768.0, 32767.0), "veh_w_min": (0.1, 20.0),
+             "veh_w_max": (0.1, 20.0)}
 
 
 def _settings(z, p) -> dict:
@@ -136,6 +138,8 @@ def _settings(z, p) -> dict:
         else:
             raise ValueError(f"model: {p}: detector_json has an unknown key {k!r} "
                              f"(known: sources, {', '.join(_SETTINGS)})")
+    if d.get("veh_w_min", 0.0) > d.get("veh_w_max", 20.0):
+        raise ValueError(f"model: {p}: detector_json veh_w_min must not exceed veh_w_max")
     return d
 
 
@@ -281,6 +285,9 @@ def setup(model=None, sources=SOURCES, camera: Camera | None = None, cfg: FullRo
     if det is None:
         det = replace(FullDetConfig(), **{k: float(st[k]) for k in ("nms_iou", "nms_contain", "box_height",
                                                                      "merge_iou") if k in st})
+        if "veh_w_min" in st or "veh_w_max" in st:
+            det = replace(det, win=replace(det.win, veh_w_min_m=float(st.get("veh_w_min", det.win.veh_w_min_m)),
+                                           veh_w_max_m=float(st.get("veh_w_max", det.win.veh_w_max_m))))
     elif not isinstance(det, FullDetConfig):
         raise TypeError(f"cfg.det: expected a FullDetConfig or None, got {type(det).__name__}")
     vmin = cfg.verify_min if cfg.verify_min is not None else st.get("verify_min")

@@ -48,6 +48,8 @@ def main(argv=None) -> int:
                     help="box refinement: each kept box -> mean of candidates with IoU >= this (0: off)")
     ap.add_argument("--verify-min", type=float, default=None,
                     help="second stage: built-in HOG 64 MLP on each box, keep score >= this (default: the model's)")
+    ap.add_argument("--veh-w", nargs=2, type=float, default=None, metavar=("MIN", "MAX"),
+                    help="full-road window width band, m (default: the model's, else WindowConfig's 1.4 2.6)")
     ap.add_argument("--limit", type=int, default=0)
     ap.add_argument("--out", default=None, help="write the predictions (detect --json format)")
     ap.add_argument("--draw", default=None, help="folder for annotated frames (green: found, red: truth)")
@@ -61,7 +63,8 @@ def main(argv=None) -> int:
     det = Detector(model=args.model, sources=tuple(args.sources) if args.sources else None,
                    score_offset=args.offset)
     if (args.nms_iou is not None or args.nms_contain is not None or args.box_height is not None
-            or args.merge_iou is not None or args.verify_min is not None) and det.full is not None:
+            or args.merge_iou is not None or args.verify_min is not None
+            or args.veh_w is not None) and det.full is not None:
         from dataclasses import replace
 
         from pyvehtrack import fullroad
@@ -70,6 +73,8 @@ def main(argv=None) -> int:
                     nms_contain=d.nms_contain if args.nms_contain is None else args.nms_contain,
                     box_height=d.box_height if args.box_height is None else args.box_height,
                     merge_iou=d.merge_iou if args.merge_iou is None else args.merge_iou)
+        if args.veh_w is not None:
+            d = replace(d, win=replace(d.win, veh_w_min_m=args.veh_w[0], veh_w_max_m=args.veh_w[1]))
         c = replace(det.full.cfg, det=d)
         if args.verify_min is not None:
             c = replace(c, verify_min=args.verify_min)

@@ -12,7 +12,10 @@ The shipped full-road model tests/data/window_mlp_hog32.npz was made with
 tools/eval_tusimple_boxes.py --split val); its detector settings (detector_json: score
 offset, NMS, box height, merge, second stage) were then chosen on 'val' and written with
 --detector-json '{"sources": ["shadow", "windows"], "score_offset": 2.0, "nms_iou": 0.2,
-"nms_contain": 0.5, "box_height": 0.875, "merge_iou": 0.3, "verify_min": 4.0}'.
+"nms_contain": 0.5, "box_height": 0.875, "merge_iou": 0.3, "verify_min": 4.0}'; later (wip/detect2)
+"veh_w_max": 3.0 was added, chosen on 'val' (the window band 1.4-3.0 m). Retraining with
+--veh-w 1.2 3.2 (negatives mined on the wider grid) was tried and was no better on 'val'
+(31.4% recall >= 32 px at 44.1% precision, score offset 2.0; 30.4% / 46.9% at 2.5).
 A 64-unit MLP with 3 hard-negative rounds (--rounds 3 --mlp 64) was tried and was no
 better on 'val' (e.g. 31.4% recall >= 32 px at 48.8% precision against 31.9% / 48.3%).
 
@@ -35,6 +38,7 @@ import argparse
 import json
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import cv2
@@ -109,6 +113,10 @@ def main(argv=None) -> int:
     ap.add_argument("--detector-json", default=None,
                     help="detector settings stored with the model (fullroad.load_model's detector_json), "
                          "as a JSON object string")
+    ap.add_argument("--veh-w", nargs=2, type=float, default=None, metavar=("MIN", "MAX"),
+                    help="flat-road vehicle width band (m) of the window grid that negatives are mined from "
+                         "(default: WindowConfig's 1.4 2.6); give the detector the same with detector_json "
+                         "veh_w_min / veh_w_max")
     ap.add_argument("--fit-only", action="store_true",
                     help="train on the 'fit' part of TRAIN only (datasets.tusimple_subsplit), keeping 'val' unseen")
     args = ap.parse_args(argv)
@@ -149,6 +157,8 @@ def main(argv=None) -> int:
     # random windows of the detector's grid that hold no vehicle
     scan = tuple(args.scan_sizes) if args.scan_sizes else (win,)
     wcfg = rw.WindowConfig(sizes=scan, step=8 / win)
+    if args.veh_w:
+        wcfg = replace(wcfg, veh_w_min_m=args.veh_w[0], veh_w_max_m=args.veh_w[1])
     from pyvehtrack.fullroad import Camera
     camspec = Camera()
 
@@ -204,7 +214,9 @@ def main(argv=None) -> int:
               f"[{time.time() - t0:.0f}s]", flush=True)
         if rnd == args.rounds:
             break
-        det = FullRoadDetector(model, sources=("windows",), cfg=FullRoadConfig(det=rfd.FullDetConfig(edge_check=False)))
+        fdc = rfd.FullDetConfig(edge_check=False)
+        fdc = replace(fdc, win=replace(fdc.win, veh_w_min_m=wcfg.veh_w_min_m, veh_w_max_m=wcfg.veh_w_max_m))
+        det = FullRoadDetector(model, sources=("windows",), cfg=FullRoadConfig(det=fdc))
         added = 0
         for _, g, gt in frames:
             boxes = det.detect_gray(g)
