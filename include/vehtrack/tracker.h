@@ -63,6 +63,26 @@ typedef struct {
      * curves matched by chamfer distance, vehtrack/edge_track.h, with `edge`). */
     int32_t measurement;
     vt_edge_cfg edge;
+    /* Template tracking (GIST paper sec. III.B tracks by matching): when the
+     * frame's measurement fails, the track's template (16x16, from its last real
+     * measurement) is correlated (vt_ncc_u8) with the predicted box shifted by
+     * every dx, dy in -tmatch_radius..tmatch_radius px; the best shift (first in
+     * row-major order on ties) is the measurement if its NCC >= tmatch_ncc_permille
+     * / 1000. It updates the filter but is no hit and no miss: a tentative track
+     * born from a classifier box (not aligned to the shadow edge the ROI search
+     * wants) lives on until a detection re-confirms it, for at most tmatch_max
+     * consecutive template frames. tmatch_radius 0: off (the thesis's lifecycle). */
+    int32_t tmatch_radius;
+    int32_t tmatch_ncc_permille;
+    int32_t tmatch_max;
+    /* Parts are not vehicles: a detection with >= part_permille of its area inside
+     * a live track starts none; an unmatched live track with >= part_permille of
+     * its area inside a larger unmatched detection is re-anchored to it (keeping its
+     * id); a track with >= part_permille of its area inside a larger live track is
+     * dropped. 0: off. */
+    int32_t part_permille;
+    /* A track narrower than min_width px (or whose corners crossed) is dropped. */
+    int32_t min_width;
 } vt_tracker_cfg;
 
 #define VT_MEAS_ROI_SEARCH 0
@@ -83,6 +103,11 @@ typedef struct {
         .init_max_change = 3,                                               \
         .measurement = VT_MEAS_ROI_SEARCH,                                  \
         .edge = VT_EDGE_CFG_DEFAULT,                                        \
+        .tmatch_radius = 0,                                                 \
+        .tmatch_ncc_permille = 800,                                         \
+        .tmatch_max = 12,                                                   \
+        .part_permille = 0,                                                 \
+        .min_width = 0,                                                     \
     }
 
 /* One track. Public so that callers can inspect and save it; change it only
@@ -101,6 +126,7 @@ typedef struct {
     vt_kf kf;             /* bottom-edge model [x1, y1, x2, vx1, vy1, vx2] */
     uint8_t tmpl[VT_TRACK_TEMPLATE * VT_TRACK_TEMPLATE];
     vt_edge_template edges; /* curve points, used by VT_MEAS_EDGE_CURVES only */
+    int32_t tm_frames;    /* consecutive frames measured by the template only */
 } vt_track;
 
 typedef struct {
@@ -132,7 +158,9 @@ typedef struct {
  * <= VT_MAX_WIDTH, roi_margin_permille, gate_permille, gate_bottom_permille in
  * 0..4000, 1 <= confirm_hits <= VT_TRACK_MAX_FRAMES_CFG, 0 <= max_coast <=
  * VT_TRACK_MAX_FRAMES_CFG, match_iou_permille in 1..1000, keep_ncc in [-1, 1]
- * (Q14), 0 <= init_max_change <= VT_MAX_WIDTH. VT_E_ARG otherwise and for NULL.
+ * (Q14), 0 <= init_max_change <= VT_MAX_WIDTH, 0 <= tmatch_radius <= 64,
+ * tmatch_ncc_permille in -1000..1000, 0 <= tmatch_max <= VT_TRACK_MAX_FRAMES_CFG,
+ * part_permille in 0..1000, 0 <= min_width <= VT_MAX_WIDTH. VT_E_ARG otherwise and for NULL.
  * vt_tracker_step checks the same before touching the tracker. */
 vt_status vt_tracker_cfg_check(const vt_tracker_cfg *cfg);
 
