@@ -57,6 +57,14 @@ static void vt__sample(const vt_image_u8 *img, const vt_box *box, uint8_t *dst)
     }
 }
 
+/* The template and the box it was taken from (the template measurement keeps
+ * that size, so a velocity error cannot shrink or grow the box through it). */
+static void vt__set_tmpl(vt_track *t, const vt_image_u8 *img)
+{
+    vt__sample(img, &t->box, t->tmpl);
+    t->tmpl_box = t->box;
+}
+
 /* IoU as a fraction inter / uni (both >= 0, uni > 0 for valid boxes). */
 static void vt__iou(const vt_box *a, const vt_box *b, int64_t *inter, int64_t *uni)
 {
@@ -143,7 +151,7 @@ static void vt__hit(vt_track *t, const vt_tracker_cfg *cfg, const vt_image_u8 *i
     } else if (t->state == VT_TRACK_COASTING) {
         t->state = VT_TRACK_CONFIRMED;
     }
-    vt__sample(img, &t->box, t->tmpl);
+    vt__set_tmpl(t, img);
 }
 
 static vt_status vt__update(vt_track *t, int32_t left, int32_t bottom, int32_t right)
@@ -241,7 +249,7 @@ static void vt__start(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *cfg,
     t->sides.max_change_left = cfg->init_max_change;
     t->sides.max_change_right = cfg->init_max_change;
     vt__box_from_state(t);
-    vt__sample(img, &t->box, t->tmpl);
+    vt__set_tmpl(t, img);
     if (cfg->measurement == VT_MEAS_EDGE_CURVES) {
         vt__edge_refresh(tr, t, cfg, img);
     }
@@ -261,7 +269,8 @@ static int vt__mostly_inside(const vt_box *inner, const vt_box *outer, int32_t p
     return in * 1000 >= (int64_t)part_permille * vt__area(inner);
 }
 
-/* Template measurement: the predicted box shifted by the dx, dy in
+/* Template measurement: the template's box, its bottom centre moved onto the
+ * predicted one (centres floor((l + r) / 2)), then shifted by the dx, dy in
  * -tmatch_radius..tmatch_radius (row-major, dy outer) whose 16x16 resample
  * correlates best with the track's template; the first of equal Q14 scores wins.
  * Accepted if score * 1000 >= tmatch_ncc_permille * 2^14 (exact integers). A
@@ -273,6 +282,10 @@ static int vt__tmatch(const vt_track *t, const vt_tracker_cfg *cfg, const vt_ima
     uint8_t now[VT_TRACK_TEMPLATE * VT_TRACK_TEMPLATE];
     vt_image_u8 a, b;
     int32_t dx, dy, r = cfg->tmatch_radius, have = 0;
+    /* Both boxes pass vt__box_ok or come from the bounded filter: no overflow. */
+    int32_t ox = (int32_t)(vt__floor_shr64((int64_t)t->box.left + t->box.right, 1) -
+                           vt__floor_shr64((int64_t)t->tmpl_box.left + t->tmpl_box.right, 1));
+    int32_t oy = t->box.bottom - t->tmpl_box.bottom;
     vt_q14 best = 0;
     a.px = t->tmpl;
     b.px = now;
@@ -281,10 +294,10 @@ static int vt__tmatch(const vt_track *t, const vt_tracker_cfg *cfg, const vt_ima
         for (dx = -r; dx <= r; ++dx) {
             vt_box sh;
             vt_q14 q = 0;
-            sh.left = t->box.left + dx;
-            sh.right = t->box.right + dx;
-            sh.top = t->box.top + dy;
-            sh.bottom = t->box.bottom + dy;
+            sh.left = t->tmpl_box.left + ox + dx;
+            sh.right = t->tmpl_box.right + ox + dx;
+            sh.top = t->tmpl_box.top + oy + dy;
+            sh.bottom = t->tmpl_box.bottom + oy + dy;
             vt__sample(img, &sh, now);
             if (vt_ncc_u8(&a, &b, &q) != VT_OK) {
                 continue;
@@ -383,7 +396,7 @@ static int vt__predict_measure(vt_tracker *tr, vt_track *t, const vt_tracker_cfg
     }
     /* The template keeps the filter on the vehicle; no hit (only real
      * measurements confirm) and no miss (the lifecycle waits for a detection). */
-    if (cfg->tmatch_radius > 0 && t->tm_frames < INT32_MAX && vt__tmatch(t, cfg, img, &meas) &&
+    if (cfg->tmatch_radius > 0 && t->state == VT_TRACK_TENTATIVE && t->tm_frames < INT32_MAX && vt__tmatch(t, cfg, img, &meas) &&
         vt__update(t, meas.left, meas.bottom, meas.right) == VT_OK) {
         t->tm_frames += 1;
         return 0;
@@ -413,7 +426,7 @@ static void vt__absorb_detection(vt_tracker *tr, vt_track *t, const vt_tracker_c
         *measured = 1;
         vt__hit(t, cfg, img);
     } else {
-        vt__sample(img, &t->box, t->tmpl);
+        vt__set_tmpl(t, img);
     }
     if (cfg->measurement == VT_MEAS_EDGE_CURVES) {
         vt__edge_refresh(tr, t, cfg, img);
@@ -442,7 +455,7 @@ static void vt__reanchor(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *cfg,
         *measured = 1;
         vt__hit(t, cfg, img);
     } else {
-        vt__sample(img, &t->box, t->tmpl);
+        vt__set_tmpl(t, img);
     }
     if (cfg->measurement == VT_MEAS_EDGE_CURVES) {
         vt__edge_refresh(tr, t, cfg, img);

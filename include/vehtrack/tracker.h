@@ -127,6 +127,7 @@ typedef struct {
     uint8_t tmpl[VT_TRACK_TEMPLATE * VT_TRACK_TEMPLATE];
     vt_edge_template edges; /* curve points, used by VT_MEAS_EDGE_CURVES only */
     int32_t tm_frames;    /* consecutive frames measured by the template only */
+    vt_box tmpl_box;      /* the box tmpl was sampled from */
 } vt_track;
 
 typedef struct {

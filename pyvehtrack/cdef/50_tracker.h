@@ -70,6 +70,7 @@ typedef struct {
     uint8_t tmpl[...];
     vt_edge_template edges;
     int32_t tm_frames;
+    vt_box tmpl_box;
 } vt_track;
 
 typedef struct {

@@ -102,6 +102,7 @@ class Track:
     tmpl: np.ndarray | None = None
     edges: redge.Template | None = None
     tm_frames: int = 0
+    tmpl_box: tuple = (0, 0, 0, 0)
 
     def box_from_state(self):
         x = self.kf.x[:, 0]
@@ -169,7 +170,7 @@ class Tracker:
             t.state = CONFIRMED
         elif t.state == COASTING:
             t.state = CONFIRMED
-        t.tmpl = sample(img, t.box)
+        self._set_tmpl(t, img)
 
     def _margin(self, box) -> int:
         w = box[2] - box[0] + 1
@@ -212,15 +213,23 @@ class Tracker:
         dx, dy, s, _, found = redge.match(em, e, t.edges, cx, cy)
         return redge.scale_box(t.edges.box, s, dx, dy) if found else None
 
+    @staticmethod
+    def _set_tmpl(t: Track, img):
+        t.tmpl = sample(img, t.box)
+        t.tmpl_box = t.box
+
     def _tmatch(self, t: Track, img):
         """The shifted predicted box correlating best with the template (first of equal
         Q14-rounded scores, dy outer), or None below the threshold or when all are flat."""
         rad = self.cfg.tmatch_radius
-        l, top, r, b = t.box
+        # the template's box, bottom centre on the predicted one, then shifted
+        l, top, r, b = t.tmpl_box
+        ox = (t.box[0] + t.box[2]) // 2 - (l + r) // 2
+        oy = t.box[3] - b
         best = None
         for dy in range(-rad, rad + 1):
             for dx in range(-rad, rad + 1):
-                sh = (l + dx, top + dy, r + dx, b + dy)
+                sh = (l + ox + dx, top + oy + dy, r + ox + dx, b + oy + dy)
                 v = rimg.ncc(t.tmpl, sample(img, sh))
                 if math.isnan(v):
                     continue
@@ -243,7 +252,7 @@ class Tracker:
         if not measured:
             self._hit(t, img)
         else:
-            t.tmpl = sample(img, t.box)
+            self._set_tmpl(t, img)
         if c.measurement == MEAS_EDGE_CURVES:
             self._edge_refresh(t, img)
 
@@ -264,7 +273,7 @@ class Tracker:
         t.aspect_q8 = (h * 256 + w // 2) // w
         t.sides = Sides(True, l, r, c.init_max_change, c.init_max_change)
         t.box_from_state()
-        t.tmpl = sample(img, t.box)
+        self._set_tmpl(t, img)
         if c.measurement == MEAS_EDGE_CURVES:
             self._edge_refresh(t, img)
 
@@ -304,7 +313,7 @@ class Tracker:
                 self._hit(t, img)
                 if c.measurement == MEAS_EDGE_CURVES:
                     self._edge_refresh(t, img)
-            elif c.tmatch_radius > 0 and (tm := self._tmatch(t, img)) is not None:
+            elif c.tmatch_radius > 0 and t.state == TENTATIVE and (tm := self._tmatch(t, img)) is not None:
                 self._update(t, tm[0], tm[3], tm[2])
                 t.tm_frames += 1
             else:
@@ -341,7 +350,7 @@ class Tracker:
                     measured[bi] = True
                     self._hit(t, img)
                 else:
-                    t.tmpl = sample(img, t.box)
+                    self._set_tmpl(t, img)
                 if c.measurement == MEAS_EDGE_CURVES:
                     self._edge_refresh(t, img)
             if c.part_permille > 0:
