@@ -394,8 +394,9 @@ static int vt__predict_measure(vt_tracker *tr, vt_track *t, const vt_tracker_cfg
         }
         return 1;
     }
-    /* The template keeps the filter on the vehicle; no hit (only real
-     * measurements confirm) and no miss (the lifecycle waits for a detection). */
+    /* A tentative track's template keeps its filter on the vehicle; no hit (only
+     * real measurements confirm) and no miss (the lifecycle waits for a detection).
+     * Confirmed tracks coast as in the thesis (tracker.h says why). */
     if (cfg->tmatch_radius > 0 && t->state == VT_TRACK_TENTATIVE && t->tm_frames < INT32_MAX && vt__tmatch(t, cfg, img, &meas) &&
         vt__update(t, meas.left, meas.bottom, meas.right) == VT_OK) {
         t->tm_frames += 1;

@@ -16,7 +16,7 @@ frame's curves by chamfer distance (reference/edge_track.py), and the template
 is refreshed from the box after every update.
 
 Template tracking (tmatch_radius > 0, GIST paper sec. III.B tracks by matching): when
-the measurement fails, the box near the prediction whose 16x16 resample correlates
+the measurement of a tentative track fails, the box (template's size) near the prediction whose 16x16 resample correlates
 best with the track's template (taken at its last real measurement) measures it if
 the correlation reaches tmatch_ncc_permille / 1000; that is neither a hit nor a miss.
 Parts (part_permille > 0): a detection mostly inside a live track starts none, a
