@@ -139,7 +139,7 @@ def test_parts_start_no_track_and_part_tracks_are_reanchored(engine):
     out = tr.step(img, detections=[box])
     assert [o.id for o in out] == [1] and iou(out[0].box, box) >= 0.85, out
     # without the rule the part's track stays a part
-    tr = Tracker(engine, cfg=rtrk.TrackerCfg(tmatch_radius=4))
+    tr = Tracker(engine, cfg=rtrk.TrackerCfg(tmatch_radius=4, part_permille=0))
     tr.step(img, detections=[part])
     out = tr.step(img, detections=[box])
     assert [o.id for o in out] == [1] and iou(out[0].box, box) < 0.5, out

@@ -111,11 +111,11 @@ typedef struct {
         .init_max_change = 3,                                               \
         .measurement = VT_MEAS_ROI_SEARCH,                                  \
         .edge = VT_EDGE_CFG_DEFAULT,                                        \
-        .tmatch_radius = 0,                                                 \
+        .tmatch_radius = 6,                                                 \
         .tmatch_ncc_permille = 800,                                         \
         .tmatch_max = 12,                                                   \
-        .part_permille = 0,                                                 \
-        .min_width = 0,                                                     \
+        .part_permille = 600,                                               \
+        .min_width = 4,                                                     \
     }
 
 /* One track. Public so that callers can inspect and save it; change it only

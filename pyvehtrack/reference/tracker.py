@@ -72,11 +72,11 @@ class TrackerCfg:
     measurement: int = MEAS_ROI_SEARCH
     edge: redge.EdgeCfg = field(default_factory=redge.EdgeCfg)
     # template tracking when the measurement fails (0: off), see Tracker._tmatch
-    tmatch_radius: int = 0
+    tmatch_radius: int = 6
     tmatch_ncc_permille: int = 800
     tmatch_max: int = 12
-    part_permille: int = 0         # parts are not vehicles (0: off)
-    min_width: int = 0             # narrower tracks are dropped
+    part_permille: int = 600       # parts are not vehicles (0: off)
+    min_width: int = 4             # narrower tracks are dropped (0: off)
 
 
 accept_renamed(TrackerCfg, TRACKER_RENAMED)  # the percent names of before issue 10
