@@ -116,6 +116,7 @@ def test_template_gives_up_after_tmatch_max_frames_and_below_threshold(engine):
     assert [o.id for o in out[1]] == [1] and out[2] == []
 
 
+@pytest.mark.skipif(int(lib.VT_MAX_TRACKS) < 2, reason="the rule-off case starts a second track")
 @pytest.mark.parametrize("engine", ["c", "reference"])
 def test_parts_start_no_track_and_part_tracks_are_reanchored(engine):
     bg, tex = _textures(5)
