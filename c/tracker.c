@@ -57,6 +57,14 @@ static void vt__sample(const vt_image_u8 *img, const vt_box *box, uint8_t *dst)
     }
 }
 
+/* The template and the box it was taken from (the template measurement keeps
+ * that size, so a velocity error cannot shrink or grow the box through it). */
+static void vt__set_tmpl(vt_track *t, const vt_image_u8 *img)
+{
+    vt__sample(img, &t->box, t->tmpl);
+    t->tmpl_box = t->box;
+}
+
 /* IoU as a fraction inter / uni (both >= 0, uni > 0 for valid boxes). */
 static void vt__iou(const vt_box *a, const vt_box *b, int64_t *inter, int64_t *uni)
 {
@@ -97,6 +105,12 @@ vt_status vt_tracker_cfg_check(const vt_tracker_cfg *c)
         vt_edge_cfg_check(&c->edge) != VT_OK) {
         return VT_E_ARG;
     }
+    if (c->tmatch_radius < 0 || c->tmatch_radius > 64 || c->tmatch_ncc_permille < -1000 ||
+        c->tmatch_ncc_permille > 1000 || c->tmatch_max < 0 ||
+        c->tmatch_max > VT_TRACK_MAX_FRAMES_CFG || c->part_permille < 0 ||
+        c->part_permille > 1000 || c->min_width < 0 || c->min_width > VT_MAX_WIDTH) {
+        return VT_E_ARG;
+    }
     return VT_OK;
 }
 
@@ -131,12 +145,13 @@ static void vt__hit(vt_track *t, const vt_tracker_cfg *cfg, const vt_image_u8 *i
 {
     t->hits = vt__inc_sat(t->hits);
     t->misses = 0;
+    t->tm_frames = 0;
     if (t->state == VT_TRACK_TENTATIVE && t->hits >= cfg->confirm_hits) {
         t->state = VT_TRACK_CONFIRMED;
     } else if (t->state == VT_TRACK_COASTING) {
         t->state = VT_TRACK_CONFIRMED;
     }
-    vt__sample(img, &t->box, t->tmpl);
+    vt__set_tmpl(t, img);
 }
 
 static vt_status vt__update(vt_track *t, int32_t left, int32_t bottom, int32_t right)
@@ -234,10 +249,67 @@ static void vt__start(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *cfg,
     t->sides.max_change_left = cfg->init_max_change;
     t->sides.max_change_right = cfg->init_max_change;
     vt__box_from_state(t);
-    vt__sample(img, &t->box, t->tmpl);
+    vt__set_tmpl(t, img);
     if (cfg->measurement == VT_MEAS_EDGE_CURVES) {
         vt__edge_refresh(tr, t, cfg, img);
     }
+}
+
+/* Inclusive area of a valid box (vt__box_ok bounds keep it inside int64). */
+static int64_t vt__area(const vt_box *b)
+{
+    return ((int64_t)b->right - b->left + 1) * ((int64_t)b->bottom - b->top + 1);
+}
+
+/* `inner` has at least part_permille of its area inside `outer`. */
+static int vt__mostly_inside(const vt_box *inner, const vt_box *outer, int32_t part_permille)
+{
+    int64_t in, un;
+    vt__iou(inner, outer, &in, &un);
+    return in * 1000 >= (int64_t)part_permille * vt__area(inner);
+}
+
+/* Template measurement: the template's box, its bottom centre moved onto the
+ * predicted one (centres floor((l + r) / 2)), then shifted by the dx, dy in
+ * -tmatch_radius..tmatch_radius (row-major, dy outer) whose 16x16 resample
+ * correlates best with the track's template; the first of equal Q14 scores wins.
+ * Accepted if score * 1000 >= tmatch_ncc_permille * 2^14 (exact integers). A
+ * flat patch (vt_ncc_u8's VT_E_SINGULAR) is no candidate. Cost: (2r+1)^2
+ * resamples and correlations of 256 pixels. */
+static int vt__tmatch(const vt_track *t, const vt_tracker_cfg *cfg, const vt_image_u8 *img,
+                      vt_box *meas)
+{
+    uint8_t now[VT_TRACK_TEMPLATE * VT_TRACK_TEMPLATE];
+    vt_image_u8 a, b;
+    int32_t dx, dy, r = cfg->tmatch_radius, have = 0;
+    /* Both boxes pass vt__box_ok or come from the bounded filter: no overflow. */
+    int32_t ox = (int32_t)(vt__floor_shr64((int64_t)t->box.left + t->box.right, 1) -
+                           vt__floor_shr64((int64_t)t->tmpl_box.left + t->tmpl_box.right, 1));
+    int32_t oy = t->box.bottom - t->tmpl_box.bottom;
+    vt_q14 best = 0;
+    a.px = t->tmpl;
+    b.px = now;
+    a.w = b.w = a.h = b.h = a.stride = b.stride = VT_TRACK_TEMPLATE;
+    for (dy = -r; dy <= r; ++dy) {
+        for (dx = -r; dx <= r; ++dx) {
+            vt_box sh;
+            vt_q14 q = 0;
+            sh.left = t->tmpl_box.left + ox + dx;
+            sh.right = t->tmpl_box.right + ox + dx;
+            sh.top = t->tmpl_box.top + oy + dy;
+            sh.bottom = t->tmpl_box.bottom + oy + dy;
+            vt__sample(img, &sh, now);
+            if (vt_ncc_u8(&a, &b, &q) != VT_OK) {
+                continue;
+            }
+            if (!have || q > best) {
+                have = 1;
+                best = q;
+                *meas = sh;
+            }
+        }
+    }
+    return have && (int64_t)best * 1000 >= (int64_t)cfg->tmatch_ncc_permille * VT_Q14_ONE;
 }
 
 /* Every argument of vt_tracker_step, before anything is touched. */
@@ -322,6 +394,14 @@ static int vt__predict_measure(vt_tracker *tr, vt_track *t, const vt_tracker_cfg
         }
         return 1;
     }
+    /* A tentative track's template keeps its filter on the vehicle; no hit (only
+     * real measurements confirm) and no miss (the lifecycle waits for a detection).
+     * Confirmed tracks coast as in the thesis (tracker.h says why). */
+    if (cfg->tmatch_radius > 0 && t->state == VT_TRACK_TENTATIVE && t->tm_frames < INT32_MAX && vt__tmatch(t, cfg, img, &meas) &&
+        vt__update(t, meas.left, meas.bottom, meas.right) == VT_OK) {
+        t->tm_frames += 1;
+        return 0;
+    }
     t->misses = vt__inc_sat(t->misses);
     if (t->state == VT_TRACK_CONFIRMED) {
         t->state = VT_TRACK_COASTING;
@@ -347,10 +427,63 @@ static void vt__absorb_detection(vt_tracker *tr, vt_track *t, const vt_tracker_c
         *measured = 1;
         vt__hit(t, cfg, img);
     } else {
-        vt__sample(img, &t->box, t->tmpl);
+        vt__set_tmpl(t, img);
     }
     if (cfg->measurement == VT_MEAS_EDGE_CURVES) {
         vt__edge_refresh(tr, t, cfg, img);
+    }
+}
+
+/* A part-track (a wheel, a window band, half a car) re-anchored to the whole
+ * detection: the filter restarts on the detection's bottom edge (a Kalman update
+ * would only drag it halfway); id, hits and state are kept. */
+static void vt__reanchor(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *cfg,
+                         const vt_image_u8 *img, const vt_box *d, uint8_t *measured)
+{
+    int32_t w = d->right - d->left + 1;
+    if (vt_kf_init_bottom_edge(&t->kf, &cfg->model, vt_q16_from_int(d->left),
+                               vt_q16_from_int(d->bottom), vt_q16_from_int(d->right)) != VT_OK) {
+        return; /* cannot happen: the model was validated */
+    }
+    t->aspect_q8 = (int32_t)(((int64_t)(d->bottom - d->top + 1) * 256 + w / 2) / w);
+    t->sides.have_prev = 1;
+    t->sides.prev_left = d->left;
+    t->sides.prev_right = d->right;
+    t->sides.max_change_left = cfg->init_max_change;
+    t->sides.max_change_right = cfg->init_max_change;
+    vt__box_from_state(t);
+    if (!*measured) {
+        *measured = 1;
+        vt__hit(t, cfg, img);
+    } else {
+        vt__set_tmpl(t, img);
+    }
+    if (cfg->measurement == VT_MEAS_EDGE_CURVES) {
+        vt__edge_refresh(tr, t, cfg, img);
+    }
+}
+
+/* After the IoU matching: each unmatched live track (slot order) takes the
+ * first unmatched detection, larger than it, that holds part_permille of it. */
+static void vt__reanchor_parts(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_image_u8 *img,
+                               const vt_box *dets, int32_t n_dets, uint8_t *measured,
+                               uint8_t *track_matched, int16_t *match_of_det)
+{
+    int32_t i, j;
+    for (i = 0; i < VT_MAX_TRACKS; ++i) {
+        vt_track *t = &tr->tracks[i];
+        if (t->state == VT_TRACK_FREE || track_matched[i]) {
+            continue;
+        }
+        for (j = 0; j < n_dets; ++j) {
+            if (match_of_det[j] < 0 && vt__area(&dets[j]) > vt__area(&t->box) &&
+                vt__mostly_inside(&t->box, &dets[j], cfg->part_permille)) {
+                track_matched[i] = 1;
+                match_of_det[j] = (int16_t)i;
+                vt__reanchor(tr, t, cfg, img, &dets[j], &measured[i]);
+                break;
+            }
+        }
     }
 }
 
@@ -388,11 +521,14 @@ static void vt__associate(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_im
             }
         }
         if (bi < 0) {
-            return;
+            break;
         }
         track_matched[bi] = 1;
         match_of_det[bj] = (int16_t)bi;
         vt__absorb_detection(tr, &tr->tracks[bi], cfg, img, &dets[bj], &measured[bi]);
+    }
+    if (cfg->part_permille > 0) {
+        vt__reanchor_parts(tr, cfg, img, dets, n_dets, measured, track_matched, match_of_det);
     }
 }
 
@@ -437,7 +573,11 @@ static void vt__births(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_image
                 continue;
             }
             vt__iou(&tr->tracks[i].box, &dets[j], &in, &un);
-            overlaps = in * 10 >= un; /* IoU >= 10 %: the same vehicle, not a new one */
+            overlaps = in * 10 >= un || /* IoU >= 10 %: the same vehicle, not a new one */
+                       (cfg->part_permille > 0 && in * 1000 >= (int64_t)cfg->part_permille * vt__area(&dets[j]));
+        }
+        if (dets[j].right - dets[j].left + 1 < cfg->min_width) {
+            continue; /* it would be dropped as degenerate at once */
         }
         if (overlaps) {
             continue;
@@ -453,6 +593,32 @@ static void vt__births(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_image
     }
 }
 
+/* A live track mostly inside a larger live track (equal areas: the later slot)
+ * is a part of it: dropped, slot order (a dropped track holds no other). */
+static void vt__drop_parts(vt_tracker *tr, const vt_tracker_cfg *cfg)
+{
+    int32_t i, k;
+    for (i = 0; i < VT_MAX_TRACKS; ++i) {
+        vt_track *t = &tr->tracks[i];
+        if (t->state == VT_TRACK_FREE) {
+            continue;
+        }
+        for (k = 0; k < VT_MAX_TRACKS; ++k) {
+            const vt_track *o = &tr->tracks[k];
+            int64_t ao, at;
+            if (k == i || o->state == VT_TRACK_FREE) {
+                continue;
+            }
+            ao = vt__area(&o->box);
+            at = vt__area(&t->box);
+            if ((ao > at || (ao == at && k < i)) && vt__mostly_inside(&t->box, &o->box, cfg->part_permille)) {
+                t->state = VT_TRACK_FREE;
+                break;
+            }
+        }
+    }
+}
+
 /* Phase 3, lifecycle: drop tracks that coasted too long or left the frame. */
 static void vt__expire(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_image_u8 *img)
 {
@@ -464,9 +630,13 @@ static void vt__expire(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_image
         }
         if (t->misses > cfg->max_coast || (t->state == VT_TRACK_TENTATIVE && t->misses >= 2) ||
             t->box.right < 0 || t->box.left >= img->w || t->box.bottom < 0 ||
-            t->box.top >= img->h) {
+            t->box.top >= img->h || t->tm_frames > cfg->tmatch_max ||
+            t->box.right - t->box.left + 1 < cfg->min_width) {
             t->state = VT_TRACK_FREE;
         }
+    }
+    if (cfg->part_permille > 0) {
+        vt__drop_parts(tr, cfg);
     }
 }
 

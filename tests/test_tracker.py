@@ -183,7 +183,8 @@ def test_python_defaults_equal_c_defaults():
         assert abs(getattr(c.model, f) - getattr(p.model, f)) <= 1, f
     for f in ("roi_margin_min", "roi_margin_permille", "gate_permille", "gate_bottom_permille",
               "confirm_hits", "max_coast",
-              "match_iou_permille", "keep_ncc", "init_max_change"):
+              "match_iou_permille", "keep_ncc", "init_max_change", "tmatch_radius",
+              "tmatch_ncc_permille", "tmatch_max", "part_permille", "min_width"):
         assert getattr(c, f) == getattr(p, f), f
 
 

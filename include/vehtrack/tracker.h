@@ -6,8 +6,9 @@
  *
  * Cost: sizeof(vt_tracker) = VT_MAX_TRACKS * sizeof(vt_track) plus the
  * projection workspace (4 * (VT_MAX_WIDTH + VT_MAX_HEIGHT) bytes) and one
- * pointer: 71,800 bytes at the defaults on x86-64. vt_track is 3,736 bytes: the
- * 2,360-byte fixed-point Kalman filter, a VT_TRACK_TEMPLATE^2-byte template and
+ * pointer: 72,056 bytes at the defaults on x86-64. vt_track is 3,752 bytes: the
+ * 2,360-byte fixed-point Kalman filter, a VT_TRACK_TEMPLATE^2-byte template (and
+ * the 16-byte box it came from, for the template measurement) and
  * the edge-curve template (vt_edge_template, 4 * VT_EDGE_MAX_POINTS + 20 = 1,044
  * bytes, kept in every track whichever measurement is configured: it is the
  * track's own state, small, and keeps a track copyable). The edge measurement's
@@ -18,7 +19,10 @@
  * update (about 1 100 multiplies) and two Sobel responses per ROI pixel (2.3
  * instructions per frame pixel for two tracks at 640x480, `make bench`); nothing
  * outside the ROIs is touched except on detection frames (the template check,
- * VT_TRACK_TEMPLATE^2 pixels per track). Stack: about 2 KB (the Kalman update). */
+ * VT_TRACK_TEMPLATE^2 pixels per track). The template measurement, when on and
+ * the search failed for a tentative track, costs (2 * tmatch_radius + 1)^2
+ * resamples and correlations of VT_TRACK_TEMPLATE^2 pixels (81 at radius 4).
+ * Stack: about 2 KB (the Kalman update). */
 #ifndef VEHTRACK_TRACKER_H
 #define VEHTRACK_TRACKER_H
 
@@ -63,6 +67,30 @@ typedef struct {
      * curves matched by chamfer distance, vehtrack/edge_track.h, with `edge`). */
     int32_t measurement;
     vt_edge_cfg edge;
+    /* Template tracking (GIST paper sec. III.B tracks by matching), for
+     * tentative tracks: when the frame's measurement fails, the track's template
+     * (16x16, from its last real measurement) is correlated (vt_ncc_u8) with its
+     * box at that measurement's size, bottom centre on the prediction, shifted by
+     * every dx, dy in -tmatch_radius..tmatch_radius px; the best shift (first in
+     * row-major order on ties) is the measurement if its NCC >= tmatch_ncc_permille
+     * / 1000. It updates the filter but is no hit and no miss: a tentative track
+     * born from a classifier box (not aligned to the shadow edge the ROI search
+     * wants) lives on until a detection re-confirms it, for at most tmatch_max
+     * consecutive template frames. Confirmed tracks keep the thesis's coasting:
+     * the template's coarse 16x16 grid (a cell is w/16 px) is a poor measurement
+     * of the sides and fed a wrong side velocity into a confirmed KITTI track.
+     * tmatch_radius 0: off (the thesis's lifecycle). */
+    int32_t tmatch_radius;
+    int32_t tmatch_ncc_permille;
+    int32_t tmatch_max;
+    /* Parts are not vehicles: a detection with >= part_permille of its area inside
+     * a live track starts none; an unmatched live track with >= part_permille of
+     * its area inside a larger unmatched detection is re-anchored to it (keeping its
+     * id); a track with >= part_permille of its area inside a larger live track is
+     * dropped. 0: off. */
+    int32_t part_permille;
+    /* A track narrower than min_width px (or whose corners crossed) is dropped. */
+    int32_t min_width;
 } vt_tracker_cfg;
 
 #define VT_MEAS_ROI_SEARCH 0
@@ -83,6 +111,11 @@ typedef struct {
         .init_max_change = 3,                                               \
         .measurement = VT_MEAS_ROI_SEARCH,                                  \
         .edge = VT_EDGE_CFG_DEFAULT,                                        \
+        .tmatch_radius = 6,                                                 \
+        .tmatch_ncc_permille = 800,                                         \
+        .tmatch_max = 12,                                                   \
+        .part_permille = 600,                                               \
+        .min_width = 4,                                                     \
     }
 
 /* One track. Public so that callers can inspect and save it; change it only
@@ -101,6 +134,8 @@ typedef struct {
     vt_kf kf;             /* bottom-edge model [x1, y1, x2, vx1, vy1, vx2] */
     uint8_t tmpl[VT_TRACK_TEMPLATE * VT_TRACK_TEMPLATE];
     vt_edge_template edges; /* curve points, used by VT_MEAS_EDGE_CURVES only */
+    int32_t tm_frames;    /* consecutive frames measured by the template only */
+    vt_box tmpl_box;      /* the box tmpl was sampled from */
 } vt_track;
 
 typedef struct {
@@ -132,7 +167,9 @@ typedef struct {
  * <= VT_MAX_WIDTH, roi_margin_permille, gate_permille, gate_bottom_permille in
  * 0..4000, 1 <= confirm_hits <= VT_TRACK_MAX_FRAMES_CFG, 0 <= max_coast <=
  * VT_TRACK_MAX_FRAMES_CFG, match_iou_permille in 1..1000, keep_ncc in [-1, 1]
- * (Q14), 0 <= init_max_change <= VT_MAX_WIDTH. VT_E_ARG otherwise and for NULL.
+ * (Q14), 0 <= init_max_change <= VT_MAX_WIDTH, 0 <= tmatch_radius <= 64,
+ * tmatch_ncc_permille in -1000..1000, 0 <= tmatch_max <= VT_TRACK_MAX_FRAMES_CFG,
+ * part_permille in 0..1000, 0 <= min_width <= VT_MAX_WIDTH. VT_E_ARG otherwise and for NULL.
  * vt_tracker_step checks the same before touching the tracker. */
 vt_status vt_tracker_cfg_check(const vt_tracker_cfg *cfg);
 

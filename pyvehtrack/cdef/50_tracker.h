@@ -46,6 +46,11 @@ typedef struct {
     int32_t init_max_change;
     int32_t measurement;
     vt_edge_cfg edge;
+    int32_t tmatch_radius;
+    int32_t tmatch_ncc_permille;
+    int32_t tmatch_max;
+    int32_t part_permille;
+    int32_t min_width;
 } vt_tracker_cfg;
 #define VT_MEAS_ROI_SEARCH ...
 #define VT_MEAS_EDGE_CURVES ...
@@ -64,6 +69,8 @@ typedef struct {
     vt_kf kf;
     uint8_t tmpl[...];
     vt_edge_template edges;
+    int32_t tm_frames;
+    vt_box tmpl_box;
 } vt_track;
 
 typedef struct {

@@ -13,7 +13,15 @@ tentative tracks in the first free slot.
 With measurement=MEAS_EDGE_CURVES the ROI search is replaced by the GIST paper's
 (sec. III.B): the track's edge curves at its last good frame are matched to the new
 frame's curves by chamfer distance (reference/edge_track.py), and the template
-is refreshed from the box after every update."""
+is refreshed from the box after every update.
+
+Template tracking (tmatch_radius > 0, GIST paper sec. III.B tracks by matching): when
+the measurement of a tentative track fails, the box (template's size) near the prediction whose 16x16 resample correlates
+best with the track's template (taken at its last real measurement) measures it if
+the correlation reaches tmatch_ncc_permille / 1000; that is neither a hit nor a miss.
+Parts (part_permille > 0): a detection mostly inside a live track starts none, a
+track mostly inside a larger unmatched detection restarts on it (same id), and a
+track mostly inside a larger live track is dropped. min_width drops thin tracks."""
 from __future__ import annotations
 
 import math
@@ -63,6 +71,12 @@ class TrackerCfg:
     init_max_change: int = 3
     measurement: int = MEAS_ROI_SEARCH
     edge: redge.EdgeCfg = field(default_factory=redge.EdgeCfg)
+    # template tracking when the measurement fails (0: off), see Tracker._tmatch
+    tmatch_radius: int = 6
+    tmatch_ncc_permille: int = 800
+    tmatch_max: int = 12
+    part_permille: int = 600       # parts are not vehicles (0: off)
+    min_width: int = 4             # narrower tracks are dropped (0: off)
 
 
 accept_renamed(TrackerCfg, TRACKER_RENAMED)  # the percent names of before issue 10
@@ -87,6 +101,8 @@ class Track:
     kf: KalmanFilter | None = None
     tmpl: np.ndarray | None = None
     edges: redge.Template | None = None
+    tm_frames: int = 0
+    tmpl_box: tuple = (0, 0, 0, 0)
 
     def box_from_state(self):
         x = self.kf.x[:, 0]
@@ -118,6 +134,15 @@ def iou_frac(a, b) -> tuple[int, int]:
     return inter, uni
 
 
+def _area(b) -> int:
+    return (b[2] - b[0] + 1) * (b[3] - b[1] + 1)
+
+
+def _inside(inner, outer, part_permille: int) -> bool:
+    """At least part_permille of inner's area lies inside outer."""
+    return iou_frac(inner, outer)[0] * 1000 >= part_permille * _area(inner)
+
+
 def box_iou(a, b) -> float:
     """IoU of two inclusive [left, top, right, bottom] boxes, as a float."""
     inter, uni = iou_frac(a, b)
@@ -140,11 +165,12 @@ class Tracker:
     def _hit(self, t: Track, img):
         t.hits += 1
         t.misses = 0
+        t.tm_frames = 0
         if t.state == TENTATIVE and t.hits >= self.cfg.confirm_hits:
             t.state = CONFIRMED
         elif t.state == COASTING:
             t.state = CONFIRMED
-        t.tmpl = sample(img, t.box)
+        self._set_tmpl(t, img)
 
     def _margin(self, box) -> int:
         w = box[2] - box[0] + 1
@@ -187,6 +213,49 @@ class Tracker:
         dx, dy, s, _, found = redge.match(em, e, t.edges, cx, cy)
         return redge.scale_box(t.edges.box, s, dx, dy) if found else None
 
+    @staticmethod
+    def _set_tmpl(t: Track, img):
+        t.tmpl = sample(img, t.box)
+        t.tmpl_box = t.box
+
+    def _tmatch(self, t: Track, img):
+        """The shifted predicted box correlating best with the template (first of equal
+        Q14-rounded scores, dy outer), or None below the threshold or when all are flat."""
+        rad = self.cfg.tmatch_radius
+        # the template's box, bottom centre on the predicted one, then shifted
+        l, top, r, b = t.tmpl_box
+        ox = (t.box[0] + t.box[2]) // 2 - (l + r) // 2
+        oy = t.box[3] - b
+        best = None
+        for dy in range(-rad, rad + 1):
+            for dx in range(-rad, rad + 1):
+                sh = (l + ox + dx, top + oy + dy, r + ox + dx, b + oy + dy)
+                v = rimg.ncc(t.tmpl, sample(img, sh))
+                if math.isnan(v):
+                    continue
+                q = math.floor(v * 16384 + 0.5)  # C's Q14 grid
+                if best is None or q > best[0]:
+                    best = (q, sh)
+        if best is None or best[0] * 1000 < self.cfg.tmatch_ncc_permille * 16384:
+            return None
+        return best[1]
+
+    def _reanchor(self, t: Track, img, d, measured: bool) -> None:
+        """A part-track restarts on the whole detection, keeping id, hits and state."""
+        c = self.cfg
+        l, top, r, b = d
+        w = r - l + 1
+        t.kf = bottom_edge_filter(l, b, r, **vars(c.model))
+        t.aspect_q8 = ((b - top + 1) * 256 + w // 2) // w
+        t.sides = Sides(True, l, r, c.init_max_change, c.init_max_change)
+        t.box_from_state()
+        if not measured:
+            self._hit(t, img)
+        else:
+            self._set_tmpl(t, img)
+        if c.measurement == MEAS_EDGE_CURVES:
+            self._edge_refresh(t, img)
+
     def _update(self, t: Track, left, bottom, right):
         t.kf.update(np.array([[left], [bottom], [right]], dtype=float))
         t.box_from_state()
@@ -204,7 +273,7 @@ class Tracker:
         t.aspect_q8 = (h * 256 + w // 2) // w
         t.sides = Sides(True, l, r, c.init_max_change, c.init_max_change)
         t.box_from_state()
-        t.tmpl = sample(img, t.box)
+        self._set_tmpl(t, img)
         if c.measurement == MEAS_EDGE_CURVES:
             self._edge_refresh(t, img)
 
@@ -244,6 +313,9 @@ class Tracker:
                 self._hit(t, img)
                 if c.measurement == MEAS_EDGE_CURVES:
                     self._edge_refresh(t, img)
+            elif c.tmatch_radius > 0 and t.state == TENTATIVE and (tm := self._tmatch(t, img)) is not None:
+                self._update(t, tm[0], tm[3], tm[2])
+                t.tm_frames += 1
             else:
                 t.misses += 1
                 if t.state == CONFIRMED:
@@ -278,9 +350,22 @@ class Tracker:
                     measured[bi] = True
                     self._hit(t, img)
                 else:
-                    t.tmpl = sample(img, t.box)
+                    self._set_tmpl(t, img)
                 if c.measurement == MEAS_EDGE_CURVES:
                     self._edge_refresh(t, img)
+            if c.part_permille > 0:
+                # a part-track takes the first unmatched larger detection holding it
+                for i, t in enumerate(self.tracks):
+                    if t.state == FREE or matched[i]:
+                        continue
+                    for j, d in enumerate(dets):
+                        if match_of_det[j] < 0 and _area(d) > _area(t.box) and \
+                                _inside(t.box, d, c.part_permille):
+                            matched[i] = True
+                            match_of_det[j] = i
+                            self._reanchor(t, img, d, measured[i])
+                            measured[i] = True
+                            break
             for i, t in enumerate(self.tracks):
                 if t.state == FREE or matched[i]:
                     continue
@@ -295,10 +380,11 @@ class Tracker:
                 for t in self.tracks:
                     if t.state != FREE:
                         inter, uni = iou_frac(t.box, d)
-                        if inter * 10 >= uni:
+                        if inter * 10 >= uni or (c.part_permille > 0 and
+                                                 inter * 1000 >= c.part_permille * _area(d)):
                             overlaps = True
                             break
-                if overlaps:
+                if overlaps or d[2] - d[0] + 1 < c.min_width:
                     continue
                 free = next((k for k, t in enumerate(self.tracks) if t.state == FREE), None)
                 if free is None:
@@ -311,6 +397,18 @@ class Tracker:
                 continue
             l, top, r, b = t.box
             if t.misses > c.max_coast or (t.state == TENTATIVE and t.misses >= 2) or \
-                    r < 0 or l >= w or b < 0 or top >= h:
+                    r < 0 or l >= w or b < 0 or top >= h or t.tm_frames > c.tmatch_max or \
+                    r - l + 1 < c.min_width:
                 t.state = FREE
+        if c.part_permille > 0:
+            for i, t in enumerate(self.tracks):
+                if t.state == FREE:
+                    continue
+                for k, o in enumerate(self.tracks):
+                    if k == i or o.state == FREE:
+                        continue
+                    ao, at = _area(o.box), _area(t.box)
+                    if (ao > at or (ao == at and k < i)) and _inside(t.box, o.box, c.part_permille):
+                        t.state = FREE
+                        break
         return [(t.id, t.state, t.box, t.vx, t.vy) for t in self.tracks if t.state != FREE]
