@@ -138,7 +138,7 @@ vt_status vt_camera_box_distance(const vt_camera_cfg *cam, vt_q16 tp, const vt_b
 }
 
 /* ------------------------------------------------------------------ pitch */
-vt_status vt_pitch_init(const vt_camera_cfg *cam, vt_pitch_state *st)
+vt_status vt_pitch_init(vt_pitch_state *st, const vt_camera_cfg *cam)
 {
     if (st == NULL || vt_camera_cfg_check(cam) != VT_OK) {
         return VT_E_ARG;
@@ -150,7 +150,7 @@ vt_status vt_pitch_init(const vt_camera_cfg *cam, vt_pitch_state *st)
     return VT_OK;
 }
 
-vt_status vt_pitch_update(const vt_camera_cfg *cam, vt_pitch_state *st, int32_t vp_valid,
+vt_status vt_pitch_update(vt_pitch_state *st, const vt_camera_cfg *cam, int32_t vp_valid,
                           vt_q16 vp_row)
 {
     int64_t m, step;
@@ -262,7 +262,7 @@ vt_status vt_range_cfg_check(const vt_range_cfg *c)
     return VT_OK;
 }
 
-vt_status vt_fcw_step(const vt_range_cfg *cfg, vt_fcw_state *st, int32_t ttc_valid, vt_q16 ttc,
+vt_status vt_fcw_step(vt_fcw_state *st, const vt_range_cfg *cfg, int32_t ttc_valid, vt_q16 ttc,
                       int32_t closing, int32_t lead_class, int32_t *out)
 {
     int64_t thr;
@@ -513,7 +513,7 @@ static void vt__range_track_step(vt_range_track *t, const vt_range_cfg *cfg,
         }
     }
     o->lead_class = cls;
-    (void)vt_fcw_step(cfg, &t->fcw, ttc_ok, o->ttc_dist, closing, cls, &o->fcw);
+    (void)vt_fcw_step(&t->fcw, cfg, ttc_ok, o->ttc_dist, closing, cls, &o->fcw);
 }
 
 vt_status vt_range_step(vt_range_state *st, const vt_range_cfg *cfg, const vt_camera_cfg *cam,

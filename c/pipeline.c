@@ -136,7 +136,7 @@ vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
     memset(p->ranges, 0, sizeof(p->ranges));
     s = vt_range_init(&p->range);
     if (s == VT_OK && camera != NULL) {
-        s = vt_pitch_init(camera, &p->pitch);
+        s = vt_pitch_init(&p->pitch, camera);
     }
     if (s != VT_OK) {
         return s;
@@ -430,7 +430,7 @@ static vt_status vt__geometry(vt_pipeline *p, const vt_image_u8 *frame, const vt
     if (lanes_ok && vt_lane_vanishing_row(&out->lanes, frame->h, &vp_row, &vp_valid) != VT_OK) {
         vp_valid = 0;
     }
-    s = vt_pitch_update(p->camera, &p->pitch, vp_valid, vp_valid ? vp_row : 0);
+    s = vt_pitch_update(&p->pitch, p->camera, vp_valid, vp_valid ? vp_row : 0);
     if (s == VT_OK) {
         s = vt_range_step(&p->range, &p->cfg.range, p->camera, p->pitch.tan_pitch, p->ego_speed,
                           p->tracks, n_tracks, p->ranges, VT_MAX_TRACKS, n_ranges);
@@ -624,7 +624,7 @@ static void vt__model(vt_pipeline *p, const vt_image_u8 *frame, vt_frame_out *ou
         se.sigma.bump = 5;
         se.sigma.roof = 5;
         ++fits; /* the bound counts attempts: a failed fit cost its GA too */
-        if (vt_model_fit(frame, &mc, &se, p->model_ws, &res) != VT_OK ||
+        if (vt_model_fit(p->model_ws, &mc, frame, &se, &res) != VT_OK ||
             res.fitness < p->cfg.model_min_fitness ||
             !vt__iou_at_least(&res.box, b, p->cfg.tracker.match_iou_permille)) {
             continue;
@@ -701,7 +701,7 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
     memset(&out->lanes, 0, sizeof(out->lanes));
 
     if (run_lanes) {
-        out->lane_status = vt_lane_detect(&p->cfg.lane, &p->lane, frame, &out->lanes, &out->road);
+        out->lane_status = vt_lane_detect(&p->lane, &p->cfg.lane, frame, &out->lanes, &out->road);
         lanes_ok = out->lane_status == VT_OK;
         /* The horizon of the whole-road detector and the vehicle model: the lane
          * stage's own vanishing row (the two ego lines meeting inside its plausible

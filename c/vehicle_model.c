@@ -256,8 +256,8 @@ static int32_t vt__lerp(int32_t a, int32_t b, int32_t k)
     return a + (b - a) * k / (VT__S - 1);
 }
 
-vt_status vt_model_prepare(const vt_image_u8 *frame, const vt_model_cfg *cfg,
-                           const vt_model_search *search, int32_t level, vt_model_ws *ws)
+vt_status vt_model_prepare(vt_model_ws *ws, const vt_model_cfg *cfg,
+                           const vt_image_u8 *frame, const vt_model_search *search, int32_t level)
 {
     vt__geom g;
     vt_status s;
@@ -424,8 +424,8 @@ static int32_t vt__fitness(const vt_model_cfg *c, const vt_model_ws *ws, const v
     return c->w_sym * sym + c->w_grad * grad + c->w_dist * dist + c->w_shadow * shadow;
 }
 
-vt_status vt_model_fitness(const vt_image_u8 *frame, const vt_model_cfg *cfg,
-                           const vt_model_search *search, int32_t level, vt_model_ws *ws,
+vt_status vt_model_fitness(vt_model_ws *ws, const vt_model_cfg *cfg,
+                           const vt_image_u8 *frame, const vt_model_search *search, int32_t level,
                            const vt_model_params *p, int32_t *fitness)
 {
     const int32_t lim = 4 * (VT_MAX_WIDTH > VT_MAX_HEIGHT ? VT_MAX_WIDTH : VT_MAX_HEIGHT);
@@ -490,8 +490,8 @@ static int32_t vt__tournament(const int32_t *fit, int32_t n, uint32_t *rs)
     return fit[j] > fit[i] ? j : i;
 }
 
-vt_status vt_model_fit(const vt_image_u8 *frame, const vt_model_cfg *cfg,
-                       const vt_model_search *search, vt_model_ws *ws, vt_model_result *out)
+vt_status vt_model_fit(vt_model_ws *ws, const vt_model_cfg *cfg,
+                       const vt_image_u8 *frame, const vt_model_search *search, vt_model_result *out)
 {
     vt__geom g;
     vt_status s;
@@ -531,7 +531,7 @@ vt_status vt_model_fit(const vt_image_u8 *frame, const vt_model_cfg *cfg,
         const vt_model_params *prev = ws->pop + cur * VT_MODEL_MAX_POP;
         vt_model_params *pop;
         int32_t *fit;
-        s = vt_model_prepare(frame, cfg, search, level, ws);
+        s = vt_model_prepare(ws, cfg, frame, search, level);
         if (s != VT_OK) {
             return s;
         }

@@ -309,8 +309,8 @@ def test_camera_cfg_bad_values():
     rb.scale_lag = lib.VT_RANGE_HIST
     assert lib.vt_range_cfg_check(rb) == lib.VT_E_ARG
     s = ffi.new("vt_pitch_state *")
-    assert lib.vt_pitch_update(c, s, 2, 0) == lib.VT_E_ARG
-    assert lib.vt_pitch_init(ffi.NULL, s) == lib.VT_E_ARG
+    assert lib.vt_pitch_update(s, c, 2, 0) == lib.VT_E_ARG
+    assert lib.vt_pitch_init(s, ffi.NULL) == lib.VT_E_ARG
 
 
 def test_vanishing_row_from_lanes_and_size_change():

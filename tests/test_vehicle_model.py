@@ -173,32 +173,32 @@ def test_bad_inputs():
     ws = _native.model_ws_new()
     out = ffi.new("vt_model_result *")
     N = ffi.NULL
-    assert lib.vt_model_fit(N, cfg, s, ws, out) == lib.VT_E_ARG
-    assert lib.vt_model_fit(v, N, s, ws, out) == lib.VT_E_ARG
-    assert lib.vt_model_fit(v, cfg, N, ws, out) == lib.VT_E_ARG
-    assert lib.vt_model_fit(v, cfg, s, N, out) == lib.VT_E_ARG
-    assert lib.vt_model_fit(v, cfg, s, ws, N) == lib.VT_E_ARG
+    assert lib.vt_model_fit(ws, cfg, N, s, out) == lib.VT_E_ARG
+    assert lib.vt_model_fit(ws, N, v, s, out) == lib.VT_E_ARG
+    assert lib.vt_model_fit(ws, cfg, v, N, out) == lib.VT_E_ARG
+    assert lib.vt_model_fit(N, cfg, v, s, out) == lib.VT_E_ARG
+    assert lib.vt_model_fit(ws, cfg, v, s, N) == lib.VT_E_ARG
     assert lib.vt_model_cfg_default(N) == lib.VT_E_ARG
     assert lib.vt_model_cfg_check(N) == lib.VT_E_ARG
-    assert lib.vt_model_prepare(v, cfg, s, 3, ws) == lib.VT_E_ARG
+    assert lib.vt_model_prepare(ws, cfg, v, s, 3) == lib.VT_E_ARG
     p = ffi.new("vt_model_params *")
     f = ffi.new("int32_t *")
     # fitness before prepare, and at another level than prepared
     ws2 = _native.model_ws_new()
     ws2.level = -1
-    assert lib.vt_model_fitness(v, cfg, s, 0, ws2, p, f) == lib.VT_E_ARG
+    assert lib.vt_model_fitness(ws2, cfg, v, s, 0, p, f) == lib.VT_E_ARG
     _native.model_prepare(img, cfg, s, 1, ws2)
     p.w = p.h = 10
-    assert lib.vt_model_fitness(v, cfg, s, 0, ws2, p, f) == lib.VT_E_ARG
-    assert lib.vt_model_fitness(v, cfg, s, 1, ws2, p, f) == lib.VT_OK
+    assert lib.vt_model_fitness(ws2, cfg, v, s, 0, p, f) == lib.VT_E_ARG
+    assert lib.vt_model_fitness(ws2, cfg, v, s, 1, p, f) == lib.VT_OK
     p.w = 0
-    assert lib.vt_model_fitness(v, cfg, s, 1, ws2, p, f) == lib.VT_E_ARG
+    assert lib.vt_model_fitness(ws2, cfg, v, s, 1, p, f) == lib.VT_E_ARG
     # sizes: bad frame view, ROI outside or under 8x8, over capacity
     v0 = ffi.new("vt_image_u8 *")
     v0.px = ffi.cast("uint8_t *", img.ctypes.data)
     for w, h, st_ in [(0, 10, 10), (10, -1, 10), (10, 10, 9)]:
         v0.w, v0.h, v0.stride = w, h, st_
-        assert lib.vt_model_fit(v0, cfg, s, ws, out) == lib.VT_E_SIZE
+        assert lib.vt_model_fit(ws, cfg, v0, s, out) == lib.VT_E_SIZE
     for roi in [(50, 0, 60, 39), (0, 0, 6, 39), (0, 0, 39, 5), (-20, -20, -1, -1), (10, 10, 5, 30)]:
         with pytest.raises(VtError, match="vt_model_fit.*size"):
             _native.model_fit(img, cfg, _native.model_search(roi, 0, 39), ws)

@@ -168,7 +168,7 @@ typedef struct vt_pitch_state {
 } vt_pitch_state;
 
 /* Start from the nominal pitch. VT_E_ARG for NULL or a bad camera. */
-vt_status vt_pitch_init(const vt_camera_cfg *cam, vt_pitch_state *st);
+vt_status vt_pitch_init(vt_pitch_state *st, const vt_camera_cfg *cam);
 
 /* One frame. vp_valid = 0 (no vanishing point): tan_pitch kept, flag HELD (NOMINAL
  * if nothing was ever measured). Otherwise m = (cy - vp_row) / fy (Q16, one rounded
@@ -179,7 +179,7 @@ vt_status vt_pitch_init(const vt_camera_cfg *cam, vt_pitch_state *st);
  *     then the estimate jumps to m (MEASURED) -- a lasting change (a load) is followed;
  *   - else MEASURED: est += (m - est) * alpha / 256, rounded half away from zero.
  * VT_E_ARG for NULL, a bad camera, or vp_valid not 0/1 (state unchanged). */
-vt_status vt_pitch_update(const vt_camera_cfg *cam, vt_pitch_state *st, int32_t vp_valid,
+vt_status vt_pitch_update(vt_pitch_state *st, const vt_camera_cfg *cam, int32_t vp_valid,
                           vt_q16 vp_row);
 
 /* The vanishing row (Q16, input px) where the two ego lane lines (slots LEFT and
@@ -298,7 +298,7 @@ typedef struct vt_fcw_state {
  *                   (else SUPPRESSED); since_end counts frames while off.
  * *out gets the VT_FCW_* bits. VT_E_ARG for NULL, a bad cfg, flags not 0/1 or a lead
  * class out of range (state unchanged). */
-vt_status vt_fcw_step(const vt_range_cfg *cfg, vt_fcw_state *st, int32_t ttc_valid, vt_q16 ttc,
+vt_status vt_fcw_step(vt_fcw_state *st, const vt_range_cfg *cfg, int32_t ttc_valid, vt_q16 ttc,
                       int32_t closing, int32_t lead_class, int32_t *out);
 
 /* Per-track range memory (private; public for its size). */

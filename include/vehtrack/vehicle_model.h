@@ -202,10 +202,10 @@ vt_status vt_model_expected_width(const vt_model_cfg *cfg, int32_t y, int32_t *w
 
 /* The fitness of one parameter set at pyramid `level` of the search's ROI,
  * after vt_model_prepare(level) (for tests and for scoring a tracker's box). */
-vt_status vt_model_prepare(const vt_image_u8 *frame, const vt_model_cfg *cfg,
-                           const vt_model_search *search, int32_t level, vt_model_ws *ws);
-vt_status vt_model_fitness(const vt_image_u8 *frame, const vt_model_cfg *cfg,
-                           const vt_model_search *search, int32_t level, vt_model_ws *ws,
+vt_status vt_model_prepare(vt_model_ws *ws, const vt_model_cfg *cfg,
+                           const vt_image_u8 *frame, const vt_model_search *search, int32_t level);
+vt_status vt_model_fitness(vt_model_ws *ws, const vt_model_cfg *cfg,
+                           const vt_image_u8 *frame, const vt_model_search *search, int32_t level,
                            const vt_model_params *p, int32_t *fitness);
 
 /* Fit the model: the GA, coarse to fine. VT_E_ARG for NULLs, a bad cfg or search
@@ -215,8 +215,8 @@ vt_status vt_model_fitness(const vt_image_u8 *frame, const vt_model_cfg *cfg,
  * when no model fits the constraints inside the ROI (e.g. the expected width
  * exceeds it). ws->pop[ws->cur * VT_MODEL_MAX_POP + i], i < ws->n, holds the last
  * generation and ws->fit the same way its fitnesses. */
-vt_status vt_model_fit(const vt_image_u8 *frame, const vt_model_cfg *cfg,
-                       const vt_model_search *search, vt_model_ws *ws, vt_model_result *out);
+vt_status vt_model_fit(vt_model_ws *ws, const vt_model_cfg *cfg,
+                       const vt_image_u8 *frame, const vt_model_search *search, vt_model_result *out);
 
 /* A detection search from a flow hypothesis (paper sec. 6: the overtaking
  * module's blob limits the model's y between the blob's lowest row and its

@@ -76,12 +76,12 @@ static void model_fitness_level_minus_one(void)
     se.roi.bottom = 47;
     se.y_min = 10;
     se.y_max = 47;
-    expect(vt_model_cfg_default(&cfg) == VT_OK && vt_model_prepare(&img, &cfg, &se, 0, &g_model_ws) == VT_OK,
+    expect(vt_model_cfg_default(&cfg) == VT_OK && vt_model_prepare(&g_model_ws, &cfg, &img, &se, 0) == VT_OK,
            "model prepare level 0");
-    expect(vt_model_prepare(NULL, &cfg, &se, 0, &g_model_ws) == VT_E_ARG, "model prepare NULL frame");
-    expect(vt_model_fitness(&img, &cfg, &se, -1, &g_model_ws, &p, &fit) == VT_E_ARG && fit == 0,
+    expect(vt_model_prepare(&g_model_ws, &cfg, NULL, &se, 0) == VT_E_ARG, "model prepare NULL frame");
+    expect(vt_model_fitness(&g_model_ws, &cfg, &img, &se, -1, &p, &fit) == VT_E_ARG && fit == 0,
            "model fitness at level -1 is VT_E_ARG");
-    expect(vt_model_fitness(&img, &cfg, &se, 0, &g_model_ws, &p, &fit) == VT_E_ARG,
+    expect(vt_model_fitness(&g_model_ws, &cfg, &img, &se, 0, &p, &fit) == VT_E_ARG,
            "model fitness after a failed prepare is VT_E_ARG");
 }
 
