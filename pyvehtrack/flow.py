@@ -18,7 +18,6 @@ from types import SimpleNamespace
 import numpy as np
 
 from . import _native
-from .reference import flow as rflow
 
 SIDES = {"left": 1, "right": 2, "both": 3}
 SIDE_NAMES = {1: "left", 2: "right"}
@@ -89,6 +88,7 @@ class OvertakingDetector:
         if engine == "c":
             self._st = _native.flow_new()
         else:
+            from .reference import flow as rflow
             ns = SimpleNamespace(**{f: int(getattr(self.cfg, f)) for f in CFG_FIELDS})
             self._ref = rflow.FlowOracle(ns, int(_native.lib.VT_FLOW_MAX_HYPS),
                                          int(_native.lib.VT_FLOW_MAX_SEEDS), int(_native.lib.VT_FLOW_MAX_BLOBS))

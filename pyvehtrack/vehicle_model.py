@@ -16,7 +16,6 @@ from types import SimpleNamespace
 import numpy as np
 
 from . import _native
-from .reference import vehicle_model as rvm
 
 GENES = _native.MODEL_GENES
 CFG_FIELDS = [f for f, _ in _native.ffi.typeof("vt_model_cfg").fields]
@@ -102,6 +101,7 @@ class VehicleModel:
             s = _native.model_search(roi, y_min, y_max, prediction is not None, prediction, sigma)
             r = _native.model_fit(frame, self.cfg, s, self._ws)
             return ModelFit(r["best"], r["box"], r["fitness"], r["evaluations"])
+        from .reference import vehicle_model as rvm
         r = rvm.fit(frame, oracle_cfg(self.cfg), oracle_search(roi, y_min, y_max, prediction, sigma))
         return ModelFit(tuple(r.best), r.box, r.fitness, r.evaluations)
 
