@@ -22,8 +22,11 @@ vt_status vt_pipeline_cfg_default(vt_pipeline_cfg *cfg)
     return VT_OK;
 }
 
-static vt_status vt__fixed_road_check(const vt_fixed_road *fr)
+vt_status vt_fixed_road_check(const vt_fixed_road *fr)
 {
+    if (fr == NULL) {
+        return VT_E_ARG;
+    }
     if (fr->vp_x_permille < 0 || fr->vp_x_permille > 1000 || fr->vp_y_permille < 0 ||
         fr->vp_y_permille > 1000 || fr->bottom_left_permille < 0 ||
         fr->bottom_left_permille > 1000 || fr->bottom_right_permille < 0 ||
@@ -35,8 +38,11 @@ static vt_status vt__fixed_road_check(const vt_fixed_road *fr)
     return VT_OK;
 }
 
-static vt_status vt__road_camera_check(const vt_road_camera *rc)
+vt_status vt_road_camera_check(const vt_road_camera *rc)
 {
+    if (rc == NULL) {
+        return VT_E_ARG;
+    }
     if (rc->horizon_q16 < -65536 || rc->horizon_q16 > 65536 || rc->hood_q16 < 3277 ||
         rc->hood_q16 > 131072 || rc->height_mm < 100 || rc->height_mm > 20000 ||
         rc->fx_per_w_q16 < 3277 || rc->fx_per_w_q16 > 1310720) {
@@ -66,7 +72,7 @@ vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg)
         (cfg->track != 0 && cfg->track != 1) || (cfg->sources & ~VT_SRC_BUILT) != 0) {
         return VT_E_ARG;
     }
-    s = vt__fixed_road_check(&cfg->fixed_road);
+    s = vt_fixed_road_check(&cfg->fixed_road);
     if (s == VT_OK && cfg->road_policy != VT_ROAD_FIXED) {
         s = vt_lane_cfg_check(&cfg->lane);
     }
@@ -87,7 +93,7 @@ vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg)
         s = vt_fulldet_cfg_check(&fc);
     }
     if (s == VT_OK) {
-        s = vt__road_camera_check(&cfg->road_camera);
+        s = vt_road_camera_check(&cfg->road_camera);
     }
     if (s == VT_OK) {
         s = vt_flow_cfg_check(&cfg->flow);
@@ -269,7 +275,7 @@ vt_status vt_fixed_road_area(const vt_fixed_road *fr, int32_t w, int32_t h, vt_r
     const int64_t k = 1000;
     int64_t vx, vy, span, bl, br, lb, tn, den;
     int32_t y, yt;
-    if (fr == NULL || road == NULL || vt__fixed_road_check(fr) != VT_OK) {
+    if (fr == NULL || road == NULL || vt_fixed_road_check(fr) != VT_OK) {
         return VT_E_ARG;
     }
     if (w < 1 || h < 1 || w > VT_MAX_WIDTH || h > VT_MAX_HEIGHT) {

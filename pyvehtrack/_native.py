@@ -1129,4 +1129,14 @@ def fixed_road_area(fr, w: int, h: int):
     road = ffi.new("vt_road_area *")
     check("vt_fixed_road_area", lib.vt_fixed_road_area(fr, w, h, road), f"frame {w}x{h}")
     return road
+def fixed_road_check(fr) -> None:
+    check("vt_fixed_road_check", lib.vt_fixed_road_check(fr),
+          "a fixed-road field is out of range (see vt_fixed_road_check in vehtrack/pipeline.h)")
+
+
+def road_camera_check(rc) -> None:
+    check("vt_road_camera_check", lib.vt_road_camera_check(rc),
+          "a road-camera field is out of range (see vt_road_camera_check in vehtrack/pipeline.h)")
+
+
 # ================================================================ end pipeline.h
