@@ -33,11 +33,7 @@ static int64_t vt__div_or(int64_t n, int64_t d, int64_t fallback)
 vt_status vt_camera_cfg_default(vt_camera_cfg *cam)
 {
     static const vt_camera_cfg def = VT_CAMERA_CFG_DEFAULT;
-    if (cam == NULL) {
-        return VT_E_ARG;
-    }
-    *cam = def;
-    return VT_OK;
+    return vt__cfg_copy(cam, &def, sizeof def);
 }
 
 vt_status vt_camera_cfg_check(const vt_camera_cfg *c)
@@ -230,11 +226,7 @@ vt_status vt_lane_vanishing_row(const vt_lane_result *res, int32_t img_h, vt_q16
 vt_status vt_range_cfg_default(vt_range_cfg *cfg)
 {
     static const vt_range_cfg def = VT_RANGE_CFG_DEFAULT;
-    if (cfg == NULL) {
-        return VT_E_ARG;
-    }
-    *cfg = def;
-    return VT_OK;
+    return vt__cfg_copy(cfg, &def, sizeof def);
 }
 
 vt_status vt_range_cfg_check(const vt_range_cfg *c)
@@ -520,7 +512,7 @@ vt_status vt_range_step(vt_range_state *st, const vt_range_cfg *cfg, const vt_ca
                         vt_q16 tp, vt_q16 ego_speed, const vt_track_out *tracks,
                         int32_t n_tracks, vt_range_out *out, int32_t out_cap, int32_t *n_out)
 {
-    int32_t i, j, k, written = 0, full = 0;
+    int32_t i, k, written = 0, full = 0;
     vt_range_track *slot;
     if (st == NULL || n_out == NULL || vt_range_cfg_check(cfg) != VT_OK ||
         vt_camera_cfg_check(cam) != VT_OK || !VT__IN(tp, -VT_Q16_ONE, VT_Q16_ONE) ||
@@ -529,19 +521,8 @@ vt_status vt_range_step(vt_range_state *st, const vt_range_cfg *cfg, const vt_ca
         return VT_E_ARG;
     }
     /* Check every input before touching the state. */
-    for (i = 0; i < n_tracks; i++) {
-        const vt_track_out *a = &tracks[i];
-        if (a->state == VT_TRACK_FREE) {
-            continue;
-        }
-        if (a->id <= 0 || a->box.right < a->box.left || a->box.bottom < a->box.top) {
-            return VT_E_ARG;
-        }
-        for (j = 0; j < i; j++) {
-            if (tracks[j].state != VT_TRACK_FREE && tracks[j].id == a->id) {
-                return VT_E_ARG;
-            }
-        }
+    if (vt_track_list_check(tracks, n_tracks) != VT_OK) {
+        return VT_E_ARG;
     }
     *n_out = 0;
     /* free the slots of ids gone this frame */

@@ -15,11 +15,7 @@
 vt_status vt_pipeline_cfg_default(vt_pipeline_cfg *cfg)
 {
     static const vt_pipeline_cfg def = VT_PIPELINE_CFG_DEFAULT;
-    if (cfg == NULL) {
-        return VT_E_ARG;
-    }
-    *cfg = def;
-    return VT_OK;
+    return vt__cfg_copy(cfg, &def, sizeof def);
 }
 
 vt_status vt_fixed_road_check(const vt_fixed_road *fr)

@@ -581,11 +581,16 @@ def range_new():
     return st
 
 
+def _track_array(tracks):
+    """(the contiguous TRACK_OUT_DTYPE array, its vt_track_out * or NULL, its length); the
+    array is returned so that it outlives the call that reads the pointer."""
+    tr = np.ascontiguousarray(tracks, dtype=TRACK_OUT_DTYPE)
+    return tr, (ffi.cast("vt_track_out *", tr.ctypes.data) if len(tr) else ffi.NULL), len(tr)
+
+
 def range_step(st, cfg, cam, tp: int, ego_speed: int, tracks: np.ndarray) -> np.ndarray:
     """tracks: a TRACK_OUT_DTYPE array (as tracker_step returns). Returns RANGE_OUT_DTYPE."""
-    tr = np.ascontiguousarray(tracks, dtype=TRACK_OUT_DTYPE)
-    n = len(tr)
-    ptr = ffi.cast("vt_track_out *", tr.ctypes.data) if n else ffi.NULL
+    tr, ptr, n = _track_array(tracks)
     cap = max(n, 1)
     out = np.zeros(cap, RANGE_OUT_DTYPE)
     n_out = ffi.new("int32_t *")
@@ -620,9 +625,7 @@ def ttc_new():
 def ttc_step(st, cfg, grey: np.ndarray, tracks: np.ndarray) -> np.ndarray:
     """grey: (h, w) uint8; tracks: a TRACK_OUT_DTYPE array. Returns TTC_OUT_DTYPE rows."""
     v = view(grey, "grey")
-    tr = np.ascontiguousarray(tracks, dtype=TRACK_OUT_DTYPE)
-    n = len(tr)
-    ptr = ffi.cast("vt_track_out *", tr.ctypes.data) if n else ffi.NULL
+    tr, ptr, n = _track_array(tracks)
     cap = max(n, 1)
     out = np.zeros(cap, TTC_OUT_DTYPE)
     n_out = ffi.new("int32_t *")
