@@ -154,32 +154,42 @@ SEARCH_RENAMED = {"min_h_percent": ("min_h_permille", 10), "min_v_percent": ("mi
 # Q8 fractions of at most 1 (256 = 1.0): new = old * 1000 / 256, accepted only where exact.
 SHADOW_RENAMED = {"reduce_overlap_q8": ("reduce_overlap_permille", Fraction(1000, 256))}
 VERIFY_RENAMED = {"side_min_frac_q8": ("side_min_frac_permille", Fraction(1000, 256))}
+# vt_flow_cfg (pyvehtrack.flow.make_cfg): percent -> permille, x 10
+FLOW_RENAMED = {"strip_percent": ("strip_permille", 10), "top_percent": ("top_permille", 10),
+                "bottom_percent": ("bottom_permille", 10), "diff_min_percent": ("diff_min_permille", 10),
+                "seed_min_visible": ("seed_min_visible_permille", 10)}
+
+
+def take_renamed(owner: str, kw: dict, renamed: dict, stacklevel: int = 3) -> dict:
+    """kw with every old name in `renamed` replaced by its new one (new = old x factor), with a
+    DeprecationWarning. A value that is not an int is passed on as it is, so the config's own
+    check names the field and the type; an int whose new value would not be a whole number
+    is a ValueError (never rounded silently); old and new together is a TypeError."""
+    for old, (new, factor) in renamed.items():
+        if old in kw:
+            if new in kw:
+                raise TypeError(f"{owner}: give {new} or the deprecated {old}, not both")
+            warnings.warn(f"{owner}.{old} is deprecated: use {new} (= {old} x {factor})",
+                          DeprecationWarning, stacklevel=stacklevel)
+            v = kw.pop(old)
+            if isinstance(v, (int, np.integer)) and not isinstance(v, bool):
+                nv = Fraction(int(v)) * factor
+                if nv.denominator != 1:
+                    raise ValueError(f"{owner}.{old}={v}: is {float(nv)} in {new}, not a whole "
+                                     f"number; give {new} instead")
+                v = int(nv)
+            kw[new] = v
+    return kw
 
 
 def accept_renamed(cls, renamed: dict):
     """Let dataclass `cls` still take the fields in `renamed` under their old names:
-    cls(old=v) sets new = v * factor, and obj.old reads new / factor, both with a
-    DeprecationWarning. A value that is not an int is passed on as it is, so the
-    config's own check names the field and the type; an int whose new value would
-    not be a whole number is a ValueError (never rounded silently)."""
+    cls(old=v) sets new = v * factor (take_renamed), and obj.old reads new / factor, both
+    with a DeprecationWarning."""
     init = cls.__init__
 
     def __init__(self, *args, **kw):
-        for old, (new, factor) in renamed.items():
-            if old in kw:
-                if new in kw:
-                    raise TypeError(f"{cls.__name__}: give {new} or the deprecated {old}, not both")
-                warnings.warn(f"{cls.__name__}.{old} is deprecated: use {new} (= {old} x {factor})",
-                              DeprecationWarning, stacklevel=2)
-                v = kw.pop(old)
-                if isinstance(v, (int, np.integer)) and not isinstance(v, bool):
-                    nv = Fraction(int(v)) * factor
-                    if nv.denominator != 1:
-                        raise ValueError(f"{cls.__name__}.{old}={v}: is {float(nv)} in {new}, not a whole "
-                                         f"number; give {new} instead")
-                    v = int(nv)
-                kw[new] = v
-        init(self, *args, **kw)
+        init(self, *args, **take_renamed(cls.__name__, kw, renamed))
 
     __init__.__wrapped__ = init
     cls.__init__ = __init__

@@ -22,6 +22,12 @@ RENAMED: dict[str, tuple[str, int | Fraction]] = {
     "gate_bottom_percent": ("gate_bottom_permille", 10), "match_iou_percent": ("match_iou_permille", 10),
     "search.min_h_percent": ("min_h_permille", 10), "search.min_v_percent": ("min_v_permille", 10),
     "search.bottom_percent": ("bottom_permille", 10),
+    # percent -> permille (x 10, exact): flow.h
+    "vt_flow_cfg.strip_percent": ("strip_permille", 10),
+    "vt_flow_cfg.top_percent": ("top_permille", 10),
+    "vt_flow_cfg.bottom_percent": ("bottom_permille", 10),
+    "vt_flow_cfg.diff_min_percent": ("diff_min_permille", 10),
+    "vt_flow_cfg.seed_min_visible": ("seed_min_visible_permille", 10),
     # Q8 fractions of at most 1 -> permille (x 1000/256, exact on the recorded defaults)
     "reduce_overlap_q8": ("reduce_overlap_permille", Fraction(1000, 256)),
     "side_min_frac_q8": ("side_min_frac_permille", Fraction(1000, 256)),
@@ -56,7 +62,7 @@ def _before() -> dict[str, int]:
 def _renamed(path: str, value: int) -> tuple[str, int]:
     """The path and value the old entry has today (the last field of the path may be renamed)."""
     for old, (new, factor) in RENAMED.items():
-        if path.endswith("." + old):
+        if ("." + path).endswith("." + old):
             v = Fraction(value) * factor
             assert v.denominator == 1, f"{path}: {value} has no exact value in {new}"
             return f"{path.rpartition('.')[0]}.{new}", int(v)
