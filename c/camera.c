@@ -54,7 +54,7 @@ vt_status vt_camera_cfg_check(const vt_camera_cfg *c)
         !VT__IN(c->pitch_max_step, 1, one) || !VT__IN(c->pitch_alpha_q8, 0, 256) ||
         !VT__IN(c->pitch_reacquire, 1, 1000) || !VT__IN((int64_t)c->delta_px, 1, 64 * one) ||
         !VT__IN((int64_t)c->bottom_offset, -8 * one, 8 * one) ||
-        !VT__IN((int64_t)c->vehicle_width, 1, 10 * one) || !VT__IN(c->width_tol_percent, 1, 1000)) {
+        !VT__IN((int64_t)c->vehicle_width, 1, 10 * one) || !VT__IN(c->width_tol_permille, 10, 10000)) {
         return VT_E_ARG;
     }
     return VT_OK;
@@ -126,8 +126,9 @@ vt_status vt_camera_box_distance(const vt_camera_cfg *cam, vt_q16 tp, const vt_b
      * then: the filter trusts such a measurement little, as it should. */
     out->sigma = (vt_q16)vt__floor_shr64((int64_t)df - dn + 1, 1);
     out->dist_width = (vt_q16)(dw > VT__Q16_MAXDIST ? VT__Q16_MAXDIST : dw);
-    if (ok && ((int64_t)out->dist_width - d) * 100 <= (int64_t)cam->width_tol_percent * d &&
-        ((int64_t)d - out->dist_width) * 100 <= (int64_t)cam->width_tol_percent * d) {
+    /* x 1000 vs permille x d: the old x 100 vs percent x d scaled by 10, the same test */
+    if (ok && ((int64_t)out->dist_width - d) * 1000 <= (int64_t)cam->width_tol_permille * d &&
+        ((int64_t)d - out->dist_width) * 1000 <= (int64_t)cam->width_tol_permille * d) {
         out->flags |= VT_DIST_WIDTH_AGREES;
     }
     return VT_OK;

@@ -223,7 +223,7 @@ def camera_params(cam: Camera, img_w: int, img_h: int, **kw) -> CameraParams:
 
 _CAM_Q16 = ("fx", "fy", "cx", "cy", "height", "tan_pitch", "tan_pitch_min", "tan_pitch_max",
             "pitch_max_step", "delta_px", "bottom_offset", "vehicle_width")
-_CAM_INT = ("img_w", "img_h", "pitch_alpha_q8", "pitch_reacquire", "width_tol_percent")
+_CAM_INT = ("img_w", "img_h", "pitch_alpha_q8", "pitch_reacquire", "width_tol_permille")
 _RNG_Q16 = ("frame_dt", "jerk_sigma", "init_sigma_rate", "init_sigma_accel", "sigma_min", "ttc_max",
             "ttc_stopped", "ttc_slower", "ttc_decel", "ttc_margin", "min_closing", "stopped_speed",
             "decel_thresh", "rear_offset")

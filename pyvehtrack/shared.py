@@ -372,7 +372,7 @@ class CameraParams:
     delta_px: float = 1.0
     bottom_offset: float = 0.5
     vehicle_width: float = 1.8
-    width_tol_percent: int = 25
+    width_tol_permille: int = 250   # the two distances agree within this permille
 
 
 @dataclass(frozen=True)
@@ -446,3 +446,7 @@ class TrackBase:
     state: str            # "tentative" | "confirmed" | "coasting"
     box: tuple            # (left, top, right, bottom), inclusive, input pixels
     velocity: tuple       # (vx, vy) of the bottom edge, input px/frame
+
+
+CAMERA_RENAMED = {"width_tol_percent": ("width_tol_permille", 10)}
+accept_renamed(CameraParams, CAMERA_RENAMED)  # the percent name of before issue 10

@@ -28,6 +28,8 @@ RENAMED: dict[str, tuple[str, int | Fraction]] = {
     "vt_flow_cfg.bottom_percent": ("bottom_permille", 10),
     "vt_flow_cfg.diff_min_percent": ("diff_min_permille", 10),
     "vt_flow_cfg.seed_min_visible": ("seed_min_visible_permille", 10),
+    # camera.h
+    "vt_camera_cfg.width_tol_percent": ("width_tol_permille", 10),
     # Q8 fractions of at most 1 -> permille (x 1000/256, exact on the recorded defaults)
     "reduce_overlap_q8": ("reduce_overlap_permille", Fraction(1000, 256)),
     "side_min_frac_q8": ("side_min_frac_permille", Fraction(1000, 256)),
@@ -117,3 +119,15 @@ def test_old_q8_fraction_names_still_work_when_exact():
     for cls in (config.VerifyConfig, shared.VerifyConfig):
         with pytest.warns(DeprecationWarning, match="side_min_frac_permille"):
             assert cls().side_min_frac_q8 == 64
+
+
+def test_old_camera_percent_name_still_works():
+    """vt_camera_cfg.width_tol_percent became width_tol_permille (x 10, exact); the float
+    twin (shared.CameraParams = reference.camera.CameraParams) takes the old name."""
+    import pytest
+
+    from pyvehtrack.reference.camera import CameraParams
+    base = (640, 480, 700.0, 700.0, 320.0, 240.0, 1.2)
+    with pytest.warns(DeprecationWarning, match="width_tol_permille"):
+        assert CameraParams(*base, width_tol_percent=30) == CameraParams(*base, width_tol_permille=300)
+    assert CameraParams(*base).width_tol_permille == 250

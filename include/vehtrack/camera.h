@@ -75,7 +75,7 @@ typedef struct vt_camera_cfg {
     vt_q16 bottom_offset;     /* added to a box's bottom row to get the road contact
                                  row, px, [-8, 8] (0.5: the lower edge of the row)   */
     vt_q16 vehicle_width;     /* assumed vehicle width for the cross-check, m, (0, 10] */
-    int32_t width_tol_percent;/* the two distances agree within this %, 1..1000     */
+    int32_t width_tol_permille;/* the two distances agree within this permille, 10..10000 */
 } vt_camera_cfg;
 
 /* 1242 x 375 KITTI-like defaults (f = 721.5 px, 1.65 m, no pitch); a real camera
@@ -98,7 +98,7 @@ typedef struct vt_camera_cfg {
         .delta_px = VT_Q16_ONE,                   \
         .bottom_offset = VT_Q16_ONE / 2,          \
         .vehicle_width = 117965, /* 1.8 m */      \
-        .width_tol_percent = 25,                  \
+        .width_tol_permille = 250,                \
     }
 
 /* VT_OK if every field is in range, else VT_E_ARG (VT_E_SIZE for img_w/img_h). */
@@ -125,7 +125,7 @@ vt_status vt_camera_row_distance(const vt_camera_cfg *cam, vt_q16 tp, vt_q16 row
 /* Flags of vt_distance. */
 #define VT_DIST_VALID 1        /* bottom row below the horizon, distance < max      */
 #define VT_DIST_FAR_VALID 2    /* row - delta is below the horizon too              */
-#define VT_DIST_WIDTH_AGREES 4 /* |dist_width - dist| <= width_tol_percent of dist  */
+#define VT_DIST_WIDTH_AGREES 4 /* |dist_width - dist| <= width_tol_permille of dist */
 #define VT_DIST_BOTTOM_CLIPPED 8 /* the box ends on the frame's last row: its contact
                                     row is not seen, so VT_DIST_VALID is cleared     */
 #define VT_DIST_SIDE_CLIPPED 16  /* the box touches the left or right frame edge:

@@ -70,7 +70,7 @@ def box_distance(cam: CameraParams, tan_pitch: float, box) -> BoxDistance:
     bottom_clipped = b >= cam.img_h - 1          # the contact row is below the frame
     side_clipped = l <= 0 or r >= cam.img_w - 1  # the width is not the vehicle's
     ok = ok and not bottom_clipped
-    agrees = ok and abs(dw - d) * 100 <= cam.width_tol_percent * d
+    agrees = ok and abs(dw - d) * 1000 <= cam.width_tol_permille * d
     return BoxDistance(ok, ok_far, agrees, d, dn, df, (df - dn) / 2, dw, bottom_clipped, side_clipped)
 
 

@@ -103,7 +103,7 @@ static void range_ttc_wraps(void)
     int32_t f, n = 0, bad = 0, seen_rate = 0;
     expect(vt_camera_cfg_default(&cam) == VT_OK && vt_range_cfg_default(&rc) == VT_OK, "range cfgs");
     cam.tan_pitch = -1;
-    cam.width_tol_percent = 146;
+    cam.width_tol_permille = 1460;
     rc.stopped_speed = 65535;
     expect(vt_range_init(&g_range) == VT_OK, "range init");
     for (f = 0; f < 5; f++) {
