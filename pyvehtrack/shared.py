@@ -448,5 +448,9 @@ class TrackBase:
     velocity: tuple       # (vx, vy) of the bottom edge, input px/frame
 
 
+# vt_model_cfg (pyvehtrack.vehicle_model.make_cfg): percent -> permille, x 10
+MODEL_RENAMED = {"width_tol_percent": ("width_tol_permille", 10),
+                 "aspect_min_percent": ("aspect_min_permille", 10),
+                 "aspect_max_percent": ("aspect_max_permille", 10)}
 CAMERA_RENAMED = {"width_tol_percent": ("width_tol_permille", 10)}
 accept_renamed(CameraParams, CAMERA_RENAMED)  # the percent name of before issue 10

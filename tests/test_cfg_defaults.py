@@ -28,6 +28,10 @@ RENAMED: dict[str, tuple[str, int | Fraction]] = {
     "vt_flow_cfg.bottom_percent": ("bottom_permille", 10),
     "vt_flow_cfg.diff_min_percent": ("diff_min_permille", 10),
     "vt_flow_cfg.seed_min_visible": ("seed_min_visible_permille", 10),
+    # vehicle_model.h (the GA's mut_percent stays: its random draw is r % 100)
+    "vt_model_cfg.width_tol_percent": ("width_tol_permille", 10),
+    "vt_model_cfg.aspect_min_percent": ("aspect_min_permille", 10),
+    "vt_model_cfg.aspect_max_percent": ("aspect_max_permille", 10),
     # camera.h
     "vt_camera_cfg.width_tol_percent": ("width_tol_permille", 10),
     # Q8 fractions of at most 1 -> permille (x 1000/256, exact on the recorded defaults)

@@ -58,7 +58,7 @@ def problems(draw, small=True):
               mut_percent=draw(st.integers(0, 100)), w_sym=draw(st.integers(0, 4)),
               w_grad=draw(st.integers(0, 4)), w_dist=draw(st.integers(0, 4)),
               w_shadow=draw(st.integers(0, 4)), edge_thresh=draw(st.integers(0, 400)),
-              dist_cap=draw(st.integers(1, 12)), width_tol_percent=draw(st.integers(0, 90)),
+              dist_cap=draw(st.integers(1, 12)), width_tol_permille=draw(st.integers(0, 900)),
               roof_max=draw(st.integers(0, 45)))
     tracking = draw(st.booleans())
     pred = sigma = None
@@ -268,9 +268,21 @@ def test_search_from_flow():
     s = _native.model_search_from_flow(cfg, hyp)
     W = 139 - 80                                     # expected width at the blob's lowest row
     assert (s.roi.left, s.roi.right) == (10 - W, 49 + W)
-    assert (s.roi.top, s.roi.bottom) == (139 - W * int(cfg.aspect_max_percent) // 100 - W // 4, 139 + W // 4)
+    assert (s.roi.top, s.roi.bottom) == (139 - W * int(cfg.aspect_max_permille) // 1000 - W // 4, 139 + W // 4)
     assert (s.y_min, s.y_max, s.tracking) == (120, 139 + W // 8, 0)
     with pytest.raises(VtError, match="vt_model_search_from_flow"):
         _native.model_search_from_flow(cfg, {"left": 50, "top": 100, "right": 49, "bottom": 139, "cy": 120})
     assert _native.lib.vt_model_search_from_flow(cfg, _native.ffi.NULL, s) == _native.lib.VT_E_ARG
     assert _native.lib.vt_model_search_from_flow(_native.ffi.NULL, _native.ffi.NULL, s) == _native.lib.VT_E_ARG
+
+
+def test_old_percent_names_convert_exactly_with_a_warning():
+    """Issue 10 item 6: width_tol / aspect_min / aspect_max became permille (x 10, exact)."""
+    from pyvehtrack import vehicle_model as VM
+    with pytest.warns(DeprecationWarning, match="width_tol_permille"):
+        old = VM.make_cfg(width_tol_percent=20, aspect_min_percent=50, aspect_max_percent=120)
+    new = VM.make_cfg(width_tol_permille=200, aspect_min_permille=500, aspect_max_permille=1200)
+    assert [int(getattr(old, f)) for f in ("width_tol_permille", "aspect_min_permille", "aspect_max_permille")] \
+        == [int(getattr(new, f)) for f in ("width_tol_permille", "aspect_min_permille", "aspect_max_permille")]
+    with pytest.raises(TypeError, match="not both"):
+        VM.make_cfg(width_tol_percent=20, width_tol_permille=200)

@@ -25,9 +25,9 @@ typedef struct {
     int32_t dist_cap;
     int32_t horizon_row;
     vt_q16 width_per_row;
-    int32_t width_tol_percent;
-    int32_t aspect_min_percent;
-    int32_t aspect_max_percent;
+    int32_t width_tol_permille;
+    int32_t aspect_min_permille;
+    int32_t aspect_max_permille;
     int32_t wind_min, wind_max;
     int32_t bump_min, bump_max;
     int32_t roof_max;
