@@ -401,7 +401,7 @@ static void bench_setup_lane(bench_ctx *ctx)
 
 static void bench_run_lane(bench_ctx *ctx)
 {
-    note_status(ctx, vt_lane_detect(&g_lane_cfg, &g_lane_state, &ctx->frame, &g_lane_res, &g_lane_road));
+    note_status(ctx, vt_lane_detect(&g_lane_state, &g_lane_cfg, &ctx->frame, &g_lane_res, &g_lane_road));
 }
 
 static uint32_t bench_digest_lane(const bench_ctx *ctx)
@@ -427,7 +427,7 @@ static uint32_t bench_digest_lane(const bench_ctx *ctx)
 
 static void bench_run_full_detect(bench_ctx *ctx)
 {
-    note_status(ctx, vt_lane_detect(&g_lane_cfg, &g_lane_state, &ctx->frame, &g_lane_res, &g_lane_road));
+    note_status(ctx, vt_lane_detect(&g_lane_state, &g_lane_cfg, &ctx->frame, &g_lane_res, &g_lane_road));
     note_status(ctx, vt_detect(&g_detect_state, &g_detect_cfg, &ctx->frame, &g_lane_road, &g_detect_out));
 }
 
@@ -591,12 +591,12 @@ static void bench_setup_model_track(bench_ctx *ctx)
 
 static void bench_run_model_detect(bench_ctx *ctx)
 {
-    note_status(ctx, vt_model_fit(&ctx->frame, &g_model_cfg, &g_model_search, &g_model_ws, &g_model_out));
+    note_status(ctx, vt_model_fit(&g_model_ws, &g_model_cfg, &ctx->frame, &g_model_search, &g_model_out));
 }
 
 static void bench_run_model_track(bench_ctx *ctx)
 {
-    note_status(ctx, vt_model_fit(&ctx->frame, &g_model_cfg, &g_model_search, &g_model_ws, &g_model_out));
+    note_status(ctx, vt_model_fit(&g_model_ws, &g_model_cfg, &ctx->frame, &g_model_search, &g_model_out));
 }
 
 static uint32_t bench_digest_model(const bench_ctx *ctx)

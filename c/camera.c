@@ -33,11 +33,7 @@ static int64_t vt__div_or(int64_t n, int64_t d, int64_t fallback)
 vt_status vt_camera_cfg_default(vt_camera_cfg *cam)
 {
     static const vt_camera_cfg def = VT_CAMERA_CFG_DEFAULT;
-    if (cam == NULL) {
-        return VT_E_ARG;
-    }
-    *cam = def;
-    return VT_OK;
+    return vt__cfg_copy(cam, &def, sizeof def);
 }
 
 vt_status vt_camera_cfg_check(const vt_camera_cfg *c)
@@ -58,7 +54,7 @@ vt_status vt_camera_cfg_check(const vt_camera_cfg *c)
         !VT__IN(c->pitch_max_step, 1, one) || !VT__IN(c->pitch_alpha_q8, 0, 256) ||
         !VT__IN(c->pitch_reacquire, 1, 1000) || !VT__IN((int64_t)c->delta_px, 1, 64 * one) ||
         !VT__IN((int64_t)c->bottom_offset, -8 * one, 8 * one) ||
-        !VT__IN((int64_t)c->vehicle_width, 1, 10 * one) || !VT__IN(c->width_tol_percent, 1, 1000)) {
+        !VT__IN((int64_t)c->vehicle_width, 1, 10 * one) || !VT__IN(c->width_tol_permille, 10, 10000)) {
         return VT_E_ARG;
     }
     return VT_OK;
@@ -130,15 +126,16 @@ vt_status vt_camera_box_distance(const vt_camera_cfg *cam, vt_q16 tp, const vt_b
      * then: the filter trusts such a measurement little, as it should. */
     out->sigma = (vt_q16)vt__floor_shr64((int64_t)df - dn + 1, 1);
     out->dist_width = (vt_q16)(dw > VT__Q16_MAXDIST ? VT__Q16_MAXDIST : dw);
-    if (ok && ((int64_t)out->dist_width - d) * 100 <= (int64_t)cam->width_tol_percent * d &&
-        ((int64_t)d - out->dist_width) * 100 <= (int64_t)cam->width_tol_percent * d) {
+    /* x 1000 vs permille x d: the old x 100 vs percent x d scaled by 10, the same test */
+    if (ok && ((int64_t)out->dist_width - d) * 1000 <= (int64_t)cam->width_tol_permille * d &&
+        ((int64_t)d - out->dist_width) * 1000 <= (int64_t)cam->width_tol_permille * d) {
         out->flags |= VT_DIST_WIDTH_AGREES;
     }
     return VT_OK;
 }
 
 /* ------------------------------------------------------------------ pitch */
-vt_status vt_pitch_init(const vt_camera_cfg *cam, vt_pitch_state *st)
+vt_status vt_pitch_init(vt_pitch_state *st, const vt_camera_cfg *cam)
 {
     if (st == NULL || vt_camera_cfg_check(cam) != VT_OK) {
         return VT_E_ARG;
@@ -150,7 +147,7 @@ vt_status vt_pitch_init(const vt_camera_cfg *cam, vt_pitch_state *st)
     return VT_OK;
 }
 
-vt_status vt_pitch_update(const vt_camera_cfg *cam, vt_pitch_state *st, int32_t vp_valid,
+vt_status vt_pitch_update(vt_pitch_state *st, const vt_camera_cfg *cam, int32_t vp_valid,
                           vt_q16 vp_row)
 {
     int64_t m, step;
@@ -230,11 +227,7 @@ vt_status vt_lane_vanishing_row(const vt_lane_result *res, int32_t img_h, vt_q16
 vt_status vt_range_cfg_default(vt_range_cfg *cfg)
 {
     static const vt_range_cfg def = VT_RANGE_CFG_DEFAULT;
-    if (cfg == NULL) {
-        return VT_E_ARG;
-    }
-    *cfg = def;
-    return VT_OK;
+    return vt__cfg_copy(cfg, &def, sizeof def);
 }
 
 vt_status vt_range_cfg_check(const vt_range_cfg *c)
@@ -262,7 +255,7 @@ vt_status vt_range_cfg_check(const vt_range_cfg *c)
     return VT_OK;
 }
 
-vt_status vt_fcw_step(const vt_range_cfg *cfg, vt_fcw_state *st, int32_t ttc_valid, vt_q16 ttc,
+vt_status vt_fcw_step(vt_fcw_state *st, const vt_range_cfg *cfg, int32_t ttc_valid, vt_q16 ttc,
                       int32_t closing, int32_t lead_class, int32_t *out)
 {
     int64_t thr;
@@ -513,14 +506,14 @@ static void vt__range_track_step(vt_range_track *t, const vt_range_cfg *cfg,
         }
     }
     o->lead_class = cls;
-    (void)vt_fcw_step(cfg, &t->fcw, ttc_ok, o->ttc_dist, closing, cls, &o->fcw);
+    (void)vt_fcw_step(&t->fcw, cfg, ttc_ok, o->ttc_dist, closing, cls, &o->fcw);
 }
 
 vt_status vt_range_step(vt_range_state *st, const vt_range_cfg *cfg, const vt_camera_cfg *cam,
                         vt_q16 tp, vt_q16 ego_speed, const vt_track_out *tracks,
                         int32_t n_tracks, vt_range_out *out, int32_t out_cap, int32_t *n_out)
 {
-    int32_t i, j, k, written = 0, full = 0;
+    int32_t i, k, written = 0, full = 0;
     vt_range_track *slot;
     if (st == NULL || n_out == NULL || vt_range_cfg_check(cfg) != VT_OK ||
         vt_camera_cfg_check(cam) != VT_OK || !VT__IN(tp, -VT_Q16_ONE, VT_Q16_ONE) ||
@@ -529,19 +522,8 @@ vt_status vt_range_step(vt_range_state *st, const vt_range_cfg *cfg, const vt_ca
         return VT_E_ARG;
     }
     /* Check every input before touching the state. */
-    for (i = 0; i < n_tracks; i++) {
-        const vt_track_out *a = &tracks[i];
-        if (a->state == VT_TRACK_FREE) {
-            continue;
-        }
-        if (a->id <= 0 || a->box.right < a->box.left || a->box.bottom < a->box.top) {
-            return VT_E_ARG;
-        }
-        for (j = 0; j < i; j++) {
-            if (tracks[j].state != VT_TRACK_FREE && tracks[j].id == a->id) {
-                return VT_E_ARG;
-            }
-        }
+    if (vt_track_list_check(tracks, n_tracks) != VT_OK) {
+        return VT_E_ARG;
     }
     *n_out = 0;
     /* free the slots of ids gone this frame */

@@ -605,24 +605,6 @@ static vt_status vt__box_descriptor(vt_cls_box_ws *ws, int32_t kind, int32_t win
     return s;
 }
 
-vt_status vt_classify_box(vt_cls_box_ws *ws, const vt_svm_model *m, const vt_image_u8 *frame,
-                          const vt_box *box, int32_t *score_q16)
-{
-    vt_status s;
-    int32_t n = 0;
-    if (score_q16 != NULL) {
-        *score_q16 = 0;
-    }
-    if (ws == NULL || score_q16 == NULL || vt_svm_model_check(m) != VT_OK) {
-        return VT_E_ARG;
-    }
-    s = vt__box_descriptor(ws, m->kind, m->win_w, m->win_h, frame, box, &n);
-    if (s != VT_OK) {
-        return s;
-    }
-    return vt_svm_decision(m, ws->desc, n, score_q16);
-}
-
 /* ------------------------------------------------------------------ MLP */
 
 static int vt__desc_ok(int32_t kind, int32_t win_w, int32_t win_h, int32_t dim)
@@ -677,22 +659,45 @@ vt_status vt_mlp_decision(const vt_mlp_model *m, const uint16_t *desc, int32_t n
     return VT_OK;
 }
 
-vt_status vt_classify_box_mlp(vt_cls_box_ws *ws, const vt_mlp_model *m, const vt_image_u8 *frame,
-                              const vt_box *box, int32_t *score_q16)
+/* One box through one model: the SVM when mlp is NULL, else the MLP (the model is
+ * checked first, so a NULL model of either kind is VT_E_ARG). */
+static vt_status vt__classify_box(vt_cls_box_ws *ws, const vt_svm_model *svm, const vt_mlp_model *mlp,
+                                  const vt_image_u8 *frame, const vt_box *box, int32_t *score_q16)
 {
     vt_status s;
     int32_t n = 0;
+    int32_t ok = mlp != NULL ? vt_mlp_model_check(mlp) == VT_OK : vt_svm_model_check(svm) == VT_OK;
     if (score_q16 != NULL) {
         *score_q16 = 0;
     }
-    if (ws == NULL || score_q16 == NULL || vt_mlp_model_check(m) != VT_OK) {
+    if (ws == NULL || score_q16 == NULL || !ok) {
         return VT_E_ARG;
     }
-    s = vt__box_descriptor(ws, m->kind, m->win_w, m->win_h, frame, box, &n);
+    s = mlp != NULL ? vt__box_descriptor(ws, mlp->kind, mlp->win_w, mlp->win_h, frame, box, &n)
+                    : vt__box_descriptor(ws, svm->kind, svm->win_w, svm->win_h, frame, box, &n);
     if (s != VT_OK) {
         return s;
     }
-    return vt_mlp_decision(m, ws->desc, n, score_q16);
+    return mlp != NULL ? vt_mlp_decision(mlp, ws->desc, n, score_q16)
+                       : vt_svm_decision(svm, ws->desc, n, score_q16);
+}
+
+vt_status vt_classify_box(vt_cls_box_ws *ws, const vt_svm_model *m, const vt_image_u8 *frame,
+                          const vt_box *box, int32_t *score_q16)
+{
+    return vt__classify_box(ws, m, NULL, frame, box, score_q16);
+}
+
+vt_status vt_classify_box_mlp(vt_cls_box_ws *ws, const vt_mlp_model *m, const vt_image_u8 *frame,
+                              const vt_box *box, int32_t *score_q16)
+{
+    if (m == NULL) {
+        if (score_q16 != NULL) {
+            *score_q16 = 0;
+        }
+        return VT_E_ARG;
+    }
+    return vt__classify_box(ws, NULL, m, frame, box, score_q16);
 }
 
 /* ------------------------------------------------------------------ default models */

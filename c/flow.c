@@ -24,13 +24,13 @@ vt_status vt_flow_cfg_check(const vt_flow_cfg *c)
     if (c == NULL) {
         return VT_E_ARG;
     }
-    if (!vt__in(c->level, 0, 2) || !vt__in(c->sides, 1, 3) || !vt__in(c->strip_percent, 1, 50) ||
-        !vt__in(c->top_percent, 0, 99) || !vt__in(c->bottom_percent, c->top_percent + 1, 100) ||
+    if (!vt__in(c->level, 0, 2) || !vt__in(c->sides, 1, 3) || !vt__in(c->strip_permille, 1, 500) ||
+        !vt__in(c->top_permille, 0, 999) || !vt__in(c->bottom_permille, c->top_permille + 1, 1000) ||
         !vt__in(c->cell, 2, 32) || !vt__in(c->search_x, 0, 32) || !vt__in(c->search_y, 0, 32) ||
-        !vt__in(c->diff_thresh, 0, 255) || !vt__in(c->diff_min_percent, 0, 100) ||
+        !vt__in(c->diff_thresh, 0, 255) || !vt__in(c->diff_min_permille, 0, 1000) ||
         !vt__in(c->min_inward, 0, 64) || !vt__in(c->max_mag, 0, 128) ||
         !vt__in(c->max_sad_per_px, 0, 255) || !vt__in(c->min_blob_cells, 1, VT_FLOW_MAX_CELLS) ||
-        !vt__in(c->seed_min_visible, 0, 100) || !vt__in(c->min_texture, 0, 255) ||
+        !vt__in(c->seed_min_visible_permille, 0, 1000) || !vt__in(c->min_texture, 0, 255) ||
         !vt__in(c->min_age, 1, 1000) ||
         !vt__in(c->back_tol, -1, 32)) {
         return VT_E_ARG;
@@ -85,9 +85,10 @@ static void vt__level_size(int32_t w, int32_t h, int32_t level, int32_t *lw, int
 static void vt__area(const vt_flow_cfg *cfg, int32_t lw, int32_t lh, int32_t side, int32_t *x0,
                      int32_t *y0, int32_t *gw, int32_t *gh)
 {
-    int32_t sw = lw * cfg->strip_percent / 100;
-    int32_t ya = lh * cfg->top_percent / 100;
-    int32_t yb = lh * cfg->bottom_percent / 100;
+    /* floor(l * permille / 1000): the old percent values x 10 give the same rows */
+    int32_t sw = lw * cfg->strip_permille / 1000;
+    int32_t ya = lh * cfg->top_permille / 1000;
+    int32_t yb = lh * cfg->bottom_permille / 1000;
     *gw = sw / cfg->cell;
     *gh = (yb - ya) / cfg->cell;
     *y0 = ya;
@@ -242,7 +243,7 @@ static void vt__area_flow(vt_flow_state *st, const vt_flow_cfg *cfg, int32_t sid
     const int32_t gw = st->gw[side], gh = st->gh[side], n = cfg->cell;
     const int32_t x0 = st->x0[side], y0 = st->y0[side], lw = st->lw, lh = st->lh;
     const int32_t inward = side == 0 ? 1 : -1;
-    const int32_t need = cfg->diff_min_percent * n * n; /* compared with 100 * count */
+    const int32_t need = cfg->diff_min_permille * n * n; /* compared with 1000 * count */
     const uint32_t max_sad = (uint32_t)(cfg->max_sad_per_px * n * n);
     int8_t *vdx = st->dx + side * VT_FLOW_MAX_CELLS;
     int8_t *vdy = st->dy + side * VT_FLOW_MAX_CELLS;
@@ -268,7 +269,7 @@ static void vt__area_flow(vt_flow_state *st, const vt_flow_cfg *cfg, int32_t sid
             count[c] = 0;
             out->cells_total++;
             /* The paper's speed-up: no search where (almost) nothing changed. */
-            if (100 * vt__changed(cur, prev, lw, x, y, n, cfg->diff_thresh) < need) {
+            if (1000 * vt__changed(cur, prev, lw, x, y, n, cfg->diff_thresh) < need) {
                 continue;
             }
             /* Without horizontal texture the best dx is arbitrary (aperture problem):
@@ -435,7 +436,7 @@ static int vt__seed_step(vt_flow_state *st, const vt_flow_cfg *cfg, vt_flow_seed
     left = vt_q16_round(sd->left);
     top = vt_q16_round(sd->top);
     vis = vt__clamp_i32(left + sd->width, 0, st->w) - vt__clamp_i32(left, 0, st->w);
-    if ((int64_t)vis * 100 < (int64_t)cfg->seed_min_visible * sd->width || vis <= 0 ||
+    if ((int64_t)vis * 1000 < (int64_t)cfg->seed_min_visible_permille * sd->width || vis <= 0 ||
         top >= st->h || top + sd->height <= 0) {
         return 0;
     }

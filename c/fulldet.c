@@ -11,11 +11,7 @@
 vt_status vt_fulldet_cfg_default(vt_fulldet_cfg *cfg)
 {
     static const vt_fulldet_cfg def = VT_FULLDET_CFG_DEFAULT;
-    if (cfg == NULL) {
-        return VT_E_ARG;
-    }
-    *cfg = def;
-    return VT_OK;
+    return vt__cfg_copy(cfg, &def, sizeof def);
 }
 
 vt_status vt_fulldet_cfg_check(const vt_fulldet_cfg *cfg)
@@ -427,18 +423,18 @@ vt_status vt_hog_scorer_level(void *ctx, const vt_image_u8 *level_img, int32_t l
     return vt__hog_band(sc, level_img, level, 0, y0, level_img->w, y1);
 }
 
-vt_status vt_hog_scorer_score(void *ctx, const vt_image_u8 *level_img, const vt_window *win,
-                              int32_t *score)
+/* The checks both scorers make (score zeroed first; the scorer, ctx_ok, ready; a valid
+ * level image; the window inside it) and the window as an inclusive box: VT_OK, or the
+ * image's status / VT_E_ARG. */
+static vt_status vt__scorer_window(int32_t ctx_ok, const vt_image_u8 *level_img, const vt_window *win,
+                                   int32_t *score, vt_box *b)
 {
-    vt_hog_scorer *sc = (vt_hog_scorer *)ctx;
-    const vt_svm_model *m;
     vt_status s;
-    vt_box b;
     if (score == NULL) {
         return VT_E_ARG;
     }
     *score = 0;
-    if (sc == NULL || sc->model == NULL || win == NULL) {
+    if (!ctx_ok || win == NULL) {
         return VT_E_ARG;
     }
     s = vt_image_u8_check(level_img);
@@ -450,6 +446,24 @@ vt_status vt_hog_scorer_score(void *ctx, const vt_image_u8 *level_img, const vt_
         win->size > level_img->h || win->x > level_img->w - win->size ||
         win->y > level_img->h - win->size) {
         return VT_E_ARG;
+    }
+    b->left = win->x;
+    b->top = win->y;
+    b->right = win->x + win->size - 1;
+    b->bottom = win->y + win->size - 1;
+    return VT_OK;
+}
+
+vt_status vt_hog_scorer_score(void *ctx, const vt_image_u8 *level_img, const vt_window *win,
+                              int32_t *score)
+{
+    vt_hog_scorer *sc = (vt_hog_scorer *)ctx;
+    const vt_svm_model *m;
+    vt_status s;
+    vt_box b;
+    s = vt__scorer_window(sc != NULL && sc->model != NULL, level_img, win, score, &b);
+    if (s != VT_OK) {
+        return s;
     }
     m = sc->model;
     if (m->kind == VT_DESC_HOG && win->size == m->win_w && win->size == m->win_h) {
@@ -470,10 +484,6 @@ vt_status vt_hog_scorer_score(void *ctx, const vt_image_u8 *level_img, const vt_
         return vt_hog_window_score(&sc->hog, m, (win->x - sc->x0) / VT_CLS_CELL,
                                    (win->y - sc->y0) / VT_CLS_CELL, score);
     }
-    b.left = win->x;
-    b.top = win->y;
-    b.right = win->x + win->size - 1;
-    b.bottom = win->y + win->size - 1;
     return vt_classify_box(&sc->box, m, level_img, &b, score);
 }
 
@@ -498,26 +508,9 @@ vt_status vt_mlp_scorer_score(void *ctx, const vt_image_u8 *level_img, const vt_
     vt_mlp_scorer *sc = (vt_mlp_scorer *)ctx;
     vt_status s;
     vt_box b;
-    if (score == NULL) {
-        return VT_E_ARG;
-    }
-    *score = 0;
-    if (sc == NULL || sc->model == NULL || win == NULL) {
-        return VT_E_ARG;
-    }
-    s = vt_image_u8_check(level_img);
+    s = vt__scorer_window(sc != NULL && sc->model != NULL, level_img, win, score, &b);
     if (s != VT_OK) {
         return s;
     }
-    /* x + size could overflow for a caller's window: compare against w - size */
-    if (win->size < 1 || win->x < 0 || win->y < 0 || win->size > level_img->w ||
-        win->size > level_img->h || win->x > level_img->w - win->size ||
-        win->y > level_img->h - win->size) {
-        return VT_E_ARG;
-    }
-    b.left = win->x;
-    b.top = win->y;
-    b.right = win->x + win->size - 1;
-    b.bottom = win->y + win->size - 1;
     return vt_classify_box_mlp(&sc->box, sc->model, level_img, &b, score);
 }

@@ -1008,7 +1008,7 @@ static void vt__track(const vt_lane_cfg *cfg, const vt__geom *g, const vt_lane_l
 
 /* ------------------------------------------------------------------ the frame */
 
-vt_status vt_lane_detect(const vt_lane_cfg *cfg, vt_lane_state *st, const vt_image_u8 *img,
+vt_status vt_lane_detect(vt_lane_state *st, const vt_lane_cfg *cfg, const vt_image_u8 *img,
                          vt_lane_result *res, vt_road_area *road)
 {
     vt__geom g;

@@ -16,15 +16,14 @@
 vt_status vt_pipeline_cfg_default(vt_pipeline_cfg *cfg)
 {
     static const vt_pipeline_cfg def = VT_PIPELINE_CFG_DEFAULT;
-    if (cfg == NULL) {
-        return VT_E_ARG;
-    }
-    *cfg = def;
-    return VT_OK;
+    return vt__cfg_copy(cfg, &def, sizeof def);
 }
 
-static vt_status vt__fixed_road_check(const vt_fixed_road *fr)
+vt_status vt_fixed_road_check(const vt_fixed_road *fr)
 {
+    if (fr == NULL) {
+        return VT_E_ARG;
+    }
     if (fr->vp_x_permille < 0 || fr->vp_x_permille > 1000 || fr->vp_y_permille < 0 ||
         fr->vp_y_permille > 1000 || fr->bottom_left_permille < 0 ||
         fr->bottom_left_permille > 1000 || fr->bottom_right_permille < 0 ||
@@ -36,8 +35,11 @@ static vt_status vt__fixed_road_check(const vt_fixed_road *fr)
     return VT_OK;
 }
 
-static vt_status vt__road_camera_check(const vt_road_camera *rc)
+vt_status vt_road_camera_check(const vt_road_camera *rc)
 {
+    if (rc == NULL) {
+        return VT_E_ARG;
+    }
     if (rc->horizon_q16 < -65536 || rc->horizon_q16 > 65536 || rc->hood_q16 < 3277 ||
         rc->hood_q16 > 131072 || rc->height_mm < 100 || rc->height_mm > 20000 ||
         rc->fx_per_w_q16 < 3277 || rc->fx_per_w_q16 > 1310720) {
@@ -67,7 +69,7 @@ vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg)
         (cfg->track != 0 && cfg->track != 1) || (cfg->sources & ~VT_SRC_BUILT) != 0) {
         return VT_E_ARG;
     }
-    s = vt__fixed_road_check(&cfg->fixed_road);
+    s = vt_fixed_road_check(&cfg->fixed_road);
     if (s == VT_OK && cfg->road_policy != VT_ROAD_FIXED) {
         s = vt_lane_cfg_check(&cfg->lane);
     }
@@ -88,7 +90,7 @@ vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg)
         s = vt_fulldet_cfg_check(&fc);
     }
     if (s == VT_OK) {
-        s = vt__road_camera_check(&cfg->road_camera);
+        s = vt_road_camera_check(&cfg->road_camera);
     }
     if (s == VT_OK) {
         s = vt_flow_cfg_check(&cfg->flow);
@@ -142,7 +144,7 @@ vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
     memset(p->ranges, 0, sizeof(p->ranges));
     s = vt_range_init(&p->range);
     if (s == VT_OK && camera != NULL) {
-        s = vt_pitch_init(camera, &p->pitch);
+        s = vt_pitch_init(&p->pitch, camera);
     }
     if (s != VT_OK) {
         return s;
@@ -291,7 +293,7 @@ vt_status vt_fixed_road_area(const vt_fixed_road *fr, int32_t w, int32_t h, vt_r
     const int64_t k = 1000;
     int64_t vx, vy, span, bl, br, lb, tn, den;
     int32_t y, yt;
-    if (fr == NULL || road == NULL || vt__fixed_road_check(fr) != VT_OK) {
+    if (fr == NULL || road == NULL || vt_fixed_road_check(fr) != VT_OK) {
         return VT_E_ARG;
     }
     if (w < 1 || h < 1 || w > VT_MAX_WIDTH || h > VT_MAX_HEIGHT) {
@@ -461,7 +463,7 @@ static vt_status vt__geometry(vt_pipeline *p, const vt_image_u8 *frame, const vt
     if (lanes_ok && vt_lane_vanishing_row(&out->lanes, frame->h, &vp_row, &vp_valid) != VT_OK) {
         vp_valid = 0;
     }
-    s = vt_pitch_update(p->camera, &p->pitch, vp_valid, vp_valid ? vp_row : 0);
+    s = vt_pitch_update(&p->pitch, p->camera, vp_valid, vp_valid ? vp_row : 0);
     if (s == VT_OK) {
         s = vt_range_step(&p->range, &p->cfg.range, p->camera, p->pitch.tan_pitch, p->ego_speed,
                           p->tracks, n_tracks, p->ranges, VT_MAX_TRACKS, n_ranges);
@@ -655,7 +657,7 @@ static void vt__model(vt_pipeline *p, const vt_image_u8 *frame, vt_frame_out *ou
         se.sigma.bump = 5;
         se.sigma.roof = 5;
         ++fits; /* the bound counts attempts: a failed fit cost its GA too */
-        if (vt_model_fit(frame, &mc, &se, p->model_ws, &res) != VT_OK ||
+        if (vt_model_fit(p->model_ws, &mc, frame, &se, &res) != VT_OK ||
             res.fitness < p->cfg.model_min_fitness ||
             !vt__iou_at_least(&res.box, b, p->cfg.tracker.match_iou_permille)) {
             continue;
@@ -732,7 +734,7 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
     memset(&out->lanes, 0, sizeof(out->lanes));
 
     if (run_lanes) {
-        out->lane_status = vt_lane_detect(&p->cfg.lane, &p->lane, frame, &out->lanes, &out->road);
+        out->lane_status = vt_lane_detect(&p->lane, &p->cfg.lane, frame, &out->lanes, &out->road);
         lanes_ok = out->lane_status == VT_OK;
         /* The horizon of the whole-road detector and the vehicle model: the lane
          * stage's own vanishing row (the two ego lines meeting inside its plausible

@@ -125,6 +125,30 @@ vt_status vt_tracker_init(vt_tracker *tr)
     return VT_OK;
 }
 
+/* The stages that read a track list (range, block-scale TTC) check it here, once. */
+vt_status vt_track_list_check(const vt_track_out *tracks, int32_t n_tracks)
+{
+    int32_t i, j;
+    if (n_tracks < 0 || (n_tracks > 0 && tracks == NULL)) {
+        return VT_E_ARG;
+    }
+    for (i = 0; i < n_tracks; i++) {
+        const vt_track_out *a = &tracks[i];
+        if (a->state == VT_TRACK_FREE) {
+            continue;
+        }
+        if (a->id <= 0 || a->box.right < a->box.left || a->box.bottom < a->box.top) {
+            return VT_E_ARG;
+        }
+        for (j = 0; j < i; j++) {
+            if (tracks[j].state != VT_TRACK_FREE && tracks[j].id == a->id) {
+                return VT_E_ARG;
+            }
+        }
+    }
+    return VT_OK;
+}
+
 vt_status vt_tracker_set_edge_ws(vt_tracker *tr, vt_edge_ws *ws)
 {
     if (tr == NULL) {

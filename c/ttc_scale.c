@@ -13,11 +13,7 @@
 vt_status vt_ttc_cfg_default(vt_ttc_cfg *cfg)
 {
     static const vt_ttc_cfg def = VT_TTC_CFG_DEFAULT;
-    if (cfg == NULL) {
-        return VT_E_ARG;
-    }
-    *cfg = def;
-    return VT_OK;
+    return vt__cfg_copy(cfg, &def, sizeof def);
 }
 
 vt_status vt_ttc_cfg_check(const vt_ttc_cfg *c)
@@ -325,7 +321,7 @@ vt_status vt_ttc_step(vt_ttc_state *st, const vt_ttc_cfg *cfg, const vt_image_u8
                       const vt_track_out *tracks, int32_t n_tracks, vt_ttc_out *out,
                       int32_t out_cap, int32_t *n_out)
 {
-    int32_t i, j, k, written = 0, full = 0, inside;
+    int32_t i, k, written = 0, full = 0, inside;
     vt_status s;
     if (st == NULL || n_out == NULL || vt_ttc_cfg_check(cfg) != VT_OK || img == NULL ||
         n_tracks < 0 || (n_tracks > 0 && tracks == NULL) || out_cap < 0 ||
@@ -339,19 +335,8 @@ vt_status vt_ttc_step(vt_ttc_state *st, const vt_ttc_cfg *cfg, const vt_image_u8
     if (img->w > 32767 || img->h > 32767) { /* positions are int16 */
         return VT_E_SIZE;
     }
-    for (i = 0; i < n_tracks; i++) {
-        const vt_track_out *a = &tracks[i];
-        if (a->state == VT_TRACK_FREE) {
-            continue;
-        }
-        if (a->id <= 0 || a->box.right < a->box.left || a->box.bottom < a->box.top) {
-            return VT_E_ARG;
-        }
-        for (j = 0; j < i; j++) {
-            if (tracks[j].state != VT_TRACK_FREE && tracks[j].id == a->id) {
-                return VT_E_ARG;
-            }
-        }
+    if (vt_track_list_check(tracks, n_tracks) != VT_OK) {
+        return VT_E_ARG;
     }
     *n_out = 0;
     if (img->w != st->img_w || img->h != st->img_h) { /* another frame size: restart */

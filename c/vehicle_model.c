@@ -46,9 +46,9 @@ vt_status vt_model_cfg_check(const vt_model_cfg *c)
         !vt__in(c->w_dist, 0, 64) || !vt__in(c->w_shadow, 0, 64) ||
         !vt__in(c->edge_thresh, 0, 2040) || !vt__in(c->dist_cap, 1, 64) ||
         !vt__in(c->horizon_row, -4 * VT_MAX_HEIGHT, 4 * VT_MAX_HEIGHT) ||
-        !vt__in(c->width_per_row, 1, 16 * VT_Q16_ONE) || !vt__in(c->width_tol_percent, 0, 90) ||
-        !vt__in(c->aspect_min_percent, 10, 400) ||
-        !vt__in(c->aspect_max_percent, c->aspect_min_percent, 400) ||
+        !vt__in(c->width_per_row, 1, 16 * VT_Q16_ONE) || !vt__in(c->width_tol_permille, 0, 900) ||
+        !vt__in(c->aspect_min_permille, 100, 4000) ||
+        !vt__in(c->aspect_max_permille, c->aspect_min_permille, 4000) ||
         !vt__in(c->wind_min, 0, 100) || !vt__in(c->wind_max, c->wind_min, 100) ||
         !vt__in(c->bump_min, 0, 100) || !vt__in(c->bump_max, c->bump_min, 100) ||
         !vt__in(c->roof_max, 0, 45)) {
@@ -192,11 +192,11 @@ static void vt__repair(const vt_model_cfg *c, const vt__geom *g, vt_model_params
     int32_t we, wmin, wmax, hmin, hmax, half;
     p->y = vt__clamp_i32(p->y, g->ylo, g->yhi);
     we = vt__expected_width(c, p->y);
-    wmin = vt__max_i32(8, we * (100 - c->width_tol_percent) / 100);
-    wmax = vt__max_i32(wmin, we * (100 + c->width_tol_percent) / 100);
+    wmin = vt__max_i32(8, we * (1000 - c->width_tol_permille) / 1000);
+    wmax = vt__max_i32(wmin, we * (1000 + c->width_tol_permille) / 1000);
     p->w = vt__clamp_i32(p->w, vt__clamp_i32(wmin, 1, g->rw), vt__clamp_i32(wmax, 1, g->rw));
-    hmin = vt__max_i32(4, p->w * c->aspect_min_percent / 100);
-    hmax = vt__max_i32(hmin, p->w * c->aspect_max_percent / 100);
+    hmin = vt__max_i32(4, p->w * c->aspect_min_permille / 1000);
+    hmax = vt__max_i32(hmin, p->w * c->aspect_max_permille / 1000);
     p->h = vt__clamp_i32(p->h, hmin, hmax);
     p->h = vt__clamp_i32(p->h, 1, p->y - g->oy + 1);
     half = p->w / 2;
@@ -213,11 +213,11 @@ static void vt__random_individual(const vt_model_cfg *c, const vt__geom *g, uint
     int32_t we, wmin, wmax, hmin, hmax, half;
     p->y = g->ylo + vt__rand(rs, g->yhi - g->ylo + 1);
     we = vt__expected_width(c, p->y);
-    wmin = vt__clamp_i32(vt__max_i32(8, we * (100 - c->width_tol_percent) / 100), 1, g->rw);
-    wmax = vt__clamp_i32(vt__max_i32(wmin, we * (100 + c->width_tol_percent) / 100), wmin, g->rw);
+    wmin = vt__clamp_i32(vt__max_i32(8, we * (1000 - c->width_tol_permille) / 1000), 1, g->rw);
+    wmax = vt__clamp_i32(vt__max_i32(wmin, we * (1000 + c->width_tol_permille) / 1000), wmin, g->rw);
     p->w = wmin + vt__rand(rs, wmax - wmin + 1);
-    hmin = vt__max_i32(4, p->w * c->aspect_min_percent / 100);
-    hmax = vt__max_i32(hmin, p->w * c->aspect_max_percent / 100);
+    hmin = vt__max_i32(4, p->w * c->aspect_min_permille / 1000);
+    hmax = vt__max_i32(hmin, p->w * c->aspect_max_permille / 1000);
     p->h = hmin + vt__rand(rs, hmax - hmin + 1);
     half = p->w / 2;
     p->x = g->ox + half + vt__rand(rs, vt__max_i32(1, g->rw - p->w + 1));
@@ -256,8 +256,8 @@ static int32_t vt__lerp(int32_t a, int32_t b, int32_t k)
     return a + (b - a) * k / (VT__S - 1);
 }
 
-vt_status vt_model_prepare(const vt_image_u8 *frame, const vt_model_cfg *cfg,
-                           const vt_model_search *search, int32_t level, vt_model_ws *ws)
+vt_status vt_model_prepare(vt_model_ws *ws, const vt_model_cfg *cfg,
+                           const vt_image_u8 *frame, const vt_model_search *search, int32_t level)
 {
     vt__geom g;
     vt_status s;
@@ -424,8 +424,8 @@ static int32_t vt__fitness(const vt_model_cfg *c, const vt_model_ws *ws, const v
     return c->w_sym * sym + c->w_grad * grad + c->w_dist * dist + c->w_shadow * shadow;
 }
 
-vt_status vt_model_fitness(const vt_image_u8 *frame, const vt_model_cfg *cfg,
-                           const vt_model_search *search, int32_t level, vt_model_ws *ws,
+vt_status vt_model_fitness(vt_model_ws *ws, const vt_model_cfg *cfg,
+                           const vt_image_u8 *frame, const vt_model_search *search, int32_t level,
                            const vt_model_params *p, int32_t *fitness)
 {
     const int32_t lim = 4 * (VT_MAX_WIDTH > VT_MAX_HEIGHT ? VT_MAX_WIDTH : VT_MAX_HEIGHT);
@@ -463,7 +463,7 @@ vt_status vt_model_search_from_flow(const vt_model_cfg *cfg, const vt_flow_hyp *
     W = vt__max_i32(vt__expected_width(cfg, h->box.bottom), h->box.right - h->box.left + 1);
     search->roi.left = h->box.left - W;
     search->roi.right = h->box.right + W;
-    search->roi.top = h->box.bottom - W * cfg->aspect_max_percent / 100 - W / 4;
+    search->roi.top = h->box.bottom - W * cfg->aspect_max_permille / 1000 - W / 4;
     search->roi.bottom = h->box.bottom + W / 4;
     search->y_min = vt__clamp_i32(h->cy, h->box.top, h->box.bottom);
     search->y_max = h->box.bottom + W / 8;
@@ -490,8 +490,8 @@ static int32_t vt__tournament(const int32_t *fit, int32_t n, uint32_t *rs)
     return fit[j] > fit[i] ? j : i;
 }
 
-vt_status vt_model_fit(const vt_image_u8 *frame, const vt_model_cfg *cfg,
-                       const vt_model_search *search, vt_model_ws *ws, vt_model_result *out)
+vt_status vt_model_fit(vt_model_ws *ws, const vt_model_cfg *cfg,
+                       const vt_image_u8 *frame, const vt_model_search *search, vt_model_result *out)
 {
     vt__geom g;
     vt_status s;
@@ -531,7 +531,7 @@ vt_status vt_model_fit(const vt_image_u8 *frame, const vt_model_cfg *cfg,
         const vt_model_params *prev = ws->pop + cur * VT_MODEL_MAX_POP;
         vt_model_params *pop;
         int32_t *fit;
-        s = vt_model_prepare(frame, cfg, search, level, ws);
+        s = vt_model_prepare(ws, cfg, frame, search, level);
         if (s != VT_OK) {
             return s;
         }

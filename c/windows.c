@@ -11,11 +11,7 @@
 vt_status vt_win_cfg_default(vt_win_cfg *cfg)
 {
     static const vt_win_cfg def = VT_WIN_CFG_DEFAULT;
-    if (cfg == NULL) {
-        return VT_E_ARG;
-    }
-    *cfg = def;
-    return VT_OK;
+    return vt__cfg_copy(cfg, &def, sizeof def);
 }
 
 static int vt__in(int32_t v, int32_t lo, int32_t hi)

@@ -74,13 +74,13 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         }
     } else if (op == 1) { /* the pitch filter */
         vt_pitch_state st;
-        s = vt_pitch_init((nulls & 1) ? NULL : &cam, &st);
+        s = vt_pitch_init(&st, (nulls & 1) ? NULL : &cam);
         fz_status(s);
         n_steps = 1 + (fz_u8(&f) & 15);
         for (step = 0; step < n_steps && s == VT_OK; step++) {
             int32_t vp_valid = fz_u8(&f) < 230 ? (fz_u8(&f) & 1) : fz_edge(&f, 1);
             vt_q16 vp_row = q16(&f, -400 * VT_Q16_ONE, 800 * VT_Q16_ONE);
-            fz_status(vt_pitch_update(&cam, (nulls & 2) ? NULL : &st, vp_valid, vp_row));
+            fz_status(vt_pitch_update((nulls & 2) ? NULL : &st, &cam, vp_valid, vp_row));
             FZ_ASSERT(st.flag >= VT_PITCH_NOMINAL && st.flag <= VT_PITCH_REJECTED && st.outliers >= 0 &&
                       st.measured >= 0);
             FZ_ASSERT(st.tan_pitch >= cam.tan_pitch_min && st.tan_pitch <= cam.tan_pitch_max);
@@ -155,7 +155,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             int32_t closing = fz_u8(&f) < 230 ? (fz_u8(&f) & 1) : fz_edge(&f, 1);
             int32_t lead = fz_u8(&f) < 230 ? fz_range(&f, 0, 3) : fz_edge(&f, 3);
             vt_q16 ttc = q16(&f, -VT_Q16_ONE, 5 * VT_Q16_ONE);
-            s = vt_fcw_step((nulls & 1) ? NULL : &rc, (nulls & 2) ? NULL : &st, ttc_valid, ttc, closing, lead,
+            s = vt_fcw_step((nulls & 2) ? NULL : &st, (nulls & 1) ? NULL : &rc, ttc_valid, ttc, closing, lead,
                             (nulls & 4) ? NULL : &out);
             fz_status(s);
             if (s == VT_OK) {

@@ -45,7 +45,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     if (fz_u8(&f) < 160) { /* level 0 and small cells: small frames still have cells */
         cfg.level = fz_range(&f, 0, 1);
         cfg.cell = fz_range(&f, 2, 8);
-        cfg.strip_percent = fz_range(&f, 10, 50);
+        cfg.strip_permille = fz_range(&f, 100, 500);
         cfg.sides = fz_range(&f, 1, 3);
     }
     fz_mutate_i32s(&f, &cfg, sizeof cfg);

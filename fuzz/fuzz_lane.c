@@ -29,7 +29,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         if (k > 0 && fz_u8(&f) > 200) {
             img = fz_image_u8(&f, VT_MAX_WIDTH, VT_MAX_HEIGHT);
         }
-        s = vt_lane_detect((nulls & 1) ? NULL : &cfg, (nulls & 2) ? NULL : &g_st, &img,
+        s = vt_lane_detect((nulls & 2) ? NULL : &g_st, (nulls & 1) ? NULL : &cfg, &img,
                            (nulls & 4) ? NULL : &g_res, (nulls & 8) ? NULL : &g_road);
         fz_status(s);
         if (s == VT_OK) {

@@ -111,12 +111,12 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         int32_t fit = 0;
         vt_model_params p;
         params(&f, &p, w, h);
-        fz_status(vt_model_prepare((nulls & 16) ? NULL : &img, &cfg, &se, level, (nulls & 32) ? NULL : &g_ws));
-        fz_status(vt_model_fitness(&img, &cfg, &se, level, (nulls & 32) ? NULL : &g_ws,
+        fz_status(vt_model_prepare((nulls & 32) ? NULL : &g_ws, &cfg, (nulls & 16) ? NULL : &img, &se, level));
+        fz_status(vt_model_fitness((nulls & 32) ? NULL : &g_ws, &cfg, &img, &se, level,
                                    (nulls & 64) ? NULL : &p, &fit));
     }
-    s = vt_model_fit((nulls & 16) ? NULL : &img, (nulls & 1) ? NULL : &cfg, (nulls & 8) ? NULL : &se,
-                     (nulls & 32) ? NULL : &g_ws, (nulls & 64) ? NULL : &res);
+    s = vt_model_fit((nulls & 32) ? NULL : &g_ws, (nulls & 1) ? NULL : &cfg, (nulls & 16) ? NULL : &img,
+                     (nulls & 8) ? NULL : &se, (nulls & 64) ? NULL : &res);
     fz_status(s);
     if (s == VT_OK) {
         const vt_model_params *b = &res.best;

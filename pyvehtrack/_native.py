@@ -420,7 +420,7 @@ def lane_reset(st) -> None:
 def lane_detect(cfg, st, img: np.ndarray, res, road=None) -> None:
     """vt_lane_detect into res (a vt_lane_result *) and road (a vt_road_area * or None)."""
     v = view(img, "img")
-    check("vt_lane_detect", lib.vt_lane_detect(cfg, st, v, res, ffi.NULL if road is None else road),
+    check("vt_lane_detect", lib.vt_lane_detect(st, cfg, v, res, ffi.NULL if road is None else road),
           f"img {img.shape}")
 
 
@@ -543,12 +543,12 @@ def camera_box_distance(cam, tp: int, box):
 
 def pitch_new(cam):
     st = ffi.new("vt_pitch_state *")
-    check("vt_pitch_init", lib.vt_pitch_init(cam, st), "camera config")
+    check("vt_pitch_init", lib.vt_pitch_init(st, cam), "camera config")
     return st
 
 
 def pitch_update(cam, st, vp_valid: int, vp_row: int) -> None:
-    check("vt_pitch_update", lib.vt_pitch_update(cam, st, vp_valid, vp_row),
+    check("vt_pitch_update", lib.vt_pitch_update(st, cam, vp_valid, vp_row),
           f"vp_valid={vp_valid}, vp_row={vp_row} (Q16)")
 
 
@@ -570,7 +570,7 @@ def range_cfg_check(cfg) -> None:
 
 def fcw_step(cfg, st, ttc_valid: int, ttc: int, closing: int, lead_class: int) -> int:
     out = ffi.new("int32_t *")
-    check("vt_fcw_step", lib.vt_fcw_step(cfg, st, ttc_valid, ttc, closing, lead_class, out),
+    check("vt_fcw_step", lib.vt_fcw_step(st, cfg, ttc_valid, ttc, closing, lead_class, out),
           f"ttc_valid={ttc_valid}, ttc={ttc} (Q16), closing={closing}, lead_class={lead_class}")
     return int(out[0])
 
@@ -581,11 +581,16 @@ def range_new():
     return st
 
 
+def _track_array(tracks):
+    """(the contiguous TRACK_OUT_DTYPE array, its vt_track_out * or NULL, its length); the
+    array is returned so that it outlives the call that reads the pointer."""
+    tr = np.ascontiguousarray(tracks, dtype=TRACK_OUT_DTYPE)
+    return tr, (ffi.cast("vt_track_out *", tr.ctypes.data) if len(tr) else ffi.NULL), len(tr)
+
+
 def range_step(st, cfg, cam, tp: int, ego_speed: int, tracks: np.ndarray) -> np.ndarray:
     """tracks: a TRACK_OUT_DTYPE array (as tracker_step returns). Returns RANGE_OUT_DTYPE."""
-    tr = np.ascontiguousarray(tracks, dtype=TRACK_OUT_DTYPE)
-    n = len(tr)
-    ptr = ffi.cast("vt_track_out *", tr.ctypes.data) if n else ffi.NULL
+    tr, ptr, n = _track_array(tracks)
     cap = max(n, 1)
     out = np.zeros(cap, RANGE_OUT_DTYPE)
     n_out = ffi.new("int32_t *")
@@ -620,9 +625,7 @@ def ttc_new():
 def ttc_step(st, cfg, grey: np.ndarray, tracks: np.ndarray) -> np.ndarray:
     """grey: (h, w) uint8; tracks: a TRACK_OUT_DTYPE array. Returns TTC_OUT_DTYPE rows."""
     v = view(grey, "grey")
-    tr = np.ascontiguousarray(tracks, dtype=TRACK_OUT_DTYPE)
-    n = len(tr)
-    ptr = ffi.cast("vt_track_out *", tr.ctypes.data) if n else ffi.NULL
+    tr, ptr, n = _track_array(tracks)
     cap = max(n, 1)
     out = np.zeros(cap, TTC_OUT_DTYPE)
     n_out = ffi.new("int32_t *")
@@ -1027,7 +1030,7 @@ def _p_tuple(p) -> tuple:
 
 def model_prepare(img: np.ndarray, cfg, search, level: int, ws) -> None:
     v = view(img, "frame")
-    check("vt_model_prepare", lib.vt_model_prepare(v, cfg, search, int(level), ws),
+    check("vt_model_prepare", lib.vt_model_prepare(ws, cfg, v, search, int(level)),
           f"frame {img.shape}, roi {(search.roi.left, search.roi.top, search.roi.right, search.roi.bottom)}, "
           f"level {level}")
 
@@ -1037,7 +1040,7 @@ def model_fitness(img: np.ndarray, cfg, search, level: int, ws, params) -> int:
     p = ffi.new("vt_model_params *")
     _params(params, "params", p)
     out = ffi.new("int32_t *")
-    check("vt_model_fitness", lib.vt_model_fitness(v, cfg, search, int(level), ws, p, out),
+    check("vt_model_fitness", lib.vt_model_fitness(ws, cfg, v, search, int(level), p, out),
           f"params {tuple(params)} at level {level} (prepared level {ws.level})")
     return int(out[0])
 
@@ -1046,7 +1049,7 @@ def model_fit(img: np.ndarray, cfg, search, ws) -> dict:
     """The GA: {'best': 7-tuple, 'fitness', 'evaluations', 'box': (l, t, r, b)}."""
     v = view(img, "frame")
     out = ffi.new("vt_model_result *")
-    check("vt_model_fit", lib.vt_model_fit(v, cfg, search, ws, out),
+    check("vt_model_fit", lib.vt_model_fit(ws, cfg, v, search, out),
           f"frame {img.shape}, roi {(search.roi.left, search.roi.top, search.roi.right, search.roi.bottom)}, "
           f"rows {search.y_min}..{search.y_max}, tracking {search.tracking}")
     return {"best": _p_tuple(out.best), "fitness": int(out.fitness), "evaluations": int(out.evaluations),
@@ -1129,4 +1132,14 @@ def fixed_road_area(fr, w: int, h: int):
     road = ffi.new("vt_road_area *")
     check("vt_fixed_road_area", lib.vt_fixed_road_area(fr, w, h, road), f"frame {w}x{h}")
     return road
+def fixed_road_check(fr) -> None:
+    check("vt_fixed_road_check", lib.vt_fixed_road_check(fr),
+          "a fixed-road field is out of range (see vt_fixed_road_check in vehtrack/pipeline.h)")
+
+
+def road_camera_check(rc) -> None:
+    check("vt_road_camera_check", lib.vt_road_camera_check(rc),
+          "a road-camera field is out of range (see vt_road_camera_check in vehtrack/pipeline.h)")
+
+
 # ================================================================ end pipeline.h

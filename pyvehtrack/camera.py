@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .reference import camera as rcam
+from .shared import BoxDistance, CameraParams, RangeOut, RangeParams
 
 Q16 = 1 << 16
 PITCH_LIMIT_DEG = 3.0   # braking and load move a car's pitch by a degree or two, not more
@@ -173,7 +173,7 @@ class Camera:
             raise ValueError(f"camera: calibrated for {self.image_size[0]}x{self.image_size[1]} frames, "
                              f"got {w}x{h} (the camera file is in pixels of the input frame)")
 
-    def params(self, img_w: int, img_h: int, **overrides) -> rcam.CameraParams:
+    def params(self, img_w: int, img_h: int, **overrides) -> CameraParams:
         """The stage's parameters for frames of img_w x img_h (quantised to what the C
         core holds). ValueError without height_m."""
         if self.height_m is None:
@@ -182,7 +182,7 @@ class Camera:
         self.check_frame(img_w, img_h)
         pitch = self.pitch_deg or 0.0
         # the per-frame pitch may wander PITCH_LIMIT_DEG around the calibrated one
-        p = rcam.CameraParams(int(img_w), int(img_h), self.fx, self.fy, self.cx, self.cy, self.height_m,
+        p = CameraParams(int(img_w), int(img_h), self.fx, self.fy, self.cx, self.cy, self.height_m,
                               tan_pitch=math.tan(math.radians(pitch)),
                               tan_pitch_min=math.tan(math.radians(pitch - PITCH_LIMIT_DEG)),
                               tan_pitch_max=math.tan(math.radians(pitch + PITCH_LIMIT_DEG)))
@@ -201,6 +201,7 @@ def lane_vanishing_row(lanes) -> float | None:
         # the float oracle's LaneFrame: the same intersection in floats
         ln = raw.lines
         left, right = (None if k >= len(ln) or ln[k] is None else (ln[k].xb, ln[k].slope) for k in (1, 2))
+        from .reference import camera as rcam   # the oracle's lines: the oracle's arithmetic
         row = rcam.vanishing_row(left, right, int(raw.H), int(raw.shift))
         return None if row is None else (row + 0.5) / f - 0.5
     if raw is None or not hasattr(raw, "shift") or not hasattr(raw, "lines"):
@@ -216,13 +217,13 @@ def lane_vanishing_row(lanes) -> float | None:
     return ((row / Q16) + 0.5) / f - 0.5
 
 
-def camera_params(cam: Camera, img_w: int, img_h: int, **kw) -> rcam.CameraParams:
+def camera_params(cam: Camera, img_w: int, img_h: int, **kw) -> CameraParams:
     return cam.params(img_w, img_h, **kw)
 
 
 _CAM_Q16 = ("fx", "fy", "cx", "cy", "height", "tan_pitch", "tan_pitch_min", "tan_pitch_max",
             "pitch_max_step", "delta_px", "bottom_offset", "vehicle_width")
-_CAM_INT = ("img_w", "img_h", "pitch_alpha_q8", "pitch_reacquire", "width_tol_percent")
+_CAM_INT = ("img_w", "img_h", "pitch_alpha_q8", "pitch_reacquire", "width_tol_permille")
 _RNG_Q16 = ("frame_dt", "jerk_sigma", "init_sigma_rate", "init_sigma_accel", "sigma_min", "ttc_max",
             "ttc_stopped", "ttc_slower", "ttc_decel", "ttc_margin", "min_closing", "stopped_speed",
             "decel_thresh", "rear_offset")
@@ -244,24 +245,24 @@ def _to_c(ctype: str, p, q16_fields, int_fields, check):
     return c
 
 
-def params_to_c(p: rcam.CameraParams):
+def params_to_c(p: CameraParams):
     """vt_camera_cfg for p (Q16 rounded to nearest); VtError if a field is out of range."""
     from . import _native
     return _to_c("vt_camera_cfg", p, _CAM_Q16, _CAM_INT, _native.camera_cfg_check)
 
 
-def range_to_c(p: rcam.RangeParams):
+def range_to_c(p: RangeParams):
     from . import _native
     return _to_c("vt_range_cfg", p, _RNG_Q16, _RNG_INT, _native.range_cfg_check)
 
 
-def params_from_c(c) -> rcam.CameraParams:
-    return rcam.CameraParams(**{f: getattr(c, f) / Q16 for f in _CAM_Q16},
+def params_from_c(c) -> CameraParams:
+    return CameraParams(**{f: getattr(c, f) / Q16 for f in _CAM_Q16},
                              **{f: int(getattr(c, f)) for f in _CAM_INT})
 
 
-def range_from_c(c) -> rcam.RangeParams:
-    return rcam.RangeParams(**{f: getattr(c, f) / Q16 for f in _RNG_Q16},
+def range_from_c(c) -> RangeParams:
+    return RangeParams(**{f: getattr(c, f) / Q16 for f in _RNG_Q16},
                             **{f: int(getattr(c, f)) for f in _RNG_INT})
 
 
@@ -302,7 +303,7 @@ class RangeEstimator:
             over["height"] = over.get("height", camera.height_m) - float(bottom_height)
         self.bottom_height = float(bottom_height)
         self.cam = camera.params(w, h, **over)
-        rp = dataclasses.replace(rcam.RangeParams(frame_dt=1.0 / float(fps)), **params)
+        rp = dataclasses.replace(RangeParams(frame_dt=1.0 / float(fps)), **params)
         from . import _native
         self._n = _native
         self._ccam = params_to_c(self.cam)
@@ -312,6 +313,7 @@ class RangeEstimator:
             self._pitch = _native.pitch_new(self._ccam)
             self._st = _native.range_new()
         else:
+            from .reference import camera as rcam   # the reference engine
             self._pitch_ref = rcam.PitchEstimator(self.cam)
             self._ref = rcam.RangeTracker(self.cam, self.params, int(_native.lib.VT_MAX_TRACKS))
 
@@ -341,20 +343,21 @@ class RangeEstimator:
             self._pitch_ref.update(None if vp_row is None else float(vp_row))
         return self.tan_pitch
 
-    def box_distance(self, box) -> rcam.BoxDistance:
+    def box_distance(self, box) -> BoxDistance:
         """One box's distances with the current pitch, no filter (for single pictures)."""
         box = [int(v) for v in box]
         if self.engine == "reference":
+            from .reference import camera as rcam
             return rcam.box_distance(self.cam, self._pitch_ref.tan_pitch, box)
         d = self._n.camera_box_distance(self._ccam, int(self._pitch.tan_pitch), box)
         L = self._n.lib
-        return rcam.BoxDistance(bool(d.flags & L.VT_DIST_VALID), bool(d.flags & L.VT_DIST_FAR_VALID),
+        return BoxDistance(bool(d.flags & L.VT_DIST_VALID), bool(d.flags & L.VT_DIST_FAR_VALID),
                                 bool(d.flags & L.VT_DIST_WIDTH_AGREES), d.distance / Q16,
                                 d.dist_near / Q16, d.dist_far / Q16, d.sigma / Q16, d.dist_width / Q16,
                                 bool(d.flags & L.VT_DIST_BOTTOM_CLIPPED),
                                 bool(d.flags & L.VT_DIST_SIDE_CLIPPED))
 
-    def step(self, tracks, ego_speed: float | None = None) -> list[rcam.RangeOut]:
+    def step(self, tracks, ego_speed: float | None = None) -> list[RangeOut]:
         """tracks: pyvehtrack.tracker.Track objects (or (id, box) pairs), boxes in input px."""
         pairs = []
         for t in tracks:
@@ -375,10 +378,10 @@ class RangeEstimator:
         return [_range_out(r, self._n.lib) for r in rows]
 
 
-def _range_out(r, lib) -> rcam.RangeOut:
+def _range_out(r, lib) -> RangeOut:
     f = int(r["flags"])
     g = lambda k: float(r[k]) / Q16  # noqa: E731
-    return rcam.RangeOut(
+    return RangeOut(
         id=int(r["id"]),
         distance=g("distance") if f & lib.VT_RANGE_DIST_VALID else None,
         sigma=g("sigma"), dist_width=g("dist_width"),

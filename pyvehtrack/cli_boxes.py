@@ -10,18 +10,18 @@ import json
 from pathlib import Path
 
 from .cli import CliError
+from .cli.common import add_command
 
 
 def register_eval_boxes(sub) -> None:
-    p = sub.add_parser("eval-boxes", help="recall/precision/AP50 of detected boxes against labelled boxes",
+    p = add_command(sub, "eval-boxes", help="recall/precision/AP50 of detected boxes against labelled boxes",
                        description="Recall and precision at IoU >= 0.5 (all vehicles, >= 32 px and >= 64 px "
                        "wide, the lead vehicle) and COCO AP50 (pycocotools) of `detect --json` output "
                        "against a tusimple-vehicles-dev style annotation.json. Only frames present in "
                        "--pred are scored.",
                        epilog="examples:\n  pyvehtrack detect frames/ --model M.npz --json found.json\n"
                               "  pyvehtrack eval-boxes --gt ../shared/data/tusimple-vehicles-dev/annotation.json "
-                              "--pred found.json",
-                       formatter_class=__import__("argparse").RawDescriptionHelpFormatter)
+                              "--pred found.json")
     p.add_argument("--gt", required=True, metavar="ANNOTATION.json",
                    help="[{file_name, bbox: [{left, top, right, bottom}, ...]}, ...]")
     p.add_argument("--pred", required=True, metavar="FOUND.json", help="as written by `pyvehtrack detect --json`")

@@ -11,23 +11,22 @@ model and of the C fixed-point model, per source, and their sign agreement.
 classify writes a JSON list of {"file", "score", "vehicle"}, one entry per image."""
 from __future__ import annotations
 
-import argparse
 
 import json
 import sys
 from pathlib import Path
 
 from .cli import CliError, IMAGE_EXTS
+from .cli.common import add_command
 
 
 def register_train(sub) -> None:
-    p = sub.add_parser("train", help="train the vehicle classifier (HOG/GIST + linear SVM)",
+    p = add_command(sub, "train", help="train the vehicle classifier (HOG/GIST + linear SVM)",
                        epilog="examples:\n"
                               "  pyvehtrack train --vehicles gti-vehicles/vehicles --non-vehicles gti-vehicles/non-vehicles "
                               "--out model.npz\n"
                               "  pyvehtrack train --vehicles V --non-vehicles N --frames tusimple-vehicles-dev "
-                              "--frames-json tusimple-vehicles-dev/annotation.json --descriptor gist --out gist.npz",
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
+                              "--frames-json tusimple-vehicles-dev/annotation.json --descriptor gist --out gist.npz")
     p.add_argument("--vehicles", nargs="+", required=True, metavar="DIR",
                    help="folders of vehicle crops (sub-folders are read too)")
     p.add_argument("--non-vehicles", nargs="+", required=True, metavar="DIR")
@@ -86,10 +85,9 @@ def run_train(args) -> int:
 
 
 def register_classify(sub) -> None:
-    p = sub.add_parser("classify", help="score image crops: vehicle or not",
+    p = add_command(sub, "classify", help="score image crops: vehicle or not",
                        epilog="examples:\n  pyvehtrack classify crops/ --json scores.json\n"
-                              "  pyvehtrack classify car.png road.png --json scores.json --model model.npz",
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
+                              "  pyvehtrack classify car.png road.png --json scores.json --model model.npz")
     p.add_argument("inputs", nargs="+", metavar="INPUT", help="image files or folders of images")
     p.add_argument("--json", required=True, metavar="OUT.json")
     p.add_argument("--model", metavar="MODEL.npz", help="a model from `pyvehtrack train` (default: built in)")

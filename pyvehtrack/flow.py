@@ -18,7 +18,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from . import _native
-from .reference import flow as rflow
+from .shared import FLOW_RENAMED, take_renamed
 
 SIDES = {"left": 1, "right": 2, "both": 3}
 SIDE_NAMES = {1: "left", 2: "right"}
@@ -45,8 +45,11 @@ class FlowResult:
 
 
 def make_cfg(**overrides):
-    """The C defaults (read from the core) with keyword overrides, checked by C."""
+    """The C defaults (read from the core) with keyword overrides, checked by C. The percent
+    names of before issue 10 (strip_percent, ..., seed_min_visible) are still taken, x 10
+    into their permille fields, with a DeprecationWarning."""
     cfg = _native.flow_cfg_default()
+    overrides = take_renamed("flow", overrides, FLOW_RENAMED)
     for k, v in overrides.items():
         if k not in CFG_FIELDS:
             raise TypeError(f"{k}: not a flow setting (expected one of {', '.join(CFG_FIELDS)})")
@@ -89,6 +92,7 @@ class OvertakingDetector:
         if engine == "c":
             self._st = _native.flow_new()
         else:
+            from .reference import flow as rflow
             ns = SimpleNamespace(**{f: int(getattr(self.cfg, f)) for f in CFG_FIELDS})
             self._ref = rflow.FlowOracle(ns, int(_native.lib.VT_FLOW_MAX_HYPS),
                                          int(_native.lib.VT_FLOW_MAX_SEEDS), int(_native.lib.VT_FLOW_MAX_BLOBS))

@@ -23,9 +23,9 @@ import numpy as np
 
 from . import _check, _native
 from .frames import to_gray
-from .reference import lane as _ref
+from .shared import QDEG, SIDE_NAMES, LaneConfig, lane_config_from
 
-SIDES = _ref.SIDE_NAMES
+SIDES = SIDE_NAMES
 FURTHER = "further"   # side of a line of lanes_all that is in no slot
 STATES = {1: "found", 2: "held"}
 MIN_SIZE = 16
@@ -82,14 +82,14 @@ class LaneResult:
         return None
 
 
-def default_config() -> _ref.LaneConfig:
+def default_config() -> LaneConfig:
     """The core's default configuration (VT_LANE_CFG_DEFAULT) as a LaneConfig."""
-    return _ref.config_from(_native.lane_cfg_default())
+    return lane_config_from(_native.lane_cfg_default())
 
 
-def _to_c_cfg(cfg: _ref.LaneConfig):
+def _to_c_cfg(cfg: LaneConfig):
     c = _native.ffi.new("vt_lane_cfg *")
-    for f in fields(_ref.LaneConfig):
+    for f in fields(LaneConfig):
         setattr(c, f.name, _check.integer(getattr(cfg, f.name), f.name))
     return c
 
@@ -101,14 +101,14 @@ class LaneDetector:
     """Lane detector over a sequence of frames.
 
     engine: "c" (the fixed-point core, default) or "reference" (the float oracle).
-    cfg: a pyvehtrack.reference.lane.LaneConfig (default: the core's defaults);
+    cfg: a pyvehtrack.shared.LaneConfig (the oracle re-exports it; default: the core's defaults);
     keyword arguments override single fields, e.g. LaneDetector(work_width_max=320)."""
 
-    def __init__(self, engine: str = "c", cfg: _ref.LaneConfig | None = None, **overrides):
+    def __init__(self, engine: str = "c", cfg: LaneConfig | None = None, **overrides):
         if engine not in ("c", "reference"):
             raise ValueError(f"engine must be 'c' or 'reference', got {engine!r}")
         cfg = cfg if cfg is not None else default_config()
-        unknown = set(overrides) - {f.name for f in fields(_ref.LaneConfig)}
+        unknown = set(overrides) - {f.name for f in fields(LaneConfig)}
         if unknown:
             raise TypeError(f"unknown lane config field(s): {sorted(unknown)}")
         self.cfg = replace(cfg, **overrides)
@@ -122,7 +122,7 @@ class LaneDetector:
         # hypotheses, no tracker); the pipeline owns the downscale rule.
         from . import config  # noqa: PLC0415
         from .pipeline import Pipeline  # noqa: PLC0415
-        lane = config.LaneConfig(**{f.name: getattr(self.cfg, f.name) for f in fields(_ref.LaneConfig)})
+        lane = config.LaneConfig(**{f.name: getattr(self.cfg, f.name) for f in fields(LaneConfig)})
         self.pipeline = Pipeline(engine, lane=lane, road="lanes", sources=(), lanes_every_frame=True,
                                  track=False)
 
@@ -207,6 +207,7 @@ def from_reference(fr, shape) -> LaneResult:
         arrs = [np.asarray(road[nm][:h], np.int32) for nm in ("x_left", "x_right", "lane_width")]
         return bool(road["valid"]), int(road["y_top"]), int(road["y_bottom"]), arrs
 
+    from .reference import lane as _ref   # only the reference engine has a LaneFrame
     road_all = _ref.road_area_all(fr.lines_all, w, h, fr.shift, len(fr.road["x_left"]))
     return _build(shape, fr.shift, fr.W, fr.H, lines, fr.vp_y if fr.vp_known else None,
                   *r_road(fr.road), fr, lines_all, r_road(road_all))
@@ -235,7 +236,7 @@ def _build(shape, s, W, H, lines, vp_y, road_valid, y_top, y_bottom, arrs, raw,
         pts = np.stack([to_in(xs), to_in(ys.astype(float))], axis=1)
         pts = pts[(pts[:, 0] >= 0) & (pts[:, 0] <= w - 1)]
         return Lane(SIDES[k] if k >= 0 else FURTHER, STATES.get(state, "found"), float(rho * n),
-                    theta / _ref.QDEG, votes, pts)
+                    theta / QDEG, votes, pts)
 
     lanes = [lane(*t) for t in lines]
     x_left, x_right, lane_width = arrs

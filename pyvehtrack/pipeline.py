@@ -63,6 +63,7 @@ from . import lane as _lane
 from ._native import ffi, lib
 from .config import PipelineConfig
 from .frames import to_gray
+from .shared import TrackBase
 
 ENGINES = ("c", "reference")
 STATES = {1: "tentative", 2: "confirmed", 3: "coasting"}
@@ -91,11 +92,7 @@ class Box:
 
 
 @dataclass(frozen=True)
-class Track:
-    id: int
-    state: str                 # "tentative" | "confirmed" | "coasting"
-    box: tuple                 # (left, top, right, bottom), inclusive, input pixels
-    velocity: tuple            # (vx, vy) of the bottom edge, input px/frame
+class Track(TrackBase):
     distance: float | None = None  # filtered distance, m (camera stage); None while unknown
     ttc: float | None = None       # time to collision from it and its rate, s; None if unknown
     warning: bool | None = None    # forward-collision warning; None without a camera

@@ -8,8 +8,9 @@ tests/test_detect.py and tests/test_fulldet.py check the defaults against the co
 """
 from __future__ import annotations
 
+import math
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from fractions import Fraction
 
 import numpy as np
@@ -153,32 +154,42 @@ SEARCH_RENAMED = {"min_h_percent": ("min_h_permille", 10), "min_v_percent": ("mi
 # Q8 fractions of at most 1 (256 = 1.0): new = old * 1000 / 256, accepted only where exact.
 SHADOW_RENAMED = {"reduce_overlap_q8": ("reduce_overlap_permille", Fraction(1000, 256))}
 VERIFY_RENAMED = {"side_min_frac_q8": ("side_min_frac_permille", Fraction(1000, 256))}
+# vt_flow_cfg (pyvehtrack.flow.make_cfg): percent -> permille, x 10
+FLOW_RENAMED = {"strip_percent": ("strip_permille", 10), "top_percent": ("top_permille", 10),
+                "bottom_percent": ("bottom_permille", 10), "diff_min_percent": ("diff_min_permille", 10),
+                "seed_min_visible": ("seed_min_visible_permille", 10)}
+
+
+def take_renamed(owner: str, kw: dict, renamed: dict, stacklevel: int = 3) -> dict:
+    """kw with every old name in `renamed` replaced by its new one (new = old x factor), with a
+    DeprecationWarning. A value that is not an int is passed on as it is, so the config's own
+    check names the field and the type; an int whose new value would not be a whole number
+    is a ValueError (never rounded silently); old and new together is a TypeError."""
+    for old, (new, factor) in renamed.items():
+        if old in kw:
+            if new in kw:
+                raise TypeError(f"{owner}: give {new} or the deprecated {old}, not both")
+            warnings.warn(f"{owner}.{old} is deprecated: use {new} (= {old} x {factor})",
+                          DeprecationWarning, stacklevel=stacklevel)
+            v = kw.pop(old)
+            if isinstance(v, (int, np.integer)) and not isinstance(v, bool):
+                nv = Fraction(int(v)) * factor
+                if nv.denominator != 1:
+                    raise ValueError(f"{owner}.{old}={v}: is {float(nv)} in {new}, not a whole "
+                                     f"number; give {new} instead")
+                v = int(nv)
+            kw[new] = v
+    return kw
 
 
 def accept_renamed(cls, renamed: dict):
     """Let dataclass `cls` still take the fields in `renamed` under their old names:
-    cls(old=v) sets new = v * factor, and obj.old reads new / factor, both with a
-    DeprecationWarning. A value that is not an int is passed on as it is, so the
-    config's own check names the field and the type; an int whose new value would
-    not be a whole number is a ValueError (never rounded silently)."""
+    cls(old=v) sets new = v * factor (take_renamed), and obj.old reads new / factor, both
+    with a DeprecationWarning."""
     init = cls.__init__
 
     def __init__(self, *args, **kw):
-        for old, (new, factor) in renamed.items():
-            if old in kw:
-                if new in kw:
-                    raise TypeError(f"{cls.__name__}: give {new} or the deprecated {old}, not both")
-                warnings.warn(f"{cls.__name__}.{old} is deprecated: use {new} (= {old} x {factor})",
-                              DeprecationWarning, stacklevel=2)
-                v = kw.pop(old)
-                if isinstance(v, (int, np.integer)) and not isinstance(v, bool):
-                    nv = Fraction(int(v)) * factor
-                    if nv.denominator != 1:
-                        raise ValueError(f"{cls.__name__}.{old}={v}: is {float(nv)} in {new}, not a whole "
-                                         f"number; give {new} instead")
-                    v = int(nv)
-                kw[new] = v
-        init(self, *args, **kw)
+        init(self, *args, **take_renamed(cls.__name__, kw, renamed))
 
     __init__.__wrapped__ = init
     cls.__init__ = __init__
@@ -194,3 +205,258 @@ def accept_renamed(cls, renamed: dict):
 
 accept_renamed(ShadowConfig, SHADOW_RENAMED)  # the Q8 names of before issue 10
 accept_renamed(VerifyConfig, VERIFY_RENAMED)
+
+
+# ---------------------------------------------------------------- lanes (vt_lane_cfg, lane.h)
+QDEG = 4  # quarter degrees per degree (vehtrack/trig.h)
+
+SIDE_NAMES = ("left-most", "left", "right", "right-most")   # the four lane slots, left to right
+
+
+@dataclass(frozen=True)
+class LaneConfig:
+    """Mirror of the C vt_lane_cfg (include/vehtrack/lane.h): same field names, same integer units. Defaults:
+    chosen on half B of TuSimple test100 (tools/tune_lanes.py --tune B)."""
+    work_width_max: int = 320         # box-downscale by 2^s (s <= 3) until W <= this
+    work_height_max: int = 240        # ... and H <= this
+    roi_top_permille: int = 250       # rows above H*this/1000 are never looked at
+    hough_top_permille: int = 500     # Hough votes from rows >= H*this/1000
+    grad_min: int = 12                # [-1 0 1] threshold floor
+    noise_gain_q4: int = 48           # row threshold >= mean|g| * this / 16
+    mark_w_top_permille: int = 6      # widest marking at row 0 / row H-1, per mille of W
+    mark_w_bottom_permille: int = 40
+    mark_wmin_top_permille: int = 0   # narrowest marking at row 0 / row H-1 (>= 1 px)
+    mark_wmin_bottom_permille: int = 8
+    marks_per_row_max: int = 24       # a row with more centres is texture: dropped
+    marks_max: int = 4096             # centres kept per frame (bottom rows first)
+    theta_min_qdeg: int = 4 * QDEG    # left half theta range; right half mirrored
+    theta_max_qdeg: int = 80 * QDEG
+    theta_step_qdeg: int = 1 * QDEG
+    rho_step_shift: int = 0           # a rho bin is 2^this working px (0..3)
+    vote_min: int = 8                 # a peak needs >= this many votes
+    vote_min_permille: int = 80       # ... and >= band rows * this / 1000
+    nms_theta_bins: int = 4           # peak = maximum of a (2a+1) x (2b+1) window
+    nms_rho_bins: int = 8
+    max_peaks: int = 6                # candidates per half
+    merge_permille: int = 19          # lines closer than W*this/1000 at both band ends merge
+    min_dtheta_qdeg: int = 12 * QDEG  # ego vs outer line angle difference
+    ego_theta_max_qdeg: int = 65 * QDEG  # flatter lines can only be outer lines
+    ego_vote_permille: int = 500      # an inner line replacing the ego needs this share
+    vp_x_permille: int = 250          # vanishing point within cx +- W*this/1000
+    vp_low_permille: int = 700        # ... and not below row H*this/1000
+    vp_tol_permille: int = 15         # lane lines pass within W*this/1000 px of it
+    vp_tol_min: int = 2               # ... or within this many px (small frames)
+    lane_w_min_permille: int = 250    # ego lane width at the bottom row, per mille of W
+    lane_w_max_permille: int = 2000
+    refine_iters: int = 2             # least-squares passes over the band
+    refine_tol_permille: int = 16     # first pass window W*this/1000, halved per pass
+    refine_tol_min: int = 2           # ... but never below this many px
+    fit_min_points: int = 6           # fewer points: keep the line as it was
+    seg_min: int = 3                  # extension segment rows, at least
+    seg_permille: int = 500           # ... else this share of the distance to the VP
+    bend_q8: int = 128                # slope change per segment <= this/256 px/row
+    seg_count_min: int = 2            # a segment needs this many centres ...
+    seg_count_permille: int = 150     # ... and seg rows * this / 1000
+    seg_miss_max: int = 1             # without a VP: stop after this many empty segments
+    win_bottom_permille: int = 20     # segment window: W*this/1000 px at the bottom row,
+    win_top: int = 2                  # ... this many px at the vanishing row
+    vp_margin: int = 2                # without a VP: never above roi_top + this
+    top_margin_permille: int = 37     # with a VP: lanes end H*this/1000 rows below it
+    track_alpha_q8: int = 128         # smoothing gain toward the new line, Q8
+    track_hold: int = 5               # frames a hidden marking's line is kept
+    track_gate_permille: int = 31     # farther than W*this/1000 px: replace, not smooth
+    solo_vote_permille: int = 1500    # no ego pair at a plausible vanishing point: a line
+                                      # needs votes >= vote floor * this / 1000
+
+
+
+def lane_config_from(obj) -> LaneConfig:
+    """A LaneConfig from anything with the same attribute names (e.g. a cffi vt_lane_cfg)."""
+    return LaneConfig(**{f.name: int(getattr(obj, f.name)) for f in fields(LaneConfig)})
+
+
+# ---------------------------------------------------------------- tracker (vt_tracker_cfg, tracker.h)
+# The oracle's tracker configuration (reference.tracker.TrackerCfg and its parts re-export these);
+# pyvehtrack.config.TrackerConfig is the friendly layer's integer twin.
+MEAS_ROI_SEARCH, MEAS_EDGE_CURVES = 0, 1    # vt_tracker_cfg.measurement
+TWO_THRESHOLD, LARGEST = 0, 1               # vt_search_cfg.side_mode
+
+
+@dataclass
+class SearchCfg:
+    polarity: int = DARK_ABOVE   # shadow above the lit road: sobel_y >= h_thresh
+    h_thresh: int = 16
+    v_thresh: int = 60
+    min_h_permille: int = 200
+    min_v_permille: int = 200
+    bottom_permille: int = 500    # 1000: the thesis's largest value
+    side_mode: int = LARGEST      # TWO_THRESHOLD: the thesis's tracking rule
+
+
+accept_renamed(SearchCfg, SEARCH_RENAMED)  # the percent names of before issue 10
+
+
+@dataclass
+class EdgeCfg:
+    """As vt_edge_cfg (see include/vehtrack/edge_track.h for each field)."""
+    low: int = 40
+    high: int = 100
+    min_len: int = 10
+    radius: int = 8
+    trunc: int = 15
+    max_mean_q8: int = 1536
+    min_points: int = 16
+    scale_steps: int = 2
+    scale_step_q8: int = 4
+
+
+@dataclass
+class ModelCfg:
+    """The bottom-edge model's parameters, as vt_kf_model_cfg (floats here)."""
+    dt: float = 1.0
+    accel_x: float = 1.0
+    accel_y: float = 0.5
+    p_max: float = 0.1
+    p_zero: float = 0.3
+    meas_sigma_x: float = 2.0
+    meas_sigma_y: float = 2.0
+    init_sigma_pos: float = 4.0
+    init_sigma_vel: float = 5.0
+
+
+@dataclass
+class TrackerCfg:
+    search: SearchCfg = field(default_factory=SearchCfg)
+    model: ModelCfg = field(default_factory=ModelCfg)
+    roi_margin_min: int = 6        # thesis: the verification ROI's 6 px
+    roi_margin_permille: int = 0
+    gate_permille: int = 350
+    gate_bottom_permille: int = 100
+    confirm_hits: int = 3
+    max_coast: int = 6
+    match_iou_permille: int = 300
+    keep_ncc: float = 0.7
+    init_max_change: int = 3
+    measurement: int = MEAS_ROI_SEARCH
+    edge: EdgeCfg = field(default_factory=EdgeCfg)
+    # template tracking when the measurement fails (0: off), see reference.tracker.Tracker._tmatch
+    tmatch_radius: int = 6
+    tmatch_ncc_permille: int = 800
+    tmatch_max: int = 12
+    part_permille: int = 600       # parts are not vehicles (0: off)
+    min_width: int = 4             # narrower tracks are dropped (0: off)
+
+
+accept_renamed(TrackerCfg, TRACKER_RENAMED)  # the percent names of before issue 10
+
+
+# ---------------------------------------------------------------- camera and range (camera.h)
+# The float records of the camera stage (reference.camera re-exports them; the C engine
+# converts its Q16 structs into the same records).
+DIST_MAX_M = 1000.0
+LEAD_UNKNOWN, LEAD_STOPPED, LEAD_SLOWER, LEAD_DECEL = 0, 1, 2, 3
+PITCH_NOMINAL, PITCH_MEASURED, PITCH_HELD, PITCH_REJECTED = 0, 1, 2, 3
+FCW_WARNING, FCW_ONSET, FCW_SUPPRESSED = 1, 2, 4
+
+
+@dataclass(frozen=True)
+class CameraParams:
+    """The float twin of vt_camera_cfg (pitch as its tangent)."""
+    img_w: int
+    img_h: int
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    height: float
+    tan_pitch: float = 0.0
+    tan_pitch_min: float = math.tan(math.radians(-3))
+    tan_pitch_max: float = math.tan(math.radians(3))
+    pitch_max_step: float = 0.02
+    pitch_alpha_q8: int = 64
+    pitch_reacquire: int = 5
+    delta_px: float = 1.0
+    bottom_offset: float = 0.5
+    vehicle_width: float = 1.8
+    width_tol_permille: int = 250   # the two distances agree within this permille
+
+
+@dataclass(frozen=True)
+class RangeParams:
+    """The float twin of vt_range_cfg."""
+    frame_dt: float = 0.1
+    jerk_sigma: float = 5.0
+    init_sigma_rate: float = 10.0
+    init_sigma_accel: float = 3.0
+    sigma_min: float = 0.05
+    min_frames: int = 3
+    scale_lag: int = 5
+    ttc_max: float = 20.0
+    ttc_stopped: float = 2.1
+    ttc_slower: float = 2.0
+    ttc_decel: float = 2.4
+    ttc_margin: float = 0.7
+    confirm_frames: int = 3
+    rearm_frames: int = 30
+    release_frames: int = 10
+    min_closing: float = 0.3
+    stopped_speed: float = 1.0
+    decel_thresh: float = 1.0
+    width_min_frames: int = 3
+    width_window: int = 16
+    rear_offset: float = 0.0
+
+
+@dataclass
+class BoxDistance:
+    valid: bool
+    far_valid: bool
+    width_agrees: bool
+    distance: float
+    dist_near: float
+    dist_far: float
+    sigma: float
+    dist_width: float
+    bottom_clipped: bool = False
+    side_clipped: bool = False
+
+
+@dataclass
+class RangeOut:
+    id: int
+    distance: float | None      # this frame's eq. 1 distance (None: not below the horizon)
+    sigma: float
+    dist_width: float
+    width_agrees: bool
+    dist_filt: float | None
+    rate: float | None          # m/s, negative closing
+    ttc_dist: float | None
+    ttc_scale: float | None
+    closing: bool
+    lead_class: int
+    fcw: int
+    from_width: bool = False
+    accel: float | None = None  # m/s^2, range acceleration
+
+    @property
+    def warning(self) -> bool:
+        return bool(self.fcw & FCW_WARNING)
+
+
+# ---------------------------------------------------------------- tracks (both views)
+@dataclass(frozen=True)
+class TrackBase:
+    """What every view of a track carries (pyvehtrack.tracker.Track adds its source,
+    pyvehtrack.pipeline.Track the camera stage's distance, TTC and warning)."""
+    id: int
+    state: str            # "tentative" | "confirmed" | "coasting"
+    box: tuple            # (left, top, right, bottom), inclusive, input pixels
+    velocity: tuple       # (vx, vy) of the bottom edge, input px/frame
+
+
+# vt_model_cfg (pyvehtrack.vehicle_model.make_cfg): percent -> permille, x 10
+MODEL_RENAMED = {"width_tol_percent": ("width_tol_permille", 10),
+                 "aspect_min_percent": ("aspect_min_permille", 10),
+                 "aspect_max_percent": ("aspect_max_permille", 10)}
+CAMERA_RENAMED = {"width_tol_percent": ("width_tol_permille", 10)}
+accept_renamed(CameraParams, CAMERA_RENAMED)  # the percent name of before issue 10

@@ -21,28 +21,24 @@ import numpy as np
 from . import _check, _native
 from .frames import to_gray
 from .kalman import ModelConfig
-from .reference import tracker as rtrk
+from .shared import MEAS_EDGE_CURVES, MEAS_ROI_SEARCH, TrackBase, TrackerCfg
 
 STATES = {1: "tentative", 2: "confirmed", 3: "coasting"}
-MEASUREMENTS = {"roi": rtrk.MEAS_ROI_SEARCH, "edges": rtrk.MEAS_EDGE_CURVES}
+MEASUREMENTS = {"roi": MEAS_ROI_SEARCH, "edges": MEAS_EDGE_CURVES}
 
 
 @dataclass(frozen=True)
-class Track:
-    id: int
-    state: str            # "tentative" | "confirmed" | "coasting"
-    box: tuple            # (left, top, right, bottom), inclusive, input pixels
-    velocity: tuple       # (vx, vy) of the bottom edge, input px/frame
+class Track(TrackBase):
     source: str = "shadow"  # the hypothesis source that started it: "shadow" | "classifier"
                             # (boxes given to step() count as "shadow": the CLI's detections)
     ttc_points: float | None = None  # block-scale TTC, s (Tracker(ttc_points=...)); None if unknown
 
 
-def cfg_to_c(cfg: rtrk.TrackerCfg):
+def cfg_to_c(cfg: TrackerCfg):
     """The C struct for a TrackerCfg: Q16 for model values, Q14 for the NCC threshold
     (each rounded to nearest). TypeError / ValueError naming the field for a value that is
     not an integer (or a number in [-1, 1] for keep_ncc); the C core checks the ranges."""
-    if not isinstance(cfg, rtrk.TrackerCfg):
+    if not isinstance(cfg, TrackerCfg):
         raise TypeError(f"cfg: expected a TrackerCfg, got {type(cfg).__name__}")
     c = _native.ffi.new("vt_tracker_cfg *")
     for f in fields(cfg.search):
@@ -61,10 +57,10 @@ def cfg_to_c(cfg: rtrk.TrackerCfg):
     return c
 
 
-def tracker_config(cfg: rtrk.TrackerCfg):
+def tracker_config(cfg: TrackerCfg):
     """The pyvehtrack.config.TrackerConfig of a reference TrackerCfg (same fields)."""
     from . import config  # noqa: PLC0415
-    if not isinstance(cfg, rtrk.TrackerCfg):
+    if not isinstance(cfg, TrackerCfg):
         raise TypeError(f"cfg: expected a TrackerCfg, got {type(cfg).__name__}")
     return config.TrackerConfig(
         search=config.SearchConfig(**{f.name: getattr(cfg.search, f.name) for f in fields(cfg.search)}),
@@ -80,7 +76,7 @@ def _c_accepts(c) -> bool:
     return _native.lib.vt_tracker_cfg_check(c) == _native.lib.VT_OK
 
 
-def check_cfg(cfg: rtrk.TrackerCfg):
+def check_cfg(cfg: TrackerCfg):
     """The C struct of a config the core accepts; ValueError naming the offending field(s)
     otherwise (found by trying each field alone on top of the C defaults)."""
     c = cfg_to_c(cfg)
@@ -124,7 +120,7 @@ class Tracker:
     block-scale TTC (Pipeline(ttc_points=...)) at frame rate fps (default 10), each Track's
     ttc_points in s (None when unknown)."""
 
-    def __init__(self, engine: str = "c", cfg: rtrk.TrackerCfg | None = None,
+    def __init__(self, engine: str = "c", cfg: TrackerCfg | None = None,
                  detect_every: int = 10, detector=None, measurement: str | None = None,
                  ttc_points=None, fps: float | None = None):
         from .pipeline import Pipeline  # noqa: PLC0415  (pipeline imports this module's users)
@@ -136,8 +132,8 @@ class Tracker:
             raise TypeError(f"detector: expected an object with a detect(frame) method, "
                             f"got {type(detector).__name__}")
         self.engine = engine
-        self.cfg = cfg if cfg is not None else rtrk.TrackerCfg()
-        if measurement is not None and isinstance(self.cfg, rtrk.TrackerCfg):  # else check_cfg names it
+        self.cfg = cfg if cfg is not None else TrackerCfg()
+        if measurement is not None and isinstance(self.cfg, TrackerCfg):  # else check_cfg names it
             self.cfg = replace(self.cfg, measurement=MEASUREMENTS[measurement])
         check_cfg(self.cfg)             # both engines: errors now, naming the field
         self.detector = detector

@@ -23,7 +23,6 @@ import cv2
 import numpy as np
 
 from .datasets import GTI_BLOCK, GTI_TEST_EVERY, _last_number, gti_sorted, gti_split, tusimple_split
-from .reference import classify as R
 
 KINDS = {"hog": 1, "gist": 2}
 IMG_EXT = {".png", ".jpg", ".jpeg", ".bmp", ".ppm", ".pgm", ".tif", ".tiff"}
@@ -174,6 +173,7 @@ def add_frames(crops: Crops, frames_dir, annotation, win_w: int, win_h: int, pro
 
 # ---------------------------------------------------------------- features and model
 def float_features(kind: str, images, progress=None) -> np.ndarray:
+    from .reference import classify as R   # training runs on the float descriptors
     out = []
     for im in images:
         out.append(R.descriptor(kind, im))
@@ -310,6 +310,7 @@ def c_model(d: dict):
 
 def float_scores(d: dict, X: np.ndarray) -> np.ndarray:
     if d.get("model_type", "svm") == "mlp":
+        from .reference import classify as R
         return R.mlp_decision(d["w1"], d["b1"], d["w2"], d["b2"], X)
     return np.asarray(X, float) @ d["w"] + d["b"]
 

@@ -16,7 +16,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from . import _native
-from .reference import vehicle_model as rvm
+from .shared import MODEL_RENAMED, take_renamed
 
 GENES = _native.MODEL_GENES
 CFG_FIELDS = [f for f, _ in _native.ffi.typeof("vt_model_cfg").fields]
@@ -31,7 +31,10 @@ class ModelFit:
 
 
 def make_cfg(road=None, **overrides):
+    """The C defaults with keyword overrides, checked by C; the percent names of before
+    issue 10 (width_tol_percent, aspect_min/max_percent) are taken x 10, with a warning."""
     cfg = _native.model_cfg_default()
+    overrides = take_renamed("vehicle_model", overrides, MODEL_RENAMED)
     for k, v in overrides.items():
         if k not in CFG_FIELDS:
             raise TypeError(f"{k}: not a vehicle-model setting (expected one of {', '.join(CFG_FIELDS)})")
@@ -102,6 +105,7 @@ class VehicleModel:
             s = _native.model_search(roi, y_min, y_max, prediction is not None, prediction, sigma)
             r = _native.model_fit(frame, self.cfg, s, self._ws)
             return ModelFit(r["best"], r["box"], r["fitness"], r["evaluations"])
+        from .reference import vehicle_model as rvm
         r = rvm.fit(frame, oracle_cfg(self.cfg), oracle_search(roi, y_min, y_max, prediction, sigma))
         return ModelFit(tuple(r.best), r.box, r.fitness, r.evaluations)
 

@@ -84,7 +84,7 @@ def run_lane(cfg):
     assert lib.vt_lane_reset(st) == lib.VT_OK
     big = np.tile(scene(), (3, 3))
     v = img_view(big)
-    return [lib.vt_lane_detect(cfg, st, v, res, road) for _ in range(2)]
+    return [lib.vt_lane_detect(st, cfg, v, res, road) for _ in range(2)]
 
 
 def run_shadow(cfg):

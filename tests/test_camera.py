@@ -292,7 +292,7 @@ def test_camera_cfg_bad_values():
     assert lib.vt_camera_cfg_check(ffi.NULL) == lib.VT_E_ARG
     for field, val in [("fx", 0), ("fy", -65536), ("height", 0), ("tan_pitch", 2 * 65536),
                        ("tan_pitch_min", 65536), ("pitch_alpha_q8", 257), ("delta_px", 0),
-                       ("vehicle_width", 0), ("width_tol_percent", 0)]:
+                       ("vehicle_width", 0), ("width_tol_permille", 9)]:
         bad = ffi.new("vt_camera_cfg *", c[0])
         setattr(bad, field, val)
         assert lib.vt_camera_cfg_check(bad) == lib.VT_E_ARG, field
@@ -309,8 +309,8 @@ def test_camera_cfg_bad_values():
     rb.scale_lag = lib.VT_RANGE_HIST
     assert lib.vt_range_cfg_check(rb) == lib.VT_E_ARG
     s = ffi.new("vt_pitch_state *")
-    assert lib.vt_pitch_update(c, s, 2, 0) == lib.VT_E_ARG
-    assert lib.vt_pitch_init(ffi.NULL, s) == lib.VT_E_ARG
+    assert lib.vt_pitch_update(s, c, 2, 0) == lib.VT_E_ARG
+    assert lib.vt_pitch_init(s, ffi.NULL) == lib.VT_E_ARG
 
 
 def test_vanishing_row_from_lanes_and_size_change():

@@ -22,6 +22,18 @@ RENAMED: dict[str, tuple[str, int | Fraction]] = {
     "gate_bottom_percent": ("gate_bottom_permille", 10), "match_iou_percent": ("match_iou_permille", 10),
     "search.min_h_percent": ("min_h_permille", 10), "search.min_v_percent": ("min_v_permille", 10),
     "search.bottom_percent": ("bottom_permille", 10),
+    # percent -> permille (x 10, exact): flow.h
+    "vt_flow_cfg.strip_percent": ("strip_permille", 10),
+    "vt_flow_cfg.top_percent": ("top_permille", 10),
+    "vt_flow_cfg.bottom_percent": ("bottom_permille", 10),
+    "vt_flow_cfg.diff_min_percent": ("diff_min_permille", 10),
+    "vt_flow_cfg.seed_min_visible": ("seed_min_visible_permille", 10),
+    # vehicle_model.h (the GA's mut_percent stays: its random draw is r % 100)
+    "vt_model_cfg.width_tol_percent": ("width_tol_permille", 10),
+    "vt_model_cfg.aspect_min_percent": ("aspect_min_permille", 10),
+    "vt_model_cfg.aspect_max_percent": ("aspect_max_permille", 10),
+    # camera.h
+    "vt_camera_cfg.width_tol_percent": ("width_tol_permille", 10),
     # Q8 fractions of at most 1 -> permille (x 1000/256, exact on the recorded defaults)
     "reduce_overlap_q8": ("reduce_overlap_permille", Fraction(1000, 256)),
     "side_min_frac_q8": ("side_min_frac_permille", Fraction(1000, 256)),
@@ -56,7 +68,7 @@ def _before() -> dict[str, int]:
 def _renamed(path: str, value: int) -> tuple[str, int]:
     """The path and value the old entry has today (the last field of the path may be renamed)."""
     for old, (new, factor) in RENAMED.items():
-        if path.endswith("." + old):
+        if ("." + path).endswith("." + old):
             v = Fraction(value) * factor
             assert v.denominator == 1, f"{path}: {value} has no exact value in {new}"
             return f"{path.rpartition('.')[0]}.{new}", int(v)
@@ -111,3 +123,15 @@ def test_old_q8_fraction_names_still_work_when_exact():
     for cls in (config.VerifyConfig, shared.VerifyConfig):
         with pytest.warns(DeprecationWarning, match="side_min_frac_permille"):
             assert cls().side_min_frac_q8 == 64
+
+
+def test_old_camera_percent_name_still_works():
+    """vt_camera_cfg.width_tol_percent became width_tol_permille (x 10, exact); the float
+    twin (shared.CameraParams = reference.camera.CameraParams) takes the old name."""
+    import pytest
+
+    from pyvehtrack.reference.camera import CameraParams
+    base = (640, 480, 700.0, 700.0, 320.0, 240.0, 1.2)
+    with pytest.warns(DeprecationWarning, match="width_tol_permille"):
+        assert CameraParams(*base, width_tol_percent=30) == CameraParams(*base, width_tol_permille=300)
+    assert CameraParams(*base).width_tol_permille == 250

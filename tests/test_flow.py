@@ -68,10 +68,12 @@ def scenes(draw):
     cfg = dict(
         # level 0 most often: a 67 px frame has only 17 px left at level 2
         level=draw(st.sampled_from([0, 0, 0, 1, 2])), sides=draw(st.integers(1, 3)),
-        strip_percent=draw(st.sampled_from([1, 20, 30, 40, 50])), top_percent=draw(st.integers(0, 40)),
-        bottom_percent=draw(st.integers(60, 100)), cell=draw(st.integers(2, 6)),
+        # permille: any value, not only the old whole percents
+        strip_permille=draw(st.sampled_from([1, 200, 255, 300, 400, 500])),
+        top_permille=draw(st.integers(0, 400)), bottom_permille=draw(st.integers(600, 1000)),
+        cell=draw(st.integers(2, 6)),
         search_x=draw(st.integers(0, 4)), search_y=draw(st.integers(0, 2)),
-        diff_thresh=draw(st.integers(0, 40)), diff_min_percent=draw(st.integers(0, 60)),
+        diff_thresh=draw(st.integers(0, 40)), diff_min_permille=draw(st.integers(0, 600)),
         min_inward=draw(st.integers(0, 2)), max_mag=draw(st.integers(0, 8)),
         max_sad_per_px=draw(st.integers(0, 80)), min_blob_cells=draw(st.integers(1, 4)),
         min_texture=draw(st.sampled_from([0, 0, 1, 3, 8])), min_age=draw(st.integers(1, 3)),
@@ -137,7 +139,7 @@ def _moving_scene(n, h=64, w=96, step=3, seed=0):
 
 def test_handover_exact_and_follows_the_box():
     frames = _moving_scene(8)
-    cfg = F.make_cfg(level=1, cell=4, search_x=4, search_y=2, seed_min_visible=10)
+    cfg = F.make_cfg(level=1, cell=4, search_x=4, search_y=2, seed_min_visible_permille=100)
     st_ = _native.flow_new()
     ref = rflow.FlowOracle(_ns(cfg), int(_native.lib.VT_FLOW_MAX_HYPS), int(_native.lib.VT_FLOW_MAX_SEEDS),
                             int(_native.lib.VT_FLOW_MAX_BLOBS))
@@ -196,12 +198,13 @@ def test_bad_inputs():
     assert _native.lib.vt_flow_cfg_default(_native.ffi.NULL) == _native.lib.VT_E_ARG
     assert _native.lib.vt_flow_cfg_check(_native.ffi.NULL) == _native.lib.VT_E_ARG
     for k, bad in [("level", 3), ("level", -1), ("sides", 0), ("sides", 4), ("cell", 1),
-                   ("cell", 33), ("strip_percent", 0), ("strip_percent", 51),
-                   ("top_percent", 60), ("search_x", -1), ("min_blob_cells", 0),
+                   ("cell", 33), ("strip_permille", 0), ("strip_permille", 501),
+                   ("top_permille", 600), ("diff_min_permille", 1001),
+                   ("seed_min_visible_permille", -1), ("search_x", -1), ("min_blob_cells", 0),
                    ("diff_thresh", 256), ("max_sad_per_px", -1)]:
         kw = {k: bad}
-        if k == "top_percent":
-            kw["bottom_percent"] = 60
+        if k == "top_permille":
+            kw["bottom_permille"] = 600
         with pytest.raises(VtError, match="vt_flow_cfg_check"):
             F.make_cfg(**kw)
     with pytest.raises(TypeError, match="nonsense"):
@@ -265,3 +268,23 @@ def test_capacity_errors():
     st_ = _native.flow_new()
     with pytest.raises(VtError, match="capacity"):
         _native.flow_step(st_, cfg, np.zeros((h, w), np.uint8))
+
+
+def test_old_percent_names_convert_exactly_with_a_warning():
+    """Issue 10 item 6: the flow fractions became permille (x 10, exact); the old percent
+    names are still taken by make_cfg (and so by Pipeline(flow={...})) with a warning."""
+    import warnings
+    with pytest.warns(DeprecationWarning, match="strip_permille"):
+        old = F.make_cfg(strip_percent=20, top_percent=35, bottom_percent=90, diff_min_percent=30,
+                         seed_min_visible=15)
+    new = F.make_cfg(strip_permille=200, top_permille=350, bottom_permille=900, diff_min_permille=300,
+                     seed_min_visible_permille=150)
+    assert [getattr(old, f) for f in F.CFG_FIELDS] == [getattr(new, f) for f in F.CFG_FIELDS]
+    with pytest.raises(TypeError, match="not both"):
+        F.make_cfg(strip_percent=20, strip_permille=200)
+    with pytest.warns(DeprecationWarning), pytest.raises(VtError, match="vt_flow_cfg_check"):
+        F.make_cfg(strip_percent=51)                      # 510 permille: out of range, as before
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        F.make_cfg(strip_permille=300)
+

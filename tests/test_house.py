@@ -151,19 +151,11 @@ def test_kitti_reader_refuses_fractional_frame(tmp_path):
 # ---------------------------------------------------------------- the friendly layer and the oracle
 # Issue 10 item 4: the friendly layer (pyvehtrack/*.py and its packages, outside reference/)
 # imports pyvehtrack.reference only to construct the reference engine, i.e. inside the
-# function that runs it, never at module level. These modules still take a config class
-# or a helper from the oracle at module level; each is to move to the friendly layer or
-# the C path (the list must shrink, never grow: a module that no longer needs its entry
-# fails the test until the entry is removed).
-STILL_IMPORTING_AT_MODULE_LEVEL = {
-    "camera.py": "parameter records and the pitch/range oracle classes",
-    "classify.py": "the HOG/GIST descriptor oracle used by training",
-    "flow.py": "FlowConfig and the oracle's result records",
-    "lane.py": "LaneConfig and the lane record types",
-    "tracker.py": "TrackerCfg and the track record types",
-    "train.py": "the descriptor oracle (training runs in float)",
-    "vehicle_model.py": "the model's config and parameter records",
-}
+# function that runs it, never at module level. The plain types both engines need (config
+# dataclasses, result records) live in pyvehtrack/shared.py and the oracle re-exports them.
+# No exception is left; the dict stays so a future one has to be named (and removed again:
+# a module that no longer needs its entry fails the test until the entry is removed).
+STILL_IMPORTING_AT_MODULE_LEVEL: dict = {}
 # Evaluation code may run the oracle as a baseline (the SORT tracker, synthetic scenes).
 NOT_FRIENDLY = ("reference/", "eval/")
 
@@ -237,3 +229,77 @@ def test_c_engine_detection_never_loads_the_oracle():
         "print(sorted(m for m in sys.modules if m.startswith('pyvehtrack.reference')))\n")
     assert r.returncode == 0, r.stderr
     assert r.stdout.strip() == "[]"
+
+
+
+def test_c_engine_views_never_load_the_oracle():
+    """The seven modules that took config classes from the oracle at module level (issue 10
+    item 4) import, and their C engines construct and run one small frame, without
+    pyvehtrack.reference being imported: their plain types come from pyvehtrack.shared."""
+    r = _fresh_python(
+        "import sys, numpy as np\n"
+        "import pyvehtrack.classify, pyvehtrack.train, pyvehtrack.vehicle_model\n"
+        "from pyvehtrack.lane import LaneDetector\n"
+        "from pyvehtrack.tracker import Tracker\n"
+        "from pyvehtrack.flow import OvertakingDetector\n"
+        "from pyvehtrack.camera import Camera, RangeEstimator\n"
+        "g = np.full((96, 160), 120, np.uint8); g[60:64, 50:90] = 20\n"
+        "LaneDetector().detect(g)\n"
+        "Tracker().step(g, [])\n"
+        "OvertakingDetector().step(g)\n"
+        "cam = Camera(fx=200.0, fy=200.0, cx=80.0, cy=48.0, height_m=1.2)\n"
+        "rng = RangeEstimator(cam, (160, 96), fps=10)\n"
+        "rng.box_distance([60, 50, 90, 70])\n"
+        "print(sorted(m for m in sys.modules if m.startswith('pyvehtrack.reference')))\n")
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip().splitlines()[-1] == "[]"
+
+
+# ---------------------------------------------------------------- one argument order
+# Issue 10 item 6: every stage function takes (state, cfg, ...). The reordered ones
+# must reject the old (cfg, state, ...) order at compile time: the two pointers have
+# different types, so an old caller is an incompatible-pointer error, never a silent swap.
+_OLD_ORDER_CALLS = {
+    "lane": "vt_lane_detect(&lc, &ls, &img, &lr, 0)",
+    "pitch_init": "vt_pitch_init(&cc, &ps)",
+    "pitch_update": "vt_pitch_update(&cc, &ps, 1, 0)",
+    "fcw": "vt_fcw_step(&rc, &fs, 0, 0, 0, 0, &o)",
+    "model_prepare": "vt_model_prepare(&img, &mc, &se, 0, &mw)",
+    "model_fitness": "vt_model_fitness(&img, &mc, &se, 0, &mw, &mp, &o)",
+    "model_fit": "vt_model_fit(&img, &mc, &se, &mw, &mr)",
+}
+_NEW_ORDER_CALLS = ["vt_lane_detect(&ls, &lc, &img, &lr, 0)", "vt_pitch_init(&ps, &cc)",
+                    "vt_pitch_update(&ps, &cc, 1, 0)", "vt_fcw_step(&fs, &rc, 0, 0, 0, 0, &o)",
+                    "vt_model_prepare(&mw, &mc, &img, &se, 0)",
+                    "vt_model_fitness(&mw, &mc, &img, &se, 0, &mp, &o)", "vt_model_fit(&mw, &mc, &img, &se, &mr)"]
+
+
+def _compile(calls, tmp_path) -> subprocess.CompletedProcess:
+    import os
+    import shutil
+    cc = os.environ.get("CC", "cc").split()[0]
+    if shutil.which(cc) is None:
+        pytest.skip(f"no C compiler ({cc}) on PATH")
+    src = tmp_path / "order.c"
+    src.write_text(
+        "#include \"vehtrack/vehtrack.h\"\n#include \"vehtrack/lane.h\"\n#include \"vehtrack/camera.h\"\n"
+        "#include \"vehtrack/vehicle_model.h\"\n"
+        "static vt_lane_cfg lc; static vt_lane_state ls; static vt_lane_result lr; static vt_camera_cfg cc;\n"
+        "static vt_pitch_state ps; static vt_range_cfg rc; static vt_fcw_state fs; static vt_model_cfg mc;\n"
+        "static vt_model_ws mw; static vt_model_search se; static vt_model_result mr; static vt_model_params mp;\n"
+        "int f(void) { vt_image_u8 img = {0}; int32_t o = 0; int n = 0;\n"
+        + "".join(f"  n += (int){c};\n" for c in calls) + "  return n + (int)o + img.w; }\n")
+    return subprocess.run([cc, "-std=c99", "-Werror=incompatible-pointer-types", "-I", str(ROOT / "include"),
+                           "-c", str(src), "-o", str(tmp_path / "order.o")],
+                          capture_output=True, text=True, timeout=60)
+
+
+def test_state_first_order_compiles(tmp_path):
+    r = _compile(_NEW_ORDER_CALLS, tmp_path)
+    assert r.returncode == 0, r.stderr
+
+
+@pytest.mark.parametrize("name", sorted(_OLD_ORDER_CALLS))
+def test_old_cfg_first_order_fails_to_compile(name, tmp_path):
+    r = _compile([_OLD_ORDER_CALLS[name]], tmp_path)
+    assert r.returncode != 0 and "incompatible" in r.stderr, r.stderr

@@ -395,13 +395,13 @@ def test_c_null_arguments():
     img = np.zeros((64, 64), np.uint8)
     v = N.view(img, "img")
     E = lib.VT_E_ARG
-    assert lib.vt_lane_detect(ffi.NULL, st_, v, res, road) == E
-    assert lib.vt_lane_detect(cfg, ffi.NULL, v, res, road) == E
-    assert lib.vt_lane_detect(cfg, st_, ffi.NULL, res, road) == E
-    assert lib.vt_lane_detect(cfg, st_, v, ffi.NULL, road) == E
-    assert lib.vt_lane_detect(cfg, st_, v, res, ffi.NULL) == lib.VT_OK  # road is optional
+    assert lib.vt_lane_detect(st_, ffi.NULL, v, res, road) == E
+    assert lib.vt_lane_detect(ffi.NULL, cfg, v, res, road) == E
+    assert lib.vt_lane_detect(st_, cfg, ffi.NULL, res, road) == E
+    assert lib.vt_lane_detect(st_, cfg, v, ffi.NULL, road) == E
+    assert lib.vt_lane_detect(st_, cfg, v, res, ffi.NULL) == lib.VT_OK  # road is optional
     v.px = ffi.NULL
-    assert lib.vt_lane_detect(cfg, st_, v, res, road) == E
+    assert lib.vt_lane_detect(st_, cfg, v, res, road) == E
     assert lib.vt_lane_cfg_check(ffi.NULL) == E
     assert lib.vt_lane_cfg_default(ffi.NULL) == E
     assert lib.vt_lane_reset(ffi.NULL) == E
@@ -423,7 +423,7 @@ def test_c_bad_sizes(w, h, stride):
     v = ffi.new("vt_image_u8 *")
     v.px = ffi.cast("uint8_t *", buf.ctypes.data)
     v.w, v.h, v.stride = w, h, stride
-    assert lib.vt_lane_detect(cfg, st_, v, res, ffi.NULL) == lib.VT_E_SIZE
+    assert lib.vt_lane_detect(st_, cfg, v, res, ffi.NULL) == lib.VT_E_SIZE
 
 
 def test_c_frame_too_big_for_the_working_limits():
@@ -444,7 +444,7 @@ def test_c_config_fields_out_of_range():
             setattr(cfg, f.name, bad)
             assert lib.vt_lane_cfg_check(cfg) < 0, (f.name, bad)
             res = ffi.new("vt_lane_result *")
-            assert lib.vt_lane_detect(cfg, _st(), N.view(np.zeros((64, 64), np.uint8), "i"), res,
+            assert lib.vt_lane_detect(_st(), cfg, N.view(np.zeros((64, 64), np.uint8), "i"), res,
                                       ffi.NULL) < 0
     cap = {"work_width_max": lib.VT_LANE_MAX_WORK_W + 1, "work_height_max": lib.VT_LANE_MAX_WORK_H + 1,
            "marks_per_row_max": lib.VT_LANE_MAX_ROW_MARKS + 1, "marks_max": lib.VT_LANE_MAX_MARKS + 1,
@@ -485,7 +485,7 @@ def test_c_errors_leave_outputs_untouched():
     ffi.memmove(res, b"\x5a" * ffi.sizeof(res[0]), ffi.sizeof(res[0]))
     ffi.memmove(road, b"\x5a" * ffi.sizeof(road[0]), ffi.sizeof(road[0]))
     before = bytes(ffi.buffer(res)), bytes(ffi.buffer(road))
-    assert lib.vt_lane_detect(cfg, st_, N.view(np.zeros((8, 64), np.uint8), "i"), res, road) < 0
+    assert lib.vt_lane_detect(st_, cfg, N.view(np.zeros((8, 64), np.uint8), "i"), res, road) < 0
     assert (bytes(ffi.buffer(res)), bytes(ffi.buffer(road))) == before
 
 

@@ -273,6 +273,44 @@ def test_cfg_check_rejects_stage_configs(path, value):
     assert lib.vt_pipeline_cfg_check(c) < 0
 
 
+
+@pytest.mark.parametrize("field,value,ok", [
+    ("vp_x_permille", 1000, True), ("vp_x_permille", 1001, False), ("vp_y_permille", -1, False),
+    ("bottom_left_permille", 0, True), ("bottom_left_permille", -1, False),
+    ("bottom_right_permille", 1001, False), ("bottom_left_permille", 960, False),  # left > right
+    ("lane_bottom_permille", 1001, False), ("top_margin", 4096, True), ("top_margin", 4097, False),
+    ("top_margin", -1, False)])
+def test_fixed_road_check_is_public_and_the_pipeline_uses_it(field, value, ok):
+    """vt_fixed_road_check (issue 10: a public check for every config) applies the ranges
+    vt_pipeline_cfg_check and vt_fixed_road_area apply, and nothing else."""
+    c = _cfg()
+    setattr(c.fixed_road, field, value)
+    want = lib.VT_OK if ok else lib.VT_E_ARG
+    assert lib.vt_fixed_road_check(ffi.addressof(c.fixed_road)) == want
+    assert (lib.vt_pipeline_cfg_check(c) == lib.VT_OK) == ok
+    road = ffi.new("vt_road_area *")
+    assert lib.vt_fixed_road_area(ffi.addressof(c.fixed_road), 64, 48, road) == want
+    if not ok:
+        with pytest.raises(VtError, match="vt_fixed_road_check.*fixed-road"):
+            _native.fixed_road_check(ffi.addressof(c.fixed_road))
+
+
+@pytest.mark.parametrize("field,value,ok", [
+    ("horizon_q16", 65536, True), ("horizon_q16", 65537, False), ("hood_q16", 3276, False),
+    ("height_mm", 99, False), ("height_mm", 20000, True), ("fx_per_w_q16", 1310721, False)])
+def test_road_camera_check_is_public(field, value, ok):
+    c = _cfg()
+    setattr(c.road_camera, field, value)
+    assert lib.vt_road_camera_check(ffi.addressof(c.road_camera)) == (lib.VT_OK if ok else lib.VT_E_ARG)
+    if not ok:
+        with pytest.raises(VtError, match="vt_road_camera_check"):
+            _native.road_camera_check(ffi.addressof(c.road_camera))
+
+
+def test_public_checks_take_null():
+    assert lib.vt_fixed_road_check(ffi.NULL) == lib.VT_E_ARG
+    assert lib.vt_road_camera_check(ffi.NULL) == lib.VT_E_ARG
+
 def test_fixed_road_policy_skips_the_lane_check():
     c = _cfg()
     c.lane.work_width_max = 0

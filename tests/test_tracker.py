@@ -264,3 +264,26 @@ def test_python_tracker_bad_input():
     assert tr.step(np.zeros((1, 1), np.uint8)) == []
     big = np.zeros((vt.MAX_HEIGHT * 2 + 1, vt.MAX_WIDTH * 2 + 3, 3), np.uint8)
     assert tr.step(big) == []  # downscaled, not clipped, not an error
+
+
+def test_track_list_check_is_the_one_rule_range_and_ttc_apply():
+    """vt_track_list_check (written once for vt_range_step and vt_ttc_scale_step): free
+    slots are ignored; a live track needs an id > 0, unique, and an ordered box."""
+    ffi, lib = _native.ffi, _native.lib
+    t = ffi.new("vt_track_out[3]")
+    for i in range(3):
+        t[i].state, t[i].id = lib.VT_TRACK_CONFIRMED, i + 1
+        t[i].box.left, t[i].box.top, t[i].box.right, t[i].box.bottom = 10, 10, 20, 20
+    assert lib.vt_track_list_check(t, 3) == lib.VT_OK
+    assert lib.vt_track_list_check(t, 0) == lib.VT_OK
+    assert lib.vt_track_list_check(ffi.NULL, 0) == lib.VT_OK
+    assert lib.vt_track_list_check(ffi.NULL, 1) == lib.VT_E_ARG
+    assert lib.vt_track_list_check(t, -1) == lib.VT_E_ARG
+    t[2].id = 1                                              # a repeated id
+    assert lib.vt_track_list_check(t, 3) == lib.VT_E_ARG
+    t[2].state = lib.VT_TRACK_FREE                           # ... in a free slot: ignored
+    assert lib.vt_track_list_check(t, 3) == lib.VT_OK
+    t[1].id = 0
+    assert lib.vt_track_list_check(t, 3) == lib.VT_E_ARG
+    t[1].id, t[1].box.right = 2, 9                           # right < left
+    assert lib.vt_track_list_check(t, 3) == lib.VT_E_ARG

@@ -58,7 +58,7 @@ def problems(draw, small=True):
               mut_percent=draw(st.integers(0, 100)), w_sym=draw(st.integers(0, 4)),
               w_grad=draw(st.integers(0, 4)), w_dist=draw(st.integers(0, 4)),
               w_shadow=draw(st.integers(0, 4)), edge_thresh=draw(st.integers(0, 400)),
-              dist_cap=draw(st.integers(1, 12)), width_tol_percent=draw(st.integers(0, 90)),
+              dist_cap=draw(st.integers(1, 12)), width_tol_permille=draw(st.integers(0, 900)),
               roof_max=draw(st.integers(0, 45)))
     tracking = draw(st.booleans())
     pred = sigma = None
@@ -173,32 +173,32 @@ def test_bad_inputs():
     ws = _native.model_ws_new()
     out = ffi.new("vt_model_result *")
     N = ffi.NULL
-    assert lib.vt_model_fit(N, cfg, s, ws, out) == lib.VT_E_ARG
-    assert lib.vt_model_fit(v, N, s, ws, out) == lib.VT_E_ARG
-    assert lib.vt_model_fit(v, cfg, N, ws, out) == lib.VT_E_ARG
-    assert lib.vt_model_fit(v, cfg, s, N, out) == lib.VT_E_ARG
-    assert lib.vt_model_fit(v, cfg, s, ws, N) == lib.VT_E_ARG
+    assert lib.vt_model_fit(ws, cfg, N, s, out) == lib.VT_E_ARG
+    assert lib.vt_model_fit(ws, N, v, s, out) == lib.VT_E_ARG
+    assert lib.vt_model_fit(ws, cfg, v, N, out) == lib.VT_E_ARG
+    assert lib.vt_model_fit(N, cfg, v, s, out) == lib.VT_E_ARG
+    assert lib.vt_model_fit(ws, cfg, v, s, N) == lib.VT_E_ARG
     assert lib.vt_model_cfg_default(N) == lib.VT_E_ARG
     assert lib.vt_model_cfg_check(N) == lib.VT_E_ARG
-    assert lib.vt_model_prepare(v, cfg, s, 3, ws) == lib.VT_E_ARG
+    assert lib.vt_model_prepare(ws, cfg, v, s, 3) == lib.VT_E_ARG
     p = ffi.new("vt_model_params *")
     f = ffi.new("int32_t *")
     # fitness before prepare, and at another level than prepared
     ws2 = _native.model_ws_new()
     ws2.level = -1
-    assert lib.vt_model_fitness(v, cfg, s, 0, ws2, p, f) == lib.VT_E_ARG
+    assert lib.vt_model_fitness(ws2, cfg, v, s, 0, p, f) == lib.VT_E_ARG
     _native.model_prepare(img, cfg, s, 1, ws2)
     p.w = p.h = 10
-    assert lib.vt_model_fitness(v, cfg, s, 0, ws2, p, f) == lib.VT_E_ARG
-    assert lib.vt_model_fitness(v, cfg, s, 1, ws2, p, f) == lib.VT_OK
+    assert lib.vt_model_fitness(ws2, cfg, v, s, 0, p, f) == lib.VT_E_ARG
+    assert lib.vt_model_fitness(ws2, cfg, v, s, 1, p, f) == lib.VT_OK
     p.w = 0
-    assert lib.vt_model_fitness(v, cfg, s, 1, ws2, p, f) == lib.VT_E_ARG
+    assert lib.vt_model_fitness(ws2, cfg, v, s, 1, p, f) == lib.VT_E_ARG
     # sizes: bad frame view, ROI outside or under 8x8, over capacity
     v0 = ffi.new("vt_image_u8 *")
     v0.px = ffi.cast("uint8_t *", img.ctypes.data)
     for w, h, st_ in [(0, 10, 10), (10, -1, 10), (10, 10, 9)]:
         v0.w, v0.h, v0.stride = w, h, st_
-        assert lib.vt_model_fit(v0, cfg, s, ws, out) == lib.VT_E_SIZE
+        assert lib.vt_model_fit(ws, cfg, v0, s, out) == lib.VT_E_SIZE
     for roi in [(50, 0, 60, 39), (0, 0, 6, 39), (0, 0, 39, 5), (-20, -20, -1, -1), (10, 10, 5, 30)]:
         with pytest.raises(VtError, match="vt_model_fit.*size"):
             _native.model_fit(img, cfg, _native.model_search(roi, 0, 39), ws)
@@ -268,9 +268,21 @@ def test_search_from_flow():
     s = _native.model_search_from_flow(cfg, hyp)
     W = 139 - 80                                     # expected width at the blob's lowest row
     assert (s.roi.left, s.roi.right) == (10 - W, 49 + W)
-    assert (s.roi.top, s.roi.bottom) == (139 - W * int(cfg.aspect_max_percent) // 100 - W // 4, 139 + W // 4)
+    assert (s.roi.top, s.roi.bottom) == (139 - W * int(cfg.aspect_max_permille) // 1000 - W // 4, 139 + W // 4)
     assert (s.y_min, s.y_max, s.tracking) == (120, 139 + W // 8, 0)
     with pytest.raises(VtError, match="vt_model_search_from_flow"):
         _native.model_search_from_flow(cfg, {"left": 50, "top": 100, "right": 49, "bottom": 139, "cy": 120})
     assert _native.lib.vt_model_search_from_flow(cfg, _native.ffi.NULL, s) == _native.lib.VT_E_ARG
     assert _native.lib.vt_model_search_from_flow(_native.ffi.NULL, _native.ffi.NULL, s) == _native.lib.VT_E_ARG
+
+
+def test_old_percent_names_convert_exactly_with_a_warning():
+    """Issue 10 item 6: width_tol / aspect_min / aspect_max became permille (x 10, exact)."""
+    from pyvehtrack import vehicle_model as VM
+    with pytest.warns(DeprecationWarning, match="width_tol_permille"):
+        old = VM.make_cfg(width_tol_percent=20, aspect_min_percent=50, aspect_max_percent=120)
+    new = VM.make_cfg(width_tol_permille=200, aspect_min_permille=500, aspect_max_permille=1200)
+    assert [int(getattr(old, f)) for f in ("width_tol_permille", "aspect_min_permille", "aspect_max_permille")] \
+        == [int(getattr(new, f)) for f in ("width_tol_permille", "aspect_min_permille", "aspect_max_permille")]
+    with pytest.raises(TypeError, match="not both"):
+        VM.make_cfg(width_tol_percent=20, width_tol_permille=200)

@@ -75,7 +75,7 @@ typedef struct vt_camera_cfg {
     vt_q16 bottom_offset;     /* added to a box's bottom row to get the road contact
                                  row, px, [-8, 8] (0.5: the lower edge of the row)   */
     vt_q16 vehicle_width;     /* assumed vehicle width for the cross-check, m, (0, 10] */
-    int32_t width_tol_percent;/* the two distances agree within this %, 1..1000     */
+    int32_t width_tol_permille;/* the two distances agree within this permille, 10..10000 */
 } vt_camera_cfg;
 
 /* 1242 x 375 KITTI-like defaults (f = 721.5 px, 1.65 m, no pitch); a real camera
@@ -98,7 +98,7 @@ typedef struct vt_camera_cfg {
         .delta_px = VT_Q16_ONE,                   \
         .bottom_offset = VT_Q16_ONE / 2,          \
         .vehicle_width = 117965, /* 1.8 m */      \
-        .width_tol_percent = 25,                  \
+        .width_tol_permille = 250,                \
     }
 
 /* VT_OK if every field is in range, else VT_E_ARG (VT_E_SIZE for img_w/img_h). */
@@ -125,7 +125,7 @@ vt_status vt_camera_row_distance(const vt_camera_cfg *cam, vt_q16 tp, vt_q16 row
 /* Flags of vt_distance. */
 #define VT_DIST_VALID 1        /* bottom row below the horizon, distance < max      */
 #define VT_DIST_FAR_VALID 2    /* row - delta is below the horizon too              */
-#define VT_DIST_WIDTH_AGREES 4 /* |dist_width - dist| <= width_tol_percent of dist  */
+#define VT_DIST_WIDTH_AGREES 4 /* |dist_width - dist| <= width_tol_permille of dist */
 #define VT_DIST_BOTTOM_CLIPPED 8 /* the box ends on the frame's last row: its contact
                                     row is not seen, so VT_DIST_VALID is cleared     */
 #define VT_DIST_SIDE_CLIPPED 16  /* the box touches the left or right frame edge:
@@ -168,7 +168,7 @@ typedef struct vt_pitch_state {
 } vt_pitch_state;
 
 /* Start from the nominal pitch. VT_E_ARG for NULL or a bad camera. */
-vt_status vt_pitch_init(const vt_camera_cfg *cam, vt_pitch_state *st);
+vt_status vt_pitch_init(vt_pitch_state *st, const vt_camera_cfg *cam);
 
 /* One frame. vp_valid = 0 (no vanishing point): tan_pitch kept, flag HELD (NOMINAL
  * if nothing was ever measured). Otherwise m = (cy - vp_row) / fy (Q16, one rounded
@@ -179,7 +179,7 @@ vt_status vt_pitch_init(const vt_camera_cfg *cam, vt_pitch_state *st);
  *     then the estimate jumps to m (MEASURED) -- a lasting change (a load) is followed;
  *   - else MEASURED: est += (m - est) * alpha / 256, rounded half away from zero.
  * VT_E_ARG for NULL, a bad camera, or vp_valid not 0/1 (state unchanged). */
-vt_status vt_pitch_update(const vt_camera_cfg *cam, vt_pitch_state *st, int32_t vp_valid,
+vt_status vt_pitch_update(vt_pitch_state *st, const vt_camera_cfg *cam, int32_t vp_valid,
                           vt_q16 vp_row);
 
 /* The vanishing row (Q16, input px) where the two ego lane lines (slots LEFT and
@@ -298,7 +298,7 @@ typedef struct vt_fcw_state {
  *                   (else SUPPRESSED); since_end counts frames while off.
  * *out gets the VT_FCW_* bits. VT_E_ARG for NULL, a bad cfg, flags not 0/1 or a lead
  * class out of range (state unchanged). */
-vt_status vt_fcw_step(const vt_range_cfg *cfg, vt_fcw_state *st, int32_t ttc_valid, vt_q16 ttc,
+vt_status vt_fcw_step(vt_fcw_state *st, const vt_range_cfg *cfg, int32_t ttc_valid, vt_q16 ttc,
                       int32_t closing, int32_t lead_class, int32_t *out);
 
 /* Per-track range memory (private; public for its size). */

@@ -106,20 +106,20 @@
 typedef struct {
     int32_t level;            /* pyramid level 0..2 the flow runs on              */
     int32_t sides;            /* VT_FLOW_SIDE_*: where overtaking vehicles appear */
-    int32_t strip_percent;    /* width of each lateral area, % of the width 1..50 */
-    int32_t top_percent;      /* rows of the areas: top..bottom, % of the height, */
-    int32_t bottom_percent;   /* 0 <= top < bottom <= 100                         */
+    int32_t strip_permille;   /* width of each lateral area, permille of the width, 1..500 */
+    int32_t top_permille;     /* rows of the areas: top..bottom, permille of the height, */
+    int32_t bottom_permille;  /* 0 <= top < bottom <= 1000                        */
     int32_t cell;             /* cell (block) side at the level, px, 2..32        */
     int32_t search_x;         /* max |dx| at the level, px, 0..32                 */
     int32_t search_y;         /* max |dy| at the level, px, 0..32                 */
     int32_t diff_thresh;      /* |I_t - I_t-1| > this: the pixel changed, 0..255   */
-    int32_t diff_min_percent; /* changed pixels a cell needs for a search, 0..100 */
+    int32_t diff_min_permille; /* changed pixels a cell needs for a search, permille 0..1000 */
     int32_t min_inward;       /* range: inward dx >= this, px/frame at the level  */
     int32_t max_mag;          /* range: |dx| + |dy| <= this                       */
     int32_t max_sad_per_px;   /* best SAD above this * cell^2: no match (0..255)  */
     int32_t min_blob_cells;   /* area threshold of a blob, cells, >= 1            */
-    int32_t seed_min_visible; /* hand-over track dropped when fewer columns than  */
-                              /* this % of its width are still in the frame       */
+    int32_t seed_min_visible_permille; /* hand-over track dropped when fewer columns */
+                              /* than this permille of its width are in the frame, 0..1000 */
     int32_t min_texture;      /* mean |I(x+1) - I(x)| in a cell below this: no    */
                               /* search (dx is undefined on flat or horizontal-  */
                               /* edge cells: the aperture problem), 0..255        */
@@ -139,19 +139,19 @@ typedef struct {
     {                               \
         .level = 1,                 \
         .sides = VT_FLOW_SIDE_LEFT, \
-        .strip_percent = 30,        \
-        .top_percent = 40,          \
-        .bottom_percent = 100,      \
+        .strip_permille = 300,      \
+        .top_permille = 400,        \
+        .bottom_permille = 1000,    \
         .cell = 8,                  \
         .search_x = 6,              \
         .search_y = 3,              \
         .diff_thresh = 12,          \
-        .diff_min_percent = 25,     \
+        .diff_min_permille = 250,   \
         .min_inward = 1,            \
         .max_mag = 9,               \
         .max_sad_per_px = 24,       \
         .min_blob_cells = 4,        \
-        .seed_min_visible = 25,     \
+        .seed_min_visible_permille = 250, \
         .min_texture = 3,           \
         .min_age = 3,               \
         .back_tol = 1,              \
@@ -261,7 +261,7 @@ vt_status vt_flow_step(vt_flow_state *st, const vt_flow_cfg *cfg, const vt_image
  * tracks are active. From the next vt_flow_step on, the track's box moves by
  * the mean vector of the cells inside it (searched without the change gate or
  * the direction filter, SAD check kept) and is reported as a
- * VT_FLOW_KIND_HANDOVER hypothesis; it ends when fewer than seed_min_visible %
+ * VT_FLOW_KIND_HANDOVER hypothesis; it ends when fewer than seed_min_visible_permille / 1000
  * of its columns remain in the frame or no cell inside it finds a match.
  * Pipeline use: when a confirmed track's box reaches a lateral area while the
  * ego car is faster (its bottom row moves down and its box grows), call

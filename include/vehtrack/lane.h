@@ -28,7 +28,7 @@
  *     static vt_lane_state st;         (zero-initialised = fresh tracker)
  *     static vt_lane_result res;
  *     static vt_road_area road;
- *     vt_lane_detect(&cfg, &st, &frame, &res, &road);   once per frame
+ *     vt_lane_detect(&st, &cfg, &frame, &res, &road);   once per frame
  */
 #ifndef VEHTRACK_LANE_H
 #define VEHTRACK_LANE_H
@@ -289,7 +289,7 @@ vt_status vt_lane_reset(vt_lane_state *st);
  * accumulator of a half would need more than VT_LANE_ACC_CELLS cells (a finer
  * rho/theta step than the capacities were sized for). On an error, res and road are
  * left untouched and the tracker is unchanged. */
-vt_status vt_lane_detect(const vt_lane_cfg *cfg, vt_lane_state *st, const vt_image_u8 *img,
+vt_status vt_lane_detect(vt_lane_state *st, const vt_lane_cfg *cfg, const vt_image_u8 *img,
                          vt_lane_result *res, vt_road_area *road);
 
 /* The road area over all lanes (issue 8): between lines_all[0] and

@@ -435,4 +435,10 @@ vt_status vt_pipeline_work_size(int32_t w, int32_t h, int32_t max_w, int32_t max
  * 1..VT_MAX_WIDTH. */
 vt_status vt_fixed_road_area(const vt_fixed_road *fr, int32_t w, int32_t h, vt_road_area *road);
 
+/* The ranges vt_pipeline_cfg_check applies to a vt_fixed_road (every permille in
+ * 0..1000, bottom_left <= bottom_right, top_margin 0..4096) and to a vt_road_camera (the
+ * ranges next to its fields): VT_OK, or VT_E_ARG for NULL or a field out of range. */
+vt_status vt_fixed_road_check(const vt_fixed_road *fr);
+vt_status vt_road_camera_check(const vt_road_camera *rc);
+
 #endif /* VEHTRACK_PIPELINE_H */

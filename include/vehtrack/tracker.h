@@ -187,6 +187,11 @@ vt_status vt_tracker_cfg_default(vt_tracker_cfg *cfg);
  * stepped concurrently. The ROI search never touches it. VT_E_ARG for tr NULL. */
 vt_status vt_tracker_set_edge_ws(vt_tracker *tr, vt_edge_ws *ws);
 
+/* A track list as vt_tracker_step writes it: every track that is not VT_TRACK_FREE has
+ * an id > 0, unique among them, and an ordered box (left <= right, top <= bottom).
+ * VT_OK, or VT_E_ARG (also for n_tracks < 0, or NULL with n_tracks > 0). */
+vt_status vt_track_list_check(const vt_track_out *tracks, int32_t n_tracks);
+
 /* One frame. Every live track: predict, search its ROI in `img`, update when
  * found (else it coasts). If `detection_frame` is non-zero, `dets[0..n_dets-1]`
  * are this frame's detections (n_dets may be 0; dets may be NULL only then):

@@ -7,7 +7,7 @@
  * rear window's lower edge, % of h from the top), bumper position (% of h from the
  * bottom) and roof angle (the cabin's sides slant inward: the roof is narrower than
  * the body by `roof` % of w on each side). The road constrains it (paper Fig. 4b):
- * the width must be within width_tol_percent of the width expected at row y,
+ * the width must be within width_tol_permille of the width expected at row y,
  * w_exp(y) = (y - horizon_row) * width_per_row (Q16), and the height within the
  * aspect range of w.
  *
@@ -102,9 +102,9 @@ typedef struct {
     int32_t dist_cap;                     /* distance cap, px at the level, 1..64     */
     int32_t horizon_row;                  /* w_exp(y) = (y - horizon_row) *           */
     vt_q16 width_per_row;                 /*           width_per_row, Q16 px per row  */
-    int32_t width_tol_percent;            /* w within w_exp +- this %, 0..90          */
-    int32_t aspect_min_percent;           /* h within w * [min, max] / 100            */
-    int32_t aspect_max_percent;
+    int32_t width_tol_permille;           /* w within w_exp +- this permille, 0..900  */
+    int32_t aspect_min_permille;          /* h within w * [min, max] / 1000, 100..4000 */
+    int32_t aspect_max_permille;          /* (the products truncate toward zero)      */
     int32_t wind_min, wind_max;           /* windshield range, % of h                 */
     int32_t bump_min, bump_max;           /* bumper range, % of h                     */
     int32_t roof_max;                     /* roof inset 0..roof_max, % of w           */
@@ -132,9 +132,9 @@ typedef struct {
         .dist_cap = 6,                        \
         .horizon_row = 0,                     \
         .width_per_row = (vt_q16)65536,       \
-        .width_tol_percent = 30,              \
-        .aspect_min_percent = 60,             \
-        .aspect_max_percent = 110,            \
+        .width_tol_permille = 300,            \
+        .aspect_min_permille = 600,           \
+        .aspect_max_permille = 1100,          \
         .wind_min = 25,                       \
         .wind_max = 60,                       \
         .bump_min = 10,                       \
@@ -202,10 +202,10 @@ vt_status vt_model_expected_width(const vt_model_cfg *cfg, int32_t y, int32_t *w
 
 /* The fitness of one parameter set at pyramid `level` of the search's ROI,
  * after vt_model_prepare(level) (for tests and for scoring a tracker's box). */
-vt_status vt_model_prepare(const vt_image_u8 *frame, const vt_model_cfg *cfg,
-                           const vt_model_search *search, int32_t level, vt_model_ws *ws);
-vt_status vt_model_fitness(const vt_image_u8 *frame, const vt_model_cfg *cfg,
-                           const vt_model_search *search, int32_t level, vt_model_ws *ws,
+vt_status vt_model_prepare(vt_model_ws *ws, const vt_model_cfg *cfg,
+                           const vt_image_u8 *frame, const vt_model_search *search, int32_t level);
+vt_status vt_model_fitness(vt_model_ws *ws, const vt_model_cfg *cfg,
+                           const vt_image_u8 *frame, const vt_model_search *search, int32_t level,
                            const vt_model_params *p, int32_t *fitness);
 
 /* Fit the model: the GA, coarse to fine. VT_E_ARG for NULLs, a bad cfg or search
@@ -215,15 +215,15 @@ vt_status vt_model_fitness(const vt_image_u8 *frame, const vt_model_cfg *cfg,
  * when no model fits the constraints inside the ROI (e.g. the expected width
  * exceeds it). ws->pop[ws->cur * VT_MODEL_MAX_POP + i], i < ws->n, holds the last
  * generation and ws->fit the same way its fitnesses. */
-vt_status vt_model_fit(const vt_image_u8 *frame, const vt_model_cfg *cfg,
-                       const vt_model_search *search, vt_model_ws *ws, vt_model_result *out);
+vt_status vt_model_fit(vt_model_ws *ws, const vt_model_cfg *cfg,
+                       const vt_image_u8 *frame, const vt_model_search *search, vt_model_result *out);
 
 /* A detection search from a flow hypothesis (paper sec. 6: the overtaking
  * module's blob limits the model's y between the blob's lowest row and its
  * centre of gravity). The blob covers only the moving, textured part of the
  * vehicle, so the ROI is sized by the road instead: with W the expected width at
  * the blob's lowest row (at least the blob's width), columns from left - W to
- * right + W, rows from bottom - W * aspect_max_percent / 100 - W / 4 to
+ * right + W, rows from bottom - W * aspect_max_permille / 1000 - W / 4 to
  * bottom + W / 4; y_min = h->cy, y_max = bottom + W / 8 (the flat band under the
  * car gives no vectors, so the true bottom can lie a little below the blob).
  * vt_model_fit clips the ROI to the frame. VT_E_ARG for NULLs, a bad cfg or an

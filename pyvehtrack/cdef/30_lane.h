@@ -103,7 +103,7 @@ typedef struct { ...; } vt_lane_state;
 vt_status vt_lane_cfg_default(vt_lane_cfg *cfg);
 vt_status vt_lane_cfg_check(const vt_lane_cfg *cfg);
 vt_status vt_lane_reset(vt_lane_state *st);
-vt_status vt_lane_detect(const vt_lane_cfg *cfg, vt_lane_state *st, const vt_image_u8 *img,
+vt_status vt_lane_detect(vt_lane_state *st, const vt_lane_cfg *cfg, const vt_image_u8 *img,
                          vt_lane_result *res, vt_road_area *road);
 vt_status vt_lane_road_all(const vt_lane_result *res, int32_t img_w, int32_t img_h,
                            vt_road_area *road);

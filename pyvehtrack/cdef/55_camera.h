@@ -34,7 +34,7 @@ typedef struct vt_camera_cfg {
     vt_q16 delta_px;
     vt_q16 bottom_offset;
     vt_q16 vehicle_width;
-    int32_t width_tol_percent;
+    int32_t width_tol_permille;
 } vt_camera_cfg;
 
 vt_status vt_camera_cfg_check(const vt_camera_cfg *cam);
@@ -63,8 +63,8 @@ typedef struct vt_pitch_state {
     int32_t measured;
 } vt_pitch_state;
 
-vt_status vt_pitch_init(const vt_camera_cfg *cam, vt_pitch_state *st);
-vt_status vt_pitch_update(const vt_camera_cfg *cam, vt_pitch_state *st, int32_t vp_valid,
+vt_status vt_pitch_init(vt_pitch_state *st, const vt_camera_cfg *cam);
+vt_status vt_pitch_update(vt_pitch_state *st, const vt_camera_cfg *cam, int32_t vp_valid,
                           vt_q16 vp_row);
 vt_status vt_lane_vanishing_row(const vt_lane_result *res, int32_t img_h, vt_q16 *vp_row,
                                 int32_t *valid);
@@ -106,7 +106,7 @@ typedef struct vt_fcw_state {
     int32_t warnings;
 } vt_fcw_state;
 
-vt_status vt_fcw_step(const vt_range_cfg *cfg, vt_fcw_state *st, int32_t ttc_valid, vt_q16 ttc,
+vt_status vt_fcw_step(vt_fcw_state *st, const vt_range_cfg *cfg, int32_t ttc_valid, vt_q16 ttc,
                       int32_t closing, int32_t lead_class, int32_t *out);
 
 typedef struct vt_range_track {

@@ -16,19 +16,19 @@
 typedef struct {
     int32_t level;
     int32_t sides;
-    int32_t strip_percent;
-    int32_t top_percent;
-    int32_t bottom_percent;
+    int32_t strip_permille;
+    int32_t top_permille;
+    int32_t bottom_permille;
     int32_t cell;
     int32_t search_x;
     int32_t search_y;
     int32_t diff_thresh;
-    int32_t diff_min_percent;
+    int32_t diff_min_permille;
     int32_t min_inward;
     int32_t max_mag;
     int32_t max_sad_per_px;
     int32_t min_blob_cells;
-    int32_t seed_min_visible;
+    int32_t seed_min_visible_permille;
     int32_t min_texture;
     int32_t min_age;
     int32_t back_tol;

@@ -25,9 +25,9 @@ typedef struct {
     int32_t dist_cap;
     int32_t horizon_row;
     vt_q16 width_per_row;
-    int32_t width_tol_percent;
-    int32_t aspect_min_percent;
-    int32_t aspect_max_percent;
+    int32_t width_tol_permille;
+    int32_t aspect_min_permille;
+    int32_t aspect_max_permille;
     int32_t wind_min, wind_max;
     int32_t bump_min, bump_max;
     int32_t roof_max;
@@ -67,12 +67,12 @@ vt_status vt_model_cfg_default(vt_model_cfg *cfg);
 vt_status vt_model_cfg_check(const vt_model_cfg *cfg);
 vt_status vt_model_cfg_road(vt_model_cfg *cfg, int32_t y0, int32_t w0, int32_t y1, int32_t w1);
 vt_status vt_model_expected_width(const vt_model_cfg *cfg, int32_t y, int32_t *w);
-vt_status vt_model_prepare(const vt_image_u8 *frame, const vt_model_cfg *cfg,
-                           const vt_model_search *search, int32_t level, vt_model_ws *ws);
-vt_status vt_model_fitness(const vt_image_u8 *frame, const vt_model_cfg *cfg,
-                           const vt_model_search *search, int32_t level, vt_model_ws *ws,
+vt_status vt_model_prepare(vt_model_ws *ws, const vt_model_cfg *cfg,
+                           const vt_image_u8 *frame, const vt_model_search *search, int32_t level);
+vt_status vt_model_fitness(vt_model_ws *ws, const vt_model_cfg *cfg,
+                           const vt_image_u8 *frame, const vt_model_search *search, int32_t level,
                            const vt_model_params *p, int32_t *fitness);
-vt_status vt_model_fit(const vt_image_u8 *frame, const vt_model_cfg *cfg,
-                       const vt_model_search *search, vt_model_ws *ws, vt_model_result *out);
+vt_status vt_model_fit(vt_model_ws *ws, const vt_model_cfg *cfg,
+                       const vt_image_u8 *frame, const vt_model_search *search, vt_model_result *out);
 vt_status vt_model_search_from_flow(const vt_model_cfg *cfg, const vt_flow_hyp *h,
                                     vt_model_search *search);

@@ -138,3 +138,5 @@ vt_status vt_pipeline_step_dets(vt_pipeline *p, const vt_image_u8 *frame, const 
 vt_status vt_pipeline_work_size(int32_t w, int32_t h, int32_t max_w, int32_t max_h,
                                 int32_t *work_w, int32_t *work_h);
 vt_status vt_fixed_road_area(const vt_fixed_road *fr, int32_t w, int32_t h, vt_road_area *road);
+vt_status vt_fixed_road_check(const vt_fixed_road *fr);
+vt_status vt_road_camera_check(const vt_road_camera *rc);

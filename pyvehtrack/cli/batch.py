@@ -6,7 +6,7 @@
 The naming rule for truth and camera files and the output layout: pyvehtrack.batch."""
 from __future__ import annotations
 
-from .common import CliError, out_folder
+from .common import CliError, add_command, out_folder
 
 EXAMPLES = """examples:
   pyvehtrack batch recordings/* --out results/                 # LocalCluster, 2 workers
@@ -17,14 +17,13 @@ its camera: REC/camera.json or REC.camera.json. Rerunning skips finished recordi
 
 
 def register(sub) -> None:
-    import argparse
-    p = sub.add_parser("batch", help="track (and report) many recordings on a Dask cluster",
+    p = add_command(sub, "batch", help="track (and report) many recordings on a Dask cluster",
                        description="Runs `pyvehtrack track` on every recording (video or folder of "
                        "frames) as Dask tasks, on a LocalCluster (processes, one thread each) or an "
                        "existing scheduler; writes per-recording outputs, RESULTS_DIR/results.csv and "
                        "results.md. A failing recording is listed with its error; a rerun skips "
                        "recordings whose outputs are complete.",
-                       epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
+                       epilog=EXAMPLES)
     p.add_argument("recordings", nargs="+", metavar="RECORDING", help="videos or folders of frames")
     p.add_argument("--out", required=True, metavar="RESULTS_DIR", help="results folder (created)")
     p.add_argument("--scheduler", metavar="ADDRESS", help="an existing Dask scheduler, e.g. tcp://host:8786")

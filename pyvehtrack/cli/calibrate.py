@@ -12,11 +12,10 @@ file later (distances need it). --square-mm only scales the board's pose, which 
 file does not keep; it is accepted for the record."""
 from __future__ import annotations
 
-import argparse
 import re
 import sys
 
-from .common import CliError, Outputs, frame_sources, read_image
+from .common import CliError, Outputs, add_command, frame_sources, read_image
 
 EXAMPLES = """examples:
   pyvehtrack calibrate camera_cal/*.jpg --pattern 9x6 --height-m 1.2 --out camera.json
@@ -26,9 +25,8 @@ MIN_VIEWS = 3   # calibrateCamera solves 4 intrinsics + 5 distortion terms: a fe
 
 
 def register(sub) -> None:
-    p = sub.add_parser("calibrate", help="camera intrinsics from chessboard pictures (a camera file)",
-                       description=__doc__.split("\n\n", 2)[2].replace("\n", " "), epilog=EXAMPLES,
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = add_command(sub, "calibrate", help="camera intrinsics from chessboard pictures (a camera file)",
+                       description=__doc__.split("\n\n", 2)[2].replace("\n", " "), epilog=EXAMPLES)
     p.add_argument("inputs", nargs="+", metavar="IMAGE", help="chessboard pictures (files or folders)")
     p.add_argument("--pattern", required=True, metavar="COLSxROWS",
                    help="inner corners per row and per column, e.g. 9x6")

@@ -16,7 +16,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
-__all__ = ["CliError", "IMAGE_EXTS", "VIDEO_EXTS", "VIDEO_OUT_EXTS", "output_kind", "frame_sources",
+__all__ = ["CliError", "add_command", "IMAGE_EXTS", "VIDEO_EXTS", "VIDEO_OUT_EXTS", "output_kind", "frame_sources",
            "FrameReader", "read_image", "progress", "count_frames", "video_fps", "VideoOut", "Outputs"]
 
 # The one list of file types. VIDEO_OUT_EXTS: the containers cv2.VideoWriter writes here
@@ -24,6 +24,13 @@ __all__ = ["CliError", "IMAGE_EXTS", "VIDEO_EXTS", "VIDEO_OUT_EXTS", "output_kin
 IMAGE_EXTS = frozenset({".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm", ".webp"})
 VIDEO_EXTS = frozenset({".mp4", ".avi", ".mov", ".mkv", ".webm", ".m4v", ".mpg", ".mpeg"})
 VIDEO_OUT_EXTS = frozenset({".mp4", ".avi", ".mov", ".mkv"})
+
+
+def add_command(sub, name: str, **kw):
+    """A subcommand's parser: `sub.add_parser(name, **kw)` with the epilog's examples kept
+    as written (RawDescriptionHelpFormatter), the one layout every subcommand uses."""
+    import argparse
+    return sub.add_parser(name, formatter_class=argparse.RawDescriptionHelpFormatter, **kw)
 
 
 class CliError(Exception):

@@ -15,7 +15,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from .common import (CliError, add_model_arg, load_camera, make_detector, FrameReader, Outputs, VideoOut, count_frames, frame_sources,
+from .common import (CliError, add_command, add_model_arg, load_camera, make_detector, FrameReader, Outputs, VideoOut, count_frames, frame_sources,
                      output_kind, progress)
 
 EXAMPLES = """examples:
@@ -66,11 +66,9 @@ def detection_json(frame: int, file: str, res) -> dict:
 
 
 def register(sub) -> None:
-    import argparse
-    p = sub.add_parser("detect", help="detect lanes and vehicles in images, folders or videos",
+    p = add_command(sub, "detect", help="detect lanes and vehicles in images, folders or videos",
                        description="Lanes -> road area -> shadow hypotheses -> verified vehicle "
-                       "boxes (thesis ch. 2), drawn on the frames.", epilog=EXAMPLES,
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
+                       "boxes (thesis ch. 2), drawn on the frames.", epilog=EXAMPLES)
     p.add_argument("inputs", nargs="+", metavar="INPUT",
                    help="image files, folders of frames (sorted by name) or videos")
     p.add_argument("--out", metavar="OUT",

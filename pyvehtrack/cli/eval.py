@@ -8,7 +8,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from .common import CliError, Outputs
+from .common import CliError, Outputs, add_command
 
 EXAMPLES = """examples:
   pyvehtrack eval --gt label_02/0000.txt --tracks tracks.txt
@@ -16,10 +16,9 @@ EXAMPLES = """examples:
 
 
 def register(sub) -> None:
-    import argparse
-    p = sub.add_parser("eval", help="score KITTI-format tracks against labels with TrackEval",
+    p = add_command(sub, "eval", help="score KITTI-format tracks against labels with TrackEval",
                        description="HOTA, CLEAR (MOTA...) and Identity (IDF1) from TrackEval, class Car.",
-                       epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
+                       epilog=EXAMPLES)
     p.add_argument("--gt", required=True, help="ground truth, KITTI tracking label file")
     p.add_argument("--tracks", required=True, action="append",
                    help="tracks to score, KITTI tracking format (repeat to compare several)")

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .common import CliError, out_folder
+from .common import CliError, add_command, out_folder
 
 EXAMPLES = """examples:
   pyvehtrack report tests/data/kitti_clip --out r/
@@ -18,13 +18,12 @@ then open r/index.html (one file: no script, no network)."""
 
 
 def register(sub) -> None:
-    import argparse
-    p = sub.add_parser("report", help="run a recording once and write an HTML report with plots",
+    p = add_command(sub, "report", help="run a recording once and write an HTML report with plots",
                        description="Lanes, detection and tracking over one recording; writes "
                        "REPORT_DIR/index.html (contact sheet, track timeline, distance/TTC against "
                        "the truth, lane width and pitch, run time per stage, summary figures) and "
                        "REPORT_DIR/tracks.json (the per-frame records).",
-                       epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
+                       epilog=EXAMPLES)
     p.add_argument("input", metavar="INPUT", help="a video, a folder of frames or an image")
     p.add_argument("--out", required=True, metavar="REPORT_DIR", help="folder for index.html (created)")
     p.add_argument("--camera", metavar="CAMERA.json",

@@ -26,7 +26,7 @@ import colorsys
 from pathlib import Path
 
 from ..eval.kitti import track_line
-from .common import (CliError, add_model_arg, load_camera, make_detector, FrameReader, Outputs, VideoOut, count_frames, frame_sources,
+from .common import (CliError, add_command, add_model_arg, load_camera, make_detector, FrameReader, Outputs, VideoOut, count_frames, frame_sources,
                      output_kind, progress)
 
 STATE_SCORE = {"confirmed": 1.0, "coasting": 0.5, "tentative": 0.25}
@@ -97,11 +97,9 @@ def draw_tracks(frame, tracks, frame_index: int, detection_frame: bool, ranges=N
 
 
 def register(sub) -> None:
-    import argparse
-    p = sub.add_parser("track", help="track vehicles through a video or a folder of frames",
+    p = add_command(sub, "track", help="track vehicles through a video or a folder of frames",
                        description="Detect every N frames, track every frame (Kalman + ROI search), "
-                       "write an annotated video and KITTI-format tracks.", epilog=EXAMPLES,
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
+                       "write an annotated video and KITTI-format tracks.", epilog=EXAMPLES)
     p.add_argument("inputs", nargs="+", metavar="INPUT", help="a video, a folder of frames, or images")
     p.add_argument("--out", required=True, help="annotated output: .mp4/.avi video (or .png for frames)")
     p.add_argument("--tracks", help="write tracks here in the KITTI tracking label format")

@@ -29,65 +29,16 @@ a warning ends.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 from filterpy.common import Q_discrete_white_noise
 from filterpy.kalman import KalmanFilter
 
-DIST_MAX_M = 1000.0
-LEAD_UNKNOWN, LEAD_STOPPED, LEAD_SLOWER, LEAD_DECEL = 0, 1, 2, 3
-PITCH_NOMINAL, PITCH_MEASURED, PITCH_HELD, PITCH_REJECTED = 0, 1, 2, 3
-FCW_WARNING, FCW_ONSET, FCW_SUPPRESSED = 1, 2, 4
+from ..shared import (DIST_MAX_M, FCW_ONSET, FCW_SUPPRESSED, FCW_WARNING, LEAD_DECEL,  # noqa: F401
+                      LEAD_SLOWER, LEAD_STOPPED, LEAD_UNKNOWN, PITCH_HELD, PITCH_MEASURED, PITCH_NOMINAL,
+                      PITCH_REJECTED, BoxDistance, CameraParams, RangeOut, RangeParams)  # shared plain types
 
-
-@dataclass(frozen=True)
-class CameraParams:
-    """The float twin of vt_camera_cfg (pitch as its tangent)."""
-    img_w: int
-    img_h: int
-    fx: float
-    fy: float
-    cx: float
-    cy: float
-    height: float
-    tan_pitch: float = 0.0
-    tan_pitch_min: float = math.tan(math.radians(-3))
-    tan_pitch_max: float = math.tan(math.radians(3))
-    pitch_max_step: float = 0.02
-    pitch_alpha_q8: int = 64
-    pitch_reacquire: int = 5
-    delta_px: float = 1.0
-    bottom_offset: float = 0.5
-    vehicle_width: float = 1.8
-    width_tol_percent: int = 25
-
-
-@dataclass(frozen=True)
-class RangeParams:
-    """The float twin of vt_range_cfg."""
-    frame_dt: float = 0.1
-    jerk_sigma: float = 5.0
-    init_sigma_rate: float = 10.0
-    init_sigma_accel: float = 3.0
-    sigma_min: float = 0.05
-    min_frames: int = 3
-    scale_lag: int = 5
-    ttc_max: float = 20.0
-    ttc_stopped: float = 2.1
-    ttc_slower: float = 2.0
-    ttc_decel: float = 2.4
-    ttc_margin: float = 0.7
-    confirm_frames: int = 3
-    rearm_frames: int = 30
-    release_frames: int = 10
-    min_closing: float = 0.3
-    stopped_speed: float = 1.0
-    decel_thresh: float = 1.0
-    width_min_frames: int = 3
-    width_window: int = 16
-    rear_offset: float = 0.0
 
 
 def row_distance(cam: CameraParams, tan_pitch: float, row: float) -> tuple[float, bool]:
@@ -106,20 +57,6 @@ def row_distance(cam: CameraParams, tan_pitch: float, row: float) -> tuple[float
     return y, True
 
 
-@dataclass
-class BoxDistance:
-    valid: bool
-    far_valid: bool
-    width_agrees: bool
-    distance: float
-    dist_near: float
-    dist_far: float
-    sigma: float
-    dist_width: float
-    bottom_clipped: bool = False
-    side_clipped: bool = False
-
-
 def box_distance(cam: CameraParams, tan_pitch: float, box) -> BoxDistance:
     """Distances of an inclusive pixel box [l, t, r, b]: eq. 1 at the contact row
     b + bottom_offset, eq. 3 at +-delta, sigma their half spread, and the width
@@ -133,7 +70,7 @@ def box_distance(cam: CameraParams, tan_pitch: float, box) -> BoxDistance:
     bottom_clipped = b >= cam.img_h - 1          # the contact row is below the frame
     side_clipped = l <= 0 or r >= cam.img_w - 1  # the width is not the vehicle's
     ok = ok and not bottom_clipped
-    agrees = ok and abs(dw - d) * 100 <= cam.width_tol_percent * d
+    agrees = ok and abs(dw - d) * 1000 <= cam.width_tol_permille * d
     return BoxDistance(ok, ok_far, agrees, d, dn, df, (df - dn) / 2, dw, bottom_clipped, side_clipped)
 
 
@@ -225,28 +162,6 @@ def fcw_step(p: RangeParams, st: FcwState, ttc: float | None, closing: bool, lea
     if st.warning:
         bits |= FCW_WARNING
     return bits
-
-
-@dataclass
-class RangeOut:
-    id: int
-    distance: float | None      # this frame's eq. 1 distance (None: not below the horizon)
-    sigma: float
-    dist_width: float
-    width_agrees: bool
-    dist_filt: float | None
-    rate: float | None          # m/s, negative closing
-    ttc_dist: float | None
-    ttc_scale: float | None
-    closing: bool
-    lead_class: int
-    fcw: int
-    from_width: bool = False
-    accel: float | None = None  # m/s^2, range acceleration
-
-    @property
-    def warning(self) -> bool:
-        return bool(self.fcw & FCW_WARNING)
 
 
 @dataclass

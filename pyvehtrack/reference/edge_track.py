@@ -20,22 +20,9 @@ import cv2
 import numpy as np
 
 from . import image as rimg
+from ..shared import EdgeCfg  # noqa: F401  (a plain type both engines share)
 
 DT_INF = 65535
-
-
-@dataclass
-class EdgeCfg:
-    """As vt_edge_cfg (see include/vehtrack/edge_track.h for each field)."""
-    low: int = 40
-    high: int = 100
-    min_len: int = 10
-    radius: int = 8
-    trunc: int = 15
-    max_mean_q8: int = 1536
-    min_points: int = 16
-    scale_steps: int = 2
-    scale_step_q8: int = 4
 
 
 def clip_roi(shape, roi):

@@ -62,8 +62,8 @@ def level_image(frame: np.ndarray, level: int) -> np.ndarray:
 
 def lateral_area(cfg, lw: int, lh: int, side: int) -> Area:
     """Cell grid of the left (side 0) or right (side 1) lateral area of a level image."""
-    sw = lw * cfg.strip_percent // 100
-    ya, yb = lh * cfg.top_percent // 100, lh * cfg.bottom_percent // 100
+    sw = lw * cfg.strip_permille // 1000
+    ya, yb = lh * cfg.top_permille // 1000, lh * cfg.bottom_permille // 1000
     gw, gh = sw // cfg.cell, (yb - ya) // cfg.cell
     x0 = 0 if side == 0 else lw - gw * cfg.cell
     return Area(x0, ya, gw, gh)
@@ -120,7 +120,7 @@ def area_flow(cfg, cur: np.ndarray, prev: np.ndarray, side: int, level: int, w: 
         for i in range(ar.gw):
             x, y = ar.x0 + i * n, ar.y0 + j * n
             changed = int(diff[y:y + n, x:x + n].sum())
-            if 100 * changed < cfg.diff_min_percent * n * n:   # the paper's speed-up
+            if 1000 * changed < cfg.diff_min_permille * n * n:   # the paper's speed-up
                 continue
             block = cur[y:y + n, x:x + n].astype(np.int64)
             if np.abs(np.diff(block, axis=1)).sum() < cfg.min_texture * n * (n - 1):
@@ -266,7 +266,7 @@ class FlowOracle:
         sd.top += my
         left, top = math.floor(sd.left + 0.5), math.floor(sd.top + 0.5)
         vis = min(max(left + sd.width, 0), w) - min(max(left, 0), w)
-        if vis * 100 < cfg.seed_min_visible * sd.width or vis <= 0 or top >= h or top + sd.height <= 0:
+        if vis * 1000 < cfg.seed_min_visible_permille * sd.width or vis <= 0 or top >= h or top + sd.height <= 0:
             return None
         box = (min(max(left, 0), w - 1), min(max(top, 0), h - 1),
                min(max(left + sd.width - 1, 0), w - 1), min(max(top + sd.height - 1, 0), h - 1))

@@ -55,79 +55,17 @@ cx = W // 2. A line is x(y) = xb + slope * (y - (H-1)).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-QDEG = 4  # quarter degrees per degree (vehtrack/trig.h)
+from ..shared import QDEG, SIDE_NAMES, LaneConfig  # noqa: F401  (plain types both engines share)
+from ..shared import lane_config_from as config_from  # noqa: F401
 
 LEFT_MOST, LEFT, RIGHT, RIGHT_MOST = 0, 1, 2, 3
-SIDE_NAMES = ("left-most", "left", "right", "right-most")
 NONE, DETECTED, HELD = 0, 1, 2
 
-
-@dataclass(frozen=True)
-class LaneConfig:
-    """Mirror of the C vt_lane_cfg: same field names, same integer units. Defaults:
-    chosen on half B of TuSimple test100 (tools/tune_lanes.py --tune B)."""
-    work_width_max: int = 320         # box-downscale by 2^s (s <= 3) until W <= this
-    work_height_max: int = 240        # ... and H <= this
-    roi_top_permille: int = 250       # rows above H*this/1000 are never looked at
-    hough_top_permille: int = 500     # Hough votes from rows >= H*this/1000
-    grad_min: int = 12                # [-1 0 1] threshold floor
-    noise_gain_q4: int = 48           # row threshold >= mean|g| * this / 16
-    mark_w_top_permille: int = 6      # widest marking at row 0 / row H-1, per mille of W
-    mark_w_bottom_permille: int = 40
-    mark_wmin_top_permille: int = 0   # narrowest marking at row 0 / row H-1 (>= 1 px)
-    mark_wmin_bottom_permille: int = 8
-    marks_per_row_max: int = 24       # a row with more centres is texture: dropped
-    marks_max: int = 4096             # centres kept per frame (bottom rows first)
-    theta_min_qdeg: int = 4 * QDEG    # left half theta range; right half mirrored
-    theta_max_qdeg: int = 80 * QDEG
-    theta_step_qdeg: int = 1 * QDEG
-    rho_step_shift: int = 0           # a rho bin is 2^this working px (0..3)
-    vote_min: int = 8                 # a peak needs >= this many votes
-    vote_min_permille: int = 80       # ... and >= band rows * this / 1000
-    nms_theta_bins: int = 4           # peak = maximum of a (2a+1) x (2b+1) window
-    nms_rho_bins: int = 8
-    max_peaks: int = 6                # candidates per half
-    merge_permille: int = 19          # lines closer than W*this/1000 at both band ends merge
-    min_dtheta_qdeg: int = 12 * QDEG  # ego vs outer line angle difference
-    ego_theta_max_qdeg: int = 65 * QDEG  # flatter lines can only be outer lines
-    ego_vote_permille: int = 500      # an inner line replacing the ego needs this share
-    vp_x_permille: int = 250          # vanishing point within cx +- W*this/1000
-    vp_low_permille: int = 700        # ... and not below row H*this/1000
-    vp_tol_permille: int = 15         # lane lines pass within W*this/1000 px of it
-    vp_tol_min: int = 2               # ... or within this many px (small frames)
-    lane_w_min_permille: int = 250    # ego lane width at the bottom row, per mille of W
-    lane_w_max_permille: int = 2000
-    refine_iters: int = 2             # least-squares passes over the band
-    refine_tol_permille: int = 16     # first pass window W*this/1000, halved per pass
-    refine_tol_min: int = 2           # ... but never below this many px
-    fit_min_points: int = 6           # fewer points: keep the line as it was
-    seg_min: int = 3                  # extension segment rows, at least
-    seg_permille: int = 500           # ... else this share of the distance to the VP
-    bend_q8: int = 128                # slope change per segment <= this/256 px/row
-    seg_count_min: int = 2            # a segment needs this many centres ...
-    seg_count_permille: int = 150     # ... and seg rows * this / 1000
-    seg_miss_max: int = 1             # without a VP: stop after this many empty segments
-    win_bottom_permille: int = 20     # segment window: W*this/1000 px at the bottom row,
-    win_top: int = 2                  # ... this many px at the vanishing row
-    vp_margin: int = 2                # without a VP: never above roi_top + this
-    top_margin_permille: int = 37     # with a VP: lanes end H*this/1000 rows below it
-    track_alpha_q8: int = 128         # smoothing gain toward the new line, Q8
-    track_hold: int = 5               # frames a hidden marking's line is kept
-    track_gate_permille: int = 31     # farther than W*this/1000 px: replace, not smooth
-    solo_vote_permille: int = 1500    # no ego pair at a plausible vanishing point: a line
-                                      # needs votes >= vote floor * this / 1000
-
-
 DEFAULT = LaneConfig()
-
-
-def config_from(obj) -> LaneConfig:
-    """A LaneConfig from anything with the same attribute names (e.g. a cffi vt_lane_cfg)."""
-    return LaneConfig(**{f.name: int(getattr(obj, f.name)) for f in fields(LaneConfig)})
 
 
 # ------------------------------------------------------------------ working frame

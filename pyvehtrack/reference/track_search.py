@@ -17,25 +17,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import image as rimg
-from ..shared import SEARCH_RENAMED, accept_renamed
+from ..shared import DARK_ABOVE, DARK_BELOW, LARGEST, TWO_THRESHOLD, SearchCfg  # noqa: F401  (shared plain types)
 
 
-DARK_ABOVE, DARK_BELOW = 0, 1
-TWO_THRESHOLD, LARGEST = 0, 1
-
-
-@dataclass
-class SearchCfg:
-    polarity: int = DARK_ABOVE   # shadow above the lit road: sobel_y >= h_thresh
-    h_thresh: int = 16
-    v_thresh: int = 60
-    min_h_permille: int = 200
-    min_v_permille: int = 200
-    bottom_permille: int = 500    # 1000: the thesis's largest value
-    side_mode: int = LARGEST      # TWO_THRESHOLD: the thesis's tracking rule
-
-
-accept_renamed(SearchCfg, SEARCH_RENAMED)  # the percent names of before issue 10
 
 
 @dataclass

@@ -34,52 +34,11 @@ from . import edge_track as redge
 from . import image as rimg
 from .kalman import bottom_edge_filter
 from .track_search import SearchCfg, Sides, track_search
-from ..shared import TRACKER_RENAMED, accept_renamed
+from ..shared import MEAS_EDGE_CURVES, MEAS_ROI_SEARCH, ModelCfg, TrackerCfg  # noqa: F401  (shared plain types)
 
 FREE, TENTATIVE, CONFIRMED, COASTING = 0, 1, 2, 3
 TEMPLATE = 16
 MAX_DETS = 256
-MEAS_ROI_SEARCH, MEAS_EDGE_CURVES = 0, 1
-
-
-@dataclass
-class ModelCfg:
-    """The bottom-edge model's parameters, as vt_kf_model_cfg (floats here)."""
-    dt: float = 1.0
-    accel_x: float = 1.0
-    accel_y: float = 0.5
-    p_max: float = 0.1
-    p_zero: float = 0.3
-    meas_sigma_x: float = 2.0
-    meas_sigma_y: float = 2.0
-    init_sigma_pos: float = 4.0
-    init_sigma_vel: float = 5.0
-
-
-@dataclass
-class TrackerCfg:
-    search: SearchCfg = field(default_factory=SearchCfg)
-    model: ModelCfg = field(default_factory=ModelCfg)
-    roi_margin_min: int = 6        # thesis: the verification ROI's 6 px
-    roi_margin_permille: int = 0
-    gate_permille: int = 350
-    gate_bottom_permille: int = 100
-    confirm_hits: int = 3
-    max_coast: int = 6
-    match_iou_permille: int = 300
-    keep_ncc: float = 0.7
-    init_max_change: int = 3
-    measurement: int = MEAS_ROI_SEARCH
-    edge: redge.EdgeCfg = field(default_factory=redge.EdgeCfg)
-    # template tracking when the measurement fails (0: off), see Tracker._tmatch
-    tmatch_radius: int = 6
-    tmatch_ncc_permille: int = 800
-    tmatch_max: int = 12
-    part_permille: int = 600       # parts are not vehicles (0: off)
-    min_width: int = 4             # narrower tracks are dropped (0: off)
-
-
-accept_renamed(TrackerCfg, TRACKER_RENAMED)  # the percent names of before issue 10
 
 
 def _round(v: float) -> int:

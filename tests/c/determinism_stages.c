@@ -295,7 +295,7 @@ static void run_model(void)
     se.y_min = 150;
     se.y_max = 215;
     for (pass = 0; pass < 2; pass++) {
-        vt_status s = vt_model_fit(&img, &cfg, &se, &g_mws, &res);
+        vt_status s = vt_model_fit(&g_mws, &cfg, &img, &se, &res);
         h = fnv_s32(h, (int32_t)s);
         if (s != VT_OK && s != VT_E_SINGULAR) {
             g_fail = 1;
@@ -368,10 +368,10 @@ static void run_camera(void)
         h = fnv_s32(h, d);
         h = fnv_s32(h, valid);
     }
-    h = fnv_st(h, vt_pitch_init(&g_cam, &ps));
+    h = fnv_st(h, vt_pitch_init(&ps, &g_cam));
     for (i = 0; i < 30; i++) { /* vanishing rows wobbling about the horizon, a jump at 20 */
         vt_q16 vp = (54 + (i % 5) - 2 + (i >= 20 ? 9 : 0)) * VT_Q16_ONE + i * 997;
-        h = fnv_st(h, vt_pitch_update(&g_cam, &ps, i % 7 != 3, vp));
+        h = fnv_st(h, vt_pitch_update(&ps, &g_cam, i % 7 != 3, vp));
         h = fnv_s32(h, ps.tan_pitch);
         h = fnv_s32(h, ps.flag);
         h = fnv_s32(h, ps.outliers);

@@ -76,12 +76,12 @@ static void model_fitness_level_minus_one(void)
     se.roi.bottom = 47;
     se.y_min = 10;
     se.y_max = 47;
-    expect(vt_model_cfg_default(&cfg) == VT_OK && vt_model_prepare(&img, &cfg, &se, 0, &g_model_ws) == VT_OK,
+    expect(vt_model_cfg_default(&cfg) == VT_OK && vt_model_prepare(&g_model_ws, &cfg, &img, &se, 0) == VT_OK,
            "model prepare level 0");
-    expect(vt_model_prepare(NULL, &cfg, &se, 0, &g_model_ws) == VT_E_ARG, "model prepare NULL frame");
-    expect(vt_model_fitness(&img, &cfg, &se, -1, &g_model_ws, &p, &fit) == VT_E_ARG && fit == 0,
+    expect(vt_model_prepare(&g_model_ws, &cfg, NULL, &se, 0) == VT_E_ARG, "model prepare NULL frame");
+    expect(vt_model_fitness(&g_model_ws, &cfg, &img, &se, -1, &p, &fit) == VT_E_ARG && fit == 0,
            "model fitness at level -1 is VT_E_ARG");
-    expect(vt_model_fitness(&img, &cfg, &se, 0, &g_model_ws, &p, &fit) == VT_E_ARG,
+    expect(vt_model_fitness(&g_model_ws, &cfg, &img, &se, 0, &p, &fit) == VT_E_ARG,
            "model fitness after a failed prepare is VT_E_ARG");
 }
 
@@ -103,7 +103,7 @@ static void range_ttc_wraps(void)
     int32_t f, n = 0, bad = 0, seen_rate = 0;
     expect(vt_camera_cfg_default(&cam) == VT_OK && vt_range_cfg_default(&rc) == VT_OK, "range cfgs");
     cam.tan_pitch = -1;
-    cam.width_tol_percent = 146;
+    cam.width_tol_permille = 1460;
     rc.stopped_speed = 65535;
     expect(vt_range_init(&g_range) == VT_OK, "range init");
     for (f = 0; f < 5; f++) {
