@@ -19,6 +19,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "vehtrack/config.h"
+#include "vehtrack/geometry.h"
 #include "vehtrack/image.h"
 #include "vehtrack/road.h"
 #include "vehtrack/status.h"
@@ -292,6 +293,29 @@ static inline void fz_mutate_i32s(fz *f, void *cfg, size_t bytes)
         }
         memcpy(p + (size_t)idx * 4u, &v, 4);
     }
+}
+
+/* A box near a w x h frame: corner in [-4, w] x [-4, h], right / bottom within
+ * -1 .. span_w / span_h of it (inverted boxes included). */
+static inline vt_box fz_box_near(fz *f, int32_t w, int32_t h, int32_t span_w, int32_t span_h)
+{
+    vt_box b;
+    b.left = fz_range(f, -4, w);
+    b.top = fz_range(f, -4, h);
+    b.right = fz_near(f, b.left, -1, span_w);
+    b.bottom = fz_near(f, b.top, -1, span_h);
+    return b;
+}
+
+/* A box of edge values (0, +-1, the frame's size, INT32 extremes...). */
+static inline vt_box fz_box_edge(fz *f, int32_t w, int32_t h)
+{
+    vt_box b;
+    b.left = fz_edge(f, w);
+    b.top = fz_edge(f, h);
+    b.right = fz_edge(f, w);
+    b.bottom = fz_edge(f, h);
+    return b;
 }
 
 /* A road area for a w x h frame: mostly plausible (a trapezoid-free band with

@@ -23,19 +23,7 @@ static vt_q16 q16(fz *f, vt_q16 lo, vt_q16 hi)
 
 static vt_box box(fz *f, int32_t w, int32_t h)
 {
-    vt_box b;
-    if (fz_u8(f) < 220) {
-        b.left = fz_range(f, -4, w);
-        b.top = fz_range(f, -4, h);
-        b.right = fz_near(f, b.left, -1, 300);
-        b.bottom = fz_near(f, b.top, -1, 200);
-    } else {
-        b.left = fz_edge(f, w);
-        b.top = fz_edge(f, h);
-        b.right = fz_edge(f, w);
-        b.bottom = fz_edge(f, h);
-    }
-    return b;
+    return fz_u8(f) < 220 ? fz_box_near(f, w, h, 300, 200) : fz_box_edge(f, w, h);
 }
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);

@@ -20,22 +20,16 @@ static vt_box box(fz *f, int32_t w, int32_t h)
     vt_box b;
     uint8_t k = fz_u8(f);
     if (k < 200) {
-        b.left = fz_range(f, -4, w);
-        b.top = fz_range(f, -4, h);
-        b.right = fz_near(f, b.left, -1, 64);
-        b.bottom = fz_near(f, b.top, -1, 64);
-    } else if (k < 230) { /* at and past the +-4 VT_MAX limits */
+        return fz_box_near(f, w, h, 64, 64);
+    }
+    if (k < 230) { /* at and past the +-4 VT_MAX limits */
         b.left = fz_near(f, -4 * VT_MAX_WIDTH, -1, 1);
         b.top = fz_near(f, -4 * VT_MAX_HEIGHT, -1, 1);
         b.right = fz_near(f, 4 * VT_MAX_WIDTH, -1, 1);
         b.bottom = fz_near(f, 4 * VT_MAX_HEIGHT, -1, 1);
-    } else {
-        b.left = fz_edge(f, w);
-        b.top = fz_edge(f, h);
-        b.right = fz_edge(f, w);
-        b.bottom = fz_edge(f, h);
+        return b;
     }
-    return b;
+    return fz_box_edge(f, w, h);
 }
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);

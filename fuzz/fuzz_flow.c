@@ -16,21 +16,9 @@ static vt_flow_result g_out;
 
 static vt_box box(fz *f, const vt_image_u8 *img)
 {
-    vt_box b;
     int32_t w = img->w > 0 && img->w <= VT_MAX_WIDTH ? img->w : 64;
     int32_t h = img->h > 0 && img->h <= VT_MAX_HEIGHT ? img->h : 48;
-    if (fz_u8(f) < 220) {
-        b.left = fz_range(f, -4, w);
-        b.top = fz_range(f, -4, h);
-        b.right = fz_near(f, b.left, -1, 40);
-        b.bottom = fz_near(f, b.top, -1, 40);
-    } else {
-        b.left = fz_edge(f, w);
-        b.top = fz_edge(f, h);
-        b.right = fz_edge(f, w);
-        b.bottom = fz_edge(f, h);
-    }
-    return b;
+    return fz_u8(f) < 220 ? fz_box_near(f, w, h, 40, 40) : fz_box_edge(f, w, h);
 }
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
