@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import sys
 import time
 import warnings
@@ -71,8 +72,13 @@ def main(argv=None) -> int:
             warnings.simplefilter("always", DeprecationWarning)
             warnings.showwarning = lambda m, *a, **k: print(f"warning: {m}", file=sys.stderr)
             lim = take_renamed("eval_tusimple_boxes", lim, FULLDET_RENAMED)
-    except (TypeError, ValueError) as e:
-        ap.error(str(e).replace("_", "-"))
+    except (TypeError, ValueError) as e:   # name the flags, not the fields
+        msg = str(e).replace("eval_tusimple_boxes.", "").replace("eval_tusimple_boxes: ", "")
+        ap.error(re.sub(r"\b(nms_iou|nms_contain|merge_iou)(_permille)?\b",
+                        lambda m: "--" + m.group(0).replace("_", "-"), msg))
+    for k, v in lim.items():
+        if not 0 <= v <= 1000:
+            ap.error(f"--{k.replace('_', '-')}: expected 0..1000 (permille), got {v}")
     data = Path(args.data)
     ann = json.loads((data / "annotation.json").read_text())
     part = tusimple_split if args.split in ("train", "test") else tusimple_subsplit
