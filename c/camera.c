@@ -51,7 +51,7 @@ vt_status vt_camera_cfg_check(const vt_camera_cfg *c)
         !VT__IN((int64_t)c->height, 1, 100 * one) || !VT__IN(c->tan_pitch_min, -one, one) ||
         !VT__IN(c->tan_pitch_max, c->tan_pitch_min, one) ||
         !VT__IN(c->tan_pitch, c->tan_pitch_min, c->tan_pitch_max) ||
-        !VT__IN(c->pitch_max_step, 1, one) || !VT__IN(c->pitch_alpha_q8, 0, 256) ||
+        !VT__IN(c->pitch_max_step, 1, one) || !VT__IN(c->pitch_alpha_permille, 0, 1000) ||
         !VT__IN(c->pitch_reacquire, 1, 1000) || !VT__IN((int64_t)c->delta_px, 1, 64 * one) ||
         !VT__IN((int64_t)c->bottom_offset, -8 * one, 8 * one) ||
         !VT__IN((int64_t)c->vehicle_width, 1, 10 * one) || !VT__IN(c->width_tol_permille, 10, 10000)) {
@@ -150,7 +150,7 @@ vt_status vt_pitch_init(vt_pitch_state *st, const vt_camera_cfg *cam)
 vt_status vt_pitch_update(vt_pitch_state *st, const vt_camera_cfg *cam, int32_t vp_valid,
                           vt_q16 vp_row)
 {
-    int64_t m, step;
+    int64_t m;
     if (st == NULL || vt_camera_cfg_check(cam) != VT_OK || !VT__IN(vp_valid, 0, 1) ||
         !VT__IN(st->tan_pitch, -VT_Q16_ONE, VT_Q16_ONE)) {
         return VT_E_ARG;
@@ -173,8 +173,9 @@ vt_status vt_pitch_update(vt_pitch_state *st, const vt_camera_cfg *cam, int32_t 
         }
         st->tan_pitch = (vt_q16)m;
     } else {
-        step = vt__div_or((m - st->tan_pitch) * cam->pitch_alpha_q8, 256, 0);
-        st->tan_pitch = (vt_q16)(st->tan_pitch + step);
+        /* |m|, |tan_pitch| <= 2^16 here; the blend stays between them, so within
+         * the limits checked above. */
+        st->tan_pitch = (vt_q16)vt__blend_permille(st->tan_pitch, m, cam->pitch_alpha_permille);
     }
     st->outliers = 0;
     st->flag = VT_PITCH_MEASURED;

@@ -31,9 +31,10 @@ vt_status vt_fulldet_cfg_check(const vt_fulldet_cfg *cfg)
         return s;
     }
     if (cfg->sources < 1 || cfg->sources > 3 || (cfg->edge_check & ~1) != 0 ||
-        (cfg->shadow_classify & ~1) != 0 || cfg->nms_iou_q8 < 0 || cfg->nms_iou_q8 > 256 ||
-        cfg->nms_contain_q8 < 0 || cfg->nms_contain_q8 > 256 || cfg->box_height_q8 < 1 ||
-        cfg->box_height_q8 > 1024 || cfg->merge_iou_q8 < 0 || cfg->merge_iou_q8 > 256) {
+        (cfg->shadow_classify & ~1) != 0 || cfg->nms_iou_permille < 0 ||
+        cfg->nms_iou_permille > 1000 || cfg->nms_contain_permille < 0 ||
+        cfg->nms_contain_permille > 1000 || cfg->box_height_q8 < 1 || cfg->box_height_q8 > 1024 ||
+        cfg->merge_iou_permille < 0 || cfg->merge_iou_permille > 1000) {
         return VT_E_ARG;
     }
     return VT_OK;
@@ -49,9 +50,9 @@ static int32_t vt__mean_round(int64_t sum, int64_t n)
     return (int32_t)q;
 }
 
-/* Box refinement (fulldet.h, merge_iou_q8): *k becomes the mean of the
- * candidates overlapping it by IoU >= merge_q8 / 256 (k itself among them). */
-static void vt__merge(const vt_scored_box *cand, int32_t n, int32_t merge_q8, vt_scored_box *k)
+/* Box refinement (fulldet.h, merge_iou_permille): *k becomes the mean of the
+ * candidates overlapping it by IoU >= merge / 1000 (k itself among them). */
+static void vt__merge(const vt_scored_box *cand, int32_t n, int32_t merge, vt_scored_box *k)
 {
     int64_t sl = 0, st = 0, sr = 0, sb = 0, cnt = 0;
     const vt_box *a = &k->box;
@@ -69,7 +70,7 @@ static void vt__merge(const vt_scored_box *cand, int32_t n, int32_t merge_q8, vt
         }
         inter = iw * ih;
         uni = aa + ((int64_t)b->right - b->left + 1) * ((int64_t)b->bottom - b->top + 1) - inter;
-        if (inter * 256 >= (int64_t)merge_q8 * uni) {
+        if (inter * 1000 >= (int64_t)merge * uni) {
             sl += b->left;
             st += b->top;
             sr += b->right;
@@ -286,15 +287,15 @@ vt_status vt_fulldet(vt_fulldet_state *st, const vt_fulldet_cfg *cfg, const vt_c
     /* merge */
     {
         int32_t kept = 0;
-        s = vt_nms(st->cand, out->n_cand, cfg->nms_iou_q8, cfg->nms_contain_q8, &kept);
+        s = vt_nms(st->cand, out->n_cand, cfg->nms_iou_permille, cfg->nms_contain_permille, &kept);
         if (s != VT_OK) {
             return s;
         }
         out->n_boxes = kept < VT_MAX_BOXES ? kept : VT_MAX_BOXES;
         for (i = 0; i < out->n_boxes; ++i) {
             out->box[i] = st->cand[i];
-            if (cfg->merge_iou_q8 > 0) {
-                vt__merge(st->cand, out->n_cand, cfg->merge_iou_q8, &out->box[i]);
+            if (cfg->merge_iou_permille > 0) {
+                vt__merge(st->cand, out->n_cand, cfg->merge_iou_permille, &out->box[i]);
             }
         }
     }

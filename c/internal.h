@@ -47,6 +47,19 @@ static inline int32_t vt__clamp_i32(int32_t v, int32_t lo, int32_t hi)
     return v < lo ? lo : (v > hi ? hi : v);
 }
 
+/* The smoothing blend of every tracked quantity (the camera's pitch, the lane
+ * tracker's lines): prev + alpha (cur - prev), alpha = a / 1000 (a in 0..1000,
+ * checked by the caller's config check). The step (cur - prev) * a / 1000 is
+ * rounded half away from zero (C99 division truncates toward zero, so adding
+ * +-500 first rounds ties outward), which keeps the result between prev and cur
+ * (|step| <= |cur - prev|) and treats a rise and a fall alike. |cur - prev| <
+ * 2^52 keeps the product exact in int64; the callers' values are < 2^33. */
+static inline int64_t vt__blend_permille(int64_t prev, int64_t cur, int32_t a)
+{
+    int64_t n = (cur - prev) * a;
+    return prev + (n >= 0 ? n + 500 : n - 500) / 1000;
+}
+
 /* BORDER_REFLECT_101 index (as OpenCV's borderInterpolate): ... 2 1 | 0 1 2 ... n-1 | n-2 ...
  * reflected as often as needed, so tiny images work too. */
 static inline int32_t vt__reflect101(int32_t p, int32_t n)

@@ -147,7 +147,7 @@ vt_status vt_lane_cfg_check(const vt_lane_cfg *c)
         !VT__IN(c->seg_count_permille, 0, 1000) || !VT__IN(c->seg_miss_max, 0, 65535) ||
         !VT__IN(c->win_bottom_permille, 0, 1000) || !VT__IN(c->win_top, 0, 4096) ||
         !VT__IN(c->vp_margin, 0, 4096) || !VT__IN(c->top_margin_permille, 0, 1000) ||
-        !VT__IN(c->track_alpha_q8, 0, 256) || !VT__IN(c->track_hold, 0, 1000000) ||
+        !VT__IN(c->track_alpha_permille, 0, 1000) || !VT__IN(c->track_hold, 0, 1000000) ||
         !VT__IN(c->track_gate_permille, 0, 1000) ||
         !VT__IN(c->solo_vote_permille, 1000, 10000)) {
         return VT_E_ARG;
@@ -981,7 +981,7 @@ static void vt__line_from_cand(vt_lane_line *ln, const vt_lane_cand *c)
 static void vt__track(const vt_lane_cfg *cfg, const vt__geom *g, const vt_lane_line *prev,
                       vt_lane_line *cur)
 {
-    int64_t a = cfg->track_alpha_q8;
+    int32_t a = cfg->track_alpha_permille;
     if (cur->state == VT_LANE_NONE) {
         if (prev == NULL || prev->held >= cfg->track_hold) {
             return;
@@ -1000,10 +1000,11 @@ static void vt__track(const vt_lane_cfg *cfg, const vt__geom *g, const vt_lane_l
                          g->W, cfg->track_gate_permille)) {
         return;
     }
-    /* prev + a (cur - prev) / 256, round half up; |cur - prev| < 2^32. */
-    cur->xb = (vt_q16)(prev->xb + vt__floor_shr64(((int64_t)cur->xb - prev->xb) * a + 128, 8));
-    cur->slope = (vt_q16)(prev->slope +
-                          vt__floor_shr64(((int64_t)cur->slope - prev->slope) * a + 128, 8));
+    /* prev + a (cur - prev) / 1000, the step rounded half away from zero
+     * (vt__blend_permille); |cur - prev| < 2^32, and the result lies between
+     * prev and cur, so it fits vt_q16. */
+    cur->xb = (vt_q16)vt__blend_permille(prev->xb, cur->xb, a);
+    cur->slope = (vt_q16)vt__blend_permille(prev->slope, cur->slope, a);
 }
 
 /* ------------------------------------------------------------------ the frame */

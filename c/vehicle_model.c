@@ -42,7 +42,7 @@ vt_status vt_model_cfg_check(const vt_model_cfg *c)
             }
         }
     }
-    if (!vt__in(c->mut_percent, 0, 100) || !vt__in(c->w_sym, 0, 64) || !vt__in(c->w_grad, 0, 64) ||
+    if (!vt__in(c->mut_permille, 0, 1000) || !vt__in(c->w_sym, 0, 64) || !vt__in(c->w_grad, 0, 64) ||
         !vt__in(c->w_dist, 0, 64) || !vt__in(c->w_shadow, 0, 64) ||
         !vt__in(c->edge_thresh, 0, 2040) || !vt__in(c->dist_cap, 1, 64) ||
         !vt__in(c->horizon_row, -4 * VT_MAX_HEIGHT, 4 * VT_MAX_HEIGHT) ||
@@ -584,7 +584,10 @@ vt_status vt_model_fit(vt_model_ws *ws, const vt_model_cfg *cfg,
                     *vt__gene(&ch, k) = *vt__gene(&pop[(mask >> k) & 1 ? a : b], k);
                 }
                 for (k = 0; k < VT__GENES; k++) {
-                    if (vt__rand(&rs, 100) < cfg->mut_percent) {
+                    /* (r * 1000) >> 32 < p  <=>  r < p 2^32 / 1000: the same
+                     * decision as the percent draw of before, (r * 100) >> 32 <
+                     * p / 10, for every p that is a whole percent. */
+                    if (vt__rand(&rs, 1000) < cfg->mut_permille) {
                         *vt__gene(&ch, k) += vt__rand_pm(&rs, k < 4 ? jit : 5);
                     }
                 }

@@ -199,7 +199,8 @@ static int64_t vt__area(const vt_box *b)
 }
 
 /* 1 if box b is suppressed by the kept box a. */
-static int vt__suppress(const vt_box *a, const vt_box *b, int32_t iou_q8, int32_t contain_q8)
+static int vt__suppress(const vt_box *a, const vt_box *b, int32_t iou_permille,
+                        int32_t contain_permille)
 {
     int64_t iw = (int64_t)(a->right < b->right ? a->right : b->right) -
                  (a->left > b->left ? a->left : b->left) + 1;
@@ -210,16 +211,17 @@ static int vt__suppress(const vt_box *a, const vt_box *b, int32_t iou_q8, int32_
         return 0;
     }
     /* vt_nms limits coordinates to +-2^24, so areas < 2^51 and the products
-     * below (x 256) stay exact in int64 */
+     * below (x 1000 < 2^10) stay exact in int64 */
     inter = iw * ih;
     aa = vt__area(a);
     ab = vt__area(b);
     uni = aa + ab - inter;
     mn = aa < ab ? aa : ab;
-    return inter * 256 > (int64_t)iou_q8 * uni || inter * 256 > (int64_t)contain_q8 * mn;
+    return inter * 1000 > (int64_t)iou_permille * uni ||
+           inter * 1000 > (int64_t)contain_permille * mn;
 }
 
-vt_status vt_nms(vt_scored_box *boxes, int32_t n, int32_t iou_q8, int32_t contain_q8,
+vt_status vt_nms(vt_scored_box *boxes, int32_t n, int32_t iou_permille, int32_t contain_permille,
                  int32_t *n_out)
 {
     int32_t i, j, kept = 0;
@@ -227,8 +229,8 @@ vt_status vt_nms(vt_scored_box *boxes, int32_t n, int32_t iou_q8, int32_t contai
         return VT_E_ARG;
     }
     *n_out = 0;
-    if (n < 0 || (boxes == NULL && n > 0) || !vt__in(iou_q8, 0, 256) ||
-        !vt__in(contain_q8, 0, 256)) {
+    if (n < 0 || (boxes == NULL && n > 0) || !vt__in(iou_permille, 0, 1000) ||
+        !vt__in(contain_permille, 0, 1000)) {
         return VT_E_ARG;
     }
     if (n > VT_MAX_NMS_BOXES) {
@@ -256,7 +258,7 @@ vt_status vt_nms(vt_scored_box *boxes, int32_t n, int32_t iou_q8, int32_t contai
     for (i = 0; i < n; ++i) {
         int keep = 1;
         for (j = 0; j < kept && keep; ++j) {
-            keep = !vt__suppress(&boxes[j].box, &boxes[i].box, iou_q8, contain_q8);
+            keep = !vt__suppress(&boxes[j].box, &boxes[i].box, iou_permille, contain_permille);
         }
         if (keep) {
             if (kept != i) {

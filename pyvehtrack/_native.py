@@ -678,12 +678,13 @@ def windows_level(cfg, cam, road, w: int, h: int, level: int) -> np.ndarray:
     return out[: n[0]].copy()
 
 
-def nms(boxes: np.ndarray, iou_q8: int, contain_q8: int = 256) -> np.ndarray:
-    """vt_nms on a copy of a SCORED_BOX_DTYPE array -> the kept boxes, in order."""
+def nms(boxes: np.ndarray, iou_permille: int, contain_permille: int = 1000) -> np.ndarray:
+    """vt_nms on a copy of a SCORED_BOX_DTYPE array -> the kept boxes, in order (limits in
+    permille, 0..1000)."""
     a = np.ascontiguousarray(boxes, SCORED_BOX_DTYPE).copy()
     n = ffi.new("int32_t *")
     p = ffi.cast("vt_scored_box *", a.ctypes.data) if len(a) else ffi.NULL
-    check("vt_nms", lib.vt_nms(p, len(a), int(iou_q8), int(contain_q8), n), f"{len(a)} boxes")
+    check("vt_nms", lib.vt_nms(p, len(a), int(iou_permille), int(contain_permille), n), f"{len(a)} boxes")
     return a[: n[0]].copy()
 # ================================================================ end windows.h
 

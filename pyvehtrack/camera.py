@@ -186,7 +186,10 @@ class Camera:
                               tan_pitch=math.tan(math.radians(pitch)),
                               tan_pitch_min=math.tan(math.radians(pitch - PITCH_LIMIT_DEG)),
                               tan_pitch_max=math.tan(math.radians(pitch + PITCH_LIMIT_DEG)))
-        p = dataclasses.replace(p, **overrides)
+        # the names of before issue 10 (pitch_alpha_q8, width_tol_percent), converted when
+        # exact, with a DeprecationWarning; dataclasses.replace would see old and new together
+        from .shared import CAMERA_RENAMED, take_renamed  # noqa: PLC0415
+        p = dataclasses.replace(p, **take_renamed("camera", dict(overrides), CAMERA_RENAMED))
         return params_from_c(params_to_c(p))
 
 
@@ -223,7 +226,7 @@ def camera_params(cam: Camera, img_w: int, img_h: int, **kw) -> CameraParams:
 
 _CAM_Q16 = ("fx", "fy", "cx", "cy", "height", "tan_pitch", "tan_pitch_min", "tan_pitch_max",
             "pitch_max_step", "delta_px", "bottom_offset", "vehicle_width")
-_CAM_INT = ("img_w", "img_h", "pitch_alpha_q8", "pitch_reacquire", "width_tol_permille")
+_CAM_INT = ("img_w", "img_h", "pitch_alpha_permille", "pitch_reacquire", "width_tol_permille")
 _RNG_Q16 = ("frame_dt", "jerk_sigma", "init_sigma_rate", "init_sigma_accel", "sigma_min", "ttc_max",
             "ttc_stopped", "ttc_slower", "ttc_decel", "ttc_margin", "min_closing", "stopped_speed",
             "decel_thresh", "rear_offset")

@@ -24,7 +24,7 @@ import numpy as np
 from . import _check, _native
 from ._native import ffi, lib
 from .kalman import ModelConfig, Q16_ONE
-from .shared import SEARCH_RENAMED, SHADOW_RENAMED, TRACKER_RENAMED, VERIFY_RENAMED, accept_renamed
+from .shared import LANE_RENAMED, SEARCH_RENAMED, SHADOW_RENAMED, TRACKER_RENAMED, VERIFY_RENAMED, accept_renamed
 
 def _int_config(name: str, ctype: str, doc: str, c=None):
     """A frozen dataclass with one int field per field of C struct `ctype`, in the
@@ -36,8 +36,9 @@ def _int_config(name: str, ctype: str, doc: str, c=None):
     return cls
 
 
-LaneConfig = _int_config("LaneConfig", "vt_lane_cfg",
-                         "vt_lane_cfg (vehtrack/lane.h): lane lines and the road area.")
+LaneConfig = accept_renamed(_int_config("LaneConfig", "vt_lane_cfg",
+                                        "vt_lane_cfg (vehtrack/lane.h): lane lines and the road area."),
+                           LANE_RENAMED)
 ShadowConfig = accept_renamed(_int_config("ShadowConfig", "vt_shadow_cfg",
                                           "vt_shadow_cfg (vehtrack/shadow.h): shadow hypotheses."),
                               SHADOW_RENAMED)

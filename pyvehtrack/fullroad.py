@@ -18,10 +18,13 @@ window are resampled to it per window (vt_classify_box: slower, same classifier)
 Optionally `detector_json`, the detector settings chosen with the model (so
 `pyvehtrack detect --model M.npz` runs as it was validated): a JSON object with any of
 "sources" (list), "score_offset" (float, added to threshold_q16 for detection only, the
-caller's score_offset adds on top), "nms_iou", "nms_contain", "box_height", "merge_iou"
-(floats, as FullDetConfig), "veh_w_min", "veh_w_max" (floats, m: the flat-road
+caller's score_offset adds on top), "nms_iou_permille", "nms_contain_permille",
+"merge_iou_permille" (ints 0..1000, as FullDetConfig), "box_height" (float), "veh_w_min", "veh_w_max" (floats, m: the flat-road
 vehicle width band of the windows, WindowConfig.veh_w_min_m / veh_w_max_m) and "verify_min" (float: a second stage, the built-in HOG 64x64 MLP on
 each box, keeps boxes it scores >= this; vt_fulldet_verify). Explicit arguments win.
+Files written before issue 10 name the three limits "nms_iou", "nms_contain", "merge_iou"
+(float fractions): they are still read, x 1000 when that is a whole number of permille
+as written (0.2 -> 200), with a DeprecationWarning (shared.FULLDET_RENAMED).
 """
 from __future__ import annotations
 
@@ -33,7 +36,7 @@ import numpy as np
 from . import _native
 from ._native import ffi, lib
 from .shared import Camera as FrameCamera
-from .shared import FullDetConfig, RoadArea
+from .shared import FULLDET_RENAMED, FullDetConfig, RoadArea, take_renamed
 
 SOURCES = ("shadow", "windows")
 # What Detector(model=...) uses when no sources are given: with the HOG 32x32 window
@@ -112,9 +115,9 @@ class MlpModel:
     settings: dict = field(default_factory=dict)
 
 
-_SETTINGS = {"score_offset": (-32768.0, 32767.0), "nms_iou": (0.0, 1.0), "nms_contain": (0.0, 1.0), "box_height": (1 / 256, 4.0),
-             "merge_iou": (0.0, 1.0), "verify_min": (-32768.0, 32767.0), "veh_w_min": (0.1, 20.0),
-             "veh_w_max": (0.1, 20.0)}
+_SETTINGS = {"score_offset": (-32768.0, 32767.0), "box_height": (1 / 256, 4.0),
+             "verify_min": (-32768.0, 32767.0), "veh_w_min": (0.1, 20.0), "veh_w_max": (0.1, 20.0)}
+_PERMILLE = ("nms_iou_permille", "nms_contain_permille", "merge_iou_permille")   # ints 0..1000
 
 
 def _settings(z, p) -> dict:
@@ -127,8 +130,12 @@ def _settings(z, p) -> dict:
         raise ValueError(f"model: {p}: detector_json is not JSON ({e})") from None
     if not isinstance(d, dict):
         raise ValueError(f"model: {p}: detector_json must be a JSON object")
+    d = take_renamed(f"model {p}: detector_json", d, FULLDET_RENAMED, stacklevel=5)
     for k, v in d.items():
-        if k == "sources":
+        if k in _PERMILLE:
+            if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v <= 1000:
+                raise ValueError(f"model: {p}: detector_json {k} must be an int in 0..1000, got {v!r}")
+        elif k == "sources":
             if not isinstance(v, list) or not v or any(x not in SOURCES for x in v):
                 raise ValueError(f"model: {p}: detector_json sources must be a non-empty subset of {SOURCES}")
         elif k in _SETTINGS:
@@ -137,7 +144,7 @@ def _settings(z, p) -> dict:
                 raise ValueError(f"model: {p}: detector_json {k} must be a number in {lo}..{hi}, got {v!r}")
         else:
             raise ValueError(f"model: {p}: detector_json has an unknown key {k!r} "
-                             f"(known: sources, {', '.join(_SETTINGS)})")
+                             f"(known: sources, {', '.join(_PERMILLE + tuple(_SETTINGS))})")
     if d.get("veh_w_min", 0.0) > d.get("veh_w_max", 20.0):
         raise ValueError(f"model: {p}: detector_json veh_w_min must not exceed veh_w_max")
     return d
@@ -244,9 +251,14 @@ def _c_cfg(cfg: FullDetConfig):
     c.window_score_min, c.edge_check = int(cfg.window_score_min), int(bool(cfg.edge_check))
     c.shadow_classify = int(bool(cfg.shadow_classify))
     c.shadow_score_min, c.shadow_score = int(cfg.shadow_score_min), int(cfg.shadow_score)
-    c.nms_iou_q8, c.nms_contain_q8 = round(cfg.nms_iou * 256), round(cfg.nms_contain * 256)
+    for f in ("nms_iou_permille", "nms_contain_permille", "merge_iou_permille"):
+        v = getattr(cfg, f)
+        if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)):
+            raise TypeError(f"cfg.{f}: expected an int (permille), got {type(v).__name__}")
+        if not 0 <= v <= 1000:
+            raise ValueError(f"cfg.{f}: expected 0..1000 (permille), got {v}")
+        setattr(c, f, int(v))
     c.box_height_q8 = round(cfg.box_height * 256)
-    c.merge_iou_q8 = round(cfg.merge_iou * 256)
     _native.check("vt_fulldet_cfg_check", lib.vt_fulldet_cfg_check(c), f"config {cfg}")
     return c
 
@@ -283,8 +295,8 @@ def setup(model=None, sources=SOURCES, camera: Camera | None = None, cfg: FullRo
     st = getattr(model, "settings", {}) or {}
     det = cfg.det
     if det is None:
-        det = replace(FullDetConfig(), **{k: float(st[k]) for k in ("nms_iou", "nms_contain", "box_height",
-                                                                     "merge_iou") if k in st})
+        det = replace(FullDetConfig(), **{k: int(st[k]) for k in _PERMILLE if k in st},
+                      **({"box_height": float(st["box_height"])} if "box_height" in st else {}))
         if "veh_w_min" in st or "veh_w_max" in st:
             det = replace(det, win=replace(det.win, veh_w_min_m=float(st.get("veh_w_min", det.win.veh_w_min_m)),
                                            veh_w_max_m=float(st.get("veh_w_max", det.win.veh_w_max_m))))
@@ -301,9 +313,8 @@ def setup(model=None, sources=SOURCES, camera: Camera | None = None, cfg: FullRo
         sizes = model.scan_sizes or (model.win_w,)
         if det.win.sizes != sizes and model.win_w == model.win_h:
             det = replace(det, win=replace(det.win, sizes=sizes, step=8 / model.win_w))
-    # the C core holds these in Q8: give the oracle the same quantised values
-    det = replace(det, **{k: round(getattr(det, k) * 256) / 256
-                          for k in ("nms_iou", "nms_contain", "box_height", "merge_iou")})
+    # the C core holds the box height in Q8: give the oracle the same quantised value
+    det = replace(det, box_height=round(det.box_height * 256) / 256)
     det = replace(det, shadow_source="shadow" in sources, window_source="windows" in sources,
                   window_score_min=thr, shadow_score_min=thr,
                   shadow_classify=det.shadow_classify and model is not None)

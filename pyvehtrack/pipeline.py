@@ -623,8 +623,9 @@ def _whole_road_reference(rcfg, c):
                                        rverify.VerifyConfig.__dataclass_fields__}),
         window_score_min=int(f.window_score_min), edge_check=bool(f.edge_check),
         shadow_classify=bool(f.shadow_classify), shadow_score_min=int(f.shadow_score_min),
-        shadow_score=int(f.shadow_score), nms_iou=f.nms_iou_q8 / 256, nms_contain=f.nms_contain_q8 / 256,
-        box_height=f.box_height_q8 / 256)
+        shadow_score=int(f.shadow_score), nms_iou_permille=int(f.nms_iou_permille),
+        nms_contain_permille=int(f.nms_contain_permille), box_height=f.box_height_q8 / 256,
+        merge_iou_permille=int(f.merge_iou_permille))
     rc = c.road_camera
     cam = rpipe.RoadCameraRef(rc.horizon_q16 / 65536, rc.hood_q16 / 65536, rc.height_mm / 1000,
                               rc.fx_per_w_q16 / 65536)

@@ -89,10 +89,10 @@ class FullDetConfig:
     shadow_classify: bool = True
     shadow_score_min: int = 0
     shadow_score: int = 0
-    nms_iou: float = 77 / 256
-    nms_contain: float = 179 / 256
-    box_height: float = 192 / 256     # window box height / width (bottom row kept)
-    merge_iou: float = 0.0            # 0: off; else each kept box -> mean of candidates with IoU >= this
+    nms_iou_permille: int = 301       # NMS: drop a box whose IoU with a kept one is above this / 1000
+    nms_contain_permille: int = 699   # ... or whose intersection is above this / 1000 of the smaller box
+    box_height: float = 192 / 256     # window box height / width (bottom row kept; C: Q8, may exceed 1)
+    merge_iou_permille: int = 0       # 0: off; else each kept box -> mean of candidates with IoU >= this / 1000
 
 
 @dataclass
@@ -154,6 +154,13 @@ SEARCH_RENAMED = {"min_h_percent": ("min_h_permille", 10), "min_v_percent": ("mi
 # Q8 fractions of at most 1 (256 = 1.0): new = old * 1000 / 256, accepted only where exact.
 SHADOW_RENAMED = {"reduce_overlap_q8": ("reduce_overlap_permille", Fraction(1000, 256))}
 VERIFY_RENAMED = {"side_min_frac_q8": ("side_min_frac_permille", Fraction(1000, 256))}
+LANE_RENAMED = {"track_alpha_q8": ("track_alpha_permille", Fraction(1000, 256))}
+# vt_fulldet_cfg: FullDetConfig took these as float fractions (C rounded them to Q8); now
+# permille ints. An old value is taken when it is a whole number of permille as written
+# (0.2 -> 200, 0.3 -> 300), else a ValueError (77 / 256 = 0.30078125 is not rounded).
+FULLDET_RENAMED = {"nms_iou": ("nms_iou_permille", 1000, "fraction"),
+                   "nms_contain": ("nms_contain_permille", 1000, "fraction"),
+                   "merge_iou": ("merge_iou_permille", 1000, "fraction")}
 # vt_flow_cfg (pyvehtrack.flow.make_cfg): percent -> permille, x 10
 FLOW_RENAMED = {"strip_percent": ("strip_permille", 10), "top_percent": ("top_permille", 10),
                 "bottom_percent": ("bottom_permille", 10), "diff_min_percent": ("diff_min_permille", 10),
@@ -164,16 +171,19 @@ def take_renamed(owner: str, kw: dict, renamed: dict, stacklevel: int = 3) -> di
     """kw with every old name in `renamed` replaced by its new one (new = old x factor), with a
     DeprecationWarning. A value that is not an int is passed on as it is, so the config's own
     check names the field and the type; an int whose new value would not be a whole number
-    is a ValueError (never rounded silently); old and new together is a TypeError."""
-    for old, (new, factor) in renamed.items():
+    is a ValueError (never rounded silently); old and new together is a TypeError. An entry
+    (new, factor, "fraction") takes a float fraction too, read as its shortest decimal
+    (repr: 0.3 is 3/10), so 0.3 x 1000 is 300 and 0.30078125 x 1000 a ValueError."""
+    for old, (new, factor, *kind) in renamed.items():
         if old in kw:
             if new in kw:
                 raise TypeError(f"{owner}: give {new} or the deprecated {old}, not both")
             warnings.warn(f"{owner}.{old} is deprecated: use {new} (= {old} x {factor})",
                           DeprecationWarning, stacklevel=stacklevel)
             v = kw.pop(old)
-            if isinstance(v, (int, np.integer)) and not isinstance(v, bool):
-                nv = Fraction(int(v)) * factor
+            fraction = kind == ["fraction"] and isinstance(v, (float, np.floating)) and math.isfinite(v)
+            if fraction or (isinstance(v, (int, np.integer)) and not isinstance(v, bool)):
+                nv = (Fraction(repr(float(v))) if fraction else Fraction(int(v))) * factor
                 if nv.denominator != 1:
                     raise ValueError(f"{owner}.{old}={v}: is {float(nv)} in {new}, not a whole "
                                      f"number; give {new} instead")
@@ -193,7 +203,7 @@ def accept_renamed(cls, renamed: dict):
 
     __init__.__wrapped__ = init
     cls.__init__ = __init__
-    for old, (new, factor) in renamed.items():
+    for old, (new, factor, *_) in renamed.items():
         def _get(self, old=old, new=new, factor=factor):
             warnings.warn(f"{type(self).__name__}.{old} is deprecated: use {new} (= {old} x {factor})",
                           DeprecationWarning, stacklevel=2)
@@ -205,6 +215,7 @@ def accept_renamed(cls, renamed: dict):
 
 accept_renamed(ShadowConfig, SHADOW_RENAMED)  # the Q8 names of before issue 10
 accept_renamed(VerifyConfig, VERIFY_RENAMED)
+accept_renamed(FullDetConfig, FULLDET_RENAMED)  # the float fractions of before issue 10
 
 
 # ---------------------------------------------------------------- lanes (vt_lane_cfg, lane.h)
@@ -262,12 +273,14 @@ class LaneConfig:
     win_top: int = 2                  # ... this many px at the vanishing row
     vp_margin: int = 2                # without a VP: never above roi_top + this
     top_margin_permille: int = 37     # with a VP: lanes end H*this/1000 rows below it
-    track_alpha_q8: int = 128         # smoothing gain toward the new line, Q8
+    track_alpha_permille: int = 500   # smoothing gain toward the new line, permille
     track_hold: int = 5               # frames a hidden marking's line is kept
     track_gate_permille: int = 31     # farther than W*this/1000 px: replace, not smooth
     solo_vote_permille: int = 1500    # no ego pair at a plausible vanishing point: a line
                                       # needs votes >= vote floor * this / 1000
 
+
+accept_renamed(LaneConfig, LANE_RENAMED)  # the Q8 gain of before issue 10
 
 
 def lane_config_from(obj) -> LaneConfig:
@@ -373,7 +386,7 @@ class CameraParams:
     tan_pitch_min: float = math.tan(math.radians(-3))
     tan_pitch_max: float = math.tan(math.radians(3))
     pitch_max_step: float = 0.02
-    pitch_alpha_q8: int = 64
+    pitch_alpha_permille: int = 250   # smoothing gain of the pitch, permille
     pitch_reacquire: int = 5
     delta_px: float = 1.0
     bottom_offset: float = 0.5
@@ -455,8 +468,12 @@ class TrackBase:
 
 
 # vt_model_cfg (pyvehtrack.vehicle_model.make_cfg): percent -> permille, x 10
+# mut_percent -> mut_permille is exact for the GA's draw too: (r * 1000) >> 32 < 10 p
+# exactly when (r * 100) >> 32 < p (both say r < p 2^32 / 100).
 MODEL_RENAMED = {"width_tol_percent": ("width_tol_permille", 10),
                  "aspect_min_percent": ("aspect_min_permille", 10),
-                 "aspect_max_percent": ("aspect_max_permille", 10)}
-CAMERA_RENAMED = {"width_tol_percent": ("width_tol_permille", 10)}
-accept_renamed(CameraParams, CAMERA_RENAMED)  # the percent name of before issue 10
+                 "aspect_max_percent": ("aspect_max_permille", 10),
+                 "mut_percent": ("mut_permille", 10)}
+CAMERA_RENAMED = {"width_tol_percent": ("width_tol_permille", 10),
+                  "pitch_alpha_q8": ("pitch_alpha_permille", Fraction(1000, 256))}
+accept_renamed(CameraParams, CAMERA_RENAMED)  # the percent / Q8 names of before issue 10

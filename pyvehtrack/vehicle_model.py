@@ -32,7 +32,8 @@ class ModelFit:
 
 def make_cfg(road=None, **overrides):
     """The C defaults with keyword overrides, checked by C; the percent names of before
-    issue 10 (width_tol_percent, aspect_min/max_percent) are taken x 10, with a warning."""
+    issue 10 (width_tol_percent, aspect_min/max_percent, mut_percent) are taken x 10, with a
+    warning (exact for mut_percent too: the GA's draw makes the same decisions)."""
     cfg = _native.model_cfg_default()
     overrides = take_renamed("vehicle_model", overrides, MODEL_RENAMED)
     for k, v in overrides.items():

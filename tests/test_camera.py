@@ -105,14 +105,17 @@ def test_box_distance_matches_oracle(pc, l, w, b, hgt, tp):
         assert abs(out.sigma / Q - ref.sigma) <= t / 2 + LSB
 
 
-@given(st.integers(32, 256), st.lists(st.one_of(st.none(), st.floats(100, 400)), min_size=1,
-                                      max_size=60), st.integers(1, 6))
+@given(st.integers(125, 1000), st.lists(st.one_of(st.none(), st.floats(100, 400)), min_size=1,
+                                       max_size=60), st.integers(1, 6))
 def test_pitch_matches_oracle(alpha, vps, reacq):
-    p, c = cam_params(tp=0.01, pitch_alpha_q8=alpha, pitch_reacquire=reacq,
+    p, c = cam_params(tp=0.01, pitch_alpha_permille=alpha, pitch_reacquire=reacq,
                       tan_pitch_min=-0.08, tan_pitch_max=0.1)
     st_c = _native.pitch_new(c)
     ref = rc.PitchEstimator(p)
-    bound = (0.5 + 0.5) / (alpha / 256) + 1
+    # per update C rounds m (one division, <= 0.5 LSB) and the blend's step (<= 0.5 LSB);
+    # the filter keeps (1 - a) of the error it had, so the error stays <= (0.5 + 0.5) / a,
+    # plus 1 LSB for the nominal pitch's own rounding
+    bound = (0.5 + 0.5) / (alpha / 1000) + 1
     for vp in vps:
         if vp is None:
             _native.pitch_update(c, st_c, 0, 0)
@@ -130,6 +133,41 @@ def test_pitch_matches_oracle(alpha, vps, reacq):
         assert st_c.flag == ref.flag
         assert abs(st_c.tan_pitch / Q - ref.tan_pitch) <= bound * LSB
 
+
+
+def _round_half_away(n: int, d: int) -> int:
+    q = (abs(n) + d // 2) // d
+    return q if n >= 0 else -q
+
+
+@given(st.integers(0, 1000), st.integers(-3000, 3000), st.integers(-30000, 30000))
+def test_pitch_blend_rounds_half_away_from_zero(alpha, tp0, dv):
+    """The blend's stated rule, in integers: tan_pitch + round_half_away((m - tan_pitch) *
+    pitch_alpha_permille / 1000) (Q16), m = round_half_away((cy - vp_row) * 65536 / fy)."""
+    p, c = cam_params(tp=tp0 / Q, pitch_alpha_permille=alpha, tan_pitch_min=-0.05, tan_pitch_max=0.05)
+    st_c = _native.pitch_new(c)
+    tp = int(st_c.tan_pitch)
+    vq = int(c.cy) + dv * 16                     # vanishing row near the principal point
+    m = _round_half_away((int(c.cy) - vq) * 65536, int(c.fy))
+    assume(int(c.tan_pitch_min) <= m <= int(c.tan_pitch_max) and abs(m - tp) <= int(c.pitch_max_step))
+    _native.pitch_update(c, st_c, 1, vq)
+    assert st_c.flag == lib.VT_PITCH_MEASURED
+    assert st_c.tan_pitch == tp + _round_half_away((m - tp) * alpha, 1000)
+    assert min(tp, m) <= st_c.tan_pitch <= max(tp, m)
+
+
+def test_pitch_blend_ties_go_away_from_zero():
+    """Half a Q16 LSB either way (alpha 0.5, m - tan_pitch = +-1) lands on m both times:
+    a rise and a fall are rounded alike (round half up would stop short on the fall)."""
+    p, c = cam_params(tp=0.0, pitch_alpha_permille=500)
+    vq = int(c.cy) - 7 * 65536
+    m = _round_half_away((int(c.cy) - vq) * 65536, int(c.fy))
+    for start in (m - 1, m + 1, m - 3, m + 3):
+        st_c = _native.pitch_new(c)
+        st_c.tan_pitch = start
+        _native.pitch_update(c, st_c, 1, vq)
+        assert st_c.tan_pitch == start + _round_half_away((m - start) * 500, 1000)
+        assert st_c.tan_pitch == (m if abs(m - start) == 1 else start + (2 if m > start else -2))
 
 def test_pitch_rejects_implausible_and_holds():
     p, c = cam_params(tp=0.0)
@@ -291,7 +329,8 @@ def test_camera_cfg_bad_values():
     p, c = cam_params()
     assert lib.vt_camera_cfg_check(ffi.NULL) == lib.VT_E_ARG
     for field, val in [("fx", 0), ("fy", -65536), ("height", 0), ("tan_pitch", 2 * 65536),
-                       ("tan_pitch_min", 65536), ("pitch_alpha_q8", 257), ("delta_px", 0),
+                       ("tan_pitch_min", 65536), ("pitch_alpha_permille", 1001),
+                       ("pitch_alpha_permille", -1), ("delta_px", 0),
                        ("vehicle_width", 0), ("width_tol_permille", 9)]:
         bad = ffi.new("vt_camera_cfg *", c[0])
         setattr(bad, field, val)

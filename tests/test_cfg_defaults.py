@@ -28,8 +28,10 @@ RENAMED: dict[str, tuple[str, int | Fraction]] = {
     "vt_flow_cfg.bottom_percent": ("bottom_permille", 10),
     "vt_flow_cfg.diff_min_percent": ("diff_min_permille", 10),
     "vt_flow_cfg.seed_min_visible": ("seed_min_visible_permille", 10),
-    # vehicle_model.h (the GA's mut_percent stays: its random draw is r % 100)
+    # vehicle_model.h; mut_percent too: the GA's draw (r * n) >> 32 < p decides the same for
+    # n = 100, p and n = 1000, 10 p (tests/test_vehicle_model.py), so the individuals stay
     "vt_model_cfg.width_tol_percent": ("width_tol_permille", 10),
+    "vt_model_cfg.mut_percent": ("mut_permille", 10),
     "vt_model_cfg.aspect_min_percent": ("aspect_min_permille", 10),
     "vt_model_cfg.aspect_max_percent": ("aspect_max_permille", 10),
     # camera.h
@@ -37,6 +39,19 @@ RENAMED: dict[str, tuple[str, int | Fraction]] = {
     # Q8 fractions of at most 1 -> permille (x 1000/256, exact on the recorded defaults)
     "reduce_overlap_q8": ("reduce_overlap_permille", Fraction(1000, 256)),
     "side_min_frac_q8": ("side_min_frac_permille", Fraction(1000, 256)),
+    # smoothing gains (64 -> 250, 128 -> 500: exact; the blend's rounding rule changed for
+    # the lanes, half up -> half away from zero, which moves a line by 1 Q16 LSB at a tie)
+    "vt_camera_cfg.pitch_alpha_q8": ("pitch_alpha_permille", Fraction(1000, 256)),
+    "track_alpha_q8": ("track_alpha_permille", Fraction(1000, 256)),
+}
+
+# Deliberate changes of name AND value (issue 10 item 6): a Q8 fraction with no exact
+# permille takes the nearest one, round(q8 * 1000 / 256); re-validated on held-out data
+# (the whole-road detector's TEST split; see the README). old path -> (new last field,
+# value before, value now).
+CHANGED: dict[str, tuple[str, int, int]] = {
+    "vt_fulldet_cfg.nms_iou_q8": ("nms_iou_permille", 77, 301),          # 0.30078 -> 0.301
+    "vt_fulldet_cfg.nms_contain_q8": ("nms_contain_permille", 179, 699),  # 0.69922 -> 0.699
 }
 
 
@@ -76,8 +91,13 @@ def _renamed(path: str, value: int) -> tuple[str, int]:
 
 
 def test_every_default_value_is_unchanged():
-    before = dict(_renamed(k, v) for k, v in _before().items())
+    recorded = _before()
     now = _now()
+    for old, (new, was, is_) in CHANGED.items():
+        assert recorded.pop(old) == was, old                   # the table says what it was
+        assert is_ == round(Fraction(was * 1000, 256)), old     # the nearest permille
+        assert now[f"{old.rpartition('.')[0]}.{new}"] == is_, old
+    before = dict(_renamed(k, v) for k, v in recorded.items())
     assert len(before) > 400  # the table covers every config, not a sample
     missing = sorted(set(before) - set(now))
     assert not missing, f"fields vanished (renamed without an entry in RENAMED?): {missing[:10]}"
@@ -135,3 +155,38 @@ def test_old_camera_percent_name_still_works():
     with pytest.warns(DeprecationWarning, match="width_tol_permille"):
         assert CameraParams(*base, width_tol_percent=30) == CameraParams(*base, width_tol_permille=300)
     assert CameraParams(*base).width_tol_permille == 250
+
+
+def test_old_gain_and_fulldet_names_still_work():
+    """pitch_alpha_q8 / track_alpha_q8 (Q8, exact when a multiple of 32) and FullDetConfig's
+    float fractions nms_iou / nms_contain / merge_iou (exact when whole permille as written)
+    are taken under their old names with a DeprecationWarning; anything else is an error,
+    never rounded."""
+    import pytest
+
+    from pyvehtrack import config, shared
+    from pyvehtrack.camera import Camera
+    from pyvehtrack.reference.camera import CameraParams
+    base = (640, 480, 700.0, 700.0, 320.0, 240.0, 1.2)
+    with pytest.warns(DeprecationWarning, match="pitch_alpha_permille"):
+        assert CameraParams(*base, pitch_alpha_q8=64) == CameraParams(*base)
+    with pytest.warns(DeprecationWarning), pytest.raises(ValueError, match="pitch_alpha_permille"):
+        CameraParams(*base, pitch_alpha_q8=77)
+    cam = Camera(fx=700.0, fy=700.0, cx=320.0, cy=240.0, height_m=1.2)
+    with pytest.warns(DeprecationWarning, match="pitch_alpha_permille"):
+        assert cam.params(640, 480, pitch_alpha_q8=128).pitch_alpha_permille == 500
+    for cls in (config.LaneConfig, shared.LaneConfig):
+        with pytest.warns(DeprecationWarning, match="track_alpha_permille"):
+            assert cls(track_alpha_q8=128) == cls(track_alpha_permille=500) == cls()
+        with pytest.warns(DeprecationWarning, match="track_alpha_permille"):
+            assert cls().track_alpha_q8 == 128
+    fd = shared.FullDetConfig
+    with pytest.warns(DeprecationWarning, match="nms_iou_permille"):
+        assert fd(nms_iou=0.2, nms_contain=0.5, merge_iou=0.3) == fd(nms_iou_permille=200, nms_contain_permille=500,
+                                                                    merge_iou_permille=300)
+    with pytest.warns(DeprecationWarning), pytest.raises(ValueError, match="nms_iou_permille"):
+        fd(nms_iou=77 / 256)
+    with pytest.raises(TypeError, match="not both"):
+        fd(merge_iou=0.3, merge_iou_permille=300)
+    with pytest.warns(DeprecationWarning, match="nms_contain_permille"):
+        assert fd().nms_contain == 0.699

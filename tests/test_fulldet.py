@@ -67,9 +67,9 @@ def c_cfg(cfg: rfd.FullDetConfig):
     c.window_score_min, c.edge_check = cfg.window_score_min, int(cfg.edge_check)
     c.shadow_classify, c.shadow_score_min, c.shadow_score = int(cfg.shadow_classify), cfg.shadow_score_min, \
         cfg.shadow_score
-    c.nms_iou_q8, c.nms_contain_q8 = round(cfg.nms_iou * 256), round(cfg.nms_contain * 256)
+    c.nms_iou_permille, c.nms_contain_permille = cfg.nms_iou_permille, cfg.nms_contain_permille
     c.box_height_q8 = round(cfg.box_height * 256)
-    c.merge_iou_q8 = round(cfg.merge_iou * 256)
+    c.merge_iou_permille = cfg.merge_iou_permille
     assert lib.vt_fulldet_cfg_check(c) == 0
     return c
 
@@ -123,7 +123,7 @@ def test_without_scorer_shadow_only():
 
 @settings(max_examples=12)
 @given(st.integers(0, 2 ** 31 - 1), st.booleans(), st.booleans(), st.booleans(), st.integers(-20, 20),
-       st.integers(0, 256), st.integers(0, 256), st.integers(1, 1024))
+       st.integers(0, 1000), st.integers(0, 1000), st.integers(1, 1024))
 def test_random_frames_match_oracle(seed, shadow, windows, edge, smin, iou, contain, bh):
     rng = np.random.default_rng(seed)
     h, w = int(rng.integers(24, min(MAXH, 160))), int(rng.integers(24, min(MAXW, 220)))
@@ -138,7 +138,7 @@ def test_random_frames_match_oracle(seed, shadow, windows, edge, smin, iou, cont
     cfg = rfd.FullDetConfig(shadow_source=shadow or not windows, window_source=windows,
                             win=rw.WindowConfig(sizes=(8, 11, 16), levels=3, step=0.25),
                             edge_check=edge, window_score_min=smin, shadow_score_min=smin,
-                            nms_iou=iou / 256, nms_contain=contain / 256, box_height=bh / 256)
+                            nms_iou_permille=iou, nms_contain_permille=contain, box_height=bh / 256)
     got, ref, cst, rst, _ = run_both(gray, cam, cfg)
     assert cst == rst
     assert np.array_equal(got, ref)
@@ -163,7 +163,10 @@ def test_bad_arguments_and_scorer_error():
     bad.sources = 0
     assert lib.vt_fulldet_cfg_check(bad) == lib.VT_E_ARG
     bad = _native.fulldet_cfg_default()
-    bad.nms_iou_q8 = 300
+    bad.nms_iou_permille = 1001
+    assert lib.vt_fulldet_cfg_check(bad) == lib.VT_E_ARG
+    bad = _native.fulldet_cfg_default()
+    bad.nms_contain_permille = -1
     assert lib.vt_fulldet_cfg_check(bad) == lib.VT_E_ARG
     bad = _native.fulldet_cfg_default()
     bad.win.levels = 0
@@ -184,7 +187,7 @@ def test_c_default_config_equals_oracle_default():
     assert lib.vt_fulldet_cfg_check(c) == 0
     cc = c_cfg(rfd.FullDetConfig())
     for name in ("sources", "window_score_min", "edge_check", "shadow_classify", "shadow_score_min", "shadow_score",
-                 "nms_iou_q8", "nms_contain_q8", "box_height_q8", "merge_iou_q8"):
+                 "nms_iou_permille", "nms_contain_permille", "box_height_q8", "merge_iou_permille"):
         assert getattr(c, name) == getattr(cc, name), name
     assert bytes(ffi.buffer(ffi.addressof(c, "win"))) == bytes(ffi.buffer(ffi.addressof(cc, "win")))
     ref = rfd.FullDetConfig()
@@ -194,22 +197,22 @@ def test_c_default_config_equals_oracle_default():
         assert getattr(c.det.shadow, f) == getattr(ref.shadow, f), f
 
 
-# ---------------------------------------------------------------- box refinement (merge_iou_q8)
+# ---------------------------------------------------------------- box refinement (merge_iou_permille)
 @settings(max_examples=12)
-@given(st.integers(0, 2 ** 31 - 1), st.integers(1, 256), st.integers(0, 256), st.integers(-20, 10))
+@given(st.integers(0, 2 ** 31 - 1), st.integers(1, 1000), st.integers(0, 1000), st.integers(-20, 10))
 def test_merge_matches_oracle(seed, merge, iou, smin):
-    """With merge_iou_q8 > 0 each kept box is the mean (rounded half up) of the
+    """With merge_iou_permille > 0 each kept box is the mean (rounded half up) of the
     candidates overlapping it: C and oracle agree exactly, scores and sources untouched."""
     rng = np.random.default_rng(seed)
     h, w = int(rng.integers(40, min(MAXH, 160))), int(rng.integers(40, min(MAXW, 220)))
     gray = np.clip(np.full((h, w), 120) + rng.integers(-40, 40, (h, w)), 0, 255).astype(np.uint8)
     cam = rw.Camera(fx=300.0, horizon_y=int(rng.integers(0, h // 3)), height_m=1.5, hood_y=h)
     base = rfd.FullDetConfig(win=rw.WindowConfig(sizes=(8, 11, 16), levels=3, step=0.25), edge_check=False,
-                             window_score_min=smin, shadow_score_min=smin, nms_iou=iou / 256,
-                             nms_contain=1.0)
+                             window_score_min=smin, shadow_score_min=smin, nms_iou_permille=iou,
+                             nms_contain_permille=1000)
     plain = run_both(gray, cam, base)
     from dataclasses import replace
-    got, ref, cst, rst, _ = run_both(gray, cam, replace(base, merge_iou=merge / 256))
+    got, ref, cst, rst, _ = run_both(gray, cam, replace(base, merge_iou_permille=merge))
     assert cst == rst
     assert np.array_equal(got, ref)
     # the same boxes were kept: merging moves them, it does not add or drop any
@@ -219,14 +222,15 @@ def test_merge_matches_oracle(seed, merge, iou, smin):
 def test_merge_moves_a_box_to_its_neighbours_mean():
     gray = kitti_frame()
     from dataclasses import replace
-    cfg = rfd.FullDetConfig(win=rw.WindowConfig(sizes=(16, 23), levels=4), edge_check=False, nms_iou=0.3)
+    cfg = rfd.FullDetConfig(win=rw.WindowConfig(sizes=(16, 23), levels=4), edge_check=False,
+                            nms_iou_permille=300)
     plain, *_ = run_both(gray, KITTI_CAM, cfg)
-    got, ref, *_ = run_both(gray, KITTI_CAM, replace(cfg, merge_iou=0.3))
+    got, ref, *_ = run_both(gray, KITTI_CAM, replace(cfg, merge_iou_permille=300))
     assert np.array_equal(got, ref) and len(got) == len(plain)
     assert (got[:, :4] != plain[:, :4]).any()        # some box moved (it had overlapping neighbours)
     bad = _native.fulldet_cfg_default()
-    for v in (-1, 257):
-        bad.merge_iou_q8 = v
+    for v in (-1, 1001):
+        bad.merge_iou_permille = v
         assert lib.vt_fulldet_cfg_check(bad) == lib.VT_E_ARG
 
 

@@ -262,7 +262,7 @@ def test_cfg_check_rejects_policies(field, value):
     ("fixed_road.vp_x_permille", 1001), ("fixed_road.bottom_left_permille", -1),
     ("fixed_road.top_margin", -1), ("lane.work_width_max", 0), ("detect.shadow.min_run", 0),
     ("detect.verify.aspect_q8", 0), ("tracker.confirm_hits", 0),
-    ("fulldet.nms_iou_q8", 300), ("fulldet.win.levels", 0)])
+    ("fulldet.nms_iou_permille", 1001), ("lane.track_alpha_permille", 1001), ("fulldet.win.levels", 0)])
 def test_cfg_check_rejects_stage_configs(path, value):
     c = _cfg()
     obj = c

@@ -89,7 +89,7 @@ def test_model_ws_refusals_and_config_checks():
         setattr(d, field, value)
         assert lib.vt_pipeline_cfg_check(d) == lib.VT_E_ARG, field
     d = ffi.new("vt_pipeline_cfg *", c[0])
-    d.model.mut_percent = 101
+    d.model.mut_permille = 1001
     assert lib.vt_pipeline_cfg_check(d) < 0
 
 

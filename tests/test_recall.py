@@ -130,7 +130,8 @@ def test_full_road_merge_and_second_stage_c_equals_reference():
     cam = fullroad.Camera(horizon_frac=88 / 188, hood_frac=0.99, height_m=1.65, fx_per_width=360 / 621)
     outs = []
     for engine in ("c", "reference"):
-        cfg = fullroad.FullRoadConfig(det=replace(rfd.FullDetConfig(), merge_iou=0.3, nms_iou=0.2), verify_min=-40.0)
+        cfg = fullroad.FullRoadConfig(det=replace(rfd.FullDetConfig(), merge_iou_permille=300, nms_iou_permille=200),
+                                      verify_min=-40.0)
         det = fullroad.FullRoadDetector(m, sources=("shadow", "windows"), camera=cam, engine=engine, cfg=cfg)
         outs.append((det.detect_gray(gray), dict(det.last_stats)))
     (a, sa), (b, sb) = outs
@@ -144,20 +145,30 @@ def test_model_detector_settings(tmp_path):
     import json
 
     from pyvehtrack.detector import Detector
-    good = {"sources": ["windows"], "score_offset": 1.5, "nms_iou": 0.25, "nms_contain": 0.5, "box_height": 0.875,
-            "merge_iou": 0.3, "verify_min": 2.0}
+    good = {"sources": ["windows"], "score_offset": 1.5, "nms_iou_permille": 250, "nms_contain_permille": 500,
+            "box_height": 0.875, "merge_iou_permille": 300, "verify_min": 2.0}
     p = _save(tmp_path, "set.npz", detector_json=np.array(json.dumps(good)))
     m = fullroad.load_model(p)
     assert m.settings == good
     det = fullroad.FullRoadDetector(m, sources=("shadow", "windows"))
     d = det.det_cfg
-    assert (d.nms_iou, d.nms_contain, d.box_height, d.merge_iou) == (0.25, 0.5, 0.875, 77 / 256)   # Q8, as in C
+    assert (d.nms_iou_permille, d.nms_contain_permille, d.box_height, d.merge_iou_permille) == (250, 500, 0.875, 300)
+    # a file of before issue 10 (float fractions) reads the same, with a warning
+    old = dict(good, nms_iou=0.25, nms_contain=0.5, merge_iou=0.3)
+    for k in ("nms_iou_permille", "nms_contain_permille", "merge_iou_permille"):
+        del old[k]
+    with pytest.warns(DeprecationWarning, match="merge_iou_permille"):
+        mo = fullroad.load_model(_save(tmp_path, "old.npz", detector_json=np.array(json.dumps(old))))
+    assert mo.settings == good
+    with pytest.warns(DeprecationWarning), pytest.raises(ValueError, match="nms_iou_permille"):
+        fullroad.load_model(_save(tmp_path, "q8.npz", detector_json=np.array('{"nms_iou": 0.30078125}')))
     assert d.window_score_min == m.threshold_q16 + round(1.5 * 65536) and det.verify_min_q16 == 2 * 65536
     det2 = fullroad.FullRoadDetector(m, cfg=fullroad.FullRoadConfig(score_offset=1.0, verify_min=-1.0))
     assert det2.det_cfg.window_score_min == m.threshold_q16 + round(2.5 * 65536) and det2.verify_min_q16 == -65536
     assert Detector(model=str(p)).full.sources == ("windows",)
     assert Detector(model=str(p), sources=("shadow",)).full.sources == ("shadow",)
-    for bad, what in (("{", "not JSON"), ("[1]", "JSON object"), ('{"nms_iou": 2}', "nms_iou"),
+    for bad, what in (("{", "not JSON"), ("[1]", "JSON object"), ('{"nms_iou_permille": 1001}', "nms_iou_permille"),
+                      ('{"merge_iou_permille": 0.3}', "merge_iou_permille"),
                       ('{"sources": ["trees"]}', "sources"), ('{"colour": 1}', "unknown key"),
                       ('{"verify_min": true}', "verify_min")):
         with pytest.raises(ValueError, match=what):
@@ -173,4 +184,4 @@ def test_shipped_model_carries_its_settings():
     m = fullroad.load_model(MLP_MODEL)
     assert m.settings["sources"] == ["shadow", "windows"] and m.settings["verify_min"] > 0
     det = fullroad.FullRoadDetector(m)
-    assert det.verify_min_q16 is not None and det.det_cfg.merge_iou > 0
+    assert det.verify_min_q16 is not None and det.det_cfg.merge_iou_permille > 0

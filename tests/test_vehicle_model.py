@@ -55,7 +55,7 @@ def problems(draw, small=True):
     gens = [[draw(st.integers(0, 3)) for _ in range(3)] for _ in range(2)]
     road = (h // 4, draw(st.integers(1, 6)), h, draw(st.integers(8, max(9, w))))
     kw = dict(levels=levels, pop=pops, gens=gens, seed=draw(st.integers(0, 2**32 - 1)),
-              mut_percent=draw(st.integers(0, 100)), w_sym=draw(st.integers(0, 4)),
+              mut_permille=draw(st.integers(0, 1000)), w_sym=draw(st.integers(0, 4)),
               w_grad=draw(st.integers(0, 4)), w_dist=draw(st.integers(0, 4)),
               w_shadow=draw(st.integers(0, 4)), edge_thresh=draw(st.integers(0, 400)),
               dist_cap=draw(st.integers(1, 12)), width_tol_permille=draw(st.integers(0, 900)),
@@ -217,7 +217,7 @@ def test_bad_inputs():
         _native.model_fit(img, cfg, _native.model_search((0, 0, 39, 39), 0, 39, True, (20,) * 7,
                                                          (-1, 0, 0, 0, 0, 0, 0)), ws)
     # config checks
-    for k, bad in [("levels", 0), ("levels", 4), ("mut_percent", 101), ("w_sym", -1),
+    for k, bad in [("levels", 0), ("levels", 4), ("mut_permille", 1001), ("w_sym", -1),
                    ("dist_cap", 0), ("width_per_row", 0), ("roof_max", 46)]:
         with pytest.raises(VtError, match="vt_model_cfg_check"):
             V.make_cfg(**{k: bad})
@@ -286,3 +286,14 @@ def test_old_percent_names_convert_exactly_with_a_warning():
         == [int(getattr(new, f)) for f in ("width_tol_permille", "aspect_min_permille", "aspect_max_permille")]
     with pytest.raises(TypeError, match="not both"):
         VM.make_cfg(width_tol_percent=20, width_tol_permille=200)
+    with pytest.warns(DeprecationWarning, match="mut_permille"):
+        assert int(VM.make_cfg(mut_percent=7).mut_permille) == 70
+
+
+@given(st.integers(0, 2**32 - 1), st.integers(0, 100))
+def test_mutation_draw_in_permille_decides_as_the_percent_draw(r, p):
+    """mut_percent (draw (r * 100) >> 32 < p) became mut_permille (draw (r * 1000) >> 32 <
+    10 p): for every xorshift state r both say r < p 2^32 / 100, so the GA's individuals are
+    those of before (the draw count is one per gene either way; the C vs oracle test above
+    checks the two engines against each other)."""
+    assert ((r * 100) >> 32 < p) == ((r * 1000) >> 32 < 10 * p)

@@ -4,6 +4,8 @@
 justified), the camera road area exactly too; bad arguments give clear errors."""
 from __future__ import annotations
 
+from fractions import Fraction
+
 import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
@@ -116,16 +118,16 @@ def box_sets(draw):
         l, t = draw(st.integers(-5, 60)), draw(st.integers(-5, 60))
         boxes[i] = (l, t, l + draw(st.integers(0, 30)), t + draw(st.integers(0, 30)),
                     draw(st.integers(-3, 3)), draw(st.integers(1, 2)))
-    return boxes, draw(st.integers(0, 256)), draw(st.integers(0, 256))
+    return boxes, draw(st.integers(0, 1000)), draw(st.integers(0, 1000))
 
 
 @settings(max_examples=150)
 @given(box_sets())
 def test_nms_matches_oracle(case):
-    boxes, iou_q8, contain_q8 = case
-    got = _native.nms(boxes, iou_q8, contain_q8)
+    boxes, iou, contain = case      # permille
+    got = _native.nms(boxes, iou, contain)
     b = np.stack([boxes["left"], boxes["top"], boxes["right"], boxes["bottom"]], 1).reshape(-1, 4)
-    keep = rw.nms(b, boxes["score"].tolist(), iou_q8 / 256, contain_q8 / 256)
+    keep = rw.nms(b, boxes["score"].tolist(), Fraction(iou, 1000), Fraction(contain, 1000))
     assert np.array_equal(got, boxes[keep])
 
 
@@ -134,10 +136,13 @@ def test_nms_cases():
                  _native.SCORED_BOX_DTYPE)
     # IoU(0,1) = 90/110 > 0.5: the score-9 box wins; the small box inside it survives IoU 0.5
     # (16/100) but not a containment limit of 0.5.
-    assert _native.nms(b, 128)["score"].tolist() == [9, 7, 1]
-    assert _native.nms(b, 128, 128)["score"].tolist() == [9, 1]
-    assert _native.nms(b, 256)["score"].tolist() == [9, 7, 5, 1]   # nothing exceeds IoU 1
-    assert len(_native.nms(b[:0], 128)) == 0
+    assert _native.nms(b, 500)["score"].tolist() == [9, 7, 1]
+    assert _native.nms(b, 500, 500)["score"].tolist() == [9, 1]
+    assert _native.nms(b, 1000)["score"].tolist() == [9, 7, 5, 1]   # nothing exceeds IoU 1
+    assert len(_native.nms(b[:0], 500)) == 0
+    # the compare is strict and exact at a permille boundary: IoU(0,1) = 90/110 = 818.18 permille
+    assert _native.nms(b[:2], 818)["score"].tolist() == [9]
+    assert _native.nms(b[:2], 819)["score"].tolist() == [9, 5]
 
 
 def test_camera_distance():
@@ -191,11 +196,13 @@ def test_bad_arguments():
     # NMS: bad boxes and over-capacity move nothing
     sb = np.array([(5, 0, 4, 9, 1, 1)], _native.SCORED_BOX_DTYPE)
     with pytest.raises(VtError, match="vt_nms"):
-        _native.nms(sb, 128)
+        _native.nms(sb, 500)
     ok = np.array([(0, 0, 4, 9, 1, 1)], _native.SCORED_BOX_DTYPE)
     with pytest.raises(VtError, match="vt_nms"):
-        _native.nms(ok, 257)
-    assert lib.vt_nms(ffi.NULL, 1, 128, 256, n) == lib.VT_E_ARG and n[0] == 0
-    assert lib.vt_nms(ffi.NULL, 0, 128, 256, n) == 0 and n[0] == 0
-    assert lib.vt_nms(ffi.cast("vt_scored_box *", ok.ctypes.data), lib.VT_MAX_NMS_BOXES + 1, 128, 256, n) == \
+        _native.nms(ok, 1001)
+    with pytest.raises(VtError, match="vt_nms"):
+        _native.nms(ok, 500, -1)
+    assert lib.vt_nms(ffi.NULL, 1, 500, 1000, n) == lib.VT_E_ARG and n[0] == 0
+    assert lib.vt_nms(ffi.NULL, 0, 500, 1000, n) == 0 and n[0] == 0
+    assert lib.vt_nms(ffi.cast("vt_scored_box *", ok.ctypes.data), lib.VT_MAX_NMS_BOXES + 1, 500, 1000, n) == \
         lib.VT_E_CAPACITY

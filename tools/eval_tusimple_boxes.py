@@ -14,8 +14,10 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import cv2
@@ -25,6 +27,9 @@ sys.path.insert(0, str(_ROOT))
 from pyvehtrack import eval_boxes as eb  # noqa: E402
 from pyvehtrack.datasets import tusimple_split, tusimple_subsplit  # noqa: E402
 from pyvehtrack.detector import Detector  # noqa: E402
+from pyvehtrack.shared import FULLDET_RENAMED, take_renamed  # noqa: E402
+
+_PERMILLE = ("nms_iou_permille", "nms_contain_permille", "merge_iou_permille")
 
 DATA = next((p for p in (_ROOT.parent / "shared" / "data", _ROOT.parent.parent / "shared" / "data")
              if p.is_dir()), _ROOT.parent / "shared" / "data")
@@ -40,12 +45,17 @@ def main(argv=None) -> int:
                     help="shadow and/or windows (full-road), or ego; default: Detector's (full-road shadow with "
                          "--model, else the ego-lane detector)")
     ap.add_argument("--offset", type=float, default=0.0, help="added to the model's score threshold")
-    ap.add_argument("--nms-iou", type=float, default=None, help="full-road NMS IoU (default: FullDetConfig's)")
-    ap.add_argument("--nms-contain", type=float, default=None, help="full-road NMS containment (default: FullDetConfig's)")
+    ap.add_argument("--nms-iou-permille", type=int, default=None,
+                    help="full-road NMS IoU limit, permille (default: FullDetConfig's 301)")
+    ap.add_argument("--nms-contain-permille", type=int, default=None,
+                    help="full-road NMS containment limit, permille (default: FullDetConfig's 699)")
+    ap.add_argument("--merge-iou-permille", type=int, default=None,
+                    help="box refinement: each kept box -> mean of candidates with IoU >= this / 1000 (0: off)")
+    ap.add_argument("--nms-iou", type=float, default=None, help="deprecated: --nms-iou-permille (x 1000)")
+    ap.add_argument("--nms-contain", type=float, default=None, help="deprecated: --nms-contain-permille (x 1000)")
+    ap.add_argument("--merge-iou", type=float, default=None, help="deprecated: --merge-iou-permille (x 1000)")
     ap.add_argument("--box-height", type=float, default=None,
                     help="full-road window box height / width (default: FullDetConfig's 0.75)")
-    ap.add_argument("--merge-iou", type=float, default=None,
-                    help="box refinement: each kept box -> mean of candidates with IoU >= this (0: off)")
     ap.add_argument("--verify-min", type=float, default=None,
                     help="second stage: built-in HOG 64 MLP on each box, keep score >= this (default: the model's)")
     ap.add_argument("--veh-w", nargs=2, type=float, default=None, metavar=("MIN", "MAX"),
@@ -54,6 +64,21 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default=None, help="write the predictions (detect --json format)")
     ap.add_argument("--draw", default=None, help="folder for annotated frames (green: found, red: truth)")
     args = ap.parse_args(argv)
+    # the float fractions of before issue 10: x 1000 when exact, with a DeprecationWarning
+    lim = {k: getattr(args, k) for k in ("nms_iou", "nms_contain", "merge_iou") if getattr(args, k) is not None}
+    lim.update({k: getattr(args, k) for k in _PERMILLE if getattr(args, k) is not None})
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("always", DeprecationWarning)
+            warnings.showwarning = lambda m, *a, **k: print(f"warning: {m}", file=sys.stderr)
+            lim = take_renamed("eval_tusimple_boxes", lim, FULLDET_RENAMED)
+    except (TypeError, ValueError) as e:   # name the flags, not the fields
+        msg = str(e).replace("eval_tusimple_boxes.", "").replace("eval_tusimple_boxes: ", "")
+        ap.error(re.sub(r"\b(nms_iou|nms_contain|merge_iou)(_permille)?\b",
+                        lambda m: "--" + m.group(0).replace("_", "-"), msg))
+    for k, v in lim.items():
+        if not 0 <= v <= 1000:
+            ap.error(f"--{k.replace('_', '-')}: expected 0..1000 (permille), got {v}")
     data = Path(args.data)
     ann = json.loads((data / "annotation.json").read_text())
     part = tusimple_split if args.split in ("train", "test") else tusimple_subsplit
@@ -62,17 +87,13 @@ def main(argv=None) -> int:
         frames = frames[: args.limit]
     det = Detector(model=args.model, sources=tuple(args.sources) if args.sources else None,
                    score_offset=args.offset)
-    if (args.nms_iou is not None or args.nms_contain is not None or args.box_height is not None
-            or args.merge_iou is not None or args.verify_min is not None
+    if (lim or args.box_height is not None or args.verify_min is not None
             or args.veh_w is not None) and det.full is not None:
         from dataclasses import replace
 
         from pyvehtrack import fullroad
         d = det.full.cfg.det
-        d = replace(d, nms_iou=d.nms_iou if args.nms_iou is None else args.nms_iou,
-                    nms_contain=d.nms_contain if args.nms_contain is None else args.nms_contain,
-                    box_height=d.box_height if args.box_height is None else args.box_height,
-                    merge_iou=d.merge_iou if args.merge_iou is None else args.merge_iou)
+        d = replace(d, **lim, box_height=d.box_height if args.box_height is None else args.box_height)
         if args.veh_w is not None:
             d = replace(d, win=replace(d.win, veh_w_min_m=args.veh_w[0], veh_w_max_m=args.veh_w[1]))
         c = replace(det.full.cfg, det=d)

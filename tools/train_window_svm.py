@@ -13,7 +13,10 @@ tools/eval_tusimple_boxes.py --split val); its detector settings (detector_json:
 offset, NMS, box height, merge, second stage) were then chosen on 'val' and written with
 --detector-json '{"sources": ["shadow", "windows"], "score_offset": 2.0, "nms_iou": 0.2,
 "nms_contain": 0.5, "box_height": 0.875, "merge_iou": 0.3, "verify_min": 4.0}'; later (wip/detect2)
-"veh_w_max": 3.0 was added, chosen on 'val' (the window band 1.4-3.0 m). Retraining with
+"veh_w_max": 3.0 was added, chosen on 'val' (the window band 1.4-3.0 m). Since issue 10 the
+three limits are stored in permille ("nms_iou_permille": 200, "nms_contain_permille": 500,
+"merge_iou_permille": 300); the old float names given to --detector-json are converted (x 1000,
+when exact) and written under the new names. Retraining with
 --veh-w 1.2 3.2 (negatives mined on the wider grid) was tried and was no better on 'val'
 (31.4% recall >= 32 px at 44.1% precision, score offset 2.0; 30.4% / 46.9% at 2.5).
 A 64-unit MLP with 3 hard-negative rounds (--rounds 3 --mlp 64) was tried and was no
@@ -51,6 +54,7 @@ from pyvehtrack.datasets import gti_sorted, gti_split, tusimple_split, tusimple_
 from pyvehtrack.eval_boxes import box_iou_matrix  # noqa: E402
 from pyvehtrack.fullroad import FullRoadConfig, FullRoadDetector, MlpModel, SvmModel  # noqa: E402
 from pyvehtrack.train import fit_mlp, mlp_dict  # noqa: E402
+from pyvehtrack.shared import FULLDET_RENAMED, take_renamed  # noqa: E402
 from pyvehtrack.reference import fulldet as rfd  # noqa: E402
 from pyvehtrack.reference import windows as rw  # noqa: E402
 
@@ -228,8 +232,10 @@ def main(argv=None) -> int:
         print(f"  hard negatives added: {added}", flush=True)
     extra = {"scan_sizes": np.asarray(scan, np.int32)} if args.scan_sizes else {}
     if args.detector_json:
-        json.loads(args.detector_json)   # fail before writing anything unreadable
-        extra["detector_json"] = np.array(args.detector_json)
+        d = json.loads(args.detector_json)   # fail before writing anything unreadable
+        if isinstance(d, dict):                # the float fractions of before issue 10 -> permille
+            d = take_renamed("--detector-json", d, FULLDET_RENAMED)
+        extra["detector_json"] = np.array(json.dumps(d))
     if args.mlp:
         np.savez(args.out, model_type="mlp", kind="hog", win_w=win, win_h=win, w1_q=model.w1_q,
                  w1_shift=model.w1_shift, b1_q16=model.b1_q16, w2_q=model.w2_q, w2_shift=model.w2_shift,

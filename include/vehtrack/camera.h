@@ -68,7 +68,9 @@ typedef struct vt_camera_cfg {
     vt_q16 tan_pitch_max;     /* |.| <= 1 (45 degrees)                               */
     vt_q16 pitch_max_step;    /* a vanishing row moving tan(pitch) more than this
                                  from the current estimate is an outlier, (0, 1]     */
-    int32_t pitch_alpha_q8;   /* smoothing gain toward a plausible measurement, 0..256 */
+    int32_t pitch_alpha_permille; /* smoothing gain toward a plausible measurement,
+                                 permille, 0..1000: tan_pitch += (m - tan_pitch) a / 1000,
+                                 the step rounded half away from zero (Q16 LSB)     */
     int32_t pitch_reacquire;  /* after this many consecutive outliers inside the
                                  limits, jump to the measurement (1..1000)           */
     vt_q16 delta_px;          /* row error +-delta of eq. 3-6, px, (0, 64]           */
@@ -93,7 +95,7 @@ typedef struct vt_camera_cfg {
         .tan_pitch_min = -3434, /* tan(-3 deg) */ \
         .tan_pitch_max = 3434, /* tan(3 deg) */   \
         .pitch_max_step = 1311, /* 0.02 */        \
-        .pitch_alpha_q8 = 64,                     \
+        .pitch_alpha_permille = 250,              \
         .pitch_reacquire = 5,                     \
         .delta_px = VT_Q16_ONE,                   \
         .bottom_offset = VT_Q16_ONE / 2,          \
@@ -177,7 +179,8 @@ vt_status vt_pitch_init(vt_pitch_state *st, const vt_camera_cfg *cam);
  *   - farther than pitch_max_step from the estimate (the nominal pitch at first): an
  *     outlier: REJECTED, kept, unless it is the pitch_reacquire-th outlier in a row,
  *     then the estimate jumps to m (MEASURED) -- a lasting change (a load) is followed;
- *   - else MEASURED: est += (m - est) * alpha / 256, rounded half away from zero.
+ *   - else MEASURED: est += (m - est) * pitch_alpha_permille / 1000, the step rounded
+ *     half away from zero.
  * VT_E_ARG for NULL, a bad camera, or vp_valid not 0/1 (state unchanged). */
 vt_status vt_pitch_update(vt_pitch_state *st, const vt_camera_cfg *cam, int32_t vp_valid,
                           vt_q16 vp_row);

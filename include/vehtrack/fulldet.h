@@ -82,13 +82,15 @@ typedef struct {
                                  window nearest to it scores >= shadow_score_min       */
     int32_t shadow_score_min;
     int32_t shadow_score;     /* score of a shadow box when it is not classified       */
-    int32_t nms_iou_q8;       /* vt_nms limits, 0..256                                 */
-    int32_t nms_contain_q8;
+    int32_t nms_iou_permille; /* vt_nms limits, permille, 0..1000 (301 and 699 are
+                                 the nearest permille to the Q8 77 / 256 and 179 / 256
+                                 of before issue 10)                                   */
+    int32_t nms_contain_permille;
     int32_t box_height_q8;    /* a window's box keeps its bottom row and width; its
                                  height is max(1, width * this >> 8), 1..1024        */
-    int32_t merge_iou_q8;     /* 0: off; 1..256: each box kept by NMS becomes the mean
+    int32_t merge_iou_permille; /* 0: off; 1..1000: each box kept by NMS becomes the mean
                                  of every candidate (kept or not, itself included)
-                                 whose IoU with it is >= this / 256 (box refinement:
+                                 whose IoU with it is >= this / 1000 (box refinement:
                                  the highest-scoring window is rarely the best
                                  aligned one; the mean of its neighbours is closer) */
 } vt_fulldet_cfg;
@@ -121,10 +123,10 @@ typedef struct {
         .shadow_classify = 1,                \
         .shadow_score_min = 0,               \
         .shadow_score = 0,                   \
-        .nms_iou_q8 = 77,                    \
-        .nms_contain_q8 = 179,               \
+        .nms_iou_permille = 301,     \
+        .nms_contain_permille = 699, \
         .box_height_q8 = 192,                \
-        .merge_iou_q8 = 0,                   \
+        .merge_iou_permille = 0,             \
     }
 
 typedef struct {
@@ -150,12 +152,13 @@ typedef struct {
 vt_status vt_fulldet_cfg_default(vt_fulldet_cfg *cfg);
 
 /* VT_OK if sources is 1..3, the window, shadow and verify configurations pass
- * their checks, edge_check and shadow_classify are 0/1 and the NMS limits are in
- * 0..256; else that check's status (VT_E_ARG / VT_E_CAPACITY). */
+ * their checks, edge_check and shadow_classify are 0/1, the NMS and merge limits
+ * are in 0..1000 (permille) and box_height_q8 in 1..1024; else that check's status
+ * (VT_E_ARG / VT_E_CAPACITY). */
 vt_status vt_fulldet_cfg_check(const vt_fulldet_cfg *cfg);
 
-/* The merge step (merge_iou_q8 > 0): box k of the NMS output is replaced by the
- * mean of the candidates c with inter * 256 >= merge_iou_q8 * union (inclusive
+/* The merge step (merge_iou_permille > 0): box k of the NMS output is replaced by the
+ * mean of the candidates c with inter * 1000 >= merge_iou_permille * union (inclusive
  * areas, exact in int64) against k's own box, each coordinate rounded half up:
  * floor((2 sum + n) / (2 n)); sums are exact in int64 (|coord| <= 2^24, n <=
  * VT_FULLDET_MAX_CAND). The score and source stay those of box k. */

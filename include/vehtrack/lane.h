@@ -109,7 +109,8 @@ typedef struct {
     int32_t win_top;              /* ... this many px at the vanishing row               */
     int32_t vp_margin;            /* without a VP: lanes end this far below roi_top      */
     int32_t top_margin_permille;  /* with a VP: lanes end H*this/1000 rows below it      */
-    int32_t track_alpha_q8;       /* tracker: gain toward the new line, Q8               */
+    int32_t track_alpha_permille; /* tracker: gain toward the new line, 0..1000; the step
+                                     a (new - old) / 1000 rounded half away from zero */
     int32_t track_hold;           /* frames a hidden marking's line is kept              */
     int32_t track_gate_permille;  /* a new line farther than W*this/1000 px replaces the
                                      old one instead of being smoothed with it           */
@@ -166,7 +167,7 @@ typedef struct {
         .win_top = 2,                   \
         .vp_margin = 2,                 \
         .top_margin_permille = 37,      \
-        .track_alpha_q8 = 128,          \
+        .track_alpha_permille = 500,    \
         .track_hold = 5,                \
         .track_gate_permille = 31,      \
         .solo_vote_permille = 1500,     \
@@ -266,7 +267,7 @@ vt_status vt_lane_cfg_default(vt_lane_cfg *cfg);
  * VT_LANE_MAX_PEAKS, more than VT_LANE_MAX_THETA theta bins). Ranges: sizes >= 16;
  * permille fields 0..1000 (lane_w_*: 0..10000, lane_w_min <= lane_w_max); angles
  * -356..356 qdeg (|theta| <= 89 degrees), theta_min <= theta_max, step >= 1;
- * rho_step_shift 0..3; solo_vote_permille 1000..10000; gains (q8) 0..256; noise_gain_q4 0..1024; grad_min 1..255;
+ * rho_step_shift 0..3; solo_vote_permille 1000..10000; bend_q8 0..256; noise_gain_q4 0..1024; grad_min 1..255;
  * refine_iters 0..8; refine_tol_min, vp_tol_min 0..4096 px; seg_min >= 1; counts >= 0
  * (fit_min_points >= 2). */
 vt_status vt_lane_cfg_check(const vt_lane_cfg *cfg);

@@ -37,7 +37,7 @@
  * px (+-5 % for the shape genes); individuals beyond the coarser population's size
  * start afresh (uniform or around the prediction). A generation: the elite,
  * then children of two binary-tournament parents, uniform crossover, per-gene
- * mutation with probability mut_percent, repaired into the constraints.
+ * mutation with probability mut_permille / 1000, repaired into the constraints.
  * Random numbers: xorshift32 seeded with cfg.seed at every vt_model_fit (a zero
  * seed is replaced by 0x9E3779B9); a draw in [0, n) is (r * n) >> 32. The oracle
  * (pyvehtrack/reference/vehicle_model.py) draws the same numbers, so both produce
@@ -96,7 +96,7 @@ typedef struct {
     int32_t pop[2][VT_MODEL_LEVELS];      /* [mode][level], level 0 = full resolution */
     int32_t gens[2][VT_MODEL_LEVELS];     /* mode 0 detection, 1 tracking             */
     uint32_t seed;                        /* xorshift32 seed                          */
-    int32_t mut_percent;                  /* per-gene mutation probability, 0..100    */
+    int32_t mut_permille;                 /* per-gene mutation probability, 0..1000   */
     int32_t w_sym, w_grad, w_dist, w_shadow; /* fitness weights, 0..64                */
     int32_t edge_thresh;                  /* |gx| + |gy| above this: an edge pixel    */
     int32_t dist_cap;                     /* distance cap, px at the level, 1..64     */
@@ -123,7 +123,7 @@ typedef struct {
         .pop = {{128, 64, 64}, {64, 32, 32}}, \
         .gens = {{40, 2, 2}, {10, 2, 2}},     \
         .seed = 0x2545F491u,                  \
-        .mut_percent = 15,                    \
+        .mut_permille = 150,                  \
         .w_sym = 1,                           \
         .w_grad = 2,                          \
         .w_dist = 0,                          \

@@ -147,14 +147,14 @@ vt_status vt_windows_level(const vt_win_cfg *cfg, const vt_camera_min *cam,
 /* Greedy non-maximum suppression in place: boxes are ordered by score,
  * highest first (stable: equal scores keep their input order); going down that
  * order, a box is dropped when it overlaps an already kept box with
- *   inter * 256 > iou_q8 * union          (IoU above iou_q8 / 256), or
- *   inter * 256 > contain_q8 * min(area)  (mostly inside the other box),
+ *   inter * 1000 > iou_permille * union          (IoU above iou_permille / 1000), or
+ *   inter * 1000 > contain_permille * min(area)  (mostly inside the other box),
  * areas of inclusive boxes ((r - l + 1) * (b - t + 1)), exact in int64. The kept
  * boxes end up in boxes[0..*n_out-1] in that order; the rest of the array is
  * left in an unspecified order. n in 0..VT_MAX_NMS_BOXES (else VT_E_CAPACITY),
- * iou_q8 and contain_q8 in 0..256, every box with left <= right, top <= bottom
+ * iou_permille and contain_permille in 0..1000, every box with left <= right, top <= bottom
  * (else VT_E_ARG, nothing moved). boxes may be NULL when n is 0. */
-vt_status vt_nms(vt_scored_box *boxes, int32_t n, int32_t iou_q8, int32_t contain_q8,
+vt_status vt_nms(vt_scored_box *boxes, int32_t n, int32_t iou_permille, int32_t contain_permille,
                  int32_t *n_out);
 
 #endif /* VEHTRACK_WINDOWS_H */

@@ -59,7 +59,7 @@ typedef struct {
     int32_t win_top;
     int32_t vp_margin;
     int32_t top_margin_permille;
-    int32_t track_alpha_q8;
+    int32_t track_alpha_permille;
     int32_t track_hold;
     int32_t track_gate_permille;
     int32_t solo_vote_permille;

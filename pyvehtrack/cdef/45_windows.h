@@ -35,5 +35,5 @@ vt_status vt_road_from_camera(const vt_win_cfg *cfg, const vt_camera_min *cam, i
 vt_status vt_windows_level(const vt_win_cfg *cfg, const vt_camera_min *cam,
                            const vt_road_area *road, int32_t w, int32_t h, int32_t level,
                            vt_window *out, int32_t cap, int32_t *n_out);
-vt_status vt_nms(vt_scored_box *boxes, int32_t n, int32_t iou_q8, int32_t contain_q8,
+vt_status vt_nms(vt_scored_box *boxes, int32_t n, int32_t iou_permille, int32_t contain_permille,
                  int32_t *n_out);

@@ -29,7 +29,7 @@ typedef struct vt_camera_cfg {
     vt_q16 tan_pitch_min;
     vt_q16 tan_pitch_max;
     vt_q16 pitch_max_step;
-    int32_t pitch_alpha_q8;
+    int32_t pitch_alpha_permille;
     int32_t pitch_reacquire;
     vt_q16 delta_px;
     vt_q16 bottom_offset;

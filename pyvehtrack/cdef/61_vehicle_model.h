@@ -19,7 +19,7 @@ typedef struct {
     int32_t pop[2][3];
     int32_t gens[2][3];
     uint32_t seed;
-    int32_t mut_percent;
+    int32_t mut_permille;
     int32_t w_sym, w_grad, w_dist, w_shadow;
     int32_t edge_thresh;
     int32_t dist_cap;

@@ -21,10 +21,10 @@ typedef struct {
     int32_t shadow_classify;
     int32_t shadow_score_min;
     int32_t shadow_score;
-    int32_t nms_iou_q8;
-    int32_t nms_contain_q8;
+    int32_t nms_iou_permille;
+    int32_t nms_contain_permille;
     int32_t box_height_q8;
-    int32_t merge_iou_q8;
+    int32_t merge_iou_permille;
 } vt_fulldet_cfg;
 
 typedef struct { ...; } vt_fulldet_state;

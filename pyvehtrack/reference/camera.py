@@ -101,7 +101,9 @@ class PitchEstimator:
                 return self.tan_pitch
             self.tan_pitch = m
         else:
-            self.tan_pitch += (m - self.tan_pitch) * c.pitch_alpha_q8 / 256.0
+            # the blend of vt_pitch_update: tan_pitch + (m - tan_pitch) a / 1000 (C rounds
+            # the step to the Q16 LSB, half away from zero; the oracle keeps it exact)
+            self.tan_pitch += (m - self.tan_pitch) * c.pitch_alpha_permille / 1000
         self.outliers = 0
         self.flag = PITCH_MEASURED
         self.measured += 1

@@ -11,15 +11,18 @@ The composition the IVVI paper (sec. 4/5) and the GIST paper (sec. III) describe
      2.4.2, reference.shadow / reference.verify); with shadow_classify, the window
      of the pyramid nearest each shadow box in width is scored and the box kept if
      it scores >= shadow_score_min;
-  4. greedy NMS of all boxes (reference.windows.nms);
-  5. with merge_iou > 0, box refinement: each kept box becomes the mean of every
-     candidate whose IoU with it is at least merge_iou (rounded half up);
+  4. greedy NMS of all boxes (reference.windows.nms), limits nms_iou_permille / 1000 and
+     nms_contain_permille / 1000;
+  5. with merge_iou_permille > 0, box refinement: each kept box becomes the mean of every
+     candidate whose IoU with it is at least merge_iou_permille / 1000 (rounded half up);
   6. (verify_boxes, a separate call) a second classifier on the square standing on
      each box's bottom keeps the boxes it scores >= its minimum.
 The classifier is any function score(level_image, level, size, x, y) -> int (the
 same scale as the C scorer), so C and oracle can share one.
 """
 from __future__ import annotations
+
+from fractions import Fraction
 
 import numpy as np
 
@@ -104,11 +107,11 @@ def detect(gray: np.ndarray, road, cam: rw.Camera, cfg: FullDetConfig, score=Non
                     continue
             add((l, t, r, b), sc, 1)
     stats["n_cand"] = len(cands)
-    keep = rw.nms([c[:4] for c in cands], [c[4] for c in cands], cfg.nms_iou, cfg.nms_contain)
+    keep = rw.nms([c[:4] for c in cands], [c[4] for c in cands], Fraction(cfg.nms_iou_permille, 1000),
+                  Fraction(cfg.nms_contain_permille, 1000))
     out = np.array([cands[i] for i in keep], np.int64).reshape(-1, 6)[:max_boxes]
-    if cfg.merge_iou > 0:
-        from fractions import Fraction
-        lim = Fraction(round(cfg.merge_iou * 256), 256)
+    if cfg.merge_iou_permille > 0:
+        lim = Fraction(cfg.merge_iou_permille, 1000)
         allc = [tuple(int(v) for v in c[:4]) for c in cands]
         for k in range(len(out)):
             a = tuple(int(v) for v in out[k, :4])

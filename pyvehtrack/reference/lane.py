@@ -560,7 +560,7 @@ class LaneDetector:
         gate = W * cfg.track_gate_permille / 1000.0
         if abs(cur.xb - prev.xb) > gate or abs(cur.x_at(band_top, H) - prev.x_at(band_top, H)) > gate:
             return cur
-        a = cfg.track_alpha_q8 / 256.0
+        a = cfg.track_alpha_permille / 1000.0   # C rounds each step to the Q16 LSB (half away from zero)
         cur.xb = prev.xb + a * (cur.xb - prev.xb)
         cur.slope = prev.slope + a * (cur.slope - prev.slope)
         return cur

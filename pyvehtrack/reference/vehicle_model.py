@@ -260,7 +260,7 @@ def fit(frame: np.ndarray, cfg, search) -> FitResult:
                 mask = rng.below(1 << 7)
                 child = [pop[a][k] if (mask >> k) & 1 else pop[b][k] for k in range(7)]
                 for k in range(7):
-                    if rng.below(100) < cfg.mut_percent:
+                    if rng.below(1000) < cfg.mut_permille:
                         child[k] += rng.pm(jit if k < 4 else 5)
                 child = repair(cfg, g, child)
                 npop.append(child)
