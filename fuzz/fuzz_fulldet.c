@@ -48,8 +48,8 @@ static vt_status fz_level(void *ctx, const vt_image_u8 *level_img, int32_t level
 static void nms(fz *f)
 {
     int32_t n = fz_u8(f) < 230 ? fz_range(f, 0, 64) : fz_edge(f, VT_MAX_NMS_BOXES);
-    int32_t iou = fz_u8(f) < 200 ? fz_range(f, 0, 256) : fz_edge(f, 256);
-    int32_t con = fz_u8(f) < 200 ? fz_range(f, 0, 256) : fz_edge(f, 256);
+    int32_t iou = fz_u8(f) < 200 ? fz_range(f, 0, 1000) : fz_edge(f, 1000);
+    int32_t con = fz_u8(f) < 200 ? fz_range(f, 0, 1000) : fz_edge(f, 1000);
     int32_t i, n_out = -1, alloc = n >= 0 && n <= 64 ? n : 0;
     vt_scored_box *b = (vt_scored_box *)fz_alloc(f, (size_t)alloc * sizeof(vt_scored_box));
     vt_status s;
