@@ -276,6 +276,9 @@ typedef struct {
                                 detections (vt_pipeline_step_dets) exceed VT_MAX_BOXES,
                                 or the flow boxes did not fit (not handed over)      */
     int32_t flow_ready;      /* the overtaking stage compared two frames (VT_SRC_FLOW) */
+    int32_t model_fits;      /* vehicle-model fits run on this frame (VT_SRC_MODEL; each
+                                a GA over a coasting track's ROI, used or not: the used
+                                ones are the boxes of source VT_SRC_MODEL)           */
     vt_pipe_box boxes[VT_MAX_BOXES];
     int32_t n_tracks;        /* live tracks                                          */
     vt_pipe_track tracks[VT_MAX_TRACKS];
