@@ -346,22 +346,22 @@ def _fnv_box(h: int, b) -> int:
 
 
 def host_pipeline(frames: list[np.ndarray], n: SimpleNamespace,
-                  model: bool = True) -> tuple[list[str], list[tuple[str, int]]]:
+                  with_model: bool = True) -> tuple[list[str], list[tuple[str, int]]]:
     """main.c's two run_pipeline() calls (the shadow source alone, then every source),
     their lines and checksums concatenated in the order printed, through the build `n`.
-    model: main.c's FW_MODEL (the vehicle model source in the full run)."""
-    la, sa = host_pipeline_run(frames, n, full=False, model=model)
-    lb, sb = host_pipeline_run(frames, n, full=True, model=model)
+    with_model: main.c's FW_MODEL (the vehicle model source in the full run)."""
+    la, sa = host_pipeline_run(frames, n, full=False, with_model=with_model)
+    lb, sb = host_pipeline_run(frames, n, full=True, with_model=with_model)
     return la + lb, sa + sb
 
 
 def host_pipeline_run(frames: list[np.ndarray], n: SimpleNamespace, full: bool,
-                      model: bool = True) -> tuple[list[str], list[tuple[str, int]]]:
+                      with_model: bool = True) -> tuple[list[str], list[tuple[str, int]]]:
     """main.c's run_pipeline(full): the printed lines (clip, then per frame road/boxes/box/
     model/tracks/track) and the checksums in the order printed, one per vt_frame_out
     (frame_out0..4 / full_out0..4), then pipeline / pipeline_full (the init statuses and
     the five). full: the default classifier model, the flow stage, the block TTC and
-    (model) the vehicle model attached, detection on every second frame."""
+    (with_model) the vehicle model attached, detection on every second frame."""
     lib, ffi, view = n.lib, n.ffi, n.view
     h_, w_ = frames[0].shape
     lines = [f"clip {w_}x{h_}x{len(frames)}"]
@@ -378,7 +378,7 @@ def host_pipeline_run(frames: list[np.ndarray], n: SimpleNamespace, full: bool,
     model = ffi.new("const vt_svm_model **")
     if full:
         cfg.sources = lib.VT_SRC_SHADOW | lib.VT_SRC_CLASSIFIER | lib.VT_SRC_FLOW
-        if model:
+        if with_model:
             cfg.sources |= lib.VT_SRC_MODEL
         cfg.detect_every = 2
         cfg.flow.sides = lib.VT_FLOW_SIDE_BOTH
@@ -397,7 +397,7 @@ def host_pipeline_run(frames: list[np.ndarray], n: SimpleNamespace, full: bool,
         total = fnv_s32(total, lib.vt_pipeline_set_cls_ws(p, keep[0], ffi.NULL))
         total = fnv_s32(total, lib.vt_pipeline_set_flow_ws(p, keep[1]))
         total = fnv_s32(total, lib.vt_pipeline_set_ttc_ws(p, keep[2]))
-        if model:
+        if with_model:
             keep.append(ffi.new("vt_model_ws *"))
             total = fnv_s32(total, lib.vt_pipeline_set_model_ws(p, keep[3]))
     o = ffi.new("vt_frame_out *")
@@ -508,7 +508,7 @@ def fw(caps):
 
 @pytest.fixture(scope="module")
 def pipeline(fw, caps):
-    return host_pipeline(load_clip(), fw, model=_model_on(caps))
+    return host_pipeline(load_clip(), fw, with_model=_model_on(caps))
 
 
 @pytest.fixture(scope="module")
