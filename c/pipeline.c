@@ -657,6 +657,7 @@ static void vt__model(vt_pipeline *p, const vt_image_u8 *frame, vt_frame_out *ou
         se.sigma.bump = 5;
         se.sigma.roof = 5;
         ++fits; /* the bound counts attempts: a failed fit cost its GA too */
+        out->model_fits = fits;
         if (vt_model_fit(p->model_ws, &mc, frame, &se, &res) != VT_OK ||
             res.fitness < p->cfg.model_min_fitness ||
             !vt__iou_at_least(&res.box, b, p->cfg.tracker.match_iou_permille)) {
@@ -730,6 +731,7 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
     out->n_boxes = 0;
     out->n_boxes_in = 0;
     out->flow_ready = 0;
+    out->model_fits = 0;
     out->n_tracks = 0;
     memset(&out->lanes, 0, sizeof(out->lanes));
 

@@ -9,9 +9,19 @@
 #                       their checksum lines (tests/test_firmware.py compares them
 #                       with the host).
 #
+#   make firmware-caps  print the capacity flags the images are built with
+#                       (FW_CAPS FW_DEFS): the host side of every comparison
+#                       (tests/test_firmware.py's cffi build, the determinism
+#                       matrix's host builds of main.c) is built with the same.
+#
 # The core is compiled with the same $(STRICT) flags as `make lib`, plus the
-# target flags. Outputs go to $(BUILD)/firmware/. FW_DEFS adds -D options for the
-# firmware build only (e.g. FW_DEFS=-DVT_MAX_WIDTH=320).
+# target flags and FW_CAPS: the firmware's capacities, sized to the clip in flash
+# (640x256), so every workspace of the full run -- the whole-road detector's, the
+# overtaking stage's, the block TTC's and the vehicle model's -- fits beside the
+# pipeline in the boards' 4 MB of RAM (at the library's default 1920x1080 the
+# flow state alone is 1.9 MB and the model's 0.4 MB would not fit). Outputs go to
+# $(BUILD)/firmware/. FW_DEFS adds further -D options for the firmware build only
+# (e.g. FW_DEFS=-DVT_MAX_TRACKS=4); FW_CAPS= builds at the library's defaults.
 
 FW_CC      ?= arm-none-eabi-gcc
 FW_SIZE    ?= arm-none-eabi-size
@@ -19,11 +29,17 @@ FW_NM      ?= arm-none-eabi-nm
 FW_OBJDUMP ?= arm-none-eabi-objdump
 FW_QEMU    ?= qemu-system-arm
 FW_TIMEOUT ?= 120
+FW_CAPS    ?= -DVT_MAX_WIDTH=640 -DVT_MAX_HEIGHT=256
 FW_DEFS    ?=
 
 FW_OUT  := $(BUILD)/firmware
+# The capacity flags are a dependency of the images: a change of FW_CAPS / FW_DEFS
+# rebuilds them (and the host comparisons read the same flags: firmware-caps).
+FW_FLAGS_STAMP := $(FW_OUT)/flags.txt
+$(shell mkdir -p $(FW_OUT) && { echo '$(FW_CAPS) $(FW_DEFS)' | cmp -s - $(FW_FLAGS_STAMP) || \
+  echo '$(FW_CAPS) $(FW_DEFS)' > $(FW_FLAGS_STAMP); })
 FW_DEPS := $(CORE_SRCS) $(CORE_HDRS) $(wildcard firmware_demo/*.c firmware_demo/*.h) \
-           firmware_demo/link.ld firmware_demo/firmware.mk
+           firmware_demo/link.ld firmware_demo/firmware.mk $(FW_FLAGS_STAMP)
 FW_OPT  := -O2 -g -ffunction-sections -fdata-sections
 
 FW_ARCH_m3  := -mcpu=cortex-m3 -mthumb -mfloat-abi=soft
@@ -37,7 +53,10 @@ FW_SETUP_HINT := run 'make setup' (it apt-get installs gcc-arm-none-eabi libnewl
 fw_need = @for t in $(1); do command -v $$t >/dev/null 2>&1 || \
   { echo "firmware: $$t not found; $(FW_SETUP_HINT)" >&2; exit 1; }; done
 
-.PHONY: firmware firmware-run
+.PHONY: firmware firmware-run firmware-caps
+
+firmware-caps:
+	@echo $(FW_CAPS) $(FW_DEFS)
 
 # One image per core; % is m3 or m7. Everything is rebuilt when any source
 # changes (a few files, a second or two).
@@ -45,9 +64,9 @@ $(FW_OUT)/firmware-%.elf: $(FW_DEPS)
 	$(call fw_need,$(FW_CC))
 	@rm -rf $(FW_OUT)/$* && mkdir -p $(FW_OUT)/$*
 	@set -e; for f in $(CORE_SRCS); do \
-	  $(FW_CC) $(STRICT) $(FW_OPT) $(FW_ARCH_$*) $(FW_DEFS) -Iinclude \
+	  $(FW_CC) $(STRICT) $(FW_OPT) $(FW_ARCH_$*) $(FW_CAPS) $(FW_DEFS) -Iinclude \
 	    -c $$f -o $(FW_OUT)/$*/core_$$(basename $$f .c).o; done
-	@$(FW_CC) $(STRICT) $(FW_OPT) $(FW_ARCH_$*) $(FW_DEFS) -Iinclude -Ifirmware_demo \
+	@$(FW_CC) $(STRICT) $(FW_OPT) $(FW_ARCH_$*) $(FW_CAPS) $(FW_DEFS) -Iinclude -Ifirmware_demo \
 	  -DFW_CORE_NAME='"$(FW_CORE_$*)"' -c firmware_demo/main.c -o $(FW_OUT)/$*/main.o
 	@$(FW_CC) $(STRICT) $(FW_OPT) $(FW_ARCH_$*) -ffreestanding -fno-tree-loop-distribute-patterns \
 	  -Ifirmware_demo -c firmware_demo/board.c -o $(FW_OUT)/$*/board.o

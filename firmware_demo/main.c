@@ -2,14 +2,14 @@
  * primitives run on a real road frame held in flash, on a bare Cortex-M3
  * (soft-float ABI) and Cortex-M7, and every output is folded into an FNV-1a
  * checksum that tests/test_firmware.py recomputes on the host through cffi.
- * Then the whole vehicle system over three real 640x256 frames in flash, through
+ * Then the whole vehicle system over five real 640x256 frames in flash, through
  * its one call: a static vt_pipeline stepped once per frame (lanes on every
  * frame, detection on the first in the lanes' road area, the tracker on all
- * three), printing every frame's road area, boxes and tracks and a checksum of
+ * five), printing every frame's road area, boxes and tracks and a checksum of
  * every vt_frame_out (the host test repeats them too); then once more with every
  * hypothesis source built: the whole-road detector with the default classifier
- * model (c/tables, in flash), the overtaking flow stage and the block-scale TTC
- * (run_pipeline).
+ * model (c/tables, in flash), the overtaking flow stage, the block-scale TTC and
+ * the GA vehicle model refitting coasting tracks (run_pipeline).
  * Equal checksums mean the same C gives the same bits on ARM and on the host.
  *
  * Every buffer is static (.bss), so the linker's size table is the RAM bill.
@@ -54,6 +54,17 @@ static vt_pipe_cls_ws g_cls_ws;
 static vt_flow_state g_flow;
 /* ... and the block-scale TTC's state (VT_TTC_TRACKS slots of past blocks). */
 static vt_ttc_state g_ttc;
+/* ... and the vehicle model's workspace (GA populations, the ROI's pyramid and
+ * gradients: 5.3 bytes per VT_MODEL_MAX_ROI_PIXELS). It fits beside the others
+ * because firmware.mk builds for the clip's 640x256 frames (FW_CAPS). FW_MODEL=0
+ * (FW_DEFS=-DFW_MODEL=0) leaves the model source out of the full run, to measure
+ * what it costs; the host comparisons then leave it out too (firmware-caps). */
+#ifndef FW_MODEL
+#define FW_MODEL 1
+#endif
+#if FW_MODEL
+static vt_model_ws g_model_ws;
+#endif
 
 /* ---------------------------------------------------------------- FNV-1a 32 */
 #define FNV_BASIS 2166136261u
@@ -158,6 +169,41 @@ static void insns(const char *name, uint32_t ticks)
 static void stop(const char *name)
 {
     insns(name, fw_ticks_since(g_t0));
+}
+
+/* The capacities the image was built with (firmware.mk's FW_CAPS, FW_DEFS): the
+ * host side of the comparison must be built with the same (tests/test_firmware.py
+ * checks this line against its build), or equal lines would be luck. */
+static void print_config(void)
+{
+    static const struct {
+        const char *name;
+        int32_t value;
+    } caps[] = {
+        {"VT_MAX_WIDTH", VT_MAX_WIDTH},
+        {"VT_MAX_HEIGHT", VT_MAX_HEIGHT},
+        {"VT_MAX_TRACKS", VT_MAX_TRACKS},
+        {"VT_MAX_BOXES", VT_MAX_BOXES},
+        {"VT_MAX_HYPOTHESES", VT_MAX_HYPOTHESES},
+        {"VT_CLS_MAX_W", VT_CLS_MAX_W},
+        {"VT_CLS_MAX_H", VT_CLS_MAX_H},
+        {"VT_FLOW_MAX_PIXELS", VT_FLOW_MAX_PIXELS},
+        {"VT_FLOW_MAX_CELLS", VT_FLOW_MAX_CELLS},
+        {"VT_TTC_TRACKS", VT_TTC_TRACKS},
+        {"VT_MODEL_MAX_ROI_PIXELS", VT_MODEL_MAX_ROI_PIXELS},
+        {"VT_MODEL_MAX_POP", VT_MODEL_MAX_POP},
+    };
+    size_t i;
+    for (i = 0; i < sizeof caps / sizeof caps[0]; ++i) {
+        fw_line_str("config ");
+        fw_line_str(caps[i].name);
+        fw_line_str(" ");
+        fw_line_s32(caps[i].value);
+        fw_line_end();
+    }
+    fw_line_str("config FW_MODEL ");
+    fw_line_s32(FW_MODEL);
+    fw_line_end();
 }
 
 static void print_size(const char *what, uint32_t bytes)
@@ -472,6 +518,16 @@ static void line_sp(int32_t v)
     fw_line_s32(v);
 }
 
+/* The boxes the vehicle model gave (the fits used), of out->model_fits run. */
+static int32_t fw_model_boxes(const vt_frame_out *o)
+{
+    int32_t i, n = 0;
+    for (i = 0; i < o->n_boxes && i < VT_MAX_BOXES; ++i) {
+        n += o->boxes[i].source == VT_SRC_MODEL;
+    }
+    return n;
+}
+
 /* One vt_frame_out into h (the recipe tests/test_firmware.py mirrors), printing a
  * line per road area, box and track. */
 static uint32_t hash_frame_out(uint32_t h, vt_status s, const vt_frame_out *o)
@@ -509,6 +565,7 @@ static uint32_t hash_frame_out(uint32_t h, vt_status s, const vt_frame_out *o)
         h = fnv_s32(fnv_s32(fnv_s32(h, o->hyp[i].row), o->hyp[i].x_start), o->hyp[i].x_end);
     }
     h = fnv_s32(fnv_s32(h, o->n_boxes), o->flow_ready);
+    h = fnv_s32(h, o->model_fits);
     fw_line_str("boxes ");
     fw_line_s32(f);
     line_sp(o->n_boxes);
@@ -523,6 +580,11 @@ static uint32_t hash_frame_out(uint32_t h, vt_status s, const vt_frame_out *o)
         line_sp(o->boxes[i].source);
         fw_line_end();
     }
+    fw_line_str("model ");
+    fw_line_s32(f);
+    line_sp(o->model_fits);
+    line_sp(fw_model_boxes(o));
+    fw_line_end();
     h = fnv_s32(h, o->n_tracks);
     fw_line_str("tracks ");
     fw_line_s32(f);
@@ -554,31 +616,39 @@ static uint32_t hash_frame_out(uint32_t h, vt_status s, const vt_frame_out *o)
     return h;
 }
 
-#if FW_CLIP_N != 3
+#if FW_CLIP_N != 5
 #error "run_pipeline() names one checksum and insns line per clip frame: update g_step_names"
 #endif
 static const char *const g_step_names[2][FW_CLIP_N] = {
-    {"step_frame0", "step_frame1", "step_frame2"}, {"step_full0", "step_full1", "step_full2"}};
+    {"step_frame0", "step_frame1", "step_frame2", "step_frame3", "step_frame4"},
+    {"step_full0", "step_full1", "step_full2", "step_full3", "step_full4"}};
 static const char *const g_out_names[2][FW_CLIP_N] = {
-    {"frame_out0", "frame_out1", "frame_out2"}, {"full_out0", "full_out1", "full_out2"}};
+    {"frame_out0", "frame_out1", "frame_out2", "frame_out3", "frame_out4"},
+    {"full_out0", "full_out1", "full_out2", "full_out3", "full_out4"}};
 
 /* The whole system through its one call: a static vt_pipeline with the default
  * configuration but lanes on every frame (as a detector keeps its lane tracker
- * fed), and the clip's camera, so over the 3-frame clip detection runs on frame 0
- * in the lanes' road, the tracker follows on frames 1 and 2, and every track gets
+ * fed), and the clip's camera, so over the 5-frame clip detection runs on frame 0
+ * in the lanes' road, the tracker follows on frames 1 to 4, and every track gets
  * its distance, TTC and warning. Each frame's vt_frame_out is hashed into
  * its own checksum line and all of them, after the init statuses, into
  * `checksum pipeline`; `checksum all` stays the primitives' alone. The stack
  * high-water mark of one step is measured by painting the stack right before
- * each step and scanning it right after (the largest of the three); it counts
+ * each step and scanning it right after (the largest of the steps); it counts
  * from the top of the stack, so main's and this function's frames (a few dozen
  * bytes) are included: an upper bound, the reserve a step needs.
  * full = 1: the second run, every hypothesis source built: the whole-road detector
  * with the core's default HOG model (c/tables, in flash) -- classified shadow
- * hypotheses and classifier windows -- detecting on every frame, and the overtaking
- * stage on both sides (every frame; it reports from frame 1 on), and the block-scale
- * TTC after the tracker with lag 2 (the clip has three frames: frame 2 is measured
- * against frame 0), its checksums full_out0..2 and pipeline_full. */
+ * hypotheses and classifier windows -- detecting on every second frame (0, 2, 4;
+ * the frames between are tracked: only there can a confirmed track coast, since on
+ * a detection frame a track no box matches is kept only if its template still
+ * correlates), the overtaking stage on both sides (every frame; it reports from
+ * frame 1 on), the block-scale TTC after the tracker with lag 2 (frame 2 is measured
+ * against frame 0), and the vehicle model (VT_SRC_MODEL, unless FW_MODEL is 0) for
+ * the tracks the previous step left coasting: the lead car's track, confirmed on
+ * frame 2 (three hits), loses its ROI search on frame 3 and coasts, and on frame 4
+ * the GA refits it (a `model F FITS USED` line per frame: fits run, boxes of source
+ * VT_SRC_MODEL); its checksums full_out0..4 and pipeline_full. */
 static uint32_t g_stack_step;
 
 static void run_pipeline(int32_t full)
@@ -609,10 +679,13 @@ static void run_pipeline(int32_t full)
     g_cam.cy -= 118 * VT_Q16_ONE;
     if (full) {
         g_pipe_cfg.sources = VT_SRC_SHADOW | VT_SRC_CLASSIFIER | VT_SRC_FLOW;
-        g_pipe_cfg.detect_every = 1;
+        g_pipe_cfg.detect_every = 2; /* frames 0, 2, 4: tracking alone in between */
         g_pipe_cfg.flow.sides = VT_FLOW_SIDE_BOTH;
-        g_pipe_cfg.flow.min_age = 1; /* report from frame 1: the clip has three frames */
-        g_pipe_cfg.ttc.lag = 2;      /* likewise: a TTC on frame 2 */
+        g_pipe_cfg.flow.min_age = 1; /* report from frame 1: the clip has five frames */
+        g_pipe_cfg.ttc.lag = 2;      /* likewise: a TTC from frame 2 on */
+#if FW_MODEL
+        g_pipe_cfg.sources |= VT_SRC_MODEL;
+#endif
         h = fnv_status(h, vt_svm_default_model(VT_DESC_HOG, &model));
         if (model != NULL) {
             /* Windows of the model's own size a cell apart, as pyvehtrack's
@@ -630,6 +703,9 @@ static void run_pipeline(int32_t full)
         h = fnv_status(h, vt_pipeline_set_cls_ws(&g_pipe, &g_cls_ws, NULL));
         h = fnv_status(h, vt_pipeline_set_flow_ws(&g_pipe, &g_flow));
         h = fnv_status(h, vt_pipeline_set_ttc_ws(&g_pipe, &g_ttc));
+#if FW_MODEL
+        h = fnv_status(h, vt_pipeline_set_model_ws(&g_pipe, &g_model_ws));
+#endif
     }
     img.w = FW_CLIP_W;
     img.h = FW_CLIP_H;
@@ -661,6 +737,7 @@ int main(void)
     fw_line_str("x");
     fw_line_u32(H);
     fw_line_end();
+    print_config();
 
     check_frame();
     check_grad("filter_h101", vt_filter_h101, g_h101);
@@ -699,6 +776,9 @@ int main(void)
     print_size("ram pipe_cls_ws", (uint32_t)sizeof g_cls_ws);
     print_size("ram flow_state", (uint32_t)sizeof g_flow);
     print_size("ram ttc_state", (uint32_t)sizeof g_ttc);
+#if FW_MODEL
+    print_size("ram model_ws", (uint32_t)sizeof g_model_ws);
+#endif
     print_size("ram pipeline_cfg", (uint32_t)sizeof g_pipe_cfg);
     print_size("sizeof vt_image_u8", (uint32_t)sizeof(vt_image_u8));
     print_size("sizeof vt_road_area", (uint32_t)sizeof(vt_road_area));

@@ -114,6 +114,8 @@ class FrameResult:
     scale: float = 1.0             # input pixels per processed pixel (max of x, y)
     stats: dict = field(default_factory=dict)  # shadow stage statistics (detection frames)
     flow_ready: bool = False       # the overtaking stage compared two frames (sources "flow")
+    model_fits: int = 0            # vehicle-model fits run on this frame (sources "model"), used
+                                   # or not; the used ones are the boxes of source "model"
 
     @property
     def box_array(self) -> np.ndarray:
@@ -548,7 +550,7 @@ class Pipeline:
                      "n_runs": int(s.n_runs), "n_dropped": int(s.n_dropped)}
         return FrameResult(int(o.frame), bool(o.detection_frame), lanes, road,
                            ROAD_SOURCES[int(o.road_source)], hyp, boxes, tracks, 1.0, stats,
-                           bool(o.flow_ready))
+                           bool(o.flow_ready), model_fits=int(o.model_fits))
 
     def _horizon_c(self, shape) -> int:
         """The horizon row the C whole-road detector used on this frame."""
@@ -569,7 +571,8 @@ class Pipeline:
                   for (i, s, b, vx, vy, d, ttc, wn), src, tp in zip(r.tracks, r.track_source, pts)]
         return FrameResult(r.frame, r.detection_frame, lanes, road, r.road_source,
                            np.asarray(r.hypotheses, np.int64).reshape(-1, 3), boxes, tracks, 1.0,
-                           dict(r.stats), bool(getattr(r, "flow_ready", False)))
+                           dict(r.stats), bool(getattr(r, "flow_ready", False)),
+                           model_fits=int(getattr(r, "model_fits", 0)))
 
 
 def _score(source, v):
@@ -656,7 +659,7 @@ def _rescale(res: FrameResult, sx: float, sy: float, h0: int, w0: int) -> FrameR
                        [Box(box(b.box), b.source, b.score) for b in res.boxes],
                        [Track(t.id, t.state, box(t.box), (t.velocity[0] * sx, t.velocity[1] * sy),
                               t.distance, t.ttc, t.warning, t.source, t.ttc_points) for t in res.tracks],
-                       float(max(sx, sy)), res.stats, res.flow_ready)
+                       float(max(sx, sy)), res.stats, res.flow_ready, model_fits=res.model_fits)
 
 
 __all__ = ["Pipeline", "FrameResult", "Box", "Track", "PipelineConfig", "NO_ROAD"]

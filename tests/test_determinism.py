@@ -2,10 +2,12 @@
 bits under every compiler, optimisation level, word size and core.
 
 The run is firmware_demo/main.c itself: its checksums of every primitive on a
-real frame, then lanes -> detection -> tracking over three real KITTI frames
-(road areas, boxes, tracks with Q16 velocities, and their FNV-1a digests). On
+real frame, then lanes -> detection -> tracking over five real KITTI frames
+(road areas, boxes, tracks with Q16 velocities, and their FNV-1a digests), and
+again with every source (classifier, flow, block TTC, the GA vehicle model). On
 the host it is linked with tests/c/board_host.c (stdio instead of semihosting)
-and built, without Python, under gcc -O0, gcc -O3, clang -O2,
+and built, without Python, with the images' capacity flags (`make firmware-caps`)
+under gcc -O0, gcc -O3, clang -O2,
 clang -O3 -march=native and gcc -m32 -O2; on ARM it is the Cortex-M3 and
 Cortex-M7 images under QEMU (`make firmware-run`). Every `checksum` line and
 every pipeline line must be identical across all of them: no tolerance, as the
@@ -33,7 +35,7 @@ import subprocess
 import pytest
 
 from cbuild import ROOT, build, clean_env, need, run
-from test_firmware import _require_tools, parse_run
+from test_firmware import _require_tools, fw_caps, parse_run
 
 FW = ROOT / "firmware_demo"
 SOURCES = [FW / "main.c", ROOT / "tests" / "c" / "board_host.c"]
@@ -45,7 +47,7 @@ MATRIX = {
     "clang -O3 -march=native": ("clang", ["-O3", "-march=native"]),
     "gcc -m32 -O2": ("gcc", ["-m32", "-O2"]),
 }
-COMPARED = re.compile(r"(checksum|clip|road|boxes|box|tracks|track) ")
+COMPARED = re.compile(r"(checksum|clip|road|boxes|box|model|tracks|track) ")
 
 
 def digest_lines(text: str) -> list[str]:
@@ -74,13 +76,20 @@ def qemu_lines():
 
 
 @pytest.fixture(scope="module")
-def host_lines():
+def caps():
+    """The images' capacity flags (firmware.mk's FW_CAPS, FW_DEFS): the host builds of
+    main.c use the same, or their lines would be compared across configurations."""
+    return fw_caps()
+
+
+@pytest.fixture(scope="module")
+def host_lines(caps):
     out = {}
     for name, (cc, flags) in MATRIX.items():
         need(cc)
         if "-m32" in flags and not _multilib_ok():
             pytest.skip("gcc -m32 cannot link: install gcc-multilib (make setup)")
-        exe = build(SOURCES, shutil.which(cc), [*flags, *COMMON], "fwhost-" + re.sub(r"\W+", "_", name))
+        exe = build(SOURCES, shutil.which(cc), [*flags, *COMMON, *caps], "fwhost-" + re.sub(r"\W+", "_", name))
         r = run(exe)
         assert r.returncode == 0 and r.stdout.rstrip().endswith("done"), f"{name}: {r.stderr[-2000:]}"
         out[name] = r.stdout
@@ -108,12 +117,12 @@ def test_arm_images_match_the_host(host_lines, qemu_lines):
             [ln for ln in lines if not ln.startswith("checksum ")], core
 
 
-def test_word_size_really_differs():
+def test_word_size_really_differs(caps):
     """The -m32 build is a 32-bit build (pointers of 4 bytes), so the matrix
     covers a second ABI and not the same binary twice."""
     if not _multilib_ok():
         pytest.skip("gcc -m32 cannot link: install gcc-multilib (make setup)")
-    exe = build(SOURCES, shutil.which("gcc"), ["-m32", "-O2", *COMMON], "fwhost-gcc_m32_O2")
+    exe = build(SOURCES, shutil.which("gcc"), ["-m32", "-O2", *COMMON, *caps], "fwhost-gcc_m32_O2")
     r = run(exe)
     sizes = dict(re.findall(r"^sizeof (\S+) (\d+)$", r.stdout, re.M))
     assert sizes["vt_image_u8"] == "16", sizes  # 4-byte pointer + 3 int32

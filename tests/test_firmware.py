@@ -9,26 +9,37 @@ must be equal, line by line, for both cores. There is no tolerance: the
 primitives are exact integer functions, so any difference is a portability bug
 (int width, shift or division semantics, byte order) or a stale frame.
 
-Then the whole vehicle system over three 640x256 clip frames in flash through its
+Then the whole vehicle system over five 640x256 clip frames in flash through its
 one call, vt_pipeline_step on a static vt_pipeline (lanes on every frame, detection
-on the first in the lanes' road area, the tracker on all three, the camera stage's
-distance, TTC and warning per track). The image prints
-every frame's road area (lane status, valid, rows, source), boxes and tracks (box
-and Q16 velocity) and a checksum of every vt_frame_out; `host_pipeline()` repeats
-it and every line must be equal, again with no tolerance (the Kalman filter is
-fixed-point too).
+on the first in the lanes' road area, the tracker on all five, the camera stage's
+distance, TTC and warning per track), and again with every source (classifier,
+flow, block TTC, the GA vehicle model refitting a coasting track). The image prints
+every frame's road area (lane status, valid, rows, source), boxes, model fits and
+tracks (box and Q16 velocity) and a checksum of every vt_frame_out;
+`host_pipeline()` repeats it and every line must be equal, again with no tolerance
+(the Kalman filter and the GA are fixed-point too).
+
+Same capacities on both sides: the images are built with firmware.mk's FW_CAPS (the
+clip's 640x256, so every workspace fits the boards' 4 MB of RAM) and FW_DEFS, which
+`make firmware-caps` prints; the host recipe runs through a cffi extension built
+here with exactly those flags (`fw_native()`, cached under build/), not through the
+suite's own build, and the image's `config` line must equal that build's capacities.
 
 The ARM toolchain and QEMU are required, not optional: CI installs them with
 `make setup`, and a skipped proof would prove nothing, so a missing tool FAILS.
 """
 from __future__ import annotations
 
+import hashlib
+import importlib.machinery
+import importlib.util
 import os
 import re
 import shutil
 import subprocess
 import sys
 from pathlib import Path
+from types import SimpleNamespace
 
 import cv2
 import numpy as np
@@ -38,12 +49,13 @@ from pyvehtrack import _native
 
 ROOT = Path(__file__).resolve().parent.parent
 PNG = ROOT / "tests" / "data" / "kitti_0000_gray_320x96.png"
-CLIP = [ROOT / "tests" / "data" / "kitti_clip" / f"{i:06d}.png" for i in range(3)]
+CLIP = [ROOT / "tests" / "data" / "kitti_clip" / f"{i:06d}.png" for i in range(5)]
 CORES = ("cortex-m3", "cortex-m7")
 TOOLS = ("arm-none-eabi-gcc", "arm-none-eabi-nm", "arm-none-eabi-objdump",
          "arm-none-eabi-size", "qemu-system-arm")
 
 lib, ffi, view = _native.lib, _native.ffi, _native.view
+CDEF_DIR = ROOT / "pyvehtrack" / "cdef"
 
 INT32_MAX, INT32_MIN = 2**31 - 1, -2**31
 M32 = 0xFFFFFFFF
@@ -61,6 +73,68 @@ def _require_tools() -> None:
         pytest.fail(f"firmware proof needs {', '.join(missing)}: run `make setup` "
                     "(apt-get install gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm)",
                     pytrace=False)
+
+
+# ---------------------------------------------------------------- the firmware's capacities
+def fw_caps() -> list[str]:
+    """The -D flags the images are built with (firmware.mk's FW_CAPS and FW_DEFS, as
+    `make firmware-run` sees them: the caller's make command line reaches the nested
+    make through MAKEFLAGS)."""
+    proc = subprocess.run(["make", "-s", "--no-print-directory", "firmware-caps"], cwd=ROOT,
+                          capture_output=True, text=True, timeout=60, env=_tool_env())
+    assert proc.returncode == 0, proc.stderr
+    return proc.stdout.split()
+
+
+def _fw_view(ffi_, arr: np.ndarray, writable: bool = False):
+    """_native.view for another build's ffi: a C view struct over a 2-D array whose
+    rows are contiguous (row padding allowed); the caller keeps `arr` alive."""
+    ro, rw, ptype = {np.dtype(np.uint8): ("vt_image_u8", "vt_image_u8_mut", "uint8_t *"),
+                     np.dtype(np.int16): (None, "vt_image_s16", "int16_t *"),
+                     np.dtype(np.uint32): (None, "vt_image_u32", "uint32_t *")}[arr.dtype]
+    assert arr.ndim == 2 and arr.strides[1] == arr.itemsize, arr.strides
+    v = ffi_.new(((ro or rw) if not writable else rw) + " *")
+    v.px = ffi_.cast(ptype, arr.ctypes.data)
+    v.h, v.w = arr.shape
+    v.stride = arr.strides[0] // arr.itemsize
+    return v
+
+
+def fw_native(caps: list[str]) -> SimpleNamespace:
+    """The cffi extension built with the firmware's capacity flags (the same sources,
+    cdefs and generator as meson's; -O1 as `make check`), cached by content and flags
+    in build/fwffi-*/, loaded beside the suite's own build: lib, ffi, view."""
+    import sysconfig
+    cc = shutil.which("cc") or shutil.which("gcc")
+    assert cc, "no C compiler (cc/gcc) for the firmware's host extension"
+    srcs = sorted((ROOT / "c").glob("*.c"))
+    deps = [*srcs, *sorted((ROOT / "include" / "vehtrack").glob("*.h")), *sorted((ROOT / "c").glob("*.h")),
+            *sorted((ROOT / "c" / "tables").glob("*.h")), *sorted(CDEF_DIR.glob("*.h")),
+            ROOT / "tools" / "build_ffi.py"]
+    h = hashlib.sha256(" ".join([cc, *caps]).encode())
+    for f in deps:
+        h.update(f.read_bytes())
+    out_dir = ROOT / "build" / f"fwffi-{h.hexdigest()[:16]}"
+    so = out_dir / ("_vtffi" + sysconfig.get_config_var("EXT_SUFFIX"))
+    if not so.exists():
+        out_dir.mkdir(parents=True, exist_ok=True)
+        gen = out_dir / "_vtffi.c"
+        subprocess.run([sys.executable, str(ROOT / "tools" / "build_ffi.py"), str(gen)], check=True,
+                       capture_output=True, env=_tool_env())
+        tmp = so.with_suffix(".tmp")
+        r = subprocess.run([cc, "-shared", "-fPIC", "-O1", *caps, f"-I{ROOT / 'include'}",
+                            f"-I{sysconfig.get_paths()['include']}", *map(str, srcs), str(gen), "-o", str(tmp)],
+                           capture_output=True, text=True, env=_tool_env())
+        assert r.returncode == 0, r.stderr[-4000:]
+        tmp.replace(so)
+    # The same module name as the suite's build (its init symbol), from another file:
+    # a separate library with its own ffi and struct sizes, not put in sys.modules.
+    loader = importlib.machinery.ExtensionFileLoader("pyvehtrack._vtffi", str(so))
+    spec = importlib.util.spec_from_file_location("pyvehtrack._vtffi", str(so), loader=loader)
+    mod = importlib.util.module_from_spec(spec)
+    loader.exec_module(mod)
+    return SimpleNamespace(lib=mod.lib, ffi=mod.ffi,
+                           view=lambda arr, name, writable=False, dtype=None: _fw_view(mod.ffi, arr, writable))
 
 
 # ---------------------------------------------------------------- FNV-1a 32, as main.c
@@ -133,7 +207,9 @@ def load_frame() -> np.ndarray:
     return img
 
 
-def host_checksums(frame: np.ndarray) -> list[tuple[str, int]]:
+def host_checksums(frame: np.ndarray, n: SimpleNamespace) -> list[tuple[str, int]]:
+    """main.c's checksums of the primitives, through the build `n` (fw_native)."""
+    lib, ffi, view = n.lib, n.ffi, n.view
     h_, w_ = frame.shape
     out: list[tuple[str, int]] = []
     src = view(frame, "frame")
@@ -269,19 +345,24 @@ def _fnv_box(h: int, b) -> int:
     return h
 
 
-def host_pipeline(frames: list[np.ndarray]) -> tuple[list[str], list[tuple[str, int]]]:
+def host_pipeline(frames: list[np.ndarray], n: SimpleNamespace,
+                  with_model: bool = True) -> tuple[list[str], list[tuple[str, int]]]:
     """main.c's two run_pipeline() calls (the shadow source alone, then every source),
-    their lines and checksums concatenated in the order printed."""
-    la, sa = host_pipeline_run(frames, full=False)
-    lb, sb = host_pipeline_run(frames, full=True)
+    their lines and checksums concatenated in the order printed, through the build `n`.
+    with_model: main.c's FW_MODEL (the vehicle model source in the full run)."""
+    la, sa = host_pipeline_run(frames, n, full=False, with_model=with_model)
+    lb, sb = host_pipeline_run(frames, n, full=True, with_model=with_model)
     return la + lb, sa + sb
 
 
-def host_pipeline_run(frames: list[np.ndarray], full: bool) -> tuple[list[str], list[tuple[str, int]]]:
+def host_pipeline_run(frames: list[np.ndarray], n: SimpleNamespace, full: bool,
+                      with_model: bool = True) -> tuple[list[str], list[tuple[str, int]]]:
     """main.c's run_pipeline(full): the printed lines (clip, then per frame road/boxes/box/
-    tracks/track) and the checksums in the order printed, one per vt_frame_out
-    (frame_out0..2 / full_out0..2), then pipeline / pipeline_full (the init statuses and
-    the three). full: the default classifier model and the flow stage attached."""
+    model/tracks/track) and the checksums in the order printed, one per vt_frame_out
+    (frame_out0..4 / full_out0..4), then pipeline / pipeline_full (the init statuses and
+    the five). full: the default classifier model, the flow stage, the block TTC and
+    (with_model) the vehicle model attached, detection on every second frame."""
+    lib, ffi, view = n.lib, n.ffi, n.view
     h_, w_ = frames[0].shape
     lines = [f"clip {w_}x{h_}x{len(frames)}"]
     sums: list[tuple[str, int]] = []
@@ -297,7 +378,9 @@ def host_pipeline_run(frames: list[np.ndarray], full: bool) -> tuple[list[str], 
     model = ffi.new("const vt_svm_model **")
     if full:
         cfg.sources = lib.VT_SRC_SHADOW | lib.VT_SRC_CLASSIFIER | lib.VT_SRC_FLOW
-        cfg.detect_every = 1
+        if with_model:
+            cfg.sources |= lib.VT_SRC_MODEL
+        cfg.detect_every = 2
         cfg.flow.sides = lib.VT_FLOW_SIDE_BOTH
         cfg.flow.min_age = 1
         cfg.ttc.lag = 2
@@ -314,6 +397,9 @@ def host_pipeline_run(frames: list[np.ndarray], full: bool) -> tuple[list[str], 
         total = fnv_s32(total, lib.vt_pipeline_set_cls_ws(p, keep[0], ffi.NULL))
         total = fnv_s32(total, lib.vt_pipeline_set_flow_ws(p, keep[1]))
         total = fnv_s32(total, lib.vt_pipeline_set_ttc_ws(p, keep[2]))
+        if with_model:
+            keep.append(ffi.new("vt_model_ws *"))
+            total = fnv_s32(total, lib.vt_pipeline_set_model_ws(p, keep[3]))
     o = ffi.new("vt_frame_out *")
     for f, frame in enumerate(frames):
         s = lib.vt_pipeline_step(p, view(frame, "frame"), o)
@@ -338,12 +424,14 @@ def host_pipeline_run(frames: list[np.ndarray], full: bool) -> tuple[list[str], 
         for i in range(o.n_hyp):
             hy = o.hyp[i]
             h = fnv_s32(fnv_s32(fnv_s32(h, hy.row), hy.x_start), hy.x_end)
-        h = fnv_s32(fnv_s32(h, o.n_boxes), o.flow_ready)
+        h = fnv_s32(fnv_s32(fnv_s32(h, o.n_boxes), o.flow_ready), o.model_fits)
         lines.append(f"boxes {f} {o.n_boxes}")
         for i in range(o.n_boxes):
             b = o.boxes[i]
             h = fnv_s32(fnv_s32(_fnv_box(h, b.box), b.source), b.score)
             lines.append(f"box {f} {_box_line(b.box)} {b.source}")
+        used = sum(o.boxes[i].source == lib.VT_SRC_MODEL for i in range(o.n_boxes))
+        lines.append(f"model {f} {o.model_fits} {used}")
         h = fnv_s32(h, o.n_tracks)
         lines.append(f"tracks {f} {o.n_tracks}")
         for i in range(o.n_tracks):
@@ -369,12 +457,14 @@ def parse_run(text: str) -> dict[str, dict]:
         if m:
             cur = cores.setdefault(m.group(1), {"board": m.group(2), "checksums": [],
                                                 "frame": None, "done": False, "core": None,
-                                                "pipeline": []})
+                                                "pipeline": [], "config": {}})
             continue
         if cur is None:
             continue
-        if re.match(r"(clip|road|boxes|box|tracks|track) ", line):
+        if re.match(r"(clip|road|boxes|box|model|tracks|track) ", line):
             cur["pipeline"].append(line)
+        elif m := re.match(r"config (\w+) (-?\d+)$", line):
+            cur["config"][m.group(1)] = int(m.group(2))
         elif m := re.match(r"checksum (\S+) 0x([0-9a-f]{8})$", line):
             cur["checksums"].append((m.group(1), int(m.group(2), 16)))
         elif m := re.match(r"frame (\d+)x(\d+)$", line):
@@ -400,15 +490,32 @@ def firmware_run():
 
 
 @pytest.fixture(scope="module")
-def pipeline():
-    return host_pipeline(load_clip())
+def caps():
+    return fw_caps()
+
+
+def _model_on(caps: list[str]) -> bool:
+    """main.c's FW_MODEL (1 unless FW_DEFS sets it to 0)."""
+    vals = [c.split("=", 1)[1] for c in caps if c.startswith("-DFW_MODEL=")]
+    return not vals or vals[-1] != "0"
 
 
 @pytest.fixture(scope="module")
-def host(pipeline):
+def fw(caps):
+    """The host side of the comparison: the core built with the images' capacities."""
+    return fw_native(caps)
+
+
+@pytest.fixture(scope="module")
+def pipeline(fw, caps):
+    return host_pipeline(load_clip(), fw, with_model=_model_on(caps))
+
+
+@pytest.fixture(scope="module")
+def host(pipeline, fw):
     """Every checksum line the image prints, in order: the primitives (ending with
     `all`, which covers them alone), then detect, road, tracker and pipeline."""
-    return host_checksums(load_frame()) + pipeline[1]
+    return host_checksums(load_frame(), fw) + pipeline[1]
 
 
 def test_symbol_check_ran_and_passed(firmware_run):
@@ -419,6 +526,20 @@ def test_symbol_check_ran_and_passed(firmware_run):
     # The size table of both images was printed (arm-none-eabi-size, berkeley format).
     assert len(re.findall(r"^\s*\d+\s+\d+\s+\d+\s+\d+\s+[0-9a-f]+\s+\S*firmware-m[37]\.elf$",
                           firmware_run, re.M)) == 2
+
+
+@pytest.mark.parametrize("core", CORES)
+def test_image_capacities_equal_host(firmware_run, fw, caps, core):
+    """The image says which capacities it was built with; the host build the lines are
+    compared with has the same ones (and a model source only if the image has one)."""
+    run = parse_run(firmware_run).get(core)
+    assert run is not None and run["done"], f"{core} image did not finish:\n{firmware_run[-3000:]}"
+    cfg = dict(run["config"])
+    assert cfg.pop("FW_MODEL") == int(_model_on(caps))
+    assert len(cfg) >= 10, cfg
+    for name, value in cfg.items():
+        assert int(getattr(fw.lib, name)) == value, f"{core}: {name} {value} in the image, " \
+            f"{int(getattr(fw.lib, name))} on the host ({' '.join(caps)})"
 
 
 @pytest.mark.parametrize("core", CORES)
@@ -487,20 +608,50 @@ def test_pipeline_detects_in_the_lane_road(pipeline):
 def test_full_run_exercises_every_source(pipeline):
     """The second run is no empty proof either: every init/attach status is VT_OK (the
     default model exists in this build), the whole-road detector works on the camera
-    road on every frame with classifier boxes among its boxes, and tracks say which
-    source started them."""
+    road on every detection frame (every second; the lanes' road in between) with
+    classifier boxes among its boxes, and tracks say which source started them."""
     lines = _runs(pipeline[0])[1]
     for f in range(len(CLIP)):
         road = next(ln for ln in lines if ln.startswith(f"road {f} ")).split()
-        assert road[6] == str(int(lib.VT_ROAD_SRC_CAMERA)), (f, road)
+        want = lib.VT_ROAD_SRC_CAMERA if f % 2 == 0 else lib.VT_ROAD_SRC_LANES
+        assert road[6] == str(int(want)), (f, road)
     srcs = {int(ln.split()[6]) for ln in lines if ln.startswith("box ")}
     assert {int(lib.VT_SRC_CLASSIFIER), int(lib.VT_SRC_FLOW)} <= srcs, lines
     tsrc = {int(ln.split()[-1]) for ln in lines if ln.startswith("track ")}
-    assert tsrc and tsrc <= {int(lib.VT_SRC_SHADOW), int(lib.VT_SRC_CLASSIFIER), int(lib.VT_SRC_FLOW)}, lines
+    assert tsrc and tsrc <= {int(lib.VT_SRC_SHADOW), int(lib.VT_SRC_CLASSIFIER), int(lib.VT_SRC_FLOW),
+                             int(lib.VT_SRC_MODEL)}, lines
     # the block-scale TTC (lag 2) measures a track on frame 2; nothing before (no history)
     pts = [(int(ln.split()[1]), int(ln.split()[-2])) for ln in lines if ln.startswith("track ")]
     assert any(f == 2 and v != int(lib.VT_UNKNOWN) for f, v in pts), lines
     assert all(v == int(lib.VT_UNKNOWN) for f, v in pts if f < 2), lines
+
+
+def test_full_run_refits_a_coasting_track(pipeline, caps):
+    """The vehicle model source runs in the image, not just links: a track the previous
+    step left coasting (its ROI search failed on a tracked frame) is refitted by the GA
+    on the next frame, the fit is used (a box of source VT_SRC_MODEL overlapping the
+    track's last box), and the track is confirmed again. Fits run only for coasting
+    tracks, at most model_fits (2) per frame, and never more used than run."""
+    if not _model_on(caps):
+        pytest.skip("FW_DEFS=-DFW_MODEL=0: the image leaves the model source out (a cost measurement)")
+    lines = _runs(pipeline[0])[1]
+    model = {int(ln.split()[1]): tuple(map(int, ln.split()[2:4])) for ln in lines if ln.startswith("model ")}
+    assert sorted(model) == list(range(len(CLIP))), model
+    tracks = {f: {int(t[2]): (int(t[3]), tuple(map(int, t[4:8]))) for t in
+                  (ln.split() for ln in lines if ln.startswith(f"track {f} "))} for f in model}
+    coast = int(lib.VT_TRACK_COASTING)
+    for f, (run, used) in model.items():
+        asked = sum(st == coast for st, _ in tracks[f - 1].values()) if f > 0 else 0
+        assert 0 <= used <= run <= min(2, asked), (f, run, used, asked, lines)
+    refits = [f for f, (run, used) in model.items() if used > 0]
+    assert refits, f"no model fit used over the clip: {model}"
+    f = refits[0]
+    boxes = [tuple(map(int, ln.split()[2:6])) for ln in lines
+             if ln.startswith(f"box {f} ") and int(ln.split()[6]) == int(lib.VT_SRC_MODEL)]
+    assert boxes, lines
+    again = [i for i, (st, _) in tracks[f - 1].items()
+             if st == coast and tracks[f].get(i, (0,))[0] == int(lib.VT_TRACK_CONFIRMED)]
+    assert again, (f, tracks[f - 1], tracks[f])
 
 
 def test_host_recipe_sees_error_statuses():

@@ -40,12 +40,14 @@ def _rows(res):
 def test_c_matches_reference_and_the_model_refines_the_coasting_track():
     kw = dict(sources=("shadow", "model"), detect_every=10)
     a, b = Pipeline("c", **kw), Pipeline("reference", **kw)
-    states, model_boxes = [], {}
+    states, model_boxes, fits = [], {}, []
     for i, f in enumerate(_seq()):
         ra, rb = a.step(f), b.step(f)
         assert _rows(ra) == _rows(rb), i
+        assert ra.model_fits == rb.model_fits, i
         states.append([t.state for t in ra.tracks])
         model_boxes[i] = [x for x in ra.boxes if x.source == "model"]
+        fits.append(ra.model_fits)
     # the lead car's track coasts through the dropped frames 4 and 5 ...
     assert states[4] == ["coasting"] and states[5] == ["coasting"], states
     # ... on the flat frame 5 the model fits nothing better than a featureless patch
@@ -56,6 +58,9 @@ def test_c_matches_reference_and_the_model_refines_the_coasting_track():
     assert model_boxes[6][0].score >= 256
     assert states[6] == ["confirmed"]
     assert all(not v for k, v in model_boxes.items() if k not in (6,)), model_boxes
+    # fits run (vt_frame_out.model_fits): one per frame after a coasting step (5: run,
+    # not used; 6: used), none elsewhere
+    assert fits == [0, 0, 0, 0, 0, 1, 1, 0, 0], fits
 
 
 @pytest.mark.skipif(not BIG, reason="needs a build that takes the 640x256 clip")

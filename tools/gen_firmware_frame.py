@@ -31,7 +31,9 @@ SIZE = (320, 96)  # (w, h): KITTI's 3.31:1 aspect, 4x smaller; fits any MCU flas
 PER_LINE = 24
 CLIP_DIR = ROOT / "tests" / "data" / "kitti_clip"
 CLIP_HEADER = ROOT / "firmware_demo" / "clip_data.h"
-CLIP_N = 3  # detection on frame 0, two tracked frames; 3 x 160 KB of flash
+CLIP_N = 5  # 5 x 160 KB of flash: detection on frame 0, tracked frames, and (the full run,
+            # detecting every 2nd frame) a track that coasts on frame 3 and is refitted
+            # by the vehicle model on frame 4 (firmware_demo/main.c, run_pipeline)
 CLIP_PER_LINE = 32
 
 

@@ -21,7 +21,9 @@
  * (vt_pipeline_set_ttc_ws; 113,048 at the defaults). Work: the stages' own (see their headers);
  * detection runs only every detect_every frames, the flow stage on every frame, the
  * vehicle model at most model_fits times per frame. Stack: measured in firmware_demo/
- * (`stack step`: 4.8 KB with every source on). */
+ * (`stack step`: 3.5 KB on the Cortex-M3 with every source on, the vehicle model
+ * included, in its 640x256 build; vt_pyr_down alone keeps a row of VT_MAX_WIDTH
+ * uint16 column sums there, 3.8 KB at the default width). */
 #ifndef VEHTRACK_PIPELINE_H
 #define VEHTRACK_PIPELINE_H
 
@@ -276,6 +278,9 @@ typedef struct {
                                 detections (vt_pipeline_step_dets) exceed VT_MAX_BOXES,
                                 or the flow boxes did not fit (not handed over)      */
     int32_t flow_ready;      /* the overtaking stage compared two frames (VT_SRC_FLOW) */
+    int32_t model_fits;      /* vehicle-model fits run on this frame (VT_SRC_MODEL; each
+                                a GA over a coasting track's ROI, used or not: the used
+                                ones are the boxes of source VT_SRC_MODEL)           */
     vt_pipe_box boxes[VT_MAX_BOXES];
     int32_t n_tracks;        /* live tracks                                          */
     vt_pipe_track tracks[VT_MAX_TRACKS];

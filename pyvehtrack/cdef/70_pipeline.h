@@ -115,6 +115,7 @@ typedef struct {
     int32_t n_boxes;
     int32_t n_boxes_in;
     int32_t flow_ready;
+    int32_t model_fits;
     vt_pipe_box boxes[...];
     int32_t n_tracks;
     vt_pipe_track tracks[...];

@@ -286,7 +286,7 @@ class Pipeline:
         elif lane_road is not None:
             road, source = lane_road, "lanes"
         trk_det, trk_boxes = det_frame, boxes
-        flow_ready = False
+        flow_ready, model_fits = False, 0
         if self.flow is not None or (SRC_MODEL in c.sources and c.track):
             box_source = [box_source] * len(boxes) if isinstance(box_source, str) else list(box_source)
             scores = [None] * len(boxes) if scores is None else list(scores)
@@ -299,7 +299,7 @@ class Pipeline:
                 extra_src += [SRC_FLOW] * len(fboxes)
                 extra_sc += fcells
             if SRC_MODEL in c.sources and c.track:
-                mboxes, mfit = self._model(gray)
+                mboxes, mfit, model_fits = self._model(gray)
                 n_model = len(mboxes)
                 extra += mboxes
                 extra_src += [SRC_MODEL] * len(mboxes)
@@ -332,6 +332,7 @@ class Pipeline:
                        tracks, stats, [None] * len(boxes) if scores is None else scores, tsrc,
                        [pts.get(int(t[0])) for t in tracks])
         out.flow_ready = flow_ready
+        out.model_fits = model_fits
         self.last_boxes = [t[2] for t in tracks]
         self.last_tracks = tracks
         self.frame = self.frame + 1 if self.frame < 2**31 - 1 else 0
@@ -341,7 +342,7 @@ class Pipeline:
     def _model(self, gray):
         """The vehicle model for the tracks the previous step left coasting
         (c/pipeline.c's vt__model; the rules in vt_pipeline_set_model_ws): the refined
-        boxes and their fitnesses."""
+        boxes, their fitnesses and the fits run (used or not: vt_frame_out.model_fits)."""
         from types import SimpleNamespace  # noqa: PLC0415
         c = self.cfg
         h_img, w_img = gray.shape
@@ -388,7 +389,7 @@ class Pipeline:
                 continue
             out.append(box)
             fit_.append(int(res.fitness))
-        return out, fit_
+        return out, fit_, fits
 
     def _flow(self, gray):
         """The overtaking stage on this frame (c/pipeline.c's vt__flow): (ready, boxes,
