@@ -230,3 +230,19 @@ def test_clip_lead_car_through_mp4v():
         pytest.skip("this OpenCV build cannot write and read back mp4v")
     new, old = _found(mp4, lead, VerifyConfig()), _found(mp4, lead, VerifyConfig(**THESIS))
     assert new >= 11 and new >= old, (new, old)
+
+
+def test_codec_stage_table_on_the_clip():
+    """pyvehtrack.eval.kitti_codec (tools/eval_kitti_codec.py) on 5 clip frames: the
+    same frames lose nothing; flat gray frames lose every PNG find at the shadow stage."""
+    from pyvehtrack.eval import kitti_codec as kc
+    frames, lead = _clip()
+    png = [(i, cv2.cvtColor(f, cv2.COLOR_GRAY2BGR)) for i, f in enumerate(frames[:5])]
+    gt = dict(enumerate(lead[:5]))
+    calib = (721.5377, 609.5593 - 300, 172.854 - 118)   # the clip's crop of the KITTI camera
+    same = kc.compare(png, png, gt, calib, DetectConfig())
+    assert [r["stage"] for r in same] == [""] * 5 and sum(r["png"] for r in same) >= 4
+    flat = [(i, np.full_like(f, 90)) for i, f in png]
+    lost = kc.compare(png, flat, gt, calib, DetectConfig())
+    assert all(r["stage"] == kc.STAGES[0] for r in lost if r["png"])
+    assert not any(r["coded"] for r in lost)
