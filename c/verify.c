@@ -26,23 +26,37 @@ vt_status vt_verify_cfg_check(const vt_verify_cfg *cfg)
         !vt__in(cfg->vedge_threshold, 1, 1020) || !vt__in(cfg->side_min_frac_permille, 0, 1000) ||
         !vt__in(cfg->side_min_px, 0, 4096) || !vt__in(cfg->side_contrast_q8, 0, 4096) ||
         !vt__in(cfg->min_width_q8, 0, 4096) ||
-        !vt__in(cfg->aspect_q8, 1, 4096)) {
+        !vt__in(cfg->aspect_q8, 1, 4096) || !vt__in(cfg->vedge_reach, 0, 3) ||
+        !vt__in(cfg->vedge_hyst_permille, 0, 1000)) {
         return VT_E_ARG;
     }
     return VT_OK;
 }
 
+/* A column's hysteresis state once its current run of weak pixels holds a
+ * strong one; below it, the run's weak pixels not yet counted (<= VT_MAX_HEIGHT). */
+#define VT__RUN_ANCHORED 0xFFFFu
+
 /* Vertical-edge projection of ROI columns x0..x1, rows top..bottom, into
  * st->proj[0..x1-x0]: per ROI row, the vertical [1 2 1] sums of the columns
- * x0-1..x1+1 (replicated at the image border, as vt_sobel_x), then
- * sobel_x = vsum[x+1] - vsum[x-1]. Counts <= VT_MAX_HEIGHT fit uint16. */
+ * x0-1-r..x1+1+r (r = vedge_reach; replicated at the image border, as
+ * vt_sobel_x), then g = vsum[x+1+r] - vsum[x-1-r] (r = 0: sobel_x; a sharp step
+ * of d gray levels anywhere inside the baseline gives 4d for every r), exact in
+ * int32. A pixel is strong if |g| >= thr, weak if |g| >= weak (weak <= thr).
+ * Hysteresis along each column: a weak pixel counts once its vertical run of
+ * weak pixels holds a strong pixel (the run's earlier weak pixels are counted
+ * then, its later ones as they come); a run that never meets a strong pixel
+ * counts nothing. With weak == thr every pixel counted is a strong one: the
+ * thesis's count. Counts <= VT_MAX_HEIGHT fit uint16. */
 static void vt__project(vt_verify_state *st, const vt_image_u8 *img, int32_t x0, int32_t x1,
-                        int32_t top, int32_t bottom, int32_t thr)
+                        int32_t top, int32_t bottom, int32_t thr, int32_t weak, int32_t r)
 {
     const int32_t w = img->w;
-    const int32_t a = x0 > 0 ? x0 - 1 : 0, b = x1 < w - 1 ? x1 + 1 : w - 1;
+    const int32_t a = x0 - 1 - r > 0 ? x0 - 1 - r : 0;
+    const int32_t b = x1 + 1 + r < w - 1 ? x1 + 1 + r : w - 1;
     int32_t x, y;
     memset(st->proj, 0, (size_t)(x1 - x0 + 1) * sizeof st->proj[0]);
+    memset(st->run, 0, (size_t)(x1 - x0 + 1) * sizeof st->run[0]);
     for (y = top; y <= bottom; ++y) {
         const uint8_t *pm, *p0, *pp;
         vt__sobel_rows(img, y, &pm, &p0, &pp);
@@ -50,13 +64,32 @@ static void vt__project(vt_verify_state *st, const vt_image_u8 *img, int32_t x0,
             st->vsum[x] = (uint16_t)(pm[x] + 2 * p0[x] + pp[x]);
         }
         for (x = x0; x <= x1; ++x) {
-            int32_t xa = x > 0 ? x - 1 : 0, xb = x < w - 1 ? x + 1 : w - 1;
+            int32_t xa = x - 1 - r > 0 ? x - 1 - r : 0, xb = x + 1 + r < w - 1 ? x + 1 + r : w - 1;
             int32_t g = (int32_t)st->vsum[xb] - (int32_t)st->vsum[xa];
-            if (g >= thr || -g >= thr) {
-                ++st->proj[x - x0];
+            uint16_t *run = &st->run[x - x0], *cnt = &st->proj[x - x0];
+            if (g < 0) {
+                g = -g;
+            }
+            if (g < weak) {
+                *run = 0; /* the run ends; uncounted weak pixels stay uncounted */
+            } else if (*run == VT__RUN_ANCHORED) {
+                ++*cnt;
+            } else if (g >= thr) {
+                *cnt = (uint16_t)(*cnt + *run + 1);
+                *run = (uint16_t)VT__RUN_ANCHORED;
+            } else {
+                ++*run;
             }
         }
     }
+}
+
+/* The weak threshold: thr - floor(thr * hyst / 1000), at least 1 (thr <= 1020,
+ * hyst <= 1000: the product fits int32). */
+static int32_t vt__weak(const vt_verify_cfg *cfg)
+{
+    int32_t weak = cfg->vedge_threshold - cfg->vedge_threshold * cfg->vedge_hyst_permille / 1000;
+    return weak < 1 ? 1 : weak;
 }
 
 /* A side's column is a vertical edge if it has edge pixels on at least
@@ -94,7 +127,7 @@ static int vt__verify_one(vt_verify_state *st, const vt_verify_cfg *cfg, const v
     if (n < 2) {
         return 0;
     }
-    vt__project(st, img, x0, x1, top, row, cfg->vedge_threshold);
+    vt__project(st, img, x0, x1, top, row, cfg->vedge_threshold, vt__weak(cfg), cfg->vedge_reach);
     /* Thesis: the projection is searched from the left and from the right; the
      * largest value met in each direction is that side. Each search covers its
      * own half so the two sides cannot coincide. */

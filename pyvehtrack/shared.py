@@ -54,6 +54,8 @@ class VerifyConfig:
     side_contrast_q8: int = 384    # and >= 1.5 x the ROI's mean column count
     min_width_q8: int = 128        # sides >= 0.5 x edge length apart
     aspect_q8: int = 256           # height / width = 1.0 (thesis default)
+    vedge_reach: int = 0           # 1: derivative over x-2..x+2 for codec-smoothed sides (thesis: Sobel, 0)
+    vedge_hyst_permille: int = 0    # 200: weak pixels >= 40 - 8 count in a column run with a strong one (thesis: 0)
 
 
 @dataclass(frozen=True)
@@ -83,7 +85,9 @@ class FullDetConfig:
     window_source: bool = True
     win: WindowConfig = field(default_factory=WindowConfig)
     shadow: ShadowConfig = field(default_factory=ShadowConfig)
-    verify: VerifyConfig = field(default_factory=lambda: VerifyConfig(aspect_q8=192))
+    # VT_FULLDET_CFG_DEFAULT's verify omits the codec tolerances: 0, the thesis's verification.
+    verify: VerifyConfig = field(default_factory=lambda: VerifyConfig(aspect_q8=192, vedge_reach=0,
+                                                                      vedge_hyst_permille=0))
     window_score_min: int = 0
     edge_check: bool = True
     shadow_classify: bool = True

@@ -143,7 +143,8 @@ verify_cfgs = st.builds(
     VerifyConfig, widen_px=st.integers(0, 12), widen_q8=st.integers(0, 80),
     roi_height_q8=st.integers(16, 400), vedge_threshold=st.integers(1, 200),
     side_min_frac_permille=st.integers(0, 1000), side_min_px=st.integers(0, 6),
-    min_width_q8=st.integers(0, 300), aspect_q8=st.integers(64, 512))
+    min_width_q8=st.integers(0, 300), aspect_q8=st.integers(64, 512),
+    vedge_reach=st.integers(0, 3), vedge_hyst_permille=st.integers(0, 1000))
 
 
 # ---------------------------------------------------------------- C vs oracle, drawn scenes

@@ -4,7 +4,7 @@
  * the caller or by the pipeline.
  *
  * Cost: sizeof(vt_detect_state) = sizeof(vt_shadow_state) + sizeof(vt_verify_state)
- * (13.9 KB at the defaults); sizeof(vt_detect_result) = 8 + 12*VT_MAX_HYPOTHESES
+ * (17.5 KB at the defaults); sizeof(vt_detect_result) = 8 + 12*VT_MAX_HYPOTHESES
  * + 16*VT_MAX_BOXES bytes. Work: the two stages' (see their headers). */
 #ifndef VEHTRACK_DETECT_H
 #define VEHTRACK_DETECT_H

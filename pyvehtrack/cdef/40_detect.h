@@ -51,6 +51,8 @@ typedef struct {
     int32_t side_contrast_q8;
     int32_t min_width_q8;
     int32_t aspect_q8;
+    int32_t vedge_reach;
+    int32_t vedge_hyst_permille;
 } vt_verify_cfg;
 
 typedef struct { ...; } vt_verify_state;

@@ -18,6 +18,12 @@ lanes, else that trapezoid. Boxes are inclusive pixels, so a box covers [left, r
     PYTHONPATH=. python3 tools/eval_kitti_lead.py [--data DIR] [--json OUT.json]
     python3 -m pyvehtrack.eval.kitti_lead --data DIR [--json OUT.json]
 
+Compression (what a dashcam does to the frames): --mp4 writes the frames as one MP4
+(OpenCV mp4v, default quality) and detects on the decoded frames; --jpeg Q encodes
+every frame as JPEG of quality Q (50: a little harder than mp4v's default, by PSNR).
+The found count is also printed for frames 0-38 (the tuning part of the codec
+tolerances, --vedge-reach / --vedge-hyst) and 39-77 (held out).
+
 The detector's default thresholds were chosen on these frames (see shadow.h): this is
 not an unseen-data figure.
 """
@@ -102,6 +108,15 @@ def _through_mp4(frames):
     return decoded
 
 
+def _through_jpeg(frames, quality: int):
+    """Every frame encoded as JPEG of `quality` (OpenCV) and decoded again."""
+    return [(idx, cv2.imdecode(cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_QUALITY, quality])[1],
+                               cv2.IMREAD_COLOR)) for idx, img in frames]
+
+
+SPLIT = 39   # frames 0-38: the tuning part; 39-77: held out
+
+
 def evaluate(engine: str, frames, gt, road_mode: str, calib, cfg: DetectConfig, thr: float,
              progress: bool, model=None, sources=None):
     h, w = frames[0][1].shape[:2]
@@ -127,6 +142,8 @@ def evaluate(engine: str, frames, gt, road_mode: str, calib, cfg: DetectConfig, 
         "frames": n,
         "found": sum(r["found"] for r in rows),
         "found_share": sum(r["found"] for r in rows) / n,
+        "found_0_38": sum(r["found"] for r in rows if r["frame"] < SPLIT),
+        "found_39_77": sum(r["found"] for r in rows if r["frame"] >= SPLIT),
         "other_boxes_per_frame": sum(r["other_boxes"] for r in rows) / n,
         "median_best_iou": float(np.median([r["best_iou"] for r in rows])),
         "ms_per_frame": 1000.0 * float(np.median(times)),
@@ -148,6 +165,12 @@ def main(argv=None, default_data: Path = DEFAULT_DATA) -> int:
     ap.add_argument("--json", type=Path, default=Path("eval_kitti_lead.json"))
     ap.add_argument("--mp4", action="store_true",
                     help="encode the frames as one MP4 (OpenCV mp4v, default quality) and detect on the decoded frames")
+    ap.add_argument("--jpeg", type=int, default=None, metavar="Q",
+                    help="encode every frame as JPEG of quality Q (1..100) and detect on the decoded frames")
+    ap.add_argument("--vedge-reach", type=int, default=None, metavar="R",
+                    help="verify's derivative baseline (VerifyConfig.vedge_reach; 0 = the thesis's Sobel)")
+    ap.add_argument("--vedge-hyst", type=int, default=None, metavar="P",
+                    help="verify's hysteresis, permille below the edge threshold (0 = none, the thesis)")
     ap.add_argument("--model", default=None, help="classifier .npz: the full-road detector (Detector(model=...))")
     ap.add_argument("--sources", nargs="+", default=None, help="full-road sources (shadow windows)")
     ap.add_argument("--no-progress", action="store_true")
@@ -165,6 +188,12 @@ def main(argv=None, default_data: Path = DEFAULT_DATA) -> int:
             print(f"eval_kitti_lead: cannot read {p}", file=sys.stderr)
             return 2
         frames.append((idx, img))
+    if a.jpeg is not None:
+        if a.mp4:
+            ap.error("--jpeg and --mp4: choose one")
+        if not 1 <= a.jpeg <= 100:
+            ap.error(f"--jpeg: quality must be in 1..100, got {a.jpeg}")
+        frames = _through_jpeg(frames, a.jpeg)
     if a.mp4:
         frames = _through_mp4(frames)
         if frames is None:
@@ -174,20 +203,26 @@ def main(argv=None, default_data: Path = DEFAULT_DATA) -> int:
     if a.fixed_threshold is not None:
         shadow = ShadowConfig(threshold_mode=0, grad_threshold=a.fixed_threshold)
     if a.aspect is not None:
-        verify = VerifyConfig(aspect_q8=int(round(a.aspect * 256)))
+        verify = dataclasses.replace(verify, aspect_q8=int(round(a.aspect * 256)))
+    if a.vedge_reach is not None:
+        verify = dataclasses.replace(verify, vedge_reach=a.vedge_reach)
+    if a.vedge_hyst is not None:
+        verify = dataclasses.replace(verify, vedge_hyst_permille=a.vedge_hyst)
     cfg = DetectConfig(shadow, verify)
     sources = tuple(a.sources) if a.sources else None
     results = [evaluate(e, frames, gt, a.road, calib, cfg, a.iou, not a.no_progress, a.model, sources)
                for e in a.engines]
-    print(f"\nKITTI lead vehicle, {len(frames)} frames{' (via MP4 mp4v)' if a.mp4 else ''}, IoU >= {a.iou}, "
+    via = " (via MP4 mp4v)" if a.mp4 else f" (via JPEG {a.jpeg})" if a.jpeg is not None else ""
+    print(f"\nKITTI lead vehicle, {len(frames)} frames{via}, IoU >= {a.iou}, "
           f"road {a.road}, model {a.model or '-'}, "
           f"{'fixed threshold ' + str(a.fixed_threshold) if a.fixed_threshold is not None else 'adaptive threshold'}, "
-          f"aspect {cfg.verify.aspect_q8 / 256:g}")
+          f"aspect {cfg.verify.aspect_q8 / 256:g}, vedge reach {cfg.verify.vedge_reach} "
+          f"hyst {cfg.verify.vedge_hyst_permille}")
     print(f"{'engine':10s} {'found':>12s} {'other/frame':>12s} {'med IoU':>8s} {'ms/frame':>9s}  road")
     for r in results:
         print(f"{r['engine']:10s} {r['found']:4d} ({100 * r['found_share']:5.1f}%) "
               f"{r['other_boxes_per_frame']:12.2f} {r['median_best_iou']:8.3f} {r['ms_per_frame']:9.2f}  "
-              f"{','.join(r['road_sources'])}")
+              f"{','.join(r['road_sources'])}  [frames 0-38: {r['found_0_38']}, 39-77: {r['found_39_77']}]")
     if len(results) == 2:
         agree = sum(x["boxes"] == y["boxes"] for x, y in zip(results[0]["per_frame"], results[1]["per_frame"]))
         print(f"frames where both engines give identical boxes: {agree}/{len(frames)}")
