@@ -95,6 +95,21 @@ class FullDetConfig:
     merge_iou: float = 0.0            # 0: off; else each kept box -> mean of candidates with IoU >= this
 
 
+@dataclass(frozen=True)
+class WideConfig:
+    """The whole-road detector's wide pass (vt_fulldet_wide_cfg, fulldet.h): a second
+    window grid with the band veh_w_min_m..veh_w_max_m, boxes box_height of their width
+    high, scored by a wide window model; score_min in the model's Q16 units; NMS limits
+    among the wide boxes and against the boxes already found. C holds the fractions in
+    permille (round(x * 1000))."""
+    veh_w_min_m: float = 2.0
+    veh_w_max_m: float = 8.0
+    box_height: float = 0.4
+    score_min: int = 0
+    nms_iou: float = 0.2
+    nms_contain: float = 0.5
+
+
 @dataclass
 class RoadArea:
     """Python twin of vt_road_area (include/vehtrack/road.h): per-row road span
