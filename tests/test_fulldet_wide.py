@@ -197,3 +197,101 @@ def test_default_config_equals_shared_default():
     assert lib.vt_fulldet_wide_cfg_check(c) == 0
     cc = c_wide_cfg(WideConfig())
     assert bytes(ffi.buffer(c)) == bytes(ffi.buffer(cc))
+
+
+# ------------------------------------------------------------- model files, detector, pipeline
+MLP = DATA / "window_mlp_hog32.npz"
+FRAME = DATA / "udacity_test1_640x360.jpg"
+
+
+def with_wide(tmp_path, seed=5, settings=None, drop=()):
+    """MLP's model file plus a random 48x24 wide model (wide_* keys) and wide settings."""
+    import json
+    z = np.load(MLP)
+    rng = np.random.default_rng(seed)
+    dim = 5 * 2 * 36
+    out = {k: z[k] for k in z.files}
+    out.update(wide_win_w=48, wide_win_h=24, wide_w1_q=rng.integers(-3000, 3000, (8, dim)).astype(np.int16),
+               wide_w1_shift=12, wide_b1_q16=rng.integers(-2 ** 15, 2 ** 15, 8).astype(np.int32),
+               wide_w2_q=rng.integers(-3000, 3000, 8).astype(np.int16), wide_w2_shift=12, wide_b2_q16=0)
+    for k in drop:
+        out.pop(k)
+    d = json.loads(str(z["detector_json"]))
+    d.update(settings if settings is not None else {"wide_score_min": -0.5})
+    out["detector_json"] = np.array(json.dumps(d))
+    p = tmp_path / f"wide_{seed}.npz"
+    np.savez(p, **out)
+    return str(p)
+
+
+def test_model_file_and_detector_engines_agree(tmp_path):
+    """fullroad.load_model reads the wide_* keys; FullRoadDetector runs the pass after the
+    second stage in both engines (C = oracle, exact); cfg.wide=False turns it off and
+    leaves the boxes of the detector without it, which are the first boxes with it."""
+    from pyvehtrack import fullroad
+    gray = cv2.imread(str(FRAME), cv2.IMREAD_GRAYSCALE)
+    if gray.shape[1] > MAXW or gray.shape[0] > MAXH:
+        pytest.skip(f"the frame {gray.shape[::-1]} exceeds this build's VT_MAX_WIDTH x VT_MAX_HEIGHT")
+    path = with_wide(tmp_path)
+    m = fullroad.load_model(path)
+    assert m.wide is not None and (m.wide.win_w, m.wide.win_h) == (48, 24)
+    srcs = ("shadow", "windows")
+    c = fullroad.FullRoadDetector(path, sources=srcs)
+    r = fullroad.FullRoadDetector(path, sources=srcs, engine="reference")
+    off = fullroad.FullRoadDetector(path, sources=srcs, cfg=fullroad.FullRoadConfig(wide=False))
+    assert c.wide[1].score_min == -32768 and off.wide is None
+    a, b, o = c.detect_gray(gray), r.detect_gray(gray), off.detect_gray(gray)
+    assert np.array_equal(a, b)
+    assert c.last_stats["n_wide"] > 0 and len(a) == len(o) + c.last_stats["n_wide"]
+    assert np.array_equal(a[:len(o)], o)
+    plain = fullroad.FullRoadDetector(str(MLP), sources=srcs)
+    assert plain.wide is None and np.array_equal(plain.detect_gray(gray), o)
+    with pytest.raises(ValueError, match="no wide model"):
+        fullroad.FullRoadDetector(str(MLP), sources=srcs, cfg=fullroad.FullRoadConfig(wide=True))
+    with pytest.raises(TypeError, match="cfg.wide"):
+        fullroad.FullRoadDetector(path, sources=srcs, cfg=fullroad.FullRoadConfig(wide=1))
+
+
+def test_model_file_refusals(tmp_path):
+    from pyvehtrack import fullroad
+    with pytest.raises(ValueError, match="wide model needs all"):
+        fullroad.load_model(with_wide(tmp_path, drop=("wide_b2_q16",)))
+    with pytest.raises(ValueError, match="wide_box_height"):
+        fullroad.load_model(with_wide(tmp_path, settings={"wide_box_height": 0.0}))
+    with pytest.raises(ValueError, match="wide_veh_w_min must not exceed"):
+        fullroad.load_model(with_wide(tmp_path, settings={"wide_veh_w_min": 5.0, "wide_veh_w_max": 4.0}))
+    with pytest.raises(ValueError, match="unknown key"):
+        fullroad.load_model(with_wide(tmp_path, settings={"wide_foo": 1.0}))
+
+
+def test_pipeline_runs_the_wide_pass(tmp_path):
+    """vt_pipeline_set_wide: the pass runs inside vt_pipeline_step after the second stage,
+    its boxes reach the output (and the tracker), equal to the stand-alone detector's
+    and to the reference pipeline's (exact: road 'fixed', shadow source, shared C
+    classifiers); Pipeline(fullroad=FullRoadConfig(wide=False)) runs without it."""
+    from pyvehtrack import fullroad
+    from pyvehtrack.pipeline import Pipeline
+    gray = cv2.imread(str(FRAME), cv2.IMREAD_GRAYSCALE)
+    if gray.shape[1] > MAXW or gray.shape[0] > MAXH:
+        pytest.skip(f"the frame {gray.shape[::-1]} exceeds this build's VT_MAX_WIDTH x VT_MAX_HEIGHT")
+    path = with_wide(tmp_path)
+    kw = dict(model=path, sources=("shadow",), road="fixed", detect_every=1, track=False)
+    res = Pipeline("c", **kw).step(gray)
+    ref = Pipeline("reference", **kw).step(gray)
+    assert [(b.box, b.source, b.score) for b in res.boxes] == [(b.box, b.source, b.score) for b in ref.boxes]
+    off = Pipeline("c", fullroad=fullroad.FullRoadConfig(wide=False), **kw).step(gray)
+    assert len(res.boxes) > len(off.boxes)
+    assert [b.box for b in res.boxes[:len(off.boxes)]] == [b.box for b in off.boxes]
+    alone = fullroad.FullRoadDetector(path, sources=("shadow",)).detect_gray(gray)
+    assert res.box_array.tolist() == alone[:, :4].astype(int).tolist()
+    # the C setter's refusals
+    p = ffi.new("vt_pipeline *")
+    cfg = ffi.new("vt_pipeline_cfg *")
+    assert lib.vt_pipeline_cfg_default(cfg) == 0 and lib.vt_pipeline_init(p, cfg, ffi.NULL, ffi.NULL) == 0
+    m, keep = random_mlp(2)
+    wc = _native.fulldet_wide_cfg_default()
+    assert lib.vt_pipeline_set_wide(ffi.NULL, m, wc) == lib.VT_E_ARG
+    assert lib.vt_pipeline_set_wide(p, m, ffi.NULL) == lib.VT_E_ARG
+    wc.box_height_permille = 0
+    assert lib.vt_pipeline_set_wide(p, m, wc) == lib.VT_E_ARG
+    assert lib.vt_pipeline_set_wide(p, ffi.NULL, ffi.NULL) == 0
