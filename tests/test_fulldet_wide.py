@@ -295,3 +295,22 @@ def test_pipeline_runs_the_wide_pass(tmp_path):
     wc.box_height_permille = 0
     assert lib.vt_pipeline_set_wide(p, m, wc) == lib.VT_E_ARG
     assert lib.vt_pipeline_set_wide(p, ffi.NULL, ffi.NULL) == 0
+
+
+def test_shipped_wide_model_file():
+    """tests/data/window_mlp_hog32_wide.npz: the main model unchanged plus a 48x24 wide
+    model and the settings chosen on 'val'; on the Udacity frame the C detector equals the
+    oracle with it (the pass really runs: its counter is reported)."""
+    from pyvehtrack import fullroad
+    m = fullroad.load_model(DATA / "window_mlp_hog32_wide.npz")
+    base = fullroad.load_model(MLP)
+    assert (m.wide.win_w, m.wide.win_h) == (48, 24) and np.array_equal(m.w1_q, base.w1_q)
+    assert {k: v for k, v in m.settings.items() if not k.startswith("wide_")} == base.settings
+    det = fullroad.FullRoadDetector(m, sources=("shadow", "windows"))
+    assert det.wide[1] == fullroad.WideConfig(score_min=round(5.5 * 65536), nms_iou=0.1, nms_contain=0.3)
+    gray = cv2.imread(str(FRAME), cv2.IMREAD_GRAYSCALE)
+    if gray.shape[1] > MAXW or gray.shape[0] > MAXH:
+        pytest.skip(f"the frame {gray.shape[::-1]} exceeds this build's VT_MAX_WIDTH x VT_MAX_HEIGHT")
+    ref = fullroad.FullRoadDetector(m, sources=("shadow", "windows"), engine="reference")
+    a = det.detect_gray(gray)
+    assert "n_wide" in det.last_stats and np.array_equal(a, ref.detect_gray(gray))

@@ -98,6 +98,10 @@ def main(argv=None) -> int:
     ap.add_argument("--box-height", type=float, default=0.4)
     ap.add_argument("--jitter", type=int, default=4)
     ap.add_argument("--neg-per-frame", type=int, default=60)
+    ap.add_argument("--init", default=None,
+                    help="a wide model (.npz of this tool) whose accepted boxes seed the first round's hard "
+                         "negatives (continues an earlier run's mining)")
+    ap.add_argument("--hard-per-frame", type=int, default=40)
     ap.add_argument("--horizons", default="/tmp/vt_horizons_fit.json",
                     help="per-frame horizon rows (tools/window_coverage.py --split fit writes them)")
     args = ap.parse_args(argv)
@@ -134,6 +138,26 @@ def main(argv=None) -> int:
                 neg.append(desc(g, grid[i]))
     print(f"{len(frames)} fit frames: {len(pos)} positives (jitter + mirrors), {len(neg)} negatives  "
           f"[{time.time() - t0:.0f}s]", flush=True)
+    ws = _native.box_ws_new()
+
+    def mine(m):
+        added = 0
+        for g, gt, grid in frames:
+            if not len(grid):
+                continue
+            mx = box_iou_matrix(grid, gt).max(axis=1) if len(gt) else np.zeros(len(grid))
+            hard = [i for i in np.flatnonzero(mx < 0.3)
+                    if _native.classify_box_mlp(ws, m, g, [int(v) for v in grid[i]]) >= 0]
+            for i in rng.permutation(hard)[:args.hard_per_frame] if hard else []:
+                neg.append(desc(g, grid[i]))
+                added += 1
+        print(f"  hard negatives added: {added}  [{time.time() - t0:.0f}s]", flush=True)
+
+    if args.init:
+        z = np.load(args.init)
+        m0 = _native.mlp_model(1, int(z["win_w"]), int(z["win_h"]), z["w1_q"], int(z["w1_shift"]), z["b1_q16"],
+                               z["w2_q"], int(z["w2_shift"]), int(z["b2_q16"]), 0)
+        mine(m0[0])
     for rnd in range(args.rounds + 1):
         X = np.vstack(pos + neg)
         y = np.r_[np.ones(len(pos)), -np.ones(len(neg))]
@@ -148,21 +172,13 @@ def main(argv=None) -> int:
         d = mlp_dict("hog", args.win[0], args.win[1], w1, b1, w2, b2, {})
         m = _native.mlp_model(1, args.win[0], args.win[1], d["w1_q"], d["w1_shift"], d["b1_q16"], d["w2_q"],
                               d["w2_shift"], d["b2_q16"], 0)
-        ws = _native.box_ws_new()
-        added = 0
-        for g, gt, grid in frames:
-            if not len(grid):
-                continue
-            mx = box_iou_matrix(grid, gt).max(axis=1) if len(gt) else np.zeros(len(grid))
-            hard = [i for i in np.flatnonzero(mx < 0.3)
-                    if _native.classify_box_mlp(ws, m[0], g, [int(v) for v in grid[i]]) >= 0]
-            for i in rng.permutation(hard)[:40] if hard else []:
-                neg.append(desc(g, grid[i]))
-                added += 1
-        print(f"  hard negatives added: {added}", flush=True)
+        mine(m[0])
+        np.savez(args.out.replace(".npz", f"_r{rnd}.npz"), model_type="mlp", kind="hog", win_w=args.win[0],
+                 win_h=args.win[1], w1_q=d["w1_q"], w1_shift=d["w1_shift"], b1_q16=d["b1_q16"], w2_q=d["w2_q"],
+                 w2_shift=d["w2_shift"], b2_q16=d["b2_q16"], threshold_q16=0)
     d = mlp_dict("hog", args.win[0], args.win[1], w1, b1, w2, b2, {})
     info = {"band": list(args.band), "box_height": args.box_height, "trainer": "tools/train_wide_mlp.py",
-            "frames": "tusimple-vehicles-dev fit part of TRAIN"}
+            "frames": "tusimple-vehicles-dev fit part of TRAIN", "argv": sys.argv[1:] if argv is None else argv}
     np.savez(args.out, model_type="mlp", kind="hog", win_w=args.win[0], win_h=args.win[1], w1_q=d["w1_q"],
              w1_shift=d["w1_shift"], b1_q16=d["b1_q16"], w2_q=d["w2_q"], w2_shift=d["w2_shift"],
              b2_q16=d["b2_q16"], threshold_q16=0, info=json.dumps(info))
