@@ -18,7 +18,8 @@ greedy matching aside) counts in the first step that loses it:
   merge      -- a kept box reaches it, the merged (mean) box does not;
   verify     -- the merged box reaches it, the second stage drops it;
   found      -- a final box reaches it (checked first: a merged box may reach a
-                vehicle whose own window NMS dropped).
+                vehicle whose own window NMS dropped; with a wide model in the file,
+                the wide pass's boxes are final boxes too).
 The final count is checked against the pipeline's own boxes (they must agree: the
 oracle is exact). Not a test: reads /work/shared.
 """
@@ -66,7 +67,7 @@ def main(argv=None) -> int:
     ap.add_argument("--limit", type=int, default=0)
     ap.add_argument("--json", default=None, help="write the per-vehicle step (file, box, step, best score)")
     args = ap.parse_args(argv)
-    from pyvehtrack import fullroad  # noqa: PLC0415
+    from pyvehtrack import _native, fullroad  # noqa: PLC0415
     from pyvehtrack.detector import Detector  # noqa: PLC0415
     from pyvehtrack.reference import fulldet as rfd  # noqa: PLC0415
     from pyvehtrack.reference import windows as rw  # noqa: PLC0415
@@ -118,6 +119,10 @@ def main(argv=None) -> int:
         if ref.verify_min_q16 is not None:
             final = rfd.verify_boxes(merged, lambda l, t, r, b: ref._score_box(gray, l, t, r, b),
                                      ref.verify_min_q16)
+        if ref.wide is not None:   # the wide pass (vt_fulldet_wide) after the second stage
+            final = rfd.wide(gray, road, cam, cfg.win, ref.wide[1],
+                             lambda l, t, r, b: _native.classify_box_mlp(ref._wide_ws, ref._wide_m[0], gray,
+                                                                         [l, t, r, b]), final)
         if not np.array_equal(np.asarray(final[:, :4], np.int64), final_c):
             mismatch += 1
         sc = np.asarray(scored, np.int64).reshape(-1, 5)
