@@ -515,3 +515,159 @@ vt_status vt_mlp_scorer_score(void *ctx, const vt_image_u8 *level_img, const vt_
     }
     return vt_classify_box_mlp(&sc->box, sc->model, level_img, &b, score);
 }
+
+/* ----------------------------------------------------------------- wide pass */
+vt_status vt_fulldet_wide_cfg_default(vt_fulldet_wide_cfg *cfg)
+{
+    static const vt_fulldet_wide_cfg def = VT_FULLDET_WIDE_CFG_DEFAULT;
+    return vt__cfg_copy(cfg, &def, sizeof def);
+}
+
+vt_status vt_fulldet_wide_cfg_check(const vt_fulldet_wide_cfg *cfg)
+{
+    if (cfg == NULL || cfg->veh_w_min_mm < 100 || cfg->veh_w_max_mm > 20000 ||
+        cfg->veh_w_min_mm > cfg->veh_w_max_mm || cfg->box_height_permille < 1 ||
+        cfg->box_height_permille > 1000 || cfg->nms_iou_permille < 0 ||
+        cfg->nms_iou_permille > 1000 || cfg->nms_contain_permille < 0 ||
+        cfg->nms_contain_permille > 1000) {
+        return VT_E_ARG;
+    }
+    return VT_OK;
+}
+
+/* 1 if a and b overlap past the wide pass's limits (fulldet.h): inter * 1000 >
+ * iou * union or > contain * smaller area. Boxes are inside a checked frame
+ * (coordinates < 2^15), so every product is exact in int64. */
+static int vt__wide_overlap(const vt_box *a, const vt_box *b, int32_t iou_pm, int32_t contain_pm)
+{
+    int64_t iw = (int64_t)(a->right < b->right ? a->right : b->right) -
+                 (a->left > b->left ? a->left : b->left) + 1;
+    int64_t ih = (int64_t)(a->bottom < b->bottom ? a->bottom : b->bottom) -
+                 (a->top > b->top ? a->top : b->top) + 1;
+    int64_t inter, aa, ab, mn;
+    if (iw <= 0 || ih <= 0) {
+        return 0;
+    }
+    inter = iw * ih;
+    aa = ((int64_t)a->right - a->left + 1) * ((int64_t)a->bottom - a->top + 1);
+    ab = ((int64_t)b->right - b->left + 1) * ((int64_t)b->bottom - b->top + 1);
+    mn = aa < ab ? aa : ab;
+    return inter * 1000 > (int64_t)iou_pm * (aa + ab - inter) || inter * 1000 > (int64_t)contain_pm * mn;
+}
+
+vt_status vt_fulldet_wide(vt_fulldet_state *st, vt_cls_box_ws *ws, const vt_fulldet_wide_cfg *wc,
+                          const vt_win_cfg *win, const vt_mlp_model *m, const vt_camera_min *cam,
+                          const vt_image_u8 *img, const vt_road_area *road,
+                          vt_fulldet_result *res)
+{
+    vt_win_cfg wcfg;
+    int32_t l, i, j, n_cand = 0, kept = 0, n_out;
+    vt_status s;
+    if (st == NULL || ws == NULL || wc == NULL || win == NULL || m == NULL || cam == NULL ||
+        road == NULL || res == NULL) {
+        return VT_E_ARG;
+    }
+    s = vt_fulldet_wide_cfg_check(wc);
+    if (s == VT_OK) {
+        s = vt_mlp_model_check(m);
+    }
+    if (s == VT_OK) {
+        wcfg = *win;
+        wcfg.veh_w_min_mm = wc->veh_w_min_mm;
+        wcfg.veh_w_max_mm = wc->veh_w_max_mm;
+        s = vt_win_cfg_check(&wcfg);
+    }
+    if (s == VT_OK) {
+        s = vt_camera_min_check(cam);
+    }
+    if (s == VT_OK) {
+        s = vt_image_u8_check(img);
+    }
+    if (s != VT_OK) {
+        return s;
+    }
+    if (road->valid && road->height != img->h) {
+        return VT_E_SIZE;
+    }
+    if (res->n_boxes < 0 || res->n_boxes > VT_MAX_BOXES) {
+        return VT_E_ARG;
+    }
+    /* score the wide grid; candidates in st->cand */
+    for (l = 0; l < wcfg.levels; ++l) {
+        int32_t n;
+        s = vt_windows_level(&wcfg, cam, road, img->w, img->h, l, st->win, VT_FULLDET_MAX_WINDOWS,
+                             &n);
+        if (s != VT_OK) {
+            return s;
+        }
+        n = n > VT_FULLDET_MAX_WINDOWS ? VT_FULLDET_MAX_WINDOWS : n;
+        for (i = 0; i < n; ++i) {
+            const vt_window *wn = &st->win[i];
+            int32_t span = wn->size << wn->level, sc = 0, bh;
+            vt_box b;
+            bh = (int32_t)(((int64_t)span * wc->box_height_permille) / 1000);
+            bh = bh < 1 ? 1 : bh;
+            b.left = wn->x << wn->level;
+            b.right = vt__clamp_i32(((wn->x + wn->size) << wn->level) - 1, 0, img->w - 1);
+            b.bottom = vt__clamp_i32(((wn->y + wn->size) << wn->level) - 1, 0, img->h - 1);
+            b.top = vt__clamp_i32(b.bottom - bh + 1, 0, b.bottom);
+            s = vt_classify_box_mlp(ws, m, img, &b, &sc);
+            if (s != VT_OK) {
+                return s;
+            }
+            if (sc < wc->score_min) {
+                continue;
+            }
+            if (n_cand < VT_FULLDET_MAX_CAND) {
+                j = n_cand++;
+            } else {
+                /* full: replace the (first) lowest score if this one is higher */
+                int32_t lo = 0;
+                for (j = 1; j < VT_FULLDET_MAX_CAND; ++j) {
+                    lo = st->cand[j].score < st->cand[lo].score ? j : lo;
+                }
+                if (st->cand[lo].score >= sc) {
+                    continue;
+                }
+                j = lo;
+            }
+            st->cand[j].box = b;
+            st->cand[j].score = sc;
+            st->cand[j].source = VT_SRC_WINDOW;
+        }
+    }
+    /* stable insertion sort, score descending, then greedy NMS compacting to the front */
+    for (i = 1; i < n_cand; ++i) {
+        vt_scored_box t = st->cand[i];
+        j = i - 1;
+        while (j >= 0 && st->cand[j].score < t.score) {
+            st->cand[j + 1] = st->cand[j];
+            --j;
+        }
+        st->cand[j + 1] = t;
+    }
+    for (i = 0; i < n_cand; ++i) {
+        int keep = 1;
+        for (j = 0; j < kept && keep; ++j) {
+            keep = !vt__wide_overlap(&st->cand[j].box, &st->cand[i].box, wc->nms_iou_permille,
+                                     wc->nms_contain_permille);
+        }
+        if (keep) {
+            st->cand[kept++] = st->cand[i];
+        }
+    }
+    /* append the kept wide boxes that no box of the result overlaps */
+    n_out = res->n_boxes;
+    for (i = 0; i < kept && n_out < VT_MAX_BOXES; ++i) {
+        int keep = 1;
+        for (j = 0; j < res->n_boxes && keep; ++j) {
+            keep = !vt__wide_overlap(&res->box[j].box, &st->cand[i].box, wc->nms_iou_permille,
+                                     wc->nms_contain_permille);
+        }
+        if (keep) {
+            res->box[n_out++] = st->cand[i];
+        }
+    }
+    res->n_boxes = n_out;
+    return VT_OK;
+}

@@ -131,6 +131,7 @@ vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
     p->camera = camera;
     p->cls_ws = NULL;
     memset(&p->scorer, 0, sizeof(p->scorer));
+    p->wide_model = NULL;
     p->horizon_y = 0;
     p->horizon_known = 0;
     p->flow_st = NULL;
@@ -194,6 +195,28 @@ vt_status vt_pipeline_set_cls_ws(vt_pipeline *p, vt_pipe_cls_ws *ws, const vt_wi
         p->scorer = *scorer;
     }
     p->cls_ws = ws;
+    return VT_OK;
+}
+
+vt_status vt_pipeline_set_wide(vt_pipeline *p, const vt_mlp_model *m, const vt_fulldet_wide_cfg *cfg)
+{
+    vt_status s;
+    if (p == NULL || (m != NULL && cfg == NULL)) {
+        return VT_E_ARG;
+    }
+    if (m == NULL) {
+        p->wide_model = NULL;
+        return VT_OK;
+    }
+    s = vt_mlp_model_check(m);
+    if (s == VT_OK) {
+        s = vt_fulldet_wide_cfg_check(cfg);
+    }
+    if (s != VT_OK) {
+        return s;
+    }
+    p->wide_model = m;
+    p->wide_cfg = *cfg;
     return VT_OK;
 }
 
@@ -523,6 +546,11 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
         if (s == VT_OK) {
             s = vt_fulldet_verify(&ws->box, m, frame, p->cfg.verify_min, &ws->res);
         }
+    }
+    if (s == VT_OK && p->wide_model != NULL) {
+        /* the wide pass (side views, trucks): its scratch is the detector's, done with */
+        s = vt_fulldet_wide(&ws->st, &ws->box, &p->wide_cfg, &fc.win, p->wide_model, &cam, frame,
+                            &out->road, &ws->res);
     }
     if (s != VT_OK) {
         return s;

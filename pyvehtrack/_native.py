@@ -708,6 +708,18 @@ def fulldet_verify(ws, model, img: np.ndarray, score_min: int, out) -> np.ndarra
     check("vt_fulldet_verify", lib.vt_fulldet_verify(ws, model, v, int(score_min), out),
           f"img {img.shape}, {out.n_boxes} boxes")
     return np.frombuffer(ffi.buffer(out.box), SCORED_BOX_DTYPE)[:out.n_boxes].copy()
+
+
+def fulldet_wide_cfg_default():
+    return _defaults("vt_fulldet_wide_cfg")
+
+
+def fulldet_wide(st, ws, wcfg, win, model, cam, img: np.ndarray, road, out) -> np.ndarray:
+    """vt_fulldet_wide, appending to the result `out` in place -> its boxes (a copy)."""
+    v = view(img, "img")
+    check("vt_fulldet_wide", lib.vt_fulldet_wide(st, ws, wcfg, win, model, cam, v, road, out),
+          f"img {img.shape}, {_road_detail(road)}, {out.n_boxes} boxes")
+    return np.frombuffer(ffi.buffer(out.box), SCORED_BOX_DTYPE)[:out.n_boxes].copy()
 # ================================================================ end fulldet.h
 
 # ================================================================ classify.h

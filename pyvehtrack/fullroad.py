@@ -36,7 +36,7 @@ import numpy as np
 from . import _native
 from ._native import ffi, lib
 from .shared import Camera as FrameCamera
-from .shared import FULLDET_RENAMED, FullDetConfig, RoadArea, take_renamed
+from .shared import FULLDET_RENAMED, FullDetConfig, RoadArea, WideConfig, take_renamed
 
 SOURCES = ("shadow", "windows")
 # What Detector(model=...) uses when no sources are given: with the HOG 32x32 window
@@ -88,6 +88,7 @@ class SvmModel:
     path: str = "<built-in>"
     scan_sizes: tuple = ()
     settings: dict = field(default_factory=dict)
+    wide: "MlpModel | None" = None   # the wide pass's window model (wide_* keys of the file)
 
     def score_float(self, desc_q15: np.ndarray) -> float:
         """The model's decision value (real units) for a Q15 descriptor, in float."""
@@ -113,11 +114,16 @@ class MlpModel:
     path: str = "<in memory>"
     scan_sizes: tuple = ()
     settings: dict = field(default_factory=dict)
+    wide: "MlpModel | None" = None   # the wide pass's window model (wide_* keys of the file)
 
 
 _SETTINGS = {"score_offset": (-32768.0, 32767.0), "box_height": (1 / 256, 4.0),
-             "verify_min": (-32768.0, 32767.0), "veh_w_min": (0.1, 20.0), "veh_w_max": (0.1, 20.0)}
-_PERMILLE = ("nms_iou_permille", "nms_contain_permille", "merge_iou_permille")   # ints 0..1000
+             "verify_min": (-32768.0, 32767.0), "veh_w_min": (0.1, 20.0), "veh_w_max": (0.1, 20.0),
+             # the wide pass (WideConfig; used when the file holds a wide model)
+             "wide_veh_w_min": (0.1, 20.0), "wide_veh_w_max": (0.1, 20.0),
+             "wide_score_min": (-32768.0, 32767.0)}
+_PERMILLE = ("nms_iou_permille", "nms_contain_permille", "merge_iou_permille",   # ints 0..1000
+             "wide_box_height_permille", "wide_nms_iou_permille", "wide_nms_contain_permille")
 
 
 def _settings(z, p) -> dict:
@@ -145,8 +151,9 @@ def _settings(z, p) -> dict:
         else:
             raise ValueError(f"model: {p}: detector_json has an unknown key {k!r} "
                              f"(known: sources, {', '.join(_PERMILLE + tuple(_SETTINGS))})")
-    if d.get("veh_w_min", 0.0) > d.get("veh_w_max", 20.0):
-        raise ValueError(f"model: {p}: detector_json veh_w_min must not exceed veh_w_max")
+    for a, b in (("veh_w_min", "veh_w_max"), ("wide_veh_w_min", "wide_veh_w_max")):
+        if d.get(a, 0.0) > d.get(b, 20.0):
+            raise ValueError(f"model: {p}: detector_json {a} must not exceed {b}")
     return d
 
 
@@ -172,21 +179,73 @@ def load_model(path) -> SvmModel | MlpModel:
     scan = _scan_sizes(z, p)
     settings = _settings(z, p)
     thr = int(z["threshold_q16"]) if "threshold_q16" in z.files else 0
+    wide = _wide_model(z, p)
     if mlp:
         arrs = [np.asarray(z[k]) for k in ("w1_q", "b1_q16", "w2_q")]
         if any(not np.issubdtype(a.dtype, np.integer) for a in arrs) or arrs[0].ndim != 2:
             raise ValueError(f"model: {p}: w1_q (2-D), b1_q16 and w2_q must be integer arrays")
         m = MlpModel(kind, int(z["win_w"]), int(z["win_h"]), arrs[0], int(z["w1_shift"]), arrs[1], arrs[2],
-                     int(z["w2_shift"]), int(z["b2_q16"]), thr, p, scan, settings)
+                     int(z["w2_shift"]), int(z["b2_q16"]), thr, p, scan, settings, wide)
         _c_model(m)   # validates shapes, shifts and window against the C core
         return m
     w = np.asarray(z["w_q"])
     if w.ndim != 1 or not np.issubdtype(w.dtype, np.integer) or (np.abs(w.astype(np.int64)) > 32767).any():
         raise ValueError(f"model: {p}: w_q must be a 1-D array of int16 values")
     m = SvmModel(kind, int(z["win_w"]), int(z["win_h"]), w.astype(np.int16), int(z["w_shift"]),
-                 int(z["bias_q16"]), thr, p, scan, settings)
+                 int(z["bias_q16"]), thr, p, scan, settings, wide)
     _c_model(m)   # validates window, dim and shift against the C core
     return m
+
+
+_WIDE_KEYS = ("wide_win_w", "wide_win_h", "wide_w1_q", "wide_w1_shift", "wide_b1_q16", "wide_w2_q", "wide_w2_shift",
+              "wide_b2_q16")
+
+
+def _wide_model(z, p) -> "MlpModel | None":
+    """The wide pass's HOG MLP (keys wide_win_w .. wide_b2_q16, as tools/train_wide_mlp.py
+    writes them without the prefix), or None when the file holds none."""
+    have = [k for k in _WIDE_KEYS if k in z.files]
+    if not have:
+        return None
+    if len(have) != len(_WIDE_KEYS):
+        raise ValueError(f"model: {p}: a wide model needs all of {', '.join(_WIDE_KEYS)}")
+    arrs = [np.asarray(z[k]) for k in ("wide_w1_q", "wide_b1_q16", "wide_w2_q")]
+    if any(not np.issubdtype(a.dtype, np.integer) for a in arrs) or arrs[0].ndim != 2:
+        raise ValueError(f"model: {p}: wide_w1_q (2-D), wide_b1_q16 and wide_w2_q must be integer arrays")
+    m = MlpModel(1, int(z["wide_win_w"]), int(z["wide_win_h"]), arrs[0], int(z["wide_w1_shift"]), arrs[1],
+                 arrs[2], int(z["wide_w2_shift"]), int(z["wide_b2_q16"]), 0, p + " (wide)")
+    _c_model(m)   # validates shapes, shifts and window against the C core
+    return m
+
+
+def wide_setup(model, cfg: "FullRoadConfig") -> "tuple[MlpModel, WideConfig] | None":
+    """The wide pass a detector runs: (its model, its WideConfig from the model's
+    detector_json wide_* settings over WideConfig's defaults, the threshold in Q16), or
+    None when the model carries no wide model or cfg.wide is False."""
+    wm = getattr(model, "wide", None)
+    if wm is None or cfg.wide is False:
+        if cfg.wide is True:
+            raise ValueError("cfg.wide: the model holds no wide model (see tools/train_wide_mlp.py)")
+        return None
+    st = getattr(model, "settings", {}) or {}
+    d = WideConfig()
+    w = WideConfig(veh_w_min_m=float(st.get("wide_veh_w_min", d.veh_w_min_m)),
+                   veh_w_max_m=float(st.get("wide_veh_w_max", d.veh_w_max_m)),
+                   box_height_permille=int(st.get("wide_box_height_permille", d.box_height_permille)),
+                   score_min=int(round(float(st.get("wide_score_min", d.score_min / 65536)) * 65536)),
+                   nms_iou_permille=int(st.get("wide_nms_iou_permille", d.nms_iou_permille)),
+                   nms_contain_permille=int(st.get("wide_nms_contain_permille", d.nms_contain_permille)))
+    return wm, w
+
+
+def wide_c_cfg(w: WideConfig):
+    """vt_fulldet_wide_cfg of a WideConfig (fractions in permille), checked."""
+    c = _native.fulldet_wide_cfg_default()
+    c.veh_w_min_mm, c.veh_w_max_mm = round(w.veh_w_min_m * 1000), round(w.veh_w_max_m * 1000)
+    c.box_height_permille, c.score_min = w.box_height_permille, int(w.score_min)
+    c.nms_iou_permille, c.nms_contain_permille = w.nms_iou_permille, w.nms_contain_permille
+    _native.check("vt_fulldet_wide_cfg_check", lib.vt_fulldet_wide_cfg_check(c), f"wide pass {w}")
+    return c
 
 
 def _scan_sizes(z, p) -> tuple:
@@ -229,6 +288,7 @@ class FullRoadConfig:
     det: FullDetConfig | None = None
     score_offset: float = 0.0
     verify_min: float | None = None
+    wide: bool | None = None   # the wide pass: None = on when the model holds a wide model
 
 
 def _c_cfg(cfg: FullDetConfig):
@@ -292,6 +352,8 @@ def setup(model=None, sources=SOURCES, camera: Camera | None = None, cfg: FullRo
     cfg = cfg if cfg is not None else FullRoadConfig()
     if not isinstance(cfg, FullRoadConfig):
         raise TypeError(f"cfg: expected a FullRoadConfig, got {type(cfg).__name__}")
+    if cfg.wide is not None and not isinstance(cfg.wide, bool):
+        raise TypeError(f"cfg.wide: expected True, False or None, got {cfg.wide!r}")
     st = getattr(model, "settings", {}) or {}
     det = cfg.det
     if det is None:
@@ -368,6 +430,12 @@ class FullRoadDetector:
         self._vmodel = _native.mlp_default_model() if vmin is not None else None
         self._vws = _native.box_ws_new() if vmin is not None else None
         self.cfg, self.det_cfg, self.sources, self.engine = cfg, det, sources, engine
+        # the wide pass (side views, trucks): (its model, WideConfig) or None
+        self.wide = wide_setup(self.model, cfg)
+        if self.wide is not None:
+            self._wide_m = _c_model(self.wide[0])
+            self._wide_c = wide_c_cfg(self.wide[1])
+            self._wide_ws = _native.box_ws_new()
         self._cfg_c = _c_cfg(det)
         self._state = ffi.new("vt_fulldet_state *")
         self._out = ffi.new("vt_fulldet_result *")
@@ -454,6 +522,11 @@ class FullRoadDetector:
             if self.verify_min_q16 is not None:
                 a = _native.fulldet_verify(self._vws, self._vmodel, gray, self.verify_min_q16, self._out)
                 self.last_stats["n_verified"] = len(a)
+            if self.wide is not None:
+                n0 = int(self._out.n_boxes)
+                a = _native.fulldet_wide(self._state, self._wide_ws, self._wide_c, ffi.addressof(self._cfg_c, "win"),
+                                         self._wide_m[0], ccam, gray, road_c, self._out)
+                self.last_stats["n_wide"] = len(a) - n0
             arr = np.stack([a[k] for k in ("left", "top", "right", "bottom", "score", "source")], 1)
         else:
             from .reference import fulldet as rfd  # noqa: PLC0415  (the reference engine only)
@@ -464,10 +537,18 @@ class FullRoadDetector:
             if self.verify_min_q16 is not None:
                 arr = rfd.verify_boxes(arr, lambda l, t, r, b: self._score_box(gray, l, t, r, b), self.verify_min_q16)
                 self.last_stats["n_verified"] = len(arr)
+            if self.wide is not None:
+                n0 = len(arr)
+                arr = rfd.wide(gray, road_r, cam, self.det_cfg.win, self.wide[1],
+                               lambda l, t, r, b: _native.classify_box_mlp(self._wide_ws, self._wide_m[0], gray,
+                                                                           [l, t, r, b]),
+                               arr, max_windows=int(lib.VT_FULLDET_MAX_WINDOWS),
+                               max_cand=int(lib.VT_FULLDET_MAX_CAND), max_boxes=int(lib.VT_MAX_BOXES))
+                self.last_stats["n_wide"] = len(arr) - n0
         out = np.asarray(arr, np.float64).reshape(-1, 6)
         out[:, 4] /= 65536.0
         return out
 
 
 __all__ = ["Camera", "SvmModel", "MlpModel", "FullRoadConfig", "FullRoadDetector", "load_model", "default_model", "SOURCES",
-           "DEFAULT_SOURCES", "setup", "road_camera_to_c", "c_scorer"]
+           "DEFAULT_SOURCES", "setup", "road_camera_to_c", "c_scorer", "wide_setup", "wide_c_cfg", "WideConfig"]

@@ -187,6 +187,7 @@ class Pipeline:
         from . import fullroad as _fr  # noqa: PLC0415
         self.model, self._score_fn, self.whole_road = None, None, model is not None
         self._cmodel = self._cscorer = None
+        self._wide = None   # the wide pass: (MlpModel, WideConfig, C model, C cfg, box ws) or None
         if model is None:
             if road_camera is not None or fullroad is not None:
                 raise ValueError("road_camera and fullroad configure the whole-road detector: pass model= too")
@@ -216,6 +217,9 @@ class Pipeline:
         else:
             _m, _, cam, _frc, det = _fr.setup(model, srcs or ("shadow",), road_camera, fullroad)
             det = replace_sources(det, srcs)
+            wide = _fr.wide_setup(_m, _frc)   # the model's wide pass (vt_pipeline_set_wide)
+            if wide is not None:
+                self._wide = (*wide, _fr._c_model(wide[0]), _fr.wide_c_cfg(wide[1]), _native.box_ws_new())
             if _frc.verify_min is not None:   # the model's second stage (vt_fulldet_verify)
                 self._ccfg.verify, self._ccfg.verify_min = 1, int(round(_frc.verify_min * 65536))
         self.model, self.road_camera, self._det_cfg = _m, cam, det
@@ -381,6 +385,9 @@ class Pipeline:
                     self._cls_ws = ffi.new("vt_pipe_cls_ws *")
                 sc = self._cscorer[0] if self._cscorer is not None else ffi.NULL
                 _native.check("vt_pipeline_set_cls_ws", lib.vt_pipeline_set_cls_ws(self._p, self._cls_ws, sc))
+                if self._wide is not None:
+                    _native.check("vt_pipeline_set_wide",
+                                  lib.vt_pipeline_set_wide(self._p, self._wide[2][0], self._wide[3]))
             if "flow" in self.cfg.sources:
                 # the overtaking stage's state (sizeof(vt_flow_state), ~1.9 MB at the default
                 # capacities): one per Pipeline, emptied by every attach
@@ -436,8 +443,12 @@ class Pipeline:
                 rcfg = dataclasses.replace(rcfg, ttc_points=self._ttc_params)
                 caps = dataclasses.replace(caps, ttc_tracks=int(lib.VT_TTC_TRACKS),
                                            ttc_hist=int(lib.VT_TTC_HIST))
+            wide = None
+            if self.whole_road and self._wide is not None:
+                wm, wcfg, (cm, _keep), _c, wws = self._wide
+                wide = (wcfg, lambda g, l, t, r, b: _native.classify_box_mlp(wws, cm, g, [l, t, r, b]))
             self._ref = rpipe.Pipeline(rcfg, caps, camera=geom, score=score,
-                                       box_score=box_score)
+                                       box_score=box_score, wide=wide)
         self.set_ego_speed(self.ego_speed)
 
     @property

@@ -99,6 +99,21 @@ class FullDetConfig:
     merge_iou_permille: int = 0       # 0: off; else each kept box -> mean of candidates with IoU >= this / 1000
 
 
+@dataclass(frozen=True)
+class WideConfig:
+    """The whole-road detector's wide pass (vt_fulldet_wide_cfg, fulldet.h): a second
+    window grid with the band veh_w_min_m..veh_w_max_m, boxes box_height of their width
+    high, scored by a wide window model; score_min in the model's Q16 units; NMS limits
+    among the wide boxes and against the boxes already found. C holds the fractions in
+    permille, as here (the house's one unit for fractions)."""
+    veh_w_min_m: float = 2.0
+    veh_w_max_m: float = 8.0
+    box_height_permille: int = 400
+    score_min: int = 0
+    nms_iou_permille: int = 200
+    nms_contain_permille: int = 500
+
+
 @dataclass
 class RoadArea:
     """Python twin of vt_road_area (include/vehtrack/road.h): per-row road span

@@ -246,4 +246,67 @@ vt_status vt_mlp_scorer_score(void *ctx, const vt_image_u8 *level_img, const vt_
 vt_status vt_fulldet_verify(vt_cls_box_ws *ws, const vt_mlp_model *m, const vt_image_u8 *img,
                             int32_t score_min, vt_fulldet_result *res);
 
+/* ------------------------------------------------------------------ wide pass
+ * Boxes flatter than 1:2 (side views, trucks, cross traffic: a third of the
+ * tusimple-vehicles-dev vehicles >= 32 px wide) have no box in vt_fulldet's grid,
+ * whose windows are cut to one aspect (box_height_q8), and a square window's score
+ * cannot say which aspect its vehicle has. The wide pass is a second grid scored by
+ * a second window model trained on such boxes (an MLP on a wide window, e.g. HOG
+ * 48x24; tools/train_wide_mlp.py): the windows of `win` (windows.h) with the vehicle
+ * band veh_w_min_mm..veh_w_max_mm (a side view is as wide as the vehicle is long),
+ * each cut to box_height_permille of its width, bottom row kept: a box of input
+ * pixels left = x << level, right = min(((x + size) << level) - 1, w - 1), bottom =
+ * min(((y + size) << level) - 1, h - 1), height max(1, floor((size << level) *
+ * box_height_permille / 1000)) (top cut at 0), exact in int64. Each box is scored
+ * on the input image by vt_classify_box_mlp (its arithmetic: classify.h); boxes
+ * scoring >= score_min (Q16) are candidates (past VT_FULLDET_MAX_CAND the lowest
+ * score is replaced, as in vt_fulldet), sorted by score (stable) and thinned by
+ * greedy NMS: a box is dropped when, with a box kept before it, inter * 1000 >
+ * nms_iou_permille * union or inter * 1000 > nms_contain_permille * (smaller area)
+ * (inclusive areas, exact in int64). Each kept box that no box already in the result
+ * overlaps by the same test is appended to the result (source VT_SRC_WINDOW, score
+ * the wide model's), while n_boxes < VT_MAX_BOXES: the wide boxes follow the
+ * result's own, so the result is no longer sorted by one score.
+ * Cost: one vt_classify_box_mlp per window (area resampling of the box from the
+ * input image, HOG of the model window, the MLP); measured in bench/. */
+typedef struct {
+    int32_t veh_w_min_mm;        /* the wide grid's band, 100..20000 mm, min <= max */
+    int32_t veh_w_max_mm;
+    int32_t box_height_permille; /* box height / width, 1..1000                     */
+    int32_t score_min;           /* Q16 decision value of the wide model            */
+    int32_t nms_iou_permille;    /* 0..1000                                         */
+    int32_t nms_contain_permille;
+} vt_fulldet_wide_cfg;
+
+/* Defaults: the band and box height tools/train_wide_mlp.py trains with (2-8 m, 0.4),
+ * the model's own boundary (score 0) and the NMS limits of the window model's settings
+ * (0.2 / 0.5). The threshold and NMS chosen on tusimple-vehicles-dev 'val' for the
+ * shipped wide model travel in its file (tests/data/window_mlp_hog32_wide.npz:
+ * score 5.5, NMS 0.1 / 0.3). */
+#define VT_FULLDET_WIDE_CFG_DEFAULT                                                       \
+    {                                                                                     \
+        .veh_w_min_mm = 2000, .veh_w_max_mm = 8000, .box_height_permille = 400,          \
+        .score_min = 0, .nms_iou_permille = 200, .nms_contain_permille = 500,            \
+    }
+
+/* *cfg = VT_FULLDET_WIDE_CFG_DEFAULT. */
+vt_status vt_fulldet_wide_cfg_default(vt_fulldet_wide_cfg *cfg);
+
+/* VT_OK if every field is in its range (above), else VT_E_ARG. */
+vt_status vt_fulldet_wide_cfg_check(const vt_fulldet_wide_cfg *cfg);
+
+/* The wide pass on one gray frame, appending to res (normally vt_fulldet's result on
+ * the same frame, after vt_fulldet_verify if that runs). st is scratch (its window
+ * and candidate lists are overwritten: call after vt_fulldet has returned); ws is
+ * the classifier's scratch; win the window rules (sizes, step, levels, lane width,
+ * margin: vt_fulldet's cfg->win), whose band wc replaces; m the wide model; cam and
+ * road as vt_fulldet's. Errors: NULL argument -> VT_E_ARG; wc, m, the window rules
+ * with wc's band, cam and img as their checks; a road for another height ->
+ * VT_E_SIZE; res->n_boxes outside 0..VT_MAX_BOXES -> VT_E_ARG. On error res is
+ * unchanged. */
+vt_status vt_fulldet_wide(vt_fulldet_state *st, vt_cls_box_ws *ws, const vt_fulldet_wide_cfg *wc,
+                          const vt_win_cfg *win, const vt_mlp_model *m, const vt_camera_min *cam,
+                          const vt_image_u8 *img, const vt_road_area *road,
+                          vt_fulldet_result *res);
+
 #endif /* VEHTRACK_FULLDET_H */

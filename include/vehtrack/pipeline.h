@@ -202,6 +202,8 @@ typedef struct {
     const vt_camera_cfg *camera; /* NULL: no geometry */
     vt_pipe_cls_ws *cls_ws;      /* the whole-road detector's scratch (NULL: none)        */
     vt_window_scorer scorer;     /* its classifier (score NULL: none)                     */
+    const vt_mlp_model *wide_model; /* the wide pass's model (NULL: off; vt_pipeline_set_wide) */
+    vt_fulldet_wide_cfg wide_cfg;   /* and its settings (a checked copy)                     */
     int32_t horizon_y;           /* the last lanes' vanishing row, input px               */
     int32_t horizon_known;       /* 1 once the lanes gave one (this run)                  */
     vt_flow_state *flow_st;      /* the overtaking stage's state (NULL: none attached)    */
@@ -318,6 +320,17 @@ vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
  * a classifier attached, detection frames run vt_fulldet (see VT_SRC_SHADOW). VT_E_ARG
  * for p NULL, a scorer without `score`, or ws NULL with a scorer (nothing changes). */
 vt_status vt_pipeline_set_cls_ws(vt_pipeline *p, vt_pipe_cls_ws *ws, const vt_window_scorer *scorer);
+
+/* Turn on the whole-road detector's wide pass (vt_fulldet_wide, vehtrack/fulldet.h: boxes
+ * flatter than 1:2 -- side views, trucks -- from a second window grid scored by a wide
+ * window model): on every detection frame that runs vt_fulldet, after it (and after the
+ * second stage when cfg.verify), the pass scores its grid on the same camera and road
+ * with the model m and appends its boxes to the detector's result (the tracker's input),
+ * using the attached vt_pipe_cls_ws as scratch. m is kept by pointer (it must outlive
+ * the run; may live in flash); cfg is copied. m NULL turns the pass off, as
+ * vt_pipeline_init does. VT_E_ARG for p NULL or cfg NULL with m; m and cfg as
+ * vt_mlp_model_check / vt_fulldet_wide_cfg_check. On error nothing changes. */
+vt_status vt_pipeline_set_wide(vt_pipeline *p, const vt_mlp_model *m, const vt_fulldet_wide_cfg *cfg);
 
 /* Attach the caller's workspace for the tracker's edge-curve measurement
  * (cfg.tracker.measurement == VT_MEAS_EDGE_CURVES; vehtrack/edge_track.h), as

@@ -73,3 +73,19 @@ typedef struct {
 vt_status vt_mlp_scorer_init(vt_mlp_scorer *sc, const vt_mlp_model *m);
 vt_status vt_mlp_scorer_score(void *ctx, const vt_image_u8 *level_img, const vt_window *win,
                               int32_t *score);
+
+typedef struct {
+    int32_t veh_w_min_mm;
+    int32_t veh_w_max_mm;
+    int32_t box_height_permille;
+    int32_t score_min;
+    int32_t nms_iou_permille;
+    int32_t nms_contain_permille;
+} vt_fulldet_wide_cfg;
+
+vt_status vt_fulldet_wide_cfg_default(vt_fulldet_wide_cfg *cfg);
+vt_status vt_fulldet_wide_cfg_check(const vt_fulldet_wide_cfg *cfg);
+vt_status vt_fulldet_wide(vt_fulldet_state *st, vt_cls_box_ws *ws, const vt_fulldet_wide_cfg *wc,
+                          const vt_win_cfg *win, const vt_mlp_model *m, const vt_camera_min *cam,
+                          const vt_image_u8 *img, const vt_road_area *road,
+                          vt_fulldet_result *res);

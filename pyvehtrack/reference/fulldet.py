@@ -16,7 +16,10 @@ The composition the IVVI paper (sec. 4/5) and the GIST paper (sec. III) describe
   5. with merge_iou_permille > 0, box refinement: each kept box becomes the mean of every
      candidate whose IoU with it is at least merge_iou_permille / 1000 (rounded half up);
   6. (verify_boxes, a separate call) a second classifier on the square standing on
-     each box's bottom keeps the boxes it scores >= its minimum.
+     each box's bottom keeps the boxes it scores >= its minimum;
+  7. (wide, a separate call) the wide pass: boxes flatter than 1:2 (side views,
+     trucks) from a second window grid with a wider vehicle band, scored by a wide
+     window model, thinned by NMS and added where no box stands yet.
 The classifier is any function score(level_image, level, size, x, y) -> int (the
 same scale as the C scorer), so C and oracle can share one.
 """
@@ -139,4 +142,52 @@ def verify_boxes(boxes: np.ndarray, score_box, score_min: int) -> np.ndarray:
     return np.array(out, np.int64).reshape(-1, 6)
 
 
-__all__ = ["FullDetConfig", "detect", "verify_boxes"]
+def wide(gray: np.ndarray, road, cam: rw.Camera, win, wcfg, score_box, boxes, *, max_windows: int = 4096,
+         max_cand: int = 1024, max_boxes: int = 32) -> np.ndarray:
+    """The wide pass (twin of vt_fulldet_wide, fulldet.h): boxes (N, 6) are the result
+    so far; returns them followed by the wide boxes added. win: the WindowConfig of the
+    main grid (its band replaced by wcfg's); wcfg: a shared.WideConfig; score_box(l, t,
+    r, b) -> int, the wide model's score of an input-pixel box."""
+    from dataclasses import replace
+    gray = np.asarray(gray, np.uint8)
+    h, w = gray.shape
+    grid = replace(win, veh_w_min_m=wcfg.veh_w_min_m, veh_w_max_m=wcfg.veh_w_max_m)
+    bh_pm = wcfg.box_height_permille
+    iou_pm, con_pm = wcfg.nms_iou_permille, wcfg.nms_contain_permille
+    cands = []
+    for lvl in range(grid.levels):
+        for lv, s, x, y in rw.windows_level(grid, cam, road, w, h, lvl)[:max_windows]:
+            lv, s, x, y = int(lv), int(s), int(x), int(y)
+            span = s << lv
+            b = min(((y + s) << lv) - 1, h - 1)
+            box = (x << lv, max(b - max(1, span * bh_pm // 1000) + 1, 0), min(((x + s) << lv) - 1, w - 1), b)
+            sc = int(score_box(*box))
+            if sc < wcfg.score_min:
+                continue
+            if len(cands) < max_cand:
+                cands.append((box, sc))
+                continue
+            lo = min(range(len(cands)), key=lambda i: cands[i][1])   # first lowest
+            if cands[lo][1] < sc:
+                cands[lo] = (box, sc)
+    cands.sort(key=lambda c: -c[1])   # stable
+
+    def overlap(a, b):   # the pass's suppression test, in permille
+        inter, union, aa, ab = rw._iou_parts(a, b)
+        return inter > 0 and (1000 * inter > iou_pm * union or 1000 * inter > con_pm * min(aa, ab))
+
+    kept = []
+    for box, sc in cands:
+        if not any(overlap(k, box) for k, _ in kept):
+            kept.append((box, sc))
+    out = [list(int(v) for v in r) for r in np.asarray(boxes, np.int64).reshape(-1, 6)]
+    have = [tuple(r[:4]) for r in out]
+    for box, sc in kept:
+        if len(out) >= max_boxes:
+            break
+        if not any(overlap(a, box) for a in have):
+            out.append([*box, sc, 2])
+    return np.array(out, np.int64).reshape(-1, 6)
+
+
+__all__ = ["FullDetConfig", "detect", "verify_boxes", "wide"]

@@ -160,13 +160,17 @@ class Pipeline:
     """One run over a video: step(gray) per frame, in order."""
 
     def __init__(self, cfg: PipelineRefConfig | None = None, caps: Capacities | None = None,
-                 camera=None, score=None, box_score=None):
+                 camera=None, score=None, box_score=None, wide=None):
         """camera: None, or (reference.camera.CameraParams, RangeParams) for frames of
         exactly the camera's img_w x img_h. score: None (the ego-lane detector), or the
         classifier of the whole-road detector, score(level_image, level, size, x, y) ->
         int (see reference.fulldet). box_score: the second stage's classifier of one box,
-        box_score(gray, l, t, r, b) -> int (cfg.verify_min; see reference.fulldet.verify_boxes)."""
+        box_score(gray, l, t, r, b) -> int (cfg.verify_min; see reference.fulldet.verify_boxes).
+        wide: None, or (shared.WideConfig, wide_score(gray, l, t, r, b) -> int): the
+        whole-road detector's wide pass after the second stage (reference.fulldet.wide;
+        vt_pipeline_set_wide)."""
         self.cfg = cfg or PipelineRefConfig()
+        self.wide = wide
         self.score = score
         self.box_score = box_score
         if self.cfg.verify_min is not None and box_score is None:
@@ -442,6 +446,11 @@ class Pipeline:
                              max_shadow_cand=self.caps.max_shadow_cand)
         if c.verify_min is not None:
             arr = rfd.verify_boxes(arr, lambda l, t, r, b: self.box_score(gray, l, t, r, b), c.verify_min)
+        if self.wide is not None:
+            wcfg, wscore = self.wide
+            arr = rfd.wide(gray, road, cam, c.fulldet.win, wcfg, lambda l, t, r, b: wscore(gray, l, t, r, b), arr,
+                           max_windows=self.caps.max_windows, max_cand=self.caps.max_cand,
+                           max_boxes=self.caps.max_boxes)
         stats.update(st)
         hyp = np.zeros((0, 3), np.int64)
         if fc.shadow_source:
