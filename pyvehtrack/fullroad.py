@@ -122,8 +122,9 @@ _SETTINGS = {"score_offset": (-32768.0, 32767.0), "box_height": (1 / 256, 4.0),
              # the wide pass (WideConfig; used when the file holds a wide model)
              "wide_veh_w_min": (0.1, 20.0), "wide_veh_w_max": (0.1, 20.0),
              "wide_score_min": (-32768.0, 32767.0)}
-_PERMILLE = ("nms_iou_permille", "nms_contain_permille", "merge_iou_permille",   # ints 0..1000
-             "wide_box_height_permille", "wide_nms_iou_permille", "wide_nms_contain_permille")
+_FULLDET_PERMILLE = ("nms_iou_permille", "nms_contain_permille", "merge_iou_permille")   # FullDetConfig's
+_PERMILLE = _FULLDET_PERMILLE + ("wide_box_height_permille", "wide_nms_iou_permille",   # ints 0..1000
+                                 "wide_nms_contain_permille")
 
 
 def _settings(z, p) -> dict:
@@ -357,7 +358,7 @@ def setup(model=None, sources=SOURCES, camera: Camera | None = None, cfg: FullRo
     st = getattr(model, "settings", {}) or {}
     det = cfg.det
     if det is None:
-        det = replace(FullDetConfig(), **{k: int(st[k]) for k in _PERMILLE if k in st},
+        det = replace(FullDetConfig(), **{k: int(st[k]) for k in _FULLDET_PERMILLE if k in st},
                       **({"box_height": float(st["box_height"])} if "box_height" in st else {}))
         if "veh_w_min" in st or "veh_w_max" in st:
             det = replace(det, win=replace(det.win, veh_w_min_m=float(st.get("veh_w_min", det.win.veh_w_min_m)),
