@@ -71,6 +71,19 @@
  * the geometry cannot say (no filtered distance yet, opening, beyond ttc_max). */
 #define VT_UNKNOWN INT32_MIN
 
+/* vt_pipe_track.state of a vehicle the pipeline handed over to the flow stage (the
+ * ego car is overtaking it; see vt_pipeline_set_flow_ws): after the tracker's
+ * VT_TRACK_* states. */
+#define VT_PIPE_HANDOVER 4
+
+/* Frames of box history the hand-over rule can look back (cfg.handover_frames < it). */
+#ifndef VT_PIPE_HO_HIST
+#define VT_PIPE_HO_HIST 16
+#endif
+#if VT_PIPE_HO_HIST < 2 || VT_PIPE_HO_HIST > 256
+#error "VT_PIPE_HO_HIST out of range (2..256)"
+#endif
+
 /* vt_pipe_track.warning: VT_FCW_UNKNOWN without a camera, else the VT_FCW_* bits
  * of vehtrack/camera.h (0: no warning). */
 #define VT_FCW_UNKNOWN (-1)
@@ -155,6 +168,14 @@ typedef struct {
     vt_ttc_cfg ttc;          /* the block-scale TTC (vehtrack/ttc_scale.h) run after the
                                 tracker when its state is attached (vt_pipeline_set_ttc_ws);
                                 frame_dt is the frame period (default 0.1 s)            */
+    int32_t handover;        /* 0/1: hand vehicles the ego car overtakes to the flow stage
+                                (IVVI paper sec. 3, the reverse case); acts only with
+                                VT_SRC_FLOW on (rule: vt_pipeline_set_flow_ws)           */
+    int32_t handover_frames; /* the rule's look-back N, 1..VT_PIPE_HO_HIST - 1 frames    */
+    int32_t handover_dy_permille; /* its bottom row moved down by at least this permille
+                                of the frame height over those N frames, 0..1000       */
+    int32_t handover_edge_permille; /* its outer side within this permille of the width
+                                of the frame's border, 0..500                          */
 } vt_pipeline_cfg;
 
 #define VT_PIPELINE_CFG_DEFAULT                                   \
@@ -178,6 +199,10 @@ typedef struct {
         .verify = 0,                                              \
         .verify_min = 0,                                          \
         .ttc = VT_TTC_CFG_DEFAULT,                                \
+        .handover = 1,                                            \
+        .handover_frames = 8,                                     \
+        .handover_dy_permille = 10,                               \
+        .handover_edge_permille = 20,                             \
     }
 
 /* The whole-road detector's scratch, owned by the caller and attached with
@@ -221,6 +246,23 @@ typedef struct {
     vt_ttc_state *ttc_st;               /* the block-scale TTC's state (NULL: none)    */
     int32_t n_ttc;                      /* its outputs of the last step ...            */
     vt_ttc_out ttc_out[VT_MAX_TRACKS];  /* ... (kept here, not on the stack)           */
+    int32_t n_trk;                      /* the tracker's tracks in tracks[] (the other
+                                           output tracks are hand-overs)               */
+    /* The hand-over rule's memory per tracker slot: the id of the track it is about,
+     * its last frames' bottom rows and centre columns x 2 (l + r), newest at [0],
+     * ho_len of them known. */
+    int32_t ho_tid[VT_MAX_TRACKS];
+    int32_t ho_len[VT_MAX_TRACKS];
+    int32_t ho_bot[VT_MAX_TRACKS][VT_PIPE_HO_HIST];
+    int32_t ho_cx2[VT_MAX_TRACKS][VT_PIPE_HO_HIST];
+    /* Live hand-overs, in the order they were made: the track's id, the flow stage's
+     * seed id, and this frame's box and flow (Q16 px/frame). */
+    int32_t n_ho;
+    int32_t ho_id[VT_FLOW_MAX_SEEDS];
+    int32_t ho_seed[VT_FLOW_MAX_SEEDS];
+    vt_box ho_box[VT_FLOW_MAX_SEEDS];
+    vt_q16 ho_vx[VT_FLOW_MAX_SEEDS];
+    vt_q16 ho_vy[VT_FLOW_MAX_SEEDS];
 } vt_pipeline;
 
 /* A detected box and the source that proposed it. score: the source's confidence:

@@ -241,6 +241,14 @@ class FlowOracle:
         self.seeds.append(Seed(sid, float(l), float(t), r - l + 1, b - t + 1, 0))
         return sid
 
+    def unseed(self, sid: int) -> None:
+        """Stop the hand-over track `sid` (vt_flow_unseed); ValueError if none is live."""
+        for k, sd in enumerate(self.seeds):
+            if sd.id == sid:
+                del self.seeds[k]
+                return
+        raise ValueError(f"unseed: no hand-over track with id {sid}")
+
     def _seed_step(self, sd: Seed, cur: np.ndarray, prev: np.ndarray):
         """Move a hand-over track by the mean motion of the cells inside its box."""
         cfg, lv, n = self.cfg, self.level, self.cfg.cell
