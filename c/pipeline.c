@@ -577,24 +577,40 @@ static int vt__ho_covers(const vt_pipeline *p, const vt_box *b)
 
 /* The live hand-overs after this frame's flow step: each takes its seed's hypothesis
  * (box, flow). One the flow stage no longer reports has ended (it left the frame, no
- * cell matched, or the stage restarted on a frame of another size); its seed is
- * released too, in case only the result's capacity (VT_FLOW_MAX_HYPS) hid it, so the
- * two lists never disagree. Order is kept. */
+ * cell matched, or the stage restarted on a frame of another size). One whose inner
+ * side (right on the left, left on the right) has not got further out than its
+ * furthest-out column for handover_frames frames in a row ends here: the vehicle it
+ * followed is leaving, a box that stays is on the road or a marking by the border.
+ * An ended hand-over's seed is released (also when only the result's capacity,
+ * VT_FLOW_MAX_HYPS, hid it), so the two lists never disagree. Order is kept. */
 static void vt__ho_refresh(vt_pipeline *p)
 {
-    int32_t i, k, n = 0;
+    int32_t i, k, n = 0, inner;
     for (i = 0; i < p->n_ho; ++i) {
         for (k = 0; k < p->flow.n; ++k) {
             if (p->flow.hyp[k].kind == VT_FLOW_KIND_HANDOVER && p->flow.hyp[k].id == p->ho_seed[i]) {
                 break;
             }
         }
-        if (k == p->flow.n) {
+        if (k < p->flow.n) {
+            const vt_box *b = &p->flow.hyp[k].box;
+            inner = p->ho_side[i] == 1 ? b->right : b->left;
+            if (p->ho_side[i] == 1 ? inner < p->ho_best[i] : inner > p->ho_best[i]) {
+                p->ho_best[i] = inner;
+                p->ho_stall[i] = 0;
+            } else {
+                ++p->ho_stall[i];
+            }
+        }
+        if (k == p->flow.n || p->ho_stall[i] >= p->cfg.handover_frames) {
             (void)vt_flow_unseed(p->flow_st, p->ho_seed[i]);
             continue;
         }
         p->ho_id[n] = p->ho_id[i];
         p->ho_seed[n] = p->ho_seed[i];
+        p->ho_side[n] = p->ho_side[i];
+        p->ho_best[n] = p->ho_best[i];
+        p->ho_stall[n] = p->ho_stall[i];
         p->ho_box[n] = p->flow.hyp[k].box;
         p->ho_vx[n] = p->flow.hyp[k].flow_x;
         p->ho_vy[n] = p->flow.hyp[k].flow_y;
@@ -642,7 +658,7 @@ static void vt__ho_history(vt_pipeline *p)
  *   - it did not move inward over the N frames (l + r not larger on the left, not
  *     smaller on the right).
  * Then vt_flow_seed(its box) and vt_tracker_drop(its id): it leaves p->tracks and is
- * reported as a hand-over with the same id. A seed refused (VT_FLOW_MAX_SEEDS live, or
+ * reported as a hand-over with the same id (until vt__ho_refresh ends it). A seed refused (VT_FLOW_MAX_SEEDS live, or
  * a box outside the frame) leaves the track with the tracker. Exact integer tests. */
 static void vt__handover(vt_pipeline *p, const vt_image_u8 *frame, int32_t *n_tracks)
 {
@@ -679,6 +695,9 @@ static void vt__handover(vt_pipeline *p, const vt_image_u8 *frame, int32_t *n_tr
             p->ho_box[p->n_ho] = *b;
             p->ho_vx[p->n_ho] = t->vx;
             p->ho_vy[p->n_ho] = t->vy;
+            p->ho_side[p->n_ho] = side;
+            p->ho_best[p->n_ho] = side == 1 ? b->right : b->left;
+            p->ho_stall[p->n_ho] = 0;
             ++p->n_ho;
             (void)vt_tracker_drop(&p->tracker, t->id);
             p->ho_tid[i] = 0;

@@ -263,6 +263,9 @@ typedef struct {
     vt_box ho_box[VT_FLOW_MAX_SEEDS];
     vt_q16 ho_vx[VT_FLOW_MAX_SEEDS];
     vt_q16 ho_vy[VT_FLOW_MAX_SEEDS];
+    int32_t ho_side[VT_FLOW_MAX_SEEDS];  /* 1 left, 2 right: the side it leaves by       */
+    int32_t ho_best[VT_FLOW_MAX_SEEDS];  /* its inner side's furthest-out column so far  */
+    int32_t ho_stall[VT_FLOW_MAX_SEEDS]; /* frames in a row it did not get further out   */
 } vt_pipeline;
 
 /* A detected box and the source that proposed it. score: the source's confidence:

@@ -203,7 +203,8 @@ class Pipeline:
             self.flow = rflow.FlowOracle(self.cfg.flow, self.caps.max_flow_hyps, self.caps.max_flow_seeds,
                                          self.caps.max_flow_blobs)
         self.last_boxes = []       # the previous step's track boxes (the flow hand-over rule)
-        self.ho = []               # live hand-overs: [track id, seed id, box, vx, vy], in order made
+        self.ho = []               # live hand-overs, in order made: [track id, seed id, box, vx, vy,
+        #                            side (1 left, 2 right), inner side's furthest-out column, stall]
         self.ho_hist = {}          # track id -> [(bottom, l + r), ...] newest first (the rule's memory)
         if not 1 <= int(self.cfg.handover_frames) <= self.caps.ho_hist - 1:
             raise ValueError(f"handover_frames must be in 1..{self.caps.ho_hist - 1}, "
@@ -345,7 +346,7 @@ class Pipeline:
         # the live hand-overs after the tracker's tracks, while the output has room
         warn_ho = None if self.camera is None else False
         tracks += [(tid, HANDOVER, tuple(b), vx, vy, None, None, warn_ho)
-                   for tid, _sid, b, vx, vy in self.ho[:max(0, self.caps.max_tracks - n_trk)]]
+                   for tid, _sid, b, vx, vy, *_rest in self.ho[:max(0, self.caps.max_tracks - n_trk)]]
         if isinstance(box_source, str):
             box_source = [box_source] * len(boxes)
         tsrc = self._track_sources(tracks, boxes[:self.caps.max_boxes], box_source[:self.caps.max_boxes])
@@ -427,16 +428,24 @@ class Pipeline:
             self.flow.reset()
             ready, hyps = self.flow.step(gray)
         # the live hand-overs take their seeds' hypotheses; one no longer reported has ended
+        # (c/pipeline.c's vt__ho_refresh), and so has one whose inner side did not get
+        # further out than its furthest-out column for handover_frames frames in a row
         kept = []
-        for tid, sid, _b, _vx, _vy in self.ho:
+        for tid, sid, _b, _vx, _vy, side, best, stall in self.ho:
             hp = next((q for q in hyps if q.kind == rflow.KIND_HANDOVER and q.id == sid), None)
-            if hp is None:
+            if hp is not None:
+                inner = int(hp.box[2]) if side == 1 else int(hp.box[0])
+                if (inner < best) if side == 1 else (inner > best):
+                    best, stall = inner, 0
+                else:
+                    stall += 1
+            if hp is None or stall >= self.cfg.handover_frames:
                 try:
                     self.flow.unseed(sid)
                 except ValueError:
                     pass
                 continue
-            kept.append([tid, sid, tuple(int(v) for v in hp.box), hp.flow[0], hp.flow[1]])
+            kept.append([tid, sid, tuple(int(v) for v in hp.box), hp.flow[0], hp.flow[1], side, best, stall])
         self.ho = kept
         hyps = [q for q in hyps if q.kind != rflow.KIND_HANDOVER]   # reported as their tracks
         boxes = [tuple(int(v) for v in q.box) for q in hyps]
@@ -451,7 +460,7 @@ class Pipeline:
         """A box that is a handed-over vehicle: IoU with a live hand-over's box >= the
         tracker's match_iou_permille (exact integers, as c/pipeline.c)."""
         thr = self.cfg.tracker.match_iou_permille
-        for _tid, _sid, hb, _vx, _vy in self.ho:
+        for _tid, _sid, hb, *_rest in self.ho:
             iw = min(int(b[2]), hb[2]) - max(int(b[0]), hb[0]) + 1
             ih = min(int(b[3]), hb[3]) - max(int(b[1]), hb[1]) + 1
             inter = iw * ih if iw > 0 and ih > 0 else 0
@@ -504,7 +513,7 @@ class Pipeline:
                 except ValueError:       # no room, or a box outside the frame: the tracker keeps it
                     sid = None
                 if sid is not None:
-                    self.ho.append([tid, sid, tuple(int(v) for v in b), vx, vy])
+                    self.ho.append([tid, sid, tuple(int(v) for v in b), vx, vy, side, r if side == 1 else l, 0])
                     self.tracker.drop(tid)
                     self.ho_hist.pop(tid, None)
                     continue
