@@ -250,3 +250,24 @@ def test_no_flow_state_and_seeds_full():
         assert lib.vt_pipeline_set_flow_ws(p, st) == lib.VT_OK
         states = _run_c(p, seq, dets, range(seq.n_frames), out)
         assert any(lib.VT_PIPE_HANDOVER in s for s in states.values()), states
+
+
+def test_tracker_and_cli_know_the_handover_state():
+    """Tracker(flow=True) (the `track --flow` path) runs the flow stage and reports the
+    hand-over with the tracker's id; every pipeline state has a KITTI score in the CLI."""
+    from pyvehtrack import pipeline as pl
+    from pyvehtrack.cli.track import STATE_SCORE
+    from pyvehtrack.tracker import Tracker
+    assert set(pl.STATES.values()) <= set(STATE_SCORE)
+    with pytest.raises(TypeError, match="flow"):
+        Tracker(flow=3)
+    if int(lib.VT_MAX_TRACKS) < 2:
+        return
+    seq = SM.make_sequence("ego_overtakes_right", 206, camera=CAM, n_frames=60)
+    dets = _dets(seq, 206)
+    trk = Tracker(flow=dict(FLOW), detect_every=1)
+    states = {}
+    for t in range(seq.n_frames):
+        for x in trk.step(seq.frame(t), detections=dets[t]):
+            states.setdefault(x.id, set()).add(x.state)
+    assert any("handover" in s and ("confirmed" in s or "coasting" in s) for s in states.values()), states
