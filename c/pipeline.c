@@ -107,7 +107,7 @@ vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg)
                        cfg->model_min_fitness < 0 || (cfg->verify != 0 && cfg->verify != 1))) {
         s = VT_E_ARG;
     }
-    if (s == VT_OK && ((cfg->handover != 0 && cfg->handover != 1) || cfg->handover_frames < 1 ||
+    if (s == VT_OK && ((cfg->handover != 0 && cfg->handover != 1) || cfg->handover_frames < 2 ||
                        cfg->handover_frames > VT_PIPE_HO_HIST - 1 || cfg->handover_dy_permille < 0 ||
                        cfg->handover_dy_permille > 1000 || cfg->handover_edge_permille < 0 ||
                        cfg->handover_edge_permille > 500)) {
@@ -647,8 +647,11 @@ static void vt__ho_history(vt_pipeline *p)
  * (output order) the ego car is overtaking and that are leaving by the side go to the
  * flow stage. A track qualifies when it is CONFIRMED or COASTING (it was confirmed),
  * has N = handover_frames frames of history before this one, and
- *   - its bottom row moved down by dy with dy * 1000 >= handover_dy_permille * h over
- *     those N frames (it comes closer; on a flat road its box grows with it),
+ *   - its bottom row moved down by at least handover_dy_permille / 1000 of h over
+ *     those N frames, and by half of that in each half of them (rows b0, b(N/2), bN,
+ *     newest first: 2000 (b0 - b(N/2)) >= dy h and 2000 (b(N/2) - bN) >= dy h): it comes
+ *     closer all along (on a flat road its box grows with it); a box that jumped once
+ *     (a part of a car re-anchored to the whole car) passes the one-span test only,
  *   - its centre column lies in a lateral strip of the flow stage's width,
  *     sw = floor(w * flow.strip_permille / 1000) px: l + r < 2 sw (left) or
  *     l + r >= 2 (w - sw) (right), on either side whatever side the flow stage
@@ -662,14 +665,15 @@ static void vt__ho_history(vt_pipeline *p)
  * a box outside the frame) leaves the track with the tracker. Exact integer tests. */
 static void vt__handover(vt_pipeline *p, const vt_image_u8 *frame, int32_t *n_tracks)
 {
-    const int64_t w = frame->w, nf = p->cfg.handover_frames;
+    const int64_t w = frame->w, nf = p->cfg.handover_frames, half = nf / 2;
+    const int64_t need = (int64_t)p->cfg.handover_dy_permille * frame->h; /* x 1000 */
     const int64_t sw = w * p->cfg.flow.strip_permille / 1000;
     const int64_t edge = (int64_t)p->cfg.handover_edge_permille * w;
     int32_t k = 0, i, side, sid = 0;
     while (k < *n_tracks) {
         const vt_track_out *t = &p->tracks[k];
         const vt_box *b = &t->box;
-        int64_t c2 = (int64_t)b->left + b->right, dy, dc;
+        int64_t c2 = (int64_t)b->left + b->right, dy1, dy2, dc;
         side = 0;
         for (i = 0; i < VT_MAX_TRACKS; ++i) {
             if (p->tracker.tracks[i].state != VT_TRACK_FREE && p->tracker.tracks[i].id == t->id) {
@@ -678,9 +682,10 @@ static void vt__handover(vt_pipeline *p, const vt_image_u8 *frame, int32_t *n_tr
         }
         if (i < VT_MAX_TRACKS && p->ho_tid[i] == t->id && p->ho_len[i] > nf &&
             (t->state == VT_TRACK_CONFIRMED || t->state == VT_TRACK_COASTING)) {
-            dy = (int64_t)p->ho_bot[i][0] - p->ho_bot[i][nf];
+            dy1 = (int64_t)p->ho_bot[i][0] - p->ho_bot[i][half];
+            dy2 = (int64_t)p->ho_bot[i][half] - p->ho_bot[i][nf];
             dc = (int64_t)p->ho_cx2[i][0] - p->ho_cx2[i][nf];
-            if (dy * 1000 >= (int64_t)p->cfg.handover_dy_permille * frame->h) {
+            if (dy1 * 2000 >= need && dy2 * 2000 >= need) {
                 if (c2 < 2 * sw && (int64_t)b->left * 1000 <= edge && dc <= 0) {
                     side = 1;
                 } else if (c2 >= 2 * (w - sw) && (w - 1 - b->right) * 1000 <= edge && dc >= 0) {

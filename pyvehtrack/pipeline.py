@@ -251,7 +251,7 @@ class Pipeline:
             if not isinstance(ho["handover"], (bool, np.bool_)):
                 raise TypeError(f"flow['handover']: expected a bool, got {type(ho['handover']).__name__}")
             self._ccfg.handover = int(bool(ho["handover"]))
-        limits = {"handover_frames": (1, int(lib.VT_PIPE_HO_HIST) - 1),
+        limits = {"handover_frames": (2, int(lib.VT_PIPE_HO_HIST) - 1),
                   "handover_dy_permille": (0, 1000), "handover_edge_permille": (0, 500)}
         for k, (lo, hi) in limits.items():
             if k in ho:

@@ -170,7 +170,7 @@ def _c_pipeline(**cfg):
 def test_cfg_checks_and_defaults():
     c, p = _c_pipeline()
     assert (c.handover, c.handover_frames, c.handover_dy_permille, c.handover_edge_permille) == (1, 8, 10, 20)
-    for k, bad in [("handover", 2), ("handover", -1), ("handover_frames", 0),
+    for k, bad in [("handover", 2), ("handover", -1), ("handover_frames", 0), ("handover_frames", 1),
                    ("handover_frames", int(lib.VT_PIPE_HO_HIST)), ("handover_dy_permille", -1),
                    ("handover_dy_permille", 1001), ("handover_edge_permille", 501),
                    ("handover_edge_permille", -1)]:

@@ -171,9 +171,10 @@ typedef struct {
     int32_t handover;        /* 0/1: hand vehicles the ego car overtakes to the flow stage
                                 (IVVI paper sec. 3, the reverse case); acts only with
                                 VT_SRC_FLOW on (rule: vt_pipeline_set_flow_ws)           */
-    int32_t handover_frames; /* the rule's look-back N, 1..VT_PIPE_HO_HIST - 1 frames    */
+    int32_t handover_frames; /* the rule's look-back N, 2..VT_PIPE_HO_HIST - 1 frames    */
     int32_t handover_dy_permille; /* its bottom row moved down by at least this permille
-                                of the frame height over those N frames, 0..1000       */
+                                of the frame height over those N frames (half of it in
+                                each half), 0..1000                                    */
     int32_t handover_edge_permille; /* its outer side within this permille of the width
                                 of the frame's border, 0..500                          */
 } vt_pipeline_cfg;

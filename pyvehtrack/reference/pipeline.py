@@ -206,8 +206,8 @@ class Pipeline:
         self.ho = []               # live hand-overs, in order made: [track id, seed id, box, vx, vy,
         #                            side (1 left, 2 right), inner side's furthest-out column, stall]
         self.ho_hist = {}          # track id -> [(bottom, l + r), ...] newest first (the rule's memory)
-        if not 1 <= int(self.cfg.handover_frames) <= self.caps.ho_hist - 1:
-            raise ValueError(f"handover_frames must be in 1..{self.caps.ho_hist - 1}, "
+        if not 2 <= int(self.cfg.handover_frames) <= self.caps.ho_hist - 1:
+            raise ValueError(f"handover_frames must be in 2..{self.caps.ho_hist - 1}, "
                              f"got {self.cfg.handover_frames}")
         self.last_tracks = []      # the previous step's tracks (the vehicle model's rule)
         if SRC_CLASSIFIER in self.cfg.sources and score is None:
@@ -482,7 +482,7 @@ class Pipeline:
         """The reverse hand-over (IVVI paper sec. 3, last paragraph; c/pipeline.c's
         vt__handover): a track that was confirmed (CONFIRMED or COASTING), whose bottom
         row came down by at least handover_dy_permille of the frame height over the last
-        N = handover_frames frames, whose centre lies in a lateral strip of the flow
+        N = handover_frames frames and by half of that in each half of them, whose centre lies in a lateral strip of the flow
         stage's width and whose outer side is within handover_edge_permille of the width
         from the border, not moving inward, is seeded into the flow stage and leaves the
         tracker; it is reported with its id until the flow stage ends it."""
@@ -497,9 +497,11 @@ class Pipeline:
             hist = self.ho_hist.get(tid, [])
             side = 0
             if len(hist) > n and st in (rtrk.CONFIRMED, rtrk.COASTING):
-                dy = hist[0][0] - hist[n][0]
+                half = n // 2
+                dy1, dy2 = hist[0][0] - hist[half][0], hist[half][0] - hist[n][0]
                 dc = hist[0][1] - hist[n][1]
-                if dy * 1000 >= c.handover_dy_permille * h:
+                need = c.handover_dy_permille * h
+                if dy1 * 2000 >= need and dy2 * 2000 >= need:
                     if l + r < 2 * sw and l * 1000 <= edge and dc <= 0:
                         side = 1
                     elif l + r >= 2 * (w - sw) and (w - 1 - r) * 1000 <= edge and dc >= 0:
