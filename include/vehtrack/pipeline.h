@@ -317,13 +317,16 @@ typedef struct {
     vt_hypothesis hyp[VT_MAX_HYPOTHESES];
     int32_t n_boxes;         /* boxes handed to the tracker (the first VT_MAX_BOXES);
                                 the flow boxes are listed on every frame, handed over
-                                as vt_pipeline_set_flow_ws says                      */
+                                as vt_pipeline_set_flow_ws says, as are the boxes of a
+                                vehicle handed over to the flow stage (listed, not
+                                given to the tracker)                                */
     int32_t n_boxes_in;      /* all of them: more than n_boxes only when the caller's
                                 detections (vt_pipeline_step_dets) exceed VT_MAX_BOXES,
                                 or the flow boxes did not fit (not handed over)      */
     int32_t flow_ready;      /* the overtaking stage compared two frames (VT_SRC_FLOW) */
     vt_pipe_box boxes[VT_MAX_BOXES];
-    int32_t n_tracks;        /* live tracks                                          */
+    int32_t n_tracks;        /* live tracks: the tracker's, then the hand-overs (state
+                                VT_PIPE_HANDOVER, see vt_pipeline_set_flow_ws)       */
     vt_pipe_track tracks[VT_MAX_TRACKS];
 } vt_frame_out;
 
@@ -383,7 +386,34 @@ vt_status vt_pipeline_set_edge_ws(vt_pipeline *p, vt_edge_ws *ws);
  * (while VT_MAX_BOXES allows). They reach the tracker on detection frames, and on any
  * other frame where one of them meets no live track (an overtaking vehicle cannot wait
  * for the next detection frame): that frame is then a detection frame for the tracker
- * with the flow boxes alone (out->detection_frame still says whether the detector ran). */
+ * with the flow boxes alone (out->detection_frame still says whether the detector ran).
+ *
+ * The reverse case (IVVI paper sec. 3, last paragraph), with cfg.handover = 1 (the
+ * default; it acts only with VT_SRC_FLOW on): after the tracker, a track the ego car is
+ * overtaking that leaves by the side is handed to the flow stage. The rule (exact
+ * integers on the tracker's boxes, kept per track for the last VT_PIPE_HO_HIST frames):
+ * the track is CONFIRMED or COASTING; over the last N = handover_frames frames its
+ * bottom row came down by at least handover_dy_permille / 1000 of the frame height,
+ * and by half of that in each half of them (it comes closer all along: on a flat road
+ * its box grows); its centre column is in a lateral strip of the flow stage's width
+ * (floor(w flow.strip_permille / 1000) px, on either side, whatever side flow.sides
+ * watches for overtaking vehicles); its outer side is within handover_edge_permille /
+ * 1000 of the width of the frame's border; it did not move inward over the N frames.
+ * Such a track is seeded (vt_flow_seed with its box of this frame, after this frame's
+ * vt_flow_step) and dropped from the tracker (vt_tracker_drop): from then on it is
+ * reported after the tracker's tracks with the SAME id, state VT_PIPE_HANDOVER, the flow
+ * stage's box (the size it had at the hand-over, moved by the mean flow of its textured
+ * cells) and mean flow as velocity, no distance or TTC, and the source that started it.
+ * It ends when the flow stage ends it (fewer than flow.seed_min_visible_permille of its
+ * columns in the frame, no textured cell matching, a frame of another size) or when its
+ * inner side has not got further out for handover_frames frames in a row (a box left on
+ * the road or a marking by the border). While it lives, the frame's boxes (detector, flow,
+ * model, the caller's) with IoU >= tracker.match_iou_permille with its box are listed in
+ * out->boxes but not handed to the tracker, so the vehicle keeps its one id. Capacity: at
+ * most VT_FLOW_MAX_SEEDS hand-overs; when vt_flow_seed refuses (every seed slot taken,
+ * e.g. by the caller's own vt_flow_seed calls on this state, or a box outside the frame)
+ * the track stays with the tracker, and a hand-over that does not fit in out->tracks
+ * (VT_MAX_TRACKS, tracker tracks first) lives on unreported. */
 vt_status vt_pipeline_set_flow_ws(vt_pipeline *p, vt_flow_state *st);
 
 /* Attach the caller's workspace of the vehicle model (vehtrack/vehicle_model.h;
