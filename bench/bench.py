@@ -687,9 +687,11 @@ def _pipe_digest(out) -> list:
 def _pipe_primed(ctx: Ctx, source: str):
     """A pipeline (C and oracle) with shadow + `source`, primed as bench/callgrind_main.c's
     bench_setup_pipeline_SOURCE: flow: one step on the flow bench's previous frame (the frame
-    moved 4 px; a detection frame, the shadow source starts the tracks); model: four steps on
-    the frame (the track is confirmed) and one on a flat grey frame (its ROI search fails: it
-    coasts). Returns (C run, oracle run, digest)."""
+    moved 4 px; a detection frame, the shadow source starts the tracks); model: one step on
+    the frame (a detection frame), three with its boxes as the caller's detections (the
+    tracks are confirmed) and one on a flat grey frame (their ROI search fails: they coast,
+    so the measured step refits them, at most model_fits = 2). Returns (C run, oracle run,
+    digest)."""
     import copy
 
     from pyvehtrack import _native as nat
@@ -700,10 +702,19 @@ def _pipe_primed(ctx: Ctx, source: str):
     if source == "flow":
         kw["flow"] = {"sides": 3}
     cp, rp = Pipeline("c", **kw), Pipeline("reference", **kw)
-    prime = [_flow_prev(img)] if source == "flow" else [img] * 4 + [np.full_like(img, 128)]
-    for f in prime:
-        cp.step_gray(f)
-        rp.step_gray(f)
+    if source == "flow":
+        cp.step_gray(_flow_prev(img))
+        rp.step_gray(_flow_prev(img))
+    else:
+        # frame 0 detects; its boxes given again on frames 1-3 confirm the tracks whatever
+        # their ROI search does; the flat frame 4 makes them coast
+        boxes = np.array([b.box for b in cp.step_gray(img).boxes], np.int32).reshape(-1, 4)
+        rp.step_gray(img)
+        for _ in range(3):
+            cp.step_gray(img, detections=boxes)
+            rp.step_gray(img, detections=boxes)
+        cp.step_gray(np.full_like(img, 128))
+        rp.step_gray(np.full_like(img, 128))
     p, out = cp._p, ffi.new("vt_frame_out *")
     fv = nat.view(img, "frame")    # img is ctx.frame: alive for the whole bench
     saved = ffi.new("vt_pipeline *")

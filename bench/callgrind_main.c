@@ -658,9 +658,10 @@ static uint32_t bench_digest_pipeline(const bench_ctx *ctx)
 
 /* ---- the pipeline with the flow / model source (issues 9/10), primed as bench.py's
  * _pipe_primed: flow: one step on the flow bench's previous frame (the frame moved 4 px;
- * a detection frame, the shadow source starts the tracks); model: four steps on the frame
- * (the track is confirmed) and one on a flat grey frame (its ROI search fails: it
- * coasts). The run restores that state (a copy of vt_pipeline; for flow the flow state's
+ * a detection frame, the shadow source starts the tracks); model: one step on the frame
+ * (a detection frame), three with its boxes as the caller's detections (the tracks are
+ * confirmed) and one on a flat grey frame (their ROI search fails: they coast, so the
+ * measured step refits them, at most model_fits = 2). The run restores that state (a copy of vt_pipeline; for flow the flow state's
  * bookkeeping, whose level image is only read) and steps the frame once. */
 static vt_pipeline_cfg g_pp_cfg;
 static vt_pipeline g_pp, g_pp_saved;
@@ -739,8 +740,15 @@ static void pipe_primed(bench_ctx *ctx, int32_t source)
         note_status(ctx, vt_pipeline_step(&g_pp, &aux, &g_pp_out));
         PP_BOOK(1);
     } else {
-        for (k = 0; k < 4; ++k) {
-            note_status(ctx, vt_pipeline_step(&g_pp, &ctx->frame, &g_pp_out));
+        vt_box boxes[VT_MAX_BOXES];
+        int32_t n;
+        note_status(ctx, vt_pipeline_step(&g_pp, &ctx->frame, &g_pp_out));
+        n = g_pp_out.n_boxes;
+        for (k = 0; k < n; ++k) {
+            boxes[k] = g_pp_out.boxes[k].box;
+        }
+        for (k = 0; k < 3; ++k) {
+            note_status(ctx, vt_pipeline_step_dets(&g_pp, &ctx->frame, boxes, n, &g_pp_out));
         }
         memset(g_pp_aux, 128, (size_t)w * (size_t)h);
         note_status(ctx, vt_pipeline_step(&g_pp, &aux, &g_pp_out));
