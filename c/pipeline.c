@@ -620,12 +620,16 @@ static void vt__ho_refresh(vt_pipeline *p)
 }
 
 /* The hand-over rule's memory after the tracker: per tracker slot, the track's bottom
- * row and l + r pushed in front (a slot given to a new id starts over). */
+ * row and l + r pushed in front. It starts over for a slot given to a new id, and when
+ * the box jumped since the last frame: its width or its bottom row moved by more than a
+ * quarter of the last width or height (4 |dw| > w, 4 |db| > h; a part of a car
+ * re-anchored to the whole car, not a car coming closer, which grows a few % a frame). */
 static void vt__ho_history(vt_pipeline *p)
 {
     int32_t i, j;
     for (i = 0; i < VT_MAX_TRACKS; ++i) {
         const vt_track *t = &p->tracker.tracks[i];
+        const vt_box *o = &p->ho_last[i];
         if (t->state == VT_TRACK_FREE || p->ho_tid[i] != t->id) {
             p->ho_len[i] = 0;
             p->ho_tid[i] = t->state == VT_TRACK_FREE ? 0 : t->id;
@@ -633,6 +637,15 @@ static void vt__ho_history(vt_pipeline *p)
         if (t->state == VT_TRACK_FREE) {
             continue;
         }
+        if (p->ho_len[i] > 0) {
+            int64_t w0 = (int64_t)o->right - o->left + 1, h0 = (int64_t)o->bottom - o->top + 1;
+            int64_t dw = ((int64_t)t->box.right - t->box.left + 1) - w0;
+            int64_t db = (int64_t)t->box.bottom - o->bottom;
+            if (4 * (dw < 0 ? -dw : dw) > w0 || 4 * (db < 0 ? -db : db) > h0) {
+                p->ho_len[i] = 0;
+            }
+        }
+        p->ho_last[i] = t->box;
         for (j = p->ho_len[i] < VT_PIPE_HO_HIST ? p->ho_len[i] : VT_PIPE_HO_HIST - 1; j > 0; --j) {
             p->ho_bot[i][j] = p->ho_bot[i][j - 1];
             p->ho_cx2[i][j] = p->ho_cx2[i][j - 1];

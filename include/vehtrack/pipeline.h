@@ -256,6 +256,7 @@ typedef struct {
     int32_t ho_len[VT_MAX_TRACKS];
     int32_t ho_bot[VT_MAX_TRACKS][VT_PIPE_HO_HIST];
     int32_t ho_cx2[VT_MAX_TRACKS][VT_PIPE_HO_HIST];
+    vt_box ho_last[VT_MAX_TRACKS]; /* the box of the newest entry (the jump test)     */
     /* Live hand-overs, in the order they were made: the track's id, the flow stage's
      * seed id, and this frame's box and flow (Q16 px/frame). */
     int32_t n_ho;

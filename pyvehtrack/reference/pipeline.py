@@ -205,7 +205,7 @@ class Pipeline:
         self.last_boxes = []       # the previous step's track boxes (the flow hand-over rule)
         self.ho = []               # live hand-overs, in order made: [track id, seed id, box, vx, vy,
         #                            side (1 left, 2 right), inner side's furthest-out column, stall]
-        self.ho_hist = {}          # track id -> [(bottom, l + r), ...] newest first (the rule's memory)
+        self.ho_hist = {}          # track id -> ([(bottom, l + r), ...] newest first, last box): the rule's memory
         if not 2 <= int(self.cfg.handover_frames) <= self.caps.ho_hist - 1:
             raise ValueError(f"handover_frames must be in 2..{self.caps.ho_hist - 1}, "
                              f"got {self.cfg.handover_frames}")
@@ -471,11 +471,18 @@ class Pipeline:
         return False
 
     def _ho_history(self, rows) -> None:
-        """Per live track id, its bottom rows and l + r, newest first (at most ho_hist)."""
+        """Per live track id, its bottom rows and l + r, newest first (at most ho_hist),
+        and its last box; the history starts over when the box jumped since the last frame
+        (width or bottom moved by more than a quarter of the last width or height)."""
         live = {}
         for i, _s, b, _vx, _vy in rows:
-            hist = self.ho_hist.get(i, [])
-            live[i] = [(int(b[3]), int(b[0]) + int(b[2]))] + hist[:self.caps.ho_hist - 1]
+            hist, last = self.ho_hist.get(i, ([], None))
+            b = tuple(int(v) for v in b)
+            if last is not None:
+                w0, h0 = last[2] - last[0] + 1, last[3] - last[1] + 1
+                if 4 * abs((b[2] - b[0] + 1) - w0) > w0 or 4 * abs(b[3] - last[3]) > h0:
+                    hist = []
+            live[i] = ([(b[3], b[0] + b[2])] + hist[:self.caps.ho_hist - 1], b)
         self.ho_hist = live
 
     def _handover(self, rows, w: int, h: int) -> list:
@@ -494,7 +501,7 @@ class Pipeline:
         for row in rows:
             tid, st, b, vx, vy = row
             l, _t, r, _b = (int(v) for v in b)
-            hist = self.ho_hist.get(tid, [])
+            hist = self.ho_hist.get(tid, ([], None))[0]
             side = 0
             if len(hist) > n and st in (rtrk.CONFIRMED, rtrk.COASTING):
                 half = n // 2
