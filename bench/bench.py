@@ -672,6 +672,97 @@ def _pipeline(ctx: Ctx) -> Stage:
                  note="fresh pipeline, one detection frame (init included)")
 
 
+# ---------------------------------------------------------------- the pipeline with flow / model (issues 9/10)
+FLOW_BOOK = ("have_prev", "prev_index", "w", "h", "lw", "lh", "level", "next_id", "gw", "gh", "x0", "y0",
+             "seeds", "n_blobs", "blob_box", "blob_age")
+
+
+def _pipe_digest(out) -> list:
+    """The boxes handed to the tracker, then the tracks' ids and boxes (bench_digest_pipe)."""
+    return [getattr(out.boxes[i].box, k) for i in range(out.n_boxes) for k in ("left", "top", "right", "bottom")] + \
+        [getattr(out.tracks[i], k) if k == "id" else getattr(out.tracks[i].box, k)
+         for i in range(out.n_tracks) for k in ("id", "left", "top", "right", "bottom")]
+
+
+def _pipe_primed(ctx: Ctx, source: str):
+    """A pipeline (C and oracle) with shadow + `source`, primed as bench/callgrind_main.c's
+    bench_setup_pipeline_SOURCE: flow: one step on the flow bench's previous frame (the frame
+    moved 4 px; a detection frame, the shadow source starts the tracks); model: one step on
+    the frame (a detection frame), three with its boxes as the caller's detections (the
+    tracks are confirmed) and one on a flat grey frame (their ROI search fails: they coast,
+    so the measured step refits them, at most model_fits = 2). Returns (C run, oracle run,
+    digest)."""
+    import copy
+
+    from pyvehtrack import _native as nat
+    from pyvehtrack.pipeline import Pipeline
+    img = ctx.frame
+    ffi, lib = nat.ffi, nat.lib
+    kw = dict(sources=("shadow", source))
+    if source == "flow":
+        kw["flow"] = {"sides": 3}
+    cp, rp = Pipeline("c", **kw), Pipeline("reference", **kw)
+    if source == "flow":
+        cp.step_gray(_flow_prev(img))
+        rp.step_gray(_flow_prev(img))
+    else:
+        # frame 0 detects; its boxes given again on frames 1-3 confirm the tracks whatever
+        # their ROI search does; the flat frame 4 makes them coast
+        boxes = np.array([b.box for b in cp.step_gray(img).boxes], np.int32).reshape(-1, 4)
+        rp.step_gray(img)
+        for _ in range(3):
+            cp.step_gray(img, detections=boxes)
+            rp.step_gray(img, detections=boxes)
+        cp.step_gray(np.full_like(img, 128))
+        rp.step_gray(np.full_like(img, 128))
+    p, out = cp._p, ffi.new("vt_frame_out *")
+    fv = nat.view(img, "frame")    # img is ctx.frame: alive for the whole bench
+    saved = ffi.new("vt_pipeline *")
+    ffi.memmove(saved, p, ffi.sizeof("vt_pipeline"))
+    book = []
+    if source == "flow":
+        st = cp._flow_st
+        for f in FLOW_BOOK:
+            a = ffi.addressof(st, f)
+            keep = ffi.new(ffi.typeof(a))
+            ffi.memmove(keep, a, ffi.sizeof(ffi.typeof(a).item))
+            book.append((a, keep, ffi.sizeof(ffi.typeof(a).item)))
+    last = {"keep": cp}    # cp owns the attached flow state / model workspace p points to
+
+    def c():
+        ffi.memmove(p, saved, ffi.sizeof("vt_pipeline"))
+        for a, keep, n in book:
+            ffi.memmove(a, keep, n)
+        nat.check("vt_pipeline_step", lib.vt_pipeline_step(p, fv, out))
+        last["v"] = _pipe_digest(out)
+
+    def reference():
+        return copy.deepcopy(rp._ref).step(img)
+
+    return c, reference, lambda: digest(last["v"]) if last.get("v") else 0
+
+
+@register("pipeline_flow", sizes=DETECT_SIZES)
+def _pipeline_flow(ctx: Ctx) -> Stage:
+    """One tracking step of a primed pipeline with the flow source on (shadow + flow, both
+    lateral areas, level 1): the state restored first (a copy of vt_pipeline and the flow
+    state's bookkeeping; its level image is only read), then vt_pipeline_step."""
+    c, ref, dig = _pipe_primed(ctx, "flow")
+    return Stage("pipeline_flow", c, ref, pixels=ctx.frame.size, calls=1, digest=dig,
+                 note="primed pipeline, one tracking frame with flow (state copy included); "
+                      "oracle deep-copies its pipeline each run")
+
+
+@register("pipeline_model", sizes=DETECT_SIZES)
+def _pipeline_model(ctx: Ctx) -> Stage:
+    """One tracking step of a primed pipeline with the vehicle model on (shadow + model): the
+    previous step left the track COASTING, so the GA refits it (only where tracking asks)."""
+    c, ref, dig = _pipe_primed(ctx, "model")
+    return Stage("pipeline_model", c, ref, pixels=ctx.frame.size, calls=1, digest=dig,
+                 note="primed pipeline, one tracking frame, the GA refits the coasting track "
+                      "(state copy included); oracle deep-copies its pipeline each run")
+
+
 def ram_bill() -> list[dict]:
     """sizeof(vt_pipeline) and its parts in this build (the cffi extension's)."""
     from pyvehtrack._native import ffi, lib

@@ -656,6 +656,156 @@ static uint32_t bench_digest_pipeline(const bench_ctx *ctx)
     return digest_u32(v, n);
 }
 
+/* ---- the pipeline with the flow / model source (issues 9/10), primed as bench.py's
+ * _pipe_primed: flow: one step on the flow bench's previous frame (the frame moved 4 px;
+ * a detection frame, the shadow source starts the tracks); model: one step on the frame
+ * (a detection frame), three with its boxes as the caller's detections (the tracks are
+ * confirmed) and one on a flat grey frame (their ROI search fails: they coast, so the
+ * measured step refits them, at most model_fits = 2). The run restores that state (a copy of vt_pipeline; for flow the flow state's
+ * bookkeeping, whose level image is only read) and steps the frame once. */
+static vt_pipeline_cfg g_pp_cfg;
+static vt_pipeline g_pp, g_pp_saved;
+static vt_frame_out g_pp_out;
+static vt_flow_state g_pp_flow;
+static vt_model_ws g_pp_model;
+static uint8_t g_pp_aux[VT_MAX_WIDTH * VT_MAX_HEIGHT];
+static struct {
+    int32_t have_prev, prev_index, w, h, lw, lh, level, next_id, gw[2], gh[2], x0[2], y0[2];
+    vt_flow_seed_track seeds[VT_FLOW_MAX_SEEDS];
+    int32_t n_blobs[2];
+    vt_box blob_box[2 * VT_FLOW_MAX_BLOBS];
+    int32_t blob_age[2 * VT_FLOW_MAX_BLOBS];
+} g_pp_book;
+
+#define PP_BOOK(dir)                                                                  \
+    do {                                                                              \
+        vt_flow_state *f_ = &g_pp_flow;                                               \
+        if (dir) {                                                                    \
+            g_pp_book.have_prev = f_->have_prev;                                      \
+            g_pp_book.prev_index = f_->prev_index;                                    \
+            g_pp_book.w = f_->w; g_pp_book.h = f_->h;                                 \
+            g_pp_book.lw = f_->lw; g_pp_book.lh = f_->lh;                             \
+            g_pp_book.level = f_->level; g_pp_book.next_id = f_->next_id;             \
+            memcpy(g_pp_book.gw, f_->gw, sizeof f_->gw);                              \
+            memcpy(g_pp_book.gh, f_->gh, sizeof f_->gh);                              \
+            memcpy(g_pp_book.x0, f_->x0, sizeof f_->x0);                              \
+            memcpy(g_pp_book.y0, f_->y0, sizeof f_->y0);                              \
+            memcpy(g_pp_book.seeds, f_->seeds, sizeof f_->seeds);                     \
+            memcpy(g_pp_book.n_blobs, f_->n_blobs, sizeof f_->n_blobs);               \
+            memcpy(g_pp_book.blob_box, f_->blob_box, sizeof f_->blob_box);            \
+            memcpy(g_pp_book.blob_age, f_->blob_age, sizeof f_->blob_age);            \
+        } else {                                                                      \
+            f_->have_prev = g_pp_book.have_prev;                                      \
+            f_->prev_index = g_pp_book.prev_index;                                    \
+            f_->w = g_pp_book.w; f_->h = g_pp_book.h;                                 \
+            f_->lw = g_pp_book.lw; f_->lh = g_pp_book.lh;                             \
+            f_->level = g_pp_book.level; f_->next_id = g_pp_book.next_id;             \
+            memcpy(f_->gw, g_pp_book.gw, sizeof f_->gw);                              \
+            memcpy(f_->gh, g_pp_book.gh, sizeof f_->gh);                              \
+            memcpy(f_->x0, g_pp_book.x0, sizeof f_->x0);                              \
+            memcpy(f_->y0, g_pp_book.y0, sizeof f_->y0);                              \
+            memcpy(f_->seeds, g_pp_book.seeds, sizeof f_->seeds);                     \
+            memcpy(f_->n_blobs, g_pp_book.n_blobs, sizeof f_->n_blobs);               \
+            memcpy(f_->blob_box, g_pp_book.blob_box, sizeof f_->blob_box);            \
+            memcpy(f_->blob_age, g_pp_book.blob_age, sizeof f_->blob_age);            \
+        }                                                                             \
+    } while (0)
+
+static void pipe_primed(bench_ctx *ctx, int32_t source)
+{
+    vt_image_u8 aux;
+    int32_t w = ctx->frame.w, h = ctx->frame.h, x, y, k;
+    note_status(ctx, vt_pipeline_cfg_default(&g_pp_cfg));
+    g_pp_cfg.sources = VT_SRC_SHADOW | source;
+    g_pp_cfg.flow.sides = VT_FLOW_SIDE_BOTH;
+    note_status(ctx, vt_pipeline_init(&g_pp, &g_pp_cfg, NULL, NULL));
+    if (source == VT_SRC_FLOW) {
+        note_status(ctx, vt_pipeline_set_flow_ws(&g_pp, &g_pp_flow));
+    } else {
+        note_status(ctx, vt_pipeline_set_model_ws(&g_pp, &g_pp_model));
+    }
+    aux.px = g_pp_aux;
+    aux.w = w;
+    aux.h = h;
+    aux.stride = w;
+    if (source == VT_SRC_FLOW) {
+        /* prev[y][x] = frame[y][min(x + 4, w - 1)], as bench.py's _flow_prev */
+        for (y = 0; y < h; ++y) {
+            for (x = 0; x < w; ++x) {
+                int32_t sx = x + 4 < w ? x + 4 : w - 1;
+                g_pp_aux[(size_t)y * (size_t)w + (size_t)x] =
+                    ctx->frame.px[(size_t)y * (size_t)ctx->frame.stride + (size_t)sx];
+            }
+        }
+        note_status(ctx, vt_pipeline_step(&g_pp, &aux, &g_pp_out));
+        PP_BOOK(1);
+    } else {
+        vt_box boxes[VT_MAX_BOXES];
+        int32_t n;
+        note_status(ctx, vt_pipeline_step(&g_pp, &ctx->frame, &g_pp_out));
+        n = g_pp_out.n_boxes;
+        for (k = 0; k < n; ++k) {
+            boxes[k] = g_pp_out.boxes[k].box;
+        }
+        for (k = 0; k < 3; ++k) {
+            note_status(ctx, vt_pipeline_step_dets(&g_pp, &ctx->frame, boxes, n, &g_pp_out));
+        }
+        memset(g_pp_aux, 128, (size_t)w * (size_t)h);
+        note_status(ctx, vt_pipeline_step(&g_pp, &aux, &g_pp_out));
+    }
+    memcpy(&g_pp_saved, &g_pp, sizeof g_pp);
+}
+
+static void bench_setup_pipeline_flow(bench_ctx *ctx)
+{
+    pipe_primed(ctx, VT_SRC_FLOW);
+}
+
+static void bench_setup_pipeline_model(bench_ctx *ctx)
+{
+    pipe_primed(ctx, VT_SRC_MODEL);
+}
+
+static void bench_run_pipeline_flow(bench_ctx *ctx)
+{
+    memcpy(&g_pp, &g_pp_saved, sizeof g_pp);
+    PP_BOOK(0);
+    note_status(ctx, vt_pipeline_step(&g_pp, &ctx->frame, &g_pp_out));
+}
+
+static void bench_run_pipeline_model(bench_ctx *ctx)
+{
+    memcpy(&g_pp, &g_pp_saved, sizeof g_pp);
+    note_status(ctx, vt_pipeline_step(&g_pp, &ctx->frame, &g_pp_out));
+}
+
+static uint32_t digest_frame_out(const vt_frame_out *o)
+{
+    uint32_t v[4 * VT_MAX_BOXES + 5 * VT_MAX_TRACKS];
+    size_t n = 0;
+    int32_t i;
+    for (i = 0; i < o->n_boxes; ++i) {
+        v[n++] = (uint32_t)o->boxes[i].box.left;
+        v[n++] = (uint32_t)o->boxes[i].box.top;
+        v[n++] = (uint32_t)o->boxes[i].box.right;
+        v[n++] = (uint32_t)o->boxes[i].box.bottom;
+    }
+    for (i = 0; i < o->n_tracks; ++i) {
+        v[n++] = (uint32_t)o->tracks[i].id;
+        v[n++] = (uint32_t)o->tracks[i].box.left;
+        v[n++] = (uint32_t)o->tracks[i].box.top;
+        v[n++] = (uint32_t)o->tracks[i].box.right;
+        v[n++] = (uint32_t)o->tracks[i].box.bottom;
+    }
+    return digest_u32(v, n);
+}
+
+static uint32_t bench_digest_pipe_primed(const bench_ctx *ctx)
+{
+    (void)ctx;
+    return digest_frame_out(&g_pp_out);
+}
+
 /* The registry. Default units match bench.py's full run. */
 static const bench_stage stages[] = {
     {"filter_h101", 1, bench_setup_filter_h101, bench_run_filter_h101, digest_s16},
@@ -677,6 +827,8 @@ static const bench_stage stages[] = {
     {"model_detect", 1, bench_setup_model_detect, bench_run_model_detect, bench_digest_model},
     {"model_track", 1, bench_setup_model_track, bench_run_model_track, bench_digest_model},
     {"pipeline", 1, bench_setup_pipeline, bench_run_pipeline, bench_digest_pipeline},
+    {"pipeline_flow", 1, bench_setup_pipeline_flow, bench_run_pipeline_flow, bench_digest_pipe_primed},
+    {"pipeline_model", 1, bench_setup_pipeline_model, bench_run_pipeline_model, bench_digest_pipe_primed},
 };
 #define N_STAGES (sizeof stages / sizeof stages[0])
 

@@ -391,9 +391,9 @@ static void vt__area_flow(vt_flow_state *st, const vt_flow_cfg *cfg, int32_t sid
     st->n_blobs[side] = nb;
 }
 
-/* Moves one hand-over track by the mean vector of the cells inside its box
- * (searched from the previous frame into the current one); returns 0 when the
- * track ends (no cell, no match, or too little of it left in the frame). */
+/* Moves one hand-over track by the mean vector of the textured cells inside its
+ * box (searched from the previous frame into the current one); returns 0 when the
+ * track ends (no textured cell, no match, or too little of it left in the frame). */
 static int vt__seed_step(vt_flow_state *st, const vt_flow_cfg *cfg, vt_flow_seed_track *sd,
                          const uint8_t *cur, const uint8_t *prev, vt_flow_hyp *hp)
 {
@@ -415,6 +415,12 @@ static int vt__seed_step(vt_flow_state *st, const vt_flow_cfg *cfg, vt_flow_seed
         for (i = 0; i < gw; i++) {
             int32_t dx = 0, dy = 0;
             uint32_t s = 0;
+            /* A flat cell (a uniform car body, the road once the car has left) matches
+             * at zero motion whatever moved (the aperture problem, as in the areas): it
+             * would hold the box back, and on bare road keep it forever. */
+            if (vt__texture(prev, lw, bx0 + i * n, by0 + j * n, n) < cfg->min_texture * n * (n - 1)) {
+                continue;
+            }
             /* The box is known in the previous frame, so its cells are searched in
              * the current one; the motion is the opposite of that displacement. */
             vt__search(prev, cur, lw, lh, bx0 + i * n, by0 + j * n, n, cfg->search_x,

@@ -7,7 +7,9 @@
  * warning per track (IVVI paper sec. 4, c/camera.c), and the block-scale TTC per track
  * (IVVI paper sec. 4's scale-change TTC, c/ttc_scale.c). It only composes the stages through
  * their public functions; the firmware, the bench driver and Python all call
- * vt_pipeline_step, so the order is written once. */
+ * vt_pipeline_step, so the order is written once. With the flow stage on, vehicles
+ * the ego car overtakes are handed from the tracker to the flow stage as they leave
+ * by the side (IVVI paper sec. 3, last paragraph: the reverse case; vt__handover). */
 #include "vehtrack/pipeline.h"
 #include <stddef.h>
 #include <string.h>
@@ -105,6 +107,12 @@ vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg)
                        cfg->model_min_fitness < 0 || (cfg->verify != 0 && cfg->verify != 1))) {
         s = VT_E_ARG;
     }
+    if (s == VT_OK && ((cfg->handover != 0 && cfg->handover != 1) || cfg->handover_frames < 2 ||
+                       cfg->handover_frames > VT_PIPE_HO_HIST - 1 || cfg->handover_dy_permille < 0 ||
+                       cfg->handover_dy_permille > 1000 || cfg->handover_edge_permille < 0 ||
+                       cfg->handover_edge_permille > 500)) {
+        s = VT_E_ARG;
+    }
     return s;
 }
 
@@ -154,6 +162,10 @@ vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
     memset(&p->det, 0, sizeof(p->det));
     memset(p->tracks, 0, sizeof(p->tracks));
     p->n_src = 0;
+    p->n_trk = 0;
+    p->n_ho = 0;
+    memset(p->ho_tid, 0, sizeof(p->ho_tid));
+    memset(p->ho_len, 0, sizeof(p->ho_len));
     s = vt_lane_reset(&p->lane);
     if (s == VT_OK) {
         s = vt_tracker_init(&p->tracker);
@@ -232,6 +244,7 @@ vt_status vt_pipeline_set_flow_ws(vt_pipeline *p, vt_flow_state *st)
     if (s == VT_OK) {
         p->flow_st = st;
         memset(&p->flow, 0, sizeof(p->flow));
+        p->n_ho = 0; /* the state's hand-over tracks are gone (vt_flow_init) */
     }
     return s;
 }
@@ -574,6 +587,197 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
     return VT_OK;
 }
 
+static int32_t vt__iou_at_least(const vt_box *a, const vt_box *b, int32_t permille);
+
+/* A box the tracker must not get because it is a handed-over vehicle: IoU with a live
+ * hand-over's box of this frame >= the tracker's own association threshold
+ * (match_iou_permille), so the vehicle keeps its one id. */
+static int vt__ho_covers(const vt_pipeline *p, const vt_box *b)
+{
+    int32_t i;
+    for (i = 0; i < p->n_ho; ++i) {
+        if (vt__iou_at_least(b, &p->ho_box[i], p->cfg.tracker.match_iou_permille)) {
+            return 1;
+        }
+    }
+    return 0;
+}
+
+/* The live hand-overs after this frame's flow step: each takes its seed's hypothesis
+ * (box, flow). One the flow stage no longer reports has ended (it left the frame, no
+ * cell matched, or the stage restarted on a frame of another size). One whose inner
+ * side (right on the left, left on the right) has not got further out than its
+ * furthest-out column for handover_frames frames in a row ends here: the vehicle it
+ * followed is leaving, a box that stays is on the road or a marking by the border.
+ * An ended hand-over's seed is released (also when only the result's capacity,
+ * VT_FLOW_MAX_HYPS, hid it), so the two lists never disagree. Order is kept. */
+static void vt__ho_refresh(vt_pipeline *p)
+{
+    int32_t i, k, n = 0, inner;
+    for (i = 0; i < p->n_ho; ++i) {
+        for (k = 0; k < p->flow.n; ++k) {
+            if (p->flow.hyp[k].kind == VT_FLOW_KIND_HANDOVER && p->flow.hyp[k].id == p->ho_seed[i]) {
+                break;
+            }
+        }
+        if (k < p->flow.n) {
+            const vt_box *b = &p->flow.hyp[k].box;
+            inner = p->ho_side[i] == 1 ? b->right : b->left;
+            if (p->ho_side[i] == 1 ? inner < p->ho_best[i] : inner > p->ho_best[i]) {
+                p->ho_best[i] = inner;
+                p->ho_stall[i] = 0;
+            } else {
+                ++p->ho_stall[i];
+            }
+        }
+        if (k == p->flow.n || p->ho_stall[i] >= p->cfg.handover_frames) {
+            (void)vt_flow_unseed(p->flow_st, p->ho_seed[i]);
+            continue;
+        }
+        p->ho_id[n] = p->ho_id[i];
+        p->ho_seed[n] = p->ho_seed[i];
+        p->ho_side[n] = p->ho_side[i];
+        p->ho_best[n] = p->ho_best[i];
+        p->ho_stall[n] = p->ho_stall[i];
+        p->ho_box[n] = p->flow.hyp[k].box;
+        p->ho_vx[n] = p->flow.hyp[k].flow_x;
+        p->ho_vy[n] = p->flow.hyp[k].flow_y;
+        ++n;
+    }
+    p->n_ho = n;
+}
+
+/* The hand-over rule's memory after the tracker: per tracker slot, the track's bottom
+ * row and l + r pushed in front. It starts over for a slot given to a new id, and when
+ * the box jumped since the last frame: its width or its bottom row moved by more than a
+ * quarter of the last width or height (4 |dw| > w, 4 |db| > h; a part of a car
+ * re-anchored to the whole car, not a car coming closer, which grows a few % a frame). */
+static void vt__ho_history(vt_pipeline *p)
+{
+    int32_t i, j;
+    for (i = 0; i < VT_MAX_TRACKS; ++i) {
+        const vt_track *t = &p->tracker.tracks[i];
+        const vt_box *o = &p->ho_last[i];
+        if (t->state == VT_TRACK_FREE || p->ho_tid[i] != t->id) {
+            p->ho_len[i] = 0;
+            p->ho_tid[i] = t->state == VT_TRACK_FREE ? 0 : t->id;
+        }
+        if (t->state == VT_TRACK_FREE) {
+            continue;
+        }
+        if (p->ho_len[i] > 0) {
+            int64_t w0 = (int64_t)o->right - o->left + 1, h0 = (int64_t)o->bottom - o->top + 1;
+            int64_t dw = ((int64_t)t->box.right - t->box.left + 1) - w0;
+            int64_t db = (int64_t)t->box.bottom - o->bottom;
+            if (4 * (dw < 0 ? -dw : dw) > w0 || 4 * (db < 0 ? -db : db) > h0) {
+                p->ho_len[i] = 0;
+            }
+        }
+        p->ho_last[i] = t->box;
+        for (j = p->ho_len[i] < VT_PIPE_HO_HIST ? p->ho_len[i] : VT_PIPE_HO_HIST - 1; j > 0; --j) {
+            p->ho_bot[i][j] = p->ho_bot[i][j - 1];
+            p->ho_cx2[i][j] = p->ho_cx2[i][j - 1];
+        }
+        p->ho_bot[i][0] = t->box.bottom;
+        p->ho_cx2[i][0] = t->box.left + t->box.right; /* |box| <= 4 VT_MAX_*: no overflow */
+        p->ho_len[i] += p->ho_len[i] < VT_PIPE_HO_HIST;
+    }
+}
+
+/* The reverse hand-over (IVVI paper sec. 3, last paragraph): the tracker's tracks
+ * (output order) the ego car is overtaking and that are leaving by the side go to the
+ * flow stage. A track qualifies when it is CONFIRMED or COASTING (it was confirmed),
+ * has N = handover_frames frames of history before this one, and
+ *   - its bottom row moved down by at least handover_dy_permille / 1000 of h over
+ *     those N frames, and by half of that in each half of them (rows b0, b(N/2), bN,
+ *     newest first: 2000 (b0 - b(N/2)) >= dy h and 2000 (b(N/2) - bN) >= dy h): it comes
+ *     closer all along (on a flat road its box grows with it); a box that jumped once
+ *     (a part of a car re-anchored to the whole car) passes the one-span test only,
+ *   - its centre column lies in a lateral strip of the flow stage's width,
+ *     sw = floor(w * flow.strip_permille / 1000) px: l + r < 2 sw (left) or
+ *     l + r >= 2 (w - sw) (right), on either side whatever side the flow stage
+ *     watches for overtaking vehicles (the ego car passes on the other one),
+ *   - its outer side is within e of the border, e * 1000 = handover_edge_permille * w
+ *     (l * 1000 <= e' on the left, (w - 1 - r) * 1000 <= e' on the right), and
+ *   - it did not move inward over the N frames (l + r not larger on the left, not
+ *     smaller on the right).
+ * Then vt_flow_seed(its box) and vt_tracker_drop(its id): it leaves p->tracks and is
+ * reported as a hand-over with the same id (until vt__ho_refresh ends it). A seed refused (VT_FLOW_MAX_SEEDS live, or
+ * a box outside the frame) leaves the track with the tracker. Exact integer tests. */
+static void vt__handover(vt_pipeline *p, const vt_image_u8 *frame, int32_t *n_tracks)
+{
+    const int64_t w = frame->w, nf = p->cfg.handover_frames, half = nf / 2;
+    const int64_t need = (int64_t)p->cfg.handover_dy_permille * frame->h; /* x 1000 */
+    const int64_t sw = w * p->cfg.flow.strip_permille / 1000;
+    const int64_t edge = (int64_t)p->cfg.handover_edge_permille * w;
+    int32_t k = 0, i, side, sid = 0;
+    while (k < *n_tracks) {
+        const vt_track_out *t = &p->tracks[k];
+        const vt_box *b = &t->box;
+        int64_t c2 = (int64_t)b->left + b->right, dy1, dy2, dc;
+        side = 0;
+        for (i = 0; i < VT_MAX_TRACKS; ++i) {
+            if (p->tracker.tracks[i].state != VT_TRACK_FREE && p->tracker.tracks[i].id == t->id) {
+                break;
+            }
+        }
+        if (i < VT_MAX_TRACKS && p->ho_tid[i] == t->id && p->ho_len[i] > nf &&
+            (t->state == VT_TRACK_CONFIRMED || t->state == VT_TRACK_COASTING)) {
+            dy1 = (int64_t)p->ho_bot[i][0] - p->ho_bot[i][half];
+            dy2 = (int64_t)p->ho_bot[i][half] - p->ho_bot[i][nf];
+            dc = (int64_t)p->ho_cx2[i][0] - p->ho_cx2[i][nf];
+            if (dy1 * 2000 >= need && dy2 * 2000 >= need) {
+                if (c2 < 2 * sw && (int64_t)b->left * 1000 <= edge && dc <= 0) {
+                    side = 1;
+                } else if (c2 >= 2 * (w - sw) && (w - 1 - b->right) * 1000 <= edge && dc >= 0) {
+                    side = 2;
+                }
+            }
+        }
+        if (side != 0 && p->n_ho < VT_FLOW_MAX_SEEDS &&
+            vt_flow_seed(p->flow_st, &p->cfg.flow, b, &sid) == VT_OK) {
+            p->ho_id[p->n_ho] = t->id;
+            p->ho_seed[p->n_ho] = sid;
+            p->ho_box[p->n_ho] = *b;
+            p->ho_vx[p->n_ho] = t->vx;
+            p->ho_vy[p->n_ho] = t->vy;
+            p->ho_side[p->n_ho] = side;
+            p->ho_best[p->n_ho] = side == 1 ? b->right : b->left;
+            p->ho_stall[p->n_ho] = 0;
+            ++p->n_ho;
+            (void)vt_tracker_drop(&p->tracker, t->id);
+            p->ho_tid[i] = 0;
+            p->ho_len[i] = 0;
+            memmove(&p->tracks[k], &p->tracks[k + 1], (size_t)(*n_tracks - k - 1) * sizeof(p->tracks[0]));
+            --*n_tracks;
+            continue;
+        }
+        ++k;
+    }
+}
+
+/* The live hand-overs after the tracker's tracks in the output, while VT_MAX_TRACKS
+ * allows: same id as the track they came from, state VT_PIPE_HANDOVER, the flow
+ * stage's box and mean flow; no geometry (its range filter ended with the track). */
+static void vt__out_handovers(const vt_pipeline *p, vt_frame_out *out)
+{
+    int32_t i, n = out->n_tracks;
+    for (i = 0; i < p->n_ho && n < VT_MAX_TRACKS; ++i, ++n) {
+        vt_pipe_track *o = &out->tracks[n];
+        o->id = p->ho_id[i];
+        o->state = VT_PIPE_HANDOVER;
+        o->box = p->ho_box[i];
+        o->vx = p->ho_vx[i];
+        o->vy = p->ho_vy[i];
+        o->distance_mm = VT_UNKNOWN;
+        o->ttc_ms = VT_UNKNOWN;
+        o->warning = p->camera != NULL ? VT_FCW_NONE : VT_FCW_UNKNOWN;
+        o->source = 0;
+        o->ttc_points_q16 = VT_UNKNOWN;
+    }
+    out->n_tracks = n;
+}
+
 /* The overtaking stage on this frame (every frame: it compares consecutive ones); a
  * frame of another size restarts it. Its boxes are appended to out->boxes and
  * p->det.box from index n (while VT_MAX_BOXES allows; all counted in *n_in).
@@ -595,14 +799,18 @@ static vt_status vt__flow(vt_pipeline *p, const vt_image_u8 *frame, vt_frame_out
         return s;
     }
     out->flow_ready = p->flow.ready;
+    vt__ho_refresh(p);
     for (i = 0; i < p->flow.n; ++i) {
         const vt_box *b = &p->flow.hyp[i].box;
-        for (k = 0; k < p->n_src; ++k) {
+        if (p->flow.hyp[i].kind == VT_FLOW_KIND_HANDOVER) {
+            continue; /* a hand-over is reported as its track, not as a detection */
+        }
+        for (k = 0; k < p->n_trk; ++k) {
             if (vt__inter(b, &p->tracks[k].box) > 0) {
                 break;
             }
         }
-        if (k == p->n_src) {
+        if (k == p->n_trk && !vt__ho_covers(p, b)) {
             *fresh = 1;
         }
         if (n < VT_MAX_BOXES) {
@@ -614,11 +822,13 @@ static vt_status vt__flow(vt_pipeline *p, const vt_image_u8 *frame, vt_frame_out
         }
     }
     out->n_boxes = n;
-    *n_in += p->flow.n;
+    for (i = 0; i < p->flow.n; ++i) {
+        *n_in += p->flow.hyp[i].kind != VT_FLOW_KIND_HANDOVER;
+    }
     return VT_OK;
 }
 
-/* IoU(a, b) >= pct / 100, exact in int64. */
+/* IoU(a, b) >= permille / 1000, exact in int64. */
 static int32_t vt__iou_at_least(const vt_box *a, const vt_box *b, int32_t permille)
 {
     int64_t in = vt__inter(a, b);
@@ -642,7 +852,7 @@ static void vt__model(vt_pipeline *p, const vt_image_u8 *frame, vt_frame_out *ou
     *n_model = 0;
     horizon = p->horizon_known ? p->horizon_y
                                : vt__frac_q16(frame->h, p->cfg.road_camera.horizon_q16);
-    for (k = 0; k < p->n_src && fits < p->cfg.model_fits; ++k) {
+    for (k = 0; k < p->n_trk && fits < p->cfg.model_fits; ++k) {
         const vt_box *b = &p->tracks[k].box;
         if (p->tracks[k].state != VT_TRACK_COASTING) {
             continue;
@@ -849,6 +1059,17 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
         } else if (!det_frame) {
             n_boxes = 0;
         }
+        if (p->n_ho > 0) {
+            /* A handed-over vehicle keeps its one id: its boxes do not reach the tracker
+             * (they stay listed in out->boxes). */
+            int32_t j = 0;
+            for (i = 0; i < n_boxes; ++i) {
+                if (!vt__ho_covers(p, &p->det.box[i])) {
+                    p->det.box[j++] = p->det.box[i];
+                }
+            }
+            n_boxes = j;
+        }
     }
     s = VT_OK;
     if (p->cfg.track) {
@@ -859,6 +1080,13 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
     if (s != VT_OK && s != VT_E_CAPACITY) {
         return s;
     }
+    if (p->cfg.track) {
+        vt__ho_history(p);
+        if (p->cfg.handover && (p->cfg.sources & VT_SRC_FLOW) != 0) {
+            vt__handover(p, frame, &n_tracks);
+        }
+    }
+    p->n_trk = n_tracks;
     if (p->camera != NULL && p->cfg.track) {
         vt_status sg = vt__geometry(p, frame, out, lanes_ok, n_tracks, &n_ranges);
         if (sg != VT_OK && sg != VT_E_CAPACITY) {
@@ -879,6 +1107,7 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
         }
     }
     vt__out_tracks(p, n_tracks, n_ranges, out);
+    vt__out_handovers(p, out);
     vt__track_sources(p, out);
     return s;
 }

@@ -149,6 +149,21 @@ vt_status vt_track_list_check(const vt_track_out *tracks, int32_t n_tracks)
     return VT_OK;
 }
 
+vt_status vt_tracker_drop(vt_tracker *tr, int32_t id)
+{
+    int32_t i;
+    if (tr == NULL || id <= 0) {
+        return VT_E_ARG;
+    }
+    for (i = 0; i < VT_MAX_TRACKS; ++i) {
+        if (tr->tracks[i].state != VT_TRACK_FREE && tr->tracks[i].id == id) {
+            tr->tracks[i].state = VT_TRACK_FREE;
+            return VT_OK;
+        }
+    }
+    return VT_E_ARG;
+}
+
 vt_status vt_tracker_set_edge_ws(vt_tracker *tr, vt_edge_ws *ws)
 {
     if (tr == NULL) {

@@ -726,6 +726,90 @@ static void run_pipeline(int32_t full)
     print_checksum(full ? "pipeline_full" : "pipeline", h);
 }
 
+/* The reverse hand-over (issue 9; IVVI paper sec. 3, last paragraph) on a scene made
+ * here, so it needs no flash: a 160x120 frame of static texture, and a textured 40x30
+ * "car" (its texture moves with it) 2 px right and 1 px down per frame, as a car the
+ * ego car overtakes on the right. Its exact box is the caller's detection on every
+ * frame while it is wholly in view (vt_pipeline_step_dets), flow at level 0 on both
+ * sides. The tracker confirms it and the pipeline hands it to the flow stage as it
+ * reaches the right border (frame 13 of 32); the flow stage then moves the box by the
+ * mean flow of its cells (over this static background, which a real ego car would see
+ * flow outward too, the box falls behind the car: the scene is a proof of equal bits,
+ * not of tracking quality, which tests/test_pipeline_handover.py measures). Per frame the status and every track (id, state, box, velocity, source) go into
+ * `checksum pipeline_handover`, which tests/test_firmware.py recomputes on the host;
+ * `handover frames N` counts the frames that reported a VT_PIPE_HANDOVER track. */
+#define HO_W 160
+#define HO_H 120
+#define HO_N 32
+static uint8_t g_ho_frame[HO_W * HO_H];
+static vt_box g_ho_det;
+
+/* xorshift32 of a pixel's coordinates: the texture (both sides compute it alike). */
+static uint32_t ho_tex(uint32_t x, uint32_t y, uint32_t salt)
+{
+    uint32_t v = (x * 73856093u) ^ (y * 19349663u) ^ salt;
+    v ^= v << 13;
+    v ^= v >> 17;
+    v ^= v << 5;
+    return v;
+}
+
+static void ho_make_frame(int32_t f)
+{
+    int32_t x, y, l = 92 + 2 * f, t = 50 + f;
+    for (y = 0; y < HO_H; ++y) {
+        for (x = 0; x < HO_W; ++x) {
+            uint32_t v;
+            if (x >= l && x < l + 40 && y >= t && y < t + 30) {
+                v = 150u + (ho_tex((uint32_t)(x - l), (uint32_t)(y - t), 0x5eedu) & 63u);
+            } else {
+                v = 40u + (ho_tex((uint32_t)x, (uint32_t)y, 0xba5eu) & 63u);
+            }
+            g_ho_frame[y * HO_W + x] = (uint8_t)v;
+        }
+    }
+    g_ho_det.left = l;
+    g_ho_det.top = t;
+    g_ho_det.right = l + 39;
+    g_ho_det.bottom = t + 29;
+}
+
+static void run_handover(void)
+{
+    uint32_t h;
+    vt_image_u8 img;
+    vt_status s;
+    int32_t f, i, n_ho = 0, seen;
+    h = fnv_status(FNV_BASIS, vt_pipeline_cfg_default(&g_pipe_cfg));
+    g_pipe_cfg.sources = VT_SRC_FLOW;
+    g_pipe_cfg.flow.level = 0;
+    g_pipe_cfg.flow.sides = VT_FLOW_SIDE_BOTH;
+    h = fnv_status(h, vt_pipeline_init(&g_pipe, &g_pipe_cfg, NULL, NULL));
+    h = fnv_status(h, vt_pipeline_set_flow_ws(&g_pipe, &g_flow));
+    img.px = g_ho_frame;
+    img.w = HO_W;
+    img.h = HO_H;
+    img.stride = HO_W;
+    for (f = 0; f < HO_N; ++f) {
+        ho_make_frame(f);
+        s = vt_pipeline_step_dets(&g_pipe, &img, &g_ho_det, g_ho_det.right < HO_W ? 1 : 0, &g_out);
+        h = fnv_s32(fnv_status(h, s), g_out.n_tracks);
+        seen = 0;
+        for (i = 0; i < g_out.n_tracks && i < VT_MAX_TRACKS; ++i) {
+            const vt_pipe_track *t = &g_out.tracks[i];
+            h = fnv_s32(fnv_s32(h, t->id), t->state);
+            h = fnv_s32(fnv_s32(fnv_s32(fnv_s32(h, t->box.left), t->box.top), t->box.right), t->box.bottom);
+            h = fnv_s32(fnv_s32(fnv_s32(h, t->vx), t->vy), t->source);
+            seen |= t->state == VT_PIPE_HANDOVER;
+        }
+        n_ho += seen;
+    }
+    fw_line_str("handover frames ");
+    fw_line_s32(n_ho);
+    fw_line_end();
+    print_checksum("pipeline_handover", h);
+}
+
 int main(void)
 {
     uint32_t stack_primitives, stack_pipeline;
@@ -758,6 +842,7 @@ int main(void)
     fw_stack_paint();
     run_pipeline(0);
     run_pipeline(1);
+    run_handover();
     stack_pipeline = fw_stack_used();
 
     /* The RAM bill, from sizeof: the static outputs, then the stack. */

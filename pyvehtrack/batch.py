@@ -123,7 +123,7 @@ def tracks_txt_to_records(path, n_frames: int) -> list:
     """Records in the `track --json` schema from a KITTI tracks file (the fallback while
     `track --json` is not in this build): state from the score column (1 confirmed,
     0.5 coasting, 0.25 tentative); velocity, distance, TTC, warning and source null."""
-    states = {1.0: "confirmed", 0.5: "coasting", 0.25: "tentative"}
+    states = {1.0: "confirmed", 0.5: "coasting", 0.25: "tentative", 0.4: "handover"}
     recs = [{"frame": k, "tracks": []} for k in range(n_frames)]
     for line in Path(path).read_text().splitlines():
         f = line.split()

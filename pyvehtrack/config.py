@@ -339,7 +339,7 @@ def reference_capacities():
     from .reference.pipeline import Capacities  # noqa: PLC0415
     return Capacities(max_windows=int(lib.VT_FULLDET_MAX_WINDOWS), max_cand=int(lib.VT_FULLDET_MAX_CAND),
                       max_flow_hyps=int(lib.VT_FLOW_MAX_HYPS), max_flow_seeds=int(lib.VT_FLOW_MAX_SEEDS),
-                      max_flow_blobs=int(lib.VT_FLOW_MAX_BLOBS),
+                      max_flow_blobs=int(lib.VT_FLOW_MAX_BLOBS), ho_hist=int(lib.VT_PIPE_HO_HIST),
                       max_model_roi_pixels=int(lib.VT_MODEL_MAX_ROI_PIXELS),
                       max_width=int(lib.VT_MAX_WIDTH), max_height=int(lib.VT_MAX_HEIGHT),
                       max_tracks=int(lib.VT_MAX_TRACKS), max_hypotheses=int(lib.VT_MAX_HYPOTHESES),

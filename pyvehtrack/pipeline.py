@@ -35,7 +35,11 @@ detector's workspace (sizeof(vt_pipe_cls_ws)) and attaches it with
 vt_pipeline_set_cls_ws.
 
 sources "flow" (Pipeline(sources=("shadow", "flow"), flow={"sides": 3})): the overtaking
-stage (c/flow.c) on every frame, its blobs handed to the tracker (source "flow");
+stage (c/flow.c) on every frame, its blobs handed to the tracker (source "flow"); and
+the reverse case: a confirmed track the ego car overtakes, leaving by the side, is handed
+to the flow stage and reported with the same id and state "handover" until the flow stage
+ends it (flow={"handover": False} turns it off; "handover_frames",
+"handover_dy_permille", "handover_edge_permille" tune the rule, vt_pipeline_set_flow_ws);
 sources "model" (vehicle_model={"fits": 2, ...}): the GA vehicle model refits the
 tracks whose ROI search failed (source "model"). Their state / workspace is allocated
 and attached here (vt_pipeline_set_flow_ws, vt_pipeline_set_model_ws). Each track says
@@ -66,7 +70,8 @@ from .frames import to_gray
 from .shared import TrackBase
 
 ENGINES = ("c", "reference")
-STATES = {1: "tentative", 2: "confirmed", 3: "coasting"}
+STATES = {1: "tentative", 2: "confirmed", 3: "coasting", 4: "handover"}
+HANDOVER_KEYS = ("handover", "handover_frames", "handover_dy_permille", "handover_edge_permille")
 ROAD_SOURCES = {0: "none", 1: "lanes", 2: "fixed", 3: "camera"}
 SOURCE_NAMES = {1: "shadow", 2: "classifier", 4: "flow", 8: "model", 16: "external"}
 
@@ -246,7 +251,18 @@ class Pipeline:
         if flow is not None and not isinstance(flow, dict):
             raise TypeError(f"flow: expected a dict of vt_flow_cfg fields, got {type(flow).__name__}")
         from . import flow as _flow  # noqa: PLC0415
-        fc = _flow.make_cfg(**(flow or {}))
+        flow = dict(flow or {})
+        ho = {k: flow.pop(k) for k in HANDOVER_KEYS if k in flow}
+        if "handover" in ho:
+            if not isinstance(ho["handover"], (bool, np.bool_)):
+                raise TypeError(f"flow['handover']: expected a bool, got {type(ho['handover']).__name__}")
+            self._ccfg.handover = int(bool(ho["handover"]))
+        limits = {"handover_frames": (2, int(lib.VT_PIPE_HO_HIST) - 1),
+                  "handover_dy_permille": (0, 1000), "handover_edge_permille": (0, 500)}
+        for k, (lo, hi) in limits.items():
+            if k in ho:
+                setattr(self._ccfg, k, _check.integer(ho[k], f"flow[{k!r}]", lo=lo, hi=hi))
+        fc = _flow.make_cfg(**flow)
         self._ccfg.flow = fc[0]
         self._flow_fields = {f: int(getattr(fc, f)) for f in _flow.CFG_FIELDS}
         _native.pipeline_cfg_check(self._ccfg)
@@ -428,7 +444,8 @@ class Pipeline:
             if "flow" in self.cfg.sources:
                 import dataclasses  # noqa: PLC0415
                 from types import SimpleNamespace  # noqa: PLC0415
-                rcfg = dataclasses.replace(rcfg, flow=SimpleNamespace(**self._flow_fields))
+                rcfg = dataclasses.replace(rcfg, flow=SimpleNamespace(**self._flow_fields),
+                                           **{k: int(getattr(self._ccfg, k)) for k in HANDOVER_KEYS})
             box_score = None
             if self.whole_road:
                 rcfg = _whole_road_reference(rcfg, self._ccfg)

@@ -481,7 +481,7 @@ class TrackBase:
     """What every view of a track carries (pyvehtrack.tracker.Track adds its source,
     pyvehtrack.pipeline.Track the camera stage's distance, TTC and warning)."""
     id: int
-    state: str            # "tentative" | "confirmed" | "coasting"
+    state: str            # "tentative" | "confirmed" | "coasting" | "handover" (pipeline, flow source)
     box: tuple            # (left, top, right, bottom), inclusive, input pixels
     velocity: tuple       # (vx, vy) of the bottom edge, input px/frame
 

@@ -12,6 +12,10 @@ Scenarios (lanes: left -3.5 m, ego 0, right +3.5 m):
   +-0.4 m/s (and the usual small accelerations): nothing overtakes.
 - ``ego_overtakes``: the ego car passes a slower car in the right lane (it starts ahead and leaves the
   frame at the right edge): the hand-over case (id 1).
+- ``ego_overtakes_left`` / ``ego_overtakes_right``: the pipeline's hand-over case from the start (issue 9):
+  the slower car (id 1) starts fully in view 11-15 m ahead in the left / right lane, 3.5-6 m/s slower
+  than the ego car, so it drifts down and outward and leaves by that side within the 100 frames; a lead
+  car in the ego lane keeps its distance.
 
 `half_in_view(seq, vid)` gives the first frame where at most half of a vehicle's rear face is outside
 the image (GT truncation <= 0.5), the reference frame of the "reported within 5 frames" target.
@@ -57,11 +61,23 @@ def _ego_overtakes(rng, T, dt):
     return [lead, slow]
 
 
+def _ego_overtakes_side(rng, T, dt, side):
+    lead = S._new_vehicle(rng, 0, S._lateral(rng, T, dt, E),
+                          S._longitudinal(rng, T, dt, rng.uniform(18, 25), rng.uniform(-0.3, 0.3),
+                                          accel_sigma=0.15))
+    slow = S._new_vehicle(rng, 1, S._lateral(rng, T, dt, L if side == "left" else R, wander=0.05),
+                          S._longitudinal(rng, T, dt, rng.uniform(11, 15), -rng.uniform(3.5, 6.0),
+                                          accel_sigma=0.15))
+    return [lead, slow]
+
+
 SCENARIOS = {
     "overtake_left": (lambda rng, T, dt: _overtake(rng, T, dt, "left"), 90),
     "overtake_right": (lambda rng, T, dt: _overtake(rng, T, dt, "right"), 90),
     "keep_distance": (_keep_distance, 90),
     "ego_overtakes": (_ego_overtakes, 90),
+    "ego_overtakes_left": (lambda rng, T, dt: _ego_overtakes_side(rng, T, dt, "left"), 100),
+    "ego_overtakes_right": (lambda rng, T, dt: _ego_overtakes_side(rng, T, dt, "right"), 100),
 }
 
 

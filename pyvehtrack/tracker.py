@@ -118,11 +118,16 @@ class Tracker:
 
     ttc_points: True or a dict of reference.ttc_scale.TtcScaleParams fields: the pipeline's
     block-scale TTC (Pipeline(ttc_points=...)) at frame rate fps (default 10), each Track's
-    ttc_points in s (None when unknown)."""
+    ttc_points in s (None when unknown).
+
+    flow: False, True or a dict of the pipeline's flow settings (Pipeline(flow=...)): the
+    overtaking flow stage on every frame besides the detector, with its reverse hand-over (a
+    car the ego car overtakes keeps its id with state "handover" while the flow stage
+    follows it out of the frame)."""
 
     def __init__(self, engine: str = "c", cfg: TrackerCfg | None = None,
                  detect_every: int = 10, detector=None, measurement: str | None = None,
-                 ttc_points=None, fps: float | None = None):
+                 ttc_points=None, fps: float | None = None, flow=False):
         from .pipeline import Pipeline  # noqa: PLC0415  (pipeline imports this module's users)
         _check.choice(engine, "engine", ("c", "reference"))
         if measurement is not None:
@@ -152,6 +157,12 @@ class Tracker:
                 over["fps"] = fps
         elif fps is not None:
             raise ValueError("fps: the frame rate is for the block-scale TTC: pass ttc_points= too")
+        if flow is not False and flow is not None:
+            if flow is not True and not isinstance(flow, dict):
+                raise TypeError(f"flow: expected a bool or a dict of flow settings, got {type(flow).__name__}")
+            over["sources"] = tuple(over.get("sources", ("shadow",))) + ("flow",)
+            if isinstance(flow, dict):
+                over["flow"] = dict(flow)
         self.pipeline = Pipeline(engine, tracker=tracker_config(self.cfg), detect_every=self.detect_every,
                                  reference_quantized=False, **over)
 

@@ -348,11 +348,76 @@ def _fnv_box(h: int, b) -> int:
 def host_pipeline(frames: list[np.ndarray], n: SimpleNamespace,
                   with_model: bool = True) -> tuple[list[str], list[tuple[str, int]]]:
     """main.c's two run_pipeline() calls (the shadow source alone, then every source),
-    their lines and checksums concatenated in the order printed, through the build `n`.
-    with_model: main.c's FW_MODEL (the vehicle model source in the full run)."""
+    their lines and checksums concatenated in the order printed, through the build `n`, then
+    run_handover()'s checksum. with_model: main.c's FW_MODEL (the vehicle model source in the
+    full run)."""
     la, sa = host_pipeline_run(frames, n, full=False, with_model=with_model)
     lb, sb = host_pipeline_run(frames, n, full=True, with_model=with_model)
-    return la + lb, sa + sb
+    return la + lb, sa + sb + [("pipeline_handover", host_handover(n)[1])]
+
+
+HO_W, HO_H, HO_N = 160, 120, 32
+
+
+def _ho_tex(x, y, salt: int) -> np.ndarray:
+    """main.c's ho_tex: xorshift32 of (x * 73856093) ^ (y * 19349663) ^ salt, mod 2^32."""
+    v = (np.uint32(73856093) * x.astype(np.uint32)) ^ (np.uint32(19349663) * y.astype(np.uint32)) ^ np.uint32(salt)
+    v ^= v << np.uint32(13)
+    v ^= v >> np.uint32(17)
+    v ^= v << np.uint32(5)
+    return v
+
+
+def ho_frame(f: int) -> tuple[np.ndarray, tuple[int, int, int, int]]:
+    """main.c's ho_make_frame: static texture, and the 40x30 textured car at (92 + 2f, 50 + f)."""
+    y, x = np.mgrid[0:HO_H, 0:HO_W]
+    l, t = 92 + 2 * f, 50 + f
+    img = (40 + (_ho_tex(x, y, 0xBA5E) & 63)).astype(np.uint8)
+    car = (x >= l) & (x < l + 40) & (y >= t) & (y < t + 30)
+    inner = (150 + (_ho_tex(x - l, y - t, 0x5EED) & 63)).astype(np.uint8)
+    img[car] = inner[car]
+    return img, (l, t, l + 39, t + 29)
+
+
+def host_handover(n: SimpleNamespace) -> tuple[int, int]:
+    """main.c's run_handover() through the build `n`: (frames with a VT_PIPE_HANDOVER
+    track, checksum)."""
+    lib, ffi, view = n.lib, n.ffi, n.view
+    cfg = ffi.new("vt_pipeline_cfg *")
+    h = fnv_s32(FNV_BASIS, lib.vt_pipeline_cfg_default(cfg))
+    cfg.sources = lib.VT_SRC_FLOW
+    cfg.flow.level = 0
+    cfg.flow.sides = lib.VT_FLOW_SIDE_BOTH
+    p = ffi.new("vt_pipeline *")
+    h = fnv_s32(h, lib.vt_pipeline_init(p, cfg, ffi.NULL, ffi.NULL))
+    st = ffi.new("vt_flow_state *")
+    h = fnv_s32(h, lib.vt_pipeline_set_flow_ws(p, st))
+    o = ffi.new("vt_frame_out *")
+    det = ffi.new("vt_box *")
+    n_ho = 0
+    for f in range(HO_N):
+        img, b = ho_frame(f)
+        det.left, det.top, det.right, det.bottom = b
+        s = lib.vt_pipeline_step_dets(p, view(img, "frame"), det, 1 if b[2] < HO_W else 0, o)
+        h = fnv_s32(fnv_s32(h, s), o.n_tracks)
+        seen = False
+        for i in range(o.n_tracks):
+            t = o.tracks[i]
+            h = _fnv_box(fnv_s32(fnv_s32(h, t.id), t.state), t.box)
+            for v in (t.vx, t.vy, t.source):
+                h = fnv_s32(h, v)
+            seen |= t.state == lib.VT_PIPE_HANDOVER
+        n_ho += seen
+    return n_ho, h
+
+
+def test_handover_scene_hands_over(fw):
+    """The firmware's hand-over scene (main.c run_handover, recomputed here) does hand the
+    car over: a proof over a scene without a hand-over would prove little."""
+    if int(fw.lib.VT_MAX_TRACKS) < 1:
+        pytest.skip("no track slot")
+    n_ho, _ = host_handover(fw)
+    assert n_ho >= 10, n_ho
 
 
 def host_pipeline_run(frames: list[np.ndarray], n: SimpleNamespace, full: bool,

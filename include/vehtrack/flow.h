@@ -260,11 +260,13 @@ vt_status vt_flow_step(vt_flow_state *st, const vt_flow_cfg *cfg, const vt_image
  * track's id (also in its hypotheses). VT_E_CAPACITY when VT_FLOW_MAX_SEEDS
  * tracks are active. From the next vt_flow_step on, the track's box moves by
  * the mean vector of the cells inside it (searched without the change gate or
- * the direction filter, SAD check kept) and is reported as a
+ * the direction filter; the texture gate, min_texture, and the SAD check kept:
+ * a flat cell matches at zero motion whatever moved) and is reported as a
  * VT_FLOW_KIND_HANDOVER hypothesis; it ends when fewer than seed_min_visible_permille / 1000
- * of its columns remain in the frame or no cell inside it finds a match.
- * Pipeline use: when a confirmed track's box reaches a lateral area while the
- * ego car is faster (its bottom row moves down and its box grows), call
+ * of its columns remain in the frame or no textured cell inside it finds a match.
+ * Pipeline use (c/pipeline.c does this, the rule in vehtrack/pipeline.h,
+ * vt_pipeline_set_flow_ws): when a confirmed track's box reaches a lateral area
+ * while the ego car is faster (its bottom row moves down, so its box grows), call
  * vt_flow_seed with the track's last box after vt_flow_step of that frame and
  * stop tracking it with the model; read it back from the flow results. */
 vt_status vt_flow_seed(vt_flow_state *st, const vt_flow_cfg *cfg, const vt_box *box, int32_t *id);

@@ -73,6 +73,19 @@
  * the geometry cannot say (no filtered distance yet, opening, beyond ttc_max). */
 #define VT_UNKNOWN INT32_MIN
 
+/* vt_pipe_track.state of a vehicle the pipeline handed over to the flow stage (the
+ * ego car is overtaking it; see vt_pipeline_set_flow_ws): after the tracker's
+ * VT_TRACK_* states. */
+#define VT_PIPE_HANDOVER 4
+
+/* Frames of box history the hand-over rule can look back (cfg.handover_frames < it). */
+#ifndef VT_PIPE_HO_HIST
+#define VT_PIPE_HO_HIST 16
+#endif
+#if VT_PIPE_HO_HIST < 2 || VT_PIPE_HO_HIST > 256
+#error "VT_PIPE_HO_HIST out of range (2..256)"
+#endif
+
 /* vt_pipe_track.warning: VT_FCW_UNKNOWN without a camera, else the VT_FCW_* bits
  * of vehtrack/camera.h (0: no warning). */
 #define VT_FCW_UNKNOWN (-1)
@@ -157,6 +170,15 @@ typedef struct {
     vt_ttc_cfg ttc;          /* the block-scale TTC (vehtrack/ttc_scale.h) run after the
                                 tracker when its state is attached (vt_pipeline_set_ttc_ws);
                                 frame_dt is the frame period (default 0.1 s)            */
+    int32_t handover;        /* 0/1: hand vehicles the ego car overtakes to the flow stage
+                                (IVVI paper sec. 3, the reverse case); acts only with
+                                VT_SRC_FLOW on (rule: vt_pipeline_set_flow_ws)           */
+    int32_t handover_frames; /* the rule's look-back N, 2..VT_PIPE_HO_HIST - 1 frames    */
+    int32_t handover_dy_permille; /* its bottom row moved down by at least this permille
+                                of the frame height over those N frames (half of it in
+                                each half), 0..1000                                    */
+    int32_t handover_edge_permille; /* its outer side within this permille of the width
+                                of the frame's border, 0..500                          */
 } vt_pipeline_cfg;
 
 #define VT_PIPELINE_CFG_DEFAULT                                   \
@@ -180,6 +202,10 @@ typedef struct {
         .verify = 0,                                              \
         .verify_min = 0,                                          \
         .ttc = VT_TTC_CFG_DEFAULT,                                \
+        .handover = 1,                                            \
+        .handover_frames = 8,                                     \
+        .handover_dy_permille = 10,                               \
+        .handover_edge_permille = 20,                             \
     }
 
 /* The whole-road detector's scratch, owned by the caller and attached with
@@ -225,6 +251,27 @@ typedef struct {
     vt_ttc_state *ttc_st;               /* the block-scale TTC's state (NULL: none)    */
     int32_t n_ttc;                      /* its outputs of the last step ...            */
     vt_ttc_out ttc_out[VT_MAX_TRACKS];  /* ... (kept here, not on the stack)           */
+    int32_t n_trk;                      /* the tracker's tracks in tracks[] (the other
+                                           output tracks are hand-overs)               */
+    /* The hand-over rule's memory per tracker slot: the id of the track it is about,
+     * its last frames' bottom rows and centre columns x 2 (l + r), newest at [0],
+     * ho_len of them known. */
+    int32_t ho_tid[VT_MAX_TRACKS];
+    int32_t ho_len[VT_MAX_TRACKS];
+    int32_t ho_bot[VT_MAX_TRACKS][VT_PIPE_HO_HIST];
+    int32_t ho_cx2[VT_MAX_TRACKS][VT_PIPE_HO_HIST];
+    vt_box ho_last[VT_MAX_TRACKS]; /* the box of the newest entry (the jump test)     */
+    /* Live hand-overs, in the order they were made: the track's id, the flow stage's
+     * seed id, and this frame's box and flow (Q16 px/frame). */
+    int32_t n_ho;
+    int32_t ho_id[VT_FLOW_MAX_SEEDS];
+    int32_t ho_seed[VT_FLOW_MAX_SEEDS];
+    vt_box ho_box[VT_FLOW_MAX_SEEDS];
+    vt_q16 ho_vx[VT_FLOW_MAX_SEEDS];
+    vt_q16 ho_vy[VT_FLOW_MAX_SEEDS];
+    int32_t ho_side[VT_FLOW_MAX_SEEDS];  /* 1 left, 2 right: the side it leaves by       */
+    int32_t ho_best[VT_FLOW_MAX_SEEDS];  /* its inner side's furthest-out column so far  */
+    int32_t ho_stall[VT_FLOW_MAX_SEEDS]; /* frames in a row it did not get further out   */
 } vt_pipeline;
 
 /* A detected box and the source that proposed it. score: the source's confidence:
@@ -275,7 +322,9 @@ typedef struct {
     vt_hypothesis hyp[VT_MAX_HYPOTHESES];
     int32_t n_boxes;         /* boxes handed to the tracker (the first VT_MAX_BOXES);
                                 the flow boxes are listed on every frame, handed over
-                                as vt_pipeline_set_flow_ws says                      */
+                                as vt_pipeline_set_flow_ws says, as are the boxes of a
+                                vehicle handed over to the flow stage (listed, not
+                                given to the tracker)                                */
     int32_t n_boxes_in;      /* all of them: more than n_boxes only when the caller's
                                 detections (vt_pipeline_step_dets) exceed VT_MAX_BOXES,
                                 or the flow boxes did not fit (not handed over)      */
@@ -284,7 +333,8 @@ typedef struct {
                                 a GA over a coasting track's ROI, used or not: the used
                                 ones are the boxes of source VT_SRC_MODEL)           */
     vt_pipe_box boxes[VT_MAX_BOXES];
-    int32_t n_tracks;        /* live tracks                                          */
+    int32_t n_tracks;        /* live tracks: the tracker's, then the hand-overs (state
+                                VT_PIPE_HANDOVER, see vt_pipeline_set_flow_ws)       */
     vt_pipe_track tracks[VT_MAX_TRACKS];
 } vt_frame_out;
 
@@ -355,7 +405,34 @@ vt_status vt_pipeline_set_edge_ws(vt_pipeline *p, vt_edge_ws *ws);
  * (while VT_MAX_BOXES allows). They reach the tracker on detection frames, and on any
  * other frame where one of them meets no live track (an overtaking vehicle cannot wait
  * for the next detection frame): that frame is then a detection frame for the tracker
- * with the flow boxes alone (out->detection_frame still says whether the detector ran). */
+ * with the flow boxes alone (out->detection_frame still says whether the detector ran).
+ *
+ * The reverse case (IVVI paper sec. 3, last paragraph), with cfg.handover = 1 (the
+ * default; it acts only with VT_SRC_FLOW on): after the tracker, a track the ego car is
+ * overtaking that leaves by the side is handed to the flow stage. The rule (exact
+ * integers on the tracker's boxes, kept per track for the last VT_PIPE_HO_HIST frames):
+ * the track is CONFIRMED or COASTING; over the last N = handover_frames frames its
+ * bottom row came down by at least handover_dy_permille / 1000 of the frame height,
+ * and by half of that in each half of them (it comes closer all along: on a flat road
+ * its box grows); its centre column is in a lateral strip of the flow stage's width
+ * (floor(w flow.strip_permille / 1000) px, on either side, whatever side flow.sides
+ * watches for overtaking vehicles); its outer side is within handover_edge_permille /
+ * 1000 of the width of the frame's border; it did not move inward over the N frames.
+ * Such a track is seeded (vt_flow_seed with its box of this frame, after this frame's
+ * vt_flow_step) and dropped from the tracker (vt_tracker_drop): from then on it is
+ * reported after the tracker's tracks with the SAME id, state VT_PIPE_HANDOVER, the flow
+ * stage's box (the size it had at the hand-over, moved by the mean flow of its textured
+ * cells) and mean flow as velocity, no distance or TTC, and the source that started it.
+ * It ends when the flow stage ends it (fewer than flow.seed_min_visible_permille of its
+ * columns in the frame, no textured cell matching, a frame of another size) or when its
+ * inner side has not got further out for handover_frames frames in a row (a box left on
+ * the road or a marking by the border). While it lives, the frame's boxes (detector, flow,
+ * model, the caller's) with IoU >= tracker.match_iou_permille with its box are listed in
+ * out->boxes but not handed to the tracker, so the vehicle keeps its one id. Capacity: at
+ * most VT_FLOW_MAX_SEEDS hand-overs; when vt_flow_seed refuses (every seed slot taken,
+ * e.g. by the caller's own vt_flow_seed calls on this state, or a box outside the frame)
+ * the track stays with the tracker, and a hand-over that does not fit in out->tracks
+ * (VT_MAX_TRACKS, tracker tracks first) lives on unreported. */
 vt_status vt_pipeline_set_flow_ws(vt_pipeline *p, vt_flow_state *st);
 
 /* Attach the caller's workspace of the vehicle model (vehtrack/vehicle_model.h;

@@ -211,4 +211,10 @@ vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_im
                           int32_t detection_frame, const vt_box *dets, int32_t n_dets,
                           vt_track_out *out, int32_t out_cap, int32_t *n_out);
 
+/* End the live track `id` now (its slot becomes free; the other tracks keep their
+ * slots, so the output order of the others is unchanged; the id is never given
+ * again). Used by the pipeline when it hands a vehicle over to the flow stage
+ * (vehtrack/pipeline.h). VT_E_ARG for tr NULL or no live track with this id. */
+vt_status vt_tracker_drop(vt_tracker *tr, int32_t id);
+
 #endif /* VEHTRACK_TRACKER_H */

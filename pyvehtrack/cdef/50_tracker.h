@@ -95,6 +95,7 @@ vt_status vt_tracker_cfg_default(vt_tracker_cfg *cfg);
 vt_status vt_tracker_cfg_check(const vt_tracker_cfg *cfg);
 vt_status vt_tracker_set_edge_ws(vt_tracker *tr, vt_edge_ws *ws);
 vt_status vt_track_list_check(const vt_track_out *tracks, int32_t n_tracks);
+vt_status vt_tracker_drop(vt_tracker *tr, int32_t id);
 vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_image_u8 *img,
                           int32_t detection_frame, const vt_box *dets, int32_t n_dets,
                           vt_track_out *out, int32_t out_cap, int32_t *n_out);

@@ -80,6 +80,8 @@ typedef struct {
     uint32_t sad[...];
     vt_flow_seed_track seeds[...];
     int32_t n_blobs[2];
+    vt_box blob_box[...];
+    int32_t blob_age[...];
     ...;
 } vt_flow_state;
 

@@ -15,6 +15,8 @@
 #define VT_UNKNOWN ...
 #define VT_FCW_UNKNOWN ...
 #define VT_FCW_NONE ...
+#define VT_PIPE_HANDOVER ...
+#define VT_PIPE_HO_HIST ...
 
 typedef struct {
     int32_t vp_x_permille;
@@ -52,6 +54,10 @@ typedef struct {
     int32_t verify;
     vt_q16 verify_min;
     vt_ttc_cfg ttc;
+    int32_t handover;
+    int32_t handover_frames;
+    int32_t handover_dy_permille;
+    int32_t handover_edge_permille;
 } vt_pipeline_cfg;
 
 typedef struct {

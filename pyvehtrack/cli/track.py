@@ -29,7 +29,7 @@ from ..eval.kitti import track_line
 from .common import (CliError, add_command, add_model_arg, load_camera, make_detector, FrameReader, Outputs, VideoOut, count_frames, frame_sources,
                      output_kind, progress)
 
-STATE_SCORE = {"confirmed": 1.0, "coasting": 0.5, "tentative": 0.25}
+STATE_SCORE = {"confirmed": 1.0, "coasting": 0.5, "tentative": 0.25, "handover": 0.4}
 
 EXAMPLES = """examples:
   pyvehtrack track drive.mp4 --out annotated.mp4 --tracks tracks.txt
@@ -78,6 +78,8 @@ def draw_tracks(frame, tracks, frame_index: int, detection_frame: bool, ranges=N
         cv2.rectangle(img, (l, tp), (r, b), c, thick, lineType=cv2.LINE_AA)
         if t.state == "coasting":  # dashed look: a second, inner rectangle
             cv2.rectangle(img, (l + 3, tp + 3), (r - 3, b - 3), c, 1)
+        elif t.state == "handover":  # followed by the flow stage: an outer rectangle
+            cv2.rectangle(img, (l - 3, tp - 3), (r + 3, b + 3), c, 1)
         vx, vy = t.velocity
         cx, cy = (l + r) // 2, b
         cv2.arrowedLine(img, (cx, cy), (int(cx + 5 * vx), int(cy + 5 * vy)), c, 2, tipLength=0.3)
@@ -113,6 +115,9 @@ def register(sub) -> None:
     p.add_argument("--measurement", choices=("roi", "edges"), default="roi",
                    help="per-frame measurement of a track: the thesis's ROI search (roi, default) or "
                         "the GIST paper's edge curves matched by chamfer distance (edges)")
+    p.add_argument("--flow", action="store_true",
+                   help="also run the overtaking flow stage (sources 'flow'): overtaking cars from the "
+                        "side, and the reverse hand-over of cars the ego car overtakes (state 'handover')")
     p.add_argument("--all-states", action="store_true",
                    help="also write tentative tracks to --tracks (default: confirmed and coasting)")
     p.add_argument("--skip-bad-frames", action="store_true",
@@ -179,7 +184,7 @@ def run(args) -> int:
             fps = args.fps if args.fps is not None else video_fps(sources)
         trk = Tracker(engine=args.engine, detect_every=args.detect_every, detector=det,
                       measurement=getattr(args, "measurement", "roi"), ttc_points=cam is not None,
-                      fps=fps)
+                      fps=fps, flow=bool(getattr(args, "flow", False)))
     except (RuntimeError, ValueError, TypeError) as e:
         raise CliError(str(e)) from None
     ranger = lanes = None

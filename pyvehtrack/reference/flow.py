@@ -241,8 +241,17 @@ class FlowOracle:
         self.seeds.append(Seed(sid, float(l), float(t), r - l + 1, b - t + 1, 0))
         return sid
 
+    def unseed(self, sid: int) -> None:
+        """Stop the hand-over track `sid` (vt_flow_unseed); ValueError if none is live."""
+        for k, sd in enumerate(self.seeds):
+            if sd.id == sid:
+                del self.seeds[k]
+                return
+        raise ValueError(f"unseed: no hand-over track with id {sid}")
+
     def _seed_step(self, sd: Seed, cur: np.ndarray, prev: np.ndarray):
-        """Move a hand-over track by the mean motion of the cells inside its box."""
+        """Move a hand-over track by the mean motion of the textured cells inside its box
+        (a flat cell matches at zero motion whatever moved: the aperture problem)."""
         cfg, lv, n = self.cfg, self.level, self.cfg.cell
         lh, lw = cur.shape
         w, h = self.size
@@ -254,6 +263,9 @@ class FlowOracle:
         vecs = []
         for j in range((by1 - by0) // n):
             for i in range((bx1 - bx0) // n):
+                block = prev[by0 + j * n:by0 + (j + 1) * n, bx0 + i * n:bx0 + (i + 1) * n].astype(np.int64)
+                if np.abs(np.diff(block, axis=1)).sum() < cfg.min_texture * n * (n - 1):
+                    continue        # flat: it matches at zero motion whatever moved
                 dx, dy, s = best_match(prev, cur, bx0 + i * n, by0 + j * n, n,
                                        cfg.search_x, cfg.search_y)
                 if s <= cfg.max_sad_per_px * n * n:

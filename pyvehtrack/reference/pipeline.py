@@ -10,6 +10,9 @@ frame by frame end to end.
          on the camera road (reference.windows.road_from_camera), the horizon the
          lanes' vanishing row once they found one (held while they are lost)
       -> tracker (reference.tracker)      every frame
+      -> hand-over (with the flow stage)  a track the ego car overtakes, leaving by the side,
+                                          goes to the flow stage (reference.flow seed) and is
+                                          reported with its id until the flow stage ends it
       -> geometry (reference.camera)      with a camera: pitch from the lanes' vanishing
                                           row, range filter, TTC and FCW per track
 
@@ -40,6 +43,7 @@ SRC_SHADOW = "shadow"
 SRC_CLASSIFIER = "classifier"
 SRC_FLOW = "flow"
 SRC_MODEL = "model"
+HANDOVER = 4   # a track's state once handed over to the flow stage (VT_PIPE_HANDOVER)
 
 
 @dataclass
@@ -89,6 +93,7 @@ class Capacities:
     max_flow_hyps: int = 16         # VT_FLOW_MAX_HYPS
     max_flow_seeds: int = 4         # VT_FLOW_MAX_SEEDS
     max_flow_blobs: int = 32        # VT_FLOW_MAX_BLOBS
+    ho_hist: int = 16               # VT_PIPE_HO_HIST
     max_model_roi_pixels: int = 320 * 240  # VT_MODEL_MAX_ROI_PIXELS
     coord_lim: int = 7680           # 4 * max(VT_MAX_WIDTH, VT_MAX_HEIGHT): the tracker's box limit
     ttc_tracks: int = 4             # VT_TTC_TRACKS
@@ -116,6 +121,10 @@ class PipelineRefConfig:
     verify_min: int | None = None  # Q16: the whole-road boxes' second stage (box_score) and its threshold
     ttc_points: object = None  # reference.ttc_scale.TtcScaleParams: the block-scale TTC after the
     #                            tracker (vt_pipeline_set_ttc_ws attached); None: not run
+    handover: bool = True      # the reverse hand-over to the flow stage (with "flow")
+    handover_frames: int = 8   # its look-back N, frames
+    handover_dy_permille: int = 10   # bottom row down by >= this permille of h over N frames
+    handover_edge_permille: int = 20  # outer side within this permille of w of the border
 
 
 @dataclass
@@ -198,6 +207,12 @@ class Pipeline:
             self.flow = rflow.FlowOracle(self.cfg.flow, self.caps.max_flow_hyps, self.caps.max_flow_seeds,
                                          self.caps.max_flow_blobs)
         self.last_boxes = []       # the previous step's track boxes (the flow hand-over rule)
+        self.ho = []               # live hand-overs, in order made: [track id, seed id, box, vx, vy,
+        #                            side (1 left, 2 right), inner side's furthest-out column, stall]
+        self.ho_hist = {}          # track id -> ([(bottom, l + r), ...] newest first, last box): the rule's memory
+        if not 2 <= int(self.cfg.handover_frames) <= self.caps.ho_hist - 1:
+            raise ValueError(f"handover_frames must be in 2..{self.caps.ho_hist - 1}, "
+                             f"got {self.cfg.handover_frames}")
         self.last_tracks = []      # the previous step's tracks (the vehicle model's rule)
         if SRC_CLASSIFIER in self.cfg.sources and score is None:
             raise ValueError("sources: 'classifier' needs a classifier (score)")
@@ -317,12 +332,25 @@ class Pipeline:
                 trk_det = fresh or n_model > 0
                 if not trk_det:
                     trk_boxes = np.zeros((0, 4), np.int64)
+            if self.ho:
+                # a handed-over vehicle keeps its one id: its boxes do not reach the tracker
+                trk_boxes = np.asarray([b for b in trk_boxes if not self._ho_covers(b)],
+                                       np.int64).reshape(-1, 4)
         rows = self.tracker.step(gray, trk_det, trk_boxes) if c.track else []
+        if c.track:
+            self._ho_history(rows)
+            if c.handover and self.flow is not None:
+                rows = self._handover(rows, w, h)
         geo = {}
         if self.camera is not None and c.track:
             geo = self._geometry(lanes if lanes_ok else None, rows)
         tracks = [(i, s, tuple(int(v) for v in b), vx, vy) + geo.get(i, (None, None, None))
                   for i, s, b, vx, vy in rows]
+        n_trk = len(tracks)
+        # the live hand-overs after the tracker's tracks, while the output has room
+        warn_ho = None if self.camera is None else False
+        tracks += [(tid, HANDOVER, tuple(b), vx, vy, None, None, warn_ho)
+                   for tid, _sid, b, vx, vy, *_rest in self.ho[:max(0, self.caps.max_tracks - n_trk)]]
         if isinstance(box_source, str):
             box_source = [box_source] * len(boxes)
         tsrc = self._track_sources(tracks, boxes[:self.caps.max_boxes], box_source[:self.caps.max_boxes])
@@ -330,15 +358,15 @@ class Pipeline:
         if self.ttc is not None and c.track:
             # after the tracker and the camera stage, on every live track in output order
             # (c/pipeline.c: vt_ttc_step on p->tracks; tracks past its capacity: unknown)
-            pts = {o.id: o.ttc for o in self.ttc.step(gray, [(int(t[0]), t[2]) for t in tracks])}
+            pts = {o.id: o.ttc for o in self.ttc.step(gray, [(int(t[0]), t[2]) for t in tracks[:n_trk]])}
         out = RefFrame(self.frame, det_frame, bool(run_lanes), lanes_ok, lanes, source, road,
                        np.asarray(hyp, np.int64).reshape(-1, 3), boxes, box_source,
                        tracks, stats, [None] * len(boxes) if scores is None else scores, tsrc,
                        [pts.get(int(t[0])) for t in tracks])
         out.flow_ready = flow_ready
         out.model_fits = model_fits
-        self.last_boxes = [t[2] for t in tracks]
-        self.last_tracks = tracks
+        self.last_boxes = [t[2] for t in tracks[:n_trk]]
+        self.last_tracks = tracks[:n_trk]
         self.frame = self.frame + 1 if self.frame < 2**31 - 1 else 0
         return out
 
@@ -404,12 +432,108 @@ class Pipeline:
         except ValueError:
             self.flow.reset()
             ready, hyps = self.flow.step(gray)
-        boxes = [tuple(int(v) for v in h.box) for h in hyps]
+        # the live hand-overs take their seeds' hypotheses; one no longer reported has ended
+        # (c/pipeline.c's vt__ho_refresh), and so has one whose inner side did not get
+        # further out than its furthest-out column for handover_frames frames in a row
+        kept = []
+        for tid, sid, _b, _vx, _vy, side, best, stall in self.ho:
+            hp = next((q for q in hyps if q.kind == rflow.KIND_HANDOVER and q.id == sid), None)
+            if hp is not None:
+                inner = int(hp.box[2]) if side == 1 else int(hp.box[0])
+                if (inner < best) if side == 1 else (inner > best):
+                    best, stall = inner, 0
+                else:
+                    stall += 1
+            if hp is None or stall >= self.cfg.handover_frames:
+                try:
+                    self.flow.unseed(sid)
+                except ValueError:
+                    pass
+                continue
+            kept.append([tid, sid, tuple(int(v) for v in hp.box), hp.flow[0], hp.flow[1], side, best, stall])
+        self.ho = kept
+        hyps = [q for q in hyps if q.kind != rflow.KIND_HANDOVER]   # reported as their tracks
+        boxes = [tuple(int(v) for v in q.box) for q in hyps]
 
         def meets(a, b):
             return min(a[2], b[2]) >= max(a[0], b[0]) and min(a[3], b[3]) >= max(a[1], b[1])
-        fresh = any(not any(meets(b, t) for t in self.last_boxes) for b in boxes)
-        return ready, boxes, [int(h.cells) for h in hyps], fresh
+        fresh = any(not any(meets(b, t) for t in self.last_boxes) and not self._ho_covers(b)
+                    for b in boxes)
+        return ready, boxes, [int(q.cells) for q in hyps], fresh
+
+    def _ho_covers(self, b) -> bool:
+        """A box that is a handed-over vehicle: IoU with a live hand-over's box >= the
+        tracker's match_iou_permille (exact integers, as c/pipeline.c)."""
+        thr = self.cfg.tracker.match_iou_permille
+        for _tid, _sid, hb, *_rest in self.ho:
+            iw = min(int(b[2]), hb[2]) - max(int(b[0]), hb[0]) + 1
+            ih = min(int(b[3]), hb[3]) - max(int(b[1]), hb[1]) + 1
+            inter = iw * ih if iw > 0 and ih > 0 else 0
+            ua = (int(b[2]) - int(b[0]) + 1) * (int(b[3]) - int(b[1]) + 1)
+            ub = (hb[2] - hb[0] + 1) * (hb[3] - hb[1] + 1)
+            if inter * 1000 >= thr * (ua + ub - inter):
+                return True
+        return False
+
+    def _ho_history(self, rows) -> None:
+        """Per live track id, its bottom rows and l + r, newest first (at most ho_hist),
+        and its last box; the history starts over when the box jumped since the last frame
+        (width or bottom moved by more than a quarter of the last width or height)."""
+        live = {}
+        for i, _s, b, _vx, _vy in rows:
+            hist, last = self.ho_hist.get(i, ([], None))
+            b = tuple(int(v) for v in b)
+            if last is not None:
+                w0, h0 = last[2] - last[0] + 1, last[3] - last[1] + 1
+                if 4 * abs((b[2] - b[0] + 1) - w0) > w0 or 4 * abs(b[3] - last[3]) > h0:
+                    hist = []
+            live[i] = ([(b[3], b[0] + b[2])] + hist[:self.caps.ho_hist - 1], b)
+        self.ho_hist = live
+
+    def _handover(self, rows, w: int, h: int) -> list:
+        """The reverse hand-over (IVVI paper sec. 3, last paragraph; c/pipeline.c's
+        vt__handover): a track that was confirmed (CONFIRMED or COASTING), whose bottom
+        row came down by at least handover_dy_permille of the frame height over the last
+        N = handover_frames frames and by half of that in each half of them, whose centre lies in a lateral strip of the flow
+        stage's width and whose outer side is within handover_edge_permille of the width
+        from the border, not moving inward, is seeded into the flow stage and leaves the
+        tracker; it is reported with its id until the flow stage ends it."""
+        c = self.cfg
+        n = c.handover_frames
+        sw = w * c.flow.strip_permille // 1000
+        edge = c.handover_edge_permille * w
+        out = []
+        for row in rows:
+            tid, st, b, vx, vy = row
+            l, _t, r, _b = (int(v) for v in b)
+            hist = self.ho_hist.get(tid, ([], None))[0]
+            side = 0
+            if len(hist) > n and st in (rtrk.CONFIRMED, rtrk.COASTING):
+                half = n // 2
+                dy1, dy2 = hist[0][0] - hist[half][0], hist[half][0] - hist[n][0]
+                dc = hist[0][1] - hist[n][1]
+                need = c.handover_dy_permille * h
+                if dy1 * 2000 >= need and dy2 * 2000 >= need:
+                    if l + r < 2 * sw and l * 1000 <= edge and dc <= 0:
+                        side = 1
+                    elif l + r >= 2 * (w - sw) and (w - 1 - r) * 1000 <= edge and dc >= 0:
+                        side = 2
+            # vt_flow_seed's own limits: the box meets the frame and stays within twice the capacities
+            mw, mh = self.caps.max_width, self.caps.max_height
+            if side and len(self.ho) < self.caps.max_flow_seeds and \
+                    l >= -mw and int(b[1]) >= -mh and r < 2 * mw and int(b[3]) < 2 * mh:
+                try:
+                    sid = self.flow.seed(b)
+                except ValueError:       # no room, or a box outside the frame: the tracker keeps it
+                    sid = None
+                if sid is not None:
+                    self.ho.append([tid, sid, tuple(int(v) for v in b), vx, vy, side, r if side == 1 else l, 0])
+                    self.tracker.drop(tid)
+                    self.ho_hist.pop(tid, None)
+                    continue
+            out.append(row)
+        return out
+
 
     @staticmethod
     def _vanishing_row(lane_frame):

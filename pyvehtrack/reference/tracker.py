@@ -121,6 +121,14 @@ class Tracker:
         self.frame = 0
         self.dropped_full = 0
 
+    def drop(self, tid: int) -> None:
+        """End the live track `tid` now (c/tracker.c's vt_tracker_drop); ValueError if none."""
+        for t in self.tracks:
+            if t.state != FREE and t.id == tid:
+                t.state = FREE
+                return
+        raise ValueError(f"drop: no live track with id {tid}")
+
     def _hit(self, t: Track, img):
         t.hits += 1
         t.misses = 0

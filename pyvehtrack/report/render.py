@@ -17,7 +17,8 @@ import numpy as np
 
 from .records import STAGES, Truth
 
-STATE_COLOURS = {"tentative": "#b0b0b0", "confirmed": "#2a9d3a", "coasting": "#e08a00"}
+STATE_COLOURS = {"tentative": "#b0b0b0", "confirmed": "#2a9d3a", "coasting": "#e08a00",
+                 "handover": "#3a6fd8"}
 # BGR for OpenCV drawing, hex for the legend: one colour per box source (the pipeline's
 # names), and the raw detector boxes of detection frames.
 SOURCE_COLOURS = {"shadow": ((60, 200, 40), "#28c83c"), "classifier": ((255, 160, 0), "#00a0ff"),
