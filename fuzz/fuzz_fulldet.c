@@ -17,6 +17,7 @@ static vt_fulldet_result g_out;
 static vt_road_area g_road;
 static vt_hog_scorer g_hog_sc;
 static vt_mlp_scorer g_mlp_sc;
+static vt_cls_box_ws g_box_ws; /* the wide pass's classifier scratch */
 static fz *g_f; /* the bytes the fuzz scorer reads */
 static int32_t g_calls;
 
@@ -165,6 +166,29 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                 FZ_ASSERT(b->left >= 0 && b->left <= b->right && b->right < img.w);
                 FZ_ASSERT(b->top >= 0 && b->top <= b->bottom && b->bottom < img.h);
                 FZ_ASSERT(i == 0 || g_out.box[i - 1].score >= g_out.box[i].score);
+            }
+        }
+    }
+    if (fz_u8(&f) < 96) { /* the wide pass on the same frame, appending to the result */
+        vt_fulldet_wide_cfg wc;
+        const vt_mlp_model *m = NULL;
+        int32_t before = g_out.n_boxes;
+        uint8_t wn = fz_u8(&f);
+        fz_status(vt_fulldet_wide_cfg_default(&wc));
+        fz_mutate_i32s(&f, &wc, sizeof wc);
+        fz_status(vt_fulldet_wide_cfg_check((wn & 1) ? NULL : &wc));
+        fz_status(vt_mlp_default_model(&m));
+        s = vt_fulldet_wide((wn & 2) ? NULL : &g_st, (wn & 4) ? NULL : &g_box_ws, &wc,
+                            (wn & 8) ? NULL : &cfg.win, (wn & 16) ? NULL : m, &cam,
+                            (wn & 32) ? NULL : &img, &g_road, (wn & 64) ? NULL : &g_out);
+        fz_status(s);
+        if (s != VT_OK) {
+            FZ_ASSERT(g_out.n_boxes == before); /* unchanged on error */
+        } else {
+            FZ_ASSERT(g_out.n_boxes >= before && g_out.n_boxes <= VT_MAX_BOXES);
+            for (i = 0; i < g_out.n_boxes; i++) {
+                const vt_box *b = &g_out.box[i].box;
+                FZ_ASSERT(b->left <= b->right && b->top <= b->bottom);
             }
         }
     }

@@ -15,6 +15,7 @@ static vt_frame_out g_out;
 static vt_road_area g_road;
 static vt_box g_dets[300];
 static vt_ttc_state g_ttc;
+static vt_flow_state g_flow;
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
@@ -31,6 +32,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     } else {
         fz_mutate_i32s(&f, &cfg, sizeof cfg);
     }
+    if (fz_u8(&f) & 1) { /* the flow source on (its hand-over policy is in the mutated tail) */
+        cfg.sources |= VT_SRC_FLOW;
+    }
     fz_status(vt_pipeline_cfg_check(fz_u8(&f) == 0xFF ? NULL : &cfg));
     s = vt_pipeline_init(fz_u8(&f) == 0xFF ? NULL : &g_p, &cfg, NULL, NULL);
     fz_status(s);
@@ -43,6 +47,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         return 0;
     }
     fz_status(vt_pipeline_set_ttc_ws(fz_u8(&f) == 0xFF ? NULL : &g_p, (fz_u8(&f) & 1) ? &g_ttc : NULL));
+    /* the flow state attached or not (with the flow bit, the reverse hand-over runs:
+     * tracks seeded into flow and dropped from the tracker) */
+    fz_status(vt_pipeline_set_flow_ws(&g_p, (fz_u8(&f) & 1) ? &g_flow : NULL));
     img = fz_image_u8(&f, VT_MAX_WIDTH, VT_MAX_HEIGHT);
     n = 1 + (fz_u8(&f) & 3);
     for (k = 0; k < n; k++) {

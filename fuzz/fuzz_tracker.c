@@ -74,6 +74,17 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                 }
             }
         }
+        if (fz_u8(&f) < 32) { /* end a track now (the pipeline's hand-over), or try a bad id */
+            int32_t id = (s == VT_OK && n_out > 0 && fz_u8(&f) < 200) ? out[fz_range(&f, 0, n_out - 1)].id
+                                                                        : fz_edge(&f, g_tr.next_id);
+            vt_status ds = vt_tracker_drop((fz_u8(&f) == 0xFF) ? NULL : &g_tr, id);
+            fz_status(ds);
+            if (ds == VT_OK) {
+                for (i = 0; i < VT_MAX_TRACKS; i++) {
+                    FZ_ASSERT(g_tr.tracks[i].state == VT_TRACK_FREE || g_tr.tracks[i].id != id);
+                }
+            }
+        }
     }
     fz_close(&f);
     return 0;
