@@ -40,6 +40,17 @@ def tusimple_subsplit(file_name: str) -> str:
     return "test" if k == 0 else ("val" if k == 1 else "fit")
 
 
+def tusimple_frames(data, split: str, limit: int = 0) -> list[dict]:
+    """The annotation records of tusimple-vehicles-dev (folder `data`, its
+    annotation.json) in `split`: 'train' / 'test' (tusimple_split) or 'fit' / 'val'
+    (tusimple_subsplit), in file order; the first `limit` only when limit > 0."""
+    import json  # noqa: PLC0415
+    ann = json.loads((Path(data) / "annotation.json").read_text())
+    part = tusimple_split if split in ("train", "test") else tusimple_subsplit
+    frames = [e for e in ann if part(e["file_name"]) == split]
+    return frames[:limit] if limit else frames
+
+
 # GTI crops come from video: neighbouring file numbers are near-duplicates, so the
 # split is by blocks of GTI_BLOCK consecutive files (in the folder's numeric order);
 # every GTI_TEST_EVERY-th block is TEST.

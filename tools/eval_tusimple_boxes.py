@@ -25,7 +25,7 @@ import cv2
 _ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(_ROOT))
 from pyvehtrack import eval_boxes as eb  # noqa: E402
-from pyvehtrack.datasets import tusimple_split, tusimple_subsplit  # noqa: E402
+from pyvehtrack.datasets import tusimple_frames  # noqa: E402
 from pyvehtrack.detector import Detector  # noqa: E402
 from pyvehtrack.shared import FULLDET_RENAMED, take_renamed  # noqa: E402
 
@@ -80,11 +80,7 @@ def main(argv=None) -> int:
         if not 0 <= v <= 1000:
             ap.error(f"--{k.replace('_', '-')}: expected 0..1000 (permille), got {v}")
     data = Path(args.data)
-    ann = json.loads((data / "annotation.json").read_text())
-    part = tusimple_split if args.split in ("train", "test") else tusimple_subsplit
-    frames = [e for e in ann if part(e["file_name"]) == args.split]
-    if args.limit:
-        frames = frames[: args.limit]
+    frames = tusimple_frames(data, args.split, args.limit)
     det = Detector(model=args.model, sources=tuple(args.sources) if args.sources else None,
                    score_offset=args.offset)
     if (lim or args.box_height is not None or args.verify_min is not None

@@ -36,7 +36,7 @@ import numpy as np
 
 _ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(_ROOT))
-from pyvehtrack.datasets import tusimple_split, tusimple_subsplit  # noqa: E402
+from pyvehtrack.datasets import tusimple_frames  # noqa: E402
 
 DATA = Path("/work/shared/data/tusimple-vehicles-dev")
 STEPS = ("no_window", "low_score", "edge", "nms", "merge", "verify", "found")
@@ -72,11 +72,7 @@ def main(argv=None) -> int:
     from pyvehtrack.reference import fulldet as rfd  # noqa: PLC0415
     from pyvehtrack.reference import windows as rw  # noqa: PLC0415
     data = Path(args.data)
-    ann = json.loads((data / "annotation.json").read_text())
-    part = tusimple_split if args.split in ("train", "test") else tusimple_subsplit
-    frames = [e for e in ann if part(e["file_name"]) == args.split]
-    if args.limit:
-        frames = frames[: args.limit]
+    frames = tusimple_frames(data, args.split, args.limit)
     det = Detector(model=args.model)
     ref = fullroad.FullRoadDetector(det.full.model, sources=det.full.sources, camera=det.full.camera,
                                     cfg=det.full.cfg, engine="reference")

@@ -31,7 +31,7 @@ import numpy as np
 
 _ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(_ROOT))
-from pyvehtrack.datasets import tusimple_split, tusimple_subsplit  # noqa: E402
+from pyvehtrack.datasets import tusimple_frames  # noqa: E402
 from pyvehtrack.reference import windows as rw  # noqa: E402
 
 DATA = Path("/work/shared/data/tusimple-vehicles-dev")
@@ -74,9 +74,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     from pyvehtrack import fullroad  # noqa: PLC0415
     data = Path(args.data)
-    ann = json.loads((data / "annotation.json").read_text())
-    part = tusimple_split if args.split in ("train", "test") else tusimple_subsplit
-    frames = [e for e in ann if part(e["file_name"]) == args.split]
+    frames = tusimple_frames(data, args.split)
     hz = horizons(frames, data, args.model, args.horizons.format(split=args.split))
     model, _, camera, _, det = fullroad.setup(args.model, ("shadow", "windows"))
     win = det.win
