@@ -448,6 +448,23 @@ static int vt__predict_measure(vt_tracker *tr, vt_track *t, const vt_tracker_cfg
     return 0;
 }
 
+
+/* After a track's filter was reset onto a detection: the frame's hit (once per
+ * track and frame) or, if it already had one, a fresh template; and the edge
+ * curves when that measurement runs. */
+static void vt__after_reset(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *cfg,
+                            const vt_image_u8 *img, uint8_t *measured)
+{
+    if (!*measured) {
+        *measured = 1;
+        vt__hit(t, cfg, img);
+    } else {
+        vt__set_tmpl(t, img);
+    }
+    if (cfg->measurement == VT_MEAS_EDGE_CURVES) {
+        vt__edge_refresh(tr, t, cfg, img);
+    }
+}
 /* Phase 2a, a matched pair: the detection is a second, independent measurement
  * of the same bottom edge: it pulls back a search that drifted, and re-anchors
  * the aspect ratio and the side memory. */
@@ -462,15 +479,7 @@ static void vt__absorb_detection(vt_tracker *tr, vt_track *t, const vt_tracker_c
     vt__box_from_state(t);
     t->sides.prev_left = d->left;
     t->sides.prev_right = d->right;
-    if (!*measured) {
-        *measured = 1;
-        vt__hit(t, cfg, img);
-    } else {
-        vt__set_tmpl(t, img);
-    }
-    if (cfg->measurement == VT_MEAS_EDGE_CURVES) {
-        vt__edge_refresh(tr, t, cfg, img);
-    }
+    vt__after_reset(tr, t, cfg, img, measured);
 }
 
 /* A part-track (a wheel, a window band, half a car) re-anchored to the whole
@@ -491,15 +500,7 @@ static void vt__reanchor(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *cfg,
     t->sides.max_change_left = cfg->init_max_change;
     t->sides.max_change_right = cfg->init_max_change;
     vt__box_from_state(t);
-    if (!*measured) {
-        *measured = 1;
-        vt__hit(t, cfg, img);
-    } else {
-        vt__set_tmpl(t, img);
-    }
-    if (cfg->measurement == VT_MEAS_EDGE_CURVES) {
-        vt__edge_refresh(tr, t, cfg, img);
-    }
+    vt__after_reset(tr, t, cfg, img, measured);
 }
 
 /* After the IoU matching: each unmatched live track (slot order) takes the
