@@ -10,7 +10,7 @@
 #   make bench        C vs reference per stage, plus callgrind instructions per pixel
 #   make check SAN=1 CC=clang   the same with clang's sanitizers (its own runtime preloaded)
 #   make fuzz         libFuzzer harnesses (fuzz/), FUZZ_SECONDS each; make fuzz-long: >= 10 M runs each
-#   make soak         the tracker over SOAK_FRAMES synthetic frames, C only (tests/c/soak.c)
+#   make soak         the tracker, then the pipeline, over SOAK_FRAMES synthetic frames each, C only
 
 PY      ?= python3
 CC      ?= cc
@@ -117,16 +117,17 @@ check: $(CHECK_EXT)
 	$(SAN_ENV) $(if $(filter 1,$(SECONDARY)),VT_SECONDARY_RUN=1 VT_HYP_EXAMPLES=$(SECONDARY_EXAMPLES),) PYTHONPATH=$(CURDIR) PYVEHTRACK_FFI=$(abspath $(CHECK_EXT)) $(PY) -m pytest -q \
 	  -p no:cacheprovider $(TESTS)
 
-# ---- soak: the tracker over SOAK_FRAMES synthetic frames, C only (tests/c/soak.c)
+# ---- soak: the tracker (tests/c/soak.c), then the whole pipeline with flow and
+# hand-over (tests/c/soak_pipeline.c), each over SOAK_FRAMES synthetic frames, C only
 SOAK_FRAMES ?= 1000000
 SOAK_SEED   ?= 1
 .PHONY: soak
-$(BUILD)/soak: tests/c/soak.c $(CORE_SRCS) $(CORE_HDRS)
+$(BUILD)/soak $(BUILD)/soak_pipeline: $(BUILD)/%: tests/c/%.c $(CORE_SRCS) $(CORE_HDRS)
 	@mkdir -p $(BUILD)
-	$(CC) -std=c99 -O2 -Wall -Wextra -Werror -Iinclude tests/c/soak.c $(CORE_SRCS) -o $@
-soak: $(BUILD)/soak
-	@start=$$(date +%s); $(BUILD)/soak $(SOAK_FRAMES) $(SOAK_SEED) && \
-	  echo "soak: $$(( $$(date +%s) - start )) s wall"
+	$(CC) -std=c99 -O2 -Wall -Wextra -Werror -Iinclude $< $(CORE_SRCS) -o $@
+soak: $(BUILD)/soak $(BUILD)/soak_pipeline
+	@set -e; for d in soak soak_pipeline; do start=$$(date +%s); $(BUILD)/$$d $(SOAK_FRAMES) $(SOAK_SEED); \
+	  echo "$$d: $$(( $$(date +%s) - start )) s wall"; done
 
 -include firmware_demo/firmware.mk
 -include bench/bench.mk
