@@ -10,17 +10,22 @@ order, so nothing can round differently."""
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
+import cv2
 import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from pyvehtrack import _native
+from pyvehtrack import _native, config
 from pyvehtrack._native import ffi, lib
 from pyvehtrack.detector import DetectConfig, Detector
+from pyvehtrack.fullroad import FullRoadConfig
+from pyvehtrack.pipeline import Pipeline
 from pyvehtrack.reference import detect as rdetect
 from pyvehtrack.reference import shadow as rs
 from pyvehtrack.reference.shadow import RoadArea, ShadowConfig
+from pyvehtrack.shared import FullDetConfig
 from pyvehtrack.reference.verify import VerifyConfig
 
 from test_detect import draw_scene, iou, shadow_cfgs, verify_cfgs
@@ -161,3 +166,46 @@ def test_reduce_verified_bad_values_rejected():
         assert lib.vt_shadow_cfg_check(c) == lib.VT_E_ARG
     with pytest.raises(ValueError, match="reduce_verified"):
         Detector("c", DetectConfig(ShadowConfig(reduce_verified=2), VerifyConfig()))
+
+
+# ---------------------------------------------------------------- through the pipeline
+CLIP = Path(__file__).parent / "data" / "kitti_clip"
+
+
+def _jpeg_clip(n: int, quality: int = 30):
+    """The first n frames of the KITTI clip through JPEG (what a codec does to them)."""
+    out = []
+    for p in sorted(CLIP.glob("*.png"))[:n]:
+        ok, buf = cv2.imencode(".jpg", cv2.imread(str(p), cv2.IMREAD_GRAYSCALE),
+                               [cv2.IMWRITE_JPEG_QUALITY, quality])
+        assert ok
+        out.append(cv2.imdecode(buf, cv2.IMREAD_GRAYSCALE))
+    return out
+
+
+def _mean_score(img, level, s, x, y) -> int:
+    """The stand-in classifier of tests/test_pipeline_classifier.py."""
+    win = img[y:y + s, x:x + s].astype(np.int64)
+    return int(win.sum() // (s * s)) - 100 + ((x * 7 + y * 13 + level * 5 + s) % 11)
+
+
+@pytest.mark.parametrize("whole", [False, True])
+def test_pipeline_c_equals_reference_with_reduce_verified(whole):
+    """vt_pipeline_step with reduce_verified, ego-lane (vt_detect) and whole-road
+    (vt_fulldet's shadow source), against reference.pipeline on compressed real frames:
+    hypotheses and boxes exactly equal (fixed road)."""
+    frames = _jpeg_clip(6)
+    if whole:
+        fc = FullRoadConfig(det=FullDetConfig(shadow=ShadowConfig(reduce_verified=1)))
+        kw = dict(road="fixed", detect_every=1, sources=("shadow", "classifier"), model=_mean_score,
+                  fullroad=fc)
+    else:
+        kw = dict(road="fixed", detect_every=1, shadow=config.ShadowConfig(reduce_verified=1))
+    a, b = Pipeline("c", **kw), Pipeline("reference", **kw)
+    n_hyp = 0
+    for i, f in enumerate(frames):
+        ra, rb = a.step(f), b.step(f)
+        assert np.array_equal(ra.hypotheses, rb.hypotheses), i
+        assert [x.box for x in ra.boxes] == [x.box for x in rb.boxes], i
+        n_hyp += len(ra.hypotheses)
+    assert n_hyp > 0
