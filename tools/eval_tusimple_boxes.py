@@ -86,8 +86,6 @@ def main(argv=None) -> int:
     frames = tusimple_frames(data, args.split, args.limit)
     cfg = None
     if args.reduce_verified is not None:
-        from dataclasses import replace
-
         from pyvehtrack.detector import DetectConfig
         from pyvehtrack.shared import ShadowConfig
         cfg = DetectConfig(shadow=ShadowConfig(reduce_verified=args.reduce_verified))

@@ -33,7 +33,6 @@ from . import tracker as rtrk
 from . import ttc_scale as rttc
 from . import vehicle_model as rvm
 from . import detect as rdetect
-from . import verify as rverify
 from . import windows as rw
 from .shadow import RoadArea, ShadowConfig, trapezoid_road
 from .verify import VerifyConfig
