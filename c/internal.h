@@ -7,6 +7,7 @@
 #include <string.h>
 #include "vehtrack/config.h"
 #include "vehtrack/image.h"
+#include "vehtrack/shadow.h" /* vt_shadow_cfg, for vt__shadow_suppresses */
 #include "vehtrack/status.h"
 
 /* Size check shared by every view type: VT_E_SIZE unless 1 <= w <= maxw,
@@ -84,5 +85,11 @@ static inline void vt__sobel_rows(const vt_image_u8 *img, int32_t y, const uint8
     *p0 = img->px + (size_t)y * (size_t)img->stride;
     *pp = img->px + (size_t)(y < img->h - 1 ? y + 1 : img->h - 1) * (size_t)img->stride;
 }
+
+/* shadow.c: does the kept shadow edge k suppress edge c above it (the
+ * one-edge-per-vehicle rule; vt_detect applies it to verified edges only when
+ * cfg->reduce_verified)? cfg must have passed vt_shadow_cfg_check. */
+int vt__shadow_suppresses(const vt_shadow_cfg *cfg, int32_t k_row, int32_t k_xs, int32_t k_xe,
+                          int32_t c_row, int32_t c_xs, int32_t c_xe);
 
 #endif /* VEHTRACK_INTERNAL_H */

@@ -29,7 +29,8 @@ vt_status vt_shadow_cfg_check(const vt_shadow_cfg *cfg)
         !vt__in(cfg->min_run, 1, 4096) || !vt__in(cfg->max_gap, 0, 255) ||
         !vt__in(cfg->merge_rows, 0, 255) || !vt__in(cfg->width_min_q8, 0, 65535) ||
         !vt__in(cfg->width_max_q8, cfg->width_min_q8, 65535) ||
-        !vt__in(cfg->reduce_overlap_permille, 0, 1000) || !vt__in(cfg->reduce_height_q8, 0, 65535)) {
+        !vt__in(cfg->reduce_overlap_permille, 0, 1000) || !vt__in(cfg->reduce_height_q8, 0, 65535) ||
+        !vt__in(cfg->reduce_verified, 0, 1)) {
         return VT_E_ARG;
     }
     return VT_OK;
@@ -252,24 +253,33 @@ static void vt__sort_cand(vt_shadow_state *st)
     }
 }
 
+/* The one-edge-per-vehicle rule (thesis sec. 2.4.2.1): the kept edge k (row
+ * k_row, columns k_xs..k_xe) suppresses edge c above it when they overlap in x by
+ * >= reduce_overlap/1000 of the narrower one and k lies no more than
+ * reduce_height x (k's width) rows below c. Integer products in int64: exact. */
+int vt__shadow_suppresses(const vt_shadow_cfg *cfg, int32_t k_row, int32_t k_xs, int32_t k_xe,
+                          int32_t c_row, int32_t c_xs, int32_t c_xe)
+{
+    int64_t wc = (int64_t)c_xe - c_xs + 1;
+    int64_t wk = (int64_t)k_xe - k_xs + 1;
+    int64_t ov = (int64_t)(c_xe < k_xe ? c_xe : k_xe) - (c_xs > k_xs ? c_xs : k_xs) + 1;
+    return ov > 0 && ov * 1000 >= (wc < wk ? wc : wk) * cfg->reduce_overlap_permille &&
+           ((int64_t)k_row - c_row) * 256 <= wk * cfg->reduce_height_q8;
+}
+
 /* Reduce the edges on one vehicle to its bottom edge: walking bottom-up, an edge
- * is dropped when a kept edge below overlaps it enough in x and is close enough
- * below (within reduce_height x its width: the vehicle's own height). The kept
- * edges are compacted to the front of cand; returns their number. */
+ * is dropped when a kept edge below suppresses it (vt__shadow_suppresses). The
+ * kept edges are compacted to the front of cand; returns their number. */
 static int32_t vt__reduce(vt_shadow_state *st, const vt_shadow_cfg *cfg)
 {
     int32_t i, j, n_kept = 0;
     for (i = 0; i < st->n_cand; ++i) {
         const vt_shadow_group c = st->cand[i];
-        int64_t wc = (int64_t)c.x_end - c.x_start + 1;
         int drop = 0;
         for (j = 0; j < n_kept && !drop; ++j) {
             const vt_shadow_group *k = &st->cand[j];
-            int64_t wk = (int64_t)k->x_end - k->x_start + 1;
-            int64_t ov = (int64_t)(c.x_end < k->x_end ? c.x_end : k->x_end) -
-                         (c.x_start > k->x_start ? c.x_start : k->x_start) + 1;
-            drop = ov > 0 && ov * 1000 >= (wc < wk ? wc : wk) * cfg->reduce_overlap_permille &&
-                   ((int64_t)k->bottom - c.bottom) * 256 <= wk * cfg->reduce_height_q8;
+            drop = vt__shadow_suppresses(cfg, k->bottom, k->x_start, k->x_end, c.bottom, c.x_start,
+                                         c.x_end);
         }
         if (!drop) {
             st->cand[n_kept++] = c;
@@ -333,7 +343,8 @@ vt_status vt_shadow_find(vt_shadow_state *st, const vt_shadow_cfg *cfg, const vt
     }
     st->n_active = 0;
     vt__sort_cand(st);
-    n_kept = vt__reduce(st, cfg);
+    /* With reduce_verified the caller that verifies (vt_detect) reduces. */
+    n_kept = cfg->reduce_verified ? st->n_cand : vt__reduce(st, cfg);
     for (i = 0; i < n_kept && i < cap; ++i) {
         out[i].row = st->cand[i].bottom;
         out[i].x_start = st->cand[i].x_start;

@@ -268,13 +268,11 @@ class Detector:
             stats = {"median": s.median, "mad": s.mad, "dark_limit": s.dark_limit,
                      "n_runs": s.n_runs, "n_dropped": s.n_dropped}
             return hyp.astype(np.int64), box.astype(np.int64), stats
-        from .reference import shadow as rshadow  # noqa: PLC0415  (the reference engine only)
-        from .reference import verify as rverify  # noqa: PLC0415
-        res = rshadow.find_hypotheses(gray, road, self.cfg.shadow,
-                                      max_active=int(lib.VT_MAX_SHADOW_ACTIVE),
-                                      max_cand=int(lib.VT_MAX_SHADOW_CAND),
-                                      max_out=int(lib.VT_MAX_HYPOTHESES))
-        box = rverify.verify(gray, res.hypotheses, self.cfg.verify, max_out=int(lib.VT_MAX_BOXES))
+        from .reference import detect as rdetect  # noqa: PLC0415  (the reference engine only)
+        res, box = rdetect.detect(gray, road, self.cfg.shadow, self.cfg.verify,
+                                  max_active=int(lib.VT_MAX_SHADOW_ACTIVE),
+                                  max_cand=int(lib.VT_MAX_SHADOW_CAND),
+                                  max_hyp=int(lib.VT_MAX_HYPOTHESES), max_boxes=int(lib.VT_MAX_BOXES))
         stats = {"median": res.median, "mad": res.mad, "dark_limit": res.dark_threshold,
                  "n_runs": res.n_runs, "n_dropped": res.n_dropped}
         return res.hypotheses, box, stats

@@ -40,6 +40,7 @@ class ShadowConfig:
     width_max_q8: int = 256        # 1.00 of the lane width
     reduce_overlap_permille: int = 500  # 0.5 of the narrower edge
     reduce_height_q8: int = 256    # up to 1.0 x width above a kept edge
+    reduce_verified: int = 0       # 1: only an edge that passes verification suppresses (issue 8 item 5)
 
 
 @dataclass(frozen=True)

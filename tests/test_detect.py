@@ -138,7 +138,8 @@ shadow_cfgs = st.builds(
     adapt_grad_min=st.integers(1, 120), stat_step=st.integers(1, 5),
     min_run=st.integers(1, 20), max_gap=st.integers(0, 4), merge_rows=st.integers(0, 5),
     width_min_q8=st.integers(0, 128), width_max_q8=st.integers(128, 400),
-    reduce_overlap_permille=st.integers(0, 1000), reduce_height_q8=st.integers(0, 512))
+    reduce_overlap_permille=st.integers(0, 1000), reduce_height_q8=st.integers(0, 512),
+    reduce_verified=st.sampled_from([0, 1]))
 verify_cfgs = st.builds(
     VerifyConfig, widen_px=st.integers(0, 12), widen_q8=st.integers(0, 80),
     roi_height_q8=st.integers(16, 400), vedge_threshold=st.integers(1, 200),

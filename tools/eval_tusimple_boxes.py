@@ -60,6 +60,9 @@ def main(argv=None) -> int:
                     help="second stage: built-in HOG 64 MLP on each box, keep score >= this (default: the model's)")
     ap.add_argument("--veh-w", nargs=2, type=float, default=None, metavar=("MIN", "MAX"),
                     help="full-road window width band, m (default: the model's, else WindowConfig's 1.4 2.6)")
+    ap.add_argument("--reduce-verified", type=int, choices=(0, 1), default=None, metavar="0|1",
+                    help="ShadowConfig.reduce_verified of the shadow stage, ego-lane and full-road "
+                         "(default: the config's)")
     ap.add_argument("--limit", type=int, default=0)
     ap.add_argument("--out", default=None, help="write the predictions (detect --json format)")
     ap.add_argument("--draw", default=None, help="folder for annotated frames (green: found, red: truth)")
@@ -81,8 +84,21 @@ def main(argv=None) -> int:
             ap.error(f"--{k.replace('_', '-')}: expected 0..1000 (permille), got {v}")
     data = Path(args.data)
     frames = tusimple_frames(data, args.split, args.limit)
-    det = Detector(model=args.model, sources=tuple(args.sources) if args.sources else None,
+    cfg = None
+    if args.reduce_verified is not None:
+        from pyvehtrack.detector import DetectConfig
+        from pyvehtrack.shared import ShadowConfig
+        cfg = DetectConfig(shadow=ShadowConfig(reduce_verified=args.reduce_verified))
+    det = Detector(cfg=cfg, model=args.model, sources=tuple(args.sources) if args.sources else None,
                    score_offset=args.offset)
+    if args.reduce_verified is not None and det.full is not None:
+        from dataclasses import replace
+
+        from pyvehtrack import fullroad
+        d = det.full.cfg.det
+        d = replace(d, shadow=replace(d.shadow, reduce_verified=args.reduce_verified))
+        det.full = fullroad.FullRoadDetector(det.full.model, sources=det.full.sources, camera=det.full.camera,
+                                             cfg=replace(det.full.cfg, det=d))
     if (lim or args.box_height is not None or args.verify_min is not None
             or args.veh_w is not None) and det.full is not None:
         from dataclasses import replace

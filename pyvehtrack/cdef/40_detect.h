@@ -23,6 +23,7 @@ typedef struct {
     int32_t width_max_q8;
     int32_t reduce_overlap_permille;
     int32_t reduce_height_q8;
+    int32_t reduce_verified;
 } vt_shadow_cfg;
 
 typedef struct {
@@ -64,7 +65,7 @@ vt_status vt_verify(vt_verify_state *st, const vt_verify_cfg *cfg, const vt_imag
                     int32_t *n_out);
 
 typedef struct { vt_shadow_cfg shadow; vt_verify_cfg verify; } vt_detect_cfg;
-typedef struct { vt_shadow_state shadow; vt_verify_state verify; } vt_detect_state;
+typedef struct { vt_shadow_state shadow; vt_verify_state verify; vt_hypothesis cand[...]; } vt_detect_state;
 typedef struct {
     int32_t n_hyp;
     vt_hypothesis hyp[...];

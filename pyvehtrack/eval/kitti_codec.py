@@ -15,7 +15,7 @@ For every frame the PNG run finds and the compressed run does not, the stage is
     compressed frame too (the vehicle's sides lost their vertical edges).
 
     python3 tools/eval_kitti_codec.py [--data DIR] [--mp4 | --jpeg Q] [--vedge-reach R]
-                                      [--vedge-hyst P] [--draw DIR]
+                                      [--vedge-hyst P] [--reduce-verified 0|1] [--draw DIR]
 
 --draw writes, for each frame lost, the PNG and compressed crops one above the other
 with the hypotheses (red), boxes (green) and lidar box (blue).
@@ -34,6 +34,7 @@ from ..detector import DetectConfig, Detector
 from ..frames import to_gray
 from ..reference import verify as rverify
 from ..reference.verify import VerifyConfig
+from ..shared import ShadowConfig
 from . import kitti_lead as kl
 
 DEFAULT_DATA = kl.DEFAULT_DATA
@@ -113,6 +114,8 @@ def main(argv=None, default_data: Path = DEFAULT_DATA) -> int:
     ap.add_argument("--jpeg", type=int, default=None, metavar="Q", help="JPEG of quality Q instead")
     ap.add_argument("--vedge-reach", type=int, default=None, metavar="R")
     ap.add_argument("--vedge-hyst", type=int, default=None, metavar="P")
+    ap.add_argument("--reduce-verified", type=int, choices=(0, 1), default=None, metavar="0|1",
+                    help="ShadowConfig.reduce_verified (default: the config's)")
     ap.add_argument("--iou", type=float, default=0.6)
     ap.add_argument("--draw", type=Path, default=None, metavar="DIR")
     a = ap.parse_args(argv)
@@ -139,11 +142,14 @@ def main(argv=None, default_data: Path = DEFAULT_DATA) -> int:
         verify = dataclasses.replace(verify, vedge_reach=a.vedge_reach)
     if a.vedge_hyst is not None:
         verify = dataclasses.replace(verify, vedge_hyst_permille=a.vedge_hyst)
-    cfg = DetectConfig(verify=verify)
+    shadow = ShadowConfig()
+    if a.reduce_verified is not None:
+        shadow = dataclasses.replace(shadow, reduce_verified=a.reduce_verified)
+    cfg = DetectConfig(shadow=shadow, verify=verify)
     rows = compare(frames, coded, gt, calib, cfg, a.iou)
     codec = f"JPEG {a.jpeg}" if a.jpeg is not None else "mp4v"
     print(f"KITTI lead car, PNG vs {codec}, vedge reach {verify.vedge_reach} hyst "
-          f"{verify.vedge_hyst_permille}, IoU >= {a.iou}")
+          f"{verify.vedge_hyst_permille}, reduce verified {shadow.reduce_verified}, IoU >= {a.iou}")
     print(f"{'frames':8s} {'PNG':>4s} {codec:>8s}  " + "  ".join(f"{s:>22s}" for s in STAGES)
           + "  found only compressed")
     for name, sel in (("0-38", lambda i: i < kl.SPLIT), ("39-77", lambda i: i >= kl.SPLIT),

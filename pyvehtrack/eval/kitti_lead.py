@@ -22,7 +22,7 @@ Compression (what a dashcam does to the frames): --mp4 writes the frames as one 
 (OpenCV mp4v, default quality) and detects on the decoded frames; --jpeg Q encodes
 every frame as JPEG of quality Q (50: a little harder than mp4v's default, by PSNR).
 The found count is also printed for frames 0-38 (the tuning part of the codec
-tolerances, --vedge-reach / --vedge-hyst) and 39-77 (held out).
+tolerances, --vedge-reach / --vedge-hyst, and of --reduce-verified) and 39-77 (held out).
 
 The detector's default thresholds were chosen on these frames (see shadow.h): this is
 not an unseen-data figure.
@@ -171,6 +171,9 @@ def main(argv=None, default_data: Path = DEFAULT_DATA) -> int:
                     help="verify's derivative baseline (VerifyConfig.vedge_reach; 0 = the thesis's Sobel)")
     ap.add_argument("--vedge-hyst", type=int, default=None, metavar="P",
                     help="verify's hysteresis, permille below the edge threshold (0 = none, the thesis)")
+    ap.add_argument("--reduce-verified", type=int, choices=(0, 1), default=None,
+                    help="ShadowConfig.reduce_verified: 1 = only a shadow edge that passes verification "
+                         "suppresses the edges above it (0 = the thesis; default: the config's)")
     ap.add_argument("--model", default=None, help="classifier .npz: the full-road detector (Detector(model=...))")
     ap.add_argument("--sources", nargs="+", default=None, help="full-road sources (shadow windows)")
     ap.add_argument("--no-progress", action="store_true")
@@ -202,6 +205,8 @@ def main(argv=None, default_data: Path = DEFAULT_DATA) -> int:
     shadow, verify = ShadowConfig(), VerifyConfig()
     if a.fixed_threshold is not None:
         shadow = ShadowConfig(threshold_mode=0, grad_threshold=a.fixed_threshold)
+    if a.reduce_verified is not None:
+        shadow = dataclasses.replace(shadow, reduce_verified=a.reduce_verified)
     if a.aspect is not None:
         verify = dataclasses.replace(verify, aspect_q8=int(round(a.aspect * 256)))
     if a.vedge_reach is not None:
@@ -217,7 +222,7 @@ def main(argv=None, default_data: Path = DEFAULT_DATA) -> int:
           f"road {a.road}, model {a.model or '-'}, "
           f"{'fixed threshold ' + str(a.fixed_threshold) if a.fixed_threshold is not None else 'adaptive threshold'}, "
           f"aspect {cfg.verify.aspect_q8 / 256:g}, vedge reach {cfg.verify.vedge_reach} "
-          f"hyst {cfg.verify.vedge_hyst_permille}")
+          f"hyst {cfg.verify.vedge_hyst_permille}, reduce verified {cfg.shadow.reduce_verified}")
     print(f"{'engine':10s} {'found':>12s} {'other/frame':>12s} {'med IoU':>8s} {'ms/frame':>9s}  road")
     for r in results:
         print(f"{r['engine']:10s} {r['found']:4d} ({100 * r['found_share']:5.1f}%) "

@@ -3,6 +3,7 @@ and score it against the lidar-derived lead-car box (derived_lidar_lead_box.csv)
 
     python tools/eval_kitti_track.py [--data DIR] [--engine c|reference|both]
                                      [--measurement roi|edges|both] [--json OUT]
+                                     [--mp4] [--reduce-verified 0|1]
 
 Figures (the tracking issue's targets: one id through >= 95% of the frames, IoU >= 0.6
 in >= 90%):
@@ -44,16 +45,19 @@ def load(data: Path):
     return files, boxes
 
 
-def run(engine: str, files, boxes, detect_every: int, progress: bool, measurement: str = "roi") -> dict:
+def run(engine: str, files, boxes, detect_every: int, progress: bool, measurement: str = "roi",
+        cfg=None) -> dict:
+    """files: image paths or (index, BGR image) pairs; cfg: the Detector's DetectConfig (None: default)."""
     from ..detector import Detector
     from ..tracker import Tracker
     from .tracking import evaluate_kitti
 
-    trk = Tracker(engine=engine, detect_every=detect_every, detector=Detector(engine=engine),
+    trk = Tracker(engine=engine, detect_every=detect_every, detector=Detector(engine=engine, cfg=cfg),
                   measurement=measurement)
     per_frame = []
     for f in tqdm(files, desc=f"track ({engine}, {measurement})", unit="frame", disable=not progress, file=sys.stderr):
-        per_frame.append([t for t in trk.step(cv2.imread(str(f))) if t.state != "tentative"])
+        img = f[1] if isinstance(f, tuple) else cv2.imread(str(f))
+        per_frame.append([t for t in trk.step(img) if t.state != "tentative"])
     n = len(files)
     counts: dict[int, int] = {}
     for k, tracks in enumerate(per_frame):
@@ -83,6 +87,10 @@ def main(argv=None, default_data: Path = DEFAULT_DATA) -> int:
     ap.add_argument("--detect-every", type=int, default=10)
     ap.add_argument("--measurement", choices=("roi", "edges", "both"), default="roi",
                     help="the tracker's per-frame measurement (both: one row each)")
+    ap.add_argument("--mp4", action="store_true",
+                    help="track the frames written as one MP4 (OpenCV mp4v, default quality) and decoded")
+    ap.add_argument("--reduce-verified", type=int, choices=(0, 1), default=None, metavar="0|1",
+                    help="ShadowConfig.reduce_verified (default: the config's)")
     ap.add_argument("--json", type=Path)
     ap.add_argument("--no-progress", action="store_true")
     a = ap.parse_args(argv)
@@ -90,9 +98,20 @@ def main(argv=None, default_data: Path = DEFAULT_DATA) -> int:
         print(f"error: {a.data} does not hold derived_lidar_lead_box.csv", file=sys.stderr)
         return 2
     files, boxes = load(a.data)
+    cfg = None
+    if a.reduce_verified is not None:
+        from ..detector import DetectConfig  # noqa: PLC0415
+        from ..shared import ShadowConfig  # noqa: PLC0415
+        cfg = DetectConfig(shadow=ShadowConfig(reduce_verified=a.reduce_verified))
+    if a.mp4:
+        from .kitti_lead import _through_mp4  # noqa: PLC0415
+        files = _through_mp4([(k, cv2.imread(str(f))) for k, f in enumerate(files)])
+        if files is None:
+            print("error: the MP4 lost frames", file=sys.stderr)
+            return 2
     engines = ("c", "reference") if a.engine == "both" else (a.engine,)
     measurements = ("roi", "edges") if a.measurement == "both" else (a.measurement,)
-    res = [run(e, files, boxes, a.detect_every, not a.no_progress, m) for e in engines for m in measurements]
+    res = [run(e, files, boxes, a.detect_every, not a.no_progress, m, cfg) for e in engines for m in measurements]
     print(f"{'engine':<16}{'lead id':>8}{'id share':>10}{'IoU>=0.6':>10}{'mean IoU':>10}"
           f"{'HOTA':>8}{'MOTA':>8}{'IDF1':>8}{'IDSW':>6}{'trk/frm':>8}")
     for r in res:

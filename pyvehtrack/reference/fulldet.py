@@ -30,6 +30,7 @@ from fractions import Fraction
 import numpy as np
 
 from . import shadow as rshadow
+from . import detect as rdetect
 from . import verify as rverify
 from . import windows as rw
 from .image import pyr_down
@@ -85,9 +86,8 @@ def detect(gray: np.ndarray, road, cam: rw.Camera, cfg: FullDetConfig, score=Non
     road_t = rw.as_road_tuple(road)
     if cfg.shadow_source and road_t is not None and road_t[0]:
         area = rshadow.RoadArea(road_t[1], road_t[2], road_t[3], road_t[4], road_t[5], True)
-        res = rshadow.find_hypotheses(gray, area, cfg.shadow, max_active=max_shadow_active,
-                                      max_cand=max_shadow_cand, max_out=max_hyp)
-        boxes = rverify.verify(gray, res.hypotheses, cfg.verify, max_out=max_boxes)
+        _, boxes = rdetect.detect(gray, area, cfg.shadow, cfg.verify, max_active=max_shadow_active,
+                                  max_cand=max_shadow_cand, max_hyp=max_hyp, max_boxes=max_boxes)
         stats["n_shadow"] = len(boxes)
         for bx in boxes:
             l, t, r, b = (int(v) for v in bx)

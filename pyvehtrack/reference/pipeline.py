@@ -29,11 +29,10 @@ from . import camera as rcam
 from . import flow as rflow
 from . import fulldet as rfd
 from . import lane as rlane
-from . import shadow as rshadow
 from . import tracker as rtrk
 from . import ttc_scale as rttc
 from . import vehicle_model as rvm
-from . import verify as rverify
+from . import detect as rdetect
 from . import windows as rw
 from .shadow import RoadArea, ShadowConfig, trapezoid_road
 from .verify import VerifyConfig
@@ -294,14 +293,14 @@ class Pipeline:
                 elif getattr(given, "valid", True):
                     road, source = given, "fixed"
             if road is not None:
-                res = rshadow.find_hypotheses(gray, road, c.shadow,
-                                              max_active=self.caps.max_shadow_active,
-                                              max_cand=self.caps.max_shadow_cand,
-                                              max_out=self.caps.max_hypotheses)
+                res, boxes = rdetect.detect(gray, road, c.shadow, c.verify,
+                                            max_active=self.caps.max_shadow_active,
+                                            max_cand=self.caps.max_shadow_cand,
+                                            max_hyp=self.caps.max_hypotheses,
+                                            max_boxes=self.caps.max_boxes)
                 hyp = res.hypotheses
                 stats = {"median": res.median, "mad": res.mad, "dark_limit": res.dark_threshold,
                          "n_runs": res.n_runs, "n_dropped": res.n_dropped}
-                boxes = rverify.verify(gray, hyp, c.verify, max_out=self.caps.max_boxes)
         elif lane_road is not None:
             road, source = lane_road, "lanes"
         trk_det, trk_boxes = det_frame, boxes
@@ -578,9 +577,9 @@ class Pipeline:
         stats.update(st)
         hyp = np.zeros((0, 3), np.int64)
         if fc.shadow_source:
-            hyp = rshadow.find_hypotheses(gray, road, fc.shadow, max_active=self.caps.max_shadow_active,
-                                          max_cand=self.caps.max_shadow_cand,
-                                          max_out=self.caps.max_hypotheses).hypotheses
+            hyp = rdetect.detect(gray, road, fc.shadow, fc.verify, max_active=self.caps.max_shadow_active,
+                                 max_cand=self.caps.max_shadow_cand, max_hyp=self.caps.max_hypotheses,
+                                 max_boxes=self.caps.max_boxes)[0].hypotheses
         boxes = arr[:, :4].astype(np.int64).reshape(-1, 4)
         src = [SRC_CLASSIFIER if int(v) == 2 else SRC_SHADOW for v in arr[:, 5]]
         return road, source, np.asarray(hyp, np.int64).reshape(-1, 3), boxes, src, \

@@ -30,7 +30,10 @@ Steps (each mirrored exactly in C):
     width there; too wide or too narrow -> rejected;
  5. the survivors, bottom-most first, are reduced to one bottom edge per vehicle: an
     edge is dropped if a kept edge below it overlaps it in x by >= reduce_overlap of
-    the narrower one and lies no more than reduce_height x (kept width) rows below.
+    the narrower one and lies no more than reduce_height x (kept width) rows below
+    (`suppresses`). With reduce_verified = 1 this step is left to the caller that
+    verifies (reference.detect: only an edge that passes verification suppresses),
+    and every survivor of step 4 is returned, bottom-most first.
 
 Every comparison is between integers or exactly representable values (Sobel of
 8-bit pixels is exact in float32; median and MAD are sample values; k is k_q8/256),
@@ -114,6 +117,16 @@ def runs_in_row(xs: np.ndarray, max_gap: int, min_run: int):
     return out
 
 
+def suppresses(cfg: ShadowConfig, k, c) -> bool:
+    """The one-edge-per-vehicle rule: does kept edge k = (row, x_start, x_end) suppress
+    edge c above it? They overlap in x by >= reduce_overlap of the narrower one and k
+    lies no more than reduce_height x (k's width) rows below c."""
+    wc, wk = c[2] - c[1] + 1, k[2] - k[1] + 1
+    ov = min(c[2], k[2]) - max(c[1], k[1]) + 1
+    return bool(ov > 0 and ov * 1000 >= min(wc, wk) * cfg.reduce_overlap_permille
+                and (k[0] - c[0]) * 256 <= wk * cfg.reduce_height_q8)
+
+
 def find_hypotheses(gray: np.ndarray, road, cfg: ShadowConfig = ShadowConfig(), *,
                     max_active: int = 64, max_cand: int = 64,
                     max_out: int = 32) -> ShadowResult:
@@ -194,16 +207,8 @@ def find_hypotheses(gray: np.ndarray, road, cfg: ShadowConfig = ShadowConfig(), 
     cand.sort(key=lambda g: (-g[0], g[2], g[4]))
     kept: list[list[int]] = []
     for c in cand:
-        wc = c[3] - c[2] + 1
-        drop = False
-        for k in kept:
-            wk = k[3] - k[2] + 1
-            ov = min(c[3], k[3]) - max(c[2], k[2]) + 1
-            if (ov > 0 and ov * 1000 >= min(wc, wk) * cfg.reduce_overlap_permille
-                    and (k[0] - c[0]) * 256 <= wk * cfg.reduce_height_q8):
-                drop = True
-                break
-        if not drop:
+        if cfg.reduce_verified or not any(suppresses(cfg, (k[0], k[2], k[3]), (c[0], c[2], c[3]))
+                                          for k in kept):
             kept.append(c)
     if len(kept) > max_out:
         res.n_dropped += len(kept) - max_out
