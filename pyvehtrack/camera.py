@@ -420,7 +420,8 @@ class ScaleTtc:
         self._n = _native
         self._c = _native.ffi.new("vt_ttc_cfg *")
         for f in ("block", "grid", "margin_permille", "radius", "min_texture", "max_sad", "lag",
-                  "min_pair_px", "min_pairs", "anchor_radius"):
+                  "min_pair_px", "min_pairs", "anchor_radius", "evict_margin_px",
+                  "prior_gate_permille"):
             v = getattr(p, f)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not -(2**31) <= v < 2**31:
                 raise ValueError(f"TtcScaleParams.{f}={v!r} must be an int32")

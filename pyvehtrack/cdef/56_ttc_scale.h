@@ -22,6 +22,8 @@ typedef struct vt_ttc_cfg {
     vt_q16 frame_dt;
     vt_q16 ttc_max;
     int32_t anchor_radius;
+    int32_t evict_margin_px;
+    int32_t prior_gate_permille;
 } vt_ttc_cfg;
 
 typedef struct vt_ttc_state { ...; } vt_ttc_state;
