@@ -22,7 +22,7 @@
  * and frame_dt Q16 s.
  * Memory: sizeof(vt_ttc_state) = VT_TTC_TRACKS slots of VT_TTC_HIST entries of
  * VT_TTC_GRID^2 blocks of VT_TTC_BLOCK^2 bytes (+ positions), plus a pair scratch of
- * VT_TTC_GRID^2 (VT_TTC_GRID^2 - 1) / 2 int32: 113,048 bytes on x86-64 at the defaults
+ * VT_TTC_GRID^2 (VT_TTC_GRID^2 - 1) / 2 int32: 113,064 bytes on x86-64 at the defaults
  * (grid 8, block 8, 6 frames, 4 tracks). Work per track and frame: up to grid^2 searches
  * of (2 radius + 1)^2 SADs of block^2 pixels (at most 64 x 169 x 64 = 692k absolute
  * differences; a SAD stops once it reaches the best so far, which keeps the search
