@@ -25,7 +25,8 @@ vt_status vt_ttc_cfg_check(const vt_ttc_cfg *c)
         !VT__IN(c->min_pairs, 1, VT_TTC_MAX_PAIRS) || !VT__IN(c->frame_dt, 1, VT_Q16_ONE) ||
         !VT__IN(c->ttc_max, 1, 1000 * VT_Q16_ONE) ||
         !(c->anchor_radius == 0 || VT__IN(c->anchor_radius, c->radius + 1, 48)) ||
-        !VT__IN(c->evict_margin_px, -1, 4096) || !VT__IN(c->prior_gate_permille, -1, 1000)) {
+        !VT__IN(c->evict_margin_px, -1, 4096) || !VT__IN(c->prior_gate_permille, -1, 1000) ||
+        !VT__IN(c->min_lag, 1, VT_TTC_HIST - 1) || !VT__IN(c->min_match_permille, 0, 1000)) {
         return VT_E_ARG;
     }
     return VT_OK;
@@ -226,8 +227,13 @@ static int32_t vt__ratio(int64_t d1, int64_t d0)
     return (int32_t)(r2 > INT32_MAX ? INT32_MAX : r2);
 }
 
-static void vt__measure(vt_ttc_state *st, const vt_ttc_cfg *c, const vt_image_u8 *img,
-                        vt_ttc_track *t, const vt_ttc_entry *e, const vt_box *nb, vt_ttc_out *o)
+/* Match the blocks of entry e (lag frames old) in this frame and measure s and the TTC
+ * into o. `last` is the track's prior (0: none); with lag == c->lag the track's new
+ * prior is set from this measurement (a shorter fallback lag sets none: its scale is
+ * not one over c->lag frames). */
+static void vt__measure(vt_ttc_state *st, const vt_ttc_cfg *c, int32_t lag, vt_q16 last,
+                        const vt_image_u8 *img, vt_ttc_track *t, const vt_ttc_entry *e,
+                        const vt_box *nb, vt_ttc_out *o)
 {
     int32_t mx[VT_TTC_MAX_BLOCKS], my[VT_TTC_MAX_BLOCKS], ok[VT_TTC_MAX_BLOCKS];
     int32_t ix[VT_TTC_MAX_BLOCKS], iy[VT_TTC_MAX_BLOCKS];
@@ -238,15 +244,15 @@ static void vt__measure(vt_ttc_state *st, const vt_ttc_cfg *c, const vt_image_u8
     int64_t minp2 = (int64_t)c->min_pair_px * c->min_pair_px;
     vt_q16 prior = 0;
     o->blocks = e->n;
+    o->lag = lag;
     /* the prior replaces the box's size ratio only where the two disagree by more than
      * the gate: |sn / so - prior| > gate prior / 1000 (products < 2^45) */
-    if (c->prior_gate_permille >= 0 && t->prior > 0) {
-        int64_t dev = sn * VT_Q16_ONE - (int64_t)t->prior * so;
-        if ((dev < 0 ? -dev : dev) * 1000 > (int64_t)c->prior_gate_permille * t->prior * so) {
-            prior = t->prior;
+    if (c->prior_gate_permille >= 0 && last > 0 && lag == c->lag) {
+        int64_t dev = sn * VT_Q16_ONE - (int64_t)last * so;
+        if ((dev < 0 ? -dev : dev) * 1000 > (int64_t)c->prior_gate_permille * last * so) {
+            prior = last;
         }
     }
-    t->prior = 0;
     /* anchors: blocks k n / VT_TTC_ANCHORS searched wide; the median of their offsets
      * corrects the box's prediction for all */
     for (k = 0; c->anchor_radius > 0 && k < VT_TTC_ANCHORS && e->n > 0; k++) {
@@ -278,6 +284,11 @@ static void vt__measure(vt_ttc_state *st, const vt_ttc_cfg *c, const vt_image_u8
         ok[i] = vt__match(c, img, e->px[i], px, py, &mx[i], &my[i], &ix[i], &iy[i]);
         o->matched += ok[i];
     }
+    /* most blocks lost: the windows were put in the wrong place (a box jump), and what
+     * matched inside them is not to be trusted either */
+    if ((int64_t)o->matched * 1000 < (int64_t)c->min_match_permille * e->n) {
+        return;
+    }
     for (i = 0; i < e->n; i++) {
         for (j = i + 1; j < e->n; j++) {
             int64_t ax, ay, d0, d1;
@@ -305,7 +316,7 @@ static void vt__measure(vt_ttc_state *st, const vt_ttc_cfg *c, const vt_image_u8
         o->scale = (vt_q16)s;
         o->flags |= VT_TTC_SCALE_VALID;
         if (s > VT_Q16_ONE) {
-            q = vt__rdiv((int64_t)c->lag * c->frame_dt * VT_Q16_ONE, s - VT_Q16_ONE);
+            q = vt__rdiv((int64_t)lag * c->frame_dt * VT_Q16_ONE, s - VT_Q16_ONE);
             if (q <= c->ttc_max) {
                 o->ttc = (vt_q16)q;
                 o->flags |= VT_TTC_VALID;
@@ -315,7 +326,7 @@ static void vt__measure(vt_ttc_state *st, const vt_ttc_cfg *c, const vt_image_u8
     /* the prior: the same pairs on integer positions, so the oracle reproduces it exactly
      * (it only steers the next frame's search windows, never the reported scale) */
     np = 0;
-    for (i = 0; c->prior_gate_permille >= 0 && i < e->n; i++) {
+    for (i = 0; c->prior_gate_permille >= 0 && lag == c->lag && i < e->n; i++) {
         for (j = i + 1; j < e->n; j++) {
             int64_t ax, ay, d0, d1;
             if (!ok[i] || !ok[j]) {
@@ -386,6 +397,18 @@ static void vt__store(vt_ttc_track *t, const vt_ttc_cfg *c, const vt_image_u8 *i
     if (t->n_hist < VT_TTC_HIST) {
         t->n_hist += 1;
     }
+}
+
+/* An output with nothing measured (its id aside). */
+static void vt__out_clear(vt_ttc_out *o)
+{
+    o->flags = 0;
+    o->blocks = 0;
+    o->matched = 0;
+    o->pairs = 0;
+    o->scale = 0;
+    o->ttc = 0;
+    o->lag = 0;
 }
 
 /* The slot of id, or NULL. */
@@ -461,7 +484,8 @@ vt_status vt_ttc_step(vt_ttc_state *st, const vt_ttc_cfg *cfg, const vt_image_u8
                       const vt_track_out *tracks, int32_t n_tracks, vt_ttc_out *out,
                       int32_t out_cap, int32_t *n_out)
 {
-    int32_t i, k, written = 0, full = 0, inside;
+    int32_t i, k, written = 0, full = 0, inside, lag;
+    vt_q16 last;
     vt_status s;
     if (st == NULL || n_out == NULL || vt_ttc_cfg_check(cfg) != VT_OK || img == NULL ||
         n_tracks < 0 || (n_tracks > 0 && tracks == NULL) || out_cap < 0 ||
@@ -514,21 +538,23 @@ vt_status vt_ttc_step(vt_ttc_state *st, const vt_ttc_cfg *cfg, const vt_image_u8
             continue;
         }
         o.id = tracks[i].id;
-        o.flags = 0;
-        o.blocks = 0;
-        o.matched = 0;
-        o.pairs = 0;
-        o.scale = 0;
-        o.ttc = 0;
+        vt__out_clear(&o);
         /* a box beyond +-32767 px is neither measured nor stored (keeps every product
          * of vt__predict below 2^40) */
         inside = VT__IN(tracks[i].box.left, -32768, 32767) && VT__IN(tracks[i].box.right, -32768, 32767) &&
                  VT__IN(tracks[i].box.top, -32768, 32767) && VT__IN(tracks[i].box.bottom, -32768, 32767);
-        if (inside && slot->n_hist >= cfg->lag) {
-            const vt_ttc_entry *e = &slot->e[(slot->head - cfg->lag + VT_TTC_HIST) % VT_TTC_HIST];
-            vt__measure(st, cfg, img, slot, e, &tracks[i].box, &o);
-        } else {
-            slot->prior = 0;
+        last = slot->prior;
+        slot->prior = 0;
+        /* the longest lag that measures a scale: lag, else lag - 1 .. min_lag (a young
+         * track, or blocks lost over the full lag) */
+        for (lag = cfg->lag; inside && (lag == cfg->lag || lag >= cfg->min_lag) &&
+                              !(o.flags & VT_TTC_SCALE_VALID);
+             lag--) {
+            if (slot->n_hist >= lag) {
+                vt__out_clear(&o);
+                vt__measure(st, cfg, lag, last, img, slot,
+                            &slot->e[(slot->head - lag + VT_TTC_HIST) % VT_TTC_HIST], &tracks[i].box, &o);
+            }
         }
         vt__store(slot, cfg, img, &tracks[i].box, inside);
         if (written < out_cap) {

@@ -89,6 +89,13 @@ typedef struct vt_ttc_cfg {
                             thousandths of it (the box's size jumps on a detection re-fit,
                             or stops growing when cut by the frame's edge; the blocks' own
                             scale over the same lag does not)                          */
+    int32_t min_lag;     /* 1..VT_TTC_HIST-1: a track with fewer than lag frames, or
+                            whose blocks give no scale over lag frames, is measured over
+                            the longest lag down to min_lag that does (min_lag >= lag:
+                            no fallback)                                               */
+    int32_t min_match_permille; /* 0..1000: fewer matched blocks than this many thousandths
+                            of those searched: no scale (the windows were misplaced; what
+                            matched in them is not trusted), and the fallback lags try */
 } vt_ttc_cfg;
 
 /* block 8, grid 8, margin 10 %, radius 6, texture 2, SAD 24, lag 5, pairs >= 16 px,
@@ -100,13 +107,20 @@ typedef struct vt_ttc_cfg {
  * and its largest detection re-fit step on KITTI frames 0-38 (5 rows). Prior gate 10 %:
  * twice the largest difference between the box's size ratio over 5 frames and the
  * blocks' scale on KITTI frames 0-38 (5 %), so the prior steps in only where the box
- * jumped (using it on every frame changed 22 of frames 0-38 and scored worse there). */
+ * jumped (using it on every frame changed 22 of frames 0-38 and scored worse there).
+ * min_lag 2: on frames 0-38 the single-lag scales score 31.9 % (lag 1), 21.8 % (2),
+ * 17.5 % (3), 21.6 % (4), 18.7 % (5) against the lidar TTC; lags 2-4 as fallback give
+ * the first frames of a track a TTC (34 -> 37 of the 37 lidar-TTC frames, median
+ * unchanged), lag 1 is too noisy to use. Matched share >= 50 %: a majority; the lowest
+ * share on frames 0-38 is 76 % (29 of 38 blocks), so it changes nothing there, while a
+ * box that jumped 20 % keeps about a third, whose scale is wrong (0.84 for a true 1.02:
+ * tests/test_ttc_slots_prior.py). */
 #define VT_TTC_CFG_DEFAULT                                                             \
     {                                                                                  \
         .block = 8, .grid = 8, .margin_permille = 100, .radius = 6, .min_texture = 2, \
         .max_sad = 24, .lag = 5, .min_pair_px = 16, .min_pairs = 10, .frame_dt = 6554, \
         .ttc_max = 20 * VT_Q16_ONE, .anchor_radius = 12, .evict_margin_px = 8,         \
-        .prior_gate_permille = 100,                                                    \
+        .prior_gate_permille = 100, .min_lag = 2, .min_match_permille = 500,           \
     }
 
 vt_status vt_ttc_cfg_default(vt_ttc_cfg *cfg);
@@ -149,6 +163,8 @@ typedef struct vt_ttc_out {
     int32_t pairs;       /* pairs in the median                                        */
     vt_q16 scale;        /* s, Q16 (0 unless SCALE_VALID)                               */
     vt_q16 ttc;          /* s, Q16 (0 unless VALID)                                     */
+    int32_t lag;         /* frames the scale spans (cfg lag, or a shorter fallback; 0
+                            when nothing was measured)                                 */
 } vt_ttc_out;
 
 /* Empty the stage. VT_E_ARG for NULL. */
@@ -163,7 +179,7 @@ vt_status vt_ttc_init(vt_ttc_state *st);
  * no output (and VT_E_CAPACITY at the end). A frame of another size than the last one
  * forgets every track (a documented restart, not an error). Per track: if it holds an
  * entry lag frames old, the blocks are matched (see the file comment; with
- * prior_gate_permille >= 0, a prior, and |sn 2^16 - prior so| 1000 > gate prior so
+ * prior_gate_permille >= 0, a prior, the measurement over cfg->lag, and |sn 2^16 - prior so| 1000 > gate prior so
  * (so, sn: width + height of the box then and now), a block's window is the box
  * centre's shift plus the prior scale about it: x + ((cn - co) 2^16 + (2 x + block - 1 - co) (prior - 2^16)) /
  * 2^17 rounded half away from zero, c = left + right or top + bottom) and

@@ -51,6 +51,10 @@ class TtcScaleParams:
     #                           0..1000: with the track's last coarse scale (integer match
     #                           positions) when the box's size ratio differs from it by more
     #                           than this many thousandths of it (a re-fit jump)
+    min_lag: int = 2          # 1..HIST-1 (>= lag: none): no scale over `lag` frames (a young track, lost blocks):
+    #                           the longest shorter lag down to this that gives one
+    min_match_permille: int = 500  # fewer matched blocks than this share (1/1000) of those
+    #                           searched: no scale (misplaced windows), the fallback lags try
 
 
 @dataclass
@@ -61,6 +65,7 @@ class TtcScaleOut:
     blocks: int               # blocks searched (stored lag frames ago)
     matched: int              # of them matched
     pairs: int                # pairs used for the median
+    lag: int = 0              # frames the scale spans (lag, or a shorter fallback; 0: none)
 
 
 @dataclass
@@ -269,39 +274,16 @@ class TtcScaleTracker:
                     continue
                 slot = _Slot(tid)
                 self.slots.append(slot)
-            scale, ttc, nb, nm, npairs = None, None, 0, 0, 0
             inside = all(-BOX_LIM - 1 <= v <= BOX_LIM for v in box)
-            last, slot.prior, prior = slot.prior, 0, 0
-            if inside and len(slot.ring) >= p.lag:
-                e = slot.ring[-p.lag]
-                n = len(e.pos)
-                so = (e.box[2] - e.box[0] + 1) + (e.box[3] - e.box[1] + 1)
-                sn = (box[2] - box[0] + 1) + (box[3] - box[1] + 1)
-                # the box's size ratio sn / so against the prior: it steps in only past the gate
-                if p.prior_gate_permille >= 0 and last > 0 and \
-                        abs(sn * Q16 - last * so) * 1000 > p.prior_gate_permille * last * so:
-                    prior = last
-                offs = []
-                for k in range(ANCHORS if p.anchor_radius and n else 0):
-                    i = k * n // ANCHORS
-                    if k > 0 and i == (k - 1) * n // ANCHORS:
-                        continue
-                    r = search(p, grey, e.tmpl[i], *predict(p, e.box, box, *e.pos[i], prior), p.anchor_radius)
-                    if r is not None:
-                        offs.append(r[:2])
-                ox = sorted(o[0] for o in offs)[(len(offs) - 1) // 2] if offs else 0
-                oy = sorted(o[1] for o in offs)[(len(offs) - 1) // 2] if offs else 0
-                new = []
-                for (x, y), tm in zip(e.pos, e.tmpl):
-                    px, py = predict(p, e.box, box, x, y, prior)
-                    new.append(match(p, grey, tm, px + ox, py + oy))
-                nb, nm = len(e.pos), sum(v is not None for v in new)
-                scale, npairs = scale_of(p, e.pos, [None if v is None else v[:2] for v in new])
-                if p.prior_gate_permille >= 0:
-                    slot.prior = prior_of(p, e.pos, [None if v is None else v[2:] for v in new])
-                if scale is not None and scale > 1.0:
-                    t = p.lag * p.frame_dt / (scale - 1.0)
-                    ttc = t if t <= p.ttc_max else None
+            last, slot.prior = slot.prior, 0
+            res = (None, None, 0, 0, 0, 0)
+            # the longest lag, from `lag` down to min_lag, that measures a scale
+            for lag in range(p.lag, min(p.min_lag, p.lag) - 1, -1):
+                if res[0] is not None or not inside:
+                    break
+                if len(slot.ring) >= lag:
+                    res = self._measure(grey, slot, slot.ring[-lag], box, lag, last)
+            scale, ttc, nb, nm, npairs, used = res
             pos, tmpl = [], []
             for x, y in (grid_blocks(p, box, w, h) if inside else []):
                 blk = grey[y:y + p.block, x:x + p.block]
@@ -311,5 +293,43 @@ class TtcScaleTracker:
             slot.ring.append(_Entry(box, pos, tmpl))
             if len(slot.ring) > self.hist:
                 slot.ring.pop(0)
-            out.append(TtcScaleOut(tid, scale, ttc, nb, nm, npairs))
+            out.append(TtcScaleOut(tid, scale, ttc, nb, nm, npairs, used))
         return out
+
+    def _measure(self, grey, slot, e, box, lag, last):
+        """Blocks of entry e (lag frames old) matched in grey: (scale, ttc, blocks, matched,
+        pairs, lag). With lag == p.lag the slot's prior for the next frame is set."""
+        p = self.p
+        n = len(e.pos)
+        so = (e.box[2] - e.box[0] + 1) + (e.box[3] - e.box[1] + 1)
+        sn = (box[2] - box[0] + 1) + (box[3] - box[1] + 1)
+        # the box's size ratio sn / so against the prior: it steps in only past the gate
+        prior = 0
+        if p.prior_gate_permille >= 0 and last > 0 and lag == p.lag and \
+                abs(sn * Q16 - last * so) * 1000 > p.prior_gate_permille * last * so:
+            prior = last
+        offs = []
+        for k in range(ANCHORS if p.anchor_radius and n else 0):
+            i = k * n // ANCHORS
+            if k > 0 and i == (k - 1) * n // ANCHORS:
+                continue
+            r = search(p, grey, e.tmpl[i], *predict(p, e.box, box, *e.pos[i], prior), p.anchor_radius)
+            if r is not None:
+                offs.append(r[:2])
+        ox = sorted(o[0] for o in offs)[(len(offs) - 1) // 2] if offs else 0
+        oy = sorted(o[1] for o in offs)[(len(offs) - 1) // 2] if offs else 0
+        new = []
+        for (x, y), tm in zip(e.pos, e.tmpl):
+            px, py = predict(p, e.box, box, x, y, prior)
+            new.append(match(p, grey, tm, px + ox, py + oy))
+        nm = sum(v is not None for v in new)
+        if nm * 1000 < p.min_match_permille * n:   # most blocks lost: nothing trusted
+            return None, None, n, nm, 0, lag
+        scale, npairs = scale_of(p, e.pos, [None if v is None else v[:2] for v in new])
+        if p.prior_gate_permille >= 0 and lag == p.lag:
+            slot.prior = prior_of(p, e.pos, [None if v is None else v[2:] for v in new])
+        ttc = None
+        if scale is not None and scale > 1.0:
+            t = lag * p.frame_dt / (scale - 1.0)
+            ttc = t if t <= p.ttc_max else None
+        return scale, ttc, n, nm, npairs, lag
