@@ -9,13 +9,18 @@
  *      part (margin_permille cut from each side), kept if they have texture in both
  *      directions, are stored with their positions in a ring of the last frames;
  *   2. the blocks stored `lag` frames ago are searched in this frame by exact integer
- *      SAD over +-radius px around where the box's own shift and size change put them;
- *      a best match on the window's edge or with SAD > max_sad per pixel is dropped;
- *      the integer match is refined to 1/256 px by a parabola through the SADs of its
- *      neighbours in x and in y;
+ *      SAD over +-radius px around where the box's own shift and size change put them
+ *      (or, when the box's size jumped away from it, the track's last measured scale:
+ *      prior_gate_permille); a best match on the window's edge or with SAD > max_sad
+ *      per pixel is dropped; the integer match is refined to 1/256 px by a parabola
+ *      through the SADs of its neighbours in x and in y; fewer than min_match_permille
+ *      of the blocks matched: no scale (misplaced windows);
  *   3. s = the (lower) median, over all pairs of matched blocks at least min_pair_px
  *      apart lag frames ago, of (distance now / distance then);
- *   4. TTC = lag frame_dt / (s - 1).
+ *   4. TTC = lag frame_dt / (s - 1); with no scale over `lag` frames (a young track,
+ *      lost blocks) steps 2-4 run again over lag - 1 .. min_lag frames.
+ * Only VT_TTC_TRACKS tracks are measured: the nearest (largest box bottom), each keeping
+ * its slot until a track nearer by more than evict_margin_px rows needs it.
  * pyvehtrack/reference/ttc_scale.py is the float twin (same integer search and ties).
  *
  * Number formats: positions Q8 px (int32), squared ratios and s Q16 (vt_q16), TTC
@@ -27,8 +32,9 @@
  * of (2 radius + 1)^2 SADs of block^2 pixels (at most 64 x 169 x 64 = 692k absolute
  * differences; a SAD stops once it reaches the best so far, which keeps the search
  * exact), VT_TTC_ANCHORS searches over +-anchor_radius, the texture test of grid^2
- * blocks and an O(pairs) median selection: 4.1 M instructions (gcc -O2; 3.0 M without
- * anchors) for the KITTI clip's lead car, 38 blocks (make ttc-cost). */
+ * blocks and two O(pairs) median selections (the scale, and the prior on integer
+ * positions): 4.2 M instructions (gcc -O2; 3.0 M without anchors and prior) for the
+ * KITTI clip's lead car, 38 blocks (make ttc-cost); a fallback lag repeats the search. */
 #ifndef VEHTRACK_TTC_SCALE_H
 #define VEHTRACK_TTC_SCALE_H
 
