@@ -16,6 +16,14 @@ For every track, every frame:
      then) of their distance now / their distance then;
   4. TTC = lag dt / (s - 1) (d ~ 1/s for a rigid rear face seen head on, so at a constant
      closing speed d_t = d_{t-lag} - lag dt v and d_t / v = lag dt / (s - 1)).
+Around that: fewer than min_match_permille of the blocks matched gives no scale (their
+windows were misplaced); no scale over `lag` frames (a young track, lost blocks) tries
+lag - 1 .. min_lag; when the box's size ratio over the lag is more than
+prior_gate_permille away from the track's last coarse scale (the median ratio of its
+integer matches, an exact integer rule), that scale places the windows instead of the box
+(a detection re-fit, a box cut by the frame's edge); only `capacity` tracks are measured,
+the nearest (largest box bottom), a slot changing hands only to a track more than
+evict_margin_px rows nearer.
 
 The block choice, the predicted window and the integer SAD search are integer rules shared
 with C exactly (same candidates, same ties: first in raster order); only the sub-pixel
