@@ -24,7 +24,9 @@ vt_status vt_ttc_cfg_check(const vt_ttc_cfg *c)
         !VT__IN(c->lag, 1, VT_TTC_HIST - 1) || !VT__IN(c->min_pair_px, 1, 4096) ||
         !VT__IN(c->min_pairs, 1, VT_TTC_MAX_PAIRS) || !VT__IN(c->frame_dt, 1, VT_Q16_ONE) ||
         !VT__IN(c->ttc_max, 1, 1000 * VT_Q16_ONE) ||
-        !(c->anchor_radius == 0 || VT__IN(c->anchor_radius, c->radius + 1, 48))) {
+        !(c->anchor_radius == 0 || VT__IN(c->anchor_radius, c->radius + 1, 48)) ||
+        !VT__IN(c->evict_margin_px, -1, 4096) || !VT__IN(c->prior_gate_permille, -1, 1000) ||
+        !VT__IN(c->min_lag, 1, VT_TTC_HIST - 1) || !VT__IN(c->min_match_permille, 0, 1000)) {
         return VT_E_ARG;
     }
     return VT_OK;
@@ -35,6 +37,7 @@ static void vt__slot_clear(vt_ttc_track *t, int32_t id)
     t->id = id;
     t->n_hist = 0;
     t->head = 0;
+    t->prior = 0;
 }
 
 vt_status vt_ttc_init(vt_ttc_state *st)
@@ -119,7 +122,7 @@ static int32_t vt__search(const vt_ttc_cfg *c, const vt_image_u8 *img, const uin
 
 /* Search one block; *mx, *my in Q8 px. 1 if matched. */
 static int32_t vt__match(const vt_ttc_cfg *c, const vt_image_u8 *img, const uint8_t *tm,
-                         int32_t px, int32_t py, int32_t *mx, int32_t *my)
+                         int32_t px, int32_t py, int32_t *mx, int32_t *my, int32_t *ix, int32_t *iy)
 {
     int32_t b = c->block, bx, by, best, sxm, sxp, sym, syp;
     if (!vt__search(c, img, tm, px, py, c->radius, &bx, &by, &best)) {
@@ -136,6 +139,8 @@ static int32_t vt__match(const vt_ttc_cfg *c, const vt_image_u8 *img, const uint
     syp = vt__sad(img, tm, b, px + bx, py + by + 1, INT32_MAX);
     *mx = (px + bx) * 256 + vt__sub(sxm, best, sxp);
     *my = (py + by) * 256 + vt__sub(sym, best, syp);
+    *ix = px + bx;
+    *iy = py + by;
     return 1;
 }
 
@@ -146,6 +151,18 @@ static int32_t vt__predict(int32_t x, int32_t b, int32_t lo, int32_t ro, int32_t
 {
     int64_t co = (int64_t)lo + ro, cn = (int64_t)ln + rn;
     return x + (int32_t)vt__rdiv((cn - co) * so + (2 * (int64_t)x + b - 1 - co) * (sn - so), 2 * so);
+}
+
+/* Where block (x, y) lands given the box's extent along one axis then (lo, ro) and now
+ * (ln, rn): vt__predict, or with a prior scale (Q16, > 0) in place of the box's size
+ * ratio (so = 2^16, sn = prior; |products| < 2^42). */
+static int32_t vt__predict_p(int32_t x, int32_t b, int32_t lo, int32_t ro, int32_t ln, int32_t rn,
+                             int64_t so, int64_t sn, vt_q16 prior)
+{
+    if (prior > 0) {
+        return vt__predict(x, b, lo, ro, ln, rn, VT_Q16_ONE, prior);
+    }
+    return vt__predict(x, b, lo, ro, ln, rn, so, sn);
 }
 
 /* The k-th smallest of a[0..n-1] (0-based), reordering a (deterministic quickselect). */
@@ -194,16 +211,48 @@ static int32_t vt__small_median(int32_t *a, int32_t n)
     return a[(n - 1) / 2];
 }
 
-static void vt__measure(vt_ttc_state *st, const vt_ttc_cfg *c, const vt_image_u8 *img,
-                        const vt_ttc_entry *e, const vt_box *nb, vt_ttc_out *o)
+/* The lower median of the squared ratios st->pair[0..np-1] (Q16) as a scale: floor(sqrt(
+ * median 2^16)), Q16. */
+static int64_t vt__median_scale(vt_ttc_state *st, int32_t np)
+{
+    int64_t med = vt__select(st->pair, np, (np - 1) / 2);
+    return (int64_t)vt_isqrt_u64((uint64_t)med << 16);
+}
+
+/* Squared ratio of a pair, Q16: d1 (Q16 px^2 or, with q = 0, px^2) over d0 (px^2 >= 1),
+ * rounded half away from zero, saturated at 2^31 - 1. */
+static int32_t vt__ratio(int64_t d1, int64_t d0)
+{
+    int64_t r2 = vt__rdiv(d1, d0);
+    return (int32_t)(r2 > INT32_MAX ? INT32_MAX : r2);
+}
+
+/* Match the blocks of entry e (lag frames old) in this frame and measure s and the TTC
+ * into o. `last` is the track's prior (0: none); with lag == c->lag the track's new
+ * prior is set from this measurement (a shorter fallback lag sets none: its scale is
+ * not one over c->lag frames). */
+static void vt__measure(vt_ttc_state *st, const vt_ttc_cfg *c, int32_t lag, vt_q16 last,
+                        const vt_image_u8 *img, vt_ttc_track *t, const vt_ttc_entry *e,
+                        const vt_box *nb, vt_ttc_out *o)
 {
     int32_t mx[VT_TTC_MAX_BLOCKS], my[VT_TTC_MAX_BLOCKS], ok[VT_TTC_MAX_BLOCKS];
+    int32_t ix[VT_TTC_MAX_BLOCKS], iy[VT_TTC_MAX_BLOCKS];
     int32_t anx[VT_TTC_ANCHORS], any[VT_TTC_ANCHORS];
     int32_t i, j, k, np = 0, na = 0, ox = 0, oy = 0, b = c->block;
     int64_t so = ((int64_t)e->box.right - e->box.left + 1) + ((int64_t)e->box.bottom - e->box.top + 1);
     int64_t sn = ((int64_t)nb->right - nb->left + 1) + ((int64_t)nb->bottom - nb->top + 1);
     int64_t minp2 = (int64_t)c->min_pair_px * c->min_pair_px;
+    vt_q16 prior = 0;
     o->blocks = e->n;
+    o->lag = lag;
+    /* the prior replaces the box's size ratio only where the two disagree by more than
+     * the gate: |sn / so - prior| > gate prior / 1000 (products < 2^45) */
+    if (c->prior_gate_permille >= 0 && last > 0 && lag == c->lag) {
+        int64_t dev = sn * VT_Q16_ONE - (int64_t)last * so;
+        if ((dev < 0 ? -dev : dev) * 1000 > (int64_t)c->prior_gate_permille * last * so) {
+            prior = last;
+        }
+    }
     /* anchors: blocks k n / VT_TTC_ANCHORS searched wide; the median of their offsets
      * corrects the box's prediction for all */
     for (k = 0; c->anchor_radius > 0 && k < VT_TTC_ANCHORS && e->n > 0; k++) {
@@ -213,8 +262,10 @@ static void vt__measure(vt_ttc_state *st, const vt_ttc_cfg *c, const vt_image_u8
             continue;
         }
         if (vt__search(c, img, e->px[i],
-                       vt__predict(e->x[i], b, e->box.left, e->box.right, nb->left, nb->right, so, sn),
-                       vt__predict(e->y[i], b, e->box.top, e->box.bottom, nb->top, nb->bottom, so, sn),
+                       vt__predict_p(e->x[i], b, e->box.left, e->box.right, nb->left, nb->right, so, sn,
+                                     prior),
+                       vt__predict_p(e->y[i], b, e->box.top, e->box.bottom, nb->top, nb->bottom, so, sn,
+                                     prior),
                        c->anchor_radius, &bx, &by, &best)) {
             anx[na] = bx;
             any[na] = by;
@@ -226,14 +277,21 @@ static void vt__measure(vt_ttc_state *st, const vt_ttc_cfg *c, const vt_image_u8
         oy = vt__small_median(any, na);
     }
     for (i = 0; i < e->n; i++) {
-        int32_t px = vt__predict(e->x[i], b, e->box.left, e->box.right, nb->left, nb->right, so, sn) + ox;
-        int32_t py = vt__predict(e->y[i], b, e->box.top, e->box.bottom, nb->top, nb->bottom, so, sn) + oy;
-        ok[i] = vt__match(c, img, e->px[i], px, py, &mx[i], &my[i]);
+        int32_t px = vt__predict_p(e->x[i], b, e->box.left, e->box.right, nb->left, nb->right, so, sn,
+                                   prior) + ox;
+        int32_t py = vt__predict_p(e->y[i], b, e->box.top, e->box.bottom, nb->top, nb->bottom, so, sn,
+                                   prior) + oy;
+        ok[i] = vt__match(c, img, e->px[i], px, py, &mx[i], &my[i], &ix[i], &iy[i]);
         o->matched += ok[i];
+    }
+    /* most blocks lost: the windows were put in the wrong place (a box jump), and what
+     * matched inside them is not to be trusted either */
+    if ((int64_t)o->matched * 1000 < (int64_t)c->min_match_permille * e->n) {
+        return;
     }
     for (i = 0; i < e->n; i++) {
         for (j = i + 1; j < e->n; j++) {
-            int64_t ax, ay, d0, d1, r2;
+            int64_t ax, ay, d0, d1;
             if (!ok[i] || !ok[j]) {
                 continue;
             }
@@ -246,8 +304,7 @@ static void vt__measure(vt_ttc_state *st, const vt_ttc_cfg *c, const vt_image_u8
             ax = (int64_t)mx[i] - mx[j]; /* Q8; |.| < 2^24, squares < 2^48 */
             ay = (int64_t)my[i] - my[j];
             d1 = ax * ax + ay * ay;      /* Q16 px^2 */
-            r2 = vt__rdiv(d1, d0);
-            st->pair[np++] = (int32_t)(r2 > INT32_MAX ? INT32_MAX : r2);
+            st->pair[np++] = vt__ratio(d1, d0);
         }
     }
     o->pairs = np;
@@ -255,17 +312,42 @@ static void vt__measure(vt_ttc_state *st, const vt_ttc_cfg *c, const vt_image_u8
         return;
     }
     {
-        int64_t med = vt__select(st->pair, np, (np - 1) / 2);
-        int64_t s = (int64_t)vt_isqrt_u64((uint64_t)med << 16), q;
+        int64_t s = vt__median_scale(st, np), q;
         o->scale = (vt_q16)s;
         o->flags |= VT_TTC_SCALE_VALID;
         if (s > VT_Q16_ONE) {
-            q = vt__rdiv((int64_t)c->lag * c->frame_dt * VT_Q16_ONE, s - VT_Q16_ONE);
+            q = vt__rdiv((int64_t)lag * c->frame_dt * VT_Q16_ONE, s - VT_Q16_ONE);
             if (q <= c->ttc_max) {
                 o->ttc = (vt_q16)q;
                 o->flags |= VT_TTC_VALID;
             }
         }
+    }
+    /* the prior: the same pairs on integer positions, so the oracle reproduces it exactly
+     * (it only steers the next frame's search windows, never the reported scale) */
+    np = 0;
+    for (i = 0; c->prior_gate_permille >= 0 && lag == c->lag && i < e->n; i++) {
+        for (j = i + 1; j < e->n; j++) {
+            int64_t ax, ay, d0, d1;
+            if (!ok[i] || !ok[j]) {
+                continue;
+            }
+            ax = (int64_t)e->x[i] - e->x[j];
+            ay = (int64_t)e->y[i] - e->y[j];
+            d0 = ax * ax + ay * ay;
+            if (d0 < minp2) {
+                continue;
+            }
+            ax = (int64_t)ix[i] - ix[j]; /* px; squares < 2^32 */
+            ay = (int64_t)iy[i] - iy[j];
+            d1 = (ax * ax + ay * ay) << 16;
+            st->pair[np++] = vt__ratio(d1, d0);
+        }
+    }
+    if (np > 0) {
+        /* outside [1/2, 2] it is no guide to where the blocks went: none */
+        int64_t s = vt__median_scale(st, np);
+        t->prior = (s >= VT_Q16_ONE / 2 && s <= 2 * VT_Q16_ONE) ? (vt_q16)s : 0;
     }
 }
 
@@ -317,11 +399,93 @@ static void vt__store(vt_ttc_track *t, const vt_ttc_cfg *c, const vt_image_u8 *i
     }
 }
 
+/* An output with nothing measured (its id aside). */
+static void vt__out_clear(vt_ttc_out *o)
+{
+    o->flags = 0;
+    o->blocks = 0;
+    o->matched = 0;
+    o->pairs = 0;
+    o->scale = 0;
+    o->ttc = 0;
+    o->lag = 0;
+}
+
+/* The slot of id, or NULL. */
+static vt_ttc_track *vt__slot_of(vt_ttc_state *st, int32_t id)
+{
+    int32_t k;
+    for (k = 0; k < VT_TTC_TRACKS; k++) {
+        if (st->t[k].id == id) {
+            return &st->t[k];
+        }
+    }
+    return NULL;
+}
+
+/* Priority order of live tracks: larger box bottom first (nearer on a flat road), then
+ * the earlier in input order. 1 if track i comes before track j. */
+static int32_t vt__before(const vt_track_out *tracks, int32_t i, int32_t j)
+{
+    return tracks[i].box.bottom > tracks[j].box.bottom ||
+           (tracks[i].box.bottom == tracks[j].box.bottom && i < j);
+}
+
+/* Give slots to the tracks without one, nearest first (vt_ttc_step's rule). The next
+ * candidate is the first, in priority order, after the previous one, so no mark per
+ * track is needed; once a candidate gets no slot, no later one can (free slots are
+ * gone and every later one is at most as near), which bounds the picks by
+ * 2 VT_TTC_TRACKS + 1. Returns 1 if a live track was left without a slot. */
+static int32_t vt__assign_nearest(vt_ttc_state *st, const vt_track_out *tracks, int32_t n_tracks,
+                                  int32_t margin)
+{
+    int32_t prev = -1, i, k;
+    for (;;) {
+        int32_t cand = -1, far_i = -1;
+        vt_ttc_track *slot = NULL;
+        for (i = 0; i < n_tracks; i++) {
+            if (tracks[i].state == VT_TRACK_FREE || vt__slot_of(st, tracks[i].id) != NULL ||
+                (prev >= 0 && !vt__before(tracks, prev, i))) {
+                continue;
+            }
+            if (cand < 0 || vt__before(tracks, i, cand)) {
+                cand = i;
+            }
+        }
+        if (cand < 0) {
+            return 0;
+        }
+        prev = cand;
+        for (k = 0; k < VT_TTC_TRACKS && slot == NULL; k++) {
+            if (st->t[k].id == 0) {
+                slot = &st->t[k];
+            }
+        }
+        if (slot == NULL) {
+            /* the farthest owner: the last in priority order */
+            for (i = 0; i < n_tracks; i++) {
+                if (tracks[i].state != VT_TRACK_FREE && vt__slot_of(st, tracks[i].id) != NULL &&
+                    (far_i < 0 || vt__before(tracks, far_i, i))) {
+                    far_i = i;
+                }
+            }
+            if (far_i >= 0 && (int64_t)tracks[cand].box.bottom > (int64_t)tracks[far_i].box.bottom + margin) {
+                slot = vt__slot_of(st, tracks[far_i].id);
+            }
+        }
+        if (slot == NULL) {
+            return 1;
+        }
+        vt__slot_clear(slot, tracks[cand].id);
+    }
+}
+
 vt_status vt_ttc_step(vt_ttc_state *st, const vt_ttc_cfg *cfg, const vt_image_u8 *img,
                       const vt_track_out *tracks, int32_t n_tracks, vt_ttc_out *out,
                       int32_t out_cap, int32_t *n_out)
 {
-    int32_t i, k, written = 0, full = 0, inside;
+    int32_t i, k, written = 0, full = 0, inside, lag;
+    vt_q16 last;
     vt_status s;
     if (st == NULL || n_out == NULL || vt_ttc_cfg_check(cfg) != VT_OK || img == NULL ||
         n_tracks < 0 || (n_tracks > 0 && tracks == NULL) || out_cap < 0 ||
@@ -353,18 +517,17 @@ vt_status vt_ttc_step(vt_ttc_state *st, const vt_ttc_cfg *cfg, const vt_image_u8
             vt__slot_clear(&st->t[k], 0);
         }
     }
+    if (cfg->evict_margin_px >= 0) {
+        full = vt__assign_nearest(st, tracks, n_tracks, cfg->evict_margin_px);
+    }
     for (i = 0; i < n_tracks; i++) {
         vt_ttc_track *slot = NULL;
         vt_ttc_out o;
         if (tracks[i].state == VT_TRACK_FREE) {
             continue;
         }
-        for (k = 0; k < VT_TTC_TRACKS && slot == NULL; k++) {
-            if (st->t[k].id == tracks[i].id) {
-                slot = &st->t[k];
-            }
-        }
-        for (k = 0; k < VT_TTC_TRACKS && slot == NULL; k++) {
+        slot = vt__slot_of(st, tracks[i].id);
+        for (k = 0; k < VT_TTC_TRACKS && slot == NULL && cfg->evict_margin_px < 0; k++) {
             if (st->t[k].id == 0) {
                 slot = &st->t[k];
                 vt__slot_clear(slot, tracks[i].id);
@@ -375,19 +538,23 @@ vt_status vt_ttc_step(vt_ttc_state *st, const vt_ttc_cfg *cfg, const vt_image_u8
             continue;
         }
         o.id = tracks[i].id;
-        o.flags = 0;
-        o.blocks = 0;
-        o.matched = 0;
-        o.pairs = 0;
-        o.scale = 0;
-        o.ttc = 0;
+        vt__out_clear(&o);
         /* a box beyond +-32767 px is neither measured nor stored (keeps every product
          * of vt__predict below 2^40) */
         inside = VT__IN(tracks[i].box.left, -32768, 32767) && VT__IN(tracks[i].box.right, -32768, 32767) &&
                  VT__IN(tracks[i].box.top, -32768, 32767) && VT__IN(tracks[i].box.bottom, -32768, 32767);
-        if (inside && slot->n_hist >= cfg->lag) {
-            const vt_ttc_entry *e = &slot->e[(slot->head - cfg->lag + VT_TTC_HIST) % VT_TTC_HIST];
-            vt__measure(st, cfg, img, e, &tracks[i].box, &o);
+        last = slot->prior;
+        slot->prior = 0;
+        /* the longest lag that measures a scale: lag, else lag - 1 .. min_lag (a young
+         * track, or blocks lost over the full lag) */
+        for (lag = cfg->lag; inside && (lag == cfg->lag || lag >= cfg->min_lag) &&
+                              !(o.flags & VT_TTC_SCALE_VALID);
+             lag--) {
+            if (slot->n_hist >= lag) {
+                vt__out_clear(&o);
+                vt__measure(st, cfg, lag, last, img, slot,
+                            &slot->e[(slot->head - lag + VT_TTC_HIST) % VT_TTC_HIST], &tracks[i].box, &o);
+            }
         }
         vt__store(slot, cfg, img, &tracks[i].box, inside);
         if (written < out_cap) {

@@ -603,7 +603,7 @@ def range_step(st, cfg, cam, tp: int, ego_speed: int, tracks: np.ndarray) -> np.
 # ================================================================ ttc_scale.h
 TTC_OUT_DTYPE = np.dtype([("id", np.int32), ("flags", np.int32), ("blocks", np.int32),
                           ("matched", np.int32), ("pairs", np.int32), ("scale", np.int32),
-                          ("ttc", np.int32)])
+                          ("ttc", np.int32), ("lag", np.int32)])
 
 
 def ttc_cfg_default():

@@ -420,7 +420,8 @@ class ScaleTtc:
         self._n = _native
         self._c = _native.ffi.new("vt_ttc_cfg *")
         for f in ("block", "grid", "margin_permille", "radius", "min_texture", "max_sad", "lag",
-                  "min_pair_px", "min_pairs", "anchor_radius"):
+                  "min_pair_px", "min_pairs", "anchor_radius", "evict_margin_px",
+                  "prior_gate_permille", "min_lag", "min_match_permille"):
             v = getattr(p, f)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not -(2**31) <= v < 2**31:
                 raise ValueError(f"TtcScaleParams.{f}={v!r} must be an int32")
@@ -477,4 +478,5 @@ class ScaleTtc:
         return [TtcScaleOut(int(r["id"]),
                             float(r["scale"]) / Q16 if r["flags"] & L.VT_TTC_SCALE_VALID else None,
                             float(r["ttc"]) / Q16 if r["flags"] & L.VT_TTC_VALID else None,
-                            int(r["blocks"]), int(r["matched"]), int(r["pairs"])) for r in rows]
+                            int(r["blocks"]), int(r["matched"]), int(r["pairs"]), int(r["lag"]))
+                for r in rows]

@@ -50,7 +50,8 @@ ttc_points=True (or a dict of reference.ttc_scale.TtcScaleParams fields, e.g.
 blocks inside each track's box over `lag` frames) runs after the tracker on every frame
 (vt_pipeline_set_ttc_ws; its 113 KB state allocated here); Track.ttc_points is that TTC
 in s, None when unknown (fewer than lag frames, too few pairs, not closing, beyond
-ttc_max, or a track past the VT_TTC_TRACKS first). It needs no camera: frame_dt is 1/fps
+ttc_max, or a track without one of the VT_TTC_TRACKS slots, which go to the nearest
+tracks: TtcScaleParams.evict_margin_px). It needs no camera: frame_dt is 1/fps
 when fps is given, else the dict's frame_dt, else 0.1 s.
 """
 from __future__ import annotations

@@ -65,7 +65,7 @@ def test_c_matches_reference_on_kitti_clip():
     (a config the pipeline passes through) keeps the oracle's Python SAD search to a few
     seconds on 10 frames."""
     frames = _clip(10)
-    kw = dict(ttc_points={"lag": 3}, fps=10)
+    kw = dict(ttc_points={"lag": 3, "min_lag": 3}, fps=10)   # no shorter fallback: see the bound
     a, b = Pipeline("c", **kw), Pipeline("reference", **kw)
     known = 0
     for i, f in enumerate(frames):
@@ -112,7 +112,8 @@ def test_c_matches_reference_on_a_zoom(seed, rate, lag, grid, min_pair):
     same tracks, TTC within the bound, and near the truth once measured (see below)."""
     n = lag + 4
     frames, boxes = zoom_sequence(seed, rate, n)
-    kw = dict(sources=(), ttc_points={"lag": lag, "grid": grid, "min_pair_px": min_pair, "min_pairs": 3},
+    kw = dict(sources=(), ttc_points={"lag": lag, "min_lag": lag, "grid": grid, "min_pair_px": min_pair,
+                                      "min_pairs": 3},
               fps=10)
     a, b = Pipeline("c", **kw), Pipeline("reference", **kw)
     for k, (f, bx) in enumerate(zip(frames, boxes)):

@@ -87,16 +87,16 @@ def test_c_matches_oracle(seed, rate, lag, grid, block, radius, jitter, min_pair
             b = [b[0], b[1] + 7, b[2], b[3] + 7]  # a box jump, as on a detection frame
         (a,) = c.step(f, [(7, b)])
         (o,) = r.step(f, [(7, b)])
-        assert (a.id, a.blocks, a.matched, a.pairs) == (o.id, o.blocks, o.matched, o.pairs)
+        assert (a.id, a.blocks, a.matched, a.pairs, a.lag) == (o.id, o.blocks, o.matched, o.pairs, o.lag)
         assert (a.scale is None) == (o.scale is None)
         if a.scale is not None:
             assert abs(a.scale - o.scale) <= tol, (k, a, o)
         if a.ttc is not None:
-            s_c = a.scale
-            assert abs(a.ttc - lag * c.params.frame_dt / (s_c - 1)) <= 1.0 / Q * (1 + 1e-9)
+            s_c = a.scale   # over a.lag frames: lag, or a shorter fallback (min_lag)
+            assert abs(a.ttc - a.lag * c.params.frame_dt / (s_c - 1)) <= 1.0 / Q * (1 + 1e-9)
             if o.ttc is not None:
                 # propagated: d ttc = lag dt ds / (s - 1)^2
-                assert abs(a.ttc - o.ttc) <= lag * 0.1 * tol / ((min(s_c, o.scale) - 1 - tol) ** 2) + 2 / Q
+                assert abs(a.ttc - o.ttc) <= a.lag * 0.1 * tol / ((min(s_c, o.scale) - 1 - tol) ** 2) + 2 / Q
 
 
 @pytest.mark.parametrize("engine", ["c", "reference"])
@@ -108,7 +108,7 @@ def test_scale_is_measured(engine, rate):
     lag = 4
     scales = [0.8 * (1 + rate) ** k for k in range(8)]
     frames, boxes = zoom_frames(3, scales, drift=(0.7, 0.3))
-    est = ScaleTtc(10, engine=engine, lag=lag)
+    est = ScaleTtc(10, engine=engine, lag=lag, min_lag=lag)   # no shorter fallback here
     got = [est.step(f, [(1, b)])[0] for f, b in zip(frames, boxes)]
     assert all(g.scale is None for g in got[:lag])
     for g in got[lag:]:

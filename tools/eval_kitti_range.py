@@ -39,6 +39,13 @@ vt_pipeline_step (Tracker(ttc_points=True): vt_pipeline_set_ttc_ws, "TTC block s
 which must agree frame by frame (printed). Each against the lidar TTC of the issue (5-frame centred fit), and for
 diagnosis against a trailing 5-frame fit (t-4..t, what a causal estimate can know) and a
 9-frame centred fit (less lidar noise); "lidar p05 vs lidar min" is the lidar's own spread.
+
+The last lines ("tune_0_38", "held_out_39_77", "all") put the block TTC with its current
+defaults (nearest-track slots, scale prior past a 10 % gate, fallback lags down to 2, no
+scale when fewer than half the blocks match: chosen on frames 0-38) beside the same stage
+with the earlier defaults (EARLIER_POINTS, the README's earlier figures), with the number of
+lidar-TTC frames that have a block TTC, and the lidar's 9-frame fit scored against its own
+5-frame TTC: what a perfectly smooth estimate would score against this truth.
 """
 from __future__ import annotations
 
@@ -238,6 +245,40 @@ def summarise(rows) -> dict:
     return out
 
 
+# The block-scale TTC's settings before the slot, prior, fallback-lag and matched-share
+# rules (vt_ttc_cfg's evict_margin_px, prior_gate_permille, min_lag, min_match_permille):
+# the README's earlier figures come from these.
+EARLIER_POINTS = dict(evict_margin_px=-1, prior_gate_permille=-1, min_lag=5, min_match_permille=0)
+
+
+def points_compare(frames, points, points_old, lid_min: np.ndarray) -> dict:
+    """The block TTC with the current defaults and with EARLIER_POINTS, per part of the
+    split (frames 0-38 tune, 39-77 held out, all): median / P95 abs. rel. error against the
+    5-frame lidar TTC and how many of its frames have a block TTC; and the lidar's own
+    9-frame fit against its 5-frame TTC (the truth's noise floor for a smooth estimate)."""
+    n = len(frames)
+    tl = lidar_ttc(lid_min, 1.0 / FPS)
+    t9 = lidar_ttc(lid_min, 1.0 / FPS, half=4)
+
+    def lead(pts):
+        return np.array([np.nan if fr["lead"] is None or pts[i].get(fr["lead"]) is None
+                         or pts[i][fr["lead"]].ttc is None else pts[i][fr["lead"]].ttc
+                         for i, fr in enumerate(frames)])
+    cur, old = lead(points), lead(points_old)
+    lags = [None if fr["lead"] is None or points[i].get(fr["lead"]) is None else points[i][fr["lead"]].lag
+            for i, fr in enumerate(frames)]
+    out = {}
+    for name, sl in (("tune_0_38", slice(0, n // 2)), ("held_out_39_77", slice(n // 2, n)), ("all", slice(0, n))):
+        ok = np.isfinite(tl[sl])
+        out[name] = {"lidar_ttc_frames": int(ok.sum()),
+                     "block_ttc_rel": stats((cur[sl] - tl[sl]) / tl[sl]),
+                     "block_ttc_earlier_rel": stats((old[sl] - tl[sl]) / tl[sl]),
+                     "block_ttc_vs_lidar9_rel": stats((cur[sl] - t9[sl]) / t9[sl]),
+                     "lidar9_vs_lidar5_rel": stats((t9[sl] - tl[sl]) / tl[sl]),
+                     "fallback_lag_frames": int(sum(1 for v in lags[sl] if v is not None and 0 < v < 5))}
+    return out
+
+
 def plot(rows, summary, path: Path) -> None:
     import matplotlib
     matplotlib.use("Agg")
@@ -302,6 +343,7 @@ def main(argv=None) -> int:
         return 2
     frames, size = collect(a.data, a.engine)
     points = points_ttc(a.engine, frames)
+    points_old = points_ttc(a.engine, frames, **EARLIER_POINTS)
     tuning = {}
     offset, height = a.rear_offset, a.bottom_height
     if offset is None:
@@ -321,6 +363,8 @@ def main(argv=None) -> int:
     sums["height"]["bottom_height_m"] = height
     s, rows = sums[a.model], models[a.model]
     s["model"] = (f"rear_offset {offset} m" if a.model == "offset" else f"bottom_height {height} m")
+    s["block_ttc_split"] = points_compare(frames, points, points_old,
+                                          np.array([r["lidar_min_m"] for r in rows]))
     a.json.write_text(json.dumps({"engine": a.engine, "model": a.model, "summary": s,
                                   "summaries": sums, "tuning": tuning or None,
                                   "summary_eq1_as_is": base, "per_frame": rows}, indent=1))
@@ -354,6 +398,14 @@ def main(argv=None) -> int:
                   f"distance/rate ({a.model}) {f(t['ttc_dist_rel'])}; box scale {f(t['ttc_scale_rel'])}; "
                   f"block scale {f(t['ttc_points_rel'])}")
         print(f"[{a.engine}] {name}: lidar p05 vs lidar min, 5-frame TTC: {f(x['lidar_p05_vs_min_ttc_rel'])}")
+    lid_min = np.array([r["lidar_min_m"] for r in rows])
+    pc = points_compare(frames, points, points_old, lid_min)
+    for name, x in pc.items():
+        print(f"[{a.engine}] {name}: TTC block scale (defaults) {f(x['block_ttc_rel'])} of "
+              f"{x['lidar_ttc_frames']} lidar-TTC frames ({x['fallback_lag_frames']} frames over a shorter "
+              f"lag); earlier defaults {f(x['block_ttc_earlier_rel'])}; vs lidar 9-frame fit "
+              f"{f(x['block_ttc_vs_lidar9_rel'])}; lidar 9-frame fit vs 5-frame TTC (noise floor) "
+              f"{f(x['lidar9_vs_lidar5_rel'])}")
     print(f"[{a.engine}] lead tracked in {s['lead_tracked']}/{s['frames']} frames; distance from the "
           f"learnt width in {s['from_width_frames']}; pitch {s['pitch_deg']}")
     return 0

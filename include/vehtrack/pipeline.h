@@ -18,7 +18,7 @@
  * capacities, 568,488 at VGA), the overtaking stage's vt_flow_state
  * (vt_pipeline_set_flow_ws; 1,917,112 / 592,312) and the vehicle model's vt_model_ws
  * (vt_pipeline_set_model_ws; 416,760), and the block-scale TTC's vt_ttc_state
- * (vt_pipeline_set_ttc_ws; 113,048 at the defaults). Work: the stages' own (see their headers);
+ * (vt_pipeline_set_ttc_ws; 113,064 at the defaults). Work: the stages' own (see their headers);
  * detection runs only every detect_every frames, the flow stage on every frame, the
  * vehicle model at most model_fits times per frame. Stack: measured in firmware_demo/
  * (`stack step`: 3.5 KB on the Cortex-M3 with every source on, the vehicle model
@@ -305,7 +305,8 @@ typedef struct {
                               VT_TTC_VALID), VT_UNKNOWN when not known: no state attached
                               (vt_pipeline_set_ttc_ws), fewer than cfg.ttc.lag frames of
                               the track, too few pairs, not closing, beyond ttc_max, or
-                              the track beyond the VT_TTC_TRACKS first of the output */
+                              a track without one of the VT_TTC_TRACKS slots (they go to
+                              the nearest tracks: vt_ttc_cfg.evict_margin_px) */
 } vt_pipe_track;
 
 /* One frame's results, all in the pixels of the frame given to vt_pipeline_step. */
@@ -459,7 +460,7 @@ vt_status vt_pipeline_set_flow_ws(vt_pipeline *p, vt_flow_state *st);
 vt_status vt_pipeline_set_model_ws(vt_pipeline *p, vt_model_ws *ws);
 
 /* Attach the caller's state of the block-scale TTC (vehtrack/ttc_scale.h; sizeof
- * (vt_ttc_state), 113,048 bytes on x86-64 at the default VT_TTC_* capacities, which is
+ * (vt_ttc_state), 113,064 bytes on x86-64 at the default VT_TTC_* capacities, which is
  * why it is not in vt_pipeline; a firmware build lowers VT_TTC_TRACKS). It is emptied
  * here (vt_ttc_init) and then holds the tracks' past blocks: it must outlive the run and
  * serve one pipeline only. Call after vt_pipeline_init (which detaches it); st NULL
@@ -468,10 +469,12 @@ vt_status vt_pipeline_set_model_ws(vt_pipeline *p, vt_model_ws *ws);
  * Policy (vt_pipeline_step): with the state attached and the tracker on, vt_ttc_step
  * runs on every frame after the tracker (and the camera stage) with cfg.ttc, the frame
  * and the tracker's live tracks in output order (every state); it needs no camera (only
- * cfg.ttc.frame_dt). Its TTC is each output track's ttc_points_q16. Only the first
- * VT_TTC_TRACKS tracks of the output get a slot (the others VT_UNKNOWN; that capacity
- * is not an error of the step); a track keeps its slot while its id stays live. A frame
- * of another size restarts it (vt_ttc_step's rule). */
+ * cfg.ttc.frame_dt). Its TTC is each output track's ttc_points_q16. VT_TTC_TRACKS
+ * tracks get a slot (the others VT_UNKNOWN; that capacity is not an error of the step):
+ * by default the nearest (lowest box bottom), a slot staying with its track until one
+ * more than cfg.ttc.evict_margin_px rows lower needs it (evict_margin_px -1: the first
+ * in output order, kept while the id lives). A frame of another size restarts it
+ * (vt_ttc_step's rule). */
 vt_status vt_pipeline_set_ttc_ws(vt_pipeline *p, vt_ttc_state *st);
 
 /* The ego vehicle's speed for the next steps (the camera stage's lead class), Q16

@@ -22,6 +22,10 @@ typedef struct vt_ttc_cfg {
     vt_q16 frame_dt;
     vt_q16 ttc_max;
     int32_t anchor_radius;
+    int32_t evict_margin_px;
+    int32_t prior_gate_permille;
+    int32_t min_lag;
+    int32_t min_match_permille;
 } vt_ttc_cfg;
 
 typedef struct vt_ttc_state { ...; } vt_ttc_state;
@@ -34,6 +38,7 @@ typedef struct vt_ttc_out {
     int32_t pairs;
     vt_q16 scale;
     vt_q16 ttc;
+    int32_t lag;
 } vt_ttc_out;
 
 vt_status vt_ttc_cfg_default(vt_ttc_cfg *cfg);

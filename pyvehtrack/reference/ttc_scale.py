@@ -16,6 +16,14 @@ For every track, every frame:
      then) of their distance now / their distance then;
   4. TTC = lag dt / (s - 1) (d ~ 1/s for a rigid rear face seen head on, so at a constant
      closing speed d_t = d_{t-lag} - lag dt v and d_t / v = lag dt / (s - 1)).
+Around that: fewer than min_match_permille of the blocks matched gives no scale (their
+windows were misplaced); no scale over `lag` frames (a young track, lost blocks) tries
+lag - 1 .. min_lag; when the box's size ratio over the lag is more than
+prior_gate_permille away from the track's last coarse scale (the median ratio of its
+integer matches, an exact integer rule), that scale places the windows instead of the box
+(a detection re-fit, a box cut by the frame's edge); only `capacity` tracks are measured,
+the nearest (largest box bottom), a slot changing hands only to a track more than
+evict_margin_px rows nearer.
 
 The block choice, the predicted window and the integer SAD search are integer rules shared
 with C exactly (same candidates, same ties: first in raster order); only the sub-pixel
@@ -44,6 +52,17 @@ class TtcScaleParams:
     ttc_max: float = 20.0     # s; a larger TTC (or s <= 1: not closing) is "no TTC", (0, 1000]
     anchor_radius: int = 12   # 0, or radius+1..48: ANCHORS blocks searched over +-this first;
     #                           the lower median of their offsets moves every block's window
+    evict_margin_px: int = 8  # -1: slots stay with their tracks, given in input order; 0..4096:
+    #                           nearest tracks first (largest box bottom), and a track takes the
+    #                           farthest owner's slot when its bottom is more than this lower
+    prior_gate_permille: int = 100  # -1: blocks always predicted with the box's size change;
+    #                           0..1000: with the track's last coarse scale (integer match
+    #                           positions) when the box's size ratio differs from it by more
+    #                           than this many thousandths of it (a re-fit jump)
+    min_lag: int = 2          # 1..HIST-1 (>= lag: none): no scale over `lag` frames (a young track, lost blocks):
+    #                           the longest shorter lag down to this that gives one
+    min_match_permille: int = 500  # fewer matched blocks than this share (1/1000) of those
+    #                           searched: no scale (misplaced windows), the fallback lags try
 
 
 @dataclass
@@ -54,6 +73,7 @@ class TtcScaleOut:
     blocks: int               # blocks searched (stored lag frames ago)
     matched: int              # of them matched
     pairs: int                # pairs used for the median
+    lag: int = 0              # frames the scale spans (lag, or a shorter fallback; 0: none)
 
 
 @dataclass
@@ -67,9 +87,11 @@ class _Entry:
 class _Slot:
     id: int
     ring: list = field(default_factory=list)   # newest last
+    prior: int = 0                              # coarse scale of the last measurement, Q16 (0: none)
 
 
 ANCHORS = 4                      # blocks k n / 4, k = 0..3 (VT_TTC_ANCHORS)
+Q16 = 65536
 R2_MAX = (2**31 - 1) / 2**16    # the C core saturates a squared ratio there (s = 181)
 BOX_LIM = 32767                   # boxes with a coordinate beyond +-this are not measured
 
@@ -106,13 +128,16 @@ def textured(p: TtcScaleParams, blk: np.ndarray) -> bool:
     return int(np.abs(np.diff(b, axis=1)).sum()) >= need and int(np.abs(np.diff(b, axis=0)).sum()) >= need
 
 
-def predict(p: TtcScaleParams, old_box, new_box, x: int, y: int) -> tuple[int, int]:
+def predict(p: TtcScaleParams, old_box, new_box, x: int, y: int, prior: int = 0) -> tuple[int, int]:
     """Where the block at (x, y) in old_box should be in new_box: moved with the box's
-    centre and scaled about it by (w + h) new / (w + h) old, rounded half away from zero."""
+    centre and scaled about it by (w + h) new / (w + h) old, or by prior / 2^16 when a prior
+    scale (Q16, an exact integer) is given, rounded half away from zero."""
     lo, to, ro, bo = old_box
     ln, tn, rn, bn = new_box
     so = (ro - lo + 1) + (bo - to + 1)
     sn = (rn - ln + 1) + (bn - tn + 1)
+    if prior > 0:
+        so, sn = Q16, prior
     cxo, cyo, cxn, cyn = lo + ro, to + bo, ln + rn, tn + bn   # 2 x centre
     px = x + div_round((cxn - cxo) * so + (2 * x + p.block - 1 - cxo) * (sn - so), 2 * so)
     py = y + div_round((cyn - cyo) * so + (2 * y + p.block - 1 - cyo) * (sn - so), 2 * so)
@@ -145,7 +170,7 @@ def search(p: TtcScaleParams, img: np.ndarray, tmpl: np.ndarray, px: int, py: in
 
 
 def match(p: TtcScaleParams, img: np.ndarray, tmpl: np.ndarray, px: int, py: int):
-    """The block's match in sub-pixel (x, y), or None."""
+    """The block's match: (sub-pixel x, y, integer x, y), or None."""
     r = search(p, img, tmpl, px, py, p.radius)
     if r is None:
         return None
@@ -161,7 +186,7 @@ def match(p: TtcScaleParams, img: np.ndarray, tmpl: np.ndarray, px: int, py: int
         return max(-0.5, min(0.5, (sm - sp) / (2.0 * den)))
     ox = sub(sad[(dx - 1, dy)], sad[(dx + 1, dy)])
     oy = sub(sad[(dx, dy - 1)], sad[(dx, dy + 1)])
-    return px + dx + ox, py + dy + oy
+    return px + dx + ox, py + dy + oy, px + dx, py + dy
 
 
 def scale_of(p: TtcScaleParams, old_pos, new_pos):
@@ -183,6 +208,51 @@ def scale_of(p: TtcScaleParams, old_pos, new_pos):
     return math.sqrt(ratios[(len(ratios) - 1) // 2]), len(ratios)   # the lower median
 
 
+def prior_of(p: TtcScaleParams, old_pos, new_int) -> int:
+    """The coarse scale that steers the next frame's search: the lower median over the same
+    pairs of the squared ratios of the integer match positions, each rounded to Q16
+    (saturated at 2^31 - 1), floor(sqrt(median 2^16)); an exact integer (Q16), 0 (none)
+    with fewer than min_pairs pairs or outside [1/2, 2]."""
+    r2 = []
+    n = len(old_pos)
+    for i in range(n):
+        for j in range(i + 1, n):
+            if new_int[i] is None or new_int[j] is None:
+                continue
+            d0 = (old_pos[i][0] - old_pos[j][0]) ** 2 + (old_pos[i][1] - old_pos[j][1]) ** 2
+            if d0 < p.min_pair_px ** 2:
+                continue
+            d1 = (new_int[i][0] - new_int[j][0]) ** 2 + (new_int[i][1] - new_int[j][1]) ** 2
+            r2.append(min(div_round(d1 * Q16, d0), 2**31 - 1))
+    if len(r2) < p.min_pairs:
+        return 0
+    r2.sort()
+    s = math.isqrt(r2[(len(r2) - 1) // 2] * Q16)
+    return s if Q16 // 2 <= s <= 2 * Q16 else 0
+
+
+def assign_nearest(slots: list, capacity: int, tracks, margin: int) -> None:
+    """Slots for tracks without one, nearest first (largest box bottom, then input order):
+    a free slot, else the farthest owner's (smallest bottom, then later in input order)
+    when the track's bottom is more than `margin` rows lower; the first track that gets
+    none ends it (no later one could)."""
+    order = sorted(range(len(tracks)), key=lambda i: (-tracks[i][1][3], i))
+    rank = {tracks[i][0]: r for r, i in enumerate(order)}
+    bottom = {tid: box[3] for tid, box in tracks}
+    for i in order:
+        tid = tracks[i][0]
+        if any(s.id == tid for s in slots):
+            continue
+        if len(slots) < capacity:
+            slots.append(_Slot(tid))
+            continue
+        far = max(slots, key=lambda s: rank[s.id])
+        if bottom[tid] > bottom[far.id] + margin:
+            slots[slots.index(far)] = _Slot(tid)
+            continue
+        return
+
+
 class TtcScaleTracker:
     """Per track id (ids absent in a frame are forgotten), at most `capacity` tracks."""
 
@@ -200,39 +270,28 @@ class TtcScaleTracker:
             self.slots, self.size = [], (w, h)
         ids = [int(t) for t, _ in tracks]
         self.slots = [s for s in self.slots if s.id in ids]
+        if p.evict_margin_px >= 0:
+            assign_nearest(self.slots, self.capacity, [(int(t), tuple(int(v) for v in b)) for t, b in tracks],
+                           p.evict_margin_px)
         out = []
         for tid, box in tracks:
             box = tuple(int(v) for v in box)
             slot = next((s for s in self.slots if s.id == tid), None)
             if slot is None:
-                if len(self.slots) >= self.capacity:
+                if len(self.slots) >= self.capacity or p.evict_margin_px >= 0:
                     continue
                 slot = _Slot(tid)
                 self.slots.append(slot)
-            scale, ttc, nb, nm, npairs = None, None, 0, 0, 0
             inside = all(-BOX_LIM - 1 <= v <= BOX_LIM for v in box)
-            if inside and len(slot.ring) >= p.lag:
-                e = slot.ring[-p.lag]
-                n = len(e.pos)
-                offs = []
-                for k in range(ANCHORS if p.anchor_radius and n else 0):
-                    i = k * n // ANCHORS
-                    if k > 0 and i == (k - 1) * n // ANCHORS:
-                        continue
-                    r = search(p, grey, e.tmpl[i], *predict(p, e.box, box, *e.pos[i]), p.anchor_radius)
-                    if r is not None:
-                        offs.append(r[:2])
-                ox = sorted(o[0] for o in offs)[(len(offs) - 1) // 2] if offs else 0
-                oy = sorted(o[1] for o in offs)[(len(offs) - 1) // 2] if offs else 0
-                new = []
-                for (x, y), tm in zip(e.pos, e.tmpl):
-                    px, py = predict(p, e.box, box, x, y)
-                    new.append(match(p, grey, tm, px + ox, py + oy))
-                nb, nm = len(e.pos), sum(v is not None for v in new)
-                scale, npairs = scale_of(p, e.pos, new)
-                if scale is not None and scale > 1.0:
-                    t = p.lag * p.frame_dt / (scale - 1.0)
-                    ttc = t if t <= p.ttc_max else None
+            last, slot.prior = slot.prior, 0
+            res = (None, None, 0, 0, 0, 0)
+            # the longest lag, from `lag` down to min_lag, that measures a scale
+            for lag in range(p.lag, min(p.min_lag, p.lag) - 1, -1):
+                if res[0] is not None or not inside:
+                    break
+                if len(slot.ring) >= lag:
+                    res = self._measure(grey, slot, slot.ring[-lag], box, lag, last)
+            scale, ttc, nb, nm, npairs, used = res
             pos, tmpl = [], []
             for x, y in (grid_blocks(p, box, w, h) if inside else []):
                 blk = grey[y:y + p.block, x:x + p.block]
@@ -242,5 +301,43 @@ class TtcScaleTracker:
             slot.ring.append(_Entry(box, pos, tmpl))
             if len(slot.ring) > self.hist:
                 slot.ring.pop(0)
-            out.append(TtcScaleOut(tid, scale, ttc, nb, nm, npairs))
+            out.append(TtcScaleOut(tid, scale, ttc, nb, nm, npairs, used))
         return out
+
+    def _measure(self, grey, slot, e, box, lag, last):
+        """Blocks of entry e (lag frames old) matched in grey: (scale, ttc, blocks, matched,
+        pairs, lag). With lag == p.lag the slot's prior for the next frame is set."""
+        p = self.p
+        n = len(e.pos)
+        so = (e.box[2] - e.box[0] + 1) + (e.box[3] - e.box[1] + 1)
+        sn = (box[2] - box[0] + 1) + (box[3] - box[1] + 1)
+        # the box's size ratio sn / so against the prior: it steps in only past the gate
+        prior = 0
+        if p.prior_gate_permille >= 0 and last > 0 and lag == p.lag and \
+                abs(sn * Q16 - last * so) * 1000 > p.prior_gate_permille * last * so:
+            prior = last
+        offs = []
+        for k in range(ANCHORS if p.anchor_radius and n else 0):
+            i = k * n // ANCHORS
+            if k > 0 and i == (k - 1) * n // ANCHORS:
+                continue
+            r = search(p, grey, e.tmpl[i], *predict(p, e.box, box, *e.pos[i], prior), p.anchor_radius)
+            if r is not None:
+                offs.append(r[:2])
+        ox = sorted(o[0] for o in offs)[(len(offs) - 1) // 2] if offs else 0
+        oy = sorted(o[1] for o in offs)[(len(offs) - 1) // 2] if offs else 0
+        new = []
+        for (x, y), tm in zip(e.pos, e.tmpl):
+            px, py = predict(p, e.box, box, x, y, prior)
+            new.append(match(p, grey, tm, px + ox, py + oy))
+        nm = sum(v is not None for v in new)
+        if nm * 1000 < p.min_match_permille * n:   # most blocks lost: nothing trusted
+            return None, None, n, nm, 0, lag
+        scale, npairs = scale_of(p, e.pos, [None if v is None else v[:2] for v in new])
+        if p.prior_gate_permille >= 0 and lag == p.lag:
+            slot.prior = prior_of(p, e.pos, [None if v is None else v[2:] for v in new])
+        ttc = None
+        if scale is not None and scale > 1.0:
+            t = lag * p.frame_dt / (scale - 1.0)
+            ttc = t if t <= p.ttc_max else None
+        return scale, ttc, n, nm, npairs, lag
