@@ -529,10 +529,26 @@ vt_status vt_fulldet_wide_cfg_check(const vt_fulldet_wide_cfg *cfg)
         cfg->veh_w_min_mm > cfg->veh_w_max_mm || cfg->box_height_permille < 1 ||
         cfg->box_height_permille > 1000 || cfg->nms_iou_permille < 0 ||
         cfg->nms_iou_permille > 1000 || cfg->nms_contain_permille < 0 ||
-        cfg->nms_contain_permille > 1000) {
+        cfg->nms_contain_permille > 1000 || cfg->alt_height_a_permille < 0 ||
+        cfg->alt_height_a_permille > 1000 || cfg->alt_height_b_permille < 0 ||
+        cfg->alt_height_b_permille > 1000) {
         return VT_E_ARG;
     }
     return VT_OK;
+}
+
+/* The wide box of window wn cut to height_pm permille of its span (fulldet.h): bottom
+ * row kept, height max(1, floor(span * height_pm / 1000)) exact in int64, clipped to
+ * the frame. */
+static void vt__wide_box(const vt_window *wn, int32_t height_pm, const vt_image_u8 *img, vt_box *b)
+{
+    int32_t span = wn->size << wn->level;
+    int32_t bh = (int32_t)(((int64_t)span * height_pm) / 1000);
+    bh = bh < 1 ? 1 : bh;
+    b->left = wn->x << wn->level;
+    b->right = vt__clamp_i32(((wn->x + wn->size) << wn->level) - 1, 0, img->w - 1);
+    b->bottom = vt__clamp_i32(((wn->y + wn->size) << wn->level) - 1, 0, img->h - 1);
+    b->top = vt__clamp_i32(b->bottom - bh + 1, 0, b->bottom);
 }
 
 /* 1 if a and b overlap past the wide pass's limits (fulldet.h): inter * 1000 >
@@ -603,17 +619,32 @@ vt_status vt_fulldet_wide(vt_fulldet_state *st, vt_cls_box_ws *ws, const vt_full
         n = n > VT_FULLDET_MAX_WINDOWS ? VT_FULLDET_MAX_WINDOWS : n;
         for (i = 0; i < n; ++i) {
             const vt_window *wn = &st->win[i];
-            int32_t span = wn->size << wn->level, sc = 0, bh;
+            int32_t sc = 0, k;
+            int gate;
             vt_box b;
-            bh = (int32_t)(((int64_t)span * wc->box_height_permille) / 1000);
-            bh = bh < 1 ? 1 : bh;
-            b.left = wn->x << wn->level;
-            b.right = vt__clamp_i32(((wn->x + wn->size) << wn->level) - 1, 0, img->w - 1);
-            b.bottom = vt__clamp_i32(((wn->y + wn->size) << wn->level) - 1, 0, img->h - 1);
-            b.top = vt__clamp_i32(b.bottom - bh + 1, 0, b.bottom);
+            vt__wide_box(wn, wc->box_height_permille, img, &b);
             s = vt_classify_box_mlp(ws, m, img, &b, &sc);
             if (s != VT_OK) {
                 return s;
+            }
+            /* the aspect the wide model prefers: only windows past the gate pay for it */
+            gate = sc >= wc->alt_score_min;
+            for (k = 0; gate && k < 2; ++k) {
+                int32_t pm = k == 0 ? wc->alt_height_a_permille : wc->alt_height_b_permille;
+                int32_t sa = 0;
+                vt_box ba;
+                if (pm == 0) {
+                    continue;
+                }
+                vt__wide_box(wn, pm, img, &ba);
+                s = vt_classify_box_mlp(ws, m, img, &ba, &sa);
+                if (s != VT_OK) {
+                    return s;
+                }
+                if (sa > sc) {
+                    sc = sa;
+                    b = ba;
+                }
             }
             if (sc < wc->score_min) {
                 continue;

@@ -121,10 +121,11 @@ _SETTINGS = {"score_offset": (-32768.0, 32767.0), "box_height": (1 / 256, 4.0),
              "verify_min": (-32768.0, 32767.0), "veh_w_min": (0.1, 20.0), "veh_w_max": (0.1, 20.0),
              # the wide pass (WideConfig; used when the file holds a wide model)
              "wide_veh_w_min": (0.1, 20.0), "wide_veh_w_max": (0.1, 20.0),
-             "wide_score_min": (-32768.0, 32767.0)}
+             "wide_score_min": (-32768.0, 32767.0), "wide_alt_score_min": (-32768.0, 32767.0)}
 _FULLDET_PERMILLE = ("nms_iou_permille", "nms_contain_permille", "merge_iou_permille")   # FullDetConfig's
 _PERMILLE = _FULLDET_PERMILLE + ("wide_box_height_permille", "wide_nms_iou_permille",   # ints 0..1000
-                                 "wide_nms_contain_permille")
+                                 "wide_nms_contain_permille",
+                                 "wide_alt_height_a_permille", "wide_alt_height_b_permille")   # 0: unused
 
 
 def _settings(z, p) -> dict:
@@ -235,7 +236,10 @@ def wide_setup(model, cfg: "FullRoadConfig") -> "tuple[MlpModel, WideConfig] | N
                    box_height_permille=int(st.get("wide_box_height_permille", d.box_height_permille)),
                    score_min=int(round(float(st.get("wide_score_min", d.score_min / 65536)) * 65536)),
                    nms_iou_permille=int(st.get("wide_nms_iou_permille", d.nms_iou_permille)),
-                   nms_contain_permille=int(st.get("wide_nms_contain_permille", d.nms_contain_permille)))
+                   nms_contain_permille=int(st.get("wide_nms_contain_permille", d.nms_contain_permille)),
+                   alt_height_a_permille=int(st.get("wide_alt_height_a_permille", d.alt_height_a_permille)),
+                   alt_height_b_permille=int(st.get("wide_alt_height_b_permille", d.alt_height_b_permille)),
+                   alt_score_min=int(round(float(st.get("wide_alt_score_min", d.alt_score_min / 65536)) * 65536)))
     return wm, w
 
 
@@ -245,6 +249,8 @@ def wide_c_cfg(w: WideConfig):
     c.veh_w_min_mm, c.veh_w_max_mm = round(w.veh_w_min_m * 1000), round(w.veh_w_max_m * 1000)
     c.box_height_permille, c.score_min = w.box_height_permille, int(w.score_min)
     c.nms_iou_permille, c.nms_contain_permille = w.nms_iou_permille, w.nms_contain_permille
+    c.alt_height_a_permille, c.alt_height_b_permille = w.alt_height_a_permille, w.alt_height_b_permille
+    c.alt_score_min = int(w.alt_score_min)
     _native.check("vt_fulldet_wide_cfg_check", lib.vt_fulldet_wide_cfg_check(c), f"wide pass {w}")
     return c
 

@@ -112,6 +112,10 @@ class WideConfig:
     score_min: int = 0
     nms_iou_permille: int = 200
     nms_contain_permille: int = 500
+    # the aspect chosen by the wide model's score (vt_fulldet_wide_cfg.alt_*): 0, 0 = off
+    alt_height_a_permille: int = 0
+    alt_height_b_permille: int = 0
+    alt_score_min: int = 0
 
 
 @dataclass

@@ -267,8 +267,11 @@ vt_status vt_fulldet_verify(vt_cls_box_ws *ws, const vt_mlp_model *m, const vt_i
  * overlaps by the same test is appended to the result (source VT_SRC_WINDOW, score
  * the wide model's), while n_boxes < VT_MAX_BOXES: the wide boxes follow the
  * result's own, so the result is no longer sorted by one score.
+ * With alternative heights (alt_height_*: below) a window's box is the best-scoring
+ * of up to three heights before the score_min test.
  * Cost: one vt_classify_box_mlp per window (area resampling of the box from the
- * input image, HOG of the model window, the MLP); measured in bench/. */
+ * input image, HOG of the model window, the MLP), plus one per alternative height for
+ * each window over alt_score_min; measured in bench/. */
 typedef struct {
     int32_t veh_w_min_mm;        /* the wide grid's band, 100..20000 mm, min <= max */
     int32_t veh_w_max_mm;
@@ -276,17 +279,30 @@ typedef struct {
     int32_t score_min;           /* Q16 decision value of the wide model            */
     int32_t nms_iou_permille;    /* 0..1000                                         */
     int32_t nms_contain_permille;
+    /* The box aspect chosen by the wide model's score (0, 0: off, one aspect): a window
+     * whose box_height_permille box scores >= alt_score_min (Q16, a cascade gate, so
+     * that only the few promising windows pay for more scoring) also has its box scored
+     * at alt_height_a_permille and at alt_height_b_permille of its width (each 0: unused,
+     * else 1..1000; same bottom row, same cut at row 0); the window's box is the one of
+     * the highest score (ties: the earlier of box_height, a, b), and that score goes on
+     * to score_min. The model resamples every box to its window, so the score is the
+     * cue to the aspect: a box cut to the vehicle's own aspect looks most like the
+     * positives it was trained on. */
+    int32_t alt_height_a_permille;
+    int32_t alt_height_b_permille;
+    int32_t alt_score_min;
 } vt_fulldet_wide_cfg;
 
 /* Defaults: the band and box height tools/train_wide_mlp.py trains with (2-8 m, 0.4),
- * the model's own boundary (score 0) and the NMS limits of the window model's settings
- * (0.2 / 0.5). The threshold and NMS chosen on tusimple-vehicles-dev 'val' for the
+ * the model's own boundary (score 0), the NMS limits of the window model's settings
+ * (0.2 / 0.5) and one aspect (no alternative heights). The threshold and NMS chosen on tusimple-vehicles-dev 'val' for the
  * shipped wide model travel in its file (tests/data/window_mlp_hog32_wide.npz:
  * score 5.5, NMS 0.1 / 0.3). */
 #define VT_FULLDET_WIDE_CFG_DEFAULT                                                       \
     {                                                                                     \
         .veh_w_min_mm = 2000, .veh_w_max_mm = 8000, .box_height_permille = 400,          \
         .score_min = 0, .nms_iou_permille = 200, .nms_contain_permille = 500,            \
+        .alt_height_a_permille = 0, .alt_height_b_permille = 0, .alt_score_min = 0,      \
     }
 
 /* *cfg = VT_FULLDET_WIDE_CFG_DEFAULT. */

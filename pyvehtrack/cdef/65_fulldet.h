@@ -81,6 +81,9 @@ typedef struct {
     int32_t score_min;
     int32_t nms_iou_permille;
     int32_t nms_contain_permille;
+    int32_t alt_height_a_permille;
+    int32_t alt_height_b_permille;
+    int32_t alt_score_min;
 } vt_fulldet_wide_cfg;
 
 vt_status vt_fulldet_wide_cfg_default(vt_fulldet_wide_cfg *cfg);

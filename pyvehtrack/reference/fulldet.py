@@ -147,7 +147,9 @@ def wide(gray: np.ndarray, road, cam: rw.Camera, win, wcfg, score_box, boxes, *,
     """The wide pass (twin of vt_fulldet_wide, fulldet.h): boxes (N, 6) are the result
     so far; returns them followed by the wide boxes added. win: the WindowConfig of the
     main grid (its band replaced by wcfg's); wcfg: a shared.WideConfig; score_box(l, t,
-    r, b) -> int, the wide model's score of an input-pixel box."""
+    r, b) -> int, the wide model's score of an input-pixel box. With alternative heights
+    (wcfg.alt_height_*_permille) a window whose box scores >= wcfg.alt_score_min takes
+    the height its box scores highest at (ties: the earlier of base, a, b)."""
     from dataclasses import replace
     gray = np.asarray(gray, np.uint8)
     h, w = gray.shape
@@ -160,8 +162,18 @@ def wide(gray: np.ndarray, road, cam: rw.Camera, win, wcfg, score_box, boxes, *,
             lv, s, x, y = int(lv), int(s), int(x), int(y)
             span = s << lv
             b = min(((y + s) << lv) - 1, h - 1)
-            box = (x << lv, max(b - max(1, span * bh_pm // 1000) + 1, 0), min(((x + s) << lv) - 1, w - 1), b)
+
+            def cut(pm, span=span, b=b, x=x, s=s, lv=lv):   # the window's box at height pm / 1000
+                return (x << lv, max(b - max(1, span * pm // 1000) + 1, 0), min(((x + s) << lv) - 1, w - 1), b)
+            box = cut(bh_pm)
             sc = int(score_box(*box))
+            if sc >= wcfg.alt_score_min:   # the aspect the model prefers (strictly higher wins)
+                for pm in (wcfg.alt_height_a_permille, wcfg.alt_height_b_permille):
+                    if pm:
+                        alt = cut(pm)
+                        sa = int(score_box(*alt))
+                        if sa > sc:
+                            box, sc = alt, sa
             if sc < wcfg.score_min:
                 continue
             if len(cands) < max_cand:
