@@ -97,6 +97,7 @@ class FullDetConfig:
     nms_contain_permille: int = 699   # ... or whose intersection is above this / 1000 of the smaller box
     box_height: float = 192 / 256     # window box height / width (bottom row kept; C: Q8, may exceed 1)
     merge_iou_permille: int = 0       # 0: off; else each kept box -> mean of candidates with IoU >= this / 1000
+    rerank_permille: int = 0          # 0: off; else NMS ranks by score + this / 1000 x the second-stage score
 
 
 @dataclass(frozen=True)
