@@ -14,7 +14,7 @@ import cv2
 import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
-from test_fulldet_wide import DATA, MAXB, SRC, c_win, random_mlp, result_with, scene
+from test_fulldet_wide import DATA, MAXB, SRC, c_win, random_mlp, result_with, scene, with_wide
 
 from pyvehtrack import _native, fullroad
 from pyvehtrack._native import ffi, lib
@@ -153,3 +153,26 @@ def test_model_file_settings_are_checked(tmp_path, key, value):
     np.savez(p, **d)
     with pytest.raises(ValueError, match=key):
         fullroad.load_model(p)
+
+
+@pytest.mark.skipif(MAXW < 640 or MAXH < 360, reason="needs a build that takes 640x360 frames")
+def test_pipeline_and_detector_run_the_aspect_choice(tmp_path):
+    """Settings from the model file (wide_alt_*, rerank_permille too) reach vt_pipeline_step
+    and FullRoadDetector: C pipeline = reference pipeline = stand-alone detector (exact),
+    and the aspect choice changes the boxes against the same file without it."""
+    from pyvehtrack.pipeline import Pipeline
+    gray = cv2.imread(str(DATA / "udacity_test1_640x360.jpg"), cv2.IMREAD_GRAYSCALE)
+    st_ = {"wide_score_min": -0.5, "wide_alt_height_a_permille": 300, "wide_alt_height_b_permille": 550,
+           "wide_alt_score_min": -2.0, "rerank_permille": 250}
+    path = with_wide(tmp_path, settings=st_)
+    (tmp_path / "one").mkdir()   # the same wide model, one aspect
+    plain = with_wide(tmp_path / "one", settings={"wide_score_min": -0.5, "rerank_permille": 250})
+    kw = dict(sources=("shadow",), road="fixed", detect_every=1, track=False)
+    res = Pipeline("c", model=path, **kw).step(gray)
+    ref = Pipeline("reference", model=path, **kw).step(gray)
+    assert [(b.box, b.source, b.score) for b in res.boxes] == [(b.box, b.source, b.score) for b in ref.boxes]
+    alone = fullroad.FullRoadDetector(path, sources=("shadow",))
+    assert alone.wide[1].alt_height_a_permille == 300 and alone.det_cfg.rerank_permille == 250
+    assert res.box_array.tolist() == alone.detect_gray(gray)[:, :4].astype(int).tolist()
+    one = Pipeline("c", model=plain, **kw).step(gray)
+    assert res.box_array.tolist() != one.box_array.tolist()
