@@ -457,6 +457,26 @@ def _fullroad_detect(ctx: Ctx) -> Stage:
                       "skimage hog + sklearn LinearSVC on the same windows")
 
 
+@register("fullroad_mlp_wide", sizes=((1280, 720),), driver=False)
+def _fullroad_mlp_wide(ctx: Ctx) -> Stage:
+    """Whole-road detection in C with the opt-in tests/data/window_mlp_hog32_wide.npz and
+    the settings it carries (HOG 32 MLP windows, merge, re-ranking before NMS, second
+    stage, the wide pass with its aspect choice); no reference column (the oracle is exact
+    against C in tests/test_fulldet_wide*.py and tests/test_fulldet_rerank.py)."""
+    from pyvehtrack.fullroad import FullRoadDetector
+    img = ctx.frame
+    det = FullRoadDetector(str(ROOT / "tests" / "data" / "window_mlp_hog32_wide.npz"))
+    last = {}
+
+    def c():
+        last["boxes"] = det.detect_gray(img)
+
+    return Stage("fullroad_mlp_wide", c, None, pixels=img.size, calls=1,
+                 digest=lambda: digest(last["boxes"][:, :4]) if len(last.get("boxes", [])) else 0,
+                 note="C: vt_fulldet + vt_fulldet_rerank + vt_fulldet_verify + vt_fulldet_wide "
+                      "(window_mlp_hog32_wide.npz settings)")
+
+
 # ---------------------------------------------------------------- the tracker (issue 4)
 @register("track_frame")
 def _track_frame(ctx: Ctx) -> Stage:

@@ -34,7 +34,8 @@ vt_status vt_fulldet_cfg_check(const vt_fulldet_cfg *cfg)
         (cfg->shadow_classify & ~1) != 0 || cfg->nms_iou_permille < 0 ||
         cfg->nms_iou_permille > 1000 || cfg->nms_contain_permille < 0 ||
         cfg->nms_contain_permille > 1000 || cfg->box_height_q8 < 1 || cfg->box_height_q8 > 1024 ||
-        cfg->merge_iou_permille < 0 || cfg->merge_iou_permille > 1000) {
+        cfg->merge_iou_permille < 0 || cfg->merge_iou_permille > 1000 ||
+        cfg->rerank_permille < 0 || cfg->rerank_permille > 1000) {
         return VT_E_ARG;
     }
     return VT_OK;
@@ -86,6 +87,46 @@ static void vt__merge(const vt_scored_box *cand, int32_t n, int32_t merge, vt_sc
         m.bottom = vt__mean_round(sb, cnt);
         k->box = m;
     }
+}
+
+/* NMS over the candidates st->cand[0..out->n_cand-1] (vt_nms, in place), then the merge
+ * step on each kept box; out->box gets the first VT_MAX_BOXES of them. */
+static vt_status vt__nms_merge(vt_fulldet_state *st, const vt_fulldet_cfg *cfg,
+                               vt_fulldet_result *out)
+{
+    int32_t i, kept = 0;
+    vt_status s = vt_nms(st->cand, out->n_cand, cfg->nms_iou_permille, cfg->nms_contain_permille,
+                         &kept);
+    if (s != VT_OK) {
+        return s;
+    }
+    out->n_boxes = kept < VT_MAX_BOXES ? kept : VT_MAX_BOXES;
+    for (i = 0; i < out->n_boxes; ++i) {
+        out->box[i] = st->cand[i];
+        if (cfg->merge_iou_permille > 0) {
+            vt__merge(st->cand, out->n_cand, cfg->merge_iou_permille, &out->box[i]);
+        }
+    }
+    return VT_OK;
+}
+
+/* 1 if a goes before b in vt_fulldet_rerank's order: higher score, then smaller left,
+ * top, right, bottom. */
+static int vt__rank_before(const vt_scored_box *a, const vt_scored_box *b)
+{
+    if (a->score != b->score) {
+        return a->score > b->score;
+    }
+    if (a->box.left != b->box.left) {
+        return a->box.left < b->box.left;
+    }
+    if (a->box.top != b->box.top) {
+        return a->box.top < b->box.top;
+    }
+    if (a->box.right != b->box.right) {
+        return a->box.right < b->box.right;
+    }
+    return a->box.bottom < b->box.bottom;
 }
 
 /* Add a candidate; when full, it replaces the lowest-scoring one if it scores higher. */
@@ -284,22 +325,76 @@ vt_status vt_fulldet(vt_fulldet_state *st, const vt_fulldet_cfg *cfg, const vt_c
             vt__add(st, out, b, sc, VT_SRC_SHADOW);
         }
     }
-    /* merge */
-    {
-        int32_t kept = 0;
-        s = vt_nms(st->cand, out->n_cand, cfg->nms_iou_permille, cfg->nms_contain_permille, &kept);
+    return vt__nms_merge(st, cfg, out);
+}
+
+/* Re-ranking before NMS (fulldet.h, vt_fulldet_rerank): the second-stage model's
+ * score of each candidate joins its window score, so within a cluster the box the
+ * stronger model finds better aligned may win. */
+vt_status vt_fulldet_rerank(vt_fulldet_state *st, vt_cls_box_ws *ws, const vt_mlp_model *m,
+                            const vt_fulldet_cfg *cfg, const vt_image_u8 *img,
+                            vt_fulldet_result *res)
+{
+    vt_status s;
+    int32_t i, j, n;
+    if (st == NULL || ws == NULL || m == NULL || cfg == NULL || img == NULL || res == NULL) {
+        return VT_E_ARG;
+    }
+    s = vt_fulldet_cfg_check(cfg);
+    if (s == VT_OK) {
+        s = vt_mlp_model_check(m);
+    }
+    if (s == VT_OK) {
+        s = vt_image_u8_check(img);
+    }
+    if (s != VT_OK) {
+        return s;
+    }
+    n = res->n_cand;
+    if (n < 0 || n > VT_FULLDET_MAX_CAND) {
+        return VT_E_ARG;
+    }
+    for (i = 0; i < n; ++i) {
+        const vt_box *b = &st->cand[i].box;
+        if (b->left < 0 || b->top < 0 || b->left > b->right || b->top > b->bottom ||
+            b->right >= img->w || b->bottom >= img->h) {
+            return VT_E_ARG;
+        }
+    }
+    if (cfg->rerank_permille == 0) {
+        return VT_OK;
+    }
+    /* key = score + floor(rerank * v / 1000), saturated to int32 (exact in int64:
+     * |rerank * v| < 2^41) */
+    for (i = 0; i < n; ++i) {
+        vt_box sq = st->cand[i].box;
+        int32_t top = sq.bottom - (sq.right - sq.left), v = 0;
+        int64_t p, q, key;
+        sq.top = top > 0 ? top : 0;
+        s = vt_classify_box_mlp(ws, m, img, &sq, &v);
         if (s != VT_OK) {
             return s;
         }
-        out->n_boxes = kept < VT_MAX_BOXES ? kept : VT_MAX_BOXES;
-        for (i = 0; i < out->n_boxes; ++i) {
-            out->box[i] = st->cand[i];
-            if (cfg->merge_iou_permille > 0) {
-                vt__merge(st->cand, out->n_cand, cfg->merge_iou_permille, &out->box[i]);
-            }
+        p = (int64_t)cfg->rerank_permille * v;
+        q = p / 1000;
+        if (p % 1000 != 0 && p < 0) {
+            --q;
         }
+        key = (int64_t)st->cand[i].score + q;
+        st->cand[i].score = key > INT32_MAX ? INT32_MAX : (key < INT32_MIN ? INT32_MIN : (int32_t)key);
     }
-    return VT_OK;
+    /* one total order, whatever order the candidates are in (vt_nms left them permuted):
+     * key descending, then left, top, right, bottom ascending; vt_nms's stable sort keeps it */
+    for (i = 1; i < n; ++i) {
+        vt_scored_box t = st->cand[i];
+        j = i - 1;
+        while (j >= 0 && vt__rank_before(&t, &st->cand[j])) {
+            st->cand[j + 1] = st->cand[j];
+            --j;
+        }
+        st->cand[j + 1] = t;
+    }
+    return vt__nms_merge(st, cfg, res);
 }
 
 vt_status vt_fulldet_verify(vt_cls_box_ws *ws, const vt_mlp_model *m, const vt_image_u8 *img,
@@ -529,10 +624,26 @@ vt_status vt_fulldet_wide_cfg_check(const vt_fulldet_wide_cfg *cfg)
         cfg->veh_w_min_mm > cfg->veh_w_max_mm || cfg->box_height_permille < 1 ||
         cfg->box_height_permille > 1000 || cfg->nms_iou_permille < 0 ||
         cfg->nms_iou_permille > 1000 || cfg->nms_contain_permille < 0 ||
-        cfg->nms_contain_permille > 1000) {
+        cfg->nms_contain_permille > 1000 || cfg->alt_height_a_permille < 0 ||
+        cfg->alt_height_a_permille > 1000 || cfg->alt_height_b_permille < 0 ||
+        cfg->alt_height_b_permille > 1000) {
         return VT_E_ARG;
     }
     return VT_OK;
+}
+
+/* The wide box of window wn cut to height_pm permille of its span (fulldet.h): bottom
+ * row kept, height max(1, floor(span * height_pm / 1000)) exact in int64, clipped to
+ * the frame. */
+static void vt__wide_box(const vt_window *wn, int32_t height_pm, const vt_image_u8 *img, vt_box *b)
+{
+    int32_t span = wn->size << wn->level;
+    int32_t bh = (int32_t)(((int64_t)span * height_pm) / 1000);
+    bh = bh < 1 ? 1 : bh;
+    b->left = wn->x << wn->level;
+    b->right = vt__clamp_i32(((wn->x + wn->size) << wn->level) - 1, 0, img->w - 1);
+    b->bottom = vt__clamp_i32(((wn->y + wn->size) << wn->level) - 1, 0, img->h - 1);
+    b->top = vt__clamp_i32(b->bottom - bh + 1, 0, b->bottom);
 }
 
 /* 1 if a and b overlap past the wide pass's limits (fulldet.h): inter * 1000 >
@@ -603,17 +714,32 @@ vt_status vt_fulldet_wide(vt_fulldet_state *st, vt_cls_box_ws *ws, const vt_full
         n = n > VT_FULLDET_MAX_WINDOWS ? VT_FULLDET_MAX_WINDOWS : n;
         for (i = 0; i < n; ++i) {
             const vt_window *wn = &st->win[i];
-            int32_t span = wn->size << wn->level, sc = 0, bh;
+            int32_t sc = 0, k;
+            int gate;
             vt_box b;
-            bh = (int32_t)(((int64_t)span * wc->box_height_permille) / 1000);
-            bh = bh < 1 ? 1 : bh;
-            b.left = wn->x << wn->level;
-            b.right = vt__clamp_i32(((wn->x + wn->size) << wn->level) - 1, 0, img->w - 1);
-            b.bottom = vt__clamp_i32(((wn->y + wn->size) << wn->level) - 1, 0, img->h - 1);
-            b.top = vt__clamp_i32(b.bottom - bh + 1, 0, b.bottom);
+            vt__wide_box(wn, wc->box_height_permille, img, &b);
             s = vt_classify_box_mlp(ws, m, img, &b, &sc);
             if (s != VT_OK) {
                 return s;
+            }
+            /* the aspect the wide model prefers: only windows past the gate pay for it */
+            gate = sc >= wc->alt_score_min;
+            for (k = 0; gate && k < 2; ++k) {
+                int32_t pm = k == 0 ? wc->alt_height_a_permille : wc->alt_height_b_permille;
+                int32_t sa = 0;
+                vt_box ba;
+                if (pm == 0) {
+                    continue;
+                }
+                vt__wide_box(wn, pm, img, &ba);
+                s = vt_classify_box_mlp(ws, m, img, &ba, &sa);
+                if (s != VT_OK) {
+                    return s;
+                }
+                if (sa > sc) {
+                    sc = sa;
+                    b = ba;
+                }
             }
             if (sc < wc->score_min) {
                 continue;

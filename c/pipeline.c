@@ -553,6 +553,14 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
         return VT_OK;
     }
     s = vt_fulldet(&ws->st, &fc, &cam, frame, &out->road, &p->scorer, &ws->res);
+    if (s == VT_OK && fc.rerank_permille > 0) {
+        /* NMS again, ranked with the second stage's model too (fulldet.h) */
+        const vt_mlp_model *m = NULL;
+        s = vt_mlp_default_model(&m);
+        if (s == VT_OK) {
+            s = vt_fulldet_rerank(&ws->st, &ws->box, m, &fc, frame, &ws->res);
+        }
+    }
     if (s == VT_OK && p->cfg.verify) {
         const vt_mlp_model *m = NULL;
         s = vt_mlp_default_model(&m);

@@ -710,6 +710,14 @@ def fulldet_verify(ws, model, img: np.ndarray, score_min: int, out) -> np.ndarra
     return np.frombuffer(ffi.buffer(out.box), SCORED_BOX_DTYPE)[:out.n_boxes].copy()
 
 
+def fulldet_rerank(st, ws, model, cfg, img: np.ndarray, out) -> np.ndarray:
+    """vt_fulldet_rerank on the result `out` in place -> its boxes (a copy)."""
+    v = view(img, "img")
+    check("vt_fulldet_rerank", lib.vt_fulldet_rerank(st, ws, model, cfg, v, out),
+          f"img {img.shape}, {out.n_cand} candidates")
+    return np.frombuffer(ffi.buffer(out.box), SCORED_BOX_DTYPE)[:out.n_boxes].copy()
+
+
 def fulldet_wide_cfg_default():
     return _defaults("vt_fulldet_wide_cfg")
 

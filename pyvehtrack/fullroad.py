@@ -121,10 +121,12 @@ _SETTINGS = {"score_offset": (-32768.0, 32767.0), "box_height": (1 / 256, 4.0),
              "verify_min": (-32768.0, 32767.0), "veh_w_min": (0.1, 20.0), "veh_w_max": (0.1, 20.0),
              # the wide pass (WideConfig; used when the file holds a wide model)
              "wide_veh_w_min": (0.1, 20.0), "wide_veh_w_max": (0.1, 20.0),
-             "wide_score_min": (-32768.0, 32767.0)}
-_FULLDET_PERMILLE = ("nms_iou_permille", "nms_contain_permille", "merge_iou_permille")   # FullDetConfig's
+             "wide_score_min": (-32768.0, 32767.0), "wide_alt_score_min": (-32768.0, 32767.0)}
+_FULLDET_PERMILLE = ("nms_iou_permille", "nms_contain_permille", "merge_iou_permille",   # FullDetConfig's
+                     "rerank_permille")
 _PERMILLE = _FULLDET_PERMILLE + ("wide_box_height_permille", "wide_nms_iou_permille",   # ints 0..1000
-                                 "wide_nms_contain_permille")
+                                 "wide_nms_contain_permille",
+                                 "wide_alt_height_a_permille", "wide_alt_height_b_permille")   # 0: unused
 
 
 def _settings(z, p) -> dict:
@@ -235,7 +237,10 @@ def wide_setup(model, cfg: "FullRoadConfig") -> "tuple[MlpModel, WideConfig] | N
                    box_height_permille=int(st.get("wide_box_height_permille", d.box_height_permille)),
                    score_min=int(round(float(st.get("wide_score_min", d.score_min / 65536)) * 65536)),
                    nms_iou_permille=int(st.get("wide_nms_iou_permille", d.nms_iou_permille)),
-                   nms_contain_permille=int(st.get("wide_nms_contain_permille", d.nms_contain_permille)))
+                   nms_contain_permille=int(st.get("wide_nms_contain_permille", d.nms_contain_permille)),
+                   alt_height_a_permille=int(st.get("wide_alt_height_a_permille", d.alt_height_a_permille)),
+                   alt_height_b_permille=int(st.get("wide_alt_height_b_permille", d.alt_height_b_permille)),
+                   alt_score_min=int(round(float(st.get("wide_alt_score_min", d.alt_score_min / 65536)) * 65536)))
     return wm, w
 
 
@@ -245,6 +250,8 @@ def wide_c_cfg(w: WideConfig):
     c.veh_w_min_mm, c.veh_w_max_mm = round(w.veh_w_min_m * 1000), round(w.veh_w_max_m * 1000)
     c.box_height_permille, c.score_min = w.box_height_permille, int(w.score_min)
     c.nms_iou_permille, c.nms_contain_permille = w.nms_iou_permille, w.nms_contain_permille
+    c.alt_height_a_permille, c.alt_height_b_permille = w.alt_height_a_permille, w.alt_height_b_permille
+    c.alt_score_min = int(w.alt_score_min)
     _native.check("vt_fulldet_wide_cfg_check", lib.vt_fulldet_wide_cfg_check(c), f"wide pass {w}")
     return c
 
@@ -312,7 +319,7 @@ def _c_cfg(cfg: FullDetConfig):
     c.window_score_min, c.edge_check = int(cfg.window_score_min), int(bool(cfg.edge_check))
     c.shadow_classify = int(bool(cfg.shadow_classify))
     c.shadow_score_min, c.shadow_score = int(cfg.shadow_score_min), int(cfg.shadow_score)
-    for f in ("nms_iou_permille", "nms_contain_permille", "merge_iou_permille"):
+    for f in ("nms_iou_permille", "nms_contain_permille", "merge_iou_permille", "rerank_permille"):
         v = getattr(cfg, f)
         if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)):
             raise TypeError(f"cfg.{f}: expected an int (permille), got {type(v).__name__}")
@@ -428,8 +435,9 @@ class FullRoadDetector:
         self.model, sources, self.camera, cfg, det = setup(model, sources, camera, cfg)
         vmin = cfg.verify_min
         self.verify_min_q16 = None if vmin is None else int(round(float(vmin) * 65536))
-        self._vmodel = _native.mlp_default_model() if vmin is not None else None
-        self._vws = _native.box_ws_new() if vmin is not None else None
+        use_v = vmin is not None or det.rerank_permille > 0   # the second stage's model, or re-ranking
+        self._vmodel = _native.mlp_default_model() if use_v else None
+        self._vws = _native.box_ws_new() if use_v else None
         self.cfg, self.det_cfg, self.sources, self.engine = cfg, det, sources, engine
         # the wide pass (side views, trucks): (its model, WideConfig) or None
         self.wide = wide_setup(self.model, cfg)
@@ -520,6 +528,8 @@ class FullRoadDetector:
             self.last_stats = {k: int(getattr(self._out, k)) for k in
                                ("n_windows", "n_windows_dropped", "n_window_hits", "n_shadow", "n_cand",
                                 "n_cand_dropped")}
+            if self.det_cfg.rerank_permille > 0:
+                a = _native.fulldet_rerank(self._state, self._vws, self._vmodel, self._cfg_c, gray, self._out)
             if self.verify_min_q16 is not None:
                 a = _native.fulldet_verify(self._vws, self._vmodel, gray, self.verify_min_q16, self._out)
                 self.last_stats["n_verified"] = len(a)
@@ -534,7 +544,8 @@ class FullRoadDetector:
             arr, self.last_stats = rfd.detect(
                 gray, road_r, cam, self.det_cfg, self._score_py if self._scorer is not None else None,
                 max_windows=int(lib.VT_FULLDET_MAX_WINDOWS), max_cand=int(lib.VT_FULLDET_MAX_CAND),
-                max_boxes=int(lib.VT_MAX_BOXES), max_hyp=int(lib.VT_MAX_HYPOTHESES))
+                max_boxes=int(lib.VT_MAX_BOXES), max_hyp=int(lib.VT_MAX_HYPOTHESES),
+                rescore=(lambda l, t, r, b: self._score_box(gray, l, t, r, b)) if self._vmodel is not None else None)
             if self.verify_min_q16 is not None:
                 arr = rfd.verify_boxes(arr, lambda l, t, r, b: self._score_box(gray, l, t, r, b), self.verify_min_q16)
                 self.last_stats["n_verified"] = len(arr)

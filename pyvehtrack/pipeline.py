@@ -455,6 +455,8 @@ class Pipeline:
                     import dataclasses  # noqa: PLC0415
                     rcfg = dataclasses.replace(rcfg, verify_min=int(self._ccfg.verify_min))
                     box_score = _native.classify_box_mlp_default
+                if self._ccfg.fulldet.rerank_permille > 0:   # re-ranking uses the same model
+                    box_score = _native.classify_box_mlp_default
             caps = _config.reference_capacities()
             if self._ttc_params is not None:
                 import dataclasses  # noqa: PLC0415
@@ -657,7 +659,7 @@ def _whole_road_reference(rcfg, c):
         shadow_classify=bool(f.shadow_classify), shadow_score_min=int(f.shadow_score_min),
         shadow_score=int(f.shadow_score), nms_iou_permille=int(f.nms_iou_permille),
         nms_contain_permille=int(f.nms_contain_permille), box_height=f.box_height_q8 / 256,
-        merge_iou_permille=int(f.merge_iou_permille))
+        merge_iou_permille=int(f.merge_iou_permille), rerank_permille=int(f.rerank_permille))
     rc = c.road_camera
     cam = rpipe.RoadCameraRef(rc.horizon_q16 / 65536, rc.hood_q16 / 65536, rc.height_mm / 1000,
                               rc.fx_per_w_q16 / 65536)

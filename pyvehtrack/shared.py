@@ -98,6 +98,7 @@ class FullDetConfig:
     nms_contain_permille: int = 699   # ... or whose intersection is above this / 1000 of the smaller box
     box_height: float = 192 / 256     # window box height / width (bottom row kept; C: Q8, may exceed 1)
     merge_iou_permille: int = 0       # 0: off; else each kept box -> mean of candidates with IoU >= this / 1000
+    rerank_permille: int = 0          # 0: off; else NMS ranks by score + this / 1000 x the second-stage score
 
 
 @dataclass(frozen=True)
@@ -113,6 +114,10 @@ class WideConfig:
     score_min: int = 0
     nms_iou_permille: int = 200
     nms_contain_permille: int = 500
+    # the aspect chosen by the wide model's score (vt_fulldet_wide_cfg.alt_*): 0, 0 = off
+    alt_height_a_permille: int = 0
+    alt_height_b_permille: int = 0
+    alt_score_min: int = 0
 
 
 @dataclass

@@ -299,16 +299,19 @@ def test_pipeline_runs_the_wide_pass(tmp_path):
 
 def test_shipped_wide_model_file():
     """tests/data/window_mlp_hog32_wide.npz: the main model unchanged plus a 48x24 wide
-    model and the settings chosen on 'val'; on the Udacity frame the C detector equals the
+    model and the settings chosen on 'val' (with re-ranking before NMS); on the Udacity frame the C detector equals the
     oracle with it (the pass really runs: its counter is reported)."""
     from pyvehtrack import fullroad
     m = fullroad.load_model(DATA / "window_mlp_hog32_wide.npz")
     base = fullroad.load_model(MLP)
     assert (m.wide.win_w, m.wide.win_h) == (48, 24) and np.array_equal(m.w1_q, base.w1_q)
-    assert {k: v for k, v in m.settings.items() if not k.startswith("wide_")} == base.settings
+    assert {k: v for k, v in m.settings.items() if not k.startswith("wide_") and k != "rerank_permille"} \
+        == base.settings
+    assert m.settings["rerank_permille"] == 250   # re-ranking before NMS (vt_fulldet_rerank)
     det = fullroad.FullRoadDetector(m, sources=("shadow", "windows"))
-    assert det.wide[1] == fullroad.WideConfig(score_min=round(5.5 * 65536), nms_iou_permille=100,
-                                               nms_contain_permille=300)
+    assert det.wide[1] == fullroad.WideConfig(score_min=round(6.0 * 65536), nms_iou_permille=100,
+                                               nms_contain_permille=300, alt_height_a_permille=350,
+                                               alt_height_b_permille=500, alt_score_min=-2 * 65536)
     gray = cv2.imread(str(FRAME), cv2.IMREAD_GRAYSCALE)
     if gray.shape[1] > MAXW or gray.shape[0] > MAXH:
         pytest.skip(f"the frame {gray.shape[::-1]} exceeds this build's VT_MAX_WIDTH x VT_MAX_HEIGHT")

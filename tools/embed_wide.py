@@ -7,7 +7,8 @@
 OUT holds every key of MAIN, the wide model's arrays under the prefix wide_ (as
 fullroad.load_model reads them) and MAIN's detector_json with --settings merged in
 (keys wide_veh_w_min, wide_veh_w_max, wide_box_height_permille, wide_score_min,
-wide_nms_iou_permille, wide_nms_contain_permille; fullroad.load_model checks them). The wide model's box height and band
+wide_nms_iou_permille, wide_nms_contain_permille, and the aspect choice wide_alt_height_a_permille,
+wide_alt_height_b_permille, wide_alt_score_min; fullroad.load_model checks them). The wide model's box height and band
 (its `info`) are written as wide_box_height_permille / wide_veh_w_* unless --settings gives them.
 """
 from __future__ import annotations

@@ -29,7 +29,7 @@ from pyvehtrack.datasets import tusimple_frames  # noqa: E402
 from pyvehtrack.detector import Detector  # noqa: E402
 from pyvehtrack.shared import FULLDET_RENAMED, take_renamed  # noqa: E402
 
-_PERMILLE = ("nms_iou_permille", "nms_contain_permille", "merge_iou_permille")
+_PERMILLE = ("nms_iou_permille", "nms_contain_permille", "merge_iou_permille", "rerank_permille")
 
 DATA = next((p for p in (_ROOT.parent / "shared" / "data", _ROOT.parent.parent / "shared" / "data")
              if p.is_dir()), _ROOT.parent / "shared" / "data")
@@ -51,6 +51,8 @@ def main(argv=None) -> int:
                     help="full-road NMS containment limit, permille (default: FullDetConfig's 699)")
     ap.add_argument("--merge-iou-permille", type=int, default=None,
                     help="box refinement: each kept box -> mean of candidates with IoU >= this / 1000 (0: off)")
+    ap.add_argument("--rerank-permille", type=int, default=None,
+                    help="NMS ranks by score + this / 1000 x the built-in HOG 64 MLP's score (vt_fulldet_rerank; 0: off)")
     ap.add_argument("--nms-iou", type=float, default=None, help="deprecated: --nms-iou-permille (x 1000)")
     ap.add_argument("--nms-contain", type=float, default=None, help="deprecated: --nms-contain-permille (x 1000)")
     ap.add_argument("--merge-iou", type=float, default=None, help="deprecated: --merge-iou-permille (x 1000)")

@@ -14,7 +14,8 @@ greedy matching aside) counts in the first step that loses it:
   no_window  -- no window of the grid reaches it (tools/window_coverage.py says why);
   low_score  -- every window reaching it scores under the threshold;
   edge       -- a window reaching it scores >= threshold, but none passes the edge check;
-  nms        -- a candidate reaches it, no box kept by NMS does (suppressed by a neighbour);
+  nms        -- a candidate reaches it, no box kept by NMS does (suppressed by a neighbour;
+                with rerank_permille, NMS ranks by the re-ranked keys);
   merge      -- a kept box reaches it, the merged (mean) box does not;
   verify     -- the merged box reaches it, the second stage drops it;
   found      -- a final box reaches it (checked first: a merged box may reach a
@@ -108,7 +109,9 @@ def main(argv=None) -> int:
             return keep
         rw.nms = nms
         try:
-            merged, _ = rfd.detect(gray, road, cam, cfg, score, max_windows=4096, max_cand=1024, max_boxes=32)
+            merged, _ = rfd.detect(gray, road, cam, cfg, score, max_windows=4096, max_cand=1024, max_boxes=32,
+                                   rescore=(lambda l, t, r, b: ref._score_box(gray, l, t, r, b))
+                                   if cfg.rerank_permille > 0 else None)
         finally:
             rw.nms = nms0
         final = merged

@@ -93,6 +93,9 @@ typedef struct {
                                  whose IoU with it is >= this / 1000 (box refinement:
                                  the highest-scoring window is rarely the best
                                  aligned one; the mean of its neighbours is closer) */
+    int32_t rerank_permille;  /* 0: off; 1..1000: weight of the second-stage model's score
+                                 in the NMS ranking (vt_fulldet_rerank, run by the caller
+                                 after vt_fulldet)                                     */
 } vt_fulldet_cfg;
 
 /* Defaults: both sources, windows as VT_WIN_CFG_DEFAULT, detection as
@@ -127,6 +130,7 @@ typedef struct {
         .nms_contain_permille = 699, \
         .box_height_q8 = 192,                \
         .merge_iou_permille = 0,             \
+        .rerank_permille = 0,                \
     }
 
 typedef struct {
@@ -162,6 +166,28 @@ vt_status vt_fulldet_cfg_check(const vt_fulldet_cfg *cfg);
  * areas, exact in int64) against k's own box, each coordinate rounded half up:
  * floor((2 sum + n) / (2 n)); sums are exact in int64 (|coord| <= 2^24, n <=
  * VT_FULLDET_MAX_CAND). The score and source stay those of box k. */
+
+/* Re-ranking (cfg->rerank_permille > 0; GIST paper sec. III's classifier as the judge of
+ * alignment): NMS keeps the highest-scoring box of each cluster, and the window score
+ * is a poor judge of alignment (a misaligned box on a vehicle often outscores the
+ * aligned one, tools/recall_loss.py's 'nms' step). Called after vt_fulldet on the same
+ * st, img and res (its candidates st->cand[0..res->n_cand-1], in any order), it scores
+ * every candidate with the MLP m (normally the built-in HOG 64x64 MLP of
+ * vt_fulldet_verify) on the square standing on its bottom row (columns left..right,
+ * rows bottom - width + 1 .. bottom, cut at row 0; vt_classify_box_mlp's arithmetic),
+ * replaces its score by key = score + floor(rerank_permille * v / 1000) (exact in
+ * int64, saturated to int32), orders the candidates by key descending, then left, top,
+ * right, bottom ascending (a total order, so the result does not depend on the order
+ * vt_fulldet left them in), and redoes vt_fulldet's NMS and merge step with cfg's
+ * limits: res->box gets the result (at most VT_MAX_BOXES), each box's score being its
+ * key. rerank_permille 0: nothing changes. Errors: NULL argument -> VT_E_ARG; cfg, m and
+ * img as their checks; res->n_cand outside 0..VT_FULLDET_MAX_CAND or a candidate box
+ * outside img -> VT_E_ARG; the classifier's error (st->cand may then hold keys, res
+ * is unchanged). Cost: one vt_classify_box_mlp per candidate (about 1.2 M instructions
+ * with the built-in MLP; 10-30 candidates per 1280x720 frame) and the O(n^2) sort. */
+vt_status vt_fulldet_rerank(vt_fulldet_state *st, vt_cls_box_ws *ws, const vt_mlp_model *m,
+                            const vt_fulldet_cfg *cfg, const vt_image_u8 *img,
+                            vt_fulldet_result *res);
 
 /* Detect vehicles in one gray frame.
  *   road: the road area (lanes or vt_road_from_camera), made for img's height;
@@ -267,8 +293,11 @@ vt_status vt_fulldet_verify(vt_cls_box_ws *ws, const vt_mlp_model *m, const vt_i
  * overlaps by the same test is appended to the result (source VT_SRC_WINDOW, score
  * the wide model's), while n_boxes < VT_MAX_BOXES: the wide boxes follow the
  * result's own, so the result is no longer sorted by one score.
+ * With alternative heights (alt_height_*: below) a window's box is the best-scoring
+ * of up to three heights before the score_min test.
  * Cost: one vt_classify_box_mlp per window (area resampling of the box from the
- * input image, HOG of the model window, the MLP); measured in bench/. */
+ * input image, HOG of the model window, the MLP), plus one per alternative height for
+ * each window over alt_score_min; measured in bench/. */
 typedef struct {
     int32_t veh_w_min_mm;        /* the wide grid's band, 100..20000 mm, min <= max */
     int32_t veh_w_max_mm;
@@ -276,17 +305,30 @@ typedef struct {
     int32_t score_min;           /* Q16 decision value of the wide model            */
     int32_t nms_iou_permille;    /* 0..1000                                         */
     int32_t nms_contain_permille;
+    /* The box aspect chosen by the wide model's score (0, 0: off, one aspect): a window
+     * whose box_height_permille box scores >= alt_score_min (Q16, a cascade gate, so
+     * that only the few promising windows pay for more scoring) also has its box scored
+     * at alt_height_a_permille and at alt_height_b_permille of its width (each 0: unused,
+     * else 1..1000; same bottom row, same cut at row 0); the window's box is the one of
+     * the highest score (ties: the earlier of box_height, a, b), and that score goes on
+     * to score_min. The model resamples every box to its window, so the score is the
+     * cue to the aspect: a box cut to the vehicle's own aspect looks most like the
+     * positives it was trained on. */
+    int32_t alt_height_a_permille;
+    int32_t alt_height_b_permille;
+    int32_t alt_score_min;
 } vt_fulldet_wide_cfg;
 
 /* Defaults: the band and box height tools/train_wide_mlp.py trains with (2-8 m, 0.4),
- * the model's own boundary (score 0) and the NMS limits of the window model's settings
- * (0.2 / 0.5). The threshold and NMS chosen on tusimple-vehicles-dev 'val' for the
+ * the model's own boundary (score 0), the NMS limits of the window model's settings
+ * (0.2 / 0.5) and one aspect (no alternative heights). The threshold and NMS chosen on tusimple-vehicles-dev 'val' for the
  * shipped wide model travel in its file (tests/data/window_mlp_hog32_wide.npz:
  * score 5.5, NMS 0.1 / 0.3). */
 #define VT_FULLDET_WIDE_CFG_DEFAULT                                                       \
     {                                                                                     \
         .veh_w_min_mm = 2000, .veh_w_max_mm = 8000, .box_height_permille = 400,          \
         .score_min = 0, .nms_iou_permille = 200, .nms_contain_permille = 500,            \
+        .alt_height_a_permille = 0, .alt_height_b_permille = 0, .alt_score_min = 0,      \
     }
 
 /* *cfg = VT_FULLDET_WIDE_CFG_DEFAULT. */

@@ -25,6 +25,7 @@ typedef struct {
     int32_t nms_contain_permille;
     int32_t box_height_q8;
     int32_t merge_iou_permille;
+    int32_t rerank_permille;
 } vt_fulldet_cfg;
 
 typedef struct { ...; } vt_fulldet_state;
@@ -44,6 +45,9 @@ vt_status vt_fulldet_cfg_default(vt_fulldet_cfg *cfg);
 vt_status vt_fulldet_cfg_check(const vt_fulldet_cfg *cfg);
 vt_status vt_fulldet_verify(vt_cls_box_ws *ws, const vt_mlp_model *m, const vt_image_u8 *img,
                             int32_t score_min, vt_fulldet_result *res);
+vt_status vt_fulldet_rerank(vt_fulldet_state *st, vt_cls_box_ws *ws, const vt_mlp_model *m,
+                            const vt_fulldet_cfg *cfg, const vt_image_u8 *img,
+                            vt_fulldet_result *res);
 vt_status vt_fulldet(vt_fulldet_state *st, const vt_fulldet_cfg *cfg, const vt_camera_min *cam,
                      const vt_image_u8 *img, const vt_road_area *road,
                      const vt_window_scorer *scorer, vt_fulldet_result *out);
@@ -81,6 +85,9 @@ typedef struct {
     int32_t score_min;
     int32_t nms_iou_permille;
     int32_t nms_contain_permille;
+    int32_t alt_height_a_permille;
+    int32_t alt_height_b_permille;
+    int32_t alt_score_min;
 } vt_fulldet_wide_cfg;
 
 vt_status vt_fulldet_wide_cfg_default(vt_fulldet_wide_cfg *cfg);

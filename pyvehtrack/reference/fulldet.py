@@ -39,9 +39,13 @@ from ..shared import FullDetConfig  # noqa: F401  (a plain type both engines sha
 
 def detect(gray: np.ndarray, road, cam: rw.Camera, cfg: FullDetConfig, score=None, *,
            max_windows: int = 4096, max_cand: int = 1024, max_boxes: int = 32,
-           max_hyp: int = 32, max_shadow_active: int = 64, max_shadow_cand: int = 64):
+           max_hyp: int = 32, max_shadow_active: int = 64, max_shadow_cand: int = 64, rescore=None):
     """Boxes (N, 6) int [left, top, right, bottom, score, source] after NMS, highest
-    score first (source 1 shadow, 2 window), and counters as the C result has them."""
+    score first (source 1 shadow, 2 window), and counters as the C result has them.
+    With cfg.rerank_permille > 0 (twin of vt_fulldet then vt_fulldet_rerank), rescore(l,
+    t, r, b) -> int is the second-stage model on a box: each candidate's score becomes
+    score + floor(rerank_permille * rescore(its bottom square) / 1000) (saturated to
+    int32) before NMS, candidates ordered by that, then left, top, right, bottom."""
     gray = np.asarray(gray, np.uint8)
     h, w = gray.shape
     stats = dict(n_windows=0, n_windows_dropped=0, n_window_hits=0, n_shadow=0, n_cand=0,
@@ -110,6 +114,13 @@ def detect(gray: np.ndarray, road, cam: rw.Camera, cfg: FullDetConfig, score=Non
                     continue
             add((l, t, r, b), sc, 1)
     stats["n_cand"] = len(cands)
+    if cfg.rerank_permille > 0:
+        if rescore is None:
+            raise ValueError("rescore: required when cfg.rerank_permille > 0")
+        for c in cands:   # the square on the bottom row, as the second stage scores it
+            key = int(c[4]) + cfg.rerank_permille * int(rescore(c[0], max(0, c[3] - (c[2] - c[0])), c[2], c[3])) // 1000
+            c[4] = min(max(key, -2 ** 31), 2 ** 31 - 1)
+        cands.sort(key=lambda c: (-c[4], c[0], c[1], c[2], c[3]))
     keep = rw.nms([c[:4] for c in cands], [c[4] for c in cands], Fraction(cfg.nms_iou_permille, 1000),
                   Fraction(cfg.nms_contain_permille, 1000))
     out = np.array([cands[i] for i in keep], np.int64).reshape(-1, 6)[:max_boxes]
@@ -147,7 +158,9 @@ def wide(gray: np.ndarray, road, cam: rw.Camera, win, wcfg, score_box, boxes, *,
     """The wide pass (twin of vt_fulldet_wide, fulldet.h): boxes (N, 6) are the result
     so far; returns them followed by the wide boxes added. win: the WindowConfig of the
     main grid (its band replaced by wcfg's); wcfg: a shared.WideConfig; score_box(l, t,
-    r, b) -> int, the wide model's score of an input-pixel box."""
+    r, b) -> int, the wide model's score of an input-pixel box. With alternative heights
+    (wcfg.alt_height_*_permille) a window whose box scores >= wcfg.alt_score_min takes
+    the height its box scores highest at (ties: the earlier of base, a, b)."""
     from dataclasses import replace
     gray = np.asarray(gray, np.uint8)
     h, w = gray.shape
@@ -160,8 +173,18 @@ def wide(gray: np.ndarray, road, cam: rw.Camera, win, wcfg, score_box, boxes, *,
             lv, s, x, y = int(lv), int(s), int(x), int(y)
             span = s << lv
             b = min(((y + s) << lv) - 1, h - 1)
-            box = (x << lv, max(b - max(1, span * bh_pm // 1000) + 1, 0), min(((x + s) << lv) - 1, w - 1), b)
+
+            def cut(pm, span=span, b=b, x=x, s=s, lv=lv):   # the window's box at height pm / 1000
+                return (x << lv, max(b - max(1, span * pm // 1000) + 1, 0), min(((x + s) << lv) - 1, w - 1), b)
+            box = cut(bh_pm)
             sc = int(score_box(*box))
+            if sc >= wcfg.alt_score_min:   # the aspect the model prefers (strictly higher wins)
+                for pm in (wcfg.alt_height_a_permille, wcfg.alt_height_b_permille):
+                    if pm:
+                        alt = cut(pm)
+                        sa = int(score_box(*alt))
+                        if sa > sc:
+                            box, sc = alt, sa
             if sc < wcfg.score_min:
                 continue
             if len(cands) < max_cand:

@@ -566,7 +566,9 @@ class Pipeline:
                              max_cand=self.caps.max_cand, max_boxes=self.caps.max_boxes,
                              max_hyp=self.caps.max_hypotheses,
                              max_shadow_active=self.caps.max_shadow_active,
-                             max_shadow_cand=self.caps.max_shadow_cand)
+                             max_shadow_cand=self.caps.max_shadow_cand,
+                             rescore=(lambda l, t, r, b: self.box_score(gray, l, t, r, b))
+                             if self.box_score is not None else None)
         if c.verify_min is not None:
             arr = rfd.verify_boxes(arr, lambda l, t, r, b: self.box_score(gray, l, t, r, b), c.verify_min)
         if self.wide is not None:
