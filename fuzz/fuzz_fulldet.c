@@ -5,7 +5,9 @@
  * limits, sources) mutated from the bytes, the camera, a road area (camera road,
  * plausible or every field fuzzed), a fuzzed view, and a scorer that is NULL,
  * the HOG scorer, the MLP scorer or a fuzz scorer whose scores and statuses
- * come from the bytes (an error mid-frame must come back as the call's status).
+ * come from the bytes (an error mid-frame must come back as the call's status);
+ * then, from the bytes, re-ranking (vt_fulldet_rerank, its weight and NULLs fuzzed)
+ * and the wide pass (its height choice among the fuzzed fields).
  * vt_nms on boxes from the bytes (inverted boxes, equal scores, INT32 edges) in
  * an exact-size array. After a call: boxes are within capacity and the frame,
  * ordered by score, and NMS keeps a prefix in score order. */
@@ -17,7 +19,8 @@ static vt_fulldet_result g_out;
 static vt_road_area g_road;
 static vt_hog_scorer g_hog_sc;
 static vt_mlp_scorer g_mlp_sc;
-static vt_cls_box_ws g_box_ws; /* the wide pass's classifier scratch */
+static vt_cls_box_ws g_box_ws; /* the wide pass's and re-ranking's classifier scratch */
+static vt_fulldet_result g_keep; /* the result before re-ranking (unchanged on error) */
 static fz *g_f; /* the bytes the fuzz scorer reads */
 static int32_t g_calls;
 
@@ -161,6 +164,31 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         } else {
             FZ_ASSERT(g_out.n_boxes >= 0 && g_out.n_boxes <= VT_MAX_BOXES);
             FZ_ASSERT(g_out.n_windows_dropped >= 0 && g_out.n_cand >= 0 && g_out.n_cand <= VT_FULLDET_MAX_CAND);
+            for (i = 0; i < g_out.n_boxes; i++) {
+                const vt_box *b = &g_out.box[i].box;
+                FZ_ASSERT(b->left >= 0 && b->left <= b->right && b->right < img.w);
+                FZ_ASSERT(b->top >= 0 && b->top <= b->bottom && b->bottom < img.h);
+                FZ_ASSERT(i == 0 || g_out.box[i - 1].score >= g_out.box[i].score);
+            }
+        }
+    }
+    if (fz_u8(&f) < 96) { /* re-ranking before NMS on vt_fulldet's candidates (as the pipeline) */
+        const vt_mlp_model *m = NULL;
+        uint8_t rn = fz_u8(&f);
+        if (rn & 64) {
+            cfg.rerank_permille = fz_edge(&f, 1000); /* off the default 0, bad values included */
+        }
+        g_keep = g_out;
+        fz_status(vt_mlp_default_model(&m));
+        s = vt_fulldet_rerank((rn & 1) ? NULL : &g_st, (rn & 2) ? NULL : &g_box_ws, (rn & 4) ? NULL : m,
+                              (rn & 8) ? NULL : &cfg, (rn & 16) ? NULL : &img, (rn & 32) ? NULL : &g_out);
+        fz_status(s);
+        if (s != VT_OK || cfg.rerank_permille == 0) {
+            /* unchanged on error, and at weight 0 (res may then be a result of an
+             * earlier input, when vt_fulldet above was given a NULL out) */
+            FZ_ASSERT(memcmp(&g_keep, &g_out, sizeof g_out) == 0);
+        } else { /* from the candidates, each checked against this img */
+            FZ_ASSERT(g_out.n_boxes >= 0 && g_out.n_boxes <= VT_MAX_BOXES);
             for (i = 0; i < g_out.n_boxes; i++) {
                 const vt_box *b = &g_out.box[i].box;
                 FZ_ASSERT(b->left >= 0 && b->left <= b->right && b->right < img.w);
