@@ -84,6 +84,10 @@
 #ifndef VT_FLOW_MAX_SEEDS
 #define VT_FLOW_MAX_SEEDS 4
 #endif
+/* Rectangles of one level image the state records as computed (see
+ * vt_flow_state.rect): the two areas, one per hand-over track, and one per
+ * vt_flow_seed_frame call between two steps (past that they merge). */
+#define VT_FLOW_MAX_RECTS (2 + 2 * (VT_FLOW_MAX_SEEDS))
 #if VT_FLOW_MAX_PIXELS < 1 || VT_FLOW_MAX_CELLS < 1 || VT_FLOW_MAX_CELLS > 1048576 || \
     VT_FLOW_MAX_HYPS < 1 || VT_FLOW_MAX_SEEDS < 1 || VT_FLOW_MAX_BLOBS < 1
 #error "flow capacities out of range (see vehtrack/flow.h)"
@@ -224,6 +228,11 @@ typedef struct {
     int32_t n_blobs[2];
     vt_box blob_box[2 * VT_FLOW_MAX_BLOBS];
     int32_t blob_age[2 * VT_FLOW_MAX_BLOBS];
+    /* The parts of img[i] computed from its frame (the rest is stale or never
+     * written): n_rect[i] rectangles, level px, half-open [x0, x1) x [y0, y1) at
+     * rect[i][k][0..3]. */
+    int32_t n_rect[2];
+    int32_t rect[2][VT_FLOW_MAX_RECTS][4];
 } vt_flow_state;
 
 /* Fill *cfg with VT_FLOW_CFG_DEFAULT. */
@@ -270,6 +279,19 @@ vt_status vt_flow_step(vt_flow_state *st, const vt_flow_cfg *cfg, const vt_image
  * vt_flow_seed with the track's last box after vt_flow_step of that frame and
  * stop tracking it with the model; read it back from the flow results. */
 vt_status vt_flow_seed(vt_flow_state *st, const vt_flow_cfg *cfg, const vt_box *box, int32_t *id);
+
+/* vt_flow_seed, and the previous level image computed over the track's box from
+ * `frame`, which must be the frame last given to vt_flow_step (VT_E_SIZE if its
+ * size differs; its pixels are the caller's word). vt_flow_step computes the level
+ * image only where it reads it (the lateral areas with their search margins, the
+ * live hand-over tracks with theirs: the recorded rectangles of vt_flow_state), so
+ * a track seeded with vt_flow_seed elsewhere follows, on its first step, only the
+ * cells inside those rectangles (none: it ends); seeded with this function, its
+ * first step uses all its cells, as every later step does. The pipeline calls
+ * this one. Past VT_FLOW_MAX_RECTS rectangles (more seeds than slots between two
+ * steps, with vt_flow_unseed in between) the last one grows to cover the new one. */
+vt_status vt_flow_seed_frame(vt_flow_state *st, const vt_flow_cfg *cfg, const vt_image_u8 *frame,
+                             const vt_box *box, int32_t *id);
 
 /* Stop a hand-over track (e.g. the tracker took it back). VT_E_ARG if no
  * active track has this id. */
