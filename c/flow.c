@@ -652,10 +652,11 @@ vt_status vt_flow_step(vt_flow_state *st, const vt_flow_cfg *cfg, const vt_image
     cur = st->img[cur_i];
     /* The level image only where this step or the next reads it: the areas with
      * their search margins, and each hand-over track's cells with one search range
-     * and 1 px more on each side. A track moves by at most its search range per
-     * frame, plus 1 px from rounding its Q16 position (|round(a + m) - round(a)| <=
-     * |m| + 1 with |m| <= search << level input px), so next frame's cells, read in
-     * this image as the previous one, lie inside that rectangle too. */
+     * and 1 px more on each side. A track moves by the mean of its vectors, |m| <=
+     * search << level input px, and its rounded position by less than |m| + 1
+     * (round half up: floor(a + m + 1/2) - floor(a + 1/2) lies in (m - 1, m + 1)), so
+     * by at most `search` level px once floored: next frame's cells, read in this
+     * image as the previous one, lie inside that rectangle (the 1 px is slack). */
     st->n_rect[cur_i] = 0;
     s = VT_OK;
     for (side = 0; side < 2 && s == VT_OK; side++) {
