@@ -1,8 +1,11 @@
 /* vehtrack/flow.h -- overtaking vehicles by block-matching optical flow in the
  * lateral areas of the image (IVVI paper, sec. 2-3).
  *
- * Per frame: the frame is reduced to pyramid level cfg.level (vt_pyr_down, whole
- * frame); each lateral area (a strip at the left and/or right border, rows
+ * Per frame: the frame is reduced to pyramid level cfg.level, only where this
+ * step or the next reads the level image (vt_pyr_down_rect: each watched area
+ * widened by 2 search_x / 2 search_y, each hand-over track's cells widened by the
+ * search range + 1; the rectangles are recorded per level image, vt_flow_state.rect);
+ * each lateral area (a strip at the left and/or right border, rows
  * top..bottom %) is cut into square cells of cfg.cell px; a cell's motion vector
  * is searched by the sum of absolute differences (SAD) against the previous level
  * image, but only where enough of the cell's pixels changed since the previous
@@ -36,22 +39,28 @@
  * level image are skipped.
  *
  * Lifecycle: the first frame after vt_flow_init/vt_flow_reset only stores the
- * level image (result->ready = 0, no hypotheses: a documented no-op). A frame of
+ * level image (result->ready = 0, no hypotheses: a documented no-op); so is a
+ * frame whose areas the previous level image was not computed over (cfg.level, or
+ * the areas or search range widened between calls). A frame of
  * another size than the previous one gives VT_E_SIZE and leaves the state
  * untouched (the caller decides: vt_flow_reset and start again).
  *
  * Cost: sizeof(vt_flow_state) ~ 3 * VT_FLOW_MAX_PIXELS bytes (previous and
  * current level image, level-1 scratch for level 2) + 22 * VT_FLOW_MAX_CELLS
- * bytes (vectors, SADs, flags, labels): 1,917,112 bytes at the defaults
+ * bytes (vectors, SADs, flags, labels): 1,917,440 bytes at the defaults
  * (1920x1080, level >= 1);
  * a firmware build sets VT_MAX_WIDTH/HEIGHT (or VT_FLOW_MAX_PIXELS) to its
- * camera. Work: the pyramid (13 instructions per input pixel per level), then
+ * camera. Work: the pyramid (13 instructions per input pixel per level, over the
+ * input pixels under the computed rectangles: about half the frame with both
+ * 30 % areas, a quarter with one), then
  * per computed cell cell^2 * (2 sx + 1) * (2 sy + 1) absolute differences (twice
  * for the cells the backward check runs on), per lateral cell 2 cell^2 for the
  * change and texture gates; the union-find is linear in cells.
- * Stack: < 4 KB (vt_pyr_down's row; the blob list, 1.6 KB). Measured (`make
- * bench`, 640x480, both areas, every left cell moving): 10.5 M instructions,
- * 34 per frame pixel, of which the level-1 pyramid is about 13. */
+ * Stack: < 4 KB (vt_pyr_down_rect's row; the blob list, 1.6 KB). Measured
+ * (callgrind, bench/callgrind_main.c, 640x480, both areas, every left cell
+ * moving): 8.4 M instructions, 27.4 per frame pixel, of which the level-1 pyramid
+ * over the two areas is 6.5 (whole frame, before: 10.4 M, 12.9); 1280x720: 19.8 M,
+ * 21.5 per pixel. */
 #ifndef VEHTRACK_FLOW_H
 #define VEHTRACK_FLOW_H
 
@@ -251,7 +260,8 @@ vt_status vt_flow_reset(vt_flow_state *st);
 /* One frame. VT_E_ARG: NULL or a bad cfg; VT_E_SIZE: a bad view or another
  * frame size than the previous call (state untouched); VT_E_CAPACITY: the level
  * image exceeds VT_FLOW_MAX_PIXELS or a lateral area VT_FLOW_MAX_CELLS cells
- * (state untouched). A change of cfg.level between calls restarts from a first
+ * (state untouched). A change of cfg.level, or of the areas or search range that
+ * widens what the areas read, between calls restarts from a first
  * frame. On error *out is zeroed (n = 0, ready = 0). Blobs over the area
  * threshold are kept in order of their first cell (left area first, then
  * raster order; past VT_FLOW_MAX_BLOBS per area they are counted in
