@@ -72,6 +72,11 @@ vt_status vt_flow_reset(vt_flow_state *st)
     return VT_OK;
 }
 
+static int32_t vt__imin(int32_t a, int32_t b)
+{
+    return a < b ? a : b;
+}
+
 /* Level-image size of a w x h frame: each vt_pyr_down step gives (n + 1) / 2. */
 static void vt__level_size(int32_t w, int32_t h, int32_t level, int32_t *lw, int32_t *lh)
 {
@@ -122,30 +127,71 @@ static uint32_t vt__sad(const uint8_t *a, int32_t as, const uint8_t *b, int32_t 
 /* Best displacement of the n x n block of `a` at (x, y) in `b` (both lw x lh,
  * stride lw): the block of b at (x - dx, y - dy) with the smallest SAD; (0, 0)
  * first, then dy outer, dx inner, strict improvement; candidates leaving b are
- * skipped. (x, y) must be a block inside a, so (0, 0) is always a candidate. */
+ * skipped. (x, y) must be a block inside a, so (0, 0) is always a candidate.
+ * Successive elimination: |sum(block a) - sum(block b)| <= SAD(a, b), so a
+ * candidate whose block sum differs from the cell's by at least the best SAD so far
+ * cannot win the strict comparison and is not matched: the result is the same as
+ * the exhaustive search's. The candidates' block sums come from one row of column
+ * sums over n rows (<= 32 * 255, uint16), slid down one row per dy and along the
+ * row per dx; both read only pixels of the candidate blocks. Sums <= 32^2 * 255 <
+ * 2^18: exact in uint32. */
 static void vt__search(const uint8_t *a, const uint8_t *b, int32_t lw, int32_t lh, int32_t x,
                        int32_t y, int32_t n, int32_t sx, int32_t sy, int32_t *bdx, int32_t *bdy,
                        uint32_t *bsad)
 {
     const uint8_t *pa = a + (size_t)y * (size_t)lw + (size_t)x;
     uint32_t best = vt__sad(pa, lw, b + (size_t)y * (size_t)lw + (size_t)x, lw, n, UINT32_MAX);
-    int32_t dx, dy, rx = 0, ry = 0;
-    for (dy = -sy; dy <= sy; dy++) {
-        int32_t by = y - dy;
-        if (by < 0 || by + n > lh) {
-            continue;
+    /* The candidate blocks' corners: bx in [cx0, cx1], by in [cy0, cy1]. */
+    const int32_t cx0 = vt__max_i32(0, x - sx), cx1 = vt__imin(lw - n, x + sx);
+    const int32_t cy0 = vt__max_i32(0, y - sy), cy1 = vt__imin(lh - n, y + sy);
+    const int32_t cw = cx1 + n - cx0; /* <= 2 * 32 + 32 columns */
+    uint16_t cs[3 * 32];
+    uint32_t sa = 0;
+    int32_t rx = 0, ry = 0, bx, by, c, j;
+    for (j = 0; j < n && best > 0; j++) {
+        const uint8_t *p = pa + (size_t)j * (size_t)lw;
+        for (c = 0; c < n; c++) {
+            sa += p[c];
         }
-        for (dx = -sx; dx <= sx; dx++) {
-            int32_t bx = x - dx;
-            uint32_t s;
-            if (bx < 0 || bx + n > lw || (dx == 0 && dy == 0)) {
+    }
+    /* dy = y - by runs from -sy up, so by from cy1 down; likewise bx. */
+    for (by = cy1; by >= cy0 && best > 0; by--) {
+        const uint8_t *top = b + (size_t)by * (size_t)lw + (size_t)cx0;
+        uint32_t sb = 0;
+        if (by == cy1) {
+            for (c = 0; c < cw; c++) {
+                uint32_t t = 0;
+                for (j = 0; j < n; j++) {
+                    t += top[(size_t)j * (size_t)lw + (size_t)c];
+                }
+                cs[c] = (uint16_t)t;
+            }
+        } else {
+            const uint8_t *gone = top + (size_t)n * (size_t)lw;
+            for (c = 0; c < cw; c++) {
+                cs[c] = (uint16_t)(cs[c] + top[c] - gone[c]);
+            }
+        }
+        for (c = cx1 - cx0; c < cw; c++) {
+            sb += cs[c];
+        }
+        for (bx = cx1; bx >= cx0; bx--) {
+            uint32_t s, d;
+            if (bx < cx1) {
+                sb = sb + cs[bx - cx0] - cs[bx - cx0 + n];
+            }
+            if (bx == x && by == y) {
+                continue;
+            }
+            d = sa > sb ? sa - sb : sb - sa;
+            if (d >= best) {
                 continue;
             }
             s = vt__sad(pa, lw, b + (size_t)by * (size_t)lw + (size_t)bx, lw, n, best);
             if (s < best) {
                 best = s;
-                rx = dx;
-                ry = dy;
+                rx = x - bx;
+                ry = y - by;
             }
         }
     }
@@ -392,11 +438,6 @@ static void vt__area_flow(vt_flow_state *st, const vt_flow_cfg *cfg, int32_t sid
         }
     }
     st->n_blobs[side] = nb;
-}
-
-static int32_t vt__imin(int32_t a, int32_t b)
-{
-    return a < b ? a : b;
 }
 
 /* The level-px span of a hand-over track's box, clamped to the lw x lh level image:

@@ -232,3 +232,37 @@ def test_rect_list_merges_past_capacity():
     for f in frames[1:3]:
         _, hyps, _ = _native.flow_step(st_, cfg, f)
         assert _hyps_c(hyps) == _hyps_ref(ref.step(f)[1])
+
+
+@pytest.mark.parametrize("cell,sx,sy", [(32, 32, 32), (32, 0, 32), (2, 32, 0), (17, 9, 5)])
+def test_search_extremes_exact(cell, sx, sy):
+    """vt__search's successive elimination (candidates whose block sum differs from the
+    cell's by at least the best SAD so far are not matched) and its column-sum row at the
+    largest cell and search ranges (96 columns) and degenerate ones: the same vectors and
+    SADs as the oracle's exhaustive search, on textured frames moving 5 px right and 3 down
+    with noise (so SADs are rarely 0 and the pruning has work to do)."""
+    rng = np.random.default_rng(cell * 1000 + sx * 10 + sy)
+    from test_flow import _texture
+    h, w = (150, 170) if cell > 2 else (48, 90)      # 2 px cells: fewer of them (oracle time)
+    bg = _texture(rng, h + 40, w + 40, 1)
+    frames = []
+    for t in range(2):
+        f = bg[20 - 3 * t:20 - 3 * t + h, 20 - 5 * t:20 - 5 * t + w].astype(np.int16)
+        frames.append(np.clip(f + rng.integers(-4, 5, f.shape), 0, 255).astype(np.uint8))
+    cfg = F.make_cfg(level=0, sides="both", strip_permille=500 if cell > 2 else 150, top_permille=0, cell=cell,
+                     search_x=sx, search_y=sy, diff_min_permille=0, min_texture=0, max_sad_per_px=255,
+                     min_inward=0, max_mag=128, back_tol=1, min_blob_cells=1, min_age=1)
+    st_ = _poisoned_state(cell)
+    ref = _oracle(cfg)
+    for f in frames:
+        _, hyps, stats = _native.flow_step(st_, cfg, f)
+        _, r_hyps = ref.step(f)
+    assert stats["cells_computed"] > 0
+    for side in (0, 1):
+        _, _, dx, dy, flag, sad = _native.flow_field(st_, side)
+        ar = ref.areas[side]
+        np.testing.assert_array_equal(flag, ar.flag)
+        np.testing.assert_array_equal(dx, ar.dx)
+        np.testing.assert_array_equal(dy, ar.dy)
+        np.testing.assert_array_equal(sad, ar.sad)
+    assert _hyps_c(hyps) == _hyps_ref(r_hyps)
