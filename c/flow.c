@@ -838,6 +838,9 @@ vt_status vt_flow_seed_frame(vt_flow_state *st, const vt_flow_cfg *cfg, const vt
             break;
         }
     }
+    if (k == VT_FLOW_MAX_SEEDS) {
+        return VT_OK; /* not reached: vt_flow_seed just made this track */
+    }
     /* The cells its first step reads in this (the previous) level image. */
     vt__seed_span(st, &st->seeds[k], b);
     return vt__add_rect(st, st->level, st->prev_index, frame, st->lw, st->lh, b[0], b[1], b[2], b[3]);

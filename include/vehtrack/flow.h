@@ -53,14 +53,17 @@
  * camera. Work: the pyramid (13 instructions per input pixel per level, over the
  * input pixels under the computed rectangles: about half the frame with both
  * 30 % areas, a quarter with one), then
- * per computed cell cell^2 * (2 sx + 1) * (2 sy + 1) absolute differences (twice
- * for the cells the backward check runs on), per lateral cell 2 cell^2 for the
+ * per computed cell at most cell^2 * (2 sx + 1) * (2 sy + 1) absolute differences
+ * (twice for the cells the backward check runs on; successive elimination and the
+ * row early exit skip most, vt__search) plus (2 sx + cell) * (cell + 4 sy) adds of
+ * block sums, per lateral cell 2 cell^2 for the
  * change and texture gates; the union-find is linear in cells.
  * Stack: < 4 KB (vt_pyr_down_rect's row; the blob list, 1.6 KB). Measured
  * (callgrind, bench/callgrind_main.c, 640x480, both areas, every left cell
- * moving): 8.4 M instructions, 27.4 per frame pixel, of which the level-1 pyramid
- * over the two areas is 6.5 (whole frame, before: 10.4 M, 12.9); 1280x720: 19.8 M,
- * 21.5 per pixel. */
+ * moving): 7.3 M instructions, 23.8 per frame pixel: the level-1 pyramid over the
+ * two areas 6.5, the searches 15.5, the rest 1.8 (before the level image was
+ * restricted to the areas and the search pruned: 10.4 M, 33.7 = 12.7 + 19.2 +
+ * 1.8); 1280x720: 17.3 M, 18.7 per pixel (26.0 M, 28.2). */
 #ifndef VEHTRACK_FLOW_H
 #define VEHTRACK_FLOW_H
 
