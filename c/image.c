@@ -154,6 +154,17 @@ vt_status vt_sobel_y(const vt_image_u8 *src, vt_image_s16 *dst)
  * left of 0 reflects to 1 or 2 (< 3 <= 2 x1 + 1, as x1 >= 1), one at w or w + 1
  * (only when 2 ox + 2 >= w) to w - 2 or w - 3 (>= 2 ox - 2 >= 2 x0 - 2); a frame
  * of 1 or 2 columns has x0 = 0, so cl = 0. Rows read likewise, through r[]. */
+/* One output pixel of the horizontal pass at source column cx, the column sums
+ * reflected at the borders (reflect-101). */
+static uint8_t vt__pyr_border(const uint16_t *col, int32_t w, int32_t cx, const int32_t *k)
+{
+    int32_t i, acc = 0;
+    for (i = 0; i < 5; ++i) {
+        acc += k[i] * col[vt__reflect101(cx + i - 2, w)];
+    }
+    return (uint8_t)((acc + 128) >> 8);
+}
+
 static void vt__pyr_rect(const vt_image_u8 *src, vt_image_u8_mut *dst, int32_t x0, int32_t y0,
                          int32_t x1, int32_t y1)
 {
@@ -173,19 +184,22 @@ static void vt__pyr_rect(const vt_image_u8 *src, vt_image_u8_mut *dst, int32_t x
             col[x] = (uint16_t)(r[0][x] + 4 * r[1][x] + 6 * r[2][x] + 4 * r[3][x] + r[4][x]);
         }
         {
+            /* acc <= 256*255: round half up, no saturation needed. The interior
+             * columns [ia, ib) (2 ox - 2 >= 0, 2 ox + 2 < w) need no reflection, so
+             * their loop has no border test. */
             uint8_t *o = dst->px + (size_t)oy * (size_t)dst->stride;
-            for (ox = x0; ox < x1; ++ox) {
-                int32_t cx = 2 * ox, acc = 0;
-                if (cx >= 2 && cx + 2 < w) {
-                    acc = col[cx - 2] + 4 * col[cx - 1] + 6 * col[cx] + 4 * col[cx + 1] +
-                          col[cx + 2];
-                } else {
-                    for (i = 0; i < 5; ++i) {
-                        acc += k[i] * col[vt__reflect101(cx + i - 2, w)];
-                    }
-                }
-                /* acc <= 256*255: round half up, no saturation needed. */
+            const int32_t ia = x0 > 1 ? x0 : 1;
+            const int32_t ib = (w - 1) / 2 < x1 ? ((w - 1) / 2 > ia ? (w - 1) / 2 : ia) : x1;
+            for (ox = x0; ox < x1 && ox < ia; ++ox) {
+                o[ox] = vt__pyr_border(col, w, 2 * ox, k);
+            }
+            for (ox = ia; ox < ib; ++ox) {
+                const uint16_t *c = col + 2 * ox - 2;
+                int32_t acc = c[0] + 4 * c[1] + 6 * c[2] + 4 * c[3] + c[4];
                 o[ox] = (uint8_t)((acc + 128) >> 8);
+            }
+            for (ox = ib > ia ? ib : ia; ox < x1; ++ox) {
+                o[ox] = vt__pyr_border(col, w, 2 * ox, k);
             }
         }
     }
