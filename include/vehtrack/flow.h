@@ -50,7 +50,7 @@
  * bytes (vectors, SADs, flags, labels): 1,917,440 bytes at the defaults
  * (1920x1080, level >= 1);
  * a firmware build sets VT_MAX_WIDTH/HEIGHT (or VT_FLOW_MAX_PIXELS) to its
- * camera. Work: the pyramid (13 instructions per input pixel per level, over the
+ * camera. Work: the pyramid (11 instructions per input pixel per level, over the
  * input pixels under the computed rectangles: about half the frame with both
  * 30 % areas, a quarter with one), then
  * per computed cell at most cell^2 * (2 sx + 1) * (2 sy + 1) absolute differences
@@ -60,10 +60,10 @@
  * change and texture gates; the union-find is linear in cells.
  * Stack: < 4 KB (vt_pyr_down_rect's row; the blob list, 1.6 KB). Measured
  * (callgrind, bench/callgrind_main.c, 640x480, both areas, every left cell
- * moving): 7.3 M instructions, 23.8 per frame pixel: the level-1 pyramid over the
- * two areas 6.5, the searches 15.5, the rest 1.8 (before the level image was
+ * moving): 6.8 M instructions, 22.2 per frame pixel: the level-1 pyramid over the
+ * two areas 4.9, the searches 15.5, the rest 1.8 (before the level image was
  * restricted to the areas and the search pruned: 10.4 M, 33.7 = 12.7 + 19.2 +
- * 1.8); 1280x720: 17.3 M, 18.7 per pixel (26.0 M, 28.2). */
+ * 1.8); 1280x720: 15.9 M, 17.3 per pixel (26.0 M, 28.2). */
 #ifndef VEHTRACK_FLOW_H
 #define VEHTRACK_FLOW_H
 
