@@ -559,7 +559,8 @@ def _flow(ctx: Ctx) -> Stage:
         return digest(np.stack([hy["left"], hy["top"], hy["right"], hy["bottom"], hy["cells"]], 1)) if len(hy) else 0
 
     return Stage("flow", c, reference, pixels=img.size, digest=dig, calls=1,
-                 note="both lateral areas, level 1, worst case (all left cells move)")
+                 note="both lateral areas, level 1 (level image over the areas and search margins only), "
+                      "worst case (all left cells move)")
 
 
 def _model_setup(ctx: Ctx):
@@ -694,7 +695,7 @@ def _pipeline(ctx: Ctx) -> Stage:
 
 # ---------------------------------------------------------------- the pipeline with flow / model (issues 9/10)
 FLOW_BOOK = ("have_prev", "prev_index", "w", "h", "lw", "lh", "level", "next_id", "gw", "gh", "x0", "y0",
-             "seeds", "n_blobs", "blob_box", "blob_age")
+             "seeds", "n_blobs", "blob_box", "blob_age", "n_rect")
 
 
 def _pipe_digest(out) -> list:

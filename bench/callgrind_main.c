@@ -675,6 +675,8 @@ static struct {
     int32_t n_blobs[2];
     vt_box blob_box[2 * VT_FLOW_MAX_BLOBS];
     int32_t blob_age[2 * VT_FLOW_MAX_BLOBS];
+    int32_t n_rect[2];
+    int32_t rect[2][VT_FLOW_MAX_RECTS][4];
 } g_pp_book;
 
 #define PP_BOOK(dir)                                                                  \
@@ -694,6 +696,8 @@ static struct {
             memcpy(g_pp_book.n_blobs, f_->n_blobs, sizeof f_->n_blobs);               \
             memcpy(g_pp_book.blob_box, f_->blob_box, sizeof f_->blob_box);            \
             memcpy(g_pp_book.blob_age, f_->blob_age, sizeof f_->blob_age);            \
+            memcpy(g_pp_book.n_rect, f_->n_rect, sizeof f_->n_rect);                  \
+            memcpy(g_pp_book.rect, f_->rect, sizeof f_->rect);                        \
         } else {                                                                      \
             f_->have_prev = g_pp_book.have_prev;                                      \
             f_->prev_index = g_pp_book.prev_index;                                    \
@@ -708,6 +712,8 @@ static struct {
             memcpy(f_->n_blobs, g_pp_book.n_blobs, sizeof f_->n_blobs);               \
             memcpy(f_->blob_box, g_pp_book.blob_box, sizeof f_->blob_box);            \
             memcpy(f_->blob_age, g_pp_book.blob_age, sizeof f_->blob_age);            \
+            memcpy(f_->n_rect, g_pp_book.n_rect, sizeof f_->n_rect);                  \
+            memcpy(f_->rect, g_pp_book.rect, sizeof f_->rect);                        \
         }                                                                             \
     } while (0)
 

@@ -44,7 +44,8 @@ vt_status vt_flow_init(vt_flow_state *st)
         return VT_E_ARG;
     }
     /* Only the bookkeeping is cleared: the image and cell buffers are written
-     * before they are read, and clearing 1.8 MB per init would cost for nothing. */
+     * before they are read (for the images: only the recorded rectangles are
+     * read, see vt_flow_step), and clearing 1.8 MB per init would cost for nothing. */
     st->have_prev = 0;
     st->prev_index = 0;
     st->w = st->h = st->lw = st->lh = 0;
@@ -53,6 +54,7 @@ vt_status vt_flow_init(vt_flow_state *st)
     st->gw[0] = st->gw[1] = st->gh[0] = st->gh[1] = 0;
     st->x0[0] = st->x0[1] = st->y0[0] = st->y0[1] = 0;
     st->n_blobs[0] = st->n_blobs[1] = 0;
+    st->n_rect[0] = st->n_rect[1] = 0;
     memset(st->seeds, 0, sizeof st->seeds);
     return VT_OK;
 }
@@ -65,8 +67,14 @@ vt_status vt_flow_reset(vt_flow_state *st)
     st->have_prev = 0;
     st->gw[0] = st->gw[1] = st->gh[0] = st->gh[1] = 0;
     st->n_blobs[0] = st->n_blobs[1] = 0;
+    st->n_rect[0] = st->n_rect[1] = 0;
     memset(st->seeds, 0, sizeof st->seeds);
     return VT_OK;
+}
+
+static int32_t vt__imin(int32_t a, int32_t b)
+{
+    return a < b ? a : b;
 }
 
 /* Level-image size of a w x h frame: each vt_pyr_down step gives (n + 1) / 2. */
@@ -119,30 +127,71 @@ static uint32_t vt__sad(const uint8_t *a, int32_t as, const uint8_t *b, int32_t 
 /* Best displacement of the n x n block of `a` at (x, y) in `b` (both lw x lh,
  * stride lw): the block of b at (x - dx, y - dy) with the smallest SAD; (0, 0)
  * first, then dy outer, dx inner, strict improvement; candidates leaving b are
- * skipped. (x, y) must be a block inside a, so (0, 0) is always a candidate. */
+ * skipped. (x, y) must be a block inside a, so (0, 0) is always a candidate.
+ * Successive elimination: |sum(block a) - sum(block b)| <= SAD(a, b), so a
+ * candidate whose block sum differs from the cell's by at least the best SAD so far
+ * cannot win the strict comparison and is not matched: the result is the same as
+ * the exhaustive search's. The candidates' block sums come from one row of column
+ * sums over n rows (<= 32 * 255, uint16), slid down one row per dy and along the
+ * row per dx; both read only pixels of the candidate blocks. Sums <= 32^2 * 255 <
+ * 2^18: exact in uint32. */
 static void vt__search(const uint8_t *a, const uint8_t *b, int32_t lw, int32_t lh, int32_t x,
                        int32_t y, int32_t n, int32_t sx, int32_t sy, int32_t *bdx, int32_t *bdy,
                        uint32_t *bsad)
 {
     const uint8_t *pa = a + (size_t)y * (size_t)lw + (size_t)x;
     uint32_t best = vt__sad(pa, lw, b + (size_t)y * (size_t)lw + (size_t)x, lw, n, UINT32_MAX);
-    int32_t dx, dy, rx = 0, ry = 0;
-    for (dy = -sy; dy <= sy; dy++) {
-        int32_t by = y - dy;
-        if (by < 0 || by + n > lh) {
-            continue;
+    /* The candidate blocks' corners: bx in [cx0, cx1], by in [cy0, cy1]. */
+    const int32_t cx0 = vt__max_i32(0, x - sx), cx1 = vt__imin(lw - n, x + sx);
+    const int32_t cy0 = vt__max_i32(0, y - sy), cy1 = vt__imin(lh - n, y + sy);
+    const int32_t cw = cx1 + n - cx0; /* <= 2 * 32 + 32 columns */
+    uint16_t cs[3 * 32];
+    uint32_t sa = 0;
+    int32_t rx = 0, ry = 0, bx, by, c, j;
+    for (j = 0; j < n && best > 0; j++) {
+        const uint8_t *p = pa + (size_t)j * (size_t)lw;
+        for (c = 0; c < n; c++) {
+            sa += p[c];
         }
-        for (dx = -sx; dx <= sx; dx++) {
-            int32_t bx = x - dx;
-            uint32_t s;
-            if (bx < 0 || bx + n > lw || (dx == 0 && dy == 0)) {
+    }
+    /* dy = y - by runs from -sy up, so by from cy1 down; likewise bx. */
+    for (by = cy1; by >= cy0 && best > 0; by--) {
+        const uint8_t *top = b + (size_t)by * (size_t)lw + (size_t)cx0;
+        uint32_t sb = 0;
+        if (by == cy1) {
+            for (c = 0; c < cw; c++) {
+                uint32_t t = 0;
+                for (j = 0; j < n; j++) {
+                    t += top[(size_t)j * (size_t)lw + (size_t)c];
+                }
+                cs[c] = (uint16_t)t;
+            }
+        } else {
+            const uint8_t *gone = top + (size_t)n * (size_t)lw;
+            for (c = 0; c < cw; c++) {
+                cs[c] = (uint16_t)(cs[c] + top[c] - gone[c]);
+            }
+        }
+        for (c = cx1 - cx0; c < cw; c++) {
+            sb += cs[c];
+        }
+        for (bx = cx1; bx >= cx0; bx--) {
+            uint32_t s, d;
+            if (bx < cx1) {
+                sb = sb + cs[bx - cx0] - cs[bx - cx0 + n];
+            }
+            if (bx == x && by == y) {
+                continue;
+            }
+            d = sa > sb ? sa - sb : sb - sa;
+            if (d >= best) {
                 continue;
             }
             s = vt__sad(pa, lw, b + (size_t)by * (size_t)lw + (size_t)bx, lw, n, best);
             if (s < best) {
                 best = s;
-                rx = dx;
-                ry = dy;
+                rx = x - bx;
+                ry = y - by;
             }
         }
     }
@@ -391,6 +440,131 @@ static void vt__area_flow(vt_flow_state *st, const vt_flow_cfg *cfg, int32_t sid
     st->n_blobs[side] = nb;
 }
 
+/* The level-px span of a hand-over track's box, clamped to the lw x lh level image:
+ * b = {bx0, by0, bx1, by1}, half-open; its cells are the whole cells from (bx0, by0). */
+static void vt__seed_span(const vt_flow_state *st, const vt_flow_seed_track *sd, int32_t b[4])
+{
+    const int32_t lv = st->level;
+    const int32_t left = vt_q16_round(sd->left), top = vt_q16_round(sd->top);
+    b[0] = vt__clamp_i32(vt__floor_shift(left, lv), 0, st->lw);
+    b[1] = vt__clamp_i32(vt__floor_shift(top, lv), 0, st->lh);
+    b[2] = vt__clamp_i32(vt__floor_shift(left + sd->width - 1, lv) + 1, 0, st->lw);
+    b[3] = vt__clamp_i32(vt__floor_shift(top + sd->height - 1, lv) + 1, 0, st->lh);
+}
+
+/* 1 when the n x n block at (x, y) lies inside one rectangle recorded as computed
+ * for level image idx. */
+static int vt__computed(const vt_flow_state *st, int32_t idx, int32_t x, int32_t y, int32_t n)
+{
+    int32_t k;
+    for (k = 0; k < st->n_rect[idx]; k++) {
+        const int32_t *r = st->rect[idx][k];
+        if (x >= r[0] && y >= r[1] && x + n <= r[2] && y + n <= r[3]) {
+            return 1;
+        }
+    }
+    return 0;
+}
+
+/* 1 when the rectangle r (level px, half-open) lies inside one rectangle recorded
+ * for level image idx. */
+static int vt__computed_rect(const vt_flow_state *st, int32_t idx, const int32_t r[4])
+{
+    int32_t k;
+    for (k = 0; k < st->n_rect[idx]; k++) {
+        const int32_t *q = st->rect[idx][k];
+        if (r[0] >= q[0] && r[1] >= q[1] && r[2] <= q[2] && r[3] <= q[3]) {
+            return 1;
+        }
+    }
+    return 0;
+}
+
+/* Computes level image idx (lw x lh, level lv) over the level-px rectangle
+ * [x0, x1) x [y0, y1) from the input frame. Level 0 copies; level 1 is one
+ * vt_pyr_down_rect; level 2 first computes the level-1 pixels that rectangle reads
+ * (columns max(0, 2 x0 - 2) .. min(w1, 2 x1 + 1), rows likewise: see vt__pyr_rect in
+ * image.c) into the scratch, then the level-2 rectangle from them. */
+static vt_status vt__level_rect(vt_flow_state *st, int32_t lv, int32_t idx, const vt_image_u8 *frame,
+                                int32_t lw, int32_t lh, int32_t x0, int32_t y0, int32_t x1,
+                                int32_t y1)
+{
+    vt_image_u8_mut d;
+    vt_image_u8 src;
+    vt_status s;
+    int32_t y;
+    d.px = st->img[idx];
+    d.w = lw;
+    d.h = lh;
+    d.stride = lw;
+    if (lv == 0) {
+        for (y = y0; y < y1; y++) {
+            memcpy(d.px + (size_t)y * (size_t)lw + (size_t)x0,
+                   frame->px + (size_t)y * (size_t)frame->stride + (size_t)x0, (size_t)(x1 - x0));
+        }
+        return VT_OK;
+    }
+    if (lv == 1) {
+        return vt_pyr_down_rect(frame, &d, x0, y0, x1, y1);
+    }
+    src.px = st->scratch;
+    vt__level_size(frame->w, frame->h, 1, &src.w, &src.h);
+    src.stride = src.w;
+    {
+        vt_image_u8_mut sc;
+        sc.px = st->scratch;
+        sc.w = src.w;
+        sc.h = src.h;
+        sc.stride = src.w;
+        s = vt_pyr_down_rect(frame, &sc, x0 > 1 ? 2 * x0 - 2 : 0, y0 > 1 ? 2 * y0 - 2 : 0,
+                             vt__imin(2 * x1 + 1, src.w), vt__imin(2 * y1 + 1, src.h));
+    }
+    return s != VT_OK ? s : vt_pyr_down_rect(&src, &d, x0, y0, x1, y1);
+}
+
+/* Clips [x0, x1) x [y0, y1) to the lw x lh level image; a non-empty result is
+ * recorded for image idx (appended; with VT_FLOW_MAX_RECTS recorded, merged into the
+ * last one, which becomes the bounding box of both) and computed from the frame. */
+static vt_status vt__add_rect(vt_flow_state *st, int32_t lv, int32_t idx, const vt_image_u8 *frame,
+                              int32_t lw, int32_t lh, int32_t x0, int32_t y0, int32_t x1, int32_t y1)
+{
+    int32_t *r;
+    x0 = vt__clamp_i32(x0, 0, lw);
+    x1 = vt__clamp_i32(x1, 0, lw);
+    y0 = vt__clamp_i32(y0, 0, lh);
+    y1 = vt__clamp_i32(y1, 0, lh);
+    if (x0 >= x1 || y0 >= y1) {
+        return VT_OK;
+    }
+    if (st->n_rect[idx] < VT_FLOW_MAX_RECTS) {
+        r = st->rect[idx][st->n_rect[idx]++];
+        r[0] = x0;
+        r[1] = y0;
+        r[2] = x1;
+        r[3] = y1;
+    } else {
+        r = st->rect[idx][VT_FLOW_MAX_RECTS - 1];
+        r[0] = vt__imin(r[0], x0);
+        r[1] = vt__imin(r[1], y0);
+        r[2] = vt__max_i32(r[2], x1);
+        r[3] = vt__max_i32(r[3], y1);
+    }
+    return vt__level_rect(st, lv, idx, frame, lw, lh, r[0], r[1], r[2], r[3]);
+}
+
+/* The rectangle of lateral area `side` that a step reads in both level images:
+ * its cells widened by 2 search_x / 2 search_y (the search reads the previous image
+ * up to one search range beyond a cell, the backward check the current one up to
+ * two); not clipped. */
+static void vt__area_rect(const vt_flow_cfg *cfg, int32_t x0, int32_t y0, int32_t gw, int32_t gh,
+                          int32_t r[4])
+{
+    r[0] = x0 - 2 * cfg->search_x;
+    r[1] = y0 - 2 * cfg->search_y;
+    r[2] = x0 + gw * cfg->cell + 2 * cfg->search_x;
+    r[3] = y0 + gh * cfg->cell + 2 * cfg->search_y;
+}
+
 /* Moves one hand-over track by the mean vector of the textured cells inside its
  * box (searched from the previous frame into the current one); returns 0 when the
  * track ends (no textured cell, no match, or too little of it left in the frame). */
@@ -399,22 +573,25 @@ static int vt__seed_step(vt_flow_state *st, const vt_flow_cfg *cfg, vt_flow_seed
 {
     const int32_t lv = st->level, n = cfg->cell, lw = st->lw, lh = st->lh;
     const uint32_t max_sad = (uint32_t)(cfg->max_sad_per_px * n * n);
-    int32_t left = vt_q16_round(sd->left), top = vt_q16_round(sd->top);
-    int32_t bx0 = vt__floor_shift(left, lv), by0 = vt__floor_shift(top, lv);
-    int32_t bx1 = vt__floor_shift(left + sd->width - 1, lv) + 1;
-    int32_t by1 = vt__floor_shift(top + sd->height - 1, lv) + 1;
+    int32_t left, top, b[4], bx0, by0;
     int32_t gw, gh, i, j, cnt = 0, sdx = 0, sdy = 0, vis;
     vt_q16 mx, my;
-    bx0 = vt__clamp_i32(bx0, 0, lw);
-    bx1 = vt__clamp_i32(bx1, 0, lw);
-    by0 = vt__clamp_i32(by0, 0, lh);
-    by1 = vt__clamp_i32(by1, 0, lh);
-    gw = (bx1 - bx0) / n;
-    gh = (by1 - by0) / n;
+    vt__seed_span(st, sd, b);
+    bx0 = b[0];
+    by0 = b[1];
+    gw = (b[2] - bx0) / n;
+    gh = (b[3] - by0) / n;
     for (j = 0; j < gh; j++) {
         for (i = 0; i < gw; i++) {
             int32_t dx = 0, dy = 0;
             uint32_t s = 0;
+            /* Only the computed parts of the previous level image hold that frame: a
+             * track seeded (vt_flow_seed) where the last step computed nothing is
+             * followed from the cells that were computed, and from all of them from its
+             * second step on (its own rectangle below covers where it moves). */
+            if (!vt__computed(st, st->prev_index, bx0 + i * n, by0 + j * n, n)) {
+                continue;
+            }
             /* A flat cell (a uniform car body, the road once the car has left) matches
              * at zero motion whatever moved (the aperture problem, as in the areas): it
              * would hold the box back, and on bare road keep it forever. */
@@ -466,7 +643,7 @@ vt_status vt_flow_step(vt_flow_state *st, const vt_flow_cfg *cfg, const vt_image
                        vt_flow_result *out)
 {
     vt_status s;
-    int32_t lw, lh, cur_i, side, k;
+    int32_t lw, lh, cur_i, side, k, restart, r[4];
     int32_t ax0[2], ay0[2], agw[2], agh[2];
     uint8_t *cur;
     if (out != NULL) {
@@ -498,38 +675,50 @@ vt_status vt_flow_step(vt_flow_state *st, const vt_flow_cfg *cfg, const vt_image
         }
     }
 
-    cur_i = st->have_prev ? 1 - st->prev_index : st->prev_index;
-    cur = st->img[cur_i];
-    if (cfg->level == 0) {
-        int32_t y;
-        for (y = 0; y < frame->h; y++) {
-            memcpy(cur + (size_t)y * (size_t)lw, frame->px + (size_t)y * (size_t)frame->stride,
-                   (size_t)lw);
-        }
-    } else {
-        vt_image_u8_mut d;
-        vt_image_u8 src;
-        d.px = cfg->level == 1 ? cur : st->scratch;
-        vt__level_size(frame->w, frame->h, 1, &d.w, &d.h);
-        d.stride = d.w;
-        s = vt_pyr_down(frame, &d);
-        if (s == VT_OK && cfg->level == 2) {
-            src.px = st->scratch;
-            src.w = d.w;
-            src.h = d.h;
-            src.stride = d.w;
-            d.px = cur;
-            d.w = lw;
-            d.h = lh;
-            d.stride = lw;
-            s = vt_pyr_down(&src, &d);
-        }
-        if (s != VT_OK) {
-            return s;
+    /* A first frame when there is no previous one, the level changed, or the
+     * previous level image was not computed over this frame's areas (a cfg change
+     * that widened them): its other pixels are stale or were never written. */
+    restart = !st->have_prev || st->level != cfg->level;
+    for (side = 0; side < 2 && !restart; side++) {
+        if (agw[side] * agh[side] > 0) {
+            vt__area_rect(cfg, ax0[side], ay0[side], agw[side], agh[side], r);
+            r[0] = vt__clamp_i32(r[0], 0, lw);
+            r[1] = vt__clamp_i32(r[1], 0, lh);
+            r[2] = vt__clamp_i32(r[2], 0, lw);
+            r[3] = vt__clamp_i32(r[3], 0, lh);
+            restart = !vt__computed_rect(st, st->prev_index, r);
         }
     }
+    cur_i = st->have_prev ? 1 - st->prev_index : st->prev_index;
+    cur = st->img[cur_i];
+    /* The level image only where this step or the next reads it: the areas with
+     * their search margins, and each hand-over track's cells with one search range
+     * and 1 px more on each side. A track moves by the mean of its vectors, |m| <=
+     * search << level input px, and its rounded position by less than |m| + 1
+     * (round half up: floor(a + m + 1/2) - floor(a + 1/2) lies in (m - 1, m + 1)), so
+     * by at most `search` level px once floored: next frame's cells, read in this
+     * image as the previous one, lie inside that rectangle (the 1 px is slack). */
+    st->n_rect[cur_i] = 0;
+    s = VT_OK;
+    for (side = 0; side < 2 && s == VT_OK; side++) {
+        if (agw[side] * agh[side] > 0) {
+            vt__area_rect(cfg, ax0[side], ay0[side], agw[side], agh[side], r);
+            s = vt__add_rect(st, cfg->level, cur_i, frame, lw, lh, r[0], r[1], r[2], r[3]);
+        }
+    }
+    for (k = 0; k < VT_FLOW_MAX_SEEDS && !restart && s == VT_OK; k++) {
+        if (st->seeds[k].active) {
+            vt__seed_span(st, &st->seeds[k], r);
+            s = vt__add_rect(st, cfg->level, cur_i, frame, lw, lh, r[0] - cfg->search_x - 1,
+                             r[1] - cfg->search_y - 1, r[2] + cfg->search_x + 1,
+                             r[3] + cfg->search_y + 1);
+        }
+    }
+    if (s != VT_OK) {
+        return s;
+    }
 
-    if (!st->have_prev || st->level != cfg->level) {
+    if (restart) {
         /* First frame (or a new level): nothing to compare with yet. */
         st->have_prev = 1;
         st->prev_index = cur_i;
@@ -619,4 +808,40 @@ vt_status vt_flow_unseed(vt_flow_state *st, int32_t id)
         }
     }
     return VT_E_ARG;
+}
+
+vt_status vt_flow_seed_frame(vt_flow_state *st, const vt_flow_cfg *cfg, const vt_image_u8 *frame,
+                             const vt_box *box, int32_t *id)
+{
+    vt_status s;
+    int32_t k, b[4];
+    if (id != NULL) {
+        *id = 0;
+    }
+    if (st == NULL || box == NULL || id == NULL || vt_flow_cfg_check(cfg) != VT_OK ||
+        !st->have_prev) {
+        return VT_E_ARG;
+    }
+    s = vt_image_u8_check(frame);
+    if (s != VT_OK) {
+        return s;
+    }
+    if (frame->w != st->w || frame->h != st->h) {
+        return VT_E_SIZE;
+    }
+    s = vt_flow_seed(st, cfg, box, id);
+    if (s != VT_OK) {
+        return s;
+    }
+    for (k = 0; k < VT_FLOW_MAX_SEEDS; k++) {
+        if (st->seeds[k].active && st->seeds[k].id == *id) {
+            break;
+        }
+    }
+    if (k == VT_FLOW_MAX_SEEDS) {
+        return VT_OK; /* not reached: vt_flow_seed just made this track */
+    }
+    /* The cells its first step reads in this (the previous) level image. */
+    vt__seed_span(st, &st->seeds[k], b);
+    return vt__add_rect(st, st->level, st->prev_index, frame, st->lw, st->lh, b[0], b[1], b[2], b[3]);
 }

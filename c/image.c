@@ -145,49 +145,94 @@ vt_status vt_sobel_y(const vt_image_u8 *src, vt_image_s16 *dst)
     return vt__sobel(src, dst, 1);
 }
 
-vt_status vt_pyr_down(const vt_image_u8 *src, vt_image_u8_mut *dst)
+/* The output pixels [x0, x1) x [y0, y1) of one pyramid step (arguments checked).
+ * Vertical pass into one row of column sums (<= 16*255, fits uint16), then the
+ * horizontal pass; 15 multiply-adds per output pixel instead of 25. The row lives
+ * on the stack: 2*VT_MAX_WIDTH bytes. Only the columns [cl, ch) are summed: output
+ * column ox reads source columns 2 ox - 2 .. 2 ox + 2 reflected (reflect-101), and
+ * with x0 <= ox < x1 those land in [max(0, 2 x0 - 2), min(w, 2 x1 + 1)): a column
+ * left of 0 reflects to 1 or 2 (< 3 <= 2 x1 + 1, as x1 >= 1), one at w or w + 1
+ * (only when 2 ox + 2 >= w) to w - 2 or w - 3 (>= 2 ox - 2 >= 2 x0 - 2); a frame
+ * of 1 or 2 columns has x0 = 0, so cl = 0. Rows read likewise, through r[]. */
+/* One output pixel of the horizontal pass at source column cx, the column sums
+ * reflected at the borders (reflect-101). */
+static uint8_t vt__pyr_border(const uint16_t *col, int32_t w, int32_t cx, const int32_t *k)
 {
-    /* Vertical pass into one row of column sums (<= 16*255, fits uint16), then
-     * the horizontal pass; 15 multiply-adds per output pixel instead of 25.
-     * The row lives on the stack: 2*VT_MAX_WIDTH bytes. */
+    int32_t i, acc = 0;
+    for (i = 0; i < 5; ++i) {
+        acc += k[i] * col[vt__reflect101(cx + i - 2, w)];
+    }
+    return (uint8_t)((acc + 128) >> 8);
+}
+
+static void vt__pyr_rect(const vt_image_u8 *src, vt_image_u8_mut *dst, int32_t x0, int32_t y0,
+                         int32_t x1, int32_t y1)
+{
     uint16_t col[VT_MAX_WIDTH];
     static const int32_t k[5] = {1, 4, 6, 4, 1};
-    int32_t ox, oy, ow, oh, w, h, i;
-    vt_status s = vt__check_src_out(src, dst != NULL && dst->px != NULL, dst != NULL ? dst->w : 0,
-                                    dst != NULL ? dst->h : 0, dst != NULL ? dst->stride : 0, 1);
-    if (s != VT_OK) {
-        return s;
-    }
-    w = src->w;
-    h = src->h;
-    ow = dst->w;
-    oh = dst->h;
-    for (oy = 0; oy < oh; ++oy) {
+    const int32_t w = src->w, h = src->h;
+    const int32_t cl = 2 * x0 - 2 > 0 ? 2 * x0 - 2 : 0;
+    const int32_t ch = 2 * x1 + 1 < w ? 2 * x1 + 1 : w;
+    int32_t ox, oy, i;
+    for (oy = y0; oy < y1; ++oy) {
         const uint8_t *r[5];
         int32_t x;
         for (i = 0; i < 5; ++i) {
             r[i] = src->px + (size_t)vt__reflect101(2 * oy + i - 2, h) * (size_t)src->stride;
         }
-        for (x = 0; x < w; ++x) {
+        for (x = cl; x < ch; ++x) {
             col[x] = (uint16_t)(r[0][x] + 4 * r[1][x] + 6 * r[2][x] + 4 * r[3][x] + r[4][x]);
         }
         {
+            /* acc <= 256*255: round half up, no saturation needed. The interior
+             * columns [ia, ib) (2 ox - 2 >= 0, 2 ox + 2 < w) need no reflection, so
+             * their loop has no border test. */
             uint8_t *o = dst->px + (size_t)oy * (size_t)dst->stride;
-            for (ox = 0; ox < ow; ++ox) {
-                int32_t cx = 2 * ox, acc = 0;
-                if (cx >= 2 && cx + 2 < w) {
-                    acc = col[cx - 2] + 4 * col[cx - 1] + 6 * col[cx] + 4 * col[cx + 1] +
-                          col[cx + 2];
-                } else {
-                    for (i = 0; i < 5; ++i) {
-                        acc += k[i] * col[vt__reflect101(cx + i - 2, w)];
-                    }
-                }
-                /* acc <= 256*255: round half up, no saturation needed. */
+            const int32_t ia = x0 > 1 ? x0 : 1;
+            const int32_t ib = (w - 1) / 2 < x1 ? ((w - 1) / 2 > ia ? (w - 1) / 2 : ia) : x1;
+            for (ox = x0; ox < x1 && ox < ia; ++ox) {
+                o[ox] = vt__pyr_border(col, w, 2 * ox, k);
+            }
+            for (ox = ia; ox < ib; ++ox) {
+                const uint16_t *c = col + 2 * ox - 2;
+                int32_t acc = c[0] + 4 * c[1] + 6 * c[2] + 4 * c[3] + c[4];
                 o[ox] = (uint8_t)((acc + 128) >> 8);
+            }
+            for (ox = ib > ia ? ib : ia; ox < x1; ++ox) {
+                o[ox] = vt__pyr_border(col, w, 2 * ox, k);
             }
         }
     }
+}
+
+static vt_status vt__check_pyr(const vt_image_u8 *src, const vt_image_u8_mut *dst)
+{
+    return vt__check_src_out(src, dst != NULL && dst->px != NULL, dst != NULL ? dst->w : 0,
+                             dst != NULL ? dst->h : 0, dst != NULL ? dst->stride : 0, 1);
+}
+
+vt_status vt_pyr_down(const vt_image_u8 *src, vt_image_u8_mut *dst)
+{
+    vt_status s = vt__check_pyr(src, dst);
+    if (s != VT_OK) {
+        return s;
+    }
+    vt__pyr_rect(src, dst, 0, 0, dst->w, dst->h);
+    return VT_OK;
+}
+
+vt_status vt_pyr_down_rect(const vt_image_u8 *src, vt_image_u8_mut *dst, int32_t x0, int32_t y0,
+                           int32_t x1, int32_t y1)
+{
+    vt_status s = vt__check_pyr(src, dst);
+    if (s != VT_OK) {
+        return s;
+    }
+    /* Compared one by one, so no sum of two arguments can overflow. */
+    if (x0 < 0 || y0 < 0 || x1 < x0 || y1 < y0 || x1 > dst->w || y1 > dst->h) {
+        return VT_E_ARG;
+    }
+    vt__pyr_rect(src, dst, x0, y0, x1, y1);
     return VT_OK;
 }
 

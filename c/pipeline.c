@@ -709,7 +709,7 @@ static void vt__ho_history(vt_pipeline *p)
  *     (l * 1000 <= e' on the left, (w - 1 - r) * 1000 <= e' on the right), and
  *   - it did not move inward over the N frames (l + r not larger on the left, not
  *     smaller on the right).
- * Then vt_flow_seed(its box) and vt_tracker_drop(its id): it leaves p->tracks and is
+ * Then vt_flow_seed_frame(its box, this frame) and vt_tracker_drop(its id): it leaves p->tracks and is
  * reported as a hand-over with the same id (until vt__ho_refresh ends it). A seed refused (VT_FLOW_MAX_SEEDS live, or
  * a box outside the frame) leaves the track with the tracker. Exact integer tests. */
 static void vt__handover(vt_pipeline *p, const vt_image_u8 *frame, int32_t *n_tracks)
@@ -743,7 +743,7 @@ static void vt__handover(vt_pipeline *p, const vt_image_u8 *frame, int32_t *n_tr
             }
         }
         if (side != 0 && p->n_ho < VT_FLOW_MAX_SEEDS &&
-            vt_flow_seed(p->flow_st, &p->cfg.flow, b, &sid) == VT_OK) {
+            vt_flow_seed_frame(p->flow_st, &p->cfg.flow, frame, b, &sid) == VT_OK) {
             p->ho_id[p->n_ho] = t->id;
             p->ho_seed[p->n_ho] = sid;
             p->ho_box[p->n_ho] = *b;

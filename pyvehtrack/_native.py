@@ -152,6 +152,14 @@ def pyr_down(src: np.ndarray, dst: np.ndarray) -> None:
     _unary("vt_pyr_down", src, dst, np.uint8)
 
 
+def pyr_down_rect(src: np.ndarray, dst: np.ndarray, x0: int, y0: int, x1: int, y1: int) -> None:
+    """vt_pyr_down_rect: the level-image pixels [x0, x1) x [y0, y1) of dst only."""
+    vs = view(src, "src")
+    vd = view(dst, "dst", writable=True)
+    check("vt_pyr_down_rect", lib.vt_pyr_down_rect(vs, vd, x0, y0, x1, y1),
+          f"rect x0={x0} y0={y0} x1={x1} y1={y1}, src {src.shape}, dst {dst.shape}")
+
+
 def integral(src: np.ndarray, dst: np.ndarray) -> None:
     _unary("vt_integral", src, dst, np.uint32)
 
@@ -979,6 +987,21 @@ def flow_seed(st, cfg, box) -> int:
     out = ffi.new("int32_t *")
     check("vt_flow_seed", lib.vt_flow_seed(st, cfg, b, out),
           f"box {vals} in a {st.w}x{st.h} frame (have_prev={st.have_prev})")
+    return int(out[0])
+
+
+def flow_seed_frame(st, cfg, img: np.ndarray, box) -> int:
+    """vt_flow_seed_frame: flow_seed, and the previous level image computed over the box
+    from `img`, the frame last given to flow_step."""
+    v = view(img, "frame")
+    b = ffi.new("vt_box *")
+    vals = [int(v_) for v_ in box]
+    if len(vals) != 4 or any(abs(v_) > 2**30 for v_ in vals):
+        raise ValueError(f"box: expected [left, top, right, bottom] ints, got {box!r}")
+    b.left, b.top, b.right, b.bottom = vals
+    out = ffi.new("int32_t *")
+    check("vt_flow_seed_frame", lib.vt_flow_seed_frame(st, cfg, v, b, out),
+          f"box {vals}, frame {img.shape} in a {st.w}x{st.h} frame (have_prev={st.have_prev})")
     return int(out[0])
 
 

@@ -89,6 +89,7 @@ class OvertakingDetector:
             raise ValueError(f"engine: expected 'c' or 'reference', got {engine!r}")
         self.engine = engine
         self.cfg = make_cfg(**cfg)
+        self._last = None       # the last frame stepped (gray): seed() computes its level image there
         if engine == "c":
             self._st = _native.flow_new()
         else:
@@ -98,6 +99,7 @@ class OvertakingDetector:
                                          int(_native.lib.VT_FLOW_MAX_SEEDS), int(_native.lib.VT_FLOW_MAX_BLOBS))
 
     def reset(self) -> None:
+        self._last = None
         if self.engine == "c":
             _native.flow_reset(self._st)
         else:
@@ -107,6 +109,7 @@ class OvertakingDetector:
         g = _gray(frame)
         if self.engine == "c":
             ready, hyps, _ = _native.flow_step(self._st, self.cfg, g)
+            self._last = g
             out = [FlowHyp((int(h["left"]), int(h["top"]), int(h["right"]), int(h["bottom"])),
                            SIDE_NAMES[int(h["side"])], KIND_NAMES[int(h["kind"])], int(h["id"]),
                            int(h["cells"]), (h["flow_x"] / 65536.0, h["flow_y"] / 65536.0), int(h["age"]),
@@ -114,11 +117,19 @@ class OvertakingDetector:
                    for h in hyps]
             return FlowResult(ready, out)
         ready, hyps = self._ref.step(g)
+        self._last = g
         return FlowResult(ready, [FlowHyp(h.box, SIDE_NAMES[h.side], KIND_NAMES[h.kind], h.id,
                                           h.cells, h.flow, h.age, h.cy) for h in hyps])
 
     def seed(self, box) -> int:
-        """Hand a vehicle over (box in the last frame's pixels); returns its id."""
+        """Hand a vehicle over (box in the last frame's pixels); returns its id. The last
+        frame given to step() (kept by reference: do not overwrite it in place before
+        this call) is passed on, so the track is followed from all its cells on its first
+        step (vt_flow_seed_frame)."""
+        if self._last is None:
+            if self.engine == "c":
+                return _native.flow_seed(self._st, self.cfg, box)   # no previous frame: the C error
+            return self._ref.seed(box)
         if self.engine == "c":
-            return _native.flow_seed(self._st, self.cfg, box)
-        return self._ref.seed(box)
+            return _native.flow_seed_frame(self._st, self.cfg, self._last, box)
+        return self._ref.seed(box, frame=self._last)

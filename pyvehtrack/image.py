@@ -52,6 +52,24 @@ def pyr_down(img: np.ndarray) -> np.ndarray:
     return out
 
 
+def pyr_down_rect(img: np.ndarray, rect, out: np.ndarray | None = None) -> np.ndarray:
+    """The pixels [x0, x1) x [y0, y1) of pyr_down(img), rect = (x0, y0, x1, y1) in level
+    pixels, written into `out` (a ((h+1)//2, (w+1)//2) uint8 array, zeros if None; its
+    other pixels are left as they are), which is returned."""
+    h, w = _shape(img)
+    if not isinstance(rect, (tuple, list)) or len(rect) != 4:
+        raise TypeError(f"rect: expected (x0, y0, x1, y1), got {rect!r}")
+    x0, y0, x1, y1 = (_check.integer(v, "rect") for v in rect)
+    oh, ow = (h + 1) // 2, (w + 1) // 2
+    if not (0 <= x0 <= x1 <= ow and 0 <= y0 <= y1 <= oh):
+        raise ValueError(f"rect: {tuple(rect)} is not inside the {ow}x{oh} level image "
+                         f"(0 <= x0 <= x1 <= {ow}, 0 <= y0 <= y1 <= {oh})")
+    if out is None:
+        out = np.zeros((oh, ow), np.uint8)
+    _native.pyr_down_rect(img, out, x0, y0, x1, y1)
+    return out
+
+
 def integral(img: np.ndarray) -> np.ndarray:
     """(h+1, w+1) uint32 integral image with a zero first row and column."""
     h, w = _shape(img)

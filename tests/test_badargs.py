@@ -77,6 +77,24 @@ def test_pyr_integral_box_bad_args():
         assert lib.vt_box_sum(ii, *rect, s) == lib.VT_E_SIZE, rect
 
 
+def test_pyr_down_rect_bad_args():
+    d8 = ffi.new("vt_image_u8_mut *")
+    d8.px = ffi.cast("uint8_t *", BUF.ctypes.data)
+    d8.w, d8.h, d8.stride = 2, 2, 2
+    f = lib.vt_pyr_down_rect
+    assert f(u8(4, 4, 4), d8, 0, 0, 2, 2) == lib.VT_OK
+    assert f(u8(4, 4, 4), d8, 1, 1, 1, 1) == lib.VT_OK           # empty: a no-op
+    assert f(u8(4, 4, 4), ffi.NULL, 0, 0, 1, 1) == lib.VT_E_ARG
+    assert f(ffi.NULL, d8, 0, 0, 1, 1) == lib.VT_E_ARG
+    for r in [(-1, 0, 1, 1), (0, -1, 1, 1), (1, 0, 0, 1), (0, 1, 1, 0), (0, 0, 3, 1), (0, 0, 1, 3),
+              (0, 0, 2**31 - 1, 1), (-(2**31), -(2**31), 2**31 - 1, 2**31 - 1), (2**31 - 1, 0, 2**31 - 1, 1)]:
+        assert f(u8(4, 4, 4), d8, *r) == lib.VT_E_ARG, r
+    d8.w = 3
+    assert f(u8(4, 4, 4), d8, 0, 0, 1, 1) == lib.VT_E_SIZE
+    for d in BAD_DIMS:
+        assert f(u8(*d), d8, 0, 0, 1, 1) == lib.VT_E_SIZE
+
+
 def test_pair_bad_args():
     q = ffi.new("vt_q14 *")
     s = ffi.new("uint32_t *")

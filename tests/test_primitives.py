@@ -71,6 +71,75 @@ def test_pyr_down_matches_opencv(img):
     np.testing.assert_array_equal(vt.image.pyr_down(img), cv2.pyrDown(np.ascontiguousarray(img)))
 
 
+# pyr_down_rect: the pixels of the rectangle must equal cv2.pyrDown's there (the same
+# integer sums and rounding: 0 LSB), every other pixel of the level image and the guard
+# around it must keep what it held (a sentinel), whatever rectangle: empty ones, ones
+# touching each border (the reflect-101 columns and rows) and the whole image.
+@st.composite
+def rects(draw, ow, oh):
+    def span(n):
+        kind = draw(st.sampled_from(["any", "from0", "toend", "all", "empty"]))
+        if kind == "all":
+            return 0, n
+        if kind == "empty":
+            a = draw(st.integers(0, n))
+            return a, a
+        a = 0 if kind == "from0" else draw(st.integers(0, n - 1))
+        b = n if kind == "toend" else draw(st.integers(a + 1, n))
+        return a, b
+    (x0, x1), (y0, y1) = span(ow), span(oh)
+    return x0, y0, x1, y1
+
+
+@given(img=images(), data=st.data())
+def test_pyr_down_rect_exact_and_nothing_else_written(img, data):
+    import cv2
+    h, w = img.shape
+    oh, ow = (h + 1) // 2, (w + 1) // 2
+    x0, y0, x1, y1 = data.draw(rects(ow, oh))
+    g = Guarded(oh, ow, np.uint8)
+    _native.pyr_down_rect(img, g.view, x0, y0, x1, y1)
+    assert g.intact()
+    full = cv2.pyrDown(np.ascontiguousarray(img)) if min(h, w) > 1 else ref.pyr_down(np.ascontiguousarray(img))
+    expect = np.full((oh, ow), g.sentinel, np.uint8)
+    expect[y0:y1, x0:x1] = full[y0:y1, x0:x1]
+    np.testing.assert_array_equal(g.view, expect)
+
+
+def test_pyr_down_rect_reads_only_what_it_needs():
+    """Source pixels outside rows/columns 2 y0 - 2 .. 2 y1 (reflected) do not matter: they
+    are replaced by noise and the rectangle's result stays the same."""
+    rng = np.random.default_rng(7)
+    img = rng.integers(0, 256, (41, 53)).astype(np.uint8)
+    for x0, y0, x1, y1 in [(0, 0, 5, 4), (10, 7, 14, 12), (20, 15, 27, 21), (0, 0, 27, 21), (26, 20, 27, 21)]:
+        a = vt.image.pyr_down_rect(img, (x0, y0, x1, y1))
+        noisy = rng.integers(0, 256, img.shape).astype(np.uint8)
+        ys = slice(max(0, 2 * y0 - 2), min(img.shape[0], 2 * y1 + 1))
+        xs = slice(max(0, 2 * x0 - 2), min(img.shape[1], 2 * x1 + 1))
+        noisy[ys, xs] = img[ys, xs]
+        b = vt.image.pyr_down_rect(noisy, (x0, y0, x1, y1))
+        np.testing.assert_array_equal(a[y0:y1, x0:x1], b[y0:y1, x0:x1])
+        np.testing.assert_array_equal(a[y0:y1, x0:x1], vt.image.pyr_down(img)[y0:y1, x0:x1])
+
+
+def test_pyr_down_rect_bad_rects():
+    img = np.zeros((9, 7), np.uint8)         # level image 4 x 5
+    out = np.zeros((5, 4), np.uint8)
+    for r in [(-1, 0, 2, 2), (0, -1, 2, 2), (3, 0, 2, 2), (0, 3, 2, 2), (0, 0, 5, 2), (0, 0, 2, 6),
+              (0, 0, 2**31 - 1, 2), (-(2**31), 0, 2**31 - 1, 5)]:
+        with pytest.raises(vt.VtError, match="vt_pyr_down_rect"):
+            _native.pyr_down_rect(img, out, *r)
+        with pytest.raises(ValueError, match="rect"):
+            vt.image.pyr_down_rect(img, r)
+    with pytest.raises(vt.VtError, match="vt_pyr_down_rect"):      # level image of the wrong size
+        _native.pyr_down_rect(img, np.zeros((4, 4), np.uint8), 0, 0, 1, 1)
+    with pytest.raises(TypeError, match="rect"):
+        vt.image.pyr_down_rect(img, (0, 0, 1))
+    with pytest.raises(TypeError, match="rect"):
+        vt.image.pyr_down_rect(img, (0, 0, 1, "2"))
+    assert (vt.image.pyr_down_rect(img, (2, 2, 2, 5)) == 0).all()   # empty: a no-op
+
+
 # Integral image and box sums: integers below 2^32 on the C side, float64 sums
 # below 2^53 on the oracle side: both exact, tolerance 0.
 @given(img=images(), data=st.data())

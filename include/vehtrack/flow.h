@@ -1,8 +1,11 @@
 /* vehtrack/flow.h -- overtaking vehicles by block-matching optical flow in the
  * lateral areas of the image (IVVI paper, sec. 2-3).
  *
- * Per frame: the frame is reduced to pyramid level cfg.level (vt_pyr_down, whole
- * frame); each lateral area (a strip at the left and/or right border, rows
+ * Per frame: the frame is reduced to pyramid level cfg.level, only where this
+ * step or the next reads the level image (vt_pyr_down_rect: each watched area
+ * widened by 2 search_x / 2 search_y, each hand-over track's cells widened by the
+ * search range + 1; the rectangles are recorded per level image, vt_flow_state.rect);
+ * each lateral area (a strip at the left and/or right border, rows
  * top..bottom %) is cut into square cells of cfg.cell px; a cell's motion vector
  * is searched by the sum of absolute differences (SAD) against the previous level
  * image, but only where enough of the cell's pixels changed since the previous
@@ -36,22 +39,31 @@
  * level image are skipped.
  *
  * Lifecycle: the first frame after vt_flow_init/vt_flow_reset only stores the
- * level image (result->ready = 0, no hypotheses: a documented no-op). A frame of
+ * level image (result->ready = 0, no hypotheses: a documented no-op); so is a
+ * frame whose areas the previous level image was not computed over (cfg.level, or
+ * the areas or search range widened between calls). A frame of
  * another size than the previous one gives VT_E_SIZE and leaves the state
  * untouched (the caller decides: vt_flow_reset and start again).
  *
  * Cost: sizeof(vt_flow_state) ~ 3 * VT_FLOW_MAX_PIXELS bytes (previous and
  * current level image, level-1 scratch for level 2) + 22 * VT_FLOW_MAX_CELLS
- * bytes (vectors, SADs, flags, labels): 1,917,112 bytes at the defaults
+ * bytes (vectors, SADs, flags, labels): 1,917,440 bytes at the defaults
  * (1920x1080, level >= 1);
  * a firmware build sets VT_MAX_WIDTH/HEIGHT (or VT_FLOW_MAX_PIXELS) to its
- * camera. Work: the pyramid (13 instructions per input pixel per level), then
- * per computed cell cell^2 * (2 sx + 1) * (2 sy + 1) absolute differences (twice
- * for the cells the backward check runs on), per lateral cell 2 cell^2 for the
+ * camera. Work: the pyramid (11 instructions per input pixel per level, over the
+ * input pixels under the computed rectangles: about half the frame with both
+ * 30 % areas, a quarter with one), then
+ * per computed cell at most cell^2 * (2 sx + 1) * (2 sy + 1) absolute differences
+ * (twice for the cells the backward check runs on; successive elimination and the
+ * row early exit skip most, vt__search) plus (2 sx + cell) * (cell + 4 sy) adds of
+ * block sums, per lateral cell 2 cell^2 for the
  * change and texture gates; the union-find is linear in cells.
- * Stack: < 4 KB (vt_pyr_down's row; the blob list, 1.6 KB). Measured (`make
- * bench`, 640x480, both areas, every left cell moving): 10.5 M instructions,
- * 34 per frame pixel, of which the level-1 pyramid is about 13. */
+ * Stack: < 4 KB (vt_pyr_down_rect's row; the blob list, 1.6 KB). Measured
+ * (callgrind, bench/callgrind_main.c, 640x480, both areas, every left cell
+ * moving): 6.8 M instructions, 22.2 per frame pixel: the level-1 pyramid over the
+ * two areas 4.9, the searches 15.5, the rest 1.8 (before the level image was
+ * restricted to the areas and the search pruned: 10.4 M, 33.7 = 12.7 + 19.2 +
+ * 1.8); 1280x720: 15.9 M, 17.3 per pixel (26.0 M, 28.2). */
 #ifndef VEHTRACK_FLOW_H
 #define VEHTRACK_FLOW_H
 
@@ -84,6 +96,10 @@
 #ifndef VT_FLOW_MAX_SEEDS
 #define VT_FLOW_MAX_SEEDS 4
 #endif
+/* Rectangles of one level image the state records as computed (see
+ * vt_flow_state.rect): the two areas, one per hand-over track, and one per
+ * vt_flow_seed_frame call between two steps (past that they merge). */
+#define VT_FLOW_MAX_RECTS (2 + 2 * (VT_FLOW_MAX_SEEDS))
 #if VT_FLOW_MAX_PIXELS < 1 || VT_FLOW_MAX_CELLS < 1 || VT_FLOW_MAX_CELLS > 1048576 || \
     VT_FLOW_MAX_HYPS < 1 || VT_FLOW_MAX_SEEDS < 1 || VT_FLOW_MAX_BLOBS < 1
 #error "flow capacities out of range (see vehtrack/flow.h)"
@@ -224,6 +240,11 @@ typedef struct {
     int32_t n_blobs[2];
     vt_box blob_box[2 * VT_FLOW_MAX_BLOBS];
     int32_t blob_age[2 * VT_FLOW_MAX_BLOBS];
+    /* The parts of img[i] computed from its frame (the rest is stale or never
+     * written): n_rect[i] rectangles, level px, half-open [x0, x1) x [y0, y1) at
+     * rect[i][k][0..3]. */
+    int32_t n_rect[2];
+    int32_t rect[2][VT_FLOW_MAX_RECTS][4];
 } vt_flow_state;
 
 /* Fill *cfg with VT_FLOW_CFG_DEFAULT. */
@@ -242,7 +263,8 @@ vt_status vt_flow_reset(vt_flow_state *st);
 /* One frame. VT_E_ARG: NULL or a bad cfg; VT_E_SIZE: a bad view or another
  * frame size than the previous call (state untouched); VT_E_CAPACITY: the level
  * image exceeds VT_FLOW_MAX_PIXELS or a lateral area VT_FLOW_MAX_CELLS cells
- * (state untouched). A change of cfg.level between calls restarts from a first
+ * (state untouched). A change of cfg.level, or of the areas or search range that
+ * widens what the areas read, between calls restarts from a first
  * frame. On error *out is zeroed (n = 0, ready = 0). Blobs over the area
  * threshold are kept in order of their first cell (left area first, then
  * raster order; past VT_FLOW_MAX_BLOBS per area they are counted in
@@ -270,6 +292,19 @@ vt_status vt_flow_step(vt_flow_state *st, const vt_flow_cfg *cfg, const vt_image
  * vt_flow_seed with the track's last box after vt_flow_step of that frame and
  * stop tracking it with the model; read it back from the flow results. */
 vt_status vt_flow_seed(vt_flow_state *st, const vt_flow_cfg *cfg, const vt_box *box, int32_t *id);
+
+/* vt_flow_seed, and the previous level image computed over the track's box from
+ * `frame`, which must be the frame last given to vt_flow_step (VT_E_SIZE if its
+ * size differs; its pixels are the caller's word). vt_flow_step computes the level
+ * image only where it reads it (the lateral areas with their search margins, the
+ * live hand-over tracks with theirs: the recorded rectangles of vt_flow_state), so
+ * a track seeded with vt_flow_seed elsewhere follows, on its first step, only the
+ * cells inside those rectangles (none: it ends); seeded with this function, its
+ * first step uses all its cells, as every later step does. The pipeline calls
+ * this one. Past VT_FLOW_MAX_RECTS rectangles (more seeds than slots between two
+ * steps, with vt_flow_unseed in between) the last one grows to cover the new one. */
+vt_status vt_flow_seed_frame(vt_flow_state *st, const vt_flow_cfg *cfg, const vt_image_u8 *frame,
+                             const vt_box *box, int32_t *id);
 
 /* Stop a hand-over track (e.g. the tracker took it back). VT_E_ARG if no
  * active track has this id. */

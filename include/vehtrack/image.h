@@ -76,6 +76,18 @@ vt_status vt_sobel_y(const vt_image_u8 *src, vt_image_s16 *dst);
  * width; build with a smaller VT_MAX_WIDTH for a small firmware stack). */
 vt_status vt_pyr_down(const vt_image_u8 *src, vt_image_u8_mut *dst);
 
+/* vt_pyr_down restricted to the output pixels (ox, oy) with x0 <= ox < x1 and
+ * y0 <= oy < y1 of dst (the whole ((w+1)/2) x ((h+1)/2) level image, checked as
+ * for vt_pyr_down): each gets exactly the value vt_pyr_down gives it (same sums,
+ * reflection and rounding); no other pixel of dst is written, and only the source
+ * pixels those outputs read are read (rows and columns 2 y0 - 2 .. 2 y1 and
+ * 2 x0 - 2 .. 2 x1, reflected into the frame). VT_E_ARG unless
+ * 0 <= x0 <= x1 <= dst->w and 0 <= y0 <= y1 <= dst->h; an empty rectangle does
+ * nothing. Stack and scaling as vt_pyr_down. For a stage that reads only parts
+ * of a level image (the flow stage's lateral areas). */
+vt_status vt_pyr_down_rect(const vt_image_u8 *src, vt_image_u8_mut *dst, int32_t x0, int32_t y0,
+                           int32_t x1, int32_t y1);
+
 /* Integral image: dst is (w+1) x (h+1), dst(0,*) = dst(*,0) = 0 and
  * dst(y+1,x+1) = sum of src over [0..x] x [0..y] (as cv2.integral). Exact:
  * VT_MAX_WIDTH*VT_MAX_HEIGHT*255 < 2^32. dst->w must be w+1 (so it may be

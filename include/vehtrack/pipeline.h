@@ -419,7 +419,7 @@ vt_status vt_pipeline_set_edge_ws(vt_pipeline *p, vt_edge_ws *ws);
  * (floor(w flow.strip_permille / 1000) px, on either side, whatever side flow.sides
  * watches for overtaking vehicles); its outer side is within handover_edge_permille /
  * 1000 of the width of the frame's border; it did not move inward over the N frames.
- * Such a track is seeded (vt_flow_seed with its box of this frame, after this frame's
+ * Such a track is seeded (vt_flow_seed_frame with its box and this frame, after this frame's
  * vt_flow_step) and dropped from the tracker (vt_tracker_drop): from then on it is
  * reported after the tracker's tracks with the SAME id, state VT_PIPE_HANDOVER, the flow
  * stage's box (the size it had at the hand-over, moved by the mean flow of its textured

@@ -57,6 +57,8 @@ vt_status vt_filter_h101(const vt_image_u8 *src, vt_image_s16 *dst);
 vt_status vt_sobel_x(const vt_image_u8 *src, vt_image_s16 *dst);
 vt_status vt_sobel_y(const vt_image_u8 *src, vt_image_s16 *dst);
 vt_status vt_pyr_down(const vt_image_u8 *src, vt_image_u8_mut *dst);
+vt_status vt_pyr_down_rect(const vt_image_u8 *src, vt_image_u8_mut *dst, int32_t x0, int32_t y0,
+                           int32_t x1, int32_t y1);
 vt_status vt_integral(const vt_image_u8 *src, vt_image_u32 *dst);
 vt_status vt_box_sum(const vt_image_u32 *ii, int32_t x, int32_t y, int32_t w, int32_t h, uint32_t *sum);
 vt_status vt_ncc_u8(const vt_image_u8 *a, const vt_image_u8 *b, vt_q14 *ncc);

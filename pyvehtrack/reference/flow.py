@@ -9,6 +9,15 @@ flows outward as the ego car passes it) and the size of the blobs of equal motio
 a blob over an area threshold is an overtaking vehicle. When the ego car overtakes
 another vehicle, the tracker hands that vehicle to this module.
 
+Which parts of a level image hold their frame: the C stage computes its level image
+only where it reads it (the lateral areas widened by twice the search range, each
+hand-over track's cells widened by the search range + 1 px) and records those
+rectangles. This oracle computes whole level images but keeps the same list, for the
+two rules it implies: a hand-over cell whose block in the previous image lies inside
+no recorded rectangle is skipped (a track seeded without its frame, elsewhere than
+the areas), and a frame whose areas were not covered in the previous image (a cfg
+change that widened them) is a first frame again.
+
 This module never calls the C core. `cfg` is any object with the fields of the C
 struct vt_flow_cfg (documented in include/vehtrack/flow.h), e.g. the cffi struct
 or a types.SimpleNamespace; the friendly API passes the C defaults.
@@ -67,6 +76,24 @@ def lateral_area(cfg, lw: int, lh: int, side: int) -> Area:
     gw, gh = sw // cfg.cell, (yb - ya) // cfg.cell
     x0 = 0 if side == 0 else lw - gw * cfg.cell
     return Area(x0, ya, gw, gh)
+
+
+def area_rect(cfg, ar: Area, lw: int, lh: int):
+    """The rectangle (x0, y0, x1, y1), half-open, level px, that a step reads of an area
+    in both images: its cells widened by 2 search_x / 2 search_y (the search reaches one
+    range beyond a cell, the backward check two), clipped to the image."""
+    n = cfg.cell
+    return _clip((ar.x0 - 2 * cfg.search_x, ar.y0 - 2 * cfg.search_y,
+                  ar.x0 + ar.gw * n + 2 * cfg.search_x, ar.y0 + ar.gh * n + 2 * cfg.search_y), lw, lh)
+
+
+def _clip(r, lw, lh):
+    return (min(max(r[0], 0), lw), min(max(r[1], 0), lh), min(max(r[2], 0), lw), min(max(r[3], 0), lh))
+
+
+def _inside(r, rects) -> bool:
+    """r inside one of rects (all half-open (x0, y0, x1, y1))."""
+    return any(r[0] >= q[0] and r[1] >= q[1] and r[2] <= q[2] and r[3] <= q[3] for q in rects)
 
 
 def best_match(cur: np.ndarray, prev: np.ndarray, x: int, y: int, n: int, sx: int, sy: int):
@@ -185,10 +212,31 @@ class FlowOracle:
         self.seeds: list[Seed] = []
         self.next_id = 1
         self.areas: list[Area] = []
+        self.max_rects = 2 + 2 * max_seeds      # VT_FLOW_MAX_RECTS
+        self.prev_rects: list[tuple] = []       # the computed parts of the previous level image
 
     def reset(self):
         self.prev, self.size, self.seeds, self.areas = None, None, [], []
         self.blobs = [[], []]
+        self.prev_rects = []
+
+    def _add_rect(self, rects: list, r) -> None:
+        """Record a non-empty rectangle; past max_rects the last one grows to cover it."""
+        if r[0] >= r[2] or r[1] >= r[3]:
+            return
+        if len(rects) < self.max_rects:
+            rects.append(tuple(r))
+        else:
+            q = rects[-1]
+            rects[-1] = (min(q[0], r[0]), min(q[1], r[1]), max(q[2], r[2]), max(q[3], r[3]))
+
+    def _seed_span(self, sd: Seed, lw: int, lh: int):
+        """Level-px span (bx0, by0, bx1, by1) of a hand-over track's box, clamped to the image."""
+        lv = self.level
+        left, top = math.floor(sd.left + 0.5), math.floor(sd.top + 0.5)
+        return (min(max(left // 2 ** lv, 0), lw), min(max(top // 2 ** lv, 0), lh),
+                min(max((left + sd.width - 1) // 2 ** lv + 1, 0), lw),
+                min(max((top + sd.height - 1) // 2 ** lv + 1, 0), lh))
 
     def step(self, frame: np.ndarray):
         """(ready, hypotheses); a first frame only stores its level image."""
@@ -198,10 +246,23 @@ class FlowOracle:
             raise ValueError(f"frame: size {w}x{h} differs from the previous frame's "
                              f"{self.size[0]}x{self.size[1]}; reset() first")
         cur = level_image(frame, cfg.level)
-        if self.prev is None or self.level != cfg.level:
+        lh, lw = cur.shape
+        rects = []
+        for side in (0, 1):
+            ar = lateral_area(cfg, lw, lh, side)
+            if cfg.sides & (1 << side) and ar.gw * ar.gh > 0:
+                self._add_rect(rects, area_rect(cfg, ar, lw, lh))
+        restart = (self.prev is None or self.level != cfg.level
+                   or not all(_inside(r, self.prev_rects) for r in rects))
+        if restart:
             self.prev, self.size, self.level, self.seeds, self.areas = cur, (w, h), cfg.level, [], []
             self.blobs = [[], []]
+            self.prev_rects = rects
             return False, []
+        for sd in self.seeds:   # what the track's step reads now, and its cells next frame
+            b = self._seed_span(sd, lw, lh)
+            sx, sy = cfg.search_x + 1, cfg.search_y + 1
+            self._add_rect(rects, _clip((b[0] - sx, b[1] - sy, b[2] + sx, b[3] + sy), lw, lh))
         hyps, self.areas = [], []
         for side in (0, 1):
             if cfg.sides & (1 << side):
@@ -225,13 +286,18 @@ class FlowOracle:
                     hyps.append(hp)
         self.seeds = kept
         self.prev = cur
+        self.prev_rects = rects
         return True, hyps
 
-    def seed(self, box) -> int:
+    def seed(self, box, frame: np.ndarray | None = None) -> int:
+        """Start a hand-over track (vt_flow_seed); with `frame`, the last frame stepped, its
+        box counts as computed in the previous level image too (vt_flow_seed_frame)."""
         l, t, r, b = (int(v) for v in box)
         if self.prev is None:
             raise ValueError("seed: no previous frame")
         w, h = self.size
+        if frame is not None and frame.shape != (h, w):
+            raise ValueError(f"frame: shape {frame.shape} is not the last frame's {(h, w)}")
         if l > r or t > b or r < 0 or b < 0 or l >= w or t >= h:
             raise ValueError(f"box: {box} does not overlap the {w}x{h} frame")
         if len(self.seeds) >= self.max_seeds:
@@ -239,6 +305,9 @@ class FlowOracle:
         sid = self.next_id
         self.next_id += 1
         self.seeds.append(Seed(sid, float(l), float(t), r - l + 1, b - t + 1, 0))
+        if frame is not None:
+            lh, lw = self.prev.shape
+            self._add_rect(self.prev_rects, self._seed_span(self.seeds[-1], lw, lh))
         return sid
 
     def unseed(self, sid: int) -> None:
@@ -255,14 +324,13 @@ class FlowOracle:
         cfg, lv, n = self.cfg, self.level, self.cfg.cell
         lh, lw = cur.shape
         w, h = self.size
-        left, top = math.floor(sd.left + 0.5), math.floor(sd.top + 0.5)
-        bx0 = min(max(left // 2 ** lv, 0), lw)
-        by0 = min(max(top // 2 ** lv, 0), lh)
-        bx1 = min(max((left + sd.width - 1) // 2 ** lv + 1, 0), lw)
-        by1 = min(max((top + sd.height - 1) // 2 ** lv + 1, 0), lh)
+        bx0, by0, bx1, by1 = self._seed_span(sd, lw, lh)
         vecs = []
         for j in range((by1 - by0) // n):
             for i in range((bx1 - bx0) // n):
+                x, y = bx0 + i * n, by0 + j * n
+                if not _inside((x, y, x + n, y + n), self.prev_rects):
+                    continue        # that part of the previous frame was never computed
                 block = prev[by0 + j * n:by0 + (j + 1) * n, bx0 + i * n:bx0 + (i + 1) * n].astype(np.int64)
                 if np.abs(np.diff(block, axis=1)).sum() < cfg.min_texture * n * (n - 1):
                     continue        # flat: it matches at zero motion whatever moved

@@ -339,7 +339,7 @@ class Pipeline:
         if c.track:
             self._ho_history(rows)
             if c.handover and self.flow is not None:
-                rows = self._handover(rows, w, h)
+                rows = self._handover(rows, w, h, gray)
         geo = {}
         if self.camera is not None and c.track:
             geo = self._geometry(lanes if lanes_ok else None, rows)
@@ -489,7 +489,7 @@ class Pipeline:
             live[i] = ([(b[3], b[0] + b[2])] + hist[:self.caps.ho_hist - 1], b)
         self.ho_hist = live
 
-    def _handover(self, rows, w: int, h: int) -> list:
+    def _handover(self, rows, w: int, h: int, gray: np.ndarray) -> list:
         """The reverse hand-over (IVVI paper sec. 3, last paragraph; c/pipeline.c's
         vt__handover): a track that was confirmed (CONFIRMED or COASTING), whose bottom
         row came down by at least handover_dy_permille of the frame height over the last
@@ -522,7 +522,7 @@ class Pipeline:
             if side and len(self.ho) < self.caps.max_flow_seeds and \
                     l >= -mw and int(b[1]) >= -mh and r < 2 * mw and int(b[3]) < 2 * mh:
                 try:
-                    sid = self.flow.seed(b)
+                    sid = self.flow.seed(b, frame=gray)    # vt_flow_seed_frame
                 except ValueError:       # no room, or a box outside the frame: the tracker keeps it
                     sid = None
                 if sid is not None:
