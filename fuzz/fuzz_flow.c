@@ -89,8 +89,14 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         if (fz_u8(&f) < 64) { /* hand a vehicle over */
             vt_box b = box(&f, &img);
             int32_t id = -1;
-            s = vt_flow_seed((nulls & 32) ? NULL : &g_st, (nulls & 64) ? NULL : &cfg, &b,
-                             (nulls & 128) ? NULL : &id);
+            uint8_t how = fz_u8(&f);
+            if (how & 1) { /* with the frame: its previous level image over the box */
+                s = vt_flow_seed_frame((nulls & 32) ? NULL : &g_st, (nulls & 64) ? NULL : &cfg,
+                                       (how & 2) ? NULL : &img, &b, (nulls & 128) ? NULL : &id);
+            } else {
+                s = vt_flow_seed((nulls & 32) ? NULL : &g_st, (nulls & 64) ? NULL : &cfg, &b,
+                                 (nulls & 128) ? NULL : &id);
+            }
             fz_status(s);
             if (s == VT_OK && n_ids < 4) {
                 FZ_ASSERT(id > 0);

@@ -1,5 +1,6 @@
 /* fuzz_image.c -- the pixel primitives of vehtrack/image.h (thesis sec. 2.4,
- * IVVI paper): [-1 0 1], Sobel x/y, pyramid, integral + box sums, NCC, SAD, the
+ * IVVI paper): [-1 0 1], Sobel x/y, pyramid (whole or a rectangle of it),
+ * integral + box sums, NCC, SAD, the
  * view check. Sizes, strides and NULLs come from the bytes; outputs are exact
  * heap blocks (ASan sees any write past them); a successful call is checked
  * against the documented bounds of its output. */
@@ -35,16 +36,48 @@ static void grad(fz *f, const vt_image_u8 *src, int op)
 static void pyr(fz *f, const vt_image_u8 *src)
 {
     vt_image_u8_mut dst;
+    int own = 0; /* dst is the exact level-size block (stride = w) */
     if (fz_u8(f) < 200 && src->w > 0 && src->h > 0) {
         dst.w = (int32_t)(((int64_t)src->w + 1) / 2);
         dst.h = (int32_t)(((int64_t)src->h + 1) / 2);
         dst.stride = dst.w;
         dst.px = (src->w <= VT_MAX_WIDTH && src->h <= VT_MAX_HEIGHT)
                      ? (uint8_t *)fz_alloc(f, (size_t)dst.w * (size_t)dst.h) : NULL;
+        own = dst.px != NULL;
     } else {
         dst.px = (uint8_t *)fz_out_view(f, VT_MAX_WIDTH, VT_MAX_HEIGHT, 1, &dst.w, &dst.h, &dst.stride);
     }
-    fz_status(vt_pyr_down(src, &dst));
+    if (fz_u8(f) < 128) {
+        fz_status(vt_pyr_down(src, &dst));
+    } else { /* a rectangle of the level image (plausible, or any edge values) */
+        int32_t x0, y0, x1, y1, x, y, plain = fz_u8(f) < 200;
+        vt_status s;
+        if (plain) {
+            x0 = fz_range(f, 0, dst.w);
+            x1 = fz_range(f, x0, dst.w);
+            y0 = fz_range(f, 0, dst.h);
+            y1 = fz_range(f, y0, dst.h);
+        } else {
+            x0 = fz_edge(f, dst.w);
+            x1 = fz_edge(f, dst.w);
+            y0 = fz_edge(f, dst.h);
+            y1 = fz_edge(f, dst.h);
+        }
+        if (own) {
+            memset(dst.px, 0xA5, (size_t)dst.w * (size_t)dst.h);
+        }
+        s = vt_pyr_down_rect(src, &dst, x0, y0, x1, y1);
+        fz_status(s);
+        if (s == VT_OK && own) { /* image.h: only the pixels inside the rectangle are written */
+            for (y = 0; y < dst.h; y++) {
+                for (x = 0; x < dst.w; x++) {
+                    if (x < x0 || x >= x1 || y < y0 || y >= y1) {
+                        FZ_ASSERT(dst.px[(size_t)y * (size_t)dst.stride + (size_t)x] == 0xA5);
+                    }
+                }
+            }
+        }
+    }
 }
 
 static void integral(fz *f, const vt_image_u8 *src)
