@@ -67,7 +67,7 @@ SAN_COMPILERS ?= gcc clang
 # not depend on the extension's build (tests/conftest.py, BUILD_INDEPENDENT) and draw
 # SECONDARY_EXAMPLES hypothesis examples per test instead of 150, to keep CI under 20 min.
 SECONDARY_EXAMPLES ?= 60
-CI_FUZZ_SECONDS    ?= 10
+CI_FUZZ_SECONDS    ?= 6
 test: lib
 	$(PY) -m pytest -q
 	@set -e; pids=""; for c in $(SAN_COMPILERS); do \
