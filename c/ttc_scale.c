@@ -231,6 +231,34 @@ static int32_t vt__ratio(int64_t d1, int64_t d0)
  * into o. `last` is the track's prior (0: none); with lag == c->lag the track's new
  * prior is set from this measurement (a shorter fallback lag sets none: its scale is
  * not one over c->lag frames). */
+/* The scale ratio of every pair of matched blocks at least min_pair_px apart, into
+ * st->pair: new positions (nx, ny) squared and shifted left by sh give Q16 px^2.
+ * Returns the number of pairs. */
+static int32_t vt__pairs(vt_ttc_state *st, const vt_ttc_entry *e, const int32_t *ok, const int32_t *nx,
+                         const int32_t *ny, int32_t sh, int64_t minp2)
+{
+    int32_t i, j, np = 0;
+    for (i = 0; i < e->n; i++) {
+        for (j = i + 1; j < e->n; j++) {
+            int64_t ax, ay, d0, d1;
+            if (!ok[i] || !ok[j]) {
+                continue;
+            }
+            ax = (int64_t)e->x[i] - e->x[j];
+            ay = (int64_t)e->y[i] - e->y[j];
+            d0 = ax * ax + ay * ay;
+            if (d0 < minp2) {
+                continue;
+            }
+            ax = (int64_t)nx[i] - nx[j];
+            ay = (int64_t)ny[i] - ny[j];
+            d1 = (ax * ax + ay * ay) << sh;
+            st->pair[np++] = vt__ratio(d1, d0);
+        }
+    }
+    return np;
+}
+
 static void vt__measure(vt_ttc_state *st, const vt_ttc_cfg *c, int32_t lag, vt_q16 last,
                         const vt_image_u8 *img, vt_ttc_track *t, const vt_ttc_entry *e,
                         const vt_box *nb, vt_ttc_out *o)
@@ -238,7 +266,7 @@ static void vt__measure(vt_ttc_state *st, const vt_ttc_cfg *c, int32_t lag, vt_q
     int32_t mx[VT_TTC_MAX_BLOCKS], my[VT_TTC_MAX_BLOCKS], ok[VT_TTC_MAX_BLOCKS];
     int32_t ix[VT_TTC_MAX_BLOCKS], iy[VT_TTC_MAX_BLOCKS];
     int32_t anx[VT_TTC_ANCHORS], any[VT_TTC_ANCHORS];
-    int32_t i, j, k, np = 0, na = 0, ox = 0, oy = 0, b = c->block;
+    int32_t i, k, np, na = 0, ox = 0, oy = 0, b = c->block;
     int64_t so = ((int64_t)e->box.right - e->box.left + 1) + ((int64_t)e->box.bottom - e->box.top + 1);
     int64_t sn = ((int64_t)nb->right - nb->left + 1) + ((int64_t)nb->bottom - nb->top + 1);
     int64_t minp2 = (int64_t)c->min_pair_px * c->min_pair_px;
@@ -289,24 +317,7 @@ static void vt__measure(vt_ttc_state *st, const vt_ttc_cfg *c, int32_t lag, vt_q
     if ((int64_t)o->matched * 1000 < (int64_t)c->min_match_permille * e->n) {
         return;
     }
-    for (i = 0; i < e->n; i++) {
-        for (j = i + 1; j < e->n; j++) {
-            int64_t ax, ay, d0, d1;
-            if (!ok[i] || !ok[j]) {
-                continue;
-            }
-            ax = (int64_t)e->x[i] - e->x[j];
-            ay = (int64_t)e->y[i] - e->y[j];
-            d0 = ax * ax + ay * ay;
-            if (d0 < minp2) {
-                continue;
-            }
-            ax = (int64_t)mx[i] - mx[j]; /* Q8; |.| < 2^24, squares < 2^48 */
-            ay = (int64_t)my[i] - my[j];
-            d1 = ax * ax + ay * ay;      /* Q16 px^2 */
-            st->pair[np++] = vt__ratio(d1, d0);
-        }
-    }
+    np = vt__pairs(st, e, ok, mx, my, 0, minp2); /* Q8; |.| < 2^24, squares < 2^48: Q16 px^2 */
     o->pairs = np;
     if (np < c->min_pairs) {
         return;
@@ -325,25 +336,8 @@ static void vt__measure(vt_ttc_state *st, const vt_ttc_cfg *c, int32_t lag, vt_q
     }
     /* the prior: the same pairs on integer positions, so the oracle reproduces it exactly
      * (it only steers the next frame's search windows, never the reported scale) */
-    np = 0;
-    for (i = 0; c->prior_gate_permille >= 0 && lag == c->lag && i < e->n; i++) {
-        for (j = i + 1; j < e->n; j++) {
-            int64_t ax, ay, d0, d1;
-            if (!ok[i] || !ok[j]) {
-                continue;
-            }
-            ax = (int64_t)e->x[i] - e->x[j];
-            ay = (int64_t)e->y[i] - e->y[j];
-            d0 = ax * ax + ay * ay;
-            if (d0 < minp2) {
-                continue;
-            }
-            ax = (int64_t)ix[i] - ix[j]; /* px; squares < 2^32 */
-            ay = (int64_t)iy[i] - iy[j];
-            d1 = (ax * ax + ay * ay) << 16;
-            st->pair[np++] = vt__ratio(d1, d0);
-        }
-    }
+    np = (c->prior_gate_permille >= 0 && lag == c->lag) ? vt__pairs(st, e, ok, ix, iy, 16, minp2)
+                                                        : 0; /* px; squares < 2^32 */
     if (np > 0) {
         /* outside [1/2, 2] it is no guide to where the blocks went: none */
         int64_t s = vt__median_scale(st, np);
