@@ -122,7 +122,7 @@ check: $(CHECK_EXT)
 SOAK_FRAMES ?= 1000000
 SOAK_SEED   ?= 1
 .PHONY: soak
-$(BUILD)/soak $(BUILD)/soak_pipeline: $(BUILD)/%: tests/c/%.c $(CORE_SRCS) $(CORE_HDRS)
+$(BUILD)/soak $(BUILD)/soak_pipeline: $(BUILD)/%: tests/c/%.c tests/c/soak_scene.h $(CORE_SRCS) $(CORE_HDRS)
 	@mkdir -p $(BUILD)
 	$(CC) -std=c99 -O2 -Wall -Wextra -Werror -Iinclude $< $(CORE_SRCS) -o $@
 soak: $(BUILD)/soak $(BUILD)/soak_pipeline

@@ -33,30 +33,10 @@
 #define NV (VT_MAX_TRACKS + 8)
 #define DET_EVERY 5
 
-typedef struct {
-    int32_t alive, hidden;
-    int32_t x, y, w, h;  /* px; x, y: bottom-left */
-    int32_t vx, vy;      /* px per 8 frames */
-    int32_t life;
-} vehicle;
+#include "soak_scene.h"
 
 static uint8_t g_px[W * H];
 static vt_tracker g_tr;
-static vehicle g_v[NV];
-static uint32_t g_rng;
-static long g_frame;
-
-static uint32_t rnd(void)
-{
-    g_rng = g_rng * 1664525u + 1013904223u;
-    return g_rng >> 8;
-}
-
-static void fail(const char *what, long a, long b)
-{
-    printf("SOAK FAIL frame %ld: %s (%ld, %ld)\n", g_frame, what, a, b);
-    exit(1);
-}
 
 static void render(void)
 {
@@ -119,53 +99,6 @@ static void move(void)
     }
 }
 
-static int32_t detections(vt_box *d)
-{
-    int32_t i, n = 0;
-    for (i = 0; i < NV; i++) {
-        const vehicle *v = &g_v[i];
-        if (!v->alive || v->hidden) {
-            continue;
-        }
-        d[n].left = v->x + (int32_t)(rnd() % 3) - 1;
-        d[n].right = v->x + v->w - 1 + (int32_t)(rnd() % 3) - 1;
-        d[n].bottom = v->y + (int32_t)(rnd() % 3) - 1;
-        d[n].top = d[n].bottom - v->h + 1;
-        n++;
-    }
-    if (rnd() % 10 == 0) { /* a false detection anywhere */
-        d[n].left = (int32_t)(rnd() % W);
-        d[n].top = (int32_t)(rnd() % H);
-        d[n].right = d[n].left + (int32_t)(rnd() % 30);
-        d[n].bottom = d[n].top + (int32_t)(rnd() % 20);
-        n++;
-    }
-    return n;
-}
-
-/* a >= b - tol for the 2x2 minors, exactly: a = P_ii P_jj, b = P_ij^2. */
-static void check_p(const vt_kf *kf)
-{
-    int32_t i, j;
-    for (i = 0; i < kf->dim_x; i++) {
-        if (kf->P[i][i] < 0) {
-            fail("P diagonal < 0", i, (long)(kf->P[i][i] >> 32));
-        }
-        for (j = 0; j < kf->dim_x; j++) {
-            if (kf->P[i][j] != kf->P[j][i]) {
-                fail("P not symmetric", i, j);
-            }
-            if (j > i) {
-                __int128 a = (__int128)kf->P[i][i] * kf->P[j][j];
-                __int128 b = (__int128)kf->P[i][j] * kf->P[i][j];
-                if (a < b - (b >> 20) - 4096) {
-                    fail("P 2x2 minor < 0", i, j);
-                }
-            }
-        }
-    }
-}
-
 static int32_t g_prev_ids[VT_MAX_TRACKS], g_n_prev;
 static int32_t g_max_id, g_peak;
 
@@ -173,7 +106,8 @@ static void step(int32_t det_frame)
 {
     vt_box dets[NV + 1];
     vt_track_out out[VT_MAX_TRACKS];
-    int32_t n_dets = det_frame ? detections(dets) : 0, n_out = -1, i, j, live = 0;
+    int32_t ids[VT_MAX_TRACKS];
+    int32_t n_dets = det_frame ? detections(dets) : 0, n_out = -1, i, live;
     int32_t frame_before = g_tr.frame, dropped_before = g_tr.dropped_full;
     vt_image_u8 img = {g_px, W, H, W};
     vt_status s = vt_tracker_step(&g_tr, NULL, &img, 0, NULL, 0, out, VT_MAX_TRACKS, &n_out);
@@ -197,44 +131,15 @@ static void step(int32_t det_frame)
     if (g_tr.frame != (frame_before < INT32_MAX ? frame_before + 1 : INT32_MAX)) {
         fail("frame counter", frame_before, g_tr.frame);
     }
-    if (g_tr.dropped_full < dropped_before) {
-        fail("dropped_full decreased", dropped_before, g_tr.dropped_full);
-    }
-    for (i = 0; i < VT_MAX_TRACKS; i++) {
-        const vt_track *t = &g_tr.tracks[i];
-        if (t->state == VT_TRACK_FREE) {
-            continue;
-        }
-        live++;
-        if (t->hits < 0 || t->misses < 0 || t->age < 0) {
-            fail("negative counter", t->id, t->age);
-        }
-        check_p(&t->kf);
-    }
+    live = check_slots(&g_tr, dropped_before);
     if (live != n_out) {
         fail("live slots != n_out", live, n_out);
     }
     g_peak = live > g_peak ? live : g_peak;
     for (i = 0; i < n_out; i++) {
-        int32_t was_live = 0;
-        if (out[i].id <= 0 || out[i].id >= INT32_MAX) {
-            fail("id out of range", out[i].id, 0);
-        }
-        for (j = 0; j < i; j++) {
-            if (out[j].id == out[i].id) {
-                fail("duplicate id", out[i].id, 0);
-            }
-        }
-        for (j = 0; j < g_n_prev; j++) {
-            was_live |= g_prev_ids[j] == out[i].id;
-        }
-        if (!was_live) {
-            if (out[i].id <= g_max_id) {
-                fail("id reused", out[i].id, g_max_id);
-            }
-            g_max_id = out[i].id;
-        }
+        ids[i] = out[i].id;
     }
+    check_ids(ids, n_out, g_prev_ids, g_n_prev, &g_max_id);
     for (i = 0; i < n_out; i++) {
         g_prev_ids[i] = out[i].id;
     }

@@ -41,33 +41,13 @@
 #define DET_EVERY 5
 #define DETS_EVERY 7
 
-typedef struct {
-    int32_t alive, hidden, passer; /* passer: 1 passed by the ego car, 2 overtaking */
-    int32_t x, y, w, h; /* px; x, y: bottom-left */
-    int32_t vx, vy;     /* px per 8 frames (a passer: per frame) */
-    int32_t life;
-} vehicle;
+#include "soak_scene.h"
 
 static uint8_t g_px[W * H];
 static vt_pipeline g_p;
 static vt_flow_state g_flow;
 static vt_frame_out g_out;
 static vt_camera_cfg g_cam;
-static vehicle g_v[NV];
-static uint32_t g_rng;
-static long g_frame;
-
-static uint32_t rnd(void)
-{
-    g_rng = g_rng * 1664525u + 1013904223u;
-    return g_rng >> 8;
-}
-
-static void fail(const char *what, long a, long b)
-{
-    printf("SOAK FAIL frame %ld: %s (%ld, %ld)\n", g_frame, what, a, b);
-    exit(1);
-}
 
 static void render(void)
 {
@@ -163,53 +143,6 @@ static void move(void)
     }
 }
 
-static int32_t detections(vt_box *d)
-{
-    int32_t i, n = 0;
-    for (i = 0; i < NV; i++) {
-        const vehicle *v = &g_v[i];
-        if (!v->alive || v->hidden) {
-            continue;
-        }
-        d[n].left = v->x + (int32_t)(rnd() % 3) - 1;
-        d[n].right = v->x + v->w - 1 + (int32_t)(rnd() % 3) - 1;
-        d[n].bottom = v->y + (int32_t)(rnd() % 3) - 1;
-        d[n].top = d[n].bottom - v->h + 1;
-        n++;
-    }
-    if (rnd() % 10 == 0) { /* a false detection anywhere */
-        d[n].left = (int32_t)(rnd() % W);
-        d[n].top = (int32_t)(rnd() % H);
-        d[n].right = d[n].left + (int32_t)(rnd() % 30);
-        d[n].bottom = d[n].top + (int32_t)(rnd() % 20);
-        n++;
-    }
-    return n;
-}
-
-/* As soak.c: P exactly symmetric, diagonal >= 0, 2x2 minors >= 0 (2^-20 relative). */
-static void check_p(const vt_kf *kf)
-{
-    int32_t i, j;
-    for (i = 0; i < kf->dim_x; i++) {
-        if (kf->P[i][i] < 0) {
-            fail("P diagonal < 0", i, (long)(kf->P[i][i] >> 32));
-        }
-        for (j = 0; j < kf->dim_x; j++) {
-            if (kf->P[i][j] != kf->P[j][i]) {
-                fail("P not symmetric", i, j);
-            }
-            if (j > i) {
-                __int128 a = (__int128)kf->P[i][i] * kf->P[j][j];
-                __int128 b = (__int128)kf->P[i][j] * kf->P[i][j];
-                if (a < b - (b >> 20) - 4096) {
-                    fail("P 2x2 minor < 0", i, j);
-                }
-            }
-        }
-    }
-}
-
 static int32_t g_prev_ids[VT_MAX_TRACKS + VT_FLOW_MAX_SEEDS], g_n_prev;
 static int32_t g_max_id, g_peak;
 static long g_handover_frames, g_flow_boxes;
@@ -219,7 +152,8 @@ static void step(void)
     vt_box dets[NV + 1];
     const vt_image_u8 img = {g_px, W, H, W};
     const vt_tracker *tr = &g_p.tracker;
-    int32_t i, j, live = 0, n_trk = 0, ho = 0;
+    int32_t ids[VT_MAX_TRACKS];
+    int32_t i, live, n_trk = 0, ho = 0;
     int32_t frame_before = g_p.frame, dropped_before = tr->dropped_full;
     vt_status s;
     if (g_frame % DETS_EVERY == 3) {
@@ -237,53 +171,24 @@ static void step(void)
     if (g_out.n_tracks < 0 || g_out.n_tracks > VT_MAX_TRACKS) {
         fail("n_tracks", g_out.n_tracks, 0);
     }
-    if (tr->dropped_full < dropped_before) {
-        fail("dropped_full decreased", dropped_before, tr->dropped_full);
-    }
-    for (i = 0; i < VT_MAX_TRACKS; i++) {
-        const vt_track *t = &tr->tracks[i];
-        if (t->state == VT_TRACK_FREE) {
-            continue;
-        }
-        live++;
-        if (t->hits < 0 || t->misses < 0 || t->age < 0) {
-            fail("negative counter", t->id, t->age);
-        }
-        check_p(&t->kf);
-    }
+    live = check_slots(tr, dropped_before);
     for (i = 0; i < g_out.n_boxes; i++) {
         g_flow_boxes += g_out.boxes[i].source == VT_SRC_FLOW;
     }
     for (i = 0; i < g_out.n_tracks; i++) {
         const vt_pipe_track *t = &g_out.tracks[i];
-        int32_t was_live = 0;
         if (t->state == VT_PIPE_HANDOVER) {
             ho = 1;
         } else {
             n_trk++;
         }
-        if (t->id <= 0 || t->id >= INT32_MAX) {
-            fail("id out of range", t->id, 0);
-        }
         if (t->box.right < 0 || t->box.bottom < 0 || t->box.left >= W || t->box.top >= H ||
             t->box.right < t->box.left || t->box.bottom < t->box.top) {
             fail("box not ordered or off the frame", t->box.left, t->box.bottom);
         }
-        for (j = 0; j < i; j++) {
-            if (g_out.tracks[j].id == t->id) {
-                fail("duplicate id", t->id, 0);
-            }
-        }
-        for (j = 0; j < g_n_prev; j++) {
-            was_live |= g_prev_ids[j] == t->id;
-        }
-        if (!was_live) {
-            if (t->id <= g_max_id) {
-                fail("id reused", t->id, g_max_id);
-            }
-            g_max_id = t->id;
-        }
+        ids[i] = t->id;
     }
+    check_ids(ids, g_out.n_tracks, g_prev_ids, g_n_prev, &g_max_id);
     if (live != n_trk) {
         fail("live slots != tracker tracks reported", live, n_trk);
     }
