@@ -113,6 +113,9 @@ vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg)
                        cfg->handover_edge_permille > 500)) {
         s = VT_E_ARG;
     }
+    if (s == VT_OK && (cfg->ttc_fuse_permille < 0 || cfg->ttc_fuse_permille > 1000)) {
+        s = VT_E_ARG;
+    }
     return s;
 }
 
@@ -445,12 +448,27 @@ static void vt__track_sources(vt_pipeline *p, vt_frame_out *out)
     p->n_src = out->n_tracks;
 }
 
+/* vt_pipe_track.ttc_fused_q16 from the block-scale TTC pts and the distance/rate TTC
+ * dist (VT_UNKNOWN: not known; both > 0 when known): the weighted mean, w permille on
+ * dist, rounded half up; exact in int64. */
+static vt_q16 vt__ttc_fuse(vt_q16 pts, vt_q16 dist, int32_t w)
+{
+    if (pts == VT_UNKNOWN) {
+        return dist;
+    }
+    if (dist == VT_UNKNOWN) {
+        return pts;
+    }
+    return (vt_q16)(((int64_t)pts * (1000 - w) + (int64_t)dist * w + 500) / 1000);
+}
+
 static void vt__out_tracks(const vt_pipeline *p, int32_t n, int32_t n_ranges, vt_frame_out *out)
 {
     int32_t i, k;
     for (i = 0; i < n && i < VT_MAX_TRACKS; ++i) {
         const vt_track_out *t = &p->tracks[i];
         vt_pipe_track *o = &out->tracks[i];
+        vt_q16 dist = VT_UNKNOWN;
         o->id = t->id;
         o->state = t->state;
         o->box = t->box;
@@ -479,10 +497,12 @@ static void vt__out_tracks(const vt_pipeline *p, int32_t n, int32_t n_ranges, vt
             }
             if (r->flags & VT_RANGE_TTC_DIST_VALID) {
                 o->ttc_ms = vt__q16_milli(r->ttc_dist);
+                dist = r->ttc_dist;
             }
             o->warning = r->fcw;
             break;
         }
+        o->ttc_fused_q16 = vt__ttc_fuse(o->ttc_points_q16, dist, p->cfg.ttc_fuse_permille);
     }
     out->n_tracks = i;
 }
@@ -782,6 +802,7 @@ static void vt__out_handovers(const vt_pipeline *p, vt_frame_out *out)
         o->warning = p->camera != NULL ? VT_FCW_NONE : VT_FCW_UNKNOWN;
         o->source = 0;
         o->ttc_points_q16 = VT_UNKNOWN;
+        o->ttc_fused_q16 = VT_UNKNOWN;
     }
     out->n_tracks = n;
 }

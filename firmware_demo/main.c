@@ -597,7 +597,7 @@ static uint32_t hash_frame_out(uint32_t h, vt_status s, const vt_frame_out *o)
         h = fnv_s32(fnv_s32(h, t->vx), t->vy);
         h = fnv_s32(fnv_s32(fnv_s32(h, t->distance_mm), t->ttc_ms), t->warning);
         h = fnv_s32(h, t->source);
-        h = fnv_s32(h, t->ttc_points_q16);
+        h = fnv_s32(fnv_s32(h, t->ttc_points_q16), t->ttc_fused_q16);
         fw_line_str("track ");
         fw_line_s32(f);
         line_sp(t->id);
@@ -610,6 +610,7 @@ static uint32_t hash_frame_out(uint32_t h, vt_status s, const vt_frame_out *o)
         line_sp(t->ttc_ms);
         line_sp(t->warning);
         line_sp(t->ttc_points_q16);
+        line_sp(t->ttc_fused_q16);
         line_sp(t->source);
         fw_line_end();
     }

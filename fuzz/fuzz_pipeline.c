@@ -6,7 +6,9 @@
  * vt_pipeline_step_road (any road area) and vt_pipeline_step_dets (any boxes,
  * counts past the limits), plus vt_pipeline_work_size and vt_fixed_road_area on
  * edge values; the block-scale TTC's state attached or not (vt_pipeline_set_ttc_ws),
- * its ttc_points_q16 VT_UNKNOWN or within (0, ttc_max]. fuzz.mk builds this harness only where the header exists. */
+ * its ttc_points_q16 VT_UNKNOWN or within (0, ttc_max]; a camera (the defaults) attached or
+ * not, the fused TTC (ttc_fused_q16) VT_UNKNOWN or > 0, and without a camera the block-scale
+ * one. fuzz.mk builds this harness only where the header exists. */
 #include "fuzz.h"
 #include "vehtrack/pipeline.h"
 
@@ -16,6 +18,7 @@ static vt_road_area g_road;
 static vt_box g_dets[300];
 static vt_ttc_state g_ttc;
 static vt_flow_state g_flow;
+static vt_camera_cfg g_cam;
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
@@ -36,7 +39,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         cfg.sources |= VT_SRC_FLOW;
     }
     fz_status(vt_pipeline_cfg_check(fz_u8(&f) == 0xFF ? NULL : &cfg));
-    s = vt_pipeline_init(fz_u8(&f) == 0xFF ? NULL : &g_p, &cfg, NULL, NULL);
+    fz_status(vt_camera_cfg_default(&g_cam));
+    s = vt_pipeline_init(fz_u8(&f) == 0xFF ? NULL : &g_p, &cfg, (fz_u8(&f) & 1) ? &g_cam : NULL, NULL);
     fz_status(s);
     fz_status(vt_pipeline_work_size(fz_edge(&f, 1920), fz_edge(&f, 1080), fz_edge(&f, VT_MAX_WIDTH),
                                     fz_edge(&f, VT_MAX_HEIGHT), fz_u8(&f) == 0xFF ? NULL : &ww, &wh));
@@ -88,6 +92,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             for (i = 0; i < g_out.n_tracks; i++) {
                 vt_q16 t = g_out.tracks[i].ttc_points_q16;
                 FZ_ASSERT(t == VT_UNKNOWN || (g_p.ttc_st != NULL && t > 0 && t <= g_p.cfg.ttc.ttc_max));
+                FZ_ASSERT(g_p.camera != NULL ? (g_out.tracks[i].ttc_fused_q16 == VT_UNKNOWN ||
+                                                g_out.tracks[i].ttc_fused_q16 > 0)
+                                             : g_out.tracks[i].ttc_fused_q16 == t);
             }
         }
     }

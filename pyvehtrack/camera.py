@@ -27,12 +27,13 @@ from pathlib import Path
 
 import numpy as np
 
+from . import _check
 from .shared import BoxDistance, CameraParams, RangeOut, RangeParams
 
 Q16 = 1 << 16
 PITCH_LIMIT_DEG = 3.0   # braking and load move a car's pitch by a degree or two, not more
 __all__ = ["Camera", "CameraFileError", "RangeEstimator", "camera_params", "lane_vanishing_row",
-           "params_to_c", "range_to_c", "params_from_c", "range_from_c", "q16"]
+           "params_to_c", "range_to_c", "params_from_c", "range_from_c", "q16", "fuse_ttc"]
 
 
 class CameraFileError(ValueError):
@@ -379,6 +380,22 @@ class RangeEstimator:
         ego = -Q16 if ego_speed is None else q16(ego_speed, "ego_speed")
         rows = self._n.range_step(self._st, self._crng, self._ccam, int(self._pitch.tan_pitch), ego, arr)
         return [_range_out(r, self._n.lib) for r in rows]
+
+
+def fuse_ttc(points: float | None, dist: float | None, weight_permille: int | None = None):
+    """The two TTCs in one, as the pipeline's vt_pipe_track.ttc_fused_q16 (in float): the
+    weighted mean of the block-scale TTC `points` and the distance/rate TTC `dist` (s), with
+    weight_permille (default: vt_pipeline_cfg's, 300) on `dist`; the known one if only one
+    is; None if neither. The two err in opposite directions on KITTI (the block scale lags,
+    the filtered distance's rate overshoots)."""
+    from . import _native  # noqa: PLC0415
+    w = int(_native.pipeline_cfg_default().ttc_fuse_permille) if weight_permille is None else \
+        _check.integer(weight_permille, "weight_permille", lo=0, hi=1000)
+    if points is None:
+        return dist
+    if dist is None:
+        return points
+    return (points * (1000 - w) + dist * w) / 1000
 
 
 def _range_out(r, lib) -> RangeOut:

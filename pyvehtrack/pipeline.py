@@ -53,6 +53,9 @@ in s, None when unknown (fewer than lag frames, too few pairs, not closing, beyo
 ttc_max, or a track without one of the VT_TTC_TRACKS slots, which go to the nearest
 tracks: TtcScaleParams.evict_margin_px). It needs no camera: frame_dt is 1/fps
 when fps is given, else the dict's frame_dt, else 0.1 s.
+Track.ttc_fused is the two TTCs in one: with a camera, the weighted mean of ttc_points and
+the distance/rate TTC (Track.ttc), "fuse_permille" (default 300) on the latter; the known
+one where only one is (vt_pipe_track.ttc_fused_q16).
 """
 from __future__ import annotations
 
@@ -105,6 +108,8 @@ class Track(TrackBase):
     source: str | None = None      # the source that started the track ("shadow", "classifier",
                                    # "external"); None if no box of its first frame met it
     ttc_points: float | None = None  # block-scale TTC, s (Pipeline(ttc_points=...)); None if unknown
+    ttc_fused: float | None = None  # the two TTCs in one (vt_pipe_track.ttc_fused_q16): their
+                                    # weighted mean when both are known, else the known one
 
 
 @dataclass
@@ -305,6 +310,9 @@ class Pipeline:
                             f"got {type(tp).__name__}")
         from .camera import ScaleTtc  # noqa: PLC0415
         params = dict(tp) if isinstance(tp, dict) else {}
+        if "fuse_permille" in params:   # the fused TTC's weight (vt_pipeline_cfg.ttc_fuse_permille)
+            self._ccfg.ttc_fuse_permille = _check.integer(params.pop("fuse_permille"),
+                                                          "ttc_points['fuse_permille']", lo=0, hi=1000)
         if fps is not None:
             if "frame_dt" in params:
                 raise ValueError("ttc_points: give the frame period as fps= or as 'frame_dt', not both")
@@ -460,7 +468,8 @@ class Pipeline:
             caps = _config.reference_capacities()
             if self._ttc_params is not None:
                 import dataclasses  # noqa: PLC0415
-                rcfg = dataclasses.replace(rcfg, ttc_points=self._ttc_params)
+                rcfg = dataclasses.replace(rcfg, ttc_points=self._ttc_params,
+                                           ttc_fuse_permille=int(self._ccfg.ttc_fuse_permille))
                 caps = dataclasses.replace(caps, ttc_tracks=int(lib.VT_TTC_TRACKS),
                                            ttc_hist=int(lib.VT_TTC_HIST))
             wide = None
@@ -567,7 +576,8 @@ class Pipeline:
                         None if t.ttc_ms == lib.VT_UNKNOWN else t.ttc_ms / 1000,
                         None if t.warning == lib.VT_FCW_UNKNOWN else bool(t.warning & lib.VT_FCW_WARNING),
                         SOURCE_NAMES.get(int(t.source)),
-                        None if t.ttc_points_q16 == lib.VT_UNKNOWN else t.ttc_points_q16 / 65536)
+                        None if t.ttc_points_q16 == lib.VT_UNKNOWN else t.ttc_points_q16 / 65536,
+                        None if t.ttc_fused_q16 == lib.VT_UNKNOWN else t.ttc_fused_q16 / 65536)
                   for t in (o.tracks[i] for i in range(o.n_tracks))]
         stats = {}
         if o.detection_frame and self.whole_road and detections is None:
@@ -598,8 +608,10 @@ class Pipeline:
         boxes = [Box(tuple(int(v) for v in b), s, _score(s, sc))
                  for b, s, sc in zip(r.boxes, r.box_source, r.box_score)]
         pts = r.track_ttc_points or [None] * len(r.tracks)
-        tracks = [Track(int(i), STATES[int(s)], b, (float(vx), float(vy)), d, ttc, wn, src, tp)
-                  for (i, s, b, vx, vy, d, ttc, wn), src, tp in zip(r.tracks, r.track_source, pts)]
+        fused = r.track_ttc_fused or [None] * len(r.tracks)
+        tracks = [Track(int(i), STATES[int(s)], b, (float(vx), float(vy)), d, ttc, wn, src, tp, tf)
+                  for (i, s, b, vx, vy, d, ttc, wn), src, tp, tf
+                  in zip(r.tracks, r.track_source, pts, fused)]
         return FrameResult(r.frame, r.detection_frame, lanes, road, r.road_source,
                            np.asarray(r.hypotheses, np.int64).reshape(-1, 3), boxes, tracks, 1.0,
                            dict(r.stats), bool(getattr(r, "flow_ready", False)),
@@ -689,7 +701,8 @@ def _rescale(res: FrameResult, sx: float, sy: float, h0: int, w0: int) -> FrameR
     return FrameResult(res.frame, res.detection_frame, res.lanes, road, res.road_source, hyp,
                        [Box(box(b.box), b.source, b.score) for b in res.boxes],
                        [Track(t.id, t.state, box(t.box), (t.velocity[0] * sx, t.velocity[1] * sy),
-                              t.distance, t.ttc, t.warning, t.source, t.ttc_points) for t in res.tracks],
+                              t.distance, t.ttc, t.warning, t.source, t.ttc_points, t.ttc_fused)
+                        for t in res.tracks],
                        float(max(sx, sy)), res.stats, res.flow_ready, model_fits=res.model_fits)
 
 

@@ -502,10 +502,12 @@ def host_pipeline_run(frames: list[np.ndarray], n: SimpleNamespace, full: bool,
         for i in range(o.n_tracks):
             t = o.tracks[i]
             h = _fnv_box(fnv_s32(fnv_s32(h, t.id), t.state), t.box)
-            for v in (t.vx, t.vy, t.distance_mm, t.ttc_ms, t.warning, t.source, t.ttc_points_q16):
+            for v in (t.vx, t.vy, t.distance_mm, t.ttc_ms, t.warning, t.source, t.ttc_points_q16,
+                      t.ttc_fused_q16):
                 h = fnv_s32(h, v)
             lines.append(f"track {f} {t.id} {t.state} {_box_line(t.box)} {t.vx} {t.vy} "
-                         f"{t.distance_mm} {t.ttc_ms} {t.warning} {t.ttc_points_q16} {t.source}")
+                         f"{t.distance_mm} {t.ttc_ms} {t.warning} {t.ttc_points_q16} "
+                         f"{t.ttc_fused_q16} {t.source}")
         sums.append((f"{'full_out' if full else 'frame_out'}{f}", h))
         total = fnv_u32(total, h)
     sums.append(("pipeline_full" if full else "pipeline", total))

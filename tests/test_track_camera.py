@@ -18,7 +18,8 @@ CLIP = Path(__file__).parent / "data" / "kitti_clip"
 FRAMES = sorted(str(p) for p in CLIP.glob("0*.png"))[:8]
 CAM = {"fx": 721.5377, "fy": 721.5377, "cx": 309.5593, "cy": 54.854, "height_m": 1.65, "pitch_deg": 0.0,
        "image_size": [640, 256]}
-KEYS = {"id", "box", "state", "velocity_px", "distance_m", "ttc_s", "warning", "source", "ttc_points_s"}
+KEYS = {"id", "box", "state", "velocity_px", "distance_m", "ttc_s", "warning", "source", "ttc_points_s",
+        "ttc_fused_s"}
 
 
 def _camera(tmp_path, **changes) -> str:
@@ -43,6 +44,13 @@ def test_track_json_with_camera(tmp_path):
             assert t["ttc_points_s"] is None or 0 < t["ttc_points_s"] <= 20   # block-scale TTC
             # lag 5, shorter lags down to min_lag (2) while a track is younger
             assert t["ttc_points_s"] is None or r["frame"] >= 2
+            # the fused TTC: 0.3 ttc_s + 0.7 ttc_points_s when both are known (each rounded to
+            # 1 ms, so the mean is within 1 ms of theirs), else the known one
+            p, d, f = t["ttc_points_s"], t["ttc_s"], t["ttc_fused_s"]
+            if p is not None and d is not None:
+                assert abs(f - (0.7 * p + 0.3 * d)) <= 0.001 and min(p, d) - 0.001 <= f <= max(p, d) + 0.001
+            else:
+                assert f == (p if p is not None else d)
             if t["box"][0] < 320 < t["box"][2] and t["distance_m"] is not None:   # the lead car
                 assert abs(t["distance_m"] / lidar[r["frame"]] - 1) < 0.15, (r["frame"], t["distance_m"])
                 assert t["warning"] is False                                      # far, slow closing
@@ -60,7 +68,7 @@ def test_track_json_without_camera(tmp_path):
     for r in json.loads(js.read_text()):
         for t in r["tracks"]:
             assert t["distance_m"] is None and t["ttc_s"] is None and t["warning"] is False
-            assert t["ttc_points_s"] is None
+            assert t["ttc_points_s"] is None and t["ttc_fused_s"] is None
 
 
 @pytest.mark.parametrize("changes, extra, msg", [

@@ -31,7 +31,7 @@ bottom_height (m) above the road (eq. 1 with the camera height minus it: the tra
 ends at the bumper's lower edge, not at the tyres' road contact). Both are printed; --model
 picks the one in the JSON rows and the PNG.
 
-Three TTCs, side by side: the range filter's distance / rate, the box's width change over 5
+Four TTCs, side by side: the range filter's distance / rate, the box's width change over 5
 frames (both vt_range_step), and the scale of SAD-matched blocks inside the box over 5 frames
 (vt_ttc_step, pyvehtrack.camera.ScaleTtc; its grid, texture, lag and anchor radius were chosen
 on frames 0-38), computed twice: by the stand-alone stage over the collected tracks and inside
@@ -39,6 +39,10 @@ vt_pipeline_step (Tracker(ttc_points=True): vt_pipeline_set_ttc_ws, "TTC block s
 which must agree frame by frame (printed). Each against the lidar TTC of the issue (5-frame centred fit), and for
 diagnosis against a trailing 5-frame fit (t-4..t, what a causal estimate can know) and a
 9-frame centred fit (less lidar noise); "lidar p05 vs lidar min" is the lidar's own spread.
+The fourth, "TTC fused", is the pipeline's rule (vt_pipe_track.ttc_fused_q16,
+pyvehtrack.camera.fuse_ttc) on the first and the third: 0.3 x distance/rate + 0.7 x block
+scale where both are known, else the known one; its weight was chosen on frames 0-38 only
+(the printed table, fuse_weight_table).
 
 The last lines ("tune_0_38", "held_out_39_77", "all") put the block TTC with its current
 defaults (nearest-track slots, scale prior past a 10 % gate, fallback lags down to 2, no
@@ -61,7 +65,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from pyvehtrack.camera import Camera, RangeEstimator, ScaleTtc, lane_vanishing_row  # noqa: E402
+from pyvehtrack.camera import Camera, RangeEstimator, ScaleTtc, fuse_ttc, lane_vanishing_row  # noqa: E402
 from pyvehtrack.detector import Detector  # noqa: E402
 from pyvehtrack.lane import LaneDetector  # noqa: E402
 from pyvehtrack.tracker import Tracker  # noqa: E402
@@ -182,6 +186,8 @@ def ranges(data: Path, engine: str, frames, size, points=None, bottom_height=0.0
             "ttc_scale_s": None if o is None else o.ttc_scale,
             "ttc_points_s": None if po is None else po.ttc,
             "ttc_points_pipeline_s": None if fr["lead"] is None else fr["points_pipe"].get(fr["lead"]),
+            # the pipeline's fused TTC rule (vt_pipe_track.ttc_fused_q16) on these two
+            "ttc_fused_s": fuse_ttc(None if po is None else po.ttc, None if o is None else o.ttc_dist),
             "scale_points": None if po is None else po.scale,
             "points_pairs": None if po is None else po.pairs,
             "warning": None if o is None else o.warning,
@@ -204,6 +210,7 @@ def summarise(rows) -> dict:
     d_f, d_m = arr("dist_filt_m"), arr("distance_m")
     t_d, t_s, t_p = arr("ttc_dist_s"), arr("ttc_scale_s"), arr("ttc_points_s")
     t_pp = arr("ttc_points_pipeline_s")
+    t_f = arr("ttc_fused_s")
     out = {"frames": n, "lead_tracked": int(np.sum([r["lead_id"] is not None for r in rows]))}
     halves = {"all": slice(0, n), "first_half": slice(0, n // 2), "second_half": slice(n // 2, n)}
     for name, sl in halves.items():
@@ -214,6 +221,7 @@ def summarise(rows) -> dict:
             "ttc_scale_rel": stats((t_s[sl] - ttc_l[sl]) / ttc_l[sl]),
             "ttc_points_rel": stats((t_p[sl] - ttc_l[sl]) / ttc_l[sl]),
             "ttc_points_reported": int(np.sum(np.isfinite(t_p[sl]) & np.isfinite(ttc_l[sl]))),
+            "ttc_fused_rel": stats((t_f[sl] - ttc_l[sl]) / ttc_l[sl]),
             "ttc_points_pipeline_rel": stats((t_pp[sl] - ttc_l[sl]) / ttc_l[sl]),
             "ttc_points_pipeline_equal": int(np.sum((t_pp[sl] == t_p[sl]) |
                                                     (np.isnan(t_pp[sl]) & np.isnan(t_p[sl])))),
@@ -301,6 +309,7 @@ def plot(rows, summary, path: Path) -> None:
     ax[1].plot(fr, val("ttc_dist_s"), "b.-", label="filtered distance / rate")
     ax[1].plot(fr, val("ttc_scale_s"), "r.-", label="box scale change (5 frames)")
     ax[1].plot(fr, val("ttc_points_s"), "g.-", label="matched blocks' scale (ttc_scale.c)")
+    ax[1].plot(fr, val("ttc_fused_s"), "m.-", lw=2, label="fused: 0.3 distance/rate + 0.7 blocks")
     ax[1].axvline(38.5, color="0.6", lw=0.8)
     ax[1].set_ylim(0, 20)
     ax[1].set_ylabel("TTC (s)")
@@ -319,6 +328,21 @@ def _fit(a, frames, size, points, key, grid):
         s0 = summarise(ranges(a.data, a.engine, frames, size, points, **{key: float(g)}))
         errs.append(s0["first_half"]["distance_filtered_rel"].get("median", np.inf))
     return float(grid[int(np.argmin(errs))]), errs
+
+
+def fuse_weight_table(rows, grid=range(0, 1001, 50)) -> dict:
+    """How the fused TTC's weight (vt_pipeline_cfg.ttc_fuse_permille, default 300) was
+    chosen: the median abs. rel. error against the 5-frame lidar TTC on frames 0-38 only,
+    for each weight w (permille on distance/rate) of the grid; the smallest wins (the first
+    of equals). Frames 39-77 are not read here."""
+    n = len(rows)
+    tl = lidar_ttc(np.array([r["lidar_min_m"] for r in rows]), 1.0 / FPS)[:n // 2]
+    med = []
+    for w in grid:
+        e = [abs(f - tl[i]) / tl[i] for i, r in enumerate(rows[:n // 2])
+             if np.isfinite(tl[i]) and (f := fuse_ttc(r["ttc_points_s"], r["ttc_dist_s"], w)) is not None]
+        med.append(float(np.median(e)) if e else float("nan"))
+    return {"grid": list(grid), "first_half_median": med, "chosen": list(grid)[int(np.nanargmin(med))]}
 
 
 def main(argv=None) -> int:
@@ -365,6 +389,7 @@ def main(argv=None) -> int:
     s["model"] = (f"rear_offset {offset} m" if a.model == "offset" else f"bottom_height {height} m")
     s["block_ttc_split"] = points_compare(frames, points, points_old,
                                           np.array([r["lidar_min_m"] for r in rows]))
+    tuning["ttc_fuse_permille"] = fuse_weight_table(rows)
     a.json.write_text(json.dumps({"engine": a.engine, "model": a.model, "summary": s,
                                   "summaries": sums, "tuning": tuning or None,
                                   "summary_eq1_as_is": base, "per_frame": rows}, indent=1))
@@ -390,6 +415,7 @@ def main(argv=None) -> int:
         x = x0[name]
         print(f"[{a.engine}] {name}: TTC box scale change {f(x['ttc_scale_rel'])}")
         print(f"[{a.engine}] {name}: TTC block scale      {f(x['ttc_points_rel'])}")
+        print(f"[{a.engine}] {name}: TTC fused (0.3 distance/rate + 0.7 block scale) {f(x['ttc_fused_rel'])}")
         print(f"[{a.engine}] {name}: TTC block scale (pipeline) {f(x['ttc_points_pipeline_rel'])}; "
               f"equal to the stand-alone stage on {x['ttc_points_pipeline_equal']} of the frames")
         for key, lab in (("trailing", "lidar t-4..t"), ("smooth9", "lidar 9-frame fit")):
@@ -406,6 +432,10 @@ def main(argv=None) -> int:
               f"lag); earlier defaults {f(x['block_ttc_earlier_rel'])}; vs lidar 9-frame fit "
               f"{f(x['block_ttc_vs_lidar9_rel'])}; lidar 9-frame fit vs 5-frame TTC (noise floor) "
               f"{f(x['lidar9_vs_lidar5_rel'])}")
+    ft = tuning["ttc_fuse_permille"]
+    print(f"[{a.engine}] fused TTC weight on distance/rate, chosen on frames 0-38 ({a.model} model): "
+          f"{ft['chosen']} permille (the pipeline's default: 300); median there by weight: "
+          + ", ".join(f"{w}: {m:.1%}" for w, m in zip(ft["grid"], ft["first_half_median"])))
     print(f"[{a.engine}] lead tracked in {s['lead_tracked']}/{s['frames']} frames; distance from the "
           f"learnt width in {s['from_width_frames']}; pitch {s['pitch_deg']}")
     return 0

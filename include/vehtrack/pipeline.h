@@ -179,6 +179,10 @@ typedef struct {
                                 each half), 0..1000                                    */
     int32_t handover_edge_permille; /* its outer side within this permille of the width
                                 of the frame's border, 0..500                          */
+    int32_t ttc_fuse_permille; /* the fused TTC (vt_pipe_track.ttc_fused_q16): the weight of
+                                the distance/rate TTC, 0..1000 permille; the block-scale
+                                TTC gets the rest. Default 300, chosen on KITTI frames
+                                0-38 only (tools/eval_kitti_range.py)                  */
 } vt_pipeline_cfg;
 
 #define VT_PIPELINE_CFG_DEFAULT                                   \
@@ -206,6 +210,7 @@ typedef struct {
         .handover_frames = 8,                                     \
         .handover_dy_permille = 10,                               \
         .handover_edge_permille = 20,                             \
+        .ttc_fuse_permille = 300,                                 \
     }
 
 /* The whole-road detector's scratch, owned by the caller and attached with
@@ -307,6 +312,13 @@ typedef struct {
                               the track, too few pairs, not closing, beyond ttc_max, or
                               a track without one of the VT_TTC_TRACKS slots (they go to
                               the nearest tracks: vt_ttc_cfg.evict_margin_px) */
+    vt_q16 ttc_fused_q16;  /* s, Q16: the two TTCs in one. Both known (ttc_points_q16 = P,
+                              the camera stage's distance/rate TTC in Q16 = D, before its
+                              rounding to ttc_ms): floor((P (1000 - w) + D w + 500) / 1000)
+                              with w = cfg.ttc_fuse_permille, exact in int64 (P, D < 2^31);
+                              one known: that one; neither: VT_UNKNOWN. The two err in
+                              opposite directions on KITTI (the scale lags, the rate of a
+                              filtered distance overshoots), so their mean beats either */
 } vt_pipe_track;
 
 /* One frame's results, all in the pixels of the frame given to vt_pipeline_step. */

@@ -58,6 +58,7 @@ typedef struct {
     int32_t handover_frames;
     int32_t handover_dy_permille;
     int32_t handover_edge_permille;
+    int32_t ttc_fuse_permille;
 } vt_pipeline_cfg;
 
 typedef struct {
@@ -106,6 +107,7 @@ typedef struct {
     int32_t warning;
     int32_t source;
     vt_q16 ttc_points_q16;
+    vt_q16 ttc_fused_q16;
 } vt_pipe_track;
 
 typedef struct {

@@ -19,7 +19,9 @@ with null where a value is unknown (no --camera: distance_m, ttc_s null and warn
 distance_m is the filtered distance, ttc_s the TTC from it and its rate (pyvehtrack.camera);
 "ttc_points_s" (added field) is the TTC from the scale change of SAD-matched blocks inside the
 box over 5 frames (c/ttc_scale.c run inside vt_pipeline_step after the tracker:
-Pipeline(ttc_points=True)), null when unknown or without --camera."""
+Pipeline(ttc_points=True)), null when unknown or without --camera.
+"ttc_fused_s" (added field) is the two in one: the weighted mean of "ttc_s" and "ttc_points_s"
+(0.3 / 0.7, vt_pipeline_cfg.ttc_fuse_permille), the known one if only one is."""
 from __future__ import annotations
 
 import colorsys
@@ -64,7 +66,15 @@ def track_record(t, r=None, p=None) -> dict:
             "ttc_s": None if r is None or r.ttc_dist is None else round(r.ttc_dist, 3),
             "warning": bool(r is not None and r.warning),
             "source": getattr(t, "source", "shadow"),
-            "ttc_points_s": None if p is None else round(p, 3)}
+            "ttc_points_s": None if p is None else round(p, 3),
+            "ttc_fused_s": _fused(None if r is None else r.ttc_dist, p)}
+
+
+def _fused(dist, points):
+    """The two TTCs in one (pyvehtrack.camera.fuse_ttc, the pipeline's rule), rounded to ms."""
+    from ..camera import fuse_ttc  # noqa: PLC0415
+    f = fuse_ttc(points, dist)
+    return None if f is None else round(f, 3)
 
 
 def draw_tracks(frame, tracks, frame_index: int, detection_frame: bool, ranges=None):

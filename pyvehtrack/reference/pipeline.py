@@ -124,6 +124,7 @@ class PipelineRefConfig:
     handover_frames: int = 8   # its look-back N, frames
     handover_dy_permille: int = 10   # bottom row down by >= this permille of h over N frames
     handover_edge_permille: int = 20  # outer side within this permille of w of the border
+    ttc_fuse_permille: int = 300  # the fused TTC: weight of the distance/rate TTC (permille)
 
 
 @dataclass
@@ -144,6 +145,18 @@ class RefFrame:
     box_score: list = field(default_factory=list)  # one score per box (None: no confidence)
     track_source: list = field(default_factory=list)  # per track: the source that started it
     track_ttc_points: list = field(default_factory=list)  # per track: block-scale TTC, s (None: unknown)
+    track_ttc_fused: list = field(default_factory=list)  # per track: the fused TTC, s (None: unknown)
+
+
+def ttc_fuse(points, dist, w: int):
+    """The fused TTC (c/pipeline.c's vt__ttc_fuse) in float: the weighted mean of the
+    block-scale TTC `points` and the distance/rate TTC `dist` (s), w permille on dist;
+    the known one if only one is; None if neither."""
+    if points is None:
+        return dist
+    if dist is None:
+        return points
+    return (points * (1000 - w) + dist * w) / 1000
 
 
 def _lane_fits(h: int, w: int, cfg: rlane.LaneConfig) -> bool:
@@ -362,6 +375,8 @@ class Pipeline:
                        np.asarray(hyp, np.int64).reshape(-1, 3), boxes, box_source,
                        tracks, stats, [None] * len(boxes) if scores is None else scores, tsrc,
                        [pts.get(int(t[0])) for t in tracks])
+        out.track_ttc_fused = [ttc_fuse(p, t[6], c.ttc_fuse_permille)
+                               for p, t in zip(out.track_ttc_points, tracks)]
         out.flow_ready = flow_ready
         out.model_fits = model_fits
         self.last_boxes = [t[2] for t in tracks[:n_trk]]
