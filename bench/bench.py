@@ -482,6 +482,17 @@ def _fullroad_mlp_wide(ctx: Ctx) -> Stage:
 def _track_frame(ctx: Ctx) -> Stage:
     """One tracked frame (no detection) with the two cars of the bench frame, from the
     same primed state every run (the C side restores a 55 KB state copy first)."""
+    return _tracked(ctx, confirmed=False)
+
+
+@register("track_frame_confirmed")
+def _track_frame_confirmed(ctx: Ctx) -> Stage:
+    """track_frame primed with confirm_hits detection frames: confirmed tracks (the usual
+    tracked frame; a tentative track is also held by the NCC template)."""
+    return _tracked(ctx, confirmed=True)
+
+
+def _tracked(ctx: Ctx, confirmed: bool) -> Stage:
     import copy
 
     from pyvehtrack import _native
@@ -492,12 +503,15 @@ def _track_frame(ctx: Ctx) -> Stage:
     dets = np.array([[370 * w // 640, 270 * h // 480, 456 * w // 640, 328 * h // 480],
                      [528 * w // 640, 268 * h // 480, 639 * w // 640, 336 * h // 480]])
     ccfg = cfg_to_c(rtrk.TrackerCfg())
+    primes = int(ccfg.confirm_hits) if confirmed else 1
     tr = _native.tracker_new()
-    _native.tracker_step(tr, ccfg, img, True, dets)
+    for _ in range(primes):
+        _native.tracker_step(tr, ccfg, img, True, dets)
     saved = _native.ffi.new("vt_tracker *")
     _native.ffi.memmove(saved, tr, _native.ffi.sizeof("vt_tracker"))
     ref = rtrk.Tracker(rtrk.TrackerCfg(), max_tracks=int(_native.lib.VT_MAX_TRACKS))
-    ref.step(img, True, dets)
+    for _ in range(primes):
+        ref.step(img, True, dets)
     last = {}
 
     def c():
@@ -511,8 +525,11 @@ def _track_frame(ctx: Ctx) -> Stage:
         o = last["out"]
         return digest(np.stack([o["id"], o["left"], o["top"], o["right"], o["bottom"]], 1)) if len(o) else 0
 
+    if confirmed:
+        return Stage("track_frame_confirmed", c, reference, pixels=img.size, digest=dig, calls=1,
+                     note=f"2 confirmed tracks ({primes} detection frames first); oracle copies its tracker each run")
     return Stage("track_frame", c, reference, pixels=img.size, digest=dig, calls=1,
-                 note="2 tracks; oracle copies its tracker each run")
+                 note="2 tentative tracks (one detection frame first); oracle copies its tracker each run")
 
 
 # ---------------------------------------------------------------- motion (issue 9)
