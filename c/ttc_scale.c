@@ -227,10 +227,6 @@ static int32_t vt__ratio(int64_t d1, int64_t d0)
     return (int32_t)(r2 > INT32_MAX ? INT32_MAX : r2);
 }
 
-/* Match the blocks of entry e (lag frames old) in this frame and measure s and the TTC
- * into o. `last` is the track's prior (0: none); with lag == c->lag the track's new
- * prior is set from this measurement (a shorter fallback lag sets none: its scale is
- * not one over c->lag frames). */
 /* The scale ratio of every pair of matched blocks at least min_pair_px apart, into
  * st->pair: new positions (nx, ny) squared and shifted left by sh give Q16 px^2.
  * Returns the number of pairs. */
@@ -259,6 +255,10 @@ static int32_t vt__pairs(vt_ttc_state *st, const vt_ttc_entry *e, const int32_t 
     return np;
 }
 
+/* Match the blocks of entry e (lag frames old) in this frame and measure s and the TTC
+ * into o. `last` is the track's prior (0: none); with lag == c->lag the track's new
+ * prior is set from this measurement (a shorter fallback lag sets none: its scale is
+ * not one over c->lag frames). */
 static void vt__measure(vt_ttc_state *st, const vt_ttc_cfg *c, int32_t lag, vt_q16 last,
                         const vt_image_u8 *img, vt_ttc_track *t, const vt_ttc_entry *e,
                         const vt_box *nb, vt_ttc_out *o)
