@@ -96,12 +96,18 @@ def draw_tracks(frame, tracks, frame_index: int, detection_frame: bool, ranges=N
         label = f"#{t.id} {vx:+.1f},{vy:+.1f}px/f"
         rg = (ranges or {}).get(t.id)
         if rg is not None and rg.dist_filt is not None:
-            label += f" {rg.dist_filt:.1f}m" + (f" TTC {rg.ttc_dist:.1f}s" if rg.ttc_dist is not None else "")
+            # the fused TTC (distance/rate with the block scale, when the track has one): the
+            # best of the three on held-out KITTI frames; the warning still follows distance/rate
+            from ..camera import fuse_ttc  # noqa: PLC0415
+            ttc = fuse_ttc(getattr(t, "ttc_points", None), rg.ttc_dist)
+            label += f" {rg.dist_filt:.1f}m" + (f" TTC {ttc:.1f}s" if ttc is not None else "")
             if rg.warning:  # forward-collision warning: a thick red frame
                 label += " WARN"
                 cv2.rectangle(img, (l - 3, tp - 3), (r + 3, b + 3), (0, 0, 255), 3)
         ty = tp - 5 if tp >= 16 else tp + 15  # inside the box when there is no room above
-        cv2.putText(img, label, (l + 2, ty), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 3, cv2.LINE_AA)
+        # on a dark plate: readable over sky, road and the box's own edge
+        (tw, th), base = cv2.getTextSize(label, cv2.FONT_HERSHEY_SIMPLEX, 0.45, 1)
+        cv2.rectangle(img, (l, ty - th - 3), (l + tw + 4, ty + base), (0, 0, 0), -1)
         cv2.putText(img, label, (l + 2, ty), cv2.FONT_HERSHEY_SIMPLEX, 0.45, c, 1, cv2.LINE_AA)
     tag = f"frame {frame_index}" + ("  [detection]" if detection_frame else "")
     cv2.putText(img, tag, (8, 20), cv2.FONT_HERSHEY_SIMPLEX, 0.55, (255, 255, 255), 2, cv2.LINE_AA)
