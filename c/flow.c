@@ -346,6 +346,13 @@ static void vt__area_flow(vt_flow_state *st, const vt_flow_cfg *cfg, int32_t sid
                 if (j > 0 && (flag[c - gw] & VT_FLOW_CELL_ACCEPTED)) {
                     vt__union(parent, c, c - gw);
                 }
+                /* 8-connected: the two upper diagonal neighbours too (flow.h). */
+                if (j > 0 && i > 0 && (flag[c - gw - 1] & VT_FLOW_CELL_ACCEPTED)) {
+                    vt__union(parent, c, c - gw - 1);
+                }
+                if (j > 0 && i + 1 < gw && (flag[c - gw + 1] & VT_FLOW_CELL_ACCEPTED)) {
+                    vt__union(parent, c, c - gw + 1);
+                }
             }
         }
     }

@@ -182,6 +182,33 @@ def test_overtaking_detected_background_rejected():
     assert det2.step(bg[:, 2:98].copy()).hyps == []
 
 
+def _diagonal_patches(t, step=2):
+    """Flat grey frame (no texture: no cell is searched) with two textured 4x4
+    patches moving inward (+x) by `step` px per frame, cell-aligned at t = 1 and
+    touching only at a corner: cells (1, 1) and (2, 2) of a 4 px grid."""
+    rng = np.random.default_rng(7)
+    f = np.full((32, 48), 128, np.uint8)
+    a, b = rng.integers(0, 256, (4, 4)), rng.integers(0, 256, (4, 4))
+    x = 4 + step * (t - 1)
+    f[4:8, x:x + 4] = a
+    f[8:12, x + 4:x + 8] = b
+    return f
+
+
+@pytest.mark.parametrize("engine", ["c", "reference"])
+def test_blobs_are_8_connected(engine):
+    """Two accepted cells that touch only at a corner are one blob (flow.h: 8-connected
+    components; a dark car gives accepted cells on its edges and lights that often meet
+    only diagonally). With min_blob_cells 2, 4-connected labelling would report nothing."""
+    det = F.OvertakingDetector(engine, level=0, cell=4, search_x=3, search_y=1, min_age=1,
+                               min_blob_cells=2, strip_permille=500, top_permille=0)
+    det.step(_diagonal_patches(0))
+    res = det.step(_diagonal_patches(1))
+    assert res.ready and len(res.hyps) == 1, res.hyps
+    h = res.hyps[0]
+    assert (h.cells, h.box, h.flow) == (2, (4, 4, 11, 11), (2.0, 0.0))
+
+
 def test_bad_inputs():
     cfg = F.make_cfg()
     st_ = _native.flow_new()

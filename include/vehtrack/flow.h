@@ -13,12 +13,14 @@
  * (dx is undefined there); the vectors are filtered by range (magnitude),
  * direction (an overtaking vehicle moves *inward*, against the outward flow of
  * the background it passes), a forward-backward check and blob size
- * (4-connected components of accepted cells, two-pass union-find in a fixed
- * table); a blob of at least cfg.min_blob_cells cells that overlaps blobs of the
- * previous cfg.min_age - 1 frames becomes an overtaking hypothesis (box, side,
- * mean flow). The texture gate, the backward check and the persistence are not
- * in the paper: they were added because foliage and the flat band under a car
- * gave false overtakes (README: what each bought).
+ * (8-connected components of accepted cells, two-pass union-find in a fixed
+ * table; 8, not 4: a dark car with little texture gives accepted cells only on
+ * its edges and lights, which often touch only at corners); a blob of at
+ * least cfg.min_blob_cells cells that overlaps blobs of the previous
+ * cfg.min_age - 1 frames becomes an overtaking hypothesis (box, side, mean flow).
+ * The texture gate, the backward check and the persistence are not in the
+ * paper: they were added because foliage and the flat band under a car gave
+ * false overtakes (README: what each bought).
  *
  * Which side overtakes depends on the country (paper sec. 2): with right-hand
  * traffic (continental Europe, where the paper's vehicle drives; the Americas)

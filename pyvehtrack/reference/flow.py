@@ -162,7 +162,7 @@ def area_flow(cfg, cur: np.ndarray, prev: np.ndarray, side: int, level: int, w: 
     acc = ((ar.flag & ACCEPTED) > 0).astype(np.uint8)
     hyps = []
     if acc.size:
-        nlab, labels = cv2.connectedComponents(acc, connectivity=4)
+        nlab, labels = cv2.connectedComponents(acc, connectivity=8)
         blobs = []
         for lab in range(1, nlab):
             jj, ii = np.nonzero(labels == lab)
