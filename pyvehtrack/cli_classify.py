@@ -37,7 +37,9 @@ def register_train(sub) -> None:
     p.add_argument("--C", type=float, default=None, help="SVM C (default: chosen on an inner validation fold)")
     p.add_argument("--model-type", choices=("svm", "mlp"), default="svm",
                    help="linear SVM (default; the sliding-window scorer) or a one-hidden-layer MLP")
-    p.add_argument("--hidden", type=int, default=16, help="MLP hidden units (default 16)")
+    p.add_argument("--hidden", default="16",
+                   help="MLP hidden units, 1..64 (default 16), or 'auto': chosen among 16 / 32 / 64 on the "
+                        "inner validation fold of TRAIN")
     p.add_argument("--hard-negatives", action="store_true",
                    help="linear HOG with --frames: add the model's false detections on the TRAIN frames "
                         "as negatives and fit again (one round)")
@@ -55,15 +57,22 @@ def run_train(args) -> int:
             raise CliError(f"not a folder: {d!r}")
     if args.frames_json and not Path(args.frames_json).is_file():
         raise CliError(f"--frames-json: no such file {args.frames_json!r}")
-    if not 1 <= args.hidden <= 64:
-        raise CliError(f"--hidden: must be in 1..64, got {args.hidden}")
+    if args.hidden == "auto":
+        hidden = None
+    else:
+        try:
+            hidden = int(args.hidden)
+        except ValueError:
+            raise CliError(f"--hidden: expected an integer in 1..64 or 'auto', got {args.hidden!r}") from None
+        if not 1 <= hidden <= 64:
+            raise CliError(f"--hidden: must be in 1..64, got {hidden}")
     if args.C is not None and not args.C > 0:
         raise CliError(f"--C: must be > 0, got {args.C}")
     try:
         d, rep = T.run(args.vehicles, args.non_vehicles, args.frames, args.frames_json,
                        kind=args.descriptor, win=args.window, C=args.C,
                        progress=not args.no_progress, log=lambda s: print(s, file=sys.stderr),
-                       model_type=args.model_type, hidden=args.hidden, hard_negatives=args.hard_negatives)
+                       model_type=args.model_type, hidden=hidden, hard_negatives=args.hard_negatives)
     except ValueError as e:
         raise CliError(str(e)) from e
     T.save_model(args.out, d)

@@ -325,6 +325,7 @@ def c_scores(d: dict, Xc: np.ndarray) -> np.ndarray:
 
 # ---------------------------------------------------------------- the whole run
 C_GRID = (0.01, 0.03, 0.1)
+HIDDEN_GRID = (16, 32, 64)
 
 
 def evaluate(d: dict, X: np.ndarray, Xc: np.ndarray, y: np.ndarray, src: np.ndarray, sel: np.ndarray) -> dict:
@@ -343,10 +344,11 @@ def evaluate(d: dict, X: np.ndarray, Xc: np.ndarray, y: np.ndarray, src: np.ndar
 
 def run(vehicles, non_vehicles, frames=None, frames_json=None, kind: str = "hog", win: int = 64,
         C: float | None = None, progress: bool = True, log=print, model_type: str = "svm",
-        hidden: int = 16, feature_cache=None, hard_negatives: bool = False):
+        hidden: int | None = 16, feature_cache=None, hard_negatives: bool = False):
     """Build the crops, choose C on the inner validation fold (fold 1 of TRAIN), fit on
     all of TRAIN, quantise, and score float and C models on TEST. Returns (model dict,
-    report dict)."""
+    report dict). For the MLP, hidden=None chooses the hidden size among HIDDEN_GRID
+    the same way (fitted on TRAIN folds 2-4, scored on fold 1), so no choice sees TEST."""
     from tqdm import tqdm
 
     if kind not in KINDS:
@@ -388,6 +390,18 @@ def run(vehicles, non_vehicles, frames=None, frames_json=None, kind: str = "hog"
                          f"40-199 TRAIN, ...; give folders of more than 40 crops)")
     std = kind == "gist"
     val = {}
+    if model_type == "mlp" and hidden is None:
+        fit, v = tr & (fold != 1), fold == 1
+        if len(set(y[fit])) < 2 or len(set(y[v])) < 2:
+            raise ValueError("--hidden auto: the inner validation needs vehicles and non-vehicles both in TRAIN "
+                             "fold 1 (files 40-79 of a folder, 240-279, ...) and in the other TRAIN folds; "
+                             "give more crops or a fixed --hidden")
+        for hsz in HIDDEN_GRID:
+            w1, b1, w2, b2 = fit_mlp(X[fit], y[fit], hsz, standardise=std)
+            val[f"hidden={hsz}"] = float(((np.maximum(X[v] @ w1.T + b1, 0) @ w2 + b2 >= 0) == y[v]).mean())
+            log(f"  hidden={hsz}: inner-validation accuracy {val[f'hidden={hsz}']:.4f}")
+        # ties: the smaller model (less flash, fewer instructions)
+        hidden = max(HIDDEN_GRID, key=lambda hsz: (val[f"hidden={hsz}"], -hsz))
     if C is None and model_type == "mlp":
         C = 0.0  # unused by the MLP
     if C is None:
@@ -417,6 +431,7 @@ def run(vehicles, non_vehicles, frames=None, frames_json=None, kind: str = "hog"
             d = model_dict(kind, win, win, w, b, C, info)
     Xc = c_features(kind, crops.images, win, win)
     rep = {"kind": kind, "model_type": model_type, "window": win, "C": C, "validation": val,
+           **({"hidden": hidden} if model_type == "mlp" else {}),
            "test": evaluate(d, X, Xc, y, src, te), "train": evaluate(d, X, Xc, y, src, tr)}
     return d, rep
 

@@ -476,6 +476,43 @@ def test_train_cli_small(tmp_path):
     assert r.returncode == 2 and "grouped split" in r.stderr
 
 
+def test_train_cli_hidden_auto(tmp_path):
+    """`train --model-type mlp --hidden auto` chooses the hidden size on TRAIN's inner
+    validation fold (files 40-79 of each folder; 80-119 are the fitting fold, 0-39 TEST):
+    the size it fits is the best of the accuracies it logs (ties: the smaller). Bad values
+    and too few files for the inner fold are clear errors."""
+    import re
+
+    import cv2
+    from pyvehtrack.train import HIDDEN_GRID, read_gray
+    pos, neg = _crops()
+    for name, files in (("veh", pos), ("non", neg)):
+        d = tmp_path / name
+        d.mkdir()
+        for i in range(120):
+            g = read_gray(files[i % len(files)])
+            cv2.imwrite(str(d / f"image{i:04d}.png"), np.roll(g, i // len(files), axis=1))
+    env_py = [sys.executable, "-c", "import sys; from pyvehtrack.cli import main; sys.exit(main())"]
+    base = ["train", "--vehicles", str(tmp_path / "veh"), "--non-vehicles", str(tmp_path / "non"),
+            "--window", "32", "--model-type", "mlp", "--out", str(tmp_path / "m.npz"), "--no-progress"]
+    r = subprocess.run(env_py + base + ["--hidden", "auto"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    acc = {int(h): float(a) for h, a in re.findall(r"hidden=(\d+): inner-validation accuracy ([0-9.]+)", r.stderr)}
+    assert sorted(acc) == sorted(HIDDEN_GRID)
+    best = max(HIDDEN_GRID, key=lambda h: (acc[h], -h))
+    assert f"MLP {best} hidden" in r.stdout
+    with np.load(tmp_path / "m.npz") as z:
+        assert int(z["hidden"]) == best
+    for bad in ("abc", "0", "65"):
+        r = subprocess.run(env_py + base + ["--hidden", bad], capture_output=True, text=True)
+        assert r.returncode == 2 and "--hidden" in r.stderr, (bad, r.stderr)
+    for name in ("veh", "non"):   # 60 files: no file in the fitting folds 2-4
+        for i in range(60, 120):
+            (tmp_path / name / f"image{i:04d}.png").unlink()
+    r = subprocess.run(env_py + base + ["--hidden", "auto"], capture_output=True, text=True)
+    assert r.returncode == 2 and "--hidden auto" in r.stderr, r.stderr
+
+
 def test_hog_bin_boundaries_exact_for_every_gradient():
     """The Q30 boundary constants of c/tables/classify_q.h give the exact sign of
     |g| sin(angle - 20k deg) for every integer gradient |gx|, |gy| <= 255 (folded, gy >= 0):

@@ -125,7 +125,7 @@ def stats(rel: np.ndarray) -> dict:
             "mean": float(np.mean(rel))}
 
 
-def collect(data: Path, engine: str):
+def collect(data: Path, engine: str, lane_cfg=None):
     """Detector + tracker + lanes over the sequence: per frame the tracks, the vanishing row
     and the lead track's id (by IoU with the lidar box)."""
     files = sorted((data / "image_02" / "data").glob("*.png"))
@@ -133,9 +133,9 @@ def collect(data: Path, engine: str):
             for r in csv.DictReader(open(data / "derived_lidar_lead_box.csv"))}
     first = cv2.imread(str(files[0]), cv2.IMREAD_COLOR)
     h, w = first.shape[:2]
-    det = Detector(engine=engine)
+    det = Detector(engine=engine, lane_detector=LaneDetector(engine=engine, cfg=lane_cfg))
     trk = Tracker(engine=engine, detect_every=10, detector=det, ttc_points=True, fps=FPS)
-    lanes = LaneDetector(engine=engine)
+    lanes = LaneDetector(engine=engine, cfg=lane_cfg)
     frames = []
     for i, p in enumerate(files):
         img = cv2.imread(str(p), cv2.IMREAD_COLOR)
@@ -361,11 +361,24 @@ def main(argv=None) -> int:
     ap.add_argument("--bottom-height", type=float, default=None, metavar="M",
                     help="height above the road of the box's bottom edge (m); default: fitted on "
                          "the first half (frames 0-38)")
+    ap.add_argument("--lane-set", nargs="+", default=[], metavar="FIELD=VALUE",
+                    help="lane-stage fields other than the defaults (pyvehtrack.lane.LaneConfig), for the "
+                         "detector's road area and the vanishing row alike")
     a = ap.parse_args(argv)
+    lane_cfg = None
+    if a.lane_set:
+        from dataclasses import replace  # noqa: PLC0415
+        from pyvehtrack.lane import default_config  # noqa: PLC0415
+        try:
+            kv = dict(x.split("=", 1) for x in a.lane_set)
+            lane_cfg = replace(default_config(), **{k: int(v) for k, v in kv.items()})
+        except (ValueError, TypeError) as e:
+            print(f"eval_kitti_range: --lane-set: {e}", file=sys.stderr)
+            return 2
     if not (a.data / "derived_lidar_lead_distance.csv").is_file():
         print(f"eval_kitti_range: {a.data}: not the kitti-raw-sfnd-ttc folder", file=sys.stderr)
         return 2
-    frames, size = collect(a.data, a.engine)
+    frames, size = collect(a.data, a.engine, lane_cfg)
     points = points_ttc(a.engine, frames)
     points_old = points_ttc(a.engine, frames, **EARLIER_POINTS)
     tuning = {}

@@ -121,6 +121,10 @@ def main(argv=None) -> int:
                     help="flat-road vehicle width band (m) of the window grid that negatives are mined from "
                          "(default: WindowConfig's 1.4 2.6); give the detector the same with detector_json "
                          "veh_w_min / veh_w_max")
+    ap.add_argument("--jitter", type=int, default=0, metavar="K",
+                    help="K extra copies of each tusimple positive, shifted by up to half the scan step and "
+                         "scaled by up to half the spacing of the scan sizes (the offsets a grid window has "
+                         "from the box it best reaches)")
     ap.add_argument("--fit-only", action="store_true",
                     help="train on the 'fit' part of TRAIN only (datasets.tusimple_subsplit), keeping 'val' unseen")
     args = ap.parse_args(argv)
@@ -151,6 +155,19 @@ def main(argv=None) -> int:
             crop = g[sq[1]:sq[3] + 1, sq[0]:sq[2] + 1]
             pos.append(hog(ws, crop, win))
             pos.append(hog(ws, np.ascontiguousarray(crop[:, ::-1]), win))
+            s = sq[2] - sq[0] + 1
+            for _ in range(args.jitter):
+                # grid step 8/win of the side; sizes 2 per octave -> half-spacing 2**0.25
+                sj = s * 2 ** rng.uniform(-0.25, 0.25)
+                half = 0.5 * 8 / win * sj
+                cx = (sq[0] + sq[2]) / 2 + rng.uniform(-half, half)
+                bt = sq[3] + rng.uniform(-half, half)
+                l, r = int(round(cx - sj / 2)), int(round(cx + sj / 2)) - 1
+                tb, bb = int(round(bt - sj + 1)), int(round(bt))
+                if l < 0 or tb < 0 or r >= w or bb >= h or r - l < 8:
+                    continue
+                jc = g[tb:bb + 1, l:r + 1]
+                pos.append(hog(ws, np.ascontiguousarray(jc if rng.random() < 0.5 else jc[:, ::-1]), win))
     n_tus_pos = len(pos)
     if not args.no_gti:
         for p in gti_files("vehicles"):

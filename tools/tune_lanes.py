@@ -6,7 +6,16 @@ Split by file order of test_label.json: entries 0..49 = half A, 50..99 = half B
 repeated) maximises the ego accuracy (TuSimple rules, pyvehtrack.eval.lanes) of the C
 engine on the tuning half; the figure to report is the same config on the other half.
 
-    python tools/tune_lanes.py [--data DIR] [--tune A|B] [--rounds 2]
+    python tools/tune_lanes.py [--data DIR] [--tune A|B] [--rounds 2] [--kitti-guard]
+
+--kitti-guard: a candidate is taken only if tracking the KITTI lead car on frames
+0-38 (the KITTI tuning part, pyvehtrack.eval.kitti_track, C engine) keeps its IoU >= 0.6
+share at least at the current defaults' figure. Without it a set tuned on half B lost the
+KITTI lead car (96.2% -> 70.5% of the frames): the lane stage also serves other cameras.
+Frames 39-77 stay held out for the report. With the guard, --tune B gives A (unseen) 89.16%
+and keeps tracking on both KITTI halves, but the KITTI lead-car distance
+(tools/eval_kitti_range.py --lane-set ...) on the held-out frames 39-77 goes from P95 10.8%
+to 39.7%: the guard does not cover the vanishing row's use for pitch. Not shipped (README).
 """
 import argparse
 import json
@@ -75,7 +84,24 @@ def main():
     ap.add_argument("--rounds", type=int, default=2)
     ap.add_argument("--only", nargs="*", default=None,
                     help="search only these fields, starting from the current defaults")
+    ap.add_argument("--kitti-guard", action="store_true",
+                    help="reject candidates that lower KITTI lead-car tracking on frames 0-38")
+    ap.add_argument("--kitti", type=Path, default=ROOT.parent / "shared" / "data" / "kitti-raw-sfnd-ttc")
     args = ap.parse_args()
+    guard = None
+    if args.kitti_guard:
+        from pyvehtrack.eval import kitti_track as kt  # noqa: PLC0415
+        from pyvehtrack.lane import LaneDetector as LD  # noqa: PLC0415
+        kfiles, kboxes = kt.load(args.kitti)
+        kimgs = [(k, cv2.imread(str(f))) for k, f in enumerate(kfiles)]
+
+        def kitti(c, part):
+            idx = range(78)[part]   # run() numbers the frames it is given from 0
+            r = kt.run("c", [(i, kimgs[k][1]) for i, k in enumerate(idx)], {i: kboxes[k] for i, k in enumerate(idx)},
+                       10, False, lane_detector=LD("c", cfg=c))
+            return r["iou06_share"]
+        guard = kitti(default_config(), slice(0, 39))
+        print(f"KITTI lead car, frames 0-38, IoU >= 0.6: {100 * guard:.1f}% (the floor)", flush=True)
     A, B = load(args.data, range(0, 50)), load(args.data, range(50, 100))
     tune, held = (A, B) if args.tune == "A" else (B, A)
     cfg = default_config()
@@ -93,6 +119,12 @@ def main():
                 s = score(c2, tune)
                 # Strictly better accuracy, or equal accuracy with fewer FP + FN.
                 if s[0] > best[0] + 1e-9 or (abs(s[0] - best[0]) <= 1e-9 and s[1] + s[2] < best[1] + best[2] - 1e-9):
+                    if guard is not None:
+                        k = kitti(c2, slice(0, 39))
+                        if k < guard - 1e-9:
+                            print(f"round {r}: {name}={v} -> tune {s} rejected: KITTI 0-38 {100 * k:.1f}%",
+                                  flush=True)
+                            continue
                     cfg, best, changed = c2, s, True
                     print(f"round {r}: {name}={v} -> tune {s}", flush=True)
         if not changed:
@@ -103,6 +135,9 @@ def main():
     print(f"tuning half {args.tune}: accuracy {100 * best[0]:.2f}% FP {best[1]:.4f} FN {best[2]:.4f}")
     h = score(cfg, held)
     print(f"held-out half {'B' if args.tune == 'A' else 'A'}: accuracy {100 * h[0]:.2f}% FP {h[1]:.4f} FN {h[2]:.4f}")
+    if guard is not None:
+        print(f"KITTI lead car IoU >= 0.6: frames 0-38 {100 * kitti(cfg, slice(0, 39)):.1f}%, held-out 39-77 "
+              f"{100 * kitti(cfg, slice(39, 78)):.1f}% (defaults: {100 * kitti(default_config(), slice(39, 78)):.1f}%)")
 
 
 if __name__ == "__main__":

@@ -46,13 +46,14 @@ def load(data: Path):
 
 
 def run(engine: str, files, boxes, detect_every: int, progress: bool, measurement: str = "roi",
-        cfg=None) -> dict:
-    """files: image paths or (index, BGR image) pairs; cfg: the Detector's DetectConfig (None: default)."""
+        cfg=None, lane_detector=None) -> dict:
+    """files: image paths or (index, BGR image) pairs; cfg: the Detector's DetectConfig (None: default);
+    lane_detector: the Detector's lane stage (None: the default pyvehtrack.lane.LaneDetector)."""
     from ..detector import Detector
     from ..tracker import Tracker
     from .tracking import evaluate_kitti
 
-    trk = Tracker(engine=engine, detect_every=detect_every, detector=Detector(engine=engine, cfg=cfg),
+    trk = Tracker(engine=engine, detect_every=detect_every, detector=Detector(engine=engine, cfg=cfg, lane_detector=lane_detector),
                   measurement=measurement)
     per_frame = []
     for f in tqdm(files, desc=f"track ({engine}, {measurement})", unit="frame", disable=not progress, file=sys.stderr):
