@@ -21,6 +21,11 @@ when exact) and written under the new names. Retraining with
 (31.4% recall >= 32 px at 44.1% precision, score offset 2.0; 30.4% / 46.9% at 2.5).
 A 64-unit MLP with 3 hard-negative rounds (--rounds 3 --mlp 64) was tried and was no
 better on 'val' (e.g. 31.4% recall >= 32 px at 48.8% precision against 31.9% / 48.3%).
+Later tries on 'val' (recall >= 32 px / precision / lead / AP50 with the shipped settings;
+the shipped recipe re-run gives the shipped file, 33.4 / 48.3 / 54.9 / 19.2%):
+--jitter 4 (positives shifted and scaled as grid windows are) 29.3 / 41.7 / 49.0 / 17.3%;
+--mlp-iter 120 32.9 / 40.3 / 50.0 / 17.5%; --mlp 64 --mlp-iter 120 --rounds 2
+30.4 / 43.8 / 50.0 / 18.4%. None is shipped.
 
 Data, TRAIN parts only (pyvehtrack.datasets splits; never the tusimple TEST frames):
   * positives: every box >= 20 px wide of the tusimple-vehicles-dev TRAIN frames, as a
