@@ -1,7 +1,7 @@
 """`pyvehtrack train` and `pyvehtrack classify` (the classifier issue's commands).
 
     pyvehtrack train --vehicles DIR... --non-vehicles DIR... [--frames DIR --frames-json ANN.json]
-                     [--descriptor hog|gist] [--window N] [--C C] [--model-type svm|mlp [--hidden N]]
+                     [--descriptor hog|gist] [--window N] [--C C] [--model-type svm|mlp [--hidden N|auto]]
                      [--hard-negatives]
                      --out MODEL.npz [--no-progress]
     pyvehtrack classify INPUT... --json OUT.json [--model MODEL.npz] [--engine c|reference]
