@@ -96,7 +96,7 @@ def main():
         kimgs = [(k, cv2.imread(str(f))) for k, f in enumerate(kfiles)]
 
         def kitti(c, part):
-            idx = range(78)[part]   # run() numbers the frames it is given from 0
+            idx = range(len(kimgs))[part]   # run() numbers the frames it is given from 0
             r = kt.run("c", [(i, kimgs[k][1]) for i, k in enumerate(idx)], {i: kboxes[k] for i, k in enumerate(idx)},
                        10, False, lane_detector=LD("c", cfg=c))
             return r["iou06_share"]
