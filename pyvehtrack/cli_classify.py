@@ -57,15 +57,10 @@ def run_train(args) -> int:
             raise CliError(f"not a folder: {d!r}")
     if args.frames_json and not Path(args.frames_json).is_file():
         raise CliError(f"--frames-json: no such file {args.frames_json!r}")
-    if args.hidden == "auto":
-        hidden = None
-    else:
-        try:
-            hidden = int(args.hidden)
-        except ValueError:
-            raise CliError(f"--hidden: expected an integer in 1..64 or 'auto', got {args.hidden!r}") from None
-        if not 1 <= hidden <= 64:
-            raise CliError(f"--hidden: must be in 1..64, got {hidden}")
+    try:
+        hidden = T.parse_hidden(args.hidden)
+    except ValueError as e:
+        raise CliError(str(e)) from e
     if args.C is not None and not args.C > 0:
         raise CliError(f"--C: must be > 0, got {args.C}")
     try:

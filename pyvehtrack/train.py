@@ -328,6 +328,19 @@ C_GRID = (0.01, 0.03, 0.1)
 HIDDEN_GRID = (16, 32, 64)
 
 
+def parse_hidden(text: str) -> int | None:
+    """A --hidden value: an integer 1..64, or 'auto' (None: chosen on the inner fold)."""
+    if text == "auto":
+        return None
+    try:
+        hidden = int(text)
+    except ValueError:
+        raise ValueError(f"--hidden: expected an integer in 1..64 or 'auto', got {text!r}") from None
+    if not 1 <= hidden <= 64:
+        raise ValueError(f"--hidden: must be in 1..64, got {hidden}")
+    return hidden
+
+
 def evaluate(d: dict, X: np.ndarray, Xc: np.ndarray, y: np.ndarray, src: np.ndarray, sel: np.ndarray) -> dict:
     """Float and C accuracy on the rows `sel`, per source, and the sign agreement."""
     sf = float_scores(d, X[sel])

@@ -445,19 +445,26 @@ def test_prepare_bad_views(dims):
     assert lib.vt_resample_area(v, box, ffi.new("vt_image_u8_mut *")) < 0
 
 
-def test_train_cli_small(tmp_path):
-    """`pyvehtrack train` end to end on 2 x 48 crops (files 0-39 of each folder are TEST,
-    40-47 TRAIN): it writes a model the classify command reads, and prints both accuracies;
-    too few files is a clear error."""
+def _crop_folders(tmp_path, n):
+    """tmp_path/veh and tmp_path/non with n crops each, cycled from the test crops and
+    shifted by one column per cycle so no two files are equal. Returns the source crops."""
     import cv2
     from pyvehtrack.train import read_gray
     pos, neg = _crops()
     for name, files in (("veh", pos), ("non", neg)):
         d = tmp_path / name
         d.mkdir()
-        for i in range(48):
+        for i in range(n):
             g = read_gray(files[i % len(files)])
             cv2.imwrite(str(d / f"image{i:04d}.png"), np.roll(g, i // len(files), axis=1))
+    return pos, neg
+
+
+def test_train_cli_small(tmp_path):
+    """`pyvehtrack train` end to end on 2 x 48 crops (files 0-39 of each folder are TEST,
+    40-47 TRAIN): it writes a model the classify command reads, and prints both accuracies;
+    too few files is a clear error."""
+    pos, neg = _crop_folders(tmp_path, 48)
     env_py = [sys.executable, "-c", "import sys; from pyvehtrack.cli import main; sys.exit(main())"]
     out = tmp_path / "m.npz"
     r = subprocess.run(env_py + ["train", "--vehicles", str(tmp_path / "veh"), "--non-vehicles",
@@ -483,15 +490,8 @@ def test_train_cli_hidden_auto(tmp_path):
     and too few files for the inner fold are clear errors."""
     import re
 
-    import cv2
-    from pyvehtrack.train import HIDDEN_GRID, read_gray
-    pos, neg = _crops()
-    for name, files in (("veh", pos), ("non", neg)):
-        d = tmp_path / name
-        d.mkdir()
-        for i in range(120):
-            g = read_gray(files[i % len(files)])
-            cv2.imwrite(str(d / f"image{i:04d}.png"), np.roll(g, i // len(files), axis=1))
+    from pyvehtrack.train import HIDDEN_GRID
+    _crop_folders(tmp_path, 120)
     env_py = [sys.executable, "-c", "import sys; from pyvehtrack.cli import main; sys.exit(main())"]
     base = ["train", "--vehicles", str(tmp_path / "veh"), "--non-vehicles", str(tmp_path / "non"),
             "--window", "32", "--model-type", "mlp", "--out", str(tmp_path / "m.npz"), "--no-progress"]

@@ -28,7 +28,12 @@ def main(argv=None) -> int:
     ap.add_argument("--window", type=int, default=64)
     ap.add_argument("--C", type=float, default=None)
     ap.add_argument("--model-type", choices=("svm", "mlp"), default="svm")
-    ap.add_argument("--hidden", default="16", help="MLP hidden units, or 'auto' (16/32/64 chosen on "
+    def hidden(text):
+        try:
+            return T.parse_hidden(text)
+        except ValueError as e:
+            raise argparse.ArgumentTypeError(str(e)) from None
+    ap.add_argument("--hidden", type=hidden, default=16, help="MLP hidden units, or 'auto' (16/32/64 chosen on "
                     "the inner validation fold of TRAIN)")
     ap.add_argument("--hard-negatives", action="store_true")
     ap.add_argument("--out", required=True)
@@ -41,7 +46,7 @@ def main(argv=None) -> int:
                        d / "tusimple-vehicles-dev", d / "tusimple-vehicles-dev" / "annotation.json",
                        kind=args.descriptor, win=args.window, C=args.C, progress=False,
                        log=lambda s: print(s, file=sys.stderr), model_type=args.model_type,
-                       hidden=None if args.hidden == 'auto' else int(args.hidden), feature_cache=args.cache,
+                       hidden=args.hidden, feature_cache=args.cache,
                        hard_negatives=args.hard_negatives)
     T.save_model(args.out, model)
     print(json.dumps(rep, indent=1))

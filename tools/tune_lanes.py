@@ -93,11 +93,11 @@ def main():
         from pyvehtrack.eval import kitti_track as kt  # noqa: PLC0415
         from pyvehtrack.lane import LaneDetector as LD  # noqa: PLC0415
         kfiles, kboxes = kt.load(args.kitti)
-        kimgs = [(k, cv2.imread(str(f))) for k, f in enumerate(kfiles)]
+        kimgs = [cv2.imread(str(f)) for f in kfiles]
 
         def kitti(c, part):
             idx = range(len(kimgs))[part]   # run() numbers the frames it is given from 0
-            r = kt.run("c", [(i, kimgs[k][1]) for i, k in enumerate(idx)], {i: kboxes[k] for i, k in enumerate(idx)},
+            r = kt.run("c", [(i, kimgs[k]) for i, k in enumerate(idx)], {i: kboxes[k] for i, k in enumerate(idx)},
                        10, False, lane_detector=LD("c", cfg=c))
             return r["iou06_share"]
         guard = kitti(default_config(), slice(0, 39))

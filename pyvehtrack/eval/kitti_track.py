@@ -53,8 +53,8 @@ def run(engine: str, files, boxes, detect_every: int, progress: bool, measuremen
     from ..tracker import Tracker
     from .tracking import evaluate_kitti
 
-    trk = Tracker(engine=engine, detect_every=detect_every, detector=Detector(engine=engine, cfg=cfg, lane_detector=lane_detector),
-                  measurement=measurement)
+    det = Detector(engine=engine, cfg=cfg, lane_detector=lane_detector)
+    trk = Tracker(engine=engine, detect_every=detect_every, detector=det, measurement=measurement)
     per_frame = []
     for f in tqdm(files, desc=f"track ({engine}, {measurement})", unit="frame", disable=not progress, file=sys.stderr):
         img = f[1] if isinstance(f, tuple) else cv2.imread(str(f))
