@@ -50,18 +50,11 @@ static int vt__ge_bound(int32_t gx, int32_t gy, int k)
            0;
 }
 
-/* Add one pixel's gradient to its cell's histogram hc[0..8]. */
-static void vt__hog_px(int32_t gx, int32_t gy, uint32_t *hc)
+/* The orientation bin of a folded gradient (gy > 0, or gy == 0 and gx > 0): a
+ * binary search over the boundaries. */
+static int vt__hog_bin(int32_t gx, int32_t gy)
 {
     int b = 0;
-    if (gx == 0 && gy == 0) {
-        return;
-    }
-    /* Unsigned orientation: fold onto [0, 180) degrees (angle 180 is bin 0). */
-    if (gy < 0 || (gy == 0 && gx < 0)) {
-        gx = -gx;
-        gy = -gy;
-    }
     if (vt__ge_bound(gx, gy, 4)) {
         b = 4;
     }
@@ -74,26 +67,64 @@ static void vt__hog_px(int32_t gx, int32_t gy, uint32_t *hc)
     if (b == 7 && vt__ge_bound(gx, gy, 8)) {
         b = 8;
     }
-    hc[b] += (uint32_t)vt__mag_q4(gx * gx + gy * gy);
+    return b;
 }
 
-/* Cell histograms of one cell row (rows 8 cy .. 8 cy + 7) into hrow[cx][9]. */
+/* Add one pixel's gradient to its cell's histogram hc[0..8]: the magnitude
+ * round(16 |g|) into its unsigned orientation's bin (angle folded onto [0, 180)
+ * degrees; 180 is bin 0). Most gradients of a road image have gx^2 + gy^2 <
+ * VT__MAG_SMALL: both values then come from tables (the bin table is the search
+ * of vt__hog_bin run by tools/gen_tables.py, fold included); the rest take the
+ * search and the square root out of line. */
+static void vt__hog_px_big(int32_t gx, int32_t gy, int32_t n, uint32_t *hc)
+{
+    if (gy < 0 || (gy == 0 && gx < 0)) {
+        gx = -gx;
+        gy = -gy;
+    }
+    hc[vt__hog_bin(gx, gy)] += (uint32_t)vt__mag_q4(n);
+}
+
+#define VT__HOG_PX(gx, gy, hc)                                                                    \
+    do {                                                                                          \
+        const int32_t n_ = (gx) * (gx) + (gy) * (gy);                                             \
+        if (n_ < VT__MAG_SMALL) {                                                                 \
+            (hc)[vt__hog_bin_small[((gy) + (VT__BIN_SMALL - 1)) * (2 * VT__BIN_SMALL - 1) + (gx) +   \
+                                   (VT__BIN_SMALL - 1)]] += vt__mag_small_q4[n_];                    \
+        } else {                                                                                  \
+            vt__hog_px_big((gx), (gy), n_, (hc));                                                 \
+        }                                                                                         \
+    } while (0)
+
+/* Cell histograms of one cell row (rows 8 cy .. 8 cy + 7) into hrow[cx][9]. A zero
+ * gradient adds round(16 * 0) = 0 to bin 0, so it needs no test. */
 static void vt__hog_cell_row(const vt_image_u8 *img, int32_t cy, int32_t cells_x, uint32_t *hrow)
 {
     const int32_t w = img->w, h = img->h, xe = cells_x * VT_CLS_CELL;
+    /* columns 1 .. xi - 1 have both neighbours; skimage's rule: d/dx is 0 on the
+     * image's outermost columns, d/dy on its outermost rows */
+    const int32_t xi = xe < w - 1 ? xe : w - 1;
+    const size_t stride = (size_t)img->stride;
     int32_t x, y;
     memset(hrow, 0, (size_t)cells_x * VT_HOG_BINS * sizeof hrow[0]);
     for (y = cy * VT_CLS_CELL; y < (cy + 1) * VT_CLS_CELL; ++y) {
-        const uint8_t *p0 = img->px + (size_t)y * (size_t)img->stride;
-        /* skimage's rule: each gradient component is 0 on the image's outermost
-         * rows (d/dy) or columns (d/dx). */
+        const uint8_t *p0 = img->px + (size_t)y * stride;
         const int rows_ok = y > 0 && y < h - 1;
-        const uint8_t *pu = rows_ok ? p0 - img->stride : p0;
-        const uint8_t *pd = rows_ok ? p0 + img->stride : p0;
-        for (x = 0; x < xe; ++x) {
-            int32_t gx = (x > 0 && x < w - 1) ? (int32_t)p0[x + 1] - (int32_t)p0[x - 1] : 0;
-            int32_t gy = (int32_t)pd[x] - (int32_t)pu[x];
-            vt__hog_px(gx, gy, hrow + (size_t)(x >> 3) * VT_HOG_BINS);
+        const uint8_t *pu = rows_ok ? p0 - stride : p0;
+        const uint8_t *pd = rows_ok ? p0 + stride : p0;
+        int32_t gx = 0, gy = (int32_t)pd[0] - (int32_t)pu[0];
+        VT__HOG_PX(gx, gy, hrow);
+        for (x = 1; x < xi; ++x) {
+            uint32_t *hc = hrow + (size_t)(x >> 3) * VT_HOG_BINS;
+            gx = (int32_t)p0[x + 1] - (int32_t)p0[x - 1];
+            gy = (int32_t)pd[x] - (int32_t)pu[x];
+            VT__HOG_PX(gx, gy, hc);
+        }
+        for (; x < xe; ++x) {
+            uint32_t *hc = hrow + (size_t)(x >> 3) * VT_HOG_BINS;
+            gx = 0;
+            gy = (int32_t)pd[x] - (int32_t)pu[x];
+            VT__HOG_PX(gx, gy, hc);
         }
     }
 }
@@ -523,10 +554,31 @@ vt_status vt_gist_descriptor(const vt_gist_ws *ws, int32_t cx, int32_t cy, int32
 
 /* ------------------------------------------------------------------ boxes */
 
+/* One output pixel: the rounded mean of src rows y0..y1-1, columns x0..x1-1 (n pixels). */
+static uint8_t vt__area_mean(const vt_image_u8 *src, int32_t x0, int32_t x1, int32_t y0, int32_t y1)
+{
+    uint64_t sum = 0, n = (uint64_t)(x1 - x0) * (uint64_t)(y1 - y0);
+    int32_t x, y;
+    for (y = y0; y < y1; ++y) {
+        const uint8_t *p = src->px + (size_t)y * (size_t)src->stride;
+        for (x = x0; x < x1; ++x) {
+            sum += p[x];
+        }
+    }
+    /* a 32-bit division where it suffices (Cortex-M has no 64-bit divide) */
+    if (sum < 0x80000000u && n < 0x80000000u) {
+        return (uint8_t)(((uint32_t)sum + (uint32_t)(n / 2)) / (uint32_t)n);
+    }
+    return (uint8_t)((sum + n / 2) / n);
+}
+
 vt_status vt_resample_area(const vt_image_u8 *src, const vt_box *box, vt_image_u8_mut *dst)
 {
     vt_status s = vt_image_u8_check(src);
-    int32_t bw, bh, i, j;
+    int32_t bw, bh, i, j, dw, dh, qx, rx, qy, ry, yq = 0, yr = 0, xq = 0, xr = 0, narrow;
+    uint16_t col0[VT_CLS_MAX_WIN];
+    uint8_t two_x[VT_CLS_MAX_WIN];
+    size_t ss;
     if (s != VT_OK) {
         return s;
     }
@@ -543,28 +595,78 @@ vt_status vt_resample_area(const vt_image_u8 *src, const vt_box *box, vt_image_u
     }
     bw = box->right - box->left + 1;
     bh = box->bottom - box->top + 1;
-    for (j = 0; j < dst->h; ++j) {
-        int32_t y0 = box->top + (int32_t)(((int64_t)j * bh) / dst->h);
-        int32_t y1 = box->top + (int32_t)(((int64_t)(j + 1) * bh) / dst->h);
-        if (y1 <= y0) {
-            y1 = y0 + 1;
+    if (bw == dst->w && bh == dst->h) {
+        /* every output pixel is one source pixel */
+        for (j = 0; j < bh; ++j) {
+            memcpy(dst->px + (size_t)j * (size_t)dst->stride,
+                   src->px + (size_t)(box->top + j) * (size_t)src->stride + (size_t)box->left,
+                   (size_t)bw);
         }
-        for (i = 0; i < dst->w; ++i) {
-            int32_t x0 = box->left + (int32_t)(((int64_t)i * bw) / dst->w);
-            int32_t x1 = box->left + (int32_t)(((int64_t)(i + 1) * bw) / dst->w);
-            uint64_t sum = 0, n;
-            int32_t x, y;
-            if (x1 <= x0) {
-                x1 = x0 + 1;
+        return VT_OK;
+    }
+    /* floor(i bw / w) walked as quotient + remainder (no division per pixel):
+     * the same bounds as the per-pixel formula, so the same output. Sizes in
+     * locals: the uint8_t stores may alias anything, so fields would be reloaded. */
+    dw = dst->w;
+    dh = dst->h;
+    ss = (size_t)src->stride;
+    qx = bw / dw;
+    rx = bw % dw;
+    qy = bh / dh;
+    ry = bh % dh;
+    /* A window-sized output of a box under twice its width (every sliding window):
+     * the columns' first pixel and span (1 or 2) once, then each output pixel is
+     * 1, 2 or 4 pixels whose mean is a shift, (sum + n/2) >> log2 n, the same value
+     * as the division. */
+    narrow = dw <= VT_CLS_MAX_WIN && bw < 2 * dw;
+    for (i = 0; narrow && i < dw; ++i) {
+        int32_t x0 = xq;
+        xq += qx;
+        xr += rx;
+        if (xr >= dw) {
+            xr -= dw;
+            ++xq;
+        }
+        col0[i] = (uint16_t)x0;
+        two_x[i] = (uint8_t)(xq - x0 == 2);
+    }
+    for (j = 0; j < dh; ++j) {
+        int32_t y0 = box->top + yq, y1;
+        uint8_t *o = dst->px + (size_t)j * (size_t)dst->stride;
+        const uint8_t *row;
+        yq += qy;
+        yr += ry;
+        if (yr >= dh) {
+            yr -= dh;
+            ++yq;
+        }
+        y1 = box->top + yq;
+        y1 = y1 <= y0 ? y0 + 1 : y1;
+        row = src->px + (size_t)y0 * ss + (size_t)box->left;
+        if (narrow && y1 - y0 == 1) {
+            for (i = 0; i < dw; ++i) {
+                const uint8_t *p = row + col0[i];
+                o[i] = (uint8_t)(two_x[i] ? (p[0] + p[1] + 1u) >> 1 : p[0]);
             }
-            for (y = y0; y < y1; ++y) {
-                const uint8_t *p = src->px + (size_t)y * (size_t)src->stride;
-                for (x = x0; x < x1; ++x) {
-                    sum += p[x];
+        } else if (narrow && y1 - y0 == 2) {
+            for (i = 0; i < dw; ++i) {
+                const uint8_t *p = row + col0[i];
+                o[i] = (uint8_t)(two_x[i] ? (p[0] + p[1] + p[ss] + p[ss + 1] + 2u) >> 2
+                                          : (p[0] + p[ss] + 1u) >> 1);
+            }
+        } else {
+            int32_t xq2 = 0, xr2 = 0;
+            for (i = 0; i < dw; ++i) {
+                int32_t x0 = xq2;
+                xq2 += qx;
+                xr2 += rx;
+                if (xr2 >= dw) {
+                    xr2 -= dw;
+                    ++xq2;
                 }
+                o[i] = vt__area_mean(src, box->left + x0, box->left + (xq2 <= x0 ? x0 + 1 : xq2), y0,
+                                     y1);
             }
-            n = (uint64_t)(x1 - x0) * (uint64_t)(y1 - y0);
-            dst->px[(size_t)j * (size_t)dst->stride + (size_t)i] = (uint8_t)((sum + n / 2) / n);
         }
     }
     return VT_OK;

@@ -171,6 +171,20 @@ def test_resample_area_exact(w, h, data):
     assert np.array_equal(N.resample_area(img, (l, t, r, b), ow, oh), R.resample_area(img, (l, t, r, b), ow, oh))
 
 
+@settings(max_examples=60)
+@given(st.integers(0, 2 ** 31), st.integers(8, 130), st.integers(8, 130), st.sampled_from([32, 48, 64, 128]),
+       st.integers(0, 9), st.integers(0, 9), st.integers(1, 128))
+def test_resample_area_window_sizes(seed, bw, bh, win, x, y, stride_pad):
+    """The window-sized outputs vt_resample_area has fast paths for (a box equal to the
+    window: copied; under twice it: 1, 2 or 4 pixels per output, the mean as a shift),
+    and the general path beside them, in a strided view, against the oracle exactly."""
+    rng = np.random.default_rng(seed)
+    big = rng.integers(0, 256, (bh + y + 3, bw + x + stride_pad), dtype=np.uint8)
+    img = big[:, :bw + x + 2]
+    box = (x, y, x + bw - 1, y + bh - 1)
+    assert np.array_equal(N.resample_area(img, box, win, win), R.resample_area(img, box, win, win))
+
+
 @settings(max_examples=40)
 @given(st.integers(0, 2 ** 31), st.sampled_from([(lib.VT_DESC_HOG, 32, 32), (lib.VT_DESC_HOG, 16, 24),
                                                  (lib.VT_DESC_GIST, 64, 64)]))
@@ -533,3 +547,23 @@ def test_hog_bin_boundaries_exact_for_every_gradient():
         nz = np.abs(exact) > 1e-9          # only (0, 0) is on a boundary; C skips it
         assert np.abs(exact[nz]).min() > 2 ** -10
         assert ((q >= 0) == (exact >= 0))[nz].all()
+
+
+def test_hog_bin_table_is_the_float_bin():
+    """c/tables/classify_q.h's vt__hog_bin_small (the bins vt__hog_px reads for every
+    gradient with gx^2 + gy^2 < VT__MAG_SMALL) holds, for each |gx|, |gy| < 32, the
+    float HOG's unsigned bin floor(angle / 20 deg), angle folded onto [0, 180)."""
+    import re
+    text = (ROOT / "c" / "tables" / "classify_q.h").read_text()
+    side = int(re.search(r"#define VT__BIN_SMALL (\d+)", text).group(1))
+    mag_small = int(re.search(r"#define VT__MAG_SMALL (\d+)", text).group(1))
+    body = text[text.index("vt__hog_bin_small["):]
+    table = np.array([int(v) for v in re.findall(r"-?\d+", body[body.index("{") + 1:body.index("}")])])
+    assert table.size == (2 * side - 1) ** 2
+    assert side * side >= mag_small          # gx^2 + gy^2 < VT__MAG_SMALL implies |gx|, |gy| < side
+    g = np.arange(-side + 1, side)
+    gx, gy = np.meshgrid(g, g)
+    ang = np.degrees(np.arctan2(gy, gx)) % 180.0
+    want = np.minimum((ang // 20).astype(int), 8)
+    nz = (gx != 0) | (gy != 0)
+    assert np.array_equal(table.reshape(2 * side - 1, 2 * side - 1)[nz], want[nz])
