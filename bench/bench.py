@@ -457,6 +457,52 @@ def _fullroad_detect(ctx: Ctx) -> Stage:
                       "skimage hog + sklearn LinearSVC on the same windows")
 
 
+@register("fullroad_mlp", sizes=((1280, 720),), driver=False)
+def _fullroad_mlp(ctx: Ctx) -> Stage:
+    """Whole-road detection in C with the shipped tests/data/window_mlp_hog32.npz and the
+    settings it carries (windows at two sizes per octave scored by the HOG 32x32 MLP, each
+    window resampled to 32x32 and described alone; shadow hypotheses; NMS, merge, the HOG
+    64x64 second stage) against the classic float way over the same windows:
+    skimage.transform.pyramid_gaussian, cv2.resize (INTER_AREA) of each window to 32x32,
+    skimage.feature.hog, the MLP's float weights in NumPy over all windows at once."""
+    from skimage.feature import hog
+    from skimage.transform import pyramid_gaussian
+    from pyvehtrack.fullroad import FullRoadDetector
+    from pyvehtrack.reference import windows as rw
+    img = ctx.frame
+    h, w = img.shape
+    det = FullRoadDetector(str(ROOT / "tests" / "data" / "window_mlp_hog32.npz"))
+    m = det.model
+    cam = det.camera_for(h, w)
+    wins = [wn for lv in range(det.det_cfg.win.levels)
+            for wn in rw.windows_level(det.det_cfg.win, cam, rw.road_from_camera(cam, det.det_cfg.win, w, h), w, h, lv)]
+    w1 = m.w1_q.reshape(len(m.b1_q16), -1).astype(np.float64) / 2 ** m.w1_shift
+    b1 = m.b1_q16 / 65536
+    w2 = m.w2_q.astype(np.float64) / 2 ** m.w2_shift
+    last = {}
+
+    import cv2
+
+    def c():
+        last["boxes"] = det.detect_gray(img)
+
+    def reference():
+        levels = [(lv * 255).astype(np.uint8) for lv in
+                  pyramid_gaussian(img, max_layer=det.det_cfg.win.levels - 1, downscale=2)]
+        feats = [hog(cv2.resize(levels[lv][y:y + s, x:x + s], (m.win_w, m.win_h), interpolation=cv2.INTER_AREA),
+                     orientations=9, pixels_per_cell=(8, 8), cells_per_block=(2, 2), block_norm="L2-Hys")
+                 for lv, s, x, y in wins if y + s <= levels[lv].shape[0] and x + s <= levels[lv].shape[1]]
+        if not feats:
+            return np.zeros(0)
+        return np.maximum(np.asarray(feats) @ w1.T + b1, 0.0) @ w2 + m.b2_q16 / 65536
+
+    return Stage("fullroad_mlp", c, reference, pixels=img.size, calls=1,
+                 digest=lambda: digest(last["boxes"][:, :4]) if len(last.get("boxes", [])) else 0,
+                 note=f"C: vt_fulldet + vt_fulldet_verify, window_mlp_hog32.npz settings ({len(wins)} windows at "
+                      "2 sizes per octave, HOG 32x32 MLP); reference: classic skimage hog + NumPy MLP on the "
+                      "same windows")
+
+
 @register("fullroad_mlp_wide", sizes=((1280, 720),), driver=False)
 def _fullroad_mlp_wide(ctx: Ctx) -> Stage:
     """Whole-road detection in C with the opt-in tests/data/window_mlp_hog32_wide.npz and
@@ -915,6 +961,33 @@ def run_callgrind(valgrind: str, driver: Path, pgm: Path, stages: list[Stage],
     return found
 
 
+def run_callgrind_python(valgrind: str, name: str, size: tuple[int, int], quick: bool,
+                         out_file: Path) -> dict:
+    """Instructions of one C run of a stage bench/callgrind_main.c has no entry for: this
+    script under callgrind with collection on only inside the library's functions
+    (--toggle-collect=vt_*: the C and what it calls, not Python, NumPy or cffi), the
+    stage built, then its C callable run once (--cg-one). Setup inside vt_* during the
+    stage's construction (model checks, config defaults) is counted too: a few
+    thousand instructions."""
+    cmd = [valgrind, "--tool=callgrind", "-q", f"--callgrind-out-file={out_file}", "--dump-instr=no",
+           "--toggle-collect=vt_*", sys.executable, str(Path(__file__).resolve()), "--cg-one", name,
+           "--cg-size", f"{size[0]}x{size[1]}"] + (["--quick"] if quick else [])
+    res = subprocess.run(cmd, capture_output=True, text=True, env=tool_env())
+    if res.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)} failed ({res.returncode}):\n{res.stderr[-2000:]}")
+    return {"ir": callgrind.parse(out_file).total(), "calls": 1, "status": None, "digest": None,
+            "via": "python"}
+
+
+def _cg_one(name: str, size: str, quick: bool) -> int:
+    """--cg-one: build one stage at one frame size and run its C callable once."""
+    fw, fh = (int(v) for v in size.split("x"))
+    spec = next(s for s in REGISTRY if s.name == name)
+    frame, _ = load_frame(fw, fh, quick=quick)
+    spec.make(Ctx(frame=frame, quick=quick)).c()
+    return 0
+
+
 # ---------------------------------------------------------------- machine
 def _first_line(cmd: list[str]) -> str:
     try:
@@ -1048,7 +1121,14 @@ def main(argv: list[str] | None = None) -> int:
                     help="cv2.setNumThreads for the oracle (0: OpenCV's default, all cores)")
     ap.add_argument("--budget", type=float, default=1.0,
                     help="seconds of timing per stage and variant before stopping at min reps")
+    ap.add_argument("--python-callgrind", choices=("auto", "on", "off"), default="auto",
+                    help="the callgrind columns of stages without a callgrind_main.c entry: this script "
+                         "under callgrind, collecting inside vt_* only (auto: on unless --quick)")
+    ap.add_argument("--cg-one", help=argparse.SUPPRESS)
+    ap.add_argument("--cg-size", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
+    if args.cg_one:
+        return _cg_one(args.cg_one, args.cg_size, args.quick)
 
     specs = REGISTRY
     if args.stages:
@@ -1099,6 +1179,12 @@ def main(argv: list[str] | None = None) -> int:
             write_pgm(pgm, frame)
             cg = run_callgrind(valgrind, args.driver, pgm, cg_stages,
                                args.workdir / f"callgrind_{fw}x{fh}.out")
+        py_cg = args.python_callgrind == "on" or (args.python_callgrind == "auto" and not args.quick)
+        if args.driver is not None and valgrind is not None and py_cg:
+            for spec, st in stages:
+                if not (spec.driver and st.name in in_driver):
+                    cg[st.name] = run_callgrind_python(valgrind, st.name, (fw, fh), args.quick,
+                                                       args.workdir / f"callgrind_py_{st.name}_{fw}x{fh}.out")
         # The C's own speed on this machine, from stages that make one binding call
         # per run (where the binding is negligible): instructions per µs.
         speeds = [cg[st.name]["ir"] / timed[st.name][0] for _, st in stages
@@ -1119,7 +1205,7 @@ def main(argv: list[str] | None = None) -> int:
                     note.append(f"{n_calls:,} cffi calls: {n_calls * min(overhead.values()):,.0f}"
                                 f"–{n_calls * max(overhead.values()):,.0f} µs of binding")
             if args.driver is not None and not (spec.driver and st.name in in_driver):
-                note.append("no callgrind_main.c entry")
+                note.append("Ir: Python under callgrind, inside vt_* only" if g else "no callgrind_main.c entry")
             if g and g["status"] not in (None, 0):
                 note.append(f"driver status {g['status']}")
             match = None

@@ -186,3 +186,21 @@ def test_digest_fold():
     # sum((uint32)v[i] * (i + 1)) mod 2^32, negative values taken mod 2^32.
     assert bench.digest([3, -1, 2]) == (3 * 1 + (2**32 - 1) * 2 + 2 * 3) % 2**32
     assert bench.digest([]) == 0
+
+
+def test_python_callgrind_counts_a_driverless_stage(tmp_path):
+    """A stage without a callgrind_main.c entry gets its instruction count from this
+    script under callgrind, collecting inside vt_* only (--python-callgrind on)."""
+    driver = _build_driver(tmp_path)
+    if driver is None:
+        pytest.skip("needs a C compiler and valgrind")
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT)] + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else []))
+    res = subprocess.run([sys.executable, str(ROOT / "bench" / "bench.py"), "--quick", "--stages",
+                          "track_frame_edges", "--python-callgrind", "on", "--driver", str(driver),
+                          "--workdir", str(tmp_path), "--out", str(tmp_path / "results")],
+                         env=env, capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr
+    (row,) = json.loads((tmp_path / "results.json").read_text())["rows"]
+    assert row["stage"] == "track_frame_edges" and row["ir"] > 10_000 and row["ir_per_px"] > 0, row
+    assert "Python under callgrind" in row["note"]
