@@ -25,7 +25,9 @@ Later tries on 'val' (recall >= 32 px / precision / lead / AP50 with the shipped
 the shipped recipe re-run gives the shipped file, 33.4 / 48.3 / 54.9 / 19.2%):
 --jitter 4 (positives shifted and scaled as grid windows are) 29.3 / 41.7 / 49.0 / 17.3%;
 --mlp-iter 120 32.9 / 40.3 / 50.0 / 17.5%; --mlp 64 --mlp-iter 120 --rounds 2
-30.4 / 43.8 / 50.0 / 18.4%. None is shipped.
+30.4 / 43.8 / 50.0 / 18.4%; --scan-sizes 32 40 51 35.2 / 39.7 / 55.9 / 18.9%; --win 48 --scan-sizes 34 48
+33.2 / 37.0 / 49.0 / 17.1%. The shipped recipe without --fit-only (all of TRAIN), TEST run once:
+36.7 / 47.3 / 45.1 / 20.2% against the shipped file's 36.3 / 45.6 / 48.0 / 19.5%. None is shipped.
 
 Data, TRAIN parts only (pyvehtrack.datasets splits; never the tusimple TEST frames):
   * positives: every box >= 20 px wide of the tusimple-vehicles-dev TRAIN frames, as a
