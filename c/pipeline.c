@@ -533,13 +533,48 @@ static int32_t vt__frac_q16(int32_t h, int32_t q)
     return (int32_t)vt__floor_div64((int64_t)h * q + 32768, 65536);
 }
 
+/* The ego-lane detector on a detection frame (thesis sec. 2.4.2): the lanes' road
+ * (else the fixed or the caller's, per the policy), shadow hypotheses and vertical-edge
+ * verification into p->det (the tracker's input) and out, the boxes labelled `source`.
+ * On an error of vt_detect, p->det is empty and out has no boxes. */
+static vt_status vt__detect_ego(vt_pipeline *p, const vt_image_u8 *frame, const vt_road_area *given,
+                                vt_frame_out *out, int32_t lanes_ok, int32_t source)
+{
+    int32_t i;
+    vt_status s = VT_OK;
+    vt__road(p, frame, given, out, lanes_ok);
+    p->det.n_hyp = 0;
+    p->det.n_boxes = 0;
+    if (out->road_source != VT_ROAD_SRC_NONE) {
+        s = vt_detect(&p->detect, &p->cfg.detect, frame, &out->road, &p->det);
+    }
+    out->n_hyp = p->det.n_hyp;
+    for (i = 0; i < p->det.n_hyp; ++i) {
+        out->hyp[i] = p->det.hyp[i];
+    }
+    for (i = 0; i < p->det.n_boxes; ++i) {
+        out->boxes[i].box = p->det.box[i];
+        out->boxes[i].source = source;
+        out->boxes[i].score = VT_UNKNOWN;
+    }
+    out->n_boxes = p->det.n_boxes;
+    return s;
+}
+
 /* The whole-road detector on a detection frame: its camera (the road camera of the
  * frame's size, the horizon the last lanes' vanishing row once known), the road (the
  * caller's when given, else the camera road), vt_fulldet, and its boxes into out and
- * p->det (the tracker's input). */
+ * p->det (the tracker's input) after the n0 ego-lane boxes already there (VT_SRC_EGO;
+ * 0 otherwise): a box NMS would suppress against one of those (the detector's IoU and
+ * containment limits) is dropped. With the second stage on (cfg.verify) the ego boxes go
+ * through it first (dropped under verify_min, else scored by it); an ego box then takes
+ * the highest score of itself and the boxes it suppresses (unscored: the detector's
+ * threshold, window_score_min, if it suppresses none); the shadow hypotheses follow
+ * the ego ones. */
 static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
-                                  const vt_road_area *given, vt_frame_out *out)
+                                  const vt_road_area *given, vt_frame_out *out, int32_t n0)
 {
+    int32_t k, j, n_hyp0 = out->n_hyp; /* the ego hypotheses (0 without VT_SRC_EGO) */
     vt_fulldet_cfg fc;
     vt_camera_min cam;
     vt_pipe_cls_ws *ws = p->cls_ws;
@@ -547,6 +582,30 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
     int32_t i, fx;
     vt_status s;
     vt__fulldet_cfg(&p->cfg, &fc);
+    if (n0 > 0 && p->cfg.verify) {
+        /* the ego boxes through the second stage too (the detector's result is scratch
+         * until vt_fulldet fills it): the survivors carry its score */
+        const vt_mlp_model *m = NULL;
+        s = vt_mlp_default_model(&m);
+        ws->res.n_boxes = n0;
+        for (j = 0; j < n0; ++j) {
+            ws->res.box[j].box = p->det.box[j];
+            ws->res.box[j].score = 0;
+            ws->res.box[j].source = VT_FULLDET_SHADOW;
+        }
+        if (s == VT_OK) {
+            s = vt_fulldet_verify(&ws->box, m, frame, p->cfg.verify_min, &ws->res);
+        }
+        if (s != VT_OK) {
+            return s;
+        }
+        n0 = ws->res.n_boxes;
+        for (j = 0; j < n0; ++j) {
+            p->det.box[j] = ws->res.box[j].box;
+            out->boxes[j].box = ws->res.box[j].box;
+            out->boxes[j].score = ws->res.box[j].score;
+        }
+    }
     cam.horizon_y = p->horizon_known ? p->horizon_y : vt__frac_q16(frame->h, rc->horizon_q16);
     cam.hood_y = vt__frac_q16(frame->h, rc->hood_q16);
     cam.hood_y = cam.hood_y < 1 ? 1 : cam.hood_y;
@@ -568,7 +627,9 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
         out->road_source = out->road.valid ? VT_ROAD_SRC_CAMERA : VT_ROAD_SRC_NONE;
     }
     p->det.n_hyp = 0;
-    p->det.n_boxes = 0;
+    p->det.n_boxes = n0;
+    out->n_boxes = n0;
+    out->n_hyp = n_hyp0;
     if (out->road_source == VT_ROAD_SRC_NONE) {
         return VT_OK;
     }
@@ -598,20 +659,44 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
     }
     /* The shadow source's hypotheses (fulldet keeps them in its detect result). */
     if (fc.sources & VT_FULLDET_SHADOW) {
-        out->n_hyp = ws->st.dres.n_hyp;
-        for (i = 0; i < ws->st.dres.n_hyp; ++i) {
-            out->hyp[i] = ws->st.dres.hyp[i];
+        for (i = 0; i < ws->st.dres.n_hyp && n_hyp0 + i < VT_MAX_HYPOTHESES; ++i) {
+            out->hyp[n_hyp0 + i] = ws->st.dres.hyp[i];
+        }
+        out->n_hyp = n_hyp0 + i;
+    }
+    k = n0;
+    for (i = 0; i < ws->res.n_boxes; ++i) {
+        const vt_box *b = &ws->res.box[i].box;
+        for (j = 0; j < n0; ++j) {
+            if (vt__box_suppress(&p->det.box[j], b, fc.nms_iou_permille, fc.nms_contain_permille)) {
+                break;
+            }
+        }
+        if (j < n0) {
+            /* the ego box's score: the best the classifier gave the same vehicle */
+            if (out->boxes[j].score == VT_UNKNOWN || out->boxes[j].score < ws->res.box[i].score) {
+                out->boxes[j].score = ws->res.box[i].score;
+            }
+            continue;
+        }
+        if (k == VT_MAX_BOXES) {
+            continue;
+        }
+        p->det.box[k] = *b;
+        out->boxes[k].box = *b;
+        out->boxes[k].source = ws->res.box[i].source == VT_FULLDET_WINDOWS ? VT_SRC_CLASSIFIER
+                                                                            : VT_SRC_SHADOW;
+        out->boxes[k].score = ws->res.box[i].score;
+        ++k;
+    }
+    /* an ego box the classifier did not see scores at the detector's threshold */
+    for (j = 0; j < n0; ++j) {
+        if (out->boxes[j].score == VT_UNKNOWN) {
+            out->boxes[j].score = fc.window_score_min;
         }
     }
-    for (i = 0; i < ws->res.n_boxes && i < VT_MAX_BOXES; ++i) {
-        p->det.box[i] = ws->res.box[i].box;
-        out->boxes[i].box = ws->res.box[i].box;
-        out->boxes[i].source = ws->res.box[i].source == VT_FULLDET_WINDOWS ? VT_SRC_CLASSIFIER
-                                                                            : VT_SRC_SHADOW;
-        out->boxes[i].score = ws->res.box[i].score;
-    }
-    p->det.n_boxes = i;
-    out->n_boxes = i;
+    p->det.n_boxes = k;
+    out->n_boxes = k;
     return VT_OK;
 }
 
@@ -976,7 +1061,7 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
     /* A classifier asked for (a model, or the classifier source) needs its
      * workspace and scorer attached (vt_pipeline_set_cls_ws). */
     whole = p->cls_ws != NULL && p->scorer.score != NULL;
-    if (!whole && (p->model != NULL || (p->cfg.sources & VT_SRC_CLASSIFIER) != 0)) {
+    if (!whole && (p->model != NULL || (p->cfg.sources & (VT_SRC_CLASSIFIER | VT_SRC_EGO)) != 0)) {
         return VT_E_ARG;
     }
     if (((p->cfg.sources & VT_SRC_FLOW) != 0 && p->flow_st == NULL) ||
@@ -1025,7 +1110,17 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
         }
         out->n_boxes = i;
     } else if (det_frame && whole) {
-        s = vt__detect_whole(p, frame, road, out);
+        int32_t n_ego = 0;
+        s = VT_OK;
+        if ((p->cfg.sources & VT_SRC_EGO) != 0) {
+            s = vt__detect_ego(p, frame, road, out, lanes_ok, VT_SRC_EGO);
+            n_ego = p->det.n_boxes;
+        }
+        if (s == VT_OK) {
+            /* with the ego detector, a caller's road is its road (the fixed one of the
+             * policy); the whole-road detector keeps the camera road */
+            s = vt__detect_whole(p, frame, (p->cfg.sources & VT_SRC_EGO) != 0 ? NULL : road, out, n_ego);
+        }
         if (s != VT_OK) {
             out->n_boxes = 0;
             p->frame = vt__next_frame(p->frame);
@@ -1033,27 +1128,12 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
         }
         n_boxes = p->det.n_boxes;
     } else if (det_frame) {
-        vt__road(p, frame, road, out, lanes_ok);
-        p->det.n_hyp = 0;
-        p->det.n_boxes = 0;
-        if (out->road_source != VT_ROAD_SRC_NONE) {
-            s = vt_detect(&p->detect, &p->cfg.detect, frame, &out->road, &p->det);
-            if (s != VT_OK) {
-                p->frame = vt__next_frame(p->frame);
-                return s;
-            }
-        }
-        out->n_hyp = p->det.n_hyp;
-        for (i = 0; i < p->det.n_hyp; ++i) {
-            out->hyp[i] = p->det.hyp[i];
-        }
-        for (i = 0; i < p->det.n_boxes; ++i) {
-            out->boxes[i].box = p->det.box[i];
-            out->boxes[i].source = VT_SRC_SHADOW;
-            out->boxes[i].score = VT_UNKNOWN;
+        s = vt__detect_ego(p, frame, road, out, lanes_ok, VT_SRC_SHADOW);
+        if (s != VT_OK) {
+            p->frame = vt__next_frame(p->frame);
+            return s;
         }
         n_boxes = p->det.n_boxes;
-        out->n_boxes = n_boxes;
     } else if (lanes_ok && out->road.valid) {
         out->road_source = VT_ROAD_SRC_LANES; /* lanes every frame: report their road */
     } else {

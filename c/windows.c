@@ -198,9 +198,8 @@ static int64_t vt__area(const vt_box *b)
     return ((int64_t)b->right - b->left + 1) * ((int64_t)b->bottom - b->top + 1);
 }
 
-/* 1 if box b is suppressed by the kept box a. */
-static int vt__suppress(const vt_box *a, const vt_box *b, int32_t iou_permille,
-                        int32_t contain_permille)
+/* 1 if box b is suppressed by the kept box a (internal.h; coordinates within +-2^24). */
+int vt__box_suppress(const vt_box *a, const vt_box *b, int32_t iou_permille, int32_t contain_permille)
 {
     int64_t iw = (int64_t)(a->right < b->right ? a->right : b->right) -
                  (a->left > b->left ? a->left : b->left) + 1;
@@ -258,7 +257,7 @@ vt_status vt_nms(vt_scored_box *boxes, int32_t n, int32_t iou_permille, int32_t 
     for (i = 0; i < n; ++i) {
         int keep = 1;
         for (j = 0; j < kept && keep; ++j) {
-            keep = !vt__suppress(&boxes[j].box, &boxes[i].box, iou_permille, contain_permille);
+            keep = !vt__box_suppress(&boxes[j].box, &boxes[i].box, iou_permille, contain_permille);
         }
         if (keep) {
             if (kept != i) {

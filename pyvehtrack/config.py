@@ -119,7 +119,7 @@ del _FR
 
 ROAD_POLICIES = {"auto": "VT_ROAD_AUTO", "lanes": "VT_ROAD_LANES", "fixed": "VT_ROAD_FIXED"}
 SOURCES = {"shadow": "VT_SRC_SHADOW", "classifier": "VT_SRC_CLASSIFIER", "flow": "VT_SRC_FLOW",
-           "model": "VT_SRC_MODEL"}
+           "model": "VT_SRC_MODEL", "ego": "VT_SRC_EGO"}
 
 
 def _policy_defaults():
@@ -265,7 +265,7 @@ def to_c(cfg: PipelineConfig):
     for s in src:
         c.sources |= getattr(lib, SOURCES[s])
     if c.sources & ~lib.VT_SRC_BUILT:
-        raise ValueError(f"sources: {cfg.sources!r} asks for a stage not built yet (built: shadow, classifier, flow, model)")
+        raise ValueError(f"sources: {cfg.sources!r} asks for a stage not built yet (built: shadow, classifier, flow, model, ego)")
     checks = [("lane", "vt_lane_cfg_check", ffi.addressof(c, "lane")),
               ("shadow", "vt_shadow_cfg_check", ffi.addressof(c.detect, "shadow")),
               ("verify", "vt_verify_cfg_check", ffi.addressof(c.detect, "verify")),

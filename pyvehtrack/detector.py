@@ -69,7 +69,7 @@ class DetectionResult:
     stats: dict = field(default_factory=dict)  # median, mad, dark_limit, n_runs, n_dropped
     scores: np.ndarray | None = None   # (N,) float per box: the classifier's decision value
                                        # (full-road mode), None in the ego-lane mode
-    sources: np.ndarray | None = None  # (N,) str per box: "shadow" or "windows" (full-road mode)
+    sources: np.ndarray | None = None  # (N,) str per box: "shadow", "windows" or "ego" (full-road mode)
 
 
 def _lane_module():
@@ -139,7 +139,11 @@ class Detector:
     model: path to a classifier .npz, or None for the core's built-in model;
     sources: None (with a model: full-road with fullroad.DEFAULT_SOURCES, the classified
     shadow hypotheses; without: the ego-lane mode above, the default), "ego" (the ego-lane mode), or a subset of
-    ("shadow", "windows"); camera: a fullroad.Camera (horizon, hood, camera height;
+    ("shadow", "windows"), or "ego" with some of those (both detectors: the ego-lane
+    detector's boxes first, source "ego", then the whole-road boxes NMS would not
+    suppress against them; inside the pipeline only, so with no caller's lane_detector;
+    the ego detector's road is the lanes', else fixed_road's trapezoid or the given road,
+    and its settings are cfg's; the whole-road detector keeps the camera road); camera: a fullroad.Camera (horizon, hood, camera height;
     the horizon follows the lanes' vanishing row when the lane stage finds one);
     score_offset: added to the model's score threshold (float, the SVM's units)."""
 
@@ -148,7 +152,20 @@ class Detector:
                  sources=None, camera=None, score_offset: float = 0.0):
         if engine not in ENGINES:
             raise ValueError(f"engine: expected one of {ENGINES}, got {engine!r}")
-        self.full = _full_road(engine, model, sources, camera, score_offset)
+        # "ego" beside whole-road sources: the ego-lane detector's boxes ahead of the
+        # whole-road detector's (the pipeline's VT_SRC_EGO)
+        self.ego_too = isinstance(sources, (tuple, list)) and "ego" in sources and len(set(sources)) > 1
+        if self.ego_too:
+            sources = tuple(x for x in sources if x != "ego")
+            if lane_detector is not None:
+                raise ValueError("sources: 'ego' with whole-road sources runs inside the pipeline, with the "
+                                 "Detector's own lane stage: pass no lane_detector")
+        self.full, ego_model = _full_road(engine, model, sources, camera, score_offset)
+        if ego_model:   # the model's own settings name "ego" among its sources
+            self.ego_too = True
+            if lane_detector is not None:
+                raise ValueError("model: its sources include 'ego', which runs inside the pipeline with the "
+                                 "Detector's own lane stage: pass no lane_detector, or sources=")
         self.engine = engine
         self.cfg = cfg if cfg is not None else DetectConfig()
         if not isinstance(self.cfg, DetectConfig):
@@ -216,8 +233,8 @@ class Detector:
             # full-road mode: the pipeline's classifier source with this Detector's model
             over.update(model=self.full.model if self.full.model is not None else "default",
                         road_camera=self.full.camera, fullroad=self.full.cfg,
-                        sources=tuple({"shadow": "shadow", "windows": "classifier"}[x]
-                                      for x in self.full.sources))
+                        sources=(("ego",) if self.ego_too else ()) +
+                        tuple({"shadow": "shadow", "windows": "classifier"}[x] for x in self.full.sources))
         return over
 
     def fallback_road(self, h: int, w: int):
@@ -322,9 +339,12 @@ class Detector:
             from .pipeline import Pipeline  # noqa: PLC0415
             srcs = tuple({"shadow": "shadow", "windows": "classifier"}[x] for x in full.sources)
             model = full.model if full.model is not None else "default"
+            # with "ego", the ego-lane detector runs with this Detector's stage settings
+            # (its road: the lanes', else the road _detect_whole gives the step)
+            ego = dict(self._stage_overrides(), sources=("ego",) + srcs) if self.ego_too else {"sources": srcs}
             self._whole = Pipeline(self.engine, model=model, road_camera=full.camera, fullroad=full.cfg,
-                                   detect_every=1, track=False, sources=srcs,
-                                   road=self.road if isinstance(self.road, str) else "fixed")
+                                   detect_every=1, track=False,
+                                   road=self.road if isinstance(self.road, str) else "fixed", **ego)
             self._whole_for = full
         return self._whole
 
@@ -337,6 +357,10 @@ class Detector:
             if given is None:
                 from .pipeline import NO_ROAD  # noqa: PLC0415
                 given = NO_ROAD
+        if self.ego_too and given is None and self.road != "lanes":
+            # the ego detector's road where the lanes give none: this Detector's trapezoid
+            h, w = gray.shape
+            given = self.fixed_road.make(h, w)
         res = pipe.step_gray(gray, road=given)
         lanes = []
         for ln in (res.lanes.lanes if res.lanes is not None else []):
@@ -400,7 +424,8 @@ def _road_polygon(road) -> np.ndarray:
 
 
 def _full_road(engine, model, sources, camera, score_offset):
-    """The FullRoadDetector of a Detector, or None for the ego-lane mode."""
+    """(The FullRoadDetector of a Detector or None for the ego-lane mode, and whether the
+    model's own settings add the ego-lane detector: "ego" among its sources)."""
     from . import fullroad  # noqa: PLC0415
     if isinstance(score_offset, bool) or not isinstance(score_offset, (int, float)) or \
             not np.isfinite(score_offset):
@@ -408,19 +433,24 @@ def _full_road(engine, model, sources, camera, score_offset):
     if sources == "ego" or (isinstance(sources, tuple) and sources == ("ego",)):
         if model is not None:
             raise ValueError("model: the ego-lane mode (sources='ego') uses no classifier")
-        return None
+        return None, False
+    ego = False
     if sources is None:
         if model is None:
             # the ego-lane detector stays the default: on the KITTI lead frames the
             # full-road mode with the built-in model finds 30.8% of the lead cars at
             # IoU >= 0.6 against 97.4% (tools/eval_kitti_lead.py --sources shadow)
-            return None
+            return None, False
         if isinstance(model, (str, os.PathLike)):
             model = fullroad.load_model(model)
         # a model may name the sources it was validated with (its detector_json)
         sources = tuple((getattr(model, "settings", {}) or {}).get("sources", fullroad.DEFAULT_SOURCES))
+        ego = "ego" in sources
+        sources = tuple(x for x in sources if x != "ego")
+        if ego and not sources:
+            raise ValueError("model: its settings' sources name only 'ego' (the ego-lane mode uses no classifier)")
     cfg = fullroad.FullRoadConfig(score_offset=float(score_offset))
-    return fullroad.FullRoadDetector(model, sources=sources, camera=camera, cfg=cfg, engine=engine)
+    return fullroad.FullRoadDetector(model, sources=sources, camera=camera, cfg=cfg, engine=engine), ego
 
 
 __all__ = ["Detector", "DetectConfig", "DetectionResult", "FixedRoad", "Lane", "ShadowConfig",

@@ -15,13 +15,16 @@ optionally threshold_q16 and scan_sizes: the window sides (level pixels, increas
 model's window among them) the detector lays on each pyramid level, e.g. [32, 45] for
 two sizes per octave (default: the model's window alone). Sides other than the model's
 window are resampled to it per window (vt_classify_box: slower, same classifier).
-Optionally `detector_json`, the detector settings chosen with the model (so
-`pyvehtrack detect --model M.npz` runs as it was validated): a JSON object with any of
-"sources" (list), "score_offset" (float, added to threshold_q16 for detection only, the
-caller's score_offset adds on top), "nms_iou_permille", "nms_contain_permille",
-"merge_iou_permille" (ints 0..1000, as FullDetConfig), "box_height" (float), "veh_w_min", "veh_w_max" (floats, m: the flat-road
-vehicle width band of the windows, WindowConfig.veh_w_min_m / veh_w_max_m) and "verify_min" (float: a second stage, the built-in HOG 64x64 MLP on
-each box, keeps boxes it scores >= this; vt_fulldet_verify). Explicit arguments win.
+Optionally `detector_json`, the detector settings chosen with the model (so `pyvehtrack
+detect --model M.npz` runs as it was validated): a JSON object with any of "sources"
+(list; "ego" beside them adds the ego-lane detector in pyvehtrack.Detector),
+"score_offset" (float, added to threshold_q16 for detection only, the caller's
+score_offset adds on top), "nms_iou_permille", "nms_contain_permille",
+"merge_iou_permille" (ints 0..1000, as FullDetConfig), "box_height" (float),
+"veh_w_min", "veh_w_max" (floats, m: the flat-road vehicle width band of the windows,
+WindowConfig.veh_w_min_m / veh_w_max_m) and "verify_min" (float: a second stage, the
+built-in HOG 64x64 MLP on each box, keeps boxes it scores >= this; vt_fulldet_verify).
+Explicit arguments win.
 Files written before issue 10 name the three limits "nms_iou", "nms_contain", "merge_iou"
 (float fractions): they are still read, x 1000 when that is a whole number of permille
 as written (0.2 -> 200), with a DeprecationWarning (shared.FULLDET_RENAMED).
@@ -145,8 +148,11 @@ def _settings(z, p) -> dict:
             if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v <= 1000:
                 raise ValueError(f"model: {p}: detector_json {k} must be an int in 0..1000, got {v!r}")
         elif k == "sources":
-            if not isinstance(v, list) or not v or any(x not in SOURCES for x in v):
-                raise ValueError(f"model: {p}: detector_json sources must be a non-empty subset of {SOURCES}")
+            # "ego" beside them: pyvehtrack.Detector adds the ego-lane detector (VT_SRC_EGO)
+            if not isinstance(v, list) or not any(x in SOURCES for x in v) or \
+                    any(x not in SOURCES + ("ego",) for x in v):
+                raise ValueError(f"model: {p}: detector_json sources must be a non-empty subset of {SOURCES}, "
+                                 "optionally with 'ego'")
         elif k in _SETTINGS:
             lo, hi = _SETTINGS[k]
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not lo <= v <= hi:

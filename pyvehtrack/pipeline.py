@@ -29,7 +29,11 @@ Q16) the detection frames run the whole-road detector (c/fulldet.c through
 vt_pipeline_step): shadow hypotheses over the camera road kept when the classifier
 accepts them (sources "shadow") and sliding windows scored by it ("classifier"),
 merged by NMS; every box carries its source and score (the classifier's decision
-value, model units = Q16 / 65536). road_camera (pyvehtrack.fullroad.Camera) places its
+value, model units = Q16 / 65536). Sources "ego" adds the ego-lane detector (shadow +
+vertical edges on the lanes' road, the thesis's lead-car detector): its boxes come first
+(source "ego"; its score the highest of the whole-road boxes it suppresses, else the
+detector's threshold) and a whole-road box NMS would suppress against one of them is
+dropped. road_camera (pyvehtrack.fullroad.Camera) places its
 road; fullroad (a fullroad.FullRoadConfig) tunes it. The C engine allocates the
 detector's workspace (sizeof(vt_pipe_cls_ws)) and attaches it with
 vt_pipeline_set_cls_ws.
@@ -77,7 +81,7 @@ ENGINES = ("c", "reference")
 STATES = {1: "tentative", 2: "confirmed", 3: "coasting", 4: "handover"}
 HANDOVER_KEYS = ("handover", "handover_frames", "handover_dy_permille", "handover_edge_permille")
 ROAD_SOURCES = {0: "none", 1: "lanes", 2: "fixed", 3: "camera"}
-SOURCE_NAMES = {1: "shadow", 2: "classifier", 4: "flow", 8: "model", 16: "external"}
+SOURCE_NAMES = {1: "shadow", 2: "classifier", 4: "flow", 8: "model", 16: "external", 32: "ego"}
 
 
 class _NoRoad:
@@ -94,7 +98,7 @@ NO_ROAD = _NoRoad()
 @dataclass(frozen=True)
 class Box:
     box: tuple                 # (left, top, right, bottom), inclusive, input pixels
-    source: str                # "shadow" | "classifier" | "flow" | "model" | "external"
+    source: str                # "shadow" | "classifier" | "flow" | "model" | "external" | "ego"
     score: float | None = None  # the source's confidence, None if it has none: the classifier's
                                 # decision value (model units), the flow blob's cells, the
                                 # vehicle model's fitness
@@ -202,8 +206,9 @@ class Pipeline:
         if model is None:
             if road_camera is not None or fullroad is not None:
                 raise ValueError("road_camera and fullroad configure the whole-road detector: pass model= too")
-            if "classifier" in self.cfg.sources:
-                raise ValueError("sources: 'classifier' needs a classifier: pass model=")
+            for need in ("classifier", "ego"):
+                if need in self.cfg.sources:
+                    raise ValueError(f"sources: {need!r} needs a classifier: pass model=")
             return
         srcs = tuple({"shadow": "shadow", "classifier": "windows"}[s] for s in self.cfg.sources
                      if s in ("shadow", "classifier"))
@@ -620,11 +625,11 @@ class Pipeline:
 
 def _score(source, v):
     """A box's score in its source's unit: the classifier's decision value (Q16 -> float,
-    for the whole-road detector's boxes), the flow blob's cells and the model's fitness
-    as the integers they are; None where the source has none."""
+    for the whole-road detector's boxes and the ego boxes beside them), the flow blob's
+    cells and the model's fitness as the integers they are; None where the source has none."""
     if v is None:
         return None
-    if source in (1, 2, "shadow", "classifier"):
+    if source in (1, 2, 32, "shadow", "classifier", "ego"):
         return v / 65536
     return v
 

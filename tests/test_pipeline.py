@@ -243,7 +243,7 @@ def test_output_guard_bytes():
 
 @pytest.mark.parametrize("field,value", [
     ("detect_every", 0), ("detect_every", -3), ("road_policy", 3), ("road_policy", -1),
-    ("lanes_every_frame", 2), ("track", 2), ("track", -1), ("sources", 32), ("sources", 16),
+    ("lanes_every_frame", 2), ("track", 2), ("track", -1), ("sources", 64), ("sources", 16),
     ("road_camera.height_mm", 99), ("road_camera.horizon_q16", 65537)])
 def test_cfg_check_rejects_policies(field, value):
     c = _cfg()

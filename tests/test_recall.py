@@ -182,6 +182,11 @@ def test_model_detector_settings(tmp_path):
 def test_shipped_model_carries_its_settings():
     """The shipped window model names the settings chosen for it on the 'val' frames."""
     m = fullroad.load_model(MLP_MODEL)
-    assert m.settings["sources"] == ["shadow", "windows"] and m.settings["verify_min"] > 0
-    det = fullroad.FullRoadDetector(m)
+    assert m.settings["sources"] == ["ego", "shadow", "windows"] and m.settings["verify_min"] > 0
+    det = fullroad.FullRoadDetector(m, sources=("shadow", "windows"))
     assert det.verify_min_q16 is not None and det.det_cfg.merge_iou_permille > 0
+    # pyvehtrack.Detector reads "ego" from the settings: the ego-lane detector beside it
+    from pyvehtrack.detector import Detector
+    d = Detector(model=MLP_MODEL)
+    assert d.ego_too and d.full.sources == ("shadow", "windows")
+    assert d.pipeline_overrides()["sources"] == ("ego", "shadow", "classifier")

@@ -48,7 +48,11 @@
  * the lanes' road. With one (a model at vt_pipeline_init, or a scorer given to
  * vt_pipeline_set_cls_ws) detection is the whole-road detector (vehtrack/fulldet.h)
  * on the camera road: VT_SRC_SHADOW its shadow hypotheses (classified by the model),
- * VT_SRC_CLASSIFIER its sliding windows. */
+ * VT_SRC_CLASSIFIER its sliding windows; VT_SRC_EGO adds the ego-lane detector's boxes
+ * (the thesis's lead-car detector, on the lanes' road or the fixed one per the road
+ * policy; a road given to vt_pipeline_step_road is then the ego detector's, and the
+ * whole-road detector keeps the camera road) ahead of them, so the lead car keeps the
+ * ego detector's box and the other lanes get the classifier's. */
 #define VT_SRC_SHADOW 1     /* shadow rows + vertical-edge verification (sec. 2.4.2) */
 #define VT_SRC_CLASSIFIER 2 /* classifier windows over the whole road (needs a classifier) */
 #define VT_SRC_FLOW 4       /* overtaking vehicles from lateral SAD flow (every frame; needs
@@ -56,7 +60,11 @@
 #define VT_SRC_MODEL 8      /* the 7-parameter vehicle model fitted by a GA, for tracks
                                whose ROI search failed (needs vt_pipeline_set_model_ws)   */
 #define VT_SRC_EXTERNAL 16  /* the caller's detections (vt_pipeline_step_dets); not a policy bit */
-#define VT_SRC_BUILT (VT_SRC_SHADOW | VT_SRC_CLASSIFIER | VT_SRC_FLOW | VT_SRC_MODEL)
+#define VT_SRC_EGO 32       /* with a classifier: the ego-lane detector too, on the lanes' road
+                               (its boxes first; a whole-road box NMS would suppress against
+                               one of them is dropped); needs a classifier like
+                               VT_SRC_CLASSIFIER                                          */
+#define VT_SRC_BUILT (VT_SRC_SHADOW | VT_SRC_CLASSIFIER | VT_SRC_FLOW | VT_SRC_MODEL | VT_SRC_EGO)
 
 /* Where the road area of a frame came from (vt_frame_out.road_source) and which
  * the pipeline may use (vt_pipeline_cfg.road_policy). */
@@ -282,7 +290,9 @@ typedef struct {
 /* A detected box and the source that proposed it. score: the source's confidence:
  * the classifier's decision value (Q16, the model's scale) for every box of the
  * whole-road detector (a shadow box not classified: cfg.fulldet.shadow_score);
- * VT_UNKNOWN for the ego-lane shadow source, which has none. */
+ * VT_UNKNOWN for the ego-lane shadow source, which has none; beside a classifier
+ * (VT_SRC_EGO) an ego box takes the highest score of the whole-road boxes it
+ * suppresses, or the detector's threshold (cfg.fulldet.window_score_min) if none. */
 typedef struct {
     vt_box box;
     int32_t source; /* one VT_SRC_* bit */

@@ -42,9 +42,11 @@ def add_model_arg(p) -> None:
     p.add_argument("--model", metavar="MODEL.npz", default=None,
                    help="classifier model: detect over the whole road (shadow hypotheses over every "
                         "lane, kept when the classifier accepts them) instead of the ego lane only")
-    p.add_argument("--sources", nargs="+", choices=("shadow", "windows"), default=None,
-                   help="full-road hypothesis sources (default with --model: shadow; windows = classifier "
-                        "sliding windows); without --model the built-in classifier is used")
+    p.add_argument("--sources", nargs="+", choices=("shadow", "windows", "ego"), default=None,
+                   help="full-road hypothesis sources (default with --model: the model's, else shadow; "
+                        "windows = classifier sliding windows; ego beside them = the ego-lane detector's "
+                        "boxes first, e.g. --sources ego shadow windows); without --model the built-in "
+                        "classifier is used")
 
 
 def load_camera(path: str, hint: str = ""):

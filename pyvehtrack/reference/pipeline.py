@@ -42,6 +42,7 @@ SRC_SHADOW = "shadow"
 SRC_CLASSIFIER = "classifier"
 SRC_FLOW = "flow"
 SRC_MODEL = "model"
+SRC_EGO = "ego"       # with a classifier: the ego-lane detector's boxes ahead of the whole-road ones
 HANDOVER = 4   # a track's state once handed over to the flow stage (VT_PIPE_HANDOVER)
 
 
@@ -207,8 +208,8 @@ class Pipeline:
             raise ValueError(f"detect_every must be >= 1, got {self.cfg.detect_every}")
         if self.cfg.road_policy not in (ROAD_AUTO, ROAD_LANES, ROAD_FIXED):
             raise ValueError(f"road_policy: expected 'auto', 'lanes' or 'fixed', got {self.cfg.road_policy!r}")
-        if not set(self.cfg.sources) <= {SRC_SHADOW, SRC_CLASSIFIER, SRC_FLOW, SRC_MODEL}:
-            raise ValueError(f"sources: only 'shadow', 'classifier', 'flow' and 'model' are built, "
+        if not set(self.cfg.sources) <= {SRC_SHADOW, SRC_CLASSIFIER, SRC_FLOW, SRC_MODEL, SRC_EGO}:
+            raise ValueError(f"sources: only 'shadow', 'classifier', 'flow', 'model' and 'ego' are built, "
                              f"got {self.cfg.sources!r}")
         if SRC_MODEL in self.cfg.sources and self.cfg.model is None:
             raise ValueError("sources: 'model' needs cfg.model (the vehicle model's settings)")
@@ -226,8 +227,9 @@ class Pipeline:
             raise ValueError(f"handover_frames must be in 2..{self.caps.ho_hist - 1}, "
                              f"got {self.cfg.handover_frames}")
         self.last_tracks = []      # the previous step's tracks (the vehicle model's rule)
-        if SRC_CLASSIFIER in self.cfg.sources and score is None:
-            raise ValueError("sources: 'classifier' needs a classifier (score)")
+        for need in (SRC_CLASSIFIER, SRC_EGO):
+            if need in self.cfg.sources and score is None:
+                raise ValueError(f"sources: {need!r} needs a classifier (score)")
         self.lane = rlane.LaneDetector(self.cfg.lane, max_height=self.caps.max_height,
                                        max_verts=self.caps.max_verts)
         self.tracker = rtrk.Tracker(self.cfg.tracker, max_tracks=self.caps.max_tracks,
@@ -296,24 +298,12 @@ class Pipeline:
             boxes = np.asarray(detections, np.int64).reshape(-1, 4)
             box_source = "external"
         elif det_frame and whole:
-            road, source, hyp, boxes, box_source, scores, stats = self._detect_whole(gray, given)
+            ego = self._detect_ego(gray, lane_road, given, h, w) if SRC_EGO in c.sources else None
+            # with the ego detector, a given road is its road; the whole-road detector keeps the camera road
+            road, source, hyp, boxes, box_source, scores, stats = self._detect_whole(
+                gray, None if ego is not None else given, ego)
         elif det_frame:
-            if lane_road is not None:
-                road, source = lane_road, "lanes"
-            elif c.road_policy != ROAD_LANES:
-                if given is None:
-                    road, source = c.fixed_road.make(h, w), "fixed"
-                elif getattr(given, "valid", True):
-                    road, source = given, "fixed"
-            if road is not None:
-                res, boxes = rdetect.detect(gray, road, c.shadow, c.verify,
-                                            max_active=self.caps.max_shadow_active,
-                                            max_cand=self.caps.max_shadow_cand,
-                                            max_hyp=self.caps.max_hypotheses,
-                                            max_boxes=self.caps.max_boxes)
-                hyp = res.hypotheses
-                stats = {"median": res.median, "mad": res.mad, "dark_limit": res.dark_threshold,
-                         "n_runs": res.n_runs, "n_dropped": res.n_dropped}
+            road, source, hyp, boxes, stats = self._detect_ego(gray, lane_road, given, h, w)
         elif lane_road is not None:
             road, source = lane_road, "lanes"
         trk_det, trk_boxes = det_frame, boxes
@@ -556,15 +546,52 @@ class Pipeline:
                                   None if right is None else (right.xb, right.slope),
                                   lane_frame.H, lane_frame.shift)
 
-    def _detect_whole(self, gray: np.ndarray, given):
+    def _detect_ego(self, gray: np.ndarray, lane_road, given, h: int, w: int):
+        """The ego-lane detector on a detection frame (c/pipeline.c's vt__detect_ego):
+        road, road source, hypotheses, boxes and the shadow stage's statistics."""
+        c = self.cfg
+        road, source, stats = None, "none", {}
+        hyp, boxes = np.zeros((0, 3), np.int64), np.zeros((0, 4), np.int64)
+        if lane_road is not None:
+            road, source = lane_road, "lanes"
+        elif c.road_policy != ROAD_LANES:
+            if given is None:
+                road, source = c.fixed_road.make(h, w), "fixed"
+            elif getattr(given, "valid", True):
+                road, source = given, "fixed"
+        if road is not None:
+            res, boxes = rdetect.detect(gray, road, c.shadow, c.verify,
+                                        max_active=self.caps.max_shadow_active,
+                                        max_cand=self.caps.max_shadow_cand,
+                                        max_hyp=self.caps.max_hypotheses,
+                                        max_boxes=self.caps.max_boxes)
+            hyp = res.hypotheses
+            stats = {"median": res.median, "mad": res.mad, "dark_limit": res.dark_threshold,
+                     "n_runs": res.n_runs, "n_dropped": res.n_dropped}
+        return road, source, np.asarray(hyp, np.int64).reshape(-1, 3), np.asarray(boxes, np.int64).reshape(-1, 4), stats
+
+    def _detect_whole(self, gray: np.ndarray, given, ego=None):
         """The whole-road detector on a detection frame (c/pipeline.c's
         vt__detect_whole): road, road source, hypotheses, boxes, their sources and
-        scores, and the detector's counters."""
+        scores, and the detector's counters. ego: _detect_ego's result (sources "ego"):
+        its boxes first (through the second stage too when it is on), then the whole-road
+        boxes NMS would not suppress against one of them (the detector's IoU /
+        containment limits); an ego box scores the highest of itself and the boxes it
+        suppresses (unscored and suppressing none: the detector's threshold); its
+        hypotheses before the detector's shadow hypotheses (to the capacity)."""
         c = self.cfg
         h, w = gray.shape
         cam = c.road_camera.for_frame(h, w, self.horizon_y)
         stats = {"horizon_y": cam.horizon_y}
-        empty = np.zeros((0, 3), np.int64), np.zeros((0, 4), np.int64), [], []
+        ego_hyp = np.zeros((0, 3), np.int64) if ego is None else ego[2]
+        ego_boxes = np.zeros((0, 4), np.int64) if ego is None else ego[3]
+        ego_scores = [None] * len(ego_boxes)
+        if len(ego_boxes) and c.verify_min is not None:
+            # the ego boxes through the second stage too: the survivors carry its score
+            rows = np.concatenate([ego_boxes, np.zeros((len(ego_boxes), 2), np.int64)], 1)
+            kept = rfd.verify_boxes(rows, lambda l, t, r, b: self.box_score(gray, l, t, r, b), c.verify_min)
+            ego_boxes, ego_scores = kept[:, :4], [int(v) for v in kept[:, 4]]
+        empty = (ego_hyp, ego_boxes, [SRC_EGO] * len(ego_boxes), list(ego_scores))
         if given is not None:
             if not getattr(given, "valid", True):
                 return (None, "none") + empty + (stats,)
@@ -592,15 +619,29 @@ class Pipeline:
                            max_windows=self.caps.max_windows, max_cand=self.caps.max_cand,
                            max_boxes=self.caps.max_boxes)
         stats.update(st)
-        hyp = np.zeros((0, 3), np.int64)
+        hyp = ego_hyp
         if fc.shadow_source:
-            hyp = rdetect.detect(gray, road, fc.shadow, fc.verify, max_active=self.caps.max_shadow_active,
-                                 max_cand=self.caps.max_shadow_cand, max_hyp=self.caps.max_hypotheses,
-                                 max_boxes=self.caps.max_boxes)[0].hypotheses
-        boxes = arr[:, :4].astype(np.int64).reshape(-1, 4)
-        src = [SRC_CLASSIFIER if int(v) == 2 else SRC_SHADOW for v in arr[:, 5]]
-        return road, source, np.asarray(hyp, np.int64).reshape(-1, 3), boxes, src, \
-            [int(v) for v in arr[:, 4]], stats
+            more = rdetect.detect(gray, road, fc.shadow, fc.verify, max_active=self.caps.max_shadow_active,
+                                  max_cand=self.caps.max_shadow_cand, max_hyp=self.caps.max_hypotheses,
+                                  max_boxes=self.caps.max_boxes)[0].hypotheses
+            hyp = np.concatenate([hyp, np.asarray(more, np.int64).reshape(-1, 3)])[:self.caps.max_hypotheses]
+        boxes, src, scores = [list(b) for b in ego_boxes], [SRC_EGO] * len(ego_boxes), list(ego_scores)
+        for row in arr:
+            b = [int(v) for v in row[:4]]
+            hit = next((j for j, e in enumerate(ego_boxes)
+                        if rw.suppresses(e, b, fc.nms_iou_permille, fc.nms_contain_permille)), None)
+            if hit is not None:   # the ego box's score: the best the classifier gave the same vehicle
+                scores[hit] = int(row[4]) if scores[hit] is None else max(scores[hit], int(row[4]))
+                continue
+            if len(boxes) >= self.caps.max_boxes:
+                continue
+            boxes.append(b)
+            src.append(SRC_CLASSIFIER if int(row[5]) == 2 else SRC_SHADOW)
+            scores.append(int(row[4]))
+        # an ego box the classifier did not see scores at the detector's threshold
+        scores = [fc.window_score_min if v is None else v for v in scores]
+        return road, source, np.asarray(hyp, np.int64).reshape(-1, 3), np.asarray(boxes, np.int64).reshape(-1, 4), \
+            src, scores, stats
 
     def _geometry(self, lane_frame, rows) -> dict:
         """The camera stage after the tracker (c/pipeline.c's vt__geometry): the pitch from

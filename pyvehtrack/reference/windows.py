@@ -133,6 +133,14 @@ def _iou_parts(a, b):
     return inter, area_a + area_b - inter, area_a, area_b
 
 
+def suppresses(a, b, iou_permille: int, contain_permille: int) -> bool:
+    """NMS's test in permille, exactly as c/windows.c's vt__box_suppress: box b is
+    suppressed by the kept box a when their IoU exceeds iou_permille / 1000 or their
+    overlap exceeds contain_permille / 1000 of the smaller box's area."""
+    inter, union, aa, ab = _iou_parts([int(v) for v in a], [int(v) for v in b])
+    return bool(inter) and (inter * 1000 > iou_permille * union or inter * 1000 > contain_permille * min(aa, ab))
+
+
 def nms(boxes, scores, iou_max: float, contain_max: float = 1.0) -> list:
     """Indices of the boxes kept by greedy NMS, in keeping order: highest score first
     (equal scores in input order); a box is dropped if, with a kept box, its IoU exceeds
@@ -154,4 +162,4 @@ def nms(boxes, scores, iou_max: float, contain_max: float = 1.0) -> list:
 
 
 __all__ = ["Camera", "WindowConfig", "vehicle_width_px", "row_distance_m", "level_sizes",
-           "road_from_camera", "windows_level", "window_box", "nms", "as_road_tuple"]
+           "road_from_camera", "windows_level", "window_box", "nms", "suppresses", "as_road_tuple"]

@@ -1,0 +1,143 @@
+"""The ego-lane detector beside the whole-road detector (issue 8; VT_SRC_EGO in
+c/pipeline.c, sources "ego" in pyvehtrack.Pipeline / Detector): the thesis's lead-car
+detector keeps the lead car, the classifier's windows add the other lanes.
+
+Checked here: C equals the oracle (reference/pipeline.py) box for box, score for score;
+the union is exactly the ego boxes (through the second stage when it is on) followed by
+the whole-road detector's own boxes minus those NMS's test suppresses against an ego box;
+asking for "ego" without a classifier is an error; the Detector and CLI spellings."""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from pyvehtrack import _native, ffi, lib
+from pyvehtrack.detector import Detector
+from pyvehtrack.pipeline import Pipeline
+from pyvehtrack.reference import windows as rw
+
+ROOT = Path(__file__).resolve().parent.parent
+DATA = ROOT / "tests" / "data"
+MODEL = str(DATA / "window_mlp_hog32.npz")
+# KITTI frames where the ego detector boxes the lead car (and the windows box it too),
+# a Udacity frame and a TuSimple frame with cars in other lanes
+FRAMES = [DATA / "kitti_clip" / f"{i:06d}.png" for i in (0, 1, 3, 5)] + \
+    [DATA / "udacity_test1_640x360.jpg", DATA / "lane_tusimple_0601_1494452495543904834_gray_640x360.png"]
+
+
+def _gray(p):
+    g = cv2.imread(str(p), cv2.IMREAD_GRAYSCALE)
+    assert g is not None, p
+    return g
+
+
+def _boxes(res):
+    return [(b.source, tuple(int(v) for v in b.box), b.score) for b in res.boxes]
+
+
+@pytest.mark.parametrize("sources", [("ego", "shadow", "classifier"), ("ego", "classifier")])
+def test_c_equals_oracle_with_tracking(sources):
+    """Four KITTI frames in a row and then the others, tracked (detection every frame):
+    the same boxes, sources, scores, hypotheses and tracks in both engines."""
+    pc = Pipeline("c", model=MODEL, sources=sources, detect_every=1, track=True)
+    pr = Pipeline("reference", model=MODEL, sources=sources, detect_every=1, track=True)
+    n_ego = 0
+    for p in FRAMES[:4]:
+        g = _gray(p)
+        a, b = pc.step_gray(g), pr.step_gray(g)
+        assert _boxes(a) == _boxes(b), p.name
+        assert np.array_equal(a.hypotheses, b.hypotheses), p.name
+        assert [(t.id, tuple(t.box)) for t in a.tracks] == [(t.id, tuple(t.box)) for t in b.tracks], p.name
+        n_ego += sum(s == "ego" for s, _, _ in _boxes(a))
+    assert n_ego >= 3   # not vacuous: the ego detector boxed the lead car
+    for p in FRAMES[4:]:
+        g = _gray(p)
+        a = Pipeline("c", model=MODEL, sources=sources, detect_every=1, track=False).step_gray(g)
+        b = Pipeline("reference", model=MODEL, sources=sources, detect_every=1, track=False).step_gray(g)
+        assert _boxes(a) == _boxes(b), p.name
+        assert np.array_equal(a.hypotheses, b.hypotheses), p.name
+
+
+def test_union_is_ego_then_unsuppressed_whole_boxes():
+    """The union's boxes: the ego detector's boxes that pass the second stage (the model's
+    verify_min), then the whole-road detector's boxes in order, without those NMS's test
+    (the detector's IoU / containment limits) suppresses against an ego box; an ego box
+    scores at least its second-stage score."""
+    probe = Pipeline("c", model=MODEL, sources=("ego", "shadow", "classifier"))
+    fc = probe._ccfg.fulldet
+    vmin = int(probe._ccfg.verify_min)
+    assert probe._ccfg.verify == 1
+    n_supp = n_ego = 0
+    for p in FRAMES:
+        g = _gray(p)
+        u = Pipeline("c", model=MODEL, sources=("ego", "shadow", "classifier"), detect_every=1,
+                     track=False).step_gray(g)
+        w = Pipeline("c", model=MODEL, sources=("shadow", "classifier"), detect_every=1, track=False).step_gray(g)
+        e = Pipeline("c", sources=("shadow",), detect_every=1, track=False).step_gray(g)   # the ego detector alone
+        sq = [(b, _native.classify_box_mlp_default(g, b[0], max(0, b[3] - (b[2] - b[0])), b[2], b[3]))
+              for b in (tuple(int(v) for v in x.box) for x in e.boxes)]
+        ego = [b for b, s in sq if s >= vmin]
+        got = _boxes(u)
+        assert [b for s, b, _ in got if s == "ego"] == ego, p.name
+        assert all(s == "ego" for s, _, _ in got[:len(ego)]) and all(s != "ego" for s, _, _ in got[len(ego):])
+        for (_, _, sc), raw in zip(got, [s for _, s in sq if s >= vmin]):
+            assert sc >= raw / 65536 - 1e-9
+        kept = [x for x in _boxes(w) if not any(
+            rw.suppresses(a, x[1], int(fc.nms_iou_permille), int(fc.nms_contain_permille)) for a in ego)]
+        assert got[len(ego):] == kept, p.name
+        n_supp += len(w.boxes) - len(kept)
+        n_ego += len(ego)
+    assert n_ego >= 4 and n_supp >= 3   # not vacuous: ego boxes kept, duplicates dropped
+
+
+def test_ego_needs_a_classifier():
+    c = _native.pipeline_cfg_default()
+    c.sources = lib.VT_SRC_SHADOW | lib.VT_SRC_EGO
+    assert lib.vt_pipeline_cfg_check(c) == lib.VT_OK          # a built source ...
+    p = ffi.new("vt_pipeline *")
+    assert lib.vt_pipeline_init(p, c, ffi.NULL, ffi.NULL) == lib.VT_OK
+    g = _gray(FRAMES[0])
+    v = _native.view(g, "frame")
+    out = ffi.new("vt_frame_out *")
+    assert lib.vt_pipeline_step(p, v, out) == lib.VT_E_ARG    # ... that needs a classifier attached
+    assert p.frame == 0
+    for eng in ("c", "reference"):
+        with pytest.raises(ValueError, match="'ego' needs a classifier"):
+            Pipeline(eng, sources=("ego", "shadow"))
+
+
+def test_detector_spellings():
+    g = cv2.imread(str(FRAMES[0]))
+    d = Detector(model=MODEL, sources=("ego", "shadow", "windows"))
+    assert d.ego_too and d.full.sources == ("shadow", "windows")
+    r = d.detect(g)
+    assert "ego" in list(r.sources) and len(r.scores) == len(r.boxes) and np.isfinite(r.scores).all()
+    # the model's own settings name "ego": the same detector without sources=
+    r2 = Detector(model=MODEL).detect(g)
+    assert np.array_equal(r.boxes, r2.boxes) and list(r.sources) == list(r2.sources)
+    # "ego" alone is the ego-lane mode (no classifier); beside a caller's lane stage it cannot run
+    with pytest.raises(ValueError, match="uses no classifier"):
+        Detector(model=MODEL, sources=("ego",))
+
+    class Lanes:
+        def detect(self, frame):
+            return None
+    with pytest.raises(ValueError, match="lane_detector"):
+        Detector(model=MODEL, sources=("ego", "windows"), lane_detector=Lanes())
+
+
+def test_cli_detect_with_ego(tmp_path):
+    out = tmp_path / "found.json"
+    r = subprocess.run([sys.executable, "-m", "pyvehtrack", "detect", str(FRAMES[0]), "--model", MODEL,
+                        "--sources", "ego", "shadow", "windows", "--json", str(out)],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    frames = json.loads(out.read_text())
+    boxes = frames[0]["boxes"] if isinstance(frames, list) else frames["frames"][0]["boxes"]
+    assert boxes and all(len(b) == 5 for b in boxes)
