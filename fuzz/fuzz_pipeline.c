@@ -8,7 +8,9 @@
  * edge values; the block-scale TTC's state attached or not (vt_pipeline_set_ttc_ws),
  * its ttc_points_q16 VT_UNKNOWN or within (0, ttc_max]; a camera (the defaults) attached or
  * not, the fused TTC (ttc_fused_q16) VT_UNKNOWN or > 0, and without a camera the block-scale
- * one. fuzz.mk builds this harness only where the header exists. */
+ * one; in one input of four the built-in HOG SVM and the whole-road detector's workspace
+ * (vt_pipeline_set_cls_ws), with the ego-lane detector beside it (VT_SRC_EGO) in half of
+ * those: ego boxes come first. fuzz.mk builds this harness only where the header exists. */
 #include "fuzz.h"
 #include "vehtrack/pipeline.h"
 
@@ -19,6 +21,7 @@ static vt_box g_dets[300];
 static vt_ttc_state g_ttc;
 static vt_flow_state g_flow;
 static vt_camera_cfg g_cam;
+static vt_pipe_cls_ws g_cls;
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
@@ -28,6 +31,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     vt_image_u8 img;
     int32_t k, n, i, ww = 0, wh = 0;
     vt_status s;
+    const vt_svm_model *model = NULL;
     fz_status(vt_pipeline_cfg_default(&cfg));
     if (fz_u8(&f) & 1) {
         /* the pipeline's own fields (after the three stage configurations) */
@@ -38,10 +42,17 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     if (fz_u8(&f) & 1) { /* the flow source on (its hand-over policy is in the mutated tail) */
         cfg.sources |= VT_SRC_FLOW;
     }
+    if ((fz_u8(&f) & 3) == 0) { /* the whole-road detector (a classifier), the ego one beside it or not */
+        fz_status(vt_svm_default_model(VT_DESC_HOG, &model));
+        cfg.sources |= VT_SRC_CLASSIFIER | ((fz_u8(&f) & 1) ? VT_SRC_EGO : 0);
+    }
     fz_status(vt_pipeline_cfg_check(fz_u8(&f) == 0xFF ? NULL : &cfg));
     fz_status(vt_camera_cfg_default(&g_cam));
-    s = vt_pipeline_init(fz_u8(&f) == 0xFF ? NULL : &g_p, &cfg, (fz_u8(&f) & 1) ? &g_cam : NULL, NULL);
+    s = vt_pipeline_init(fz_u8(&f) == 0xFF ? NULL : &g_p, &cfg, (fz_u8(&f) & 1) ? &g_cam : NULL, model);
     fz_status(s);
+    if (s == VT_OK && model != NULL) {
+        fz_status(vt_pipeline_set_cls_ws(&g_p, &g_cls, NULL));
+    }
     fz_status(vt_pipeline_work_size(fz_edge(&f, 1920), fz_edge(&f, 1080), fz_edge(&f, VT_MAX_WIDTH),
                                     fz_edge(&f, VT_MAX_HEIGHT), fz_u8(&f) == 0xFF ? NULL : &ww, &wh));
     fz_status(vt_fixed_road_area(&cfg.fixed_road, fz_edge(&f, VT_MAX_WIDTH), fz_edge(&f, VT_MAX_HEIGHT),
@@ -89,6 +100,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         if (s == VT_OK) {
             FZ_ASSERT(g_out.n_tracks >= 0 && g_out.n_tracks <= VT_MAX_TRACKS);
             FZ_ASSERT(g_out.n_boxes >= 0 && g_out.n_boxes <= VT_MAX_BOXES);
+            for (i = 1; i < g_out.n_boxes; i++) { /* the ego boxes first */
+                FZ_ASSERT(g_out.boxes[i].source != VT_SRC_EGO || g_out.boxes[i - 1].source == VT_SRC_EGO);
+            }
             for (i = 0; i < g_out.n_tracks; i++) {
                 vt_q16 t = g_out.tracks[i].ttc_points_q16;
                 FZ_ASSERT(t == VT_UNKNOWN || (g_p.ttc_st != NULL && t > 0 && t <= g_p.cfg.ttc.ttc_max));
