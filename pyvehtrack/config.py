@@ -138,9 +138,9 @@ class PipelineConfig:
     policies. detect_every: detection on frames 0, N, 2N, ...; road: "auto" (lanes,
     else the fixed trapezoid), "lanes" or "fixed"; lanes_every_frame: run the lane
     stage on every frame (else on detection frames only); sources: hypothesis
-    sources, a subset of "shadow", "classifier", "flow", "model" and "ego" (the last
-    two need their settings or a classifier: pyvehtrack.Pipeline; () for none:
-    detections only from the caller); track: run the tracker (False: detection only)."""
+    sources, a subset of "shadow", "classifier", "flow", "model" and "ego" ("classifier"
+    and "ego" need a classifier, "flow" and "model" their settings: pyvehtrack.Pipeline;
+    () for none: detections only from the caller); track: run the tracker (False: detection only)."""
     lane: LaneConfig = field(default_factory=LaneConfig)
     shadow: ShadowConfig = field(default_factory=ShadowConfig)
     verify: VerifyConfig = field(default_factory=VerifyConfig)
