@@ -21,8 +21,10 @@ greedy matching aside) counts in the first step that loses it:
   found      -- a final box reaches it (checked first: a merged box may reach a
                 vehicle whose own window NMS dropped; with a wide model in the file,
                 the wide pass's boxes are final boxes too).
-The final count is checked against the pipeline's own boxes (they must agree: the
-oracle is exact). Not a test: reads /work/shared.
+With "ego" among the model's sources the pipeline's ego-lane boxes come first and the
+replay drops the boxes they suppress, as c/pipeline.c does (a vehicle an ego box reaches
+is "found"). The final count is checked against the pipeline's own boxes (they must
+agree: the oracle is exact). Not a test: reads /work/shared.
 """
 from __future__ import annotations
 
@@ -122,6 +124,12 @@ def main(argv=None) -> int:
             final = rfd.wide(gray, road, cam, cfg.win, ref.wide[1],
                              lambda l, t, r, b: _native.classify_box_mlp(ref._wide_ws, ref._wide_m[0], gray,
                                                                          [l, t, r, b]), final)
+        if det.ego_too:   # the ego-lane detector beside it (VT_SRC_EGO): its boxes first, duplicates dropped
+            ego = final_c[np.asarray(res.sources) == "ego"].reshape(-1, 4)
+            keep = [r for r in final if not any(rw.suppresses(a, r[:4], cfg.nms_iou_permille,
+                                                                cfg.nms_contain_permille) for a in ego)]
+            final = np.concatenate([np.concatenate([ego, np.zeros((len(ego), 2), np.int64)], 1),
+                                    np.asarray(keep, np.int64).reshape(-1, final.shape[1])])
         if not np.array_equal(np.asarray(final[:, :4], np.int64), final_c):
             mismatch += 1
         sc = np.asarray(scored, np.int64).reshape(-1, 5)
