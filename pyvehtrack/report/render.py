@@ -23,7 +23,7 @@ STATE_COLOURS = {"tentative": "#b0b0b0", "confirmed": "#2a9d3a", "coasting": "#e
 # names), and the raw detector boxes of detection frames.
 SOURCE_COLOURS = {"shadow": ((60, 200, 40), "#28c83c"), "classifier": ((255, 160, 0), "#00a0ff"),
                   "flow": ((0, 140, 255), "#ff8c00"), "model": ((255, 255, 0), "#00ffff"),
-                  "other": ((200, 200, 200), "#c8c8c8")}
+                  "ego": ((0, 0, 230), "#e60000"), "other": ((200, 200, 200), "#c8c8c8")}
 DETECTOR_BOX = ((200, 0, 220), "#dc00c8")
 STAGE_COLOURS = {"lanes": "#4c72b0", "detect": "#dd8452", "track": "#55a868", "geometry": "#8172b3"}
 MAX_THUMBS = 12
