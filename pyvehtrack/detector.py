@@ -240,8 +240,9 @@ class Detector:
     def fallback_road(self, h: int, w: int):
         """The road the pipeline uses where the lanes give none (road "auto") or always
         ("fixed"): this Detector's fixed trapezoid for an h x w processed frame; None in
-        the full-road mode (the pipeline's camera road)."""
-        if self.full is not None:
+        the full-road mode (the pipeline's camera road) unless the ego-lane detector runs
+        beside it ("ego": the trapezoid is then its road)."""
+        if self.full is not None and not self.ego_too:
             return None
         return self.fixed_road.make(h, w)
 

@@ -29,7 +29,7 @@ MEASUREMENTS = {"roi": MEAS_ROI_SEARCH, "edges": MEAS_EDGE_CURVES}
 
 @dataclass(frozen=True)
 class Track(TrackBase):
-    source: str = "shadow"  # the hypothesis source that started it: "shadow" | "classifier"
+    source: str = "shadow"  # the hypothesis source that started it: "shadow" | "classifier" | "ego"
                             # (boxes given to step() count as "shadow": the CLI's detections)
     ttc_points: float | None = None  # block-scale TTC, s (Tracker(ttc_points=...)); None if unknown
 
@@ -187,6 +187,6 @@ class Tracker:
         res = self.pipeline.step(gray, road=road, detections=dets)
         self.last_was_detection = res.detection_frame
         return [Track(t.id, t.state, t.box, t.velocity,
-                      t.source if t.source in ("shadow", "classifier", "flow", "model") else "shadow",
+                      t.source if t.source in ("shadow", "classifier", "flow", "model", "ego") else "shadow",
                       t.ttc_points)
                 for t in res.tracks]

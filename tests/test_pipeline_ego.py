@@ -141,3 +141,18 @@ def test_cli_detect_with_ego(tmp_path):
     frames = json.loads(out.read_text())
     boxes = frames[0]["boxes"] if isinstance(frames, list) else frames["frames"][0]["boxes"]
     assert boxes and all(len(b) == 5 for b in boxes)
+
+
+def test_tracker_follows_the_ego_box():
+    """`track --model` with the shipped model: the pipeline runs both detectors; on the
+    KITTI clip the lead car's track is started by the ego-lane detector and keeps one id."""
+    from pyvehtrack.tracker import Tracker
+    det = Detector(model=MODEL)
+    trk = Tracker(detector=det, detect_every=2)
+    ids = []
+    for i in range(8):
+        tracks = trk.step(cv2.imread(str(DATA / "kitti_clip" / f"{i:06d}.png")))
+        ego = [t for t in tracks if t.source == "ego"]
+        assert ego, i
+        ids.append(ego[0].id)
+    assert len(set(ids)) == 1
