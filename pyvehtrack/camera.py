@@ -169,6 +169,20 @@ class Camera:
         return [int(round(min(u[0, 0], u[1, 0]))), int(round(u[2, 1])), int(round(max(u[0, 0], u[1, 0]))),
                 int(round(u[3, 1]))]
 
+    def road_camera(self):
+        """The whole-road detector's flat-road camera (pyvehtrack.fullroad.Camera: where
+        its windows go and how wide a vehicle is at each row) from this file: the horizon
+        row cy - fy tan(pitch) and fx as fractions of image_size, the camera height; the
+        hood at its default. None without image_size or height_m (the fractions and the
+        distances need them)."""
+        if self.image_size is None or self.height_m is None:
+            return None
+        from .fullroad import Camera as RoadCamera  # noqa: PLC0415  (fullroad loads the C core)
+        w, h = self.image_size
+        horizon = self.cy - self.fy * math.tan(math.radians(self.pitch_deg or 0.0))
+        return RoadCamera(horizon_frac=min(max(horizon / h, -1.0), 1.0), fx_per_width=self.fx / w,
+                          height_m=self.height_m)
+
     def check_frame(self, w: int, h: int) -> None:
         if self.image_size is not None and tuple(self.image_size) != (int(w), int(h)):
             raise ValueError(f"camera: calibrated for {self.image_size[0]}x{self.image_size[1]} frames, "

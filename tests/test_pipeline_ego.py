@@ -156,3 +156,26 @@ def test_tracker_follows_the_ego_box():
         assert ego, i
         ids.append(ego[0].id)
     assert len(set(ids)) == 1
+
+
+def test_camera_file_places_the_whole_road_windows():
+    """`detect` / `track` with --camera and --model: the file's geometry (horizon cy - fy
+    tan(pitch), fx, height, as fractions of image_size) is the whole-road detector's
+    flat-road camera; without image_size or height_m there is none (the defaults)."""
+    import argparse
+    import math
+    from dataclasses import replace
+
+    from pyvehtrack.camera import Camera
+    from pyvehtrack.cli.common import make_detector
+    cam = Camera.load(DATA / "kitti_clip.camera.json")
+    rc = cam.road_camera()
+    assert rc.horizon_frac == pytest.approx(54.854 / 256) and rc.fx_per_width == pytest.approx(721.5377 / 640)
+    assert rc.height_m == 1.65
+    down = replace(cam, pitch_deg=2.0).road_camera()   # looking down: the horizon moves up
+    assert down.horizon_frac == pytest.approx((54.854 - 721.5377 * math.tan(math.radians(2.0))) / 256)
+    assert replace(cam, image_size=None).road_camera() is None
+    assert replace(cam, height_m=None).road_camera() is None
+    args = argparse.Namespace(engine="c", road="auto", model=MODEL, sources=None)
+    assert make_detector(args, cam).full.camera == rc
+    assert make_detector(args).full.camera != rc          # no file: the default (TuSimple) camera

@@ -72,16 +72,19 @@ def out_folder(path: str) -> Path:
     return out
 
 
-def make_detector(args):
-    """The Detector of `detect` and `track`, with the user's mistakes as CliError."""
+def make_detector(args, cam=None):
+    """The Detector of `detect` and `track`, with the user's mistakes as CliError. cam: the
+    --camera file's Camera; its geometry (horizon, focal length, height) places the
+    whole-road detector's windows (Camera.road_camera), else the defaults (TuSimple's)."""
     from ..detector import Detector
     model = getattr(args, "model", None)
     if model is not None and not Path(model).is_file():
         raise CliError(f"--model {model}: no such file")
     try:
         srcs = getattr(args, "sources", None)
+        road_cam = cam.road_camera() if cam is not None else None
         return Detector(engine=args.engine, road=args.road, model=model,
-                        sources=tuple(srcs) if srcs else None)
+                        sources=tuple(srcs) if srcs else None, camera=road_cam)
     except (RuntimeError, ValueError, TypeError) as e:
         raise CliError(f"--model {model}: {e}" if model else str(e)) from None
 

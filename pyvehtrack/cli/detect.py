@@ -82,7 +82,8 @@ def register(sub) -> None:
     p.add_argument("--skip-bad-frames", action="store_true",
                    help="skip (and count) frames that cannot be decoded instead of stopping with exit 2")
     p.add_argument("--camera", metavar="CAMERA.json",
-                   help="camera file (needs height_m): a distance per box in the JSON")
+                   help="camera file (needs height_m): a distance per box in the JSON; with --model its geometry "
+                        "(and image_size) also places the whole-road detector's windows")
     add_model_arg(p)
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
@@ -110,7 +111,7 @@ def run(args) -> int:
         from ..camera import RangeEstimator, lane_vanishing_row
         from ..lane import LaneDetector
         cam = load_camera(args.camera)
-    det = make_detector(args)
+    det = make_detector(args, cam)
     with Outputs() as outs:
         json_tmp = outs.reserve("--json", args.json) if args.json else None
         video = None

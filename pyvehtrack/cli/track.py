@@ -139,7 +139,8 @@ def register(sub) -> None:
     p.add_argument("--skip-bad-frames", action="store_true",
                    help="skip (and count) frames that cannot be decoded instead of stopping with exit 2")
     p.add_argument("--camera", metavar="CAMERA.json",
-                   help="camera file (pyvehtrack calibrate; needs height_m): distance, TTC and warning")
+                   help="camera file (pyvehtrack calibrate; needs height_m): distance, TTC and warning; with "
+                        "--model its geometry (and image_size) also places the whole-road detector's windows")
     p.add_argument("--fps", type=float, default=None, metavar="F",
                    help="frame rate for TTC (default: the video's, 10 for frames)")
     p.add_argument("--ego-speed", type=float, default=None, metavar="M/S",
@@ -190,7 +191,7 @@ def run(args) -> int:
     elif (args.fps is not None or args.ego_speed is not None or args.rear_offset != 0.0
           or args.bottom_height != 0.0):
         raise CliError("--fps, --ego-speed, --rear-offset and --bottom-height need --camera")
-    det = make_detector(args)
+    det = make_detector(args, cam)
     try:
         # with a camera the pipeline also runs the block-scale TTC ("ttc_points_s") at the
         # range stage's frame rate
