@@ -572,6 +572,20 @@ static uint8_t vt__area_mean(const vt_image_u8 *src, int32_t x0, int32_t x1, int
     return (uint8_t)((sum + n / 2) / n);
 }
 
+/* One step of floor(i n / d) walked as quotient q + remainder r (q n/d and r n%d
+ * its increments, 0 <= r < d): returns the value before the step. */
+static int32_t vt__qr_step(int32_t *q, int32_t *r, int32_t qn, int32_t rn, int32_t d)
+{
+    int32_t before = *q;
+    *q += qn;
+    *r += rn;
+    if (*r >= d) {
+        *r -= d;
+        ++*q;
+    }
+    return before;
+}
+
 vt_status vt_resample_area(const vt_image_u8 *src, const vt_box *box, vt_image_u8_mut *dst)
 {
     vt_status s = vt_image_u8_check(src);
@@ -620,26 +634,14 @@ vt_status vt_resample_area(const vt_image_u8 *src, const vt_box *box, vt_image_u
      * as the division. */
     narrow = dw <= VT_CLS_MAX_WIN && bw < 2 * dw;
     for (i = 0; narrow && i < dw; ++i) {
-        int32_t x0 = xq;
-        xq += qx;
-        xr += rx;
-        if (xr >= dw) {
-            xr -= dw;
-            ++xq;
-        }
+        int32_t x0 = vt__qr_step(&xq, &xr, qx, rx, dw);
         col0[i] = (uint16_t)x0;
         two_x[i] = (uint8_t)(xq - x0 == 2);
     }
     for (j = 0; j < dh; ++j) {
-        int32_t y0 = box->top + yq, y1;
+        int32_t y0 = box->top + vt__qr_step(&yq, &yr, qy, ry, dh), y1;
         uint8_t *o = dst->px + (size_t)j * (size_t)dst->stride;
         const uint8_t *row;
-        yq += qy;
-        yr += ry;
-        if (yr >= dh) {
-            yr -= dh;
-            ++yq;
-        }
         y1 = box->top + yq;
         y1 = y1 <= y0 ? y0 + 1 : y1;
         row = src->px + (size_t)y0 * ss + (size_t)box->left;
@@ -657,13 +659,7 @@ vt_status vt_resample_area(const vt_image_u8 *src, const vt_box *box, vt_image_u
         } else {
             int32_t xq2 = 0, xr2 = 0;
             for (i = 0; i < dw; ++i) {
-                int32_t x0 = xq2;
-                xq2 += qx;
-                xr2 += rx;
-                if (xr2 >= dw) {
-                    xr2 -= dw;
-                    ++xq2;
-                }
+                int32_t x0 = vt__qr_step(&xq2, &xr2, qx, rx, dw);
                 o[i] = vt__area_mean(src, box->left + x0, box->left + (xq2 <= x0 ? x0 + 1 : xq2), y0,
                                      y1);
             }

@@ -157,15 +157,11 @@ class Detector:
         self.ego_too = isinstance(sources, (tuple, list)) and "ego" in sources and len(set(sources)) > 1
         if self.ego_too:
             sources = tuple(x for x in sources if x != "ego")
-            if lane_detector is not None:
-                raise ValueError("sources: 'ego' with whole-road sources runs inside the pipeline, with the "
-                                 "Detector's own lane stage: pass no lane_detector")
         self.full, ego_model = _full_road(engine, model, sources, camera, score_offset)
-        if ego_model:   # the model's own settings name "ego" among its sources
-            self.ego_too = True
-            if lane_detector is not None:
-                raise ValueError("model: its sources include 'ego', which runs inside the pipeline with the "
-                                 "Detector's own lane stage: pass no lane_detector, or sources=")
+        self.ego_too = self.ego_too or ego_model   # or the model's own settings name "ego"
+        if self.ego_too and lane_detector is not None:
+            raise ValueError("sources: 'ego' (given, or in the model's settings) runs inside the pipeline with "
+                             "the Detector's own lane stage: pass no lane_detector")
         self.engine = engine
         self.cfg = cfg if cfg is not None else DetectConfig()
         if not isinstance(self.cfg, DetectConfig):
