@@ -250,7 +250,8 @@ vt_status vt_range_cfg_check(const vt_range_cfg *c)
         !VT__IN((int64_t)c->min_closing, 0, 100 * one) ||
         !VT__IN((int64_t)c->stopped_speed, 0, 100 * one) ||
         !VT__IN((int64_t)c->decel_thresh, 1, 100 * one) || !VT__IN(c->width_min_frames, 1, 1000) ||
-        !VT__IN(c->width_window, 1, 1000) || !VT__IN((int64_t)c->rear_offset, 0, 5 * one)) {
+        !VT__IN(c->width_window, 1, 1000) || !VT__IN((int64_t)c->rear_offset, 0, 5 * one) ||
+        !VT__IN((int64_t)c->path_half_width, 0, 10 * one)) {
         return VT_E_ARG;
     }
     return VT_OK;
@@ -388,6 +389,28 @@ static vt_q16 vt__ring(const vt_q16 *ring, int32_t head, int32_t back)
     return ring[(head - 1 - back + 2 * VT_RANGE_HIST) % VT_RANGE_HIST];
 }
 
+/* The box in the ego corridor at distance d (Q16 m): the lateral offsets of its
+ * column edges, X = (u - cx) d / fx, against +-half, i.e. (left - cx) d < half fx and
+ * (right + 1 - cx) d > -half fx, in Q16 px x Q16 m. Boxes may lie anywhere in int32, so
+ * the products are not formed: for integers a and d > 0, a d < L <=> a <= (L - 1) / d
+ * (floor), with L = half fx < 10 * 2^16 * 2^31 and a < 2^48. Not in the path without a
+ * distance (d <= 0); always in it when the check is off. */
+static int32_t vt__range_in_path(const vt_range_cfg *cfg, const vt_camera_cfg *cam,
+                                 const vt_box *b, vt_q16 d)
+{
+    int64_t k, a, c;
+    if (cfg->path_half_width == 0) {
+        return 1;
+    }
+    if (d <= 0) {
+        return 0;
+    }
+    k = ((int64_t)cfg->path_half_width * cam->fx - 1) / d;
+    a = (int64_t)b->left * VT_Q16_ONE - cam->cx;
+    c = ((int64_t)b->right + 1) * VT_Q16_ONE - cam->cx;
+    return a <= k && c >= -k;
+}
+
 static void vt__range_track_step(vt_range_track *t, const vt_range_cfg *cfg,
                                  const vt_camera_cfg *cam, vt_q16 tp, vt_q16 ego_speed,
                                  const vt_track_out *tr, vt_range_out *o)
@@ -396,7 +419,7 @@ static void vt__range_track_step(vt_range_track *t, const vt_range_cfg *cfg,
     vt_q16 sig, z[1], ttc, w_now, w_old, d;
     vt_q32 r[1];
     int64_t q, wpx = (int64_t)tr->box.right - tr->box.left + 1;
-    int32_t closing, lag = cfg->scale_lag, ttc_ok, cls, have, side_ok, n;
+    int32_t closing, lag = cfg->scale_lag, ttc_ok, cls, have, side_ok, n, in_path;
     (void)vt_camera_box_distance(cam, tp, &tr->box, &dist);
     side_ok = !(dist.flags & VT_DIST_SIDE_CLIPPED);
     o->id = tr->id;
@@ -507,7 +530,11 @@ static void vt__range_track_step(vt_range_track *t, const vt_range_cfg *cfg,
         }
     }
     o->lead_class = cls;
-    (void)vt_fcw_step(&t->fcw, cfg, ttc_ok, o->ttc_dist, closing, cls, &o->fcw);
+    in_path = vt__range_in_path(cfg, cam, &tr->box, t->updates > 0 ? o->dist_filt : 0);
+    if (in_path) {
+        o->flags |= VT_RANGE_IN_PATH;
+    }
+    (void)vt_fcw_step(&t->fcw, cfg, ttc_ok && in_path, o->ttc_dist, closing, cls, &o->fcw);
 }
 
 vt_status vt_range_step(vt_range_state *st, const vt_range_cfg *cfg, const vt_camera_cfg *cam,

@@ -130,6 +130,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                     FZ_ASSERT(out[i].id >= 1 && (out[i].fcw & ~7) == 0 && out[i].lead_class >= 0 &&
                               out[i].lead_class <= VT_LEAD_DECEL);
                     FZ_ASSERT(!(out[i].flags & VT_RANGE_TTC_DIST_VALID) || out[i].ttc_dist >= 0);
+                    /* a warning starts only on a frame whose condition holds: in the ego path */
+                    FZ_ASSERT(!(out[i].fcw & VT_FCW_ONSET) || (out[i].flags & VT_RANGE_IN_PATH));
                 }
             }
         }

@@ -244,7 +244,7 @@ _CAM_Q16 = ("fx", "fy", "cx", "cy", "height", "tan_pitch", "tan_pitch_min", "tan
 _CAM_INT = ("img_w", "img_h", "pitch_alpha_permille", "pitch_reacquire", "width_tol_permille")
 _RNG_Q16 = ("frame_dt", "jerk_sigma", "init_sigma_rate", "init_sigma_accel", "sigma_min", "ttc_max",
             "ttc_stopped", "ttc_slower", "ttc_decel", "ttc_margin", "min_closing", "stopped_speed",
-            "decel_thresh", "rear_offset")
+            "decel_thresh", "rear_offset", "path_half_width")
 _RNG_INT = ("min_frames", "scale_lag", "confirm_frames", "rearm_frames", "release_frames",
             "width_min_frames", "width_window")
 
@@ -426,7 +426,7 @@ def _range_out(r, lib) -> RangeOut:
         ttc_dist=g("ttc_dist") if f & lib.VT_RANGE_TTC_DIST_VALID else None,
         ttc_scale=g("ttc_scale") if f & lib.VT_RANGE_TTC_SCALE_VALID else None,
         closing=bool(f & lib.VT_RANGE_CLOSING), lead_class=int(r["lead_class"]), fcw=int(r["fcw"]),
-        from_width=bool(f & lib.VT_RANGE_FROM_WIDTH))
+        from_width=bool(f & lib.VT_RANGE_FROM_WIDTH), in_path=bool(f & lib.VT_RANGE_IN_PATH))
 
 
 class ScaleTtc:

@@ -443,6 +443,7 @@ class RangeParams:
     width_min_frames: int = 3
     width_window: int = 16
     rear_offset: float = 0.0
+    path_half_width: float = 1.5   # m; 0: every track may warn (no ego-path check)
 
 
 @dataclass
@@ -475,6 +476,7 @@ class RangeOut:
     fcw: int
     from_width: bool = False
     accel: float | None = None  # m/s^2, range acceleration
+    in_path: bool = True        # the box overlaps the ego corridor (path_half_width)
 
     @property
     def warning(self) -> bool:

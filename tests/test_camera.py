@@ -512,3 +512,87 @@ def test_kf_update_r_bad_r_leaves_filter_unchanged():
     assert (list(kf.x), [list(v) for v in kf.P], [list(v) for v in kf.K], [list(v) for v in kf.R]) == \
         (x, p, k, r0)
     assert bytes(ffi.buffer(kf))[:8] == before[:8]
+
+
+def _run_range(boxes, rcf, c, tid=5):
+    st_c = _native.range_new()
+    outs = []
+    for b in boxes:
+        arr = np.zeros(1, _native.TRACK_OUT_DTYPE)
+        arr[0] = (tid, 2, *b, 0, 0)
+        outs.append(_native.range_step(st_c, rcf, c, 0, 0, arr)[0])   # ego speed 0: lead "stopped"
+    return outs
+
+
+@pytest.mark.parametrize("lateral, half, warns", [
+    (0.0, 1.5, True),      # in the ego lane: warns
+    (3.6, 1.5, False),     # stopped in the next lane: inner edge 2.7 m from the axis, no warning
+    (-3.6, 1.5, False),
+    (2.3, 1.5, True),      # inner edge 1.4 m from the axis: overlaps the corridor
+    (3.6, 0.0, True),      # the check off: every closing track may warn, as before it existed
+])
+def test_fcw_only_in_the_ego_path(lateral, half, warns):
+    """A vehicle 1.8 m wide approached at 10 m/s from 30 m: the warning fires (ego speed 0,
+    so the lead counts as stopped, 2.1 s + margin) only when its box overlaps the corridor
+    |X| < path_half_width; VT_RANGE_IN_PATH says so on every frame with a distance."""
+    p, c = cam_params()
+    _rp, rcf = _rcfg(frame_dt=0.1, path_half_width=half)
+    boxes = approach(25, 30.0, 10.0, 0.1, p, 0.0, np.random.default_rng(0))
+    shift = lambda b, z: [b[0] + round(p.fx * lateral / z), b[1], b[2] + round(p.fx * lateral / z), b[3]]  # noqa: E731
+    boxes = [shift(b, 30.0 - 10.0 * k * 0.1) for k, b in enumerate(boxes)]
+    outs = _run_range(boxes, rcf, c)
+    assert any(o["fcw"] & lib.VT_FCW_WARNING for o in outs) == warns
+    assert all(bool(o["flags"] & lib.VT_RANGE_IN_PATH) == (warns or half == 0) for o in outs[1:])
+
+
+@given(st.integers(-2**31, 2**31 - 1), st.integers(0, 2**31 - 1), st.floats(0.01, 200), st.floats(0, 10),
+       st.integers(0, 2**31 - 1))
+@settings(max_examples=300)
+def test_in_path_matches_oracle_for_any_box(left, width, d, half, seed):
+    """The corridor test against the float oracle's (u - cx) d / fx < half on one frame, on
+    the same Q16 values (cx, fx, half from the C config, d = C's dist_filt): C compares
+    integers exactly, the oracle in double, three roundings of 2^-53 each, so they may
+    differ only where |X| is within 1e-12 relative of the corridor's edge."""
+    p, c = cam_params()
+    rp, rcf = _rcfg(path_half_width=half)
+    right = min(left + width, 2**31 - 1)
+    # a box whose bottom row gives distance d (eq. 1, pitch 0), its columns anywhere in int32
+    row = int(round(p.cy + p.fx * p.height / d))
+    box = [left, row - 10, right, row]
+    oc = _run_range([box], rcf, c)[0]
+    if not oc["flags"] & lib.VT_RANGE_FILT_VALID:
+        return
+    ref = rc.RangeTracker(p, rp)
+    ref.step([(5, box)], 0.0)
+    dq = oc["dist_filt"] / Q
+    want = ref._in_path(box, dq)
+    got = bool(oc["flags"] & lib.VT_RANGE_IN_PATH)
+    if got != want:
+        xl, xr = (left - p.cx) * dq / p.fx, (right + 1 - p.cx) * dq / p.fx
+        edge = min(abs(abs(xl) - rp.path_half_width), abs(abs(xr) - rp.path_half_width))
+        assert edge <= 1e-12 * max(abs(xl), abs(xr), 1), (box, dq, xl, xr, rp.path_half_width)
+
+
+def test_range_cfg_path_half_width_range():
+    _rp, rcf = _rcfg()
+    assert rcf.path_half_width == round(1.5 * Q)
+    for bad in (-1, int(10 * Q) + 1):
+        rcf.path_half_width = bad
+        with pytest.raises(VtError):
+            _native.range_cfg_check(rcf)
+
+
+@pytest.mark.parametrize("left, right, inside", [
+    (337, 500, False), (336, 500, True),    # X of the left edge = +1.0 m exactly / 0.94 m
+    (100, 301, False), (100, 302, True),    # X of the right edge (right + 1) = -1.0 m exactly / -0.94 m
+])
+def test_in_path_edge_is_strict(left, right, inside):
+    """At the corridor's edge exactly: cx 319.5, fx 700, camera height 1 m, bottom row 257
+    gives d = 40 m exactly in Q16 and half 1.0 m, so X = (u - 319.5) 40 / 700 = +-1.0 at
+    u = 337 / 302: |X| = half is outside (X < half and X > -half are strict)."""
+    p, c = cam_params(height=1.0)
+    rp, rcf = _rcfg(path_half_width=1.0)
+    o = _run_range([[left, 247, right, 257]], rcf, c)[0]
+    assert o["dist_filt"] == 40 * 65536
+    assert bool(o["flags"] & lib.VT_RANGE_IN_PATH) == inside
+    assert rc.RangeTracker(p, rp)._in_path([left, 247, right, 257], 40.0) == inside

@@ -19,7 +19,7 @@
  *
  * Cost: sizeof(vt_range_state) = 8 + VT_MAX_TRACKS * sizeof(vt_range_track) (2,472 bytes
  * each on x86-64, 2,360 of it the vt_kf): 39,560 bytes at the defaults; vt_pitch_state 16
- * bytes, vt_camera_cfg 68, vt_range_cfg 84 (both const, may live in flash).
+ * bytes, vt_camera_cfg 68, vt_range_cfg 88 (both const, may live in flash).
  * Work per track and frame: one 3-state Kalman predict + update (about 150 multiplies),
  * 3 divisions for the distances, 2 for the TTCs. No frame access.
  *
@@ -245,6 +245,15 @@ typedef struct vt_range_cfg {
                                d h_b / (h - h_b), so a constant offset only fits a
                                range of distances; see pyvehtrack.camera.RangeEstimator
                                bottom_height and tools/eval_kitti_range.py)           */
+    vt_q16 path_half_width; /* m, [0, 10]; 0: no check. The warning asks for a track in
+                               the ego path: its box, at its filtered distance d, must
+                               overlap the straight corridor |X| < path_half_width around
+                               the optical axis, X = (u - cx) d / fx for its columns u in
+                               [left, right + 1). 1.5 m: a car 1.8 m wide in the middle of a
+                               3.5-3.75 m lane keeps 0.6 m to a vehicle outside it. A
+                               straight corridor: on a curve of radius R the lane's centre
+                               moves d^2 / 2R sideways (0.6 m at 25 m on R = 500 m), so a
+                               lead far ahead on a tight curve can fall outside it.     */
 } vt_range_cfg;
 
 /* jerk 5 m/s^3, margin 0.7 s and release 10 frames were chosen on the synthetic NHTSA
@@ -272,6 +281,7 @@ typedef struct vt_range_cfg {
         .width_min_frames = 3,              \
         .width_window = 16,                 \
         .rear_offset = 0,                   \
+        .path_half_width = 98304, /* 1.5 m */ \
     }
 
 /* VT_OK if every field is in range (see the comments above), else VT_E_ARG. */
@@ -331,6 +341,9 @@ typedef struct vt_range_state {
 #define VT_RANGE_CLOSING 32         /* rate < -min_closing                            */
 #define VT_RANGE_FROM_WIDTH 64      /* this frame's distance is fx * width_m / w_px,
                                        the contact row not being seen                 */
+#define VT_RANGE_IN_PATH 128        /* the box at dist_filt overlaps the ego corridor
+                                       (cfg.path_half_width; always set when it is 0);
+                                       the warning's TTC counts only with it          */
 
 /* Per track and frame. */
 typedef struct vt_range_out {
@@ -362,7 +375,8 @@ vt_status vt_range_init(vt_range_state *st);
  * into the ring; TTCs, lead class (from ego_speed, m/s, negative = unknown: stopped if
  * ego + rate < stopped_speed, else decelerating if accel < -decel_thresh, else slower) and
  * vt_fcw_step. A new id starts its filter at the measured distance (or waits for a
- * valid one). Writes one vt_range_out per non-free track, in input order, up to
+ * valid one). The FCW condition holds only for a track IN_PATH (cfg.path_half_width).
+ * Writes one vt_range_out per non-free track, in input order, up to
  * out_cap; *n_out = their number. VT_E_CAPACITY if more than out_cap or
  * VT_MAX_TRACKS ids (out still filled as far as it goes), VT_E_ARG for NULL, bad
  * cfgs, |tp| > 1, n_tracks < 0, or a duplicate id (state unchanged for VT_E_ARG). */

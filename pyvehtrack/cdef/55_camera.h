@@ -16,6 +16,7 @@
 #define VT_RANGE_WIDTH_AGREES ...
 #define VT_RANGE_CLOSING ...
 #define VT_RANGE_FROM_WIDTH ...
+#define VT_RANGE_IN_PATH ...
 
 typedef struct vt_camera_cfg {
     int32_t img_w;
@@ -93,6 +94,7 @@ typedef struct vt_range_cfg {
     int32_t width_min_frames;
     int32_t width_window;
     vt_q16 rear_offset;
+    vt_q16 path_half_width;
 } vt_range_cfg;
 
 vt_status vt_range_cfg_check(const vt_range_cfg *cfg);

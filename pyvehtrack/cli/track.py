@@ -152,6 +152,10 @@ def register(sub) -> None:
                    help="height above the road of what the box's bottom edge shows, m (default 0: "
                         "the road contact; about 0.37 on KITTI, where the box ends at the bumper's "
                         "lower edge): eq. 1 then uses the camera height minus it")
+    p.add_argument("--path-half-width", type=float, default=1.5, metavar="M",
+                   help="the warning is for tracks in the ego path only: a box must overlap the "
+                        "straight corridor of +-M m around the camera axis at its distance "
+                        "(default 1.5; 0: every closing track may warn)")
     p.add_argument("--json", metavar="TRACKS.json", help="write per-frame track records (JSON)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
@@ -185,12 +189,14 @@ def run(args) -> int:
             raise CliError(f"--ego-speed {args.ego_speed}: must be >= 0 m/s")
         if not (math.isfinite(args.rear_offset) and 0 <= args.rear_offset <= 5):
             raise CliError(f"--rear-offset {args.rear_offset}: must be in [0, 5] m")
+        if not (math.isfinite(args.path_half_width) and 0 <= args.path_half_width <= 10):
+            raise CliError(f"--path-half-width {args.path_half_width}: must be in [0, 10] m")
         if not (math.isfinite(args.bottom_height) and 0 <= args.bottom_height < cam.height_m):
             raise CliError(f"--bottom-height {args.bottom_height}: must be in [0, height_m = "
                            f"{cam.height_m}) m")
     elif (args.fps is not None or args.ego_speed is not None or args.rear_offset != 0.0
-          or args.bottom_height != 0.0):
-        raise CliError("--fps, --ego-speed, --rear-offset and --bottom-height need --camera")
+          or args.bottom_height != 0.0 or args.path_half_width != 1.5):
+        raise CliError("--fps, --ego-speed, --rear-offset, --bottom-height and --path-half-width need --camera")
     det = make_detector(args, cam)
     try:
         # with a camera the pipeline also runs the block-scale TTC ("ttc_points_s") at the
@@ -276,7 +282,7 @@ def _range_stage(cam, frame, args, sources):
     h, w = frame.shape[:2]
     fps = args.fps if args.fps is not None else video_fps(sources)
     return (RangeEstimator(cam, (w, h), fps, engine=args.engine, rear_offset=args.rear_offset,
-                           bottom_height=args.bottom_height),
+                           bottom_height=args.bottom_height, path_half_width=args.path_half_width),
             LaneDetector(engine=args.engine))
 
 

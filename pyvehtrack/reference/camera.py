@@ -201,6 +201,17 @@ class RangeTracker:
         kf.x = np.array([[d], [0.0], [0.0]])
         return kf
 
+    def _in_path(self, box, d) -> bool:
+        """The box at distance d overlaps the straight corridor |X| < path_half_width,
+        X = (u - cx) d / fx over its columns [left, right + 1)."""
+        half = self.p.path_half_width
+        if half == 0:
+            return True
+        if d is None or d <= 0:
+            return False
+        c = self.cam
+        return (box[0] - c.cx) * d / c.fx < half and (box[2] + 1 - c.cx) * d / c.fx > -half
+
     def step(self, tracks, tan_pitch: float, ego_speed: float | None = None) -> list[RangeOut]:
         """tracks: iterable of (id, [l, t, r, b]). ego_speed m/s or None (unknown)."""
         p, lag = self.p, self.p.scale_lag
@@ -265,8 +276,9 @@ class RangeTracker:
                     cls = LEAD_DECEL
                 else:
                     cls = LEAD_SLOWER
-            bits = fcw_step(p, s.fcw, ttc_d, closing, cls)
+            in_path = self._in_path(box, d_f)
+            bits = fcw_step(p, s.fcw, ttc_d if in_path else None, closing, cls)
             out.append(RangeOut(tid, d if have else None, sig, bd.dist_width,
                                 bd.width_agrees, d_f, rate if s.updates > 0 else None, ttc_d, ttc_s,
-                                closing, cls, bits, from_width, accel))
+                                closing, cls, bits, from_width, accel, in_path))
         return out
