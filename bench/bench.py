@@ -459,7 +459,7 @@ def _fullroad_detect(ctx: Ctx) -> Stage:
 
 @register("fullroad_mlp", sizes=((1280, 720),), driver=False)
 def _fullroad_mlp(ctx: Ctx) -> Stage:
-    """Whole-road detection in C with the shipped tests/data/window_mlp_hog32.npz and the
+    """Whole-road detection in C with the shipped pyvehtrack/models/window_mlp_hog32.npz and the
     settings it carries (windows at two sizes per octave scored by the HOG 32x32 MLP, each
     window resampled to 32x32 and described alone; shadow hypotheses; NMS, merge, the HOG
     64x64 second stage) against the classic float way over the same windows:
@@ -471,7 +471,7 @@ def _fullroad_mlp(ctx: Ctx) -> Stage:
     from pyvehtrack.reference import windows as rw
     img = ctx.frame
     h, w = img.shape
-    det = FullRoadDetector(str(ROOT / "tests" / "data" / "window_mlp_hog32.npz"))
+    det = FullRoadDetector(str(ROOT / "pyvehtrack" / "models" / "window_mlp_hog32.npz"))
     m = det.model
     cam = det.camera_for(h, w)
     wins = [wn for lv in range(det.det_cfg.win.levels)

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 import numpy as np
 
@@ -42,6 +43,11 @@ from .shared import Camera as FrameCamera
 from .shared import FULLDET_RENAMED, FullDetConfig, RoadArea, WideConfig, take_renamed
 
 SOURCES = ("shadow", "windows")
+# The whole-road model `pyvehtrack detect` / `track` / `report` use when no --model is
+# given (HOG 32x32 + 32-unit MLP with its settings: ego-lane detector, shadow and windows;
+# how it was made: pyvehtrack/models/README.md). A file, not a C table: firmware that wants
+# it generates tables from it as for c/tables/svm_default.h.
+DEFAULT_WINDOW_MODEL = Path(__file__).resolve().parent / "models" / "window_mlp_hog32.npz"
 # What Detector(model=...) uses when no sources are given: with the HOG 32x32 window
 # model of tools/train_window_svm.py the windows add many false boxes for little recall
 # on tusimple TRAIN frames (frames 200-280: precision >= 32 px 60% -> 5%, recall 27% ->

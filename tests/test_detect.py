@@ -517,7 +517,9 @@ def _check_schema(entries, files):
             assert set(ln) == {"side", "points"} and ln["side"] in ("left", "right")
             assert all(len(p) == 2 and all(isinstance(v, int) for v in p) for p in ln["points"])
         for b in e["boxes"]:
-            assert len(b) == 4 and all(isinstance(v, int) for v in b) and b[0] <= b[2] and b[1] <= b[3]
+            # [left, top, right, bottom] or, from a classifier (the default model), + its score
+            assert len(b) in (4, 5) and all(isinstance(v, int) for v in b[:4]) and b[0] <= b[2] and b[1] <= b[3]
+            assert len(b) == 4 or isinstance(b[4], float)
 
 
 def test_cli_detect_png_and_json(tmp_path, capsys):
@@ -612,3 +614,23 @@ def test_road_too_short_is_a_clear_error():
     for engine in ("c", "reference"):
         with pytest.raises(ValueError, match="x_left"):
             Detector(engine, road=short).detect(gray)
+
+
+def test_cli_default_is_the_shipped_whole_road_model(tmp_path, capsys):
+    """`detect` without --model runs pyvehtrack/models/window_mlp_hog32.npz with its settings
+    (boxes carry a score); --model none is the thesis's ego-lane detector alone (no score);
+    --sources without a classifier contradicts --model none."""
+    from pyvehtrack.fullroad import DEFAULT_WINDOW_MODEL
+    frame = str(Path(__file__).parent / "data" / "udacity_test1_640x360.jpg")
+    boxes = {}
+    for extra in ([], ["--model", "none"], ["--model", str(DEFAULT_WINDOW_MODEL)]):
+        js = tmp_path / "d.json"
+        assert cli_main(["detect", frame, "--json", str(js), "--no-progress", *extra]) == 0
+        boxes[" ".join(extra[:1] + [Path(x).name for x in extra[1:]])] = json.loads(js.read_text())[0]["boxes"]
+    assert boxes[""] == boxes["--model window_mlp_hog32.npz"]
+    # the black car in the right lane (x 415-470, y 205-250 of this 640x360 frame) is boxed
+    assert any(len(b) == 5 and b[0] < 440 < b[2] and b[1] < 225 < b[3] for b in boxes[""])
+    assert all(len(b) == 4 for b in boxes["--model none"])
+    assert cli_main(["detect", frame, "--model", "none", "--sources", "windows", "--json", str(tmp_path / "e.json"),
+                     "--no-progress"]) == 2
+    assert "--model none" in capsys.readouterr().err

@@ -16,11 +16,12 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
+from pyvehtrack.fullroad import DEFAULT_WINDOW_MODEL
 from pyvehtrack import _native, fullroad
 from pyvehtrack._native import ffi, lib
 
 DATA = Path(__file__).parent / "data"
-MLP = DATA / "window_mlp_hog32.npz"
+MLP = DEFAULT_WINDOW_MODEL
 FRAMES = (DATA / "udacity_test1_640x360.jpg", DATA / "kitti_lead_30_gray_621x188.png")
 MAXW, MAXH = int(lib.VT_MAX_WIDTH), int(lib.VT_MAX_HEIGHT)
 HAVE_MLP = fullroad.default_model() is not None and _native.mlp_default_model() is not None

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
+from pyvehtrack.fullroad import DEFAULT_WINDOW_MODEL
 from pyvehtrack import _native
 from pyvehtrack._native import ffi, lib
 from pyvehtrack.reference import fulldet as rfd
@@ -200,7 +201,7 @@ def test_default_config_equals_shared_default():
 
 
 # ------------------------------------------------------------- model files, detector, pipeline
-MLP = DATA / "window_mlp_hog32.npz"
+MLP = DEFAULT_WINDOW_MODEL
 FRAME = DATA / "udacity_test1_640x360.jpg"
 
 

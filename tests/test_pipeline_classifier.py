@@ -28,13 +28,14 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
+from pyvehtrack.fullroad import DEFAULT_WINDOW_MODEL
 from pyvehtrack import synth
 from pyvehtrack._native import ffi, lib
 from pyvehtrack.pipeline import Pipeline
 
 DATA = Path(__file__).parent / "data"
 MODEL = DATA / "window_svm_hog32.npz"
-MLP = DATA / "window_mlp_hog32.npz"
+MLP = DEFAULT_WINDOW_MODEL
 FRAME = DATA / "udacity_test1_640x360.jpg"
 CLIP = DATA / "kitti_clip"
 MAXW, MAXH = int(lib.VT_MAX_WIDTH), int(lib.VT_MAX_HEIGHT)

@@ -17,6 +17,7 @@ import cv2
 import numpy as np
 import pytest
 
+from pyvehtrack.fullroad import DEFAULT_WINDOW_MODEL
 from pyvehtrack import _native, ffi, lib
 from pyvehtrack.detector import Detector
 from pyvehtrack.pipeline import Pipeline
@@ -24,7 +25,7 @@ from pyvehtrack.reference import windows as rw
 
 ROOT = Path(__file__).resolve().parent.parent
 DATA = ROOT / "tests" / "data"
-MODEL = str(DATA / "window_mlp_hog32.npz")
+MODEL = str(DEFAULT_WINDOW_MODEL)
 # KITTI frames where the ego detector boxes the lead car (and the windows box it too),
 # a Udacity frame and a TuSimple frame with cars in other lanes
 FRAMES = [DATA / "kitti_clip" / f"{i:06d}.png" for i in (0, 1, 3, 5)] + \

@@ -14,11 +14,12 @@ import cv2
 import numpy as np
 import pytest
 
+from pyvehtrack.fullroad import DEFAULT_WINDOW_MODEL
 from pyvehtrack import _native, fullroad
 from pyvehtrack._native import ffi, lib
 
 DATA = Path(__file__).parent / "data"
-MLP_MODEL = DATA / "window_mlp_hog32.npz"
+MLP_MODEL = DEFAULT_WINDOW_MODEL
 HOG32_DIM = 3 * 3 * 36
 
 

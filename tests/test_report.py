@@ -49,12 +49,17 @@ def test_records_follow_the_track_json_schema(clip_report):
         assert set(t) == TRACK_KEYS
         assert t["state"] in ("tentative", "confirmed", "coasting")
         assert len(t["box"]) == 4 and t["box"][0] < t["box"][2] and t["box"][1] < t["box"][3]
-        assert t["source"] == "shadow"          # the one detector the Tracker's tracks come from
-        # the geometry stage (pyvehtrack.camera) with the clip's camera: a distance for the lead
-        # car from the first frame, no warning at 7-8 m and a 10 s TTC; TTC needs a few frames
-        assert 3.0 < t["distance_m"] < 15.0 and t["warning"] is False
-    assert all(t["ttc_s"] is None or 0 < t["ttc_s"] < 60 for t in tracks)
-    assert sum(t["ttc_s"] is not None for t in tracks) >= 10
+        assert t["source"] == "shadow"          # detections handed to the Tracker from outside
+        # the default whole-road model also tracks the parked van and the cars on the right,
+        # which close fast as the ego car passes them: outside the ego path, none warns
+        assert t["warning"] is False
+    # the geometry stage (pyvehtrack.camera) with the clip's camera: a distance for the lead
+    # car (the box over the image centre, cx 309.6) from the first frame, no warning at 7-8 m
+    # and a 10 s TTC; TTC needs a few frames
+    lead = [t for t in tracks if t["box"][0] < 310 < t["box"][2]]
+    assert len(lead) >= 18 and all(3.0 < t["distance_m"] < 15.0 for t in lead)
+    assert all(t["ttc_s"] is None or 0 < t["ttc_s"] < 60 for t in lead)
+    assert sum(t["ttc_s"] is not None for t in lead) >= 10
 
 
 def test_page_is_self_contained_and_has_every_section(clip_report):

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from pyvehtrack.fullroad import DEFAULT_WINDOW_MODEL
 from pyvehtrack.cli import main
 
 CLIP = Path(__file__).parent / "data" / "kitti_clip"
@@ -39,7 +40,7 @@ def test_track_json_with_camera(tmp_path):
     seen = 0
     for r in recs:
         for t in r["tracks"]:
-            assert set(t) == KEYS and t["source"] in ("shadow", "classifier", "flow", "model")
+            assert set(t) == KEYS and t["source"] in ("shadow", "classifier", "flow", "model", "ego")
             assert len(t["box"]) == 4 and len(t["velocity_px"]) == 2 and isinstance(t["warning"], bool)
             assert t["ttc_points_s"] is None or 0 < t["ttc_points_s"] <= 20   # block-scale TTC
             # lag 5, shorter lags down to min_lag (2) while a track is younger
@@ -58,7 +59,11 @@ def test_track_json_with_camera(tmp_path):
     assert seen >= 4
     # the KITTI file carries the location (x, y = camera height, z = distance)
     lines = [ln.split() for ln in tr.read_text().splitlines()]
-    assert lines and all(float(f[14]) == 1.65 and 4 < float(f[15]) < 12 for f in lines)
+    assert lines and all(float(f[14]) == 1.65 and float(f[15]) > 0 for f in lines)
+    # the lead car's rows (its box over the image centre; the default model also tracks cars
+    # further away in the other lanes)
+    lead = [f for f in lines if float(f[6]) < 320 < float(f[8])]
+    assert len(lead) >= 4 and all(4 < float(f[15]) < 12 for f in lead)
 
 
 def test_track_json_without_camera(tmp_path):
@@ -131,7 +136,7 @@ def test_warning_only_for_tracks_in_the_ego_path(tmp_path, capsys):
     which close at 0.8-2 s TTC as the ego car passes them. The warning asks for the ego path
     (the default corridor +-1.5 m): none of them warns; with the check off
     (--path-half-width 0) they do, as before the check existed."""
-    model = str(Path(__file__).parent / "data" / "window_mlp_hog32.npz")
+    model = str(DEFAULT_WINDOW_MODEL)
     frames = sorted(str(p) for p in CLIP.glob("0*.png"))
     warned = {}
     for half in ("1.5", "0"):

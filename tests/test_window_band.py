@@ -14,6 +14,7 @@ import cv2
 import numpy as np
 import pytest
 
+from pyvehtrack.fullroad import DEFAULT_WINDOW_MODEL
 from pyvehtrack import _native, fullroad
 from pyvehtrack.reference import windows as rw
 
@@ -111,7 +112,7 @@ def test_band_beyond_default_max_alone_is_an_error_not_a_silent_clip(tmp_path):
 def test_shipped_model_names_its_band():
     """The shipped window model carries the band chosen for it on the 'val' frames, and
     the C core's window rules get it in mm."""
-    m = fullroad.load_model(DATA / "window_mlp_hog32.npz")
+    m = fullroad.load_model(DEFAULT_WINDOW_MODEL)
     assert m.settings["veh_w_max"] == 3.0 and "veh_w_min" not in m.settings
     det = fullroad.FullRoadDetector(m)
     assert (det._cfg_c.win.veh_w_min_mm, det._cfg_c.win.veh_w_max_mm) == (1400, 3000)

@@ -65,7 +65,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--split", choices=("train", "test", "fit", "val"), required=True)
     ap.add_argument("--data", default=str(DATA))
-    ap.add_argument("--model", default=str(_ROOT / "tests" / "data" / "window_mlp_hog32.npz"))
+    ap.add_argument("--model", default=str(_ROOT / "pyvehtrack" / "models" / "window_mlp_hog32.npz"))
     ap.add_argument("--min-width", type=int, default=32)
     ap.add_argument("--limit", type=int, default=0)
     ap.add_argument("--json", default=None, help="write the per-vehicle step (file, box, step, best score)")

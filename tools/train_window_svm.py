@@ -6,7 +6,7 @@ user-facing one and writes the same .npz keys).
     python tools/train_window_svm.py --out /tmp/win32.npz [--win 32] [--rounds 2] [--C 0.01]
         [--scan-sizes 32 45] [--mlp HIDDEN [--mlp-iter N]] [--fit-only]
 
-The shipped full-road model tests/data/window_mlp_hog32.npz was made with
+The shipped full-road model pyvehtrack/models/window_mlp_hog32.npz was made with
     --fit-only --scan-sizes 32 45 --rounds 1 --mlp 32 --mlp-iter 40
 (--fit-only keeps the 'val' part of TRAIN unseen, for choosing thresholds and NMS with
 tools/eval_tusimple_boxes.py --split val); its detector settings (detector_json: score

@@ -65,7 +65,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--split", choices=("train", "test", "fit", "val"), required=True)
     ap.add_argument("--data", default=str(DATA))
-    ap.add_argument("--model", default=str(_ROOT / "tests" / "data" / "window_mlp_hog32.npz"))
+    ap.add_argument("--model", default=str(_ROOT / "pyvehtrack" / "models" / "window_mlp_hog32.npz"))
     ap.add_argument("--veh-w", nargs=2, type=float, default=None, help="width band, m (default: the model's)")
     ap.add_argument("--box-heights", nargs="+", type=float, default=None,
                     help="box height / width ratios cut from each window (default: the model's box_height)")

@@ -40,8 +40,10 @@ class CliError(Exception):
 def add_model_arg(p) -> None:
     """--model / --sources of `detect` and `track` (the full-road detector)."""
     p.add_argument("--model", metavar="MODEL.npz", default=None,
-                   help="classifier model: detect over the whole road (shadow hypotheses over every "
-                        "lane, kept when the classifier accepts them) instead of the ego lane only")
+                   help="classifier model for detection over the whole road, run with the settings it "
+                        "carries (default: the shipped pyvehtrack/models/window_mlp_hog32.npz: the "
+                        "ego-lane detector, shadow hypotheses and sliding windows, each box checked by "
+                        "the classifier); 'none': the thesis's ego-lane detector alone")
     p.add_argument("--sources", nargs="+", choices=("shadow", "windows", "ego"), default=None,
                    help="full-road hypothesis sources (default with --model: the model's, else shadow; "
                         "windows = classifier sliding windows; ego beside them = the ego-lane detector's "
@@ -77,11 +79,18 @@ def make_detector(args, cam=None):
     --camera file's Camera; its geometry (horizon, focal length, height) places the
     whole-road detector's windows (Camera.road_camera), else the defaults (TuSimple's)."""
     from ..detector import Detector
+    from ..fullroad import DEFAULT_WINDOW_MODEL
     model = getattr(args, "model", None)
+    srcs = getattr(args, "sources", None)
+    if model is None and not srcs:
+        model = str(DEFAULT_WINDOW_MODEL)      # no choice made: the shipped whole-road model
+    elif model == "none":
+        if srcs:
+            raise CliError("--sources needs a classifier; --model none is the ego-lane detector alone")
+        model = None
     if model is not None and not Path(model).is_file():
         raise CliError(f"--model {model}: no such file")
     try:
-        srcs = getattr(args, "sources", None)
         road_cam = cam.road_camera() if cam is not None else None
         return Detector(engine=args.engine, road=args.road, model=model,
                         sources=tuple(srcs) if srcs else None, camera=road_cam)

@@ -42,6 +42,9 @@ def register(sub) -> None:
     p.add_argument("--fps", type=float, default=None,
                    help="frame rate: the range stage's time step and the truth TTC's (default: a video's "
                         "own, else 10 as KITTI)")
+    p.add_argument("--model", metavar="MODEL.npz", default=None,
+                   help="whole-road classifier model, as `track --model` (default: the shipped "
+                        "pyvehtrack/models/window_mlp_hog32.npz); 'none': the ego-lane detector alone")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
@@ -60,11 +63,15 @@ def run(args) -> int:
     for t in args.truth or []:
         if not Path(t).is_file():
             raise CliError(f"--truth {t}: no such file")
+    model = "default" if args.model is None else None if args.model == "none" else args.model
+    if model not in ("default", None) and not Path(model).is_file():
+        raise CliError(f"--model {model}: no such file")
     try:
         auto = None if args.no_find else "auto"
         page = make_report(args.input, out, truth=args.truth or (auto or ()), camera=args.camera or auto,
                            engine=args.engine,
-                           detect_every=args.detect_every, progress=not args.no_progress, fps=args.fps)
+                           detect_every=args.detect_every, progress=not args.no_progress, fps=args.fps,
+                           model=model)
     except (ValueError, TypeError, VtError) as e:
         raise CliError(str(e)) from None
     print(f"report: {page}")

@@ -14,7 +14,7 @@ camera height and the filtered distance of the track's bottom centre.
 
 TRACKS.json (--json) is a list of per-frame records
 `{"frame": n, "tracks": [{"id", "box": [l, t, r, b], "state", "velocity_px": [vx, vy],
-"distance_m", "ttc_s", "warning": bool, "source": "shadow"|"classifier"|"flow"|"model"}]}`
+"distance_m", "ttc_s", "warning": bool, "source": "shadow"|"classifier"|"flow"|"model"|"ego"}]}`
 with null where a value is unknown (no --camera: distance_m, ttc_s null and warning false).
 distance_m is the filtered distance, ttc_s the TTC from it and its rate (pyvehtrack.camera);
 "ttc_points_s" (added field) is the TTC from the scale change of SAD-matched blocks inside the

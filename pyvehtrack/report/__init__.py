@@ -30,13 +30,16 @@ def _video_fps(path) -> float:
 
 
 def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "c", detect_every: int = 10,
-                progress: bool = True, records_json: bool = True, fps: float | None = None) -> Path:
+                progress: bool = True, records_json: bool = True, fps: float | None = None,
+                model="default") -> Path:
     """Run the pipeline over one recording (a video, a folder of frames or an image) and
     write out_dir/index.html (and out_dir/tracks.json, the records, when records_json).
     truth: truth file paths (see records.load_truth), or "auto": the files the naming rule
     finds (records.companion_files); camera: a camera JSON path or dict, None, or "auto".
     fps: frame rate (the range stage's time step, the truth TTC's); None: a video's own
     frame rate, else 10 (KITTI's).
+    model: the whole-road classifier .npz, "default" (pyvehtrack/models/window_mlp_hog32.npz,
+    as `pyvehtrack track` without --model) or None (the thesis's ego-lane detector alone).
     Returns the page path. ValueError / TypeError naming the argument for bad input."""
     from tqdm import tqdm
 
@@ -60,7 +63,12 @@ def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "
         raise TypeError(f"camera: expected a path or a dict, got {type(cam).__name__}")
     tr = load_truth(list(truth or ()), dt=1.0 / fps)
     total, frames = recording_frames(inputs)
-    pipe = PythonPipeline(engine=engine, detect_every=detect_every, camera=cam, fps=fps)
+    if isinstance(model, str) and model == "default":
+        from ..fullroad import DEFAULT_WINDOW_MODEL
+        model = DEFAULT_WINDOW_MODEL
+    if model is not None and not Path(model).is_file():
+        raise ValueError(f"model {model}: no such file")
+    pipe = PythonPipeline(engine=engine, detect_every=detect_every, camera=cam, fps=fps, model=model)
     want = set(pick_thumbs(total)) if total is not None else None
     stride, kept = 1, {}
     records, infos = [], []

@@ -172,10 +172,11 @@ class PythonPipeline:
     gives distance_m (the filtered range), ttc_s (from it and its rate), warning (the FCW
     bit) and the pitch, as `pyvehtrack track --camera --json` does; without it, those
     stay null and the pitch is atan((cy - vanishing row) / fy) when the camera has fy, cy.
-    `notes` collects what the page should say about missing stages."""
+    `notes` collects what the page should say about missing stages. model: a whole-road
+    classifier .npz (pyvehtrack.Detector(model=...)), or None for the ego-lane detector."""
 
     def __init__(self, engine: str = "c", detect_every: int = 10, camera: dict | None = None,
-                 fps: float = 10.0, geometry=None):
+                 fps: float = 10.0, geometry=None, model=None):
         from ..detector import Detector
         from ..lane import LaneDetector
         from ..tracker import Tracker
@@ -188,7 +189,17 @@ class PythonPipeline:
         self.engine = engine
         self.lanes = LaneDetector(engine=engine)
         self._cache = _CachedLanes(self.lanes)
-        self.detector = Detector(engine=engine, road="auto", lane_detector=self._cache)
+        if model is None:
+            self.detector = Detector(engine=engine, road="auto", lane_detector=self._cache)
+        else:
+            # whole-road detection with the model's settings, placed by the camera file's
+            # geometry when it has one (as `track --camera --model`); its own lane stage
+            # (the ego-lane detector inside it needs the pipeline's), so lanes run twice
+            road_cam = None
+            stage = camera_stage()
+            if isinstance(camera, dict) and stage is not None:
+                road_cam = stage[0].from_dict(camera).road_camera()
+            self.detector = Detector(engine=engine, road="auto", model=str(model), camera=road_cam)
         self.tracker = Tracker(engine=engine, detect_every=int(detect_every), detector=None)
         self.detect_every = int(detect_every)
         self.camera = camera
