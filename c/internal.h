@@ -87,14 +87,14 @@ static inline void vt__sobel_rows(const vt_image_u8 *img, int32_t y, const uint8
     *pp = img->px + (size_t)(y < img->h - 1 ? y + 1 : img->h - 1) * (size_t)img->stride;
 }
 
-/* shadow.c: does the kept shadow edge k suppress edge c above it (the
- * one-edge-per-vehicle rule; vt_detect applies it to verified edges only when
- * cfg->reduce_verified)? cfg must have passed vt_shadow_cfg_check. */
 /* NMS's test (c/windows.c, vt_nms): box b is suppressed by the kept box a when their
  * IoU exceeds iou_permille / 1000 or the intersection exceeds contain_permille / 1000
  * of the smaller box. Exact in int64 for coordinates within +-2^24. */
 int vt__box_suppress(const vt_box *a, const vt_box *b, int32_t iou_permille, int32_t contain_permille);
 
+/* shadow.c: does the kept shadow edge k suppress edge c above it (the
+ * one-edge-per-vehicle rule; vt_detect applies it to verified edges only when
+ * cfg->reduce_verified)? cfg must have passed vt_shadow_cfg_check. */
 int vt__shadow_suppresses(const vt_shadow_cfg *cfg, int32_t k_row, int32_t k_xs, int32_t k_xe,
                           int32_t c_row, int32_t c_xs, int32_t c_xe);
 

@@ -74,22 +74,29 @@ def out_folder(path: str) -> Path:
     return out
 
 
+def resolve_model(model, sources=None):
+    """--model as a path or None: not given -> the shipped whole-road model (unless
+    --sources chose the built-in classifier); "none" -> None, the ego-lane detector
+    alone. CliError for a missing file or "none" with --sources."""
+    from ..fullroad import DEFAULT_WINDOW_MODEL
+    if model is None and not sources:
+        model = str(DEFAULT_WINDOW_MODEL)      # no choice made: the shipped whole-road model
+    elif model == "none":
+        if sources:
+            raise CliError("--sources needs a classifier; --model none is the ego-lane detector alone")
+        return None
+    if model is not None and not Path(model).is_file():
+        raise CliError(f"--model {model}: no such file")
+    return model
+
+
 def make_detector(args, cam=None):
     """The Detector of `detect` and `track`, with the user's mistakes as CliError. cam: the
     --camera file's Camera; its geometry (horizon, focal length, height) places the
     whole-road detector's windows (Camera.road_camera), else the defaults (TuSimple's)."""
     from ..detector import Detector
-    from ..fullroad import DEFAULT_WINDOW_MODEL
-    model = getattr(args, "model", None)
     srcs = getattr(args, "sources", None)
-    if model is None and not srcs:
-        model = str(DEFAULT_WINDOW_MODEL)      # no choice made: the shipped whole-road model
-    elif model == "none":
-        if srcs:
-            raise CliError("--sources needs a classifier; --model none is the ego-lane detector alone")
-        model = None
-    if model is not None and not Path(model).is_file():
-        raise CliError(f"--model {model}: no such file")
+    model = resolve_model(getattr(args, "model", None), srcs)
     try:
         road_cam = cam.road_camera() if cam is not None else None
         return Detector(engine=args.engine, road=args.road, model=model,

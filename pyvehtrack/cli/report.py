@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .common import CliError, add_command, out_folder
+from .common import CliError, add_command, out_folder, resolve_model
 
 EXAMPLES = """examples:
   pyvehtrack report tests/data/kitti_clip --out r/
@@ -63,9 +63,7 @@ def run(args) -> int:
     for t in args.truth or []:
         if not Path(t).is_file():
             raise CliError(f"--truth {t}: no such file")
-    model = "default" if args.model is None else None if args.model == "none" else args.model
-    if model not in ("default", None) and not Path(model).is_file():
-        raise CliError(f"--model {model}: no such file")
+    model = resolve_model(args.model)
     try:
         auto = None if args.no_find else "auto"
         page = make_report(args.input, out, truth=args.truth or (auto or ()), camera=args.camera or auto,

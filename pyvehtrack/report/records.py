@@ -189,17 +189,18 @@ class PythonPipeline:
         self.engine = engine
         self.lanes = LaneDetector(engine=engine)
         self._cache = _CachedLanes(self.lanes)
+        stage = camera_stage()
+        file_cam = None
+        if camera is not None and stage is not None and (geometry is None or model is not None):
+            file_cam = stage[0].from_dict(camera)   # CameraFileError (a ValueError) names the key
         if model is None:
             self.detector = Detector(engine=engine, road="auto", lane_detector=self._cache)
         else:
             # whole-road detection with the model's settings, placed by the camera file's
             # geometry when it has one (as `track --camera --model`); its own lane stage
             # (the ego-lane detector inside it needs the pipeline's), so lanes run twice
-            road_cam = None
-            stage = camera_stage()
-            if isinstance(camera, dict) and stage is not None:
-                road_cam = stage[0].from_dict(camera).road_camera()
-            self.detector = Detector(engine=engine, road="auto", model=str(model), camera=road_cam)
+            self.detector = Detector(engine=engine, road="auto", model=str(model),
+                                     camera=file_cam.road_camera() if file_cam is not None else None)
         self.tracker = Tracker(engine=engine, detect_every=int(detect_every), detector=None)
         self.detect_every = int(detect_every)
         self.camera = camera
@@ -209,9 +210,8 @@ class PythonPipeline:
         self._cam = None            # the geometry stage's Camera, when usable
         self.pitch_source = "atan((cy - vanishing row) / fy) of the camera file"
         self._rng = None
-        stage = camera_stage()
         if camera is not None and stage is not None and geometry is None:
-            cam = stage[0].from_dict(camera)        # CameraFileError (a ValueError) names the key
+            cam = file_cam
             if cam.height_m is None:
                 self.notes.append("The camera file has no height_m: the geometry stage cannot give distances.")
             else:
