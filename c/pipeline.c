@@ -1182,6 +1182,11 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
     }
     s = VT_OK;
     if (p->cfg.track) {
+        /* The tracker's scale check uses the whole-road detector's horizon (in range:
+         * clamped, or a fraction of the frame height). */
+        (void)vt_tracker_set_horizon(&p->tracker, 1,
+                                     p->horizon_known ? p->horizon_y
+                                                      : vt__frac_q16(frame->h, p->cfg.road_camera.horizon_q16));
         s = vt_tracker_step(&p->tracker, &p->cfg.tracker, frame, trk_det, boxes, n_boxes,
                             p->tracks, VT_MAX_TRACKS, &n_tracks);
     }

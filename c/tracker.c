@@ -108,7 +108,8 @@ vt_status vt_tracker_cfg_check(const vt_tracker_cfg *c)
     if (c->tmatch_radius < 0 || c->tmatch_radius > 64 || c->tmatch_ncc_permille < -1000 ||
         c->tmatch_ncc_permille > 1000 || c->tmatch_max < 0 ||
         c->tmatch_max > VT_TRACK_MAX_FRAMES_CFG || c->part_permille < 0 ||
-        c->part_permille > 1000 || c->min_width < 0 || c->min_width > VT_MAX_WIDTH) {
+        c->part_permille > 1000 || c->min_width < 0 || c->min_width > VT_MAX_WIDTH ||
+        c->scale_tol_permille < 0 || c->scale_tol_permille > 1000) {
         return VT_E_ARG;
     }
     return VT_OK;
@@ -162,6 +163,37 @@ vt_status vt_tracker_drop(vt_tracker *tr, int32_t id)
         }
     }
     return VT_E_ARG;
+}
+
+vt_status vt_tracker_set_horizon(vt_tracker *tr, int32_t known, int32_t row)
+{
+    if (tr == NULL || (known && (row < -4 * VT_MAX_HEIGHT || row > 4 * VT_MAX_HEIGHT))) {
+        return VT_E_ARG;
+    }
+    tr->horizon_known = known != 0;
+    tr->horizon_y = known ? row : 0;
+    return VT_OK;
+}
+
+/* scale_tol_permille's test (tracker.h) of a box with these sides and bottom row.
+ * Coordinates are Kalman positions or checked boxes (|v| < 2^17), so every product
+ * stays below 2^45. */
+static int vt__scale_ok(const vt_tracker *tr, const vt_track *t, const vt_tracker_cfg *cfg,
+                        int32_t left, int32_t bottom, int32_t right)
+{
+    int64_t r, b, w, d;
+    if (cfg->scale_tol_permille == 0 || !tr->horizon_known || t->ref_w < 1) {
+        return 1;
+    }
+    r = (int64_t)t->ref_b - tr->horizon_y;
+    if (r < 1) {
+        return 1; /* the reference at or above the horizon: no scale to keep */
+    }
+    b = (int64_t)bottom - tr->horizon_y;
+    w = (int64_t)right - left + 1;
+    d = w * r - (int64_t)t->ref_w * b;
+    return (d < 0 ? -d : d) * 1000 <=
+           (int64_t)cfg->scale_tol_permille * t->ref_w * (b > 0 ? b : 0) + 2000 * ((int64_t)t->ref_w + r);
 }
 
 vt_status vt_tracker_set_edge_ws(vt_tracker *tr, vt_edge_ws *ws)
@@ -282,6 +314,8 @@ static void vt__start(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *cfg,
     t->state = cfg->confirm_hits <= 1 ? VT_TRACK_CONFIRMED : VT_TRACK_TENTATIVE;
     t->hits = 1;
     t->aspect_q8 = (int32_t)(((int64_t)h * 256 + w / 2) / w);
+    t->ref_w = w;
+    t->ref_b = d->bottom;
     t->sides.have_prev = 1;
     t->sides.prev_left = d->left;
     t->sides.prev_right = d->right;
@@ -425,6 +459,7 @@ static int vt__predict_measure(vt_tracker *tr, vt_track *t, const vt_tracker_cfg
     if (s == VT_OK && found && vt__abs_i32(meas.left - t->box.left) <= gate &&
         vt__abs_i32(meas.right - t->box.right) <= gate &&
         vt__abs_i32(meas.bottom - t->box.bottom) <= gate_b &&
+        vt__scale_ok(tr, t, cfg, meas.left, meas.bottom, meas.right) &&
         vt__update(t, meas.left, meas.bottom, meas.right) == VT_OK) {
         t->sides = sides;
         vt__hit(t, cfg, img);
@@ -436,7 +471,8 @@ static int vt__predict_measure(vt_tracker *tr, vt_track *t, const vt_tracker_cfg
     /* A tentative track's template keeps its filter on the vehicle; no hit (only
      * real measurements confirm) and no miss (the lifecycle waits for a detection).
      * Confirmed tracks coast as in the thesis (tracker.h says why). */
-    if (cfg->tmatch_radius > 0 && t->state == VT_TRACK_TENTATIVE && t->tm_frames < INT32_MAX && vt__tmatch(t, cfg, img, &meas) &&
+    if (cfg->tmatch_radius > 0 && t->state == VT_TRACK_TENTATIVE && t->tm_frames < INT32_MAX &&
+        vt__tmatch(t, cfg, img, &meas) && vt__scale_ok(tr, t, cfg, meas.left, meas.bottom, meas.right) &&
         vt__update(t, meas.left, meas.bottom, meas.right) == VT_OK) {
         t->tm_frames += 1;
         return 0;
@@ -477,6 +513,10 @@ static void vt__absorb_detection(vt_tracker *tr, vt_track *t, const vt_tracker_c
     }
     t->aspect_q8 = (int32_t)(((int64_t)(d->bottom - d->top + 1) * 256 + dw / 2) / dw);
     vt__box_from_state(t);
+    /* the filtered box, not the detection: one partial detection (a car half hidden
+     * in a lane change) must not become the scale every later measurement is held to */
+    t->ref_w = t->box.right - t->box.left + 1;
+    t->ref_b = t->box.bottom;
     t->sides.prev_left = d->left;
     t->sides.prev_right = d->right;
     vt__after_reset(tr, t, cfg, img, measured);
@@ -494,6 +534,8 @@ static void vt__reanchor(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *cfg,
         return; /* cannot happen: the model was validated */
     }
     t->aspect_q8 = (int32_t)(((int64_t)(d->bottom - d->top + 1) * 256 + w / 2) / w);
+    t->ref_w = w;
+    t->ref_b = d->bottom;
     t->sides.have_prev = 1;
     t->sides.prev_left = d->left;
     t->sides.prev_right = d->right;
@@ -671,7 +713,9 @@ static void vt__expire(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_image
         if (t->misses > cfg->max_coast || (t->state == VT_TRACK_TENTATIVE && t->misses >= 2) ||
             t->box.right < 0 || t->box.left >= img->w || t->box.bottom < 0 ||
             t->box.top >= img->h || t->tm_frames > cfg->tmatch_max ||
-            t->box.right - t->box.left + 1 < cfg->min_width) {
+            t->box.right - t->box.left + 1 < cfg->min_width ||
+            ((t->misses > 0 || t->tm_frames > 0) &&
+             !vt__scale_ok(tr, t, cfg, t->box.left, t->box.bottom, t->box.right))) {
             t->state = VT_TRACK_FREE;
         }
     }

@@ -1,7 +1,7 @@
 /* fuzz_tracker.c -- the multi-vehicle tracker (vehtrack/tracker.h, thesis ch. 3):
  * a sequence of steps over one fuzzed view (or a new one per step), with
  * configurations, detections (any boxes, n_dets at and past its limit), output
- * capacities and NULLs from the bytes. After every step: the status is a
+ * capacities, horizons (the scale check) and NULLs from the bytes. After every step: the status is a
  * vt_status, *n_out <= out_cap, reported ids are > 0 and distinct, and no id
  * seen before with another track comes back. */
 #include "fuzz.h"
@@ -57,6 +57,14 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         n_dets = fz_u8(&f) < 240 ? (fz_u8(&f) & 7) : fz_edge(&f, 256);
         for (j = 0; j < n_dets && j < FZ_DETS; j++) {
             g_dets[j] = det(&f, &img);
+        }
+        if (fz_u8(&f) < 64) { /* the scale check's horizon: in range, at its edges, or bad */
+            int32_t h = img.h > 0 && img.h <= VT_MAX_HEIGHT ? img.h : 64; /* a fuzzed view's h may be anything */
+            int32_t known = g_tr.horizon_known, row = fz_u8(&f) < 200 ? fz_range(&f, -8, h + 8)
+                                                                     : fz_edge(&f, 4 * VT_MAX_HEIGHT);
+            vt_status hs = vt_tracker_set_horizon((fz_u8(&f) == 0xFF) ? NULL : &g_tr, fz_u8(&f) & 1, row);
+            fz_status(hs);
+            FZ_ASSERT(hs == VT_OK || g_tr.horizon_known == known);
         }
         out_cap = fz_u8(&f) < 220 ? VT_MAX_TRACKS : fz_range(&f, -1, VT_MAX_TRACKS + 2);
         s = vt_tracker_step((nulls & 1) ? NULL : &g_tr, (nulls & 2) ? NULL : &cfg,

@@ -383,6 +383,9 @@ class TrackerCfg:
     tmatch_max: int = 12
     part_permille: int = 600       # parts are not vehicles (0: off)
     min_width: int = 4             # narrower tracks are dropped (0: off)
+    # flat-road scale consistency: w / (bottom - horizon) kept within this permille of
+    # the last detection's, plus 2 px (0: off; needs Tracker.set_horizon)
+    scale_tol_permille: int = 200
 
 
 accept_renamed(TrackerCfg, TRACKER_RENAMED)  # the percent names of before issue 10

@@ -228,15 +228,20 @@ def test_tracker_edges_c_matches_reference(seed, vx, vy, vw):
 
 def test_tracker_edges_follow_a_car_between_detections():
     """Detections only at frame 0: the edge measurement alone carries the track for 19
-    frames of a car moving 2 px/frame right, 1 px/frame down and growing."""
-    frames, boxes = draw_seq(np.random.default_rng(7), 20, [(60, 100, 50, 2.0, 1.0, 0.6)])
+    frames of a car moving 2 px/frame right, 1 px/frame down and growing as a car on a
+    flat road does below the pipeline's horizon (row 73 of 160: the box's bottom at 103,
+    50 px wide, so 50 / 30 px of width per px of descent; the tracker's scale check
+    refuses a box that comes down without growing so)."""
+    frames, boxes = draw_seq(np.random.default_rng(7), 20, [(60, 100, 50, 2.0, 1.0, 50 / 30)])
     tr = Tracker("c", measurement="edges")
     for k, f in enumerate(frames):
         out = tr.step(f, detections=boxes[k] if k == 0 else None)
         assert len(out) == 1 and out[0].id == 1
         assert rtrk.box_iou(out[0].box, boxes[k][0]) >= 0.7, (k, out[0].box, boxes[k][0])
     assert out[0].state == "confirmed"
-    assert abs(out[0].velocity[0] - 2.0) <= 0.5
+    # the velocity is the bottom edge's centre's: the left side moves 2 px/frame, the car
+    # widens 50 / 30 px/frame, so the centre moves 2 + 50 / 60
+    assert abs(out[0].velocity[0] - (2.0 + 50 / 60)) <= 0.5
 
 
 def test_bad_arguments():

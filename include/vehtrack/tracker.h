@@ -5,10 +5,11 @@
  * longer sees is still there before it is dropped.
  *
  * Cost: sizeof(vt_tracker) = VT_MAX_TRACKS * sizeof(vt_track) plus the
- * projection workspace (4 * (VT_MAX_WIDTH + VT_MAX_HEIGHT) bytes) and one
- * pointer: 72,056 bytes at the defaults on x86-64. vt_track is 3,752 bytes: the
- * 2,360-byte fixed-point Kalman filter, a VT_TRACK_TEMPLATE^2-byte template (and
- * the 16-byte box it came from, for the template measurement) and
+ * projection workspace (4 * (VT_MAX_WIDTH + VT_MAX_HEIGHT) bytes), one pointer
+ * and the horizon: 72,192 bytes at the defaults on x86-64. vt_track is 3,760 bytes:
+ * the 2,360-byte fixed-point Kalman filter, a VT_TRACK_TEMPLATE^2-byte template (and
+ * the 16-byte box it came from, for the template measurement), the scale check's
+ * 8-byte reference and
  * the edge-curve template (vt_edge_template, 4 * VT_EDGE_MAX_POINTS + 20 = 1,044
  * bytes, kept in every track whichever measurement is configured: it is the
  * track's own state, small, and keeps a track copyable). The edge measurement's
@@ -91,6 +92,20 @@ typedef struct {
     int32_t part_permille;
     /* A track narrower than min_width px (or whose corners crossed) is dropped. */
     int32_t min_width;
+    /* Flat-road scale consistency (IVVI paper sec. 4's road restriction, used over
+     * time): a vehicle's width w and its bottom row b keep w / (b - horizon)
+     * constant as its distance changes. Each track keeps the (w, b) of its box
+     * after the last detection it took (birth, match, re-anchor); once the caller gave the horizon
+     * row h (vt_tracker_set_horizon), a measurement (ROI search, edge curves or
+     * template) is taken only if, with R = b_ref - h >= 1 and B = max(b - h, 0),
+     *   |w R - w_ref (b - h)| * 1000 <= scale_tol_permille * w_ref * B
+     *                                   + 2000 * (w_ref + R)
+     * (the relative tolerance, plus 2 px of measurement error in each of w and b),
+     * and a track whose frame brought no real measurement is dropped when its
+     * predicted box fails the same test. A box that slides down the road without
+     * growing (a classifier box whose search walks onto the road's shadows) is
+     * then no longer followed. 0, no horizon given, or R < 1: no check. */
+    int32_t scale_tol_permille;
 } vt_tracker_cfg;
 
 #define VT_MEAS_ROI_SEARCH 0
@@ -116,6 +131,7 @@ typedef struct {
         .tmatch_max = 12,                                                   \
         .part_permille = 600,                                               \
         .min_width = 4,                                                     \
+        .scale_tol_permille = 200,                                          \
     }
 
 /* One track. Public so that callers can inspect and save it; change it only
@@ -136,6 +152,8 @@ typedef struct {
     vt_edge_template edges; /* curve points, used by VT_MEAS_EDGE_CURVES only */
     int32_t tm_frames;    /* consecutive frames measured by the template only */
     vt_box tmpl_box;      /* the box tmpl was sampled from */
+    int32_t ref_w;        /* width and bottom row after the last detection taken */
+    int32_t ref_b;        /* (scale_tol_permille's reference) */
 } vt_track;
 
 typedef struct {
@@ -147,6 +165,8 @@ typedef struct {
     vt_track_search_ws ws;
     vt_edge_ws *edge_ws;    /* VT_MEAS_EDGE_CURVES's crop workspace, caller-owned;
                                NULL (vt_tracker_init) until vt_tracker_set_edge_ws */
+    int32_t horizon_known;  /* 0 (vt_tracker_init) until vt_tracker_set_horizon */
+    int32_t horizon_y;      /* the road's horizon row, input pixels */
 } vt_tracker;
 
 /* What the tracker reports per track and frame. */
@@ -169,7 +189,8 @@ typedef struct {
  * VT_TRACK_MAX_FRAMES_CFG, match_iou_permille in 1..1000, keep_ncc in [-1, 1]
  * (Q14), 0 <= init_max_change <= VT_MAX_WIDTH, 0 <= tmatch_radius <= 64,
  * tmatch_ncc_permille in -1000..1000, 0 <= tmatch_max <= VT_TRACK_MAX_FRAMES_CFG,
- * part_permille in 0..1000, 0 <= min_width <= VT_MAX_WIDTH. VT_E_ARG otherwise and for NULL.
+ * part_permille in 0..1000, 0 <= min_width <= VT_MAX_WIDTH, scale_tol_permille in
+ * 0..1000. VT_E_ARG otherwise and for NULL.
  * vt_tracker_step checks the same before touching the tracker. */
 vt_status vt_tracker_cfg_check(const vt_tracker_cfg *cfg);
 
@@ -186,6 +207,13 @@ vt_status vt_tracker_cfg_default(vt_tracker_cfg *cfg);
  * trackers stepped one after another may share one workspace, never trackers
  * stepped concurrently. The ROI search never touches it. VT_E_ARG for tr NULL. */
 vt_status vt_tracker_set_edge_ws(vt_tracker *tr, vt_edge_ws *ws);
+
+/* The horizon row for scale_tol_permille's check from the next vt_tracker_step on
+ * (the pipeline passes the one its whole-road detector uses, every frame): known
+ * non-zero and |row| <= 4 * VT_MAX_HEIGHT, or known 0 to turn the check off (as
+ * after vt_tracker_init). VT_E_ARG for tr NULL or a row out of range (the tracker
+ * unchanged). */
+vt_status vt_tracker_set_horizon(vt_tracker *tr, int32_t known, int32_t row);
 
 /* A track list as vt_tracker_step writes it: every track that is not VT_TRACK_FREE has
  * an id > 0, unique among them, and an ordered box (left <= right, top <= bottom).

@@ -51,6 +51,7 @@ typedef struct {
     int32_t tmatch_max;
     int32_t part_permille;
     int32_t min_width;
+    int32_t scale_tol_permille;
 } vt_tracker_cfg;
 #define VT_MEAS_ROI_SEARCH ...
 #define VT_MEAS_EDGE_CURVES ...
@@ -71,6 +72,8 @@ typedef struct {
     vt_edge_template edges;
     int32_t tm_frames;
     vt_box tmpl_box;
+    int32_t ref_w;
+    int32_t ref_b;
 } vt_track;
 
 typedef struct {
@@ -79,6 +82,8 @@ typedef struct {
     int32_t dropped_full;
     vt_track tracks[...];
     vt_edge_ws *edge_ws;
+    int32_t horizon_known;
+    int32_t horizon_y;
     ...;
 } vt_tracker;
 
@@ -94,6 +99,7 @@ vt_status vt_tracker_init(vt_tracker *tr);
 vt_status vt_tracker_cfg_default(vt_tracker_cfg *cfg);
 vt_status vt_tracker_cfg_check(const vt_tracker_cfg *cfg);
 vt_status vt_tracker_set_edge_ws(vt_tracker *tr, vt_edge_ws *ws);
+vt_status vt_tracker_set_horizon(vt_tracker *tr, int32_t known, int32_t row);
 vt_status vt_track_list_check(const vt_track_out *tracks, int32_t n_tracks);
 vt_status vt_tracker_drop(vt_tracker *tr, int32_t id);
 vt_status vt_tracker_step(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_image_u8 *img,

@@ -338,6 +338,10 @@ class Pipeline:
                 # a handed-over vehicle keeps its one id: its boxes do not reach the tracker
                 trk_boxes = np.asarray([b for b in trk_boxes if not self._ho_covers(b)],
                                        np.int64).reshape(-1, 4)
+        if c.track:
+            # the tracker's scale check: the whole-road detector's horizon (C's rule)
+            self.tracker.set_horizon(self.horizon_y if self.horizon_y is not None else
+                                     c.road_camera.for_frame(h, w, None).horizon_y)
         rows = self.tracker.step(gray, trk_det, trk_boxes) if c.track else []
         if c.track:
             self._ho_history(rows)

@@ -21,7 +21,13 @@ best with the track's template (taken at its last real measurement) measures it 
 the correlation reaches tmatch_ncc_permille / 1000; that is neither a hit nor a miss.
 Parts (part_permille > 0): a detection mostly inside a live track starts none, a
 track mostly inside a larger unmatched detection restarts on it (same id), and a
-track mostly inside a larger live track is dropped. min_width drops thin tracks."""
+track mostly inside a larger live track is dropped. min_width drops thin tracks.
+Scale consistency (scale_tol_permille > 0, once set_horizon gave the horizon row; IVVI
+paper sec. 4's road restriction over time): a vehicle's width over its bottom row's
+distance below the horizon stays what it was at the last detection the track took; a
+measurement that changes it by more than the tolerance (plus 2 px in width and bottom)
+is refused, and a track whose frame brought no real measurement is dropped when its
+predicted box fails the same test."""
 from __future__ import annotations
 
 import math
@@ -62,6 +68,8 @@ class Track:
     edges: redge.Template | None = None
     tm_frames: int = 0
     tmpl_box: tuple = (0, 0, 0, 0)
+    ref_w: int = 0                 # width and bottom row after the last detection taken
+    ref_b: int = 0
 
     def box_from_state(self):
         x = self.kf.x[:, 0]
@@ -120,6 +128,24 @@ class Tracker:
         self.next_id = 1
         self.frame = 0
         self.dropped_full = 0
+        self.horizon: int | None = None    # set_horizon; None: no scale check
+
+    def set_horizon(self, row: int | None) -> None:
+        """The horizon row for the scale check from the next step on (None: off)."""
+        self.horizon = None if row is None else int(row)
+
+    def _scale_ok(self, t: Track, box) -> bool:
+        """c/tracker.c's vt__scale_ok: w / (b - h) within scale_tol_permille of the
+        reference, on the same integers (no rounding to reproduce)."""
+        tol = self.cfg.scale_tol_permille
+        if tol == 0 or self.horizon is None or t.ref_w < 1:
+            return True
+        r = t.ref_b - self.horizon
+        if r < 1:
+            return True
+        b = box[3] - self.horizon
+        d = (box[2] - box[0] + 1) * r - t.ref_w * b
+        return abs(d) * 1000 <= tol * t.ref_w * max(b, 0) + 2000 * (t.ref_w + r)
 
     def drop(self, tid: int) -> None:
         """End the live track `tid` now (c/tracker.c's vt_tracker_drop); ValueError if none."""
@@ -214,6 +240,7 @@ class Tracker:
         w = r - l + 1
         t.kf = bottom_edge_filter(l, b, r, **vars(c.model))
         t.aspect_q8 = ((b - top + 1) * 256 + w // 2) // w
+        t.ref_w, t.ref_b = w, b
         t.sides = Sides(True, l, r, c.init_max_change, c.init_max_change)
         t.box_from_state()
         if not measured:
@@ -238,6 +265,7 @@ class Tracker:
         t.state = CONFIRMED if c.confirm_hits <= 1 else TENTATIVE
         t.hits = 1
         t.aspect_q8 = (h * 256 + w // 2) // w
+        t.ref_w, t.ref_b = w, b
         t.sides = Sides(True, l, r, c.init_max_change, c.init_max_change)
         t.box_from_state()
         self._set_tmpl(t, img)
@@ -273,14 +301,15 @@ class Tracker:
                 meas = track_search(img, c.search, (l - m, b - w // 2, r + m, b + max(m, gate_b)),
                                     sides, grads)
             if meas is not None and abs(meas[0] - l) <= gate and abs(meas[2] - r) <= gate \
-                    and abs(meas[3] - b) <= gate_b:
+                    and abs(meas[3] - b) <= gate_b and self._scale_ok(t, meas):
                 self._update(t, meas[0], meas[3], meas[2])
                 t.sides = sides
                 measured[i] = True
                 self._hit(t, img)
                 if c.measurement == MEAS_EDGE_CURVES:
                     self._edge_refresh(t, img)
-            elif c.tmatch_radius > 0 and t.state == TENTATIVE and (tm := self._tmatch(t, img)) is not None:
+            elif c.tmatch_radius > 0 and t.state == TENTATIVE and (tm := self._tmatch(t, img)) is not None \
+                    and self._scale_ok(t, tm):
                 self._update(t, tm[0], tm[3], tm[2])
                 t.tm_frames += 1
             else:
@@ -312,6 +341,7 @@ class Tracker:
                 self._update(t, d[0], d[3], d[2])
                 t.aspect_q8 = ((d[3] - d[1] + 1) * 256 + dw // 2) // dw
                 t.box_from_state()
+                t.ref_w, t.ref_b = t.box[2] - t.box[0] + 1, t.box[3]   # the filtered box
                 t.sides.prev_left, t.sides.prev_right = d[0], d[2]
                 if not measured[bi]:
                     measured[bi] = True
@@ -365,7 +395,8 @@ class Tracker:
             l, top, r, b = t.box
             if t.misses > c.max_coast or (t.state == TENTATIVE and t.misses >= 2) or \
                     r < 0 or l >= w or b < 0 or top >= h or t.tm_frames > c.tmatch_max or \
-                    r - l + 1 < c.min_width:
+                    r - l + 1 < c.min_width or \
+                    ((t.misses > 0 or t.tm_frames > 0) and not self._scale_ok(t, t.box)):
                 t.state = FREE
         if c.part_permille > 0:
             for i, t in enumerate(self.tracks):
