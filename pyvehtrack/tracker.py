@@ -114,7 +114,12 @@ class Tracker:
     A view onto pyvehtrack.Pipeline: with a pyvehtrack Detector of the same engine
     (and its own lane stage) the whole frame, detection included, is one pipeline
     step; any other detector's boxes, and boxes passed to step(), enter the pipeline
-    as the frame's detections.
+    as the frame's detections. The scale check (cfg.scale_tol_permille) uses the
+    pipeline's horizon: the lanes' vanishing row once its lane stage found one, else the
+    whole-road detector's configured row (TuSimple's 0.458 of the height). With boxes
+    from elsewhere on a camera whose horizon lies far from that row, pass
+    TrackerCfg(scale_tol_permille=0): with a wrong horizon a vehicle's width over its
+    height below it changes as it comes nearer, and the check may refuse it.
 
     ttc_points: True or a dict of reference.ttc_scale.TtcScaleParams fields: the pipeline's
     block-scale TTC (Pipeline(ttc_points=...)) at frame rate fps (default 10), each Track's
