@@ -533,6 +533,14 @@ static int32_t vt__frac_q16(int32_t h, int32_t q)
     return (int32_t)vt__floor_div64((int64_t)h * q + 32768, 65536);
 }
 
+/* The horizon row of a frame h rows high, for the whole-road detector, the vehicle
+ * model and the tracker's scale check: the last lanes' vanishing row once known
+ * (clamped to +-VT_MAX_HEIGHT), else the road camera's configured fraction. */
+static int32_t vt__horizon(const vt_pipeline *p, int32_t h)
+{
+    return p->horizon_known ? p->horizon_y : vt__frac_q16(h, p->cfg.road_camera.horizon_q16);
+}
+
 /* The ego-lane detector on a detection frame (thesis sec. 2.4.2): the lanes' road
  * (else the fixed or the caller's, per the policy), shadow hypotheses and vertical-edge
  * verification into p->det (the tracker's input) and out, the boxes labelled `source`.
@@ -606,7 +614,7 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
             out->boxes[j].score = ws->res.box[j].score;
         }
     }
-    cam.horizon_y = p->horizon_known ? p->horizon_y : vt__frac_q16(frame->h, rc->horizon_q16);
+    cam.horizon_y = vt__horizon(p, frame->h);
     cam.hood_y = vt__frac_q16(frame->h, rc->hood_q16);
     cam.hood_y = cam.hood_y < 1 ? 1 : cam.hood_y;
     fx = (int32_t)(((int64_t)frame->w * rc->fx_per_w_q16 + 2048) >> 12);
@@ -964,8 +972,7 @@ static void vt__model(vt_pipeline *p, const vt_image_u8 *frame, vt_frame_out *ou
     int32_t k, fits = 0, w, h, horizon;
     int64_t wpr;
     *n_model = 0;
-    horizon = p->horizon_known ? p->horizon_y
-                               : vt__frac_q16(frame->h, p->cfg.road_camera.horizon_q16);
+    horizon = vt__horizon(p, frame->h);
     for (k = 0; k < p->n_trk && fits < p->cfg.model_fits; ++k) {
         const vt_box *b = &p->tracks[k].box;
         if (p->tracks[k].state != VT_TRACK_COASTING) {
@@ -1182,11 +1189,8 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
     }
     s = VT_OK;
     if (p->cfg.track) {
-        /* The tracker's scale check uses the whole-road detector's horizon (in range:
-         * clamped, or a fraction of the frame height). */
-        (void)vt_tracker_set_horizon(&p->tracker, 1,
-                                     p->horizon_known ? p->horizon_y
-                                                      : vt__frac_q16(frame->h, p->cfg.road_camera.horizon_q16));
+        /* in range (vt__horizon): the call cannot fail */
+        (void)vt_tracker_set_horizon(&p->tracker, 1, vt__horizon(p, frame->h));
         s = vt_tracker_step(&p->tracker, &p->cfg.tracker, frame, trk_det, boxes, n_boxes,
                             p->tracks, VT_MAX_TRACKS, &n_tracks);
     }

@@ -340,8 +340,7 @@ class Pipeline:
                                        np.int64).reshape(-1, 4)
         if c.track:
             # the tracker's scale check: the whole-road detector's horizon (C's rule)
-            self.tracker.set_horizon(self.horizon_y if self.horizon_y is not None else
-                                     c.road_camera.for_frame(h, w, None).horizon_y)
+            self.tracker.set_horizon(self._horizon(h, w))
         rows = self.tracker.step(gray, trk_det, trk_boxes) if c.track else []
         if c.track:
             self._ho_history(rows)
@@ -379,6 +378,11 @@ class Pipeline:
         return out
 
 
+    def _horizon(self, h: int, w: int) -> int:
+        """c/pipeline.c's vt__horizon: the last lanes' vanishing row, else the road
+        camera's row for this frame size."""
+        return self.cfg.road_camera.for_frame(h, w, self.horizon_y).horizon_y
+
     def _model(self, gray):
         """The vehicle model for the tracks the previous step left coasting
         (c/pipeline.c's vt__model; the rules in vt_pipeline_set_model_ws): the refined
@@ -386,8 +390,7 @@ class Pipeline:
         from types import SimpleNamespace  # noqa: PLC0415
         c = self.cfg
         h_img, w_img = gray.shape
-        horizon = self.horizon_y if self.horizon_y is not None else \
-            c.road_camera.for_frame(h_img, w_img, None).horizon_y
+        horizon = self._horizon(h_img, w_img)
         out, fit_ = [], []
         fits = 0
         for t in self.last_tracks:
