@@ -797,3 +797,134 @@ vt_status vt_fulldet_wide(vt_fulldet_state *st, vt_cls_box_ws *ws, const vt_full
     res->n_boxes = n_out;
     return VT_OK;
 }
+
+/* ------------------------------------------------------------ box regression */
+
+vt_status vt_box_regressor_check(const vt_box_regressor *r)
+{
+    int32_t k;
+    if (r == NULL || r->margin_permille < 0 || r->margin_permille > 1000 || r->sources < 1 ||
+        r->sources > (VT_FULLDET_SHADOW | VT_FULLDET_WINDOWS)) {
+        return VT_E_ARG;
+    }
+    for (k = 0; k < 4; ++k) {
+        const vt_svm_model *m = &r->side[k];
+        if (vt_svm_model_check(m) != VT_OK || m->kind != VT_DESC_HOG || m->win_w != r->side[0].win_w ||
+            m->win_h != r->side[0].win_h || m->dim != r->side[0].dim) {
+            return VT_E_ARG;
+        }
+    }
+    return VT_OK;
+}
+
+static int vt__box_in(const vt_box *b, const vt_image_u8 *img)
+{
+    return b->left >= 0 && b->top >= 0 && b->left <= b->right && b->top <= b->bottom && b->right < img->w &&
+           b->bottom < img->h;
+}
+
+static int32_t vt__clamp32(int64_t v, int32_t lo, int32_t hi)
+{
+    return v < lo ? lo : v > hi ? hi : (int32_t)v;
+}
+
+/* The checked core of vt_box_regress (r, img and *in already valid). */
+static vt_status vt__regress(vt_cls_box_ws *ws, const vt_box_regressor *r, const vt_image_u8 *img,
+                             const vt_box *in, vt_box *out)
+{
+    int64_t w = (int64_t)in->right - in->left + 1;
+    int64_t m = ((int64_t)r->margin_permille * w + 500) / 1000;
+    int64_t side[4];
+    int32_t o[4], k;
+    vt_box ctx, nb;
+    vt_status s;
+    ctx.left = vt__clamp32(in->left - m, 0, img->w - 1);
+    ctx.top = vt__clamp32(in->top - m, 0, img->h - 1);
+    ctx.right = vt__clamp32(in->right + m, 0, img->w - 1);
+    ctx.bottom = vt__clamp32(in->bottom + m, 0, img->h - 1);
+    s = vt_classify_box(ws, &r->side[0], img, &ctx, &o[0]);
+    for (k = 1; k < 4 && s == VT_OK; ++k) {
+        s = vt_svm_decision(&r->side[k], ws->desc, r->side[k].dim, &o[k]);
+    }
+    if (s != VT_OK) {
+        return s;
+    }
+    side[0] = in->left;
+    side[1] = in->top;
+    side[2] = in->right;
+    side[3] = in->bottom;
+    for (k = 0; k < 4; ++k) {
+        /* floor((o w + 2^15) / 2^16): |o w| < 2^31 * 2^14, no overflow */
+        int64_t d = (int64_t)o[k] * w + 32768;
+        side[k] += d >= 0 ? d >> 16 : -((-d + 65535) >> 16);
+    }
+    nb.left = vt__clamp32(side[0], 0, img->w - 1);
+    nb.top = vt__clamp32(side[1], 0, img->h - 1);
+    nb.right = vt__clamp32(side[2], 0, img->w - 1);
+    nb.bottom = vt__clamp32(side[3], 0, img->h - 1);
+    *out = (nb.right < nb.left || nb.bottom < nb.top) ? *in : nb;
+    return VT_OK;
+}
+
+vt_status vt_box_regress(vt_cls_box_ws *ws, const vt_box_regressor *r, const vt_image_u8 *img,
+                         const vt_box *in, vt_box *out)
+{
+    vt_status s;
+    if (in != NULL && out != NULL) {
+        *out = *in;
+    }
+    if (ws == NULL || in == NULL || out == NULL) {
+        return VT_E_ARG;
+    }
+    s = vt_box_regressor_check(r);
+    if (s == VT_OK) {
+        s = vt_image_u8_check(img);
+    }
+    if (s != VT_OK) {
+        return s;
+    }
+    if (!vt__box_in(in, img)) {
+        return VT_E_ARG;
+    }
+    return vt__regress(ws, r, img, in, out);
+}
+
+vt_status vt_fulldet_refine(vt_cls_box_ws *ws, const vt_box_regressor *r, const vt_image_u8 *img,
+                            vt_fulldet_result *res)
+{
+    vt_box moved[VT_MAX_BOXES];
+    int32_t i;
+    vt_status s;
+    if (ws == NULL || res == NULL) {
+        return VT_E_ARG;
+    }
+    s = vt_box_regressor_check(r);
+    if (s == VT_OK) {
+        s = vt_image_u8_check(img);
+    }
+    if (s != VT_OK) {
+        return s;
+    }
+    if (res->n_boxes < 0 || res->n_boxes > VT_MAX_BOXES) {
+        return VT_E_ARG;
+    }
+    for (i = 0; i < res->n_boxes; ++i) {
+        if (!vt__box_in(&res->box[i].box, img)) {
+            return VT_E_ARG;
+        }
+    }
+    /* every box first, so an error leaves res unchanged */
+    for (i = 0; i < res->n_boxes; ++i) {
+        moved[i] = res->box[i].box;
+        if ((res->box[i].source & r->sources) != 0) {
+            s = vt__regress(ws, r, img, &res->box[i].box, &moved[i]);
+            if (s != VT_OK) {
+                return s;
+            }
+        }
+    }
+    for (i = 0; i < res->n_boxes; ++i) {
+        res->box[i].box = moved[i];
+    }
+    return VT_OK;
+}

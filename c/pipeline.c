@@ -143,6 +143,7 @@ vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
     p->cls_ws = NULL;
     memset(&p->scorer, 0, sizeof(p->scorer));
     p->wide_model = NULL;
+    p->refine = NULL;
     p->horizon_y = 0;
     p->horizon_known = 0;
     p->flow_st = NULL;
@@ -233,6 +234,21 @@ vt_status vt_pipeline_set_wide(vt_pipeline *p, const vt_mlp_model *m, const vt_f
     p->wide_model = m;
     p->wide_cfg = *cfg;
     return VT_OK;
+}
+
+vt_status vt_pipeline_set_refine(vt_pipeline *p, const vt_box_regressor *r)
+{
+    vt_status s = VT_OK;
+    if (p == NULL) {
+        return VT_E_ARG;
+    }
+    if (r != NULL) {
+        s = vt_box_regressor_check(r);
+    }
+    if (s == VT_OK) {
+        p->refine = r;
+    }
+    return s;
 }
 
 vt_status vt_pipeline_set_flow_ws(vt_pipeline *p, vt_flow_state *st)
@@ -656,6 +672,10 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
         if (s == VT_OK) {
             s = vt_fulldet_verify(&ws->box, m, frame, p->cfg.verify_min, &ws->res);
         }
+    }
+    if (s == VT_OK && p->refine != NULL) {
+        /* box regression on the detector's own boxes (the ego boxes are not in res) */
+        s = vt_fulldet_refine(&ws->box, p->refine, frame, &ws->res);
     }
     if (s == VT_OK && p->wide_model != NULL) {
         /* the wide pass (side views, trucks): its scratch is the detector's, done with */

@@ -736,6 +736,43 @@ def fulldet_wide(st, ws, wcfg, win, model, cam, img: np.ndarray, road, out) -> n
     check("vt_fulldet_wide", lib.vt_fulldet_wide(st, ws, wcfg, win, model, cam, v, road, out),
           f"img {img.shape}, {_road_detail(road)}, {out.n_boxes} boxes")
     return np.frombuffer(ffi.buffer(out.box), SCORED_BOX_DTYPE)[:out.n_boxes].copy()
+
+
+def box_regressor(margin_permille: int, sources: int, win_w: int, win_h: int, w_q, w_shift, b_q16):
+    """A vt_box_regressor: four HOG linear models (rows of w_q: left, top, right, bottom;
+    w_shift and b_q16 one per side) over one window. Returns (regressor, keepalive)."""
+    w = np.asarray(w_q)
+    if w.ndim != 2 or w.shape[0] != 4:
+        raise ValueError(f"w_q: expected a (4, dim) integer array, got shape {w.shape}")
+    shifts, biases = np.asarray(w_shift).reshape(-1), np.asarray(b_q16).reshape(-1)
+    if shifts.shape != (4,) or biases.shape != (4,):
+        raise ValueError(f"w_shift, b_q16: expected 4 values each, got {shifts.shape} and {biases.shape}")
+    r = ffi.new("vt_box_regressor *")
+    r.margin_permille, r.sources = int(margin_permille), int(sources)
+    keep = []
+    for k in range(4):
+        m, buf = svm_model(int(lib.VT_DESC_HOG), win_w, win_h, w[k], int(shifts[k]), int(biases[k]))
+        r.side[k] = m[0]
+        keep.append(buf)
+    check("vt_box_regressor_check", lib.vt_box_regressor_check(r),
+          f"margin {margin_permille} permille, sources {sources}")
+    return r, keep
+
+
+def box_regress(ws, reg, img: np.ndarray, box) -> tuple:
+    """vt_box_regress of one inclusive box -> the moved box (l, t, r, b)."""
+    v = view(img, "img")
+    b = ffi.new("vt_box *", [int(x) for x in box])
+    o = ffi.new("vt_box *")
+    check("vt_box_regress", lib.vt_box_regress(ws, reg, v, b, o), f"img {img.shape}, box {list(box)}")
+    return (int(o.left), int(o.top), int(o.right), int(o.bottom))
+
+
+def fulldet_refine(ws, reg, img: np.ndarray, out) -> np.ndarray:
+    """vt_fulldet_refine on the result `out` in place -> its boxes (a copy)."""
+    v = view(img, "img")
+    check("vt_fulldet_refine", lib.vt_fulldet_refine(ws, reg, v, out), f"img {img.shape}, {out.n_boxes} boxes")
+    return np.frombuffer(ffi.buffer(out.box), SCORED_BOX_DTYPE)[:out.n_boxes].copy()
 # ================================================================ end fulldet.h
 
 # ================================================================ classify.h

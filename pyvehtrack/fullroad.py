@@ -98,6 +98,7 @@ class SvmModel:
     scan_sizes: tuple = ()
     settings: dict = field(default_factory=dict)
     wide: "MlpModel | None" = None   # the wide pass's window model (wide_* keys of the file)
+    refine: "BoxRegressor | None" = None   # box regression (refine_* keys of the file)
 
     def score_float(self, desc_q15: np.ndarray) -> float:
         """The model's decision value (real units) for a Q15 descriptor, in float."""
@@ -124,6 +125,59 @@ class MlpModel:
     scan_sizes: tuple = ()
     settings: dict = field(default_factory=dict)
     wide: "MlpModel | None" = None   # the wide pass's window model (wide_* keys of the file)
+    refine: "BoxRegressor | None" = None   # box regression (refine_* keys of the file)
+
+
+@dataclass
+class BoxRegressor:
+    """Box regression (vt_box_regressor, fulldet.h; tools/train_box_regressor.py): four
+    linear models on the HOG (win_w x win_h) of a box's context (the box grown by
+    margin_permille of its width, cut to the image) predict the offsets of its left,
+    top, right and bottom sides in box widths. w_q (4, dim) int16 in Q(w_shift[k]),
+    b_q16 (4,) Q16. sources: bits of the boxes moved (1 shadow, 2 windows)."""
+    win_w: int
+    win_h: int
+    w_q: np.ndarray
+    w_shift: np.ndarray
+    b_q16: np.ndarray
+    margin_permille: int = 250
+    sources: int = 3
+
+    def offsets_float(self, desc_q15: np.ndarray) -> np.ndarray:
+        """The four offsets (box widths) for a Q15 descriptor, in float (the oracle)."""
+        w = self.w_q.astype(np.float64) / (2.0 ** self.w_shift.astype(np.float64))[:, None]
+        return w @ (np.asarray(desc_q15, np.float64) / 32768) + self.b_q16 / 65536
+
+    def c(self):
+        """(vt_box_regressor *, keepalive)."""
+        return _native.box_regressor(self.margin_permille, self.sources, self.win_w, self.win_h, self.w_q,
+                                     self.w_shift, self.b_q16)
+
+
+_REFINE_KEYS = ("refine_win_w", "refine_win_h", "refine_w_q", "refine_w_shift", "refine_b_q16",
+                "refine_margin_permille", "refine_sources")
+
+
+def _refine_model(z, p) -> "BoxRegressor | None":
+    """The box regressor of a model file (keys refine_*), or None when it has none."""
+    have = [k for k in _REFINE_KEYS if k in z.files]
+    if not have:
+        return None
+    if len(have) != len(_REFINE_KEYS):
+        raise ValueError(f"model: {p}: a box regressor needs all of {', '.join(_REFINE_KEYS)}")
+    w = np.asarray(z["refine_w_q"])
+    if w.ndim != 2 or w.shape[0] != 4 or not np.issubdtype(w.dtype, np.integer) or \
+            (np.abs(w.astype(np.int64)) > 32767).any():
+        raise ValueError(f"model: {p}: refine_w_q must be a (4, dim) array of int16 values")
+    r = BoxRegressor(int(z["refine_win_w"]), int(z["refine_win_h"]), w.astype(np.int16),
+                     np.asarray(z["refine_w_shift"], np.int64).reshape(-1),
+                     np.asarray(z["refine_b_q16"], np.int64).reshape(-1),
+                     int(z["refine_margin_permille"]), int(z["refine_sources"]))
+    try:
+        r.c()   # validates window, dim, shifts, margin and sources against the C core
+    except (ValueError, RuntimeError) as e:
+        raise ValueError(f"model: {p}: box regressor: {e}") from None
+    return r
 
 
 _SETTINGS = {"score_offset": (-32768.0, 32767.0), "box_height": (1 / 256, 4.0),
@@ -195,19 +249,20 @@ def load_model(path) -> SvmModel | MlpModel:
     settings = _settings(z, p)
     thr = int(z["threshold_q16"]) if "threshold_q16" in z.files else 0
     wide = _wide_model(z, p)
+    refine = _refine_model(z, p)
     if mlp:
         arrs = [np.asarray(z[k]) for k in ("w1_q", "b1_q16", "w2_q")]
         if any(not np.issubdtype(a.dtype, np.integer) for a in arrs) or arrs[0].ndim != 2:
             raise ValueError(f"model: {p}: w1_q (2-D), b1_q16 and w2_q must be integer arrays")
         m = MlpModel(kind, int(z["win_w"]), int(z["win_h"]), arrs[0], int(z["w1_shift"]), arrs[1], arrs[2],
-                     int(z["w2_shift"]), int(z["b2_q16"]), thr, p, scan, settings, wide)
+                     int(z["w2_shift"]), int(z["b2_q16"]), thr, p, scan, settings, wide, refine)
         _c_model(m)   # validates shapes, shifts and window against the C core
         return m
     w = np.asarray(z["w_q"])
     if w.ndim != 1 or not np.issubdtype(w.dtype, np.integer) or (np.abs(w.astype(np.int64)) > 32767).any():
         raise ValueError(f"model: {p}: w_q must be a 1-D array of int16 values")
     m = SvmModel(kind, int(z["win_w"]), int(z["win_h"]), w.astype(np.int16), int(z["w_shift"]),
-                 int(z["bias_q16"]), thr, p, scan, settings, wide)
+                 int(z["bias_q16"]), thr, p, scan, settings, wide, refine)
     _c_model(m)   # validates window, dim and shift against the C core
     return m
 
@@ -254,6 +309,12 @@ def wide_setup(model, cfg: "FullRoadConfig") -> "tuple[MlpModel, WideConfig] | N
                    alt_height_b_permille=int(st.get("wide_alt_height_b_permille", d.alt_height_b_permille)),
                    alt_score_min=int(round(float(st.get("wide_alt_score_min", d.alt_score_min / 65536)) * 65536)))
     return wm, w
+
+
+def refine_setup(model, cfg: "FullRoadConfig") -> "BoxRegressor | None":
+    """The box regressor a detector runs: the model's, unless cfg.refine is False."""
+    r = getattr(model, "refine", None)
+    return None if r is None or cfg.refine is False else r
 
 
 def wide_c_cfg(w: WideConfig):
@@ -309,6 +370,7 @@ class FullRoadConfig:
     score_offset: float = 0.0
     verify_min: float | None = None
     wide: bool | None = None   # the wide pass: None = on when the model holds a wide model
+    refine: bool | None = None   # box regression: None = on when the model holds a box regressor
 
 
 def _c_cfg(cfg: FullDetConfig):
@@ -374,6 +436,10 @@ def setup(model=None, sources=SOURCES, camera: Camera | None = None, cfg: FullRo
         raise TypeError(f"cfg: expected a FullRoadConfig, got {type(cfg).__name__}")
     if cfg.wide is not None and not isinstance(cfg.wide, bool):
         raise TypeError(f"cfg.wide: expected True, False or None, got {cfg.wide!r}")
+    if cfg.refine is not None and not isinstance(cfg.refine, bool):
+        raise TypeError(f"cfg.refine: expected True, False or None, got {cfg.refine!r}")
+    if cfg.refine is True and getattr(model, "refine", None) is None:
+        raise ValueError("cfg.refine: the model holds no box regressor (see tools/train_box_regressor.py)")
     st = getattr(model, "settings", {}) or {}
     det = cfg.det
     if det is None:
@@ -430,6 +496,12 @@ def c_scorer(model):
     return sc, (m, keep, mlp)
 
 
+def refine_offsets_c(ws, reg, gray: np.ndarray, ctx) -> list:
+    """The C regressor's four Q16 offsets on one context box (vt_classify_box per side:
+    the values vt_box_regress adds), for the reference engine."""
+    return [_native.classify_box(ws, ffi.addressof(reg.side[k]), gray, list(ctx)) for k in range(4)]
+
+
 class FullRoadDetector:
     """Shadow hypotheses and classifier windows over the whole road, merged by NMS.
 
@@ -457,6 +529,11 @@ class FullRoadDetector:
             self._wide_m = _c_model(self.wide[0])
             self._wide_c = wide_c_cfg(self.wide[1])
             self._wide_ws = _native.box_ws_new()
+        # box regression: (BoxRegressor, C regressor, keepalive, its scratch) or None
+        self.refine = refine_setup(self.model, cfg)
+        if self.refine is not None:
+            self._ref_c = self.refine.c()
+            self._ref_ws = _native.box_ws_new()
         self._cfg_c = _c_cfg(det)
         self._state = ffi.new("vt_fulldet_state *")
         self._out = ffi.new("vt_fulldet_result *")
@@ -545,6 +622,8 @@ class FullRoadDetector:
             if self.verify_min_q16 is not None:
                 a = _native.fulldet_verify(self._vws, self._vmodel, gray, self.verify_min_q16, self._out)
                 self.last_stats["n_verified"] = len(a)
+            if self.refine is not None:
+                a = _native.fulldet_refine(self._ref_ws, self._ref_c[0], gray, self._out)
             if self.wide is not None:
                 n0 = int(self._out.n_boxes)
                 a = _native.fulldet_wide(self._state, self._wide_ws, self._wide_c, ffi.addressof(self._cfg_c, "win"),
@@ -561,6 +640,10 @@ class FullRoadDetector:
             if self.verify_min_q16 is not None:
                 arr = rfd.verify_boxes(arr, lambda l, t, r, b: self._score_box(gray, l, t, r, b), self.verify_min_q16)
                 self.last_stats["n_verified"] = len(arr)
+            if self.refine is not None:
+                arr = rfd.refine(arr, lambda l, t, r, b: refine_offsets_c(self._ref_ws, self._ref_c[0], gray,
+                                                                           (l, t, r, b)),
+                                 self.refine.margin_permille, self.refine.sources, w, h)
             if self.wide is not None:
                 n0 = len(arr)
                 arr = rfd.wide(gray, road_r, cam, self.det_cfg.win, self.wide[1],
@@ -575,4 +658,5 @@ class FullRoadDetector:
 
 
 __all__ = ["Camera", "SvmModel", "MlpModel", "FullRoadConfig", "FullRoadDetector", "load_model", "default_model", "SOURCES",
-           "DEFAULT_SOURCES", "setup", "road_camera_to_c", "c_scorer", "wide_setup", "wide_c_cfg", "WideConfig"]
+           "DEFAULT_SOURCES", "setup", "road_camera_to_c", "c_scorer", "wide_setup", "wide_c_cfg", "WideConfig",
+           "BoxRegressor", "refine_setup", "refine_offsets_c"]

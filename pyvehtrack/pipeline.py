@@ -203,6 +203,7 @@ class Pipeline:
         self.model, self._score_fn, self.whole_road = None, None, model is not None
         self._cmodel = self._cscorer = None
         self._wide = None   # the wide pass: (MlpModel, WideConfig, C model, C cfg, box ws) or None
+        self._refine = None   # box regression: (BoxRegressor, (C regressor, keepalive), box ws) or None
         if model is None:
             if road_camera is not None or fullroad is not None:
                 raise ValueError("road_camera and fullroad configure the whole-road detector: pass model= too")
@@ -236,6 +237,9 @@ class Pipeline:
             wide = _fr.wide_setup(_m, _frc)   # the model's wide pass (vt_pipeline_set_wide)
             if wide is not None:
                 self._wide = (*wide, _fr._c_model(wide[0]), _fr.wide_c_cfg(wide[1]), _native.box_ws_new())
+            reg = _fr.refine_setup(_m, _frc)   # the model's box regressor (vt_pipeline_set_refine)
+            if reg is not None:
+                self._refine = (reg, reg.c(), _native.box_ws_new())
             if _frc.verify_min is not None:   # the model's second stage (vt_fulldet_verify)
                 self._ccfg.verify, self._ccfg.verify_min = 1, int(round(_frc.verify_min * 65536))
         self.model, self.road_camera, self._det_cfg = _m, cam, det
@@ -418,6 +422,8 @@ class Pipeline:
                 if self._wide is not None:
                     _native.check("vt_pipeline_set_wide",
                                   lib.vt_pipeline_set_wide(self._p, self._wide[2][0], self._wide[3]))
+                if self._refine is not None:
+                    _native.check("vt_pipeline_set_refine", lib.vt_pipeline_set_refine(self._p, self._refine[1][0]))
             if "flow" in self.cfg.sources:
                 # the overtaking stage's state (sizeof(vt_flow_state), ~1.9 MB at the default
                 # capacities): one per Pipeline, emptied by every attach
@@ -481,8 +487,13 @@ class Pipeline:
             if self.whole_road and self._wide is not None:
                 wm, wcfg, (cm, _keep), _c, wws = self._wide
                 wide = (wcfg, lambda g, l, t, r, b: _native.classify_box_mlp(wws, cm, g, [l, t, r, b]))
+            refine = None
+            if self.whole_road and self._refine is not None:
+                reg, (creg, _keep), rws = self._refine
+                refine = (reg.margin_permille, reg.sources,
+                          lambda g, l, t, r, b: _fr.refine_offsets_c(rws, creg, g, (l, t, r, b)))
             self._ref = rpipe.Pipeline(rcfg, caps, camera=geom, score=score,
-                                       box_score=box_score, wide=wide)
+                                       box_score=box_score, wide=wide, refine=refine)
         self.set_ego_speed(self.ego_speed)
 
     @property

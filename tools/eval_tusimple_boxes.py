@@ -122,7 +122,10 @@ def main(argv=None) -> int:
         scores = res.scores if res.scores is not None else [None] * len(res.boxes)
         boxes = [[int(v) for v in b] + ([round(float(s), 4)] if s is not None else [])
                  for b, s in zip(res.boxes, scores)]
-        preds.append({"frame": i, "file": e["file_name"], "boxes": boxes})
+        entry = {"frame": i, "file": e["file_name"], "boxes": boxes}
+        if res.sources is not None:
+            entry["sources"] = [str(x) for x in res.sources]   # extra key: eval-boxes reads file and boxes only
+        preds.append(entry)
         if args.draw:
             Path(args.draw).mkdir(parents=True, exist_ok=True)
             for b in e["bbox"]:

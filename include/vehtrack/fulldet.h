@@ -351,4 +351,47 @@ vt_status vt_fulldet_wide(vt_fulldet_state *st, vt_cls_box_ws *ws, const vt_full
                           const vt_image_u8 *img, const vt_road_area *road,
                           vt_fulldet_result *res);
 
+/* ------------------------------------------------------------ box regression
+ * The window grid cuts every box to one aspect and the merge step averages
+ * neighbours, so many boxes sit on a vehicle but miss its outline (IoU 0.2-0.5
+ * with it: on tusimple 'val' 57 of the 141 false boxes >= 32 px). A box regressor
+ * (bounding-box regression as in R-CNN, on this library's HOG) moves each side of
+ * a box by an offset predicted from the box's surroundings: four linear models
+ * (vt_svm_model, one per side: left, top, right, bottom) share one HOG descriptor
+ * of the context box, the box grown by margin_permille of its width on every side
+ * and cut to the image. The four models must have the same kind (VT_DESC_HOG),
+ * window and dim; their Q16 "score" is the side's offset in box widths.
+ * Trained by tools/train_box_regressor.py (ridge regression, scikit-learn). */
+typedef struct {
+    int32_t margin_permille; /* context margin, 0..1000 of the box width         */
+    int32_t sources;         /* boxes moved: VT_FULLDET_SHADOW | VT_FULLDET_WINDOWS
+                                bits of their source, 1..3                     */
+    vt_svm_model side[4];    /* offsets of left, top, right, bottom (Q16 widths) */
+} vt_box_regressor;
+
+/* VT_OK if margin and sources are in range and the four models pass
+ * vt_svm_model_check with one kind, window and dim; else VT_E_ARG (NULL too). */
+vt_status vt_box_regressor_check(const vt_box_regressor *r);
+
+/* One box of img (inclusive bounds inside img) moved by r. w = right - left + 1,
+ * m = (margin_permille w + 500) / 1000 (integer division); the context box is
+ * left - m .. right + m, top - m .. bottom + m, cut to the image; it is scored by
+ * vt_classify_box with side[0] (classify.h: area resampling to the model's window,
+ * its HOG, the dot product) and by vt_svm_decision with side[1..3] on the same
+ * descriptor, giving o_k (Q16). Each side moves by floor((o_k w + 32768) / 65536)
+ * (exact in int64: rounding half up), then left and right are cut to 0..w_img - 1,
+ * top and bottom to 0..h_img - 1; if then right < left or bottom < top the box is
+ * kept as it was. Errors: NULL argument -> VT_E_ARG; r as vt_box_regressor_check;
+ * img as vt_image_u8_check; a box outside img -> VT_E_ARG. On error *out = *in
+ * when both are given. Cost: one vt_classify_box plus three dot products. */
+vt_status vt_box_regress(vt_cls_box_ws *ws, const vt_box_regressor *r, const vt_image_u8 *img,
+                         const vt_box *in, vt_box *out);
+
+/* Every box of res whose source is one of r->sources moved by vt_box_regress (the
+ * others, and every score and source, unchanged; order kept). Errors as
+ * vt_box_regress and res->n_boxes outside 0..VT_MAX_BOXES -> VT_E_ARG; on error
+ * res is unchanged. */
+vt_status vt_fulldet_refine(vt_cls_box_ws *ws, const vt_box_regressor *r, const vt_image_u8 *img,
+                            vt_fulldet_result *res);
+
 #endif /* VEHTRACK_FULLDET_H */

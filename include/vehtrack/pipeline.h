@@ -243,6 +243,7 @@ typedef struct {
     vt_window_scorer scorer;     /* its classifier (score NULL: none)                     */
     const vt_mlp_model *wide_model; /* the wide pass's model (NULL: off; vt_pipeline_set_wide) */
     vt_fulldet_wide_cfg wide_cfg;   /* and its settings (a checked copy)                     */
+    const vt_box_regressor *refine; /* box regression (NULL: off; vt_pipeline_set_refine)   */
     int32_t horizon_y;           /* the last lanes' vanishing row, input px               */
     int32_t horizon_known;       /* 1 once the lanes gave one (this run)                  */
     vt_flow_state *flow_st;      /* the overtaking stage's state (NULL: none attached)    */
@@ -404,6 +405,15 @@ vt_status vt_pipeline_set_cls_ws(vt_pipeline *p, vt_pipe_cls_ws *ws, const vt_wi
  * vt_pipeline_init does. VT_E_ARG for p NULL or cfg NULL with m; m and cfg as
  * vt_mlp_model_check / vt_fulldet_wide_cfg_check. On error nothing changes. */
 vt_status vt_pipeline_set_wide(vt_pipeline *p, const vt_mlp_model *m, const vt_fulldet_wide_cfg *cfg);
+
+/* Turn on box regression (vt_fulldet_refine, vehtrack/fulldet.h: each side of a
+ * whole-road box moved by the offset a regressor predicts from the box's surroundings):
+ * on every detection frame that runs vt_fulldet, after it and after the second stage
+ * when cfg.verify, before the wide pass, using the attached vt_pipe_cls_ws as scratch.
+ * The ego-lane detector's boxes (VT_SRC_EGO) are not moved. r is kept by pointer (it
+ * must outlive the run; may live in flash). r NULL turns it off, as vt_pipeline_init
+ * does. VT_E_ARG for p NULL; r as vt_box_regressor_check. On error nothing changes. */
+vt_status vt_pipeline_set_refine(vt_pipeline *p, const vt_box_regressor *r);
 
 /* Attach the caller's workspace for the tracker's edge-curve measurement
  * (cfg.tracker.measurement == VT_MEAS_EDGE_CURVES; vehtrack/edge_track.h), as

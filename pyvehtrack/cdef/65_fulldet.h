@@ -96,3 +96,13 @@ vt_status vt_fulldet_wide(vt_fulldet_state *st, vt_cls_box_ws *ws, const vt_full
                           const vt_win_cfg *win, const vt_mlp_model *m, const vt_camera_min *cam,
                           const vt_image_u8 *img, const vt_road_area *road,
                           vt_fulldet_result *res);
+typedef struct {
+    int32_t margin_permille;
+    int32_t sources;
+    vt_svm_model side[4];
+} vt_box_regressor;
+vt_status vt_box_regressor_check(const vt_box_regressor *r);
+vt_status vt_box_regress(vt_cls_box_ws *ws, const vt_box_regressor *r, const vt_image_u8 *img,
+                         const vt_box *in, vt_box *out);
+vt_status vt_fulldet_refine(vt_cls_box_ws *ws, const vt_box_regressor *r, const vt_image_u8 *img,
+                            vt_fulldet_result *res);

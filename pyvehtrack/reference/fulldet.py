@@ -17,6 +17,8 @@ The composition the IVVI paper (sec. 4/5) and the GIST paper (sec. III) describe
      candidate whose IoU with it is at least merge_iou_permille / 1000 (rounded half up);
   6. (verify_boxes, a separate call) a second classifier on the square standing on
      each box's bottom keeps the boxes it scores >= its minimum;
+  6b. (refine, a separate call) box regression: each side of a box moved by an
+     offset four linear models predict from the HOG of the box's surroundings;
   7. (wide, a separate call) the wide pass: boxes flatter than 1:2 (side views,
      trucks) from a second window grid with a wider vehicle band, scored by a wide
      window model, thinned by NMS and added where no box stands yet.
@@ -151,6 +153,41 @@ def verify_boxes(boxes: np.ndarray, score_box, score_min: int) -> np.ndarray:
         if sc >= score_min:
             out.append([l, t, r, b, sc, int(row[5])])
     return np.array(out, np.int64).reshape(-1, 6)
+
+
+def context_box(box, margin_permille: int, w_img: int, h_img: int) -> tuple:
+    """The box grown by margin_permille of its width on every side, cut to the image
+    (twin of vt_box_regress's context)."""
+    l, t, r, b = (int(v) for v in box)
+    m = (margin_permille * (r - l + 1) + 500) // 1000
+    return (min(max(l - m, 0), w_img - 1), min(max(t - m, 0), h_img - 1),
+            min(max(r + m, 0), w_img - 1), min(max(b + m, 0), h_img - 1))
+
+
+def regress_box(box, offsets_q16, w_img: int, h_img: int) -> tuple:
+    """Twin of vt_box_regress's move: side k += round-half-up(o_k (r - l + 1) / 2^16),
+    cut to the image; a box turned inside out is kept as it was."""
+    l, t, r, b = (int(v) for v in box)
+    wb = r - l + 1
+    new = [v + Fraction(int(o) * wb, 65536) for v, o in zip((l, t, r, b), offsets_q16)]
+    new = [int(np.floor(v + Fraction(1, 2))) for v in new]
+    lim = (w_img - 1, h_img - 1, w_img - 1, h_img - 1)
+    new = [min(max(v, 0), m) for v, m in zip(new, lim)]
+    if new[2] < new[0] or new[3] < new[1]:
+        return (l, t, r, b)
+    return tuple(new)
+
+
+def refine(boxes: np.ndarray, offsets, margin_permille: int, sources: int, w_img: int, h_img: int) -> np.ndarray:
+    """Box regression (twin of vt_fulldet_refine): every box whose source bit is in
+    `sources` is moved by regress_box with offsets(l, t, r, b) -> four Q16 ints, the
+    regressor's output on its context box; scores, sources and order unchanged."""
+    out = np.asarray(boxes, np.int64).reshape(-1, 6).copy()
+    for row in out:
+        if int(row[5]) & sources:
+            ctx = context_box(row[:4], margin_permille, w_img, h_img)
+            row[:4] = regress_box(row[:4], offsets(*ctx), w_img, h_img)
+    return out
 
 
 def wide(gray: np.ndarray, road, cam: rw.Camera, win, wcfg, score_box, boxes, *, max_windows: int = 4096,

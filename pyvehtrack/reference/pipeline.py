@@ -182,7 +182,7 @@ class Pipeline:
     """One run over a video: step(gray) per frame, in order."""
 
     def __init__(self, cfg: PipelineRefConfig | None = None, caps: Capacities | None = None,
-                 camera=None, score=None, box_score=None, wide=None):
+                 camera=None, score=None, box_score=None, wide=None, refine=None):
         """camera: None, or (reference.camera.CameraParams, RangeParams) for frames of
         exactly the camera's img_w x img_h. score: None (the ego-lane detector), or the
         classifier of the whole-road detector, score(level_image, level, size, x, y) ->
@@ -190,9 +190,13 @@ class Pipeline:
         box_score(gray, l, t, r, b) -> int (cfg.verify_min; see reference.fulldet.verify_boxes).
         wide: None, or (shared.WideConfig, wide_score(gray, l, t, r, b) -> int): the
         whole-road detector's wide pass after the second stage (reference.fulldet.wide;
-        vt_pipeline_set_wide)."""
+        vt_pipeline_set_wide). refine: None, or (margin_permille, sources,
+        offsets(gray, l, t, r, b) -> four Q16 ints on a context box): box regression of
+        the whole-road detector's boxes after the second stage, before the wide pass
+        (reference.fulldet.refine; vt_pipeline_set_refine)."""
         self.cfg = cfg or PipelineRefConfig()
         self.wide = wide
+        self.refine = refine
         self.score = score
         self.box_score = box_score
         if self.cfg.verify_min is not None and box_score is None:
@@ -620,6 +624,9 @@ class Pipeline:
                              if self.box_score is not None else None)
         if c.verify_min is not None:
             arr = rfd.verify_boxes(arr, lambda l, t, r, b: self.box_score(gray, l, t, r, b), c.verify_min)
+        if self.refine is not None:
+            margin, rsrc, offsets = self.refine
+            arr = rfd.refine(arr, lambda l, t, r, b: offsets(gray, l, t, r, b), margin, rsrc, w, h)
         if self.wide is not None:
             wcfg, wscore = self.wide
             arr = rfd.wide(gray, road, cam, c.fulldet.win, wcfg, lambda l, t, r, b: wscore(gray, l, t, r, b), arr,
