@@ -599,6 +599,8 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
                                   const vt_road_area *given, vt_frame_out *out, int32_t n0)
 {
     int32_t k, j, n_hyp0 = out->n_hyp; /* the ego hypotheses (0 without VT_SRC_EGO) */
+    int32_t n_raw;
+    vt_box raw[VT_MAX_BOXES]; /* the detector's boxes before box regression */
     vt_fulldet_cfg fc;
     vt_camera_min cam;
     vt_pipe_cls_ws *ws = p->cls_ws;
@@ -673,8 +675,14 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
             s = vt_fulldet_verify(&ws->box, m, frame, p->cfg.verify_min, &ws->res);
         }
     }
+    n_raw = s == VT_OK ? ws->res.n_boxes : 0;
+    for (i = 0; i < n_raw; ++i) {
+        raw[i] = ws->res.box[i].box;
+    }
     if (s == VT_OK && p->refine != NULL) {
-        /* box regression on the detector's own boxes (the ego boxes are not in res) */
+        /* box regression on the detector's own boxes (the ego boxes are not in res); the
+         * tracker keeps the boxes as detected (raw), whose bottom edge and sides its ROI
+         * search measures */
         s = vt_fulldet_refine(&ws->box, p->refine, frame, &ws->res);
     }
     if (s == VT_OK && p->wide_model != NULL) {
@@ -694,7 +702,9 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
     }
     k = n0;
     for (i = 0; i < ws->res.n_boxes; ++i) {
-        const vt_box *b = &ws->res.box[i].box;
+        /* b: the box as detected (the tracker's input, and what NMS tests against the ego
+         * boxes); the reported box is the regressed one */
+        const vt_box *b = i < n_raw ? &raw[i] : &ws->res.box[i].box;
         for (j = 0; j < n0; ++j) {
             if (vt__box_suppress(&p->det.box[j], b, fc.nms_iou_permille, fc.nms_contain_permille)) {
                 break;
@@ -711,7 +721,7 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
             continue;
         }
         p->det.box[k] = *b;
-        out->boxes[k].box = *b;
+        out->boxes[k].box = ws->res.box[i].box;
         out->boxes[k].source = ws->res.box[i].source == VT_FULLDET_WINDOWS ? VT_SRC_CLASSIFIER
                                                                             : VT_SRC_SHADOW;
         out->boxes[k].score = ws->res.box[i].score;

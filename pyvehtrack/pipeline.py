@@ -489,9 +489,10 @@ class Pipeline:
                 wide = (wcfg, lambda g, l, t, r, b: _native.classify_box_mlp(wws, cm, g, [l, t, r, b]))
             refine = None
             if self.whole_road and self._refine is not None:
+                from .fullroad import refine_offsets_c  # noqa: PLC0415
                 reg, (creg, _keep), rws = self._refine
                 refine = (reg.margin_permille, reg.sources,
-                          lambda g, l, t, r, b: _fr.refine_offsets_c(rws, creg, g, (l, t, r, b)))
+                          lambda g, l, t, r, b: refine_offsets_c(rws, creg, g, (l, t, r, b)))
             self._ref = rpipe.Pipeline(rcfg, caps, camera=geom, score=score,
                                        box_score=box_score, wide=wide, refine=refine)
         self.set_ego_speed(self.ego_speed)

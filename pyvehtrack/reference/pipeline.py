@@ -310,12 +310,15 @@ class Pipeline:
             road, source, hyp, boxes, stats = self._detect_ego(gray, lane_road, given, h, w)
         elif lane_road is not None:
             road, source = lane_road, "lanes"
-        trk_det, trk_boxes = det_frame, boxes
+        # the tracker's boxes: the whole-road detector's as detected, before box regression
+        tboxes = self._trk_whole if det_frame and whole and not ext else boxes
+        trk_det, trk_boxes = det_frame, tboxes
         flow_ready, model_fits = False, 0
         if self.flow is not None or (SRC_MODEL in c.sources and c.track):
             box_source = [box_source] * len(boxes) if isinstance(box_source, str) else list(box_source)
             scores = [None] * len(boxes) if scores is None else list(scores)
             boxes = boxes[:self.caps.max_boxes] if ext else boxes
+            tboxes = tboxes if det_frame and whole and not ext else boxes
             extra, extra_src, extra_sc = [], [], []
             fresh, n_model = False, 0
             if self.flow is not None:
@@ -333,7 +336,8 @@ class Pipeline:
             boxes = np.concatenate([boxes, np.asarray(extra[:room], np.int64).reshape(-1, 4)])
             box_source += extra_src[:room]
             scores += extra_sc[:room]
-            trk_boxes = boxes
+            trk_boxes = np.concatenate([np.asarray(tboxes, np.int64).reshape(-1, 4),
+                                        np.asarray(extra[:room], np.int64).reshape(-1, 4)])
             if not det_frame:
                 trk_det = fresh or n_model > 0
                 if not trk_det:
@@ -624,6 +628,7 @@ class Pipeline:
                              if self.box_score is not None else None)
         if c.verify_min is not None:
             arr = rfd.verify_boxes(arr, lambda l, t, r, b: self.box_score(gray, l, t, r, b), c.verify_min)
+        raw = np.asarray(arr, np.int64).reshape(-1, 6)[:, :4].copy()   # as detected: the tracker's boxes
         if self.refine is not None:
             margin, rsrc, offsets = self.refine
             arr = rfd.refine(arr, lambda l, t, r, b: offsets(gray, l, t, r, b), margin, rsrc, w, h)
@@ -640,8 +645,11 @@ class Pipeline:
                                   max_boxes=self.caps.max_boxes)[0].hypotheses
             hyp = np.concatenate([hyp, np.asarray(more, np.int64).reshape(-1, 3)])[:self.caps.max_hypotheses]
         boxes, src, scores = [list(b) for b in ego_boxes], [SRC_EGO] * len(ego_boxes), list(ego_scores)
-        for row in arr:
-            b = [int(v) for v in row[:4]]
+        tboxes = [list(b) for b in ego_boxes]
+        for i, row in enumerate(arr):
+            # b: the box as detected (the tracker's input, tested against the ego boxes);
+            # reported: the regressed one
+            b = [int(v) for v in (raw[i] if i < len(raw) else row[:4])]
             hit = next((j for j, e in enumerate(ego_boxes)
                         if rw.suppresses(e, b, fc.nms_iou_permille, fc.nms_contain_permille)), None)
             if hit is not None:   # the ego box's score: the best the classifier gave the same vehicle
@@ -649,11 +657,13 @@ class Pipeline:
                 continue
             if len(boxes) >= self.caps.max_boxes:
                 continue
-            boxes.append(b)
+            boxes.append([int(v) for v in row[:4]])
+            tboxes.append(b)
             src.append(SRC_CLASSIFIER if int(row[5]) == 2 else SRC_SHADOW)
             scores.append(int(row[4]))
         # an ego box the classifier did not see scores at the detector's threshold
         scores = [fc.window_score_min if v is None else v for v in scores]
+        self._trk_whole = np.asarray(tboxes, np.int64).reshape(-1, 4)
         return road, source, np.asarray(hyp, np.int64).reshape(-1, 3), np.asarray(boxes, np.int64).reshape(-1, 4), \
             src, scores, stats
 
