@@ -25,6 +25,11 @@ score_offset adds on top), "nms_iou_permille", "nms_contain_permille",
 WindowConfig.veh_w_min_m / veh_w_max_m) and "verify_min" (float: a second stage, the
 built-in HOG 64x64 MLP on each box, keeps boxes it scores >= this; vt_fulldet_verify).
 Explicit arguments win.
+Optionally a box regressor (tools/train_box_regressor.py; BoxRegressor, vt_box_regressor):
+refine_win_w, refine_win_h, refine_w_q (int16, 4 x dim: left, top, right, bottom),
+refine_w_shift (4), refine_b_q16 (4), refine_margin_permille and refine_sources (bits, 1
+shadow, 2 windows), all or none; it moves each reported box's sides after the second
+stage (FullRoadConfig(refine=False): off). A pipeline's tracker keeps the boxes as detected.
 Files written before issue 10 name the three limits "nms_iou", "nms_contain", "merge_iou"
 (float fractions): they are still read, x 1000 when that is a whole number of permille
 as written (0.2 -> 200), with a DeprecationWarning (shared.FULLDET_RENAMED).
