@@ -397,6 +397,27 @@ vt_status vt_fulldet_rerank(vt_fulldet_state *st, vt_cls_box_ws *ws, const vt_ml
     return vt__nms_merge(st, cfg, res);
 }
 
+static int vt__box_in(const vt_box *b, const vt_image_u8 *img)
+{
+    return b->left >= 0 && b->top >= 0 && b->left <= b->right && b->top <= b->bottom && b->right < img->w &&
+           b->bottom < img->h;
+}
+
+/* A result a second pass may work on: 0..VT_MAX_BOXES boxes, each inside img. */
+static int vt__result_in(const vt_fulldet_result *res, const vt_image_u8 *img)
+{
+    int32_t i;
+    if (res->n_boxes < 0 || res->n_boxes > VT_MAX_BOXES) {
+        return 0;
+    }
+    for (i = 0; i < res->n_boxes; ++i) {
+        if (!vt__box_in(&res->box[i].box, img)) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
 vt_status vt_fulldet_verify(vt_cls_box_ws *ws, const vt_mlp_model *m, const vt_image_u8 *img,
                             int32_t score_min, vt_fulldet_result *res)
 {
@@ -412,15 +433,8 @@ vt_status vt_fulldet_verify(vt_cls_box_ws *ws, const vt_mlp_model *m, const vt_i
     if (s != VT_OK) {
         return s;
     }
-    if (res->n_boxes < 0 || res->n_boxes > VT_MAX_BOXES) {
+    if (!vt__result_in(res, img)) {
         return VT_E_ARG;
-    }
-    for (i = 0; i < res->n_boxes; ++i) {
-        const vt_box *b = &res->box[i].box;
-        if (b->left < 0 || b->top < 0 || b->left > b->right || b->top > b->bottom ||
-            b->right >= img->w || b->bottom >= img->h) {
-            return VT_E_ARG;
-        }
     }
     /* score everything first, so an error leaves res unchanged */
     {
@@ -817,12 +831,6 @@ vt_status vt_box_regressor_check(const vt_box_regressor *r)
     return VT_OK;
 }
 
-static int vt__box_in(const vt_box *b, const vt_image_u8 *img)
-{
-    return b->left >= 0 && b->top >= 0 && b->left <= b->right && b->top <= b->bottom && b->right < img->w &&
-           b->bottom < img->h;
-}
-
 static int32_t vt__clamp32(int64_t v, int32_t lo, int32_t hi)
 {
     return v < lo ? lo : v > hi ? hi : (int32_t)v;
@@ -905,13 +913,8 @@ vt_status vt_fulldet_refine(vt_cls_box_ws *ws, const vt_box_regressor *r, const 
     if (s != VT_OK) {
         return s;
     }
-    if (res->n_boxes < 0 || res->n_boxes > VT_MAX_BOXES) {
+    if (!vt__result_in(res, img)) {
         return VT_E_ARG;
-    }
-    for (i = 0; i < res->n_boxes; ++i) {
-        if (!vt__box_in(&res->box[i].box, img)) {
-            return VT_E_ARG;
-        }
     }
     /* every box first, so an error leaves res unchanged */
     for (i = 0; i < res->n_boxes; ++i) {
