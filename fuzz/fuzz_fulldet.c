@@ -7,10 +7,15 @@
  * the HOG scorer, the MLP scorer or a fuzz scorer whose scores and statuses
  * come from the bytes (an error mid-frame must come back as the call's status);
  * then, from the bytes, re-ranking (vt_fulldet_rerank, its weight and NULLs fuzzed)
- * and the wide pass (its height choice among the fuzzed fields).
+ * and the wide pass (its height choice among the fuzzed fields), then box
+ * regression (vt_fulldet_refine, vt_box_regress: a regressor whose weights,
+ * shifts, biases, margin and sources come from the bytes, extreme offsets and
+ * boxes outside the image included).
  * vt_nms on boxes from the bytes (inverted boxes, equal scores, INT32 edges) in
  * an exact-size array. After a call: boxes are within capacity and the frame,
- * ordered by score, and NMS keeps a prefix in score order. */
+ * ordered by score, NMS keeps a prefix in score order, and box regression moves
+ * only its sources' boxes, inside the frame, scores and order kept (on error:
+ * nothing changed). */
 #include "fuzz.h"
 #include "vehtrack/fulldet.h"
 
@@ -22,6 +27,8 @@ static vt_mlp_scorer g_mlp_sc;
 static vt_cls_box_ws g_box_ws; /* the wide pass's and re-ranking's classifier scratch */
 static vt_fulldet_result g_keep; /* the result before re-ranking (unchanged on error) */
 static fz *g_f; /* the bytes the fuzz scorer reads */
+static vt_box_regressor g_reg;
+static int16_t g_reg_w[4][324]; /* HOG 32x32 at most: (32/8 - 1)^2 * 36 */
 static int32_t g_calls;
 
 static vt_status fz_score(void *ctx, const vt_image_u8 *level_img, const vt_window *win, int32_t *score)
@@ -84,6 +91,81 @@ static void nms(fz *f)
         FZ_ASSERT(n_out >= 0 && n_out <= n);
         for (i = 1; i < n_out; i++) {
             FZ_ASSERT(b[i - 1].score >= b[i].score);
+        }
+    }
+}
+
+/* Box regression on the result so far: a regressor from the bytes (a small HOG
+ * window so one input stays fast; weights, shifts and biases often at their
+ * edges, which move a side far outside the frame). */
+static void refine(fz *f, const vt_image_u8 *img, vt_fulldet_result *res)
+{
+    static const int32_t wins[3] = {16, 24, 32};
+    int32_t win = wins[fz_u8(f) % 3u], dim = (win / 8 - 1) * (win / 8 - 1) * 36;
+    int32_t k, i;
+    uint8_t rn = fz_u8(f);
+    vt_status s;
+    g_reg.margin_permille = fz_u8(f) < 220 ? fz_range(f, 0, 1000) : fz_edge(f, 1000);
+    g_reg.sources = fz_u8(f) < 220 ? fz_range(f, 1, 3) : fz_edge(f, 3);
+    for (k = 0; k < 4; k++) {
+        vt_svm_model *m = &g_reg.side[k];
+        m->kind = VT_DESC_HOG;
+        m->win_w = win;
+        m->win_h = win;
+        m->dim = dim;
+        m->w_shift = fz_u8(f) < 220 ? fz_range(f, 1, 30) : fz_edge(f, 30);
+        m->bias_q16 = fz_u8(f) < 200 ? fz_range(f, -65536, 65536) : fz_edge(f, INT32_MAX);
+        m->threshold_q16 = 0;
+        for (i = 0; i < dim; i++) {
+            uint8_t b = fz_u8(f);
+            g_reg_w[k][i] = (int16_t)(b < 240 ? (int32_t)b - 120 : (b & 1 ? 32767 : -32767));
+        }
+        m->w = g_reg_w[k];
+    }
+    if (rn & 64) { /* an unlike side: a wrong dim, kind or window -> VT_E_ARG */
+        vt_svm_model *m = &g_reg.side[fz_u8(f) & 3u];
+        fz_mutate_i32s(f, m, 4 * sizeof(int32_t));
+    }
+    fz_status(vt_box_regressor_check((rn & 1) ? NULL : &g_reg));
+    if (res != NULL) {
+        g_keep = *res;
+    }
+    s = vt_fulldet_refine((rn & 2) ? NULL : &g_box_ws, (rn & 4) ? NULL : &g_reg, (rn & 8) ? NULL : img,
+                          (rn & 16) ? NULL : res);
+    fz_status(s);
+    if (res != NULL && !(rn & 16)) {
+        if (s != VT_OK) {
+            FZ_ASSERT(memcmp(&g_keep, res, sizeof *res) == 0); /* unchanged on error */
+        } else {
+            FZ_ASSERT(res->n_boxes == g_keep.n_boxes);
+            for (i = 0; i < res->n_boxes; i++) {
+                const vt_box *b = &res->box[i].box;
+                FZ_ASSERT(res->box[i].score == g_keep.box[i].score);
+                FZ_ASSERT(res->box[i].source == g_keep.box[i].source);
+                FZ_ASSERT(b->left >= 0 && b->left <= b->right && b->right < img->w);
+                FZ_ASSERT(b->top >= 0 && b->top <= b->bottom && b->bottom < img->h);
+                if (!(res->box[i].source & g_reg.sources)) {
+                    FZ_ASSERT(memcmp(b, &g_keep.box[i].box, sizeof *b) == 0);
+                }
+            }
+        }
+    }
+    { /* one box from the bytes: inside, on an edge or outside the frame */
+        vt_box in, out;
+        in.left = fz_u8(f) < 200 ? fz_range(f, -4, img->w > 0 ? img->w : 4) : fz_edge(f, VT_MAX_WIDTH);
+        in.top = fz_u8(f) < 200 ? fz_range(f, -4, img->h > 0 ? img->h : 4) : fz_edge(f, VT_MAX_HEIGHT);
+        in.right = fz_near(f, in.left, -2, 64);
+        in.bottom = fz_near(f, in.top, -2, 64);
+        out.left = out.top = out.right = out.bottom = -7;
+        s = vt_box_regress((rn & 32) ? NULL : &g_box_ws, &g_reg, img, &in, (rn & 128) ? NULL : &out);
+        fz_status(s);
+        if (!(rn & 128)) {
+            if (s != VT_OK) {
+                FZ_ASSERT(memcmp(&in, &out, sizeof in) == 0); /* *out = *in on error */
+            } else {
+                FZ_ASSERT(out.left >= 0 && out.left <= out.right && out.right < img->w);
+                FZ_ASSERT(out.top >= 0 && out.top <= out.bottom && out.bottom < img->h);
+            }
         }
     }
 }
@@ -219,6 +301,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                 FZ_ASSERT(b->left <= b->right && b->top <= b->bottom);
             }
         }
+    }
+    if (fz_u8(&f) < 96) {
+        refine(&f, &img, (nulls & 128) ? NULL : &g_out);
     }
     fz_close(&f);
     return 0;

@@ -18,6 +18,9 @@ greedy matching aside) counts in the first step that loses it:
                 with rerank_permille, NMS ranks by the re-ranked keys);
   merge      -- a kept box reaches it, the merged (mean) box does not;
   verify     -- the merged box reaches it, the second stage drops it;
+  refine     -- the box the second stage keeps reaches it, the box regressor moves it
+                off (the model's refine_* regressor, vt_fulldet_refine), or its
+                regressed box is suppressed next to an ego-lane box;
   found      -- a final box reaches it (checked first: a merged box may reach a
                 vehicle whose own window NMS dropped; with a wide model in the file,
                 the wide pass's boxes are final boxes too).
@@ -42,7 +45,7 @@ sys.path.insert(0, str(_ROOT))
 from pyvehtrack.datasets import tusimple_frames  # noqa: E402
 
 DATA = Path("/work/shared/data/tusimple-vehicles-dev")
-STEPS = ("no_window", "low_score", "edge", "nms", "merge", "verify", "found")
+STEPS = ("no_window", "low_score", "edge", "nms", "merge", "verify", "refine", "found")
 
 
 def iou(a, b):
@@ -120,14 +123,21 @@ def main(argv=None) -> int:
         if ref.verify_min_q16 is not None:
             final = rfd.verify_boxes(merged, lambda l, t, r, b: ref._score_box(gray, l, t, r, b),
                                      ref.verify_min_q16)
+        verified = final
+        if ref.refine is not None:   # box regression (vt_fulldet_refine) after the second stage
+            final = rfd.refine(final, lambda l, t, r, b: fullroad.refine_offsets_c(
+                ref._ref_ws, ref._ref_c[0], gray, (l, t, r, b)), ref.refine.margin_permille,
+                ref.refine.sources, w, h)
         if ref.wide is not None:   # the wide pass (vt_fulldet_wide) after the second stage
             final = rfd.wide(gray, road, cam, cfg.win, ref.wide[1],
                              lambda l, t, r, b: _native.classify_box_mlp(ref._wide_ws, ref._wide_m[0], gray,
                                                                          [l, t, r, b]), final)
         if det.ego_too:   # the ego-lane detector beside it (VT_SRC_EGO): its boxes first, duplicates dropped
             ego = final_c[np.asarray(res.sources) == "ego"].reshape(-1, 4)
-            keep = [r for r in final if not any(rw.suppresses(a, r[:4], cfg.nms_iou_permille,
-                                                                cfg.nms_contain_permille) for a in ego)]
+            # tested as detected (the pipeline's p->det): a regressed box is tested by its box before the move
+            det_boxes = [verified[i][:4] if i < len(verified) else r[:4] for i, r in enumerate(final)]
+            keep = [r for r, d in zip(final, det_boxes) if not any(
+                rw.suppresses(a, d, cfg.nms_iou_permille, cfg.nms_contain_permille) for a in ego)]
             final = np.concatenate([np.concatenate([ego, np.zeros((len(ego), 2), np.int64)], 1),
                                     np.asarray(keep, np.int64).reshape(-1, final.shape[1])])
         if not np.array_equal(np.asarray(final[:, :4], np.int64), final_c):
@@ -142,8 +152,8 @@ def main(argv=None) -> int:
             if hit(gb, final[:, :4]):
                 step = "found"
             elif hit(gb, cap["cand"]):   # a window or a shadow box became a candidate
-                step = "nms" if not hit(gb, cap["kept"]) else ("merge" if not hit(gb, merged[:, :4])
-                                                               else "verify")
+                step = ("nms" if not hit(gb, cap["kept"]) else "merge" if not hit(gb, merged[:, :4])
+                        else "verify" if not hit(gb, verified[:, :4]) else "refine")
             elif not ov.any():
                 step = "no_window"
             elif best < thr:
