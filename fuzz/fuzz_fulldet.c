@@ -31,6 +31,13 @@ static vt_box_regressor g_reg;
 static int16_t g_reg_w[4][324]; /* HOG 32x32 at most: (32/8 - 1)^2 * 36 */
 static int32_t g_calls;
 
+/* b lies inside img and is not inside out */
+static int in_frame(const vt_box *b, const vt_image_u8 *img)
+{
+    return b->left >= 0 && b->left <= b->right && b->right < img->w && b->top >= 0 && b->top <= b->bottom &&
+           b->bottom < img->h;
+}
+
 static vt_status fz_score(void *ctx, const vt_image_u8 *level_img, const vt_window *win, int32_t *score)
 {
     uint8_t k = fz_u8(g_f);
@@ -142,8 +149,7 @@ static void refine(fz *f, const vt_image_u8 *img, vt_fulldet_result *res)
                 const vt_box *b = &res->box[i].box;
                 FZ_ASSERT(res->box[i].score == g_keep.box[i].score);
                 FZ_ASSERT(res->box[i].source == g_keep.box[i].source);
-                FZ_ASSERT(b->left >= 0 && b->left <= b->right && b->right < img->w);
-                FZ_ASSERT(b->top >= 0 && b->top <= b->bottom && b->bottom < img->h);
+                FZ_ASSERT(in_frame(b, img));
                 if (!(res->box[i].source & g_reg.sources)) {
                     FZ_ASSERT(memcmp(b, &g_keep.box[i].box, sizeof *b) == 0);
                 }
@@ -163,8 +169,7 @@ static void refine(fz *f, const vt_image_u8 *img, vt_fulldet_result *res)
             if (s != VT_OK) {
                 FZ_ASSERT(memcmp(&in, &out, sizeof in) == 0); /* *out = *in on error */
             } else {
-                FZ_ASSERT(out.left >= 0 && out.left <= out.right && out.right < img->w);
-                FZ_ASSERT(out.top >= 0 && out.top <= out.bottom && out.bottom < img->h);
+                FZ_ASSERT(in_frame(&out, img));
             }
         }
     }
@@ -248,8 +253,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             FZ_ASSERT(g_out.n_windows_dropped >= 0 && g_out.n_cand >= 0 && g_out.n_cand <= VT_FULLDET_MAX_CAND);
             for (i = 0; i < g_out.n_boxes; i++) {
                 const vt_box *b = &g_out.box[i].box;
-                FZ_ASSERT(b->left >= 0 && b->left <= b->right && b->right < img.w);
-                FZ_ASSERT(b->top >= 0 && b->top <= b->bottom && b->bottom < img.h);
+                FZ_ASSERT(in_frame(b, &img));
                 FZ_ASSERT(i == 0 || g_out.box[i - 1].score >= g_out.box[i].score);
             }
         }
@@ -273,8 +277,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             FZ_ASSERT(g_out.n_boxes >= 0 && g_out.n_boxes <= VT_MAX_BOXES);
             for (i = 0; i < g_out.n_boxes; i++) {
                 const vt_box *b = &g_out.box[i].box;
-                FZ_ASSERT(b->left >= 0 && b->left <= b->right && b->right < img.w);
-                FZ_ASSERT(b->top >= 0 && b->top <= b->bottom && b->bottom < img.h);
+                FZ_ASSERT(in_frame(b, &img));
                 FZ_ASSERT(i == 0 || g_out.box[i - 1].score >= g_out.box[i].score);
             }
         }

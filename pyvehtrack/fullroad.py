@@ -646,9 +646,7 @@ class FullRoadDetector:
                 arr = rfd.verify_boxes(arr, lambda l, t, r, b: self._score_box(gray, l, t, r, b), self.verify_min_q16)
                 self.last_stats["n_verified"] = len(arr)
             if self.refine is not None:
-                arr = rfd.refine(arr, lambda l, t, r, b: refine_offsets_c(self._ref_ws, self._ref_c[0], gray,
-                                                                           (l, t, r, b)),
-                                 self.refine.margin_permille, self.refine.sources, w, h)
+                arr = self.refine_ref(gray, arr)
             if self.wide is not None:
                 n0 = len(arr)
                 arr = rfd.wide(gray, road_r, cam, self.det_cfg.win, self.wide[1],
@@ -660,6 +658,14 @@ class FullRoadDetector:
         out = np.asarray(arr, np.float64).reshape(-1, 6)
         out[:, 4] /= 65536.0
         return out
+
+    def refine_ref(self, gray: np.ndarray, arr) -> np.ndarray:
+        """The oracle's box regression (reference.fulldet.refine) of result rows arr
+        (N, 6) with this detector's regressor, its offsets from the C regressor."""
+        from .reference import fulldet as rfd  # noqa: PLC0415  (the reference engine only)
+        h, w = gray.shape
+        return rfd.refine(arr, lambda l, t, r, b: refine_offsets_c(self._ref_ws, self._ref_c[0], gray, (l, t, r, b)),
+                          self.refine.margin_permille, self.refine.sources, w, h)
 
 
 __all__ = ["Camera", "SvmModel", "MlpModel", "FullRoadConfig", "FullRoadDetector", "load_model", "default_model", "SOURCES",

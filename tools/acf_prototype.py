@@ -36,6 +36,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 
 _ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(_ROOT))
+from pyvehtrack.eval_boxes import box_iou_matrix  # noqa: E402
 DATA = _ROOT.parent / "shared" / "data" / "tusimple-vehicles-dev"
 SH, BW, BH, PAD, NCH = 4, 32, 28, 1, 8
 CW, CH = BW // SH + 2 * PAD, BH // SH + 2 * PAD
@@ -105,10 +106,7 @@ def windows(gray: np.ndarray, hor: int, band=(0.6, 2.2), slack=20):
 
 
 def iou(a, bs):
-    iw = np.minimum(a[2], bs[:, 2]) - np.maximum(a[0], bs[:, 0]) + 1
-    ih = np.minimum(a[3], bs[:, 3]) - np.maximum(a[1], bs[:, 1]) + 1
-    i = np.clip(iw, 0, None) * np.clip(ih, 0, None)
-    return i / ((a[2] - a[0] + 1) * (a[3] - a[1] + 1) + (bs[:, 2] - bs[:, 0] + 1) * (bs[:, 3] - bs[:, 1] + 1) - i)
+    return box_iou_matrix(a, bs)[0]
 
 
 def nms(bs, sc, thr=0.3):

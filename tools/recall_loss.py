@@ -125,9 +125,7 @@ def main(argv=None) -> int:
                                      ref.verify_min_q16)
         verified = final
         if ref.refine is not None:   # box regression (vt_fulldet_refine) after the second stage
-            final = rfd.refine(final, lambda l, t, r, b: fullroad.refine_offsets_c(
-                ref._ref_ws, ref._ref_c[0], gray, (l, t, r, b)), ref.refine.margin_permille,
-                ref.refine.sources, w, h)
+            final = ref.refine_ref(gray, final)
         if ref.wide is not None:   # the wide pass (vt_fulldet_wide) after the second stage
             final = rfd.wide(gray, road, cam, cfg.win, ref.wide[1],
                              lambda l, t, r, b: _native.classify_box_mlp(ref._wide_ws, ref._wide_m[0], gray,
