@@ -144,6 +144,8 @@ vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
     memset(&p->scorer, 0, sizeof(p->scorer));
     p->wide_model = NULL;
     p->refine = NULL;
+    p->acf = NULL;
+    p->acf_ws = NULL;
     p->horizon_y = 0;
     p->horizon_known = 0;
     p->flow_st = NULL;
@@ -196,7 +198,9 @@ vt_status vt_pipeline_set_cls_ws(vt_pipeline *p, vt_pipe_cls_ws *ws, const vt_wi
         memset(&p->scorer, 0, sizeof(p->scorer));
         return VT_OK;
     }
-    if (scorer == NULL) {
+    if (scorer == NULL && p->model == NULL && p->acf != NULL) {
+        memset(&p->scorer, 0, sizeof(p->scorer)); /* the ACF stage needs no window scorer */
+    } else if (scorer == NULL) {
         if (p->model == NULL) {
             return VT_E_ARG;
         }
@@ -233,6 +237,31 @@ vt_status vt_pipeline_set_wide(vt_pipeline *p, const vt_mlp_model *m, const vt_f
     }
     p->wide_model = m;
     p->wide_cfg = *cfg;
+    return VT_OK;
+}
+
+vt_status vt_pipeline_set_acf(vt_pipeline *p, const vt_acf_model *m, const vt_acf_cfg *cfg,
+                              vt_acf_ws *ws)
+{
+    vt_status s;
+    if (p == NULL || (m != NULL && (cfg == NULL || ws == NULL))) {
+        return VT_E_ARG;
+    }
+    if (m == NULL) {
+        p->acf = NULL;
+        p->acf_ws = NULL;
+        return VT_OK;
+    }
+    s = vt_acf_model_check(m);
+    if (s == VT_OK) {
+        s = vt_acf_cfg_check(cfg);
+    }
+    if (s != VT_OK) {
+        return s;
+    }
+    p->acf = m;
+    p->acf_cfg = *cfg;
+    p->acf_ws = ws;
     return VT_OK;
 }
 
@@ -659,8 +688,12 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
     if (out->road_source == VT_ROAD_SRC_NONE) {
         return VT_OK;
     }
-    s = vt_fulldet(&ws->st, &fc, &cam, frame, &out->road, &p->scorer, &ws->res);
-    if (s == VT_OK && fc.rerank_permille > 0) {
+    if (p->acf != NULL) {
+        s = vt_acf_detect(p->acf_ws, p->acf, &p->acf_cfg, &cam, frame, &ws->res);
+    } else {
+        s = vt_fulldet(&ws->st, &fc, &cam, frame, &out->road, &p->scorer, &ws->res);
+    }
+    if (s == VT_OK && fc.rerank_permille > 0 && p->acf == NULL) {
         /* NMS again, ranked with the second stage's model too (fulldet.h) */
         const vt_mlp_model *m = NULL;
         s = vt_mlp_default_model(&m);
@@ -694,7 +727,7 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
         return s;
     }
     /* The shadow source's hypotheses (fulldet keeps them in its detect result). */
-    if (fc.sources & VT_FULLDET_SHADOW) {
+    if ((fc.sources & VT_FULLDET_SHADOW) && p->acf == NULL) {
         for (i = 0; i < ws->st.dres.n_hyp && n_hyp0 + i < VT_MAX_HYPOTHESES; ++i) {
             out->hyp[n_hyp0 + i] = ws->st.dres.hyp[i];
         }
@@ -1097,7 +1130,7 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
     }
     /* A classifier asked for (a model, or the classifier source) needs its
      * workspace and scorer attached (vt_pipeline_set_cls_ws). */
-    whole = p->cls_ws != NULL && p->scorer.score != NULL;
+    whole = p->cls_ws != NULL && (p->scorer.score != NULL || p->acf != NULL);
     if (!whole && (p->model != NULL || (p->cfg.sources & (VT_SRC_CLASSIFIER | VT_SRC_EGO)) != 0)) {
         return VT_E_ARG;
     }

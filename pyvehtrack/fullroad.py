@@ -240,6 +240,13 @@ def load_model(path) -> SvmModel | MlpModel:
         z = np.load(p, allow_pickle=False)
     except Exception as e:  # noqa: BLE001  (any unreadable file is the same user error)
         raise ValueError(f"model: {p} is not a readable .npz file ({e})") from None
+    if "kind" in z.files and str(z["kind"]) == "acf":
+        # the ACF first stage (acf.h); the whole-road settings, wide pass and box
+        # regressor ride along in the same keys as for the window models
+        from .acf import AcfModel  # noqa: PLC0415
+        m = AcfModel.load(p)
+        m.settings, m.wide, m.refine = _settings(z, p), _wide_model(z, p), _refine_model(z, p)
+        return m
     mlp = "model_type" in z.files and str(z["model_type"]) == "mlp"
     need = ("kind", "win_w", "win_h") + (("w1_q", "w1_shift", "b1_q16", "w2_q", "w2_shift", "b2_q16") if mlp
                                          else ("w_q", "w_shift", "bias_q16"))
@@ -314,6 +321,11 @@ def wide_setup(model, cfg: "FullRoadConfig") -> "tuple[MlpModel, WideConfig] | N
                    alt_height_b_permille=int(st.get("wide_alt_height_b_permille", d.alt_height_b_permille)),
                    alt_score_min=int(round(float(st.get("wide_alt_score_min", d.alt_score_min / 65536)) * 65536)))
     return wm, w
+
+
+def _is_acf(model) -> bool:
+    from .acf import AcfModel  # noqa: PLC0415
+    return isinstance(model, AcfModel)
 
 
 def refine_setup(model, cfg: "FullRoadConfig") -> "BoxRegressor | None":
@@ -422,9 +434,10 @@ def setup(model=None, sources=SOURCES, camera: Camera | None = None, cfg: FullRo
     bad = [s for s in sources if s not in SOURCES]
     if bad or not sources:
         raise ValueError(f"sources: expected a non-empty subset of {SOURCES}, got {sources!r}")
+    from .acf import AcfModel  # noqa: PLC0415
     if model is None:
         model = default_model()
-    elif isinstance(model, (SvmModel, MlpModel)):
+    elif isinstance(model, (SvmModel, MlpModel, AcfModel)):
         pass
     elif isinstance(model, (str, os.PathLike)):
         model = load_model(model)
@@ -551,7 +564,7 @@ class FullRoadDetector:
             self._scorer.level = ffi.NULL
             self._scorer.score = ffi.addressof(lib, "vt_mlp_scorer_score")
             self._scorer.ctx = self._mlp
-        elif self.model is not None:
+        elif self.model is not None and not _is_acf(self.model):
             self._m, self._keep = _c_model(self.model)
             self._hog = ffi.new("vt_hog_scorer *")
             _native.check("vt_hog_scorer_init", lib.vt_hog_scorer_init(self._hog, self._m))
@@ -606,6 +619,9 @@ class FullRoadDetector:
         road: a RoadArea-like restriction, or None for the camera road (all columns
         between the horizon and the hood). Scores are in the model's units (Q16 / 65536)."""
         h, w = gray.shape
+        if _is_acf(self.model):
+            raise ValueError("detect_gray runs vt_fulldet's window models; an ACF model runs through "
+                             "pyvehtrack.Detector / Pipeline (vt_pipeline_set_acf) or pyvehtrack.acf.detect")
         cam = self.camera_for(h, w, horizon_y)
         ccam = self._c_camera(cam)
         if road is None:

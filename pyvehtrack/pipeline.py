@@ -204,6 +204,7 @@ class Pipeline:
         self._cmodel = self._cscorer = None
         self._wide = None   # the wide pass: (MlpModel, WideConfig, C model, C cfg, box ws) or None
         self._refine = None   # box regression: (BoxRegressor, (C regressor, keepalive), box ws) or None
+        self._acf = None   # the ACF first stage: ((C model, keepalive), C cfg) or None
         if model is None:
             if road_camera is not None or fullroad is not None:
                 raise ValueError("road_camera and fullroad configure the whole-road detector: pass model= too")
@@ -237,6 +238,14 @@ class Pipeline:
             wide = _fr.wide_setup(_m, _frc)   # the model's wide pass (vt_pipeline_set_wide)
             if wide is not None:
                 self._wide = (*wide, _fr._c_model(wide[0]), _fr.wide_c_cfg(wide[1]), _native.box_ws_new())
+            if _fr._is_acf(_m):   # the ACF first stage in place of vt_fulldet (vt_pipeline_set_acf)
+                if self.engine != "c":
+                    raise ValueError("model: an ACF model runs on the C engine only (its float oracle is "
+                                     "per stage: pyvehtrack.reference.acf)")
+                from .acf import cfg_default as _acf_cfg  # noqa: PLC0415
+                acfg = _acf_cfg()
+                acfg.score_min = int(_m.threshold_q16 + round(float(_frc.score_offset or 0) * 65536))
+                self._acf = (_m.c_model(), acfg)
             reg = _fr.refine_setup(_m, _frc)   # the model's box regressor (vt_pipeline_set_refine)
             if reg is not None:
                 self._refine = (reg, reg.c(), _native.box_ws_new())
@@ -417,6 +426,13 @@ class Pipeline:
                 # default capacities): one per Pipeline serves every run (init detaches it)
                 if getattr(self, "_cls_ws", None) is None:
                     self._cls_ws = ffi.new("vt_pipe_cls_ws *")
+                if self._acf is not None:
+                    # the ACF scratch (sizeof(vt_acf_ws), a few MB): one per Pipeline; set before
+                    # the workspace, which then needs no scorer
+                    if getattr(self, "_acf_ws", None) is None:
+                        self._acf_ws = ffi.new("vt_acf_ws *")
+                    _native.check("vt_pipeline_set_acf",
+                                  lib.vt_pipeline_set_acf(self._p, self._acf[0][0], self._acf[1], self._acf_ws))
                 sc = self._cscorer[0] if self._cscorer is not None else ffi.NULL
                 _native.check("vt_pipeline_set_cls_ws", lib.vt_pipeline_set_cls_ws(self._p, self._cls_ws, sc))
                 if self._wide is not None:
@@ -424,6 +440,7 @@ class Pipeline:
                                   lib.vt_pipeline_set_wide(self._p, self._wide[2][0], self._wide[3]))
                 if self._refine is not None:
                     _native.check("vt_pipeline_set_refine", lib.vt_pipeline_set_refine(self._p, self._refine[1][0]))
+
             if "flow" in self.cfg.sources:
                 # the overtaking stage's state (sizeof(vt_flow_state), ~1.9 MB at the default
                 # capacities): one per Pipeline, emptied by every attach

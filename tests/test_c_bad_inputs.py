@@ -6,7 +6,7 @@ rows are wip/house's.)
 Rows, each a documented outcome -- an exact status, or "any vt_status, and then
 the stage runs without UB" -- never a crash:
   * every int32 field of every configuration (lane, shadow, verify, detect,
-    track search, Kalman model, tracker; nested ones included) set to
+    track search, Kalman model, tracker, ACF detector; nested ones included) set to
     INT32_MIN, -1, 0, 1, 2^30 and INT32_MAX: its _cfg_check returns a status,
     and a configuration it accepts runs its stage over a small synthetic frame
     (under `make check SAN=1 CC=clang` any UB there aborts);
@@ -138,6 +138,24 @@ def run_tracker(cfg):
             for f in range(8)]
 
 
+_ACF = {}
+
+
+def run_acf(cfg):
+    """vt_acf_detect with a small fixed model (4 x 4 cells, 3 trees of depth 2) on the tiled scene."""
+    if not _ACF:
+        from pyvehtrack.acf import AcfModel
+        feat = (np.arange(9, dtype=np.uint16).reshape(3, 3) * 13) % 128
+        thr = np.full((3, 3), 40, np.uint8)
+        leaf_q16 = np.array([[-3, 1, 2, 5], [4, -1, 0, 2], [1, 1, -6, 3]], np.int32) * Q16
+        _ACF["model"] = AcfModel(4, 4, 0, 2, feat, thr, leaf_q16 / Q16, leaf_q16, 0.0)
+        _ACF["ws"] = ffi.new("vt_acf_ws *")
+        _ACF["img"] = np.tile(scene(), (3, 3))
+    cam = _native.camera_min(300.0, 3 * H // 3, 1500, 3 * H)
+    res = ffi.new("vt_fulldet_result *")
+    return [lib.vt_acf_detect(_ACF["ws"], _ACF["model"].c_model()[0], cfg, cam, img_view(_ACF["img"]), res)]
+
+
 STAGES = {
     "vt_lane_cfg": (lib.vt_lane_cfg_default, lib.vt_lane_cfg_check, run_lane),
     "vt_shadow_cfg": (lib.vt_shadow_cfg_default, lib.vt_shadow_cfg_check, run_shadow),
@@ -146,6 +164,7 @@ STAGES = {
     "vt_track_search_cfg": (None, lib.vt_track_search_cfg_check, run_track_search),
     "vt_kf_model_cfg": (lib.vt_kf_model_cfg_default, lib.vt_kf_model_cfg_check, run_kf_model),
     "vt_tracker_cfg": (lib.vt_tracker_cfg_default, lib.vt_tracker_cfg_check, run_tracker),
+    "vt_acf_cfg": (lib.vt_acf_cfg_default, lib.vt_acf_cfg_check, run_acf),
 }
 
 

@@ -28,6 +28,7 @@
 #define VEHTRACK_PIPELINE_H
 
 #include <stdint.h>
+#include "vehtrack/acf.h"
 #include "vehtrack/camera.h"
 #include "vehtrack/classify.h"
 #include "vehtrack/config.h"
@@ -244,6 +245,9 @@ typedef struct {
     const vt_mlp_model *wide_model; /* the wide pass's model (NULL: off; vt_pipeline_set_wide) */
     vt_fulldet_wide_cfg wide_cfg;   /* and its settings (a checked copy)                     */
     const vt_box_regressor *refine; /* box regression (NULL: off; vt_pipeline_set_refine)   */
+    const vt_acf_model *acf;        /* the ACF first stage (NULL: off; vt_pipeline_set_acf) */
+    vt_acf_cfg acf_cfg;             /* and its settings (a checked copy)                     */
+    vt_acf_ws *acf_ws;              /* and its scratch                                       */
     int32_t horizon_y;           /* the last lanes' vanishing row, input px               */
     int32_t horizon_known;       /* 1 once the lanes gave one (this run)                  */
     vt_flow_state *flow_st;      /* the overtaking stage's state (NULL: none attached)    */
@@ -388,7 +392,8 @@ vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
 
 /* Attach the whole-road detector's workspace (after vt_pipeline_init, which detaches
  * it; ws NULL detaches it and the scorer). scorer: NULL for the HOG scorer of the
- * model given at init (vt_hog_scorer in ws: VT_E_ARG without a model), or the
+ * model given at init (vt_hog_scorer in ws: VT_E_ARG without a model, unless the ACF
+ * first stage is set (vt_pipeline_set_acf, before this): then no scorer), or the
  * caller's classifier (e.g. {NULL, vt_mlp_scorer_score, &mlp}; copied, its ctx must
  * outlive the run). The pipeline keeps the pointer (*ws must outlive the run). With
  * a classifier attached, detection frames run vt_fulldet (see VT_SRC_SHADOW). VT_E_ARG
@@ -414,6 +419,20 @@ vt_status vt_pipeline_set_wide(vt_pipeline *p, const vt_mlp_model *m, const vt_f
  * must outlive the run; may live in flash). r NULL turns it off, as vt_pipeline_init
  * does. VT_E_ARG for p NULL; r as vt_box_regressor_check. On error nothing changes. */
 vt_status vt_pipeline_set_refine(vt_pipeline *p, const vt_box_regressor *r);
+
+/* Use the ACF first stage (vehtrack/acf.h: channel features + boosted trees, dense over
+ * a quarter-octave pyramid) in place of vt_fulldet on every detection frame of the
+ * whole-road detector: vt_acf_detect on the frame with the detector's camera (horizon,
+ * hood, height), its boxes into the detector's result, then the second stage (when
+ * cfg.verify), box regression and the wide pass as after vt_fulldet; no shadow
+ * hypotheses and no re-ranking then. The whole-road detector still needs its
+ * workspace (vt_pipeline_set_cls_ws; a scorer is not needed). m and ws are kept by
+ * pointer (they must outlive the run; m may live in flash), cfg is copied. m NULL
+ * turns it off, as vt_pipeline_init does. VT_E_ARG for p NULL, or m given with cfg or
+ * ws NULL; m and cfg as vt_acf_model_check / vt_acf_cfg_check. On error nothing
+ * changes. */
+vt_status vt_pipeline_set_acf(vt_pipeline *p, const vt_acf_model *m, const vt_acf_cfg *cfg,
+                              vt_acf_ws *ws);
 
 /* Attach the caller's workspace for the tracker's edge-curve measurement
  * (cfg.tracker.measurement == VT_MEAS_EDGE_CURVES; vehtrack/edge_track.h), as

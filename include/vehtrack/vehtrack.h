@@ -17,6 +17,7 @@
 #include "vehtrack/detect.h"
 #include "vehtrack/windows.h"
 #include "vehtrack/fulldet.h"
+#include "vehtrack/acf.h"
 #include "vehtrack/kalman.h"
 #include "vehtrack/track_search.h"
 #include "vehtrack/edge_track.h"

@@ -152,3 +152,5 @@ vt_status vt_pipeline_work_size(int32_t w, int32_t h, int32_t max_w, int32_t max
 vt_status vt_fixed_road_area(const vt_fixed_road *fr, int32_t w, int32_t h, vt_road_area *road);
 vt_status vt_fixed_road_check(const vt_fixed_road *fr);
 vt_status vt_road_camera_check(const vt_road_camera *rc);
+vt_status vt_pipeline_set_acf(vt_pipeline *p, const vt_acf_model *m, const vt_acf_cfg *cfg,
+                              vt_acf_ws *ws);

@@ -1,0 +1,59 @@
+"""The shipped ACF model (pyvehtrack/models/acf_gray.npz) through the pipeline
+(vt_pipeline_set_acf), on frames shipped in tests/data (README there: sources)."""
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from pyvehtrack import acf
+from pyvehtrack.detector import Detector
+from pyvehtrack.fullroad import load_model
+from pyvehtrack.pipeline import Pipeline
+
+ROOT = Path(__file__).resolve().parent.parent
+MODEL = ROOT / "pyvehtrack" / "models" / "acf_gray.npz"
+DATA = Path(__file__).resolve().parent / "data"
+
+
+def test_model_loads_with_its_settings():
+    m = load_model(MODEL)
+    assert isinstance(m, acf.AcfModel)
+    assert m.n_trees == 400 and m.depth == 3 and (m.win_cw, m.win_ch, m.pad) == (10, 9, 1)
+    assert m.refine is not None          # the box regressor rides along
+    assert m.settings.get("sources") == ["ego", "windows"] and m.settings.get("verify_min") == 2.0
+    assert m.threshold_q16 == -65536
+
+
+def test_pipeline_boxes_are_the_acf_stage_s():
+    """With the ego-lane detector off and no regressor, the pipeline's boxes are exactly
+    vt_acf_detect's on the same camera (same horizon: the fixed road camera)."""
+    from pyvehtrack.fullroad import FullRoadConfig
+    gray = cv2.imread(str(DATA / "udacity_test1_640x360.jpg"), cv2.IMREAD_GRAYSCALE)
+    m = load_model(MODEL)
+    pipe = Pipeline("c", model=m, fullroad=FullRoadConfig(refine=False), detect_every=1, track=False,
+                    road="fixed", sources=("classifier",))
+    out = pipe.step(gray)
+    got = sorted(tuple(int(v) for v in b.box) for b in out.boxes)
+    cam = pipe.road_camera.for_frame(*gray.shape, None)
+    ref, _ = acf.detect(m, gray, cam.horizon_y, cam.hood_y, cam.fx, round(cam.height_m * 1000))
+    want = sorted((int(b["left"]), int(b["top"]), int(b["right"]), int(b["bottom"])) for b in ref)
+    assert got == want
+
+
+def test_detector_finds_the_udacity_cars():
+    """test1 (Udacity, 640x360): the two cars in the right lanes are boxed (IoU >= 0.5 with
+    hand boxes read off the frame), and no box stands in the trees (bottom above row 200:
+    the shadow detector's boxes there without the second stage had bottoms 189 and 194)."""
+    from pyvehtrack.eval_boxes import box_iou_matrix
+    img = cv2.imread(str(DATA / "udacity_test1_640x360.jpg"))
+    res = Detector(model=str(MODEL)).detect(img)
+    boxes = np.asarray([b[:4] for b in res.boxes], float).reshape(-1, 4)
+    cars = np.array([[413, 207, 468, 248], [527, 199, 632, 250]], float)
+    assert (box_iou_matrix(cars, boxes).max(1) >= 0.5).all(), boxes
+    assert (boxes[:, 3] >= 200).all(), boxes
+
+
+def test_reference_engine_says_so():
+    with pytest.raises(ValueError, match="C engine only"):
+        Pipeline("reference", model=str(MODEL), detect_every=1, track=False)

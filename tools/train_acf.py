@@ -1,0 +1,290 @@
+#!/usr/bin/env python3
+"""Train and measure the ACF first stage (issue 8; C: include/vehtrack/acf.h).
+
+    PYTHONPATH=. python3 tools/train_acf.py train --out DIR [--rounds 2] [--trees 400] [--depth 3]
+    PYTHONPATH=. python3 tools/train_acf.py eval MODEL.npz --split val [--thr -1 0 1]
+    PYTHONPATH=. python3 tools/train_acf.py pack MODEL.npz --out OUT.npz [--thr T] [--base BASE.npz]
+                                                [--settings JSON]
+
+Features are the C core's channel bytes (pyvehtrack.acf: vt_acf_resample and
+vt_acf_channels through the binding), so the trees' integer thresholds decide
+exactly as the trained float thresholds did on the same bytes. Training frames:
+tusimple-vehicles-dev 'fit' only (datasets.tusimple_subsplit); choices are made on
+'val'; TEST is for the final figure. Positives: every box >= 24 px wide and its
+mirror image, warped (area resampling) into the window with its pad cell of
+context; negatives: 100 random windows per frame of the detector's own dense
+grid inside its band (IoU < 0.3 with every box), then --rounds rounds of hard
+negatives (windows scoring > -1, at most 150 per frame). Trees:
+scikit-learn's HistGradientBoostingClassifier (depth --depth), converted to full
+binary trees; the soft cascade's trace is the running minimum over the training
+positives that pass, less --margin.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from multiprocessing import Pool
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+_ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(_ROOT))
+from pyvehtrack import acf  # noqa: E402
+from pyvehtrack.eval_boxes import box_iou_matrix  # noqa: E402
+from pyvehtrack.reference import acf as ra  # noqa: E402
+
+DATA = _ROOT.parent / "shared" / "data" / "tusimple-vehicles-dev"
+WIN_CW, WIN_CH, PAD = 10, 9, 1
+MARGIN = 8  # px of extra context around a warped crop, so its channels have no border effects
+HOOD_Q16 = 60948  # the pipeline's road camera default
+
+
+def hood_y(h: int) -> int:
+    return max(1, (h * HOOD_Q16 + 32768) >> 16)
+
+
+class _Geo:
+    win_cw, win_ch, pad = WIN_CW, WIN_CH, PAD
+
+
+def dense(gray: np.ndarray, hor: int, levels=range(15)):
+    """Every window of the band over the pyramid -> (features (N, 720) uint8, boxes (N, 4))."""
+    feats, boxes = [], []
+    h = gray.shape[0]
+    for k in levels:
+        r = acf.SCALE_Q16[k]
+        lw, lh = acf.level_size(gray.shape[1], r), acf.level_size(h, r)
+        if lw // 4 < WIN_CW or lh // 4 < WIN_CH:
+            continue
+        lv = gray if k == 0 else acf.resample(gray, k)
+        ch = acf.channels(lv)
+        f, cx, cy = ra.window_features(ch, WIN_CW, WIN_CH)
+        b = ra.box_of(_Geo, k, cx, cy)
+        width = ((4 * (WIN_CW - 2 * PAD)) * r) >> 16
+        ok = ra.band_ok(b[:, 3], width, hor, hood_y(h))
+        feats.append(f[ok])
+        boxes.append(b[ok])
+    return np.concatenate(feats), np.concatenate(boxes)
+
+
+def crop_feature(gray: np.ndarray, box) -> np.ndarray:
+    """A box warped (area resampling) into the window, with its pad and MARGIN px of context."""
+    l, t, r, b = [float(v) for v in box]
+    bw, bh = 4 * (WIN_CW - 2 * PAD), 4 * (WIN_CH - 2 * PAD)
+    sx, sy = (r - l + 1) / bw, (b - t + 1) / bh  # input px per window px
+    ext = 4 * PAD + MARGIN
+    x0, y0 = l - ext * sx, t - ext * sy
+    W, H = 4 * WIN_CW + 2 * MARGIN, 4 * WIN_CH + 2 * MARGIN
+    mat = np.float32([[1 / sx, 0, -x0 / sx], [0, 1 / sy, -y0 / sy]])
+    crop = cv2.warpAffine(gray, mat, (W, H), flags=cv2.INTER_AREA if sx > 1 else cv2.INTER_LINEAR,
+                          borderMode=cv2.BORDER_REPLICATE)
+    ch = acf.channels(crop)
+    k = MARGIN // 4
+    return ch[:, k:k + WIN_CH, k:k + WIN_CW].ravel()
+
+
+_G: dict = {}
+
+
+def _init(data, hor, model):
+    os.environ["OMP_NUM_THREADS"] = "1"
+    _G.update(data=data, hor=hor, model=acf.AcfModel.load(model) if model else None,
+              ann={e["file_name"]: e for e in json.load(open(Path(data) / "annotation.json"))})
+
+
+def _gt(f):
+    return np.array([(b["left"], b["top"], b["right"], b["bottom"]) for b in _G["ann"][f]["bbox"]],
+                    float).reshape(-1, 4)
+
+
+def _far(boxes, gt, thr=0.3):
+    return (box_iou_matrix(gt, boxes) < thr).all(0) if len(gt) else np.ones(len(boxes), bool)
+
+
+def _base(f):
+    rng = np.random.default_rng(int(f[-8:-4]))
+    g = cv2.imread(str(Path(_G["data"]) / f), cv2.IMREAD_GRAYSCALE)
+    gm, w, pos = np.ascontiguousarray(g[:, ::-1]), g.shape[1], []
+    for b in _gt(f):
+        if b[2] - b[0] + 1 >= 24:
+            pos += [crop_feature(g, b), crop_feature(gm, [w - 1 - b[2], b[1], w - 1 - b[0], b[3]])]
+    feats, boxes = dense(g, _G["hor"][f])
+    ok = np.nonzero(_far(boxes, _gt(f)))[0]
+    idx = rng.choice(ok, size=min(100, len(ok)), replace=False)
+    return np.array(pos, np.uint8).reshape(-1, WIN_CW * WIN_CH * 8), feats[idx]
+
+
+def _mine(f):
+    g = cv2.imread(str(Path(_G["data"]) / f), cv2.IMREAD_GRAYSCALE)
+    feats, boxes = dense(g, _G["hor"][f])
+    s = ra.tree_scores(_G["model"], feats)
+    ok = (s > -1.0) & _far(boxes, _gt(f))
+    i = np.nonzero(ok)[0]
+    return feats[i[np.argsort(-s[i])[:150]]]
+
+
+def _detect(args):
+    f, thr, cascade = args
+    g = cv2.imread(str(Path(_G["data"]) / f), cv2.IMREAD_GRAYSCALE)
+    m = _G["model"]
+    if not cascade:
+        m.reject_q16, m._c = None, None
+    cfg = acf.cfg_default()
+    cfg.score_min = int(np.floor(thr * 65536))
+    t0 = time.perf_counter()
+    boxes, st = acf.detect(m, g, _G["hor"][f], hood_y(g.shape[0]), fx=1000.0, cfg=cfg)
+    return f, boxes, st, time.perf_counter() - t0
+
+
+def horizons(data, split, cache: Path) -> dict:
+    """The horizon row the shipped detector uses on each frame (its stats)."""
+    if cache.is_file():
+        return json.loads(cache.read_text())
+    from pyvehtrack.datasets import tusimple_frames
+    from pyvehtrack.detector import Detector
+    det, out = Detector(model=str(_ROOT / "pyvehtrack" / "models" / "window_mlp_hog32.npz")), {}
+    for e in tusimple_frames(data, split):
+        out[e["file_name"]] = int(det.detect(cv2.imread(str(Path(data) / e["file_name"]))).stats["horizon_y"])
+    cache.write_text(json.dumps(out))
+    return out
+
+
+def to_model(clf, depth: int, pos: np.ndarray, margin: float) -> acf.AcfModel:
+    """Full binary trees of `depth` from a fitted HistGradientBoostingClassifier."""
+    n_in, n_leaf = (1 << depth) - 1, 1 << depth
+    T = len(clf._predictors)
+    feat, thr = np.zeros((T, n_in), np.uint16), np.full((T, n_in), 255, np.uint8)
+    leaf = np.zeros((T, n_leaf))
+    for t, (pred,) in enumerate(clf._predictors):
+        nodes = pred.nodes
+
+        def fill(i, pos_, d):
+            nd = nodes[i]
+            if nd["is_leaf"]:
+                lo = pos_
+                for _ in range(depth - d):
+                    lo = 2 * lo + 1
+                leaf[t, lo - n_in: lo - n_in + (1 << (depth - d))] = nd["value"]
+                return
+            if d >= depth:
+                raise ValueError(f"tree {t} deeper than {depth}")
+            th = float(nd["num_threshold"])
+            if not 0 <= th < 255:
+                raise ValueError(f"tree {t}: threshold {th} outside the byte range")
+            feat[t, pos_], thr[t, pos_] = int(nd["feature_idx"]), int(np.floor(th))
+            fill(int(nd["left"]), 2 * pos_ + 1, d + 1)
+            fill(int(nd["right"]), 2 * pos_ + 2, d + 1)
+
+        fill(0, 0, 0)
+    bias = float(np.ravel(clf._baseline_prediction)[0])
+    leaf_q16 = np.floor(leaf * 65536 + 0.5).astype(np.int32)
+    m = acf.AcfModel(WIN_CW, WIN_CH, PAD, depth, feat, thr, leaf, leaf_q16, bias)
+    # soft cascade: the running sums (Q16) of the positives that pass score 0
+    n_in_ = n_in
+    node = np.zeros((T, len(pos)), np.int64)
+    tt = np.arange(T)[:, None]
+    for _ in range(depth):
+        x = pos[np.arange(len(pos))[None, :], feat[tt, node].astype(np.int64)]
+        node = 2 * node + 1 + (x > thr[tt, node])
+    run = m.bias_q16 + np.cumsum(leaf_q16[tt, node - n_in_].astype(np.int64), 0)
+    ok = run[-1] >= 0
+    m.reject_q16 = (run[:, ok].min(1) - int(margin * 65536)).clip(-2 ** 31, 2 ** 31 - 1).astype(np.int32)
+    return m
+
+
+def main(argv=None) -> int:
+    from pyvehtrack.datasets import tusimple_frames
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    t = sub.add_parser("train")
+    t.add_argument("--out", required=True, type=Path)
+    t.add_argument("--rounds", type=int, default=2)
+    t.add_argument("--trees", type=int, default=400)
+    t.add_argument("--depth", type=int, default=3)
+    t.add_argument("--margin", type=float, default=1.0, help="soft-cascade slack below the positives' trace")
+    t.add_argument("--data", default=str(DATA))
+    e = sub.add_parser("eval")
+    e.add_argument("model")
+    e.add_argument("--split", default="val", choices=("fit", "val", "train", "test"))
+    e.add_argument("--thr", nargs="+", type=float, default=[-1.0, -0.5, 0.0, 0.5, 1.0])
+    e.add_argument("--no-cascade", action="store_true")
+    e.add_argument("--json", type=Path, help="write the boxes at the first --thr as detect --json does")
+    e.add_argument("--data", default=str(DATA))
+    k = sub.add_parser("pack", help="the shipped file: the trees, the detection threshold, and the box "
+                                    "regressor (refine_*) and settings of a base model")
+    k.add_argument("model")
+    k.add_argument("--out", required=True, type=Path)
+    k.add_argument("--thr", type=float, default=0.0, help="score_min (real units)")
+    k.add_argument("--base", default=None, help="a window model whose refine_* keys ride along")
+    k.add_argument("--settings", default=None, help="detector_json (the whole-road settings), JSON text")
+    a = ap.parse_args(argv)
+    if a.cmd == "pack":
+        z = dict(np.load(a.model, allow_pickle=False))
+        z["score_min_q16"] = np.int64(np.floor(a.thr * 65536 + 0.5))
+        if a.base:
+            b = np.load(a.base, allow_pickle=False)
+            z.update({k_: b[k_] for k_ in b.files if k_.startswith("refine_")})
+        if a.settings:
+            json.loads(a.settings)  # a clear error for bad JSON
+            z["detector_json"] = np.array(a.settings)
+        np.savez_compressed(a.out, **z)
+        m = acf.AcfModel.load(a.out)
+        print(f"{a.out}: {m.n_trees} trees, threshold {a.thr}, keys {sorted(z)}")
+        return 0
+    from sklearn.ensemble import HistGradientBoostingClassifier
+    if a.cmd == "train":
+        a.out.mkdir(parents=True, exist_ok=True)
+        files = [r["file_name"] for r in tusimple_frames(a.data, "fit")]
+        hor = horizons(a.data, "fit", a.out / "horizons_fit.json")
+        t0 = time.time()
+        with Pool(2, _init, (a.data, hor, None)) as pool:
+            r = pool.map(_base, files, chunksize=4)
+        pos, neg = np.concatenate([p for p, _ in r]), np.concatenate([n for _, n in r])
+        print(f"features: {time.time() - t0:.0f} s", flush=True)
+        for rnd in range(a.rounds + 1):
+            x = np.concatenate([pos, neg]).astype(np.float32)
+            y = np.r_[np.ones(len(pos)), np.zeros(len(neg))]
+            clf = HistGradientBoostingClassifier(max_iter=a.trees, max_depth=a.depth, learning_rate=0.1,
+                                                 early_stopping=False, random_state=0).fit(x, y)
+            m = to_model(clf, a.depth, pos, a.margin)
+            d = np.abs(ra.tree_scores(m, x[:2000].astype(np.uint8)) - clf.decision_function(x[:2000]))
+            path = a.out / f"acf_r{rnd}.npz"
+            m.save(path, n_pos=len(pos), n_neg=len(neg), rounds=rnd)
+            print(f"{path}: {len(pos)} positives, {len(neg)} negatives, trees vs sklearn max |diff| {d.max():.2e}, "
+                  f"{time.time() - t0:.0f} s", flush=True)
+            if rnd == a.rounds:
+                break
+            with Pool(2, _init, (a.data, hor, str(path))) as pool:
+                neg = np.concatenate([neg] + pool.map(_mine, files, chunksize=4))
+        return 0
+    from pyvehtrack import eval_boxes as eb
+    files = [r["file_name"] for r in tusimple_frames(a.data, a.split)]
+    hor = horizons(a.data, a.split, Path(a.model).parent / f"horizons_{a.split}.json")
+    _init(a.data, hor, None)
+    for thr in a.thr:
+        with Pool(2, _init, (a.data, hor, a.model)) as pool:
+            out = pool.map(_detect, [(f, thr, not a.no_cascade) for f in files], chunksize=2)
+        gt = [eb.FrameBoxes(f, _gt(f), None) for f in files]
+        pr = [eb.FrameBoxes(f, np.stack([b["left"], b["top"], b["right"], b["bottom"]], 1).astype(float),
+                            b["score"] / 65536.0) for f, b, _, _ in out]
+        sc = eb.score(gt, pr)
+        c = sc.classes[">=32px"]
+        nw = np.mean([s["n_windows"] for _, _, s, _ in out])
+        ms = 1000 * np.mean([dt for _, _, _, dt in out])
+        print(f"thr {thr:5.2f}: recall >= 32 px {c['recall']:.1%}, precision {c['precision']:.1%}, "
+              f"lead {sc.lead['recall']:.1%}, AP50 {sc.ap50:.1%}, recall all {sc.classes['all']['recall']:.1%} "
+              f"({nw:.0f} windows scored, {ms:.0f} ms per frame)", flush=True)
+        if a.json and thr == a.thr[0]:
+            a.json.write_text(json.dumps([{"file": f, "boxes": [[int(b["left"]), int(b["top"]), int(b["right"]),
+                                                                  int(b["bottom"]), b["score"] / 65536.0]
+                                                                 for b in bx]} for f, bx, _, _ in out]))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
