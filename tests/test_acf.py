@@ -18,7 +18,6 @@ Checked here, each with the tolerance acf.h's arithmetic allows (stated where it
 from __future__ import annotations
 
 from pathlib import Path
-from types import SimpleNamespace
 
 import cv2
 import numpy as np
@@ -467,7 +466,8 @@ def _det_case(seed, w, h, geo, cfg_draw):
     wmin = int(rng.integers(400, 2200))
     cfg = _cfg(first_scale=first, n_scales=int(rng.integers(1, 17 - first)), veh_w_min_mm=wmin,
                veh_w_max_mm=int(rng.integers(wmin, 6000)), slack_px=int(rng.integers(0, 41)),
-               above_px=int(rng.integers(0, 21)), nms_iou_permille=int(rng.choice([0, 300, 500, 1000, rng.integers(0, 1001)])))
+               above_px=int(rng.integers(0, 21)),
+               nms_iou_permille=int(rng.choice([0, 300, 500, 1000, rng.integers(0, 1001)])))
     for k, v in cfg_draw.items():
         setattr(cfg, k, v)
     return rng, img, hor, hood, height_mm, model, cfg
@@ -625,11 +625,13 @@ def test_model_check_rows():
     for v, ok in ((8 * 6 * 5 - 1, True), (8 * 6 * 5, False), (65535, False)):
         bad = _model(rng, 6, 5, 1, 3, 4)
         bad.feat[2, 5] = v
-        assert (lib.vt_acf_model_check(_cmodel(bad)[0]) == lib.VT_OK) == ok, v
+        cb, keep_b = _cmodel(bad)                     # keep_b: the arrays stay alive
+        assert (lib.vt_acf_model_check(cb) == lib.VT_OK) == ok, v
     for v, ok in ((2 ** 24, True), (-(2 ** 24), True), (2 ** 24 + 1, False), (-(2 ** 24) - 1, False)):
         bad = _model(rng, 6, 5, 1, 3, 4)
         bad.leaf_q16[3, 7] = v
-        assert (lib.vt_acf_model_check(_cmodel(bad)[0]) == lib.VT_OK) == ok, v
+        cb, keep_b = _cmodel(bad)                     # keep_b: the arrays stay alive
+        assert (lib.vt_acf_model_check(cb) == lib.VT_OK) == ok, v
 
 
 def test_python_model_errors(tmp_path):
@@ -715,8 +717,8 @@ def test_cfg_check_rows():
 
 
 def test_python_bad_images():
-    for fn in (A.channels, lambda g: A.resample(g, 1), lambda g: A.detect(_model(np.random.default_rng(0), 4, 4, 0, 1, 1),
-                                                                          g, 5, 8, 300.0)):
+    m = _model(np.random.default_rng(0), 4, 4, 0, 1, 1)
+    for fn in (A.channels, lambda g: A.resample(g, 1), lambda g: A.detect(m, g, 5, 8, 300.0)):
         with pytest.raises(TypeError, match="numpy.ndarray"):
             fn([[1, 2], [3, 4]])
         with pytest.raises(TypeError, match="uint8"):
@@ -737,9 +739,7 @@ def test_python_bad_images():
     with pytest.raises(VtError, match="vt_acf_channels: bad size"):
         A.channels(img, -1, 1)
     with pytest.raises(VtError, match="vt_acf_detect: bad size"):
-        A.detect(_model(np.random.default_rng(0), 4, 4, 0, 1, 1), np.zeros((8, lib.VT_MAX_WIDTH + 1), np.uint8),
-                 2, 8, 300.0)
-    m = _model(np.random.default_rng(0), 4, 4, 0, 1, 1)
+        A.detect(m, np.zeros((8, lib.VT_MAX_WIDTH + 1), np.uint8), 2, 8, 300.0)
     with pytest.raises(VtError, match="vt_acf_score: bad size"):
         m.score_c(np.zeros((8, 3, 9), np.uint8), 0, 0)                   # 3 rows < 4
     with pytest.raises(VtError, match="vt_acf_score: bad size"):
