@@ -410,23 +410,82 @@ static int vt__acf_band(const vt_acf_cfg *cfg, const vt_camera_min *cam, int32_t
            wh <= (int64_t)cfg->veh_w_max_mm * (d + cfg->slack_px);
 }
 
-vt_status vt_acf_detect(vt_acf_ws *ws, const vt_acf_model *m, const vt_acf_cfg *cfg,
-                        const vt_camera_min *cam, const vt_image_u8 *img,
-                        vt_fulldet_result *res)
+/* Model i's band rows at one level: cell rows *a .. *b whose windows' bottoms are in
+ * its band (*a = -1: none; also when the level is smaller than its window or the level
+ * is outside its cfg's levels). */
+static void vt__acf_rows(const vt_acf_model *m, const vt_acf_cfg *cfg, const vt_camera_min *cam,
+                         int32_t k, int32_t r, int32_t cw, int32_t nch, int32_t *a, int32_t *b)
 {
-    int32_t k, i, kept = 0, pad4;
-    vt_status s;
+    int32_t cy, W = vt__acf_in(4 * (m->win_cw - 2 * m->pad), r);
+    *a = *b = -1;
+    if (k < cfg->first_scale || k >= cfg->first_scale + cfg->n_scales || cw < m->win_cw ||
+        nch < m->win_ch) {
+        return;
+    }
+    for (cy = 0; cy <= nch - m->win_ch; ++cy) {
+        if (vt__acf_band(cfg, cam, vt__acf_in(4 * (cy + m->win_ch - m->pad), r) - 1, W)) {
+            *a = *a < 0 ? cy : *a;
+            *b = cy;
+        }
+    }
+}
+
+/* Model m's windows at cell rows cya .. cyb of one level's channels (planes of n_cy
+ * rows from cell row ca, cw columns) into the candidates. */
+static void vt__acf_scan(vt_acf_ws *ws, const vt_acf_model *m, const vt_acf_cfg *cfg,
+                         const vt_camera_min *cam, int32_t r, int32_t cw, int32_t ca, int32_t n_cy,
+                         int32_t cya, int32_t cyb, vt_fulldet_result *res)
+{
+    int32_t cy, cx, pad4 = 4 * m->pad, W = vt__acf_in(4 * (m->win_cw - 2 * m->pad), r);
+    vt__acf_offsets(m, n_cy, cw, ws->off);
+    for (cy = cya; cy <= cyb; ++cy) {
+        vt_box b;
+        b.bottom = vt__acf_in(4 * (cy + m->win_ch) - pad4, r) - 1;
+        if (!vt__acf_band(cfg, cam, b.bottom, W)) {
+            continue;
+        }
+        b.top = vt__acf_in(4 * cy + pad4, r);
+        for (cx = 0; cx <= cw - m->win_cw; ++cx) {
+            int full;
+            int64_t v = vt__acf_eval(m, ws->ch + (size_t)(cy - ca) * (size_t)cw + (size_t)cx,
+                                     ws->off, n_cy, cw, 1, &full);
+            int32_t sc = vt__sat_i32(v);
+            ++res->n_windows;
+            if (!full || sc < cfg->score_min) {
+                continue;
+            }
+            ++res->n_window_hits;
+            b.left = vt__acf_in(4 * cx + pad4, r);
+            b.right = vt__acf_in(4 * (cx + m->win_cw) - pad4, r) - 1;
+            vt__acf_add(ws, res, &b, sc);
+        }
+    }
+}
+
+vt_status vt_acf_detect_n(vt_acf_ws *ws, int32_t n, const vt_acf_model *const *m,
+                          const vt_acf_cfg *const *cfg, const vt_camera_min *cam,
+                          const vt_image_u8 *img, vt_fulldet_result *res)
+{
+    int32_t k, i, kept = 0, k0 = VT_ACF_MAX_SCALES, k1 = 0;
+    vt_status s = VT_OK;
     if (res == NULL) {
         return VT_E_ARG;
     }
     res->n_boxes = res->n_windows = res->n_windows_dropped = res->n_window_hits = 0;
     res->n_shadow = res->n_cand = res->n_cand_dropped = 0;
-    if (ws == NULL) {
+    if (ws == NULL || m == NULL || cfg == NULL || n < 1 || n > VT_ACF_MAX_MODELS) {
         return VT_E_ARG;
     }
-    s = vt_acf_model_check(m);
-    if (s == VT_OK) {
-        s = vt_acf_cfg_check(cfg);
+    for (i = 0; i < n && s == VT_OK; ++i) {
+        s = vt_acf_model_check(m[i]);
+        if (s == VT_OK) {
+            s = vt_acf_cfg_check(cfg[i]);
+        }
+        if (s == VT_OK) {
+            k0 = cfg[i]->first_scale < k0 ? cfg[i]->first_scale : k0;
+            k1 = cfg[i]->first_scale + cfg[i]->n_scales > k1 ? cfg[i]->first_scale + cfg[i]->n_scales
+                                                             : k1;
+        }
     }
     if (s == VT_OK) {
         s = vt_camera_min_check(cam);
@@ -437,29 +496,26 @@ vt_status vt_acf_detect(vt_acf_ws *ws, const vt_acf_model *m, const vt_acf_cfg *
     if (s != VT_OK) {
         return s;
     }
-    pad4 = 4 * m->pad;
-    for (k = cfg->first_scale; k < cfg->first_scale + cfg->n_scales; ++k) {
+    for (k = k0; k < k1; ++k) {
         int32_t r = vt__acf_scale[k];
         int32_t lw = vt__acf_lsize(img->w, r), lh = vt__acf_lsize(img->h, r);
-        int32_t cw = lw / 4, nch = lh / 4, cya = -1, cyb = -1, cy, cx, n_cy, ly0, ly1;
-        int32_t W = vt__acf_in(4 * (m->win_cw - 2 * m->pad), r);
+        int32_t cw = lw / 4, nch = lh / 4, ca = -1, cb = -1, n_cy, ly0, ly1;
+        int32_t ra[VT_ACF_MAX_MODELS], rb[VT_ACF_MAX_MODELS];
         vt__acf_src L;
-        if (cw < m->win_cw || nch < m->win_ch) {
-            continue;
-        }
-        for (cy = 0; cy <= nch - m->win_ch; ++cy) {
-            int32_t b = vt__acf_in(4 * (cy + m->win_ch) - pad4, r) - 1;
-            if (vt__acf_band(cfg, cam, b, W)) {
-                cya = cya < 0 ? cy : cya;
-                cyb = cy;
+        /* one pyramid level and one channel computation for every model's rows */
+        for (i = 0; i < n; ++i) {
+            vt__acf_rows(m[i], cfg[i], cam, k, r, cw, nch, &ra[i], &rb[i]);
+            if (ra[i] >= 0) {
+                ca = ca < 0 || ra[i] < ca ? ra[i] : ca;
+                cb = rb[i] + m[i]->win_ch - 1 > cb ? rb[i] + m[i]->win_ch - 1 : cb;
             }
         }
-        if (cya < 0) {
+        if (ca < 0) {
             continue;
         }
-        n_cy = cyb + m->win_ch - cya;
-        ly0 = vt__max_i32(0, 4 * vt__max_i32(0, cya - 2) - 2);
-        ly1 = 4 * (cyb + m->win_ch - 1 + 2) + 5;
+        n_cy = cb - ca + 1;
+        ly0 = vt__max_i32(0, 4 * vt__max_i32(0, ca - 2) - 2);
+        ly1 = 4 * (cb + 2) + 5;
         ly1 = ly1 < lh - 1 ? ly1 : lh - 1;
         if (r == 65536) {
             L.px = img->px + (size_t)ly0 * (size_t)img->stride;
@@ -472,32 +528,14 @@ vt_status vt_acf_detect(vt_acf_ws *ws, const vt_acf_model *m, const vt_acf_cfg *
         L.w = lw;
         L.h = lh;
         L.py0 = ly0;
-        vt__acf_chan(ws, &L, cya, n_cy, ws->ch);
-        vt__acf_offsets(m, n_cy, cw, ws->off);
-        for (cy = cya; cy <= cyb; ++cy) {
-            vt_box b;
-            b.bottom = vt__acf_in(4 * (cy + m->win_ch) - pad4, r) - 1;
-            if (!vt__acf_band(cfg, cam, b.bottom, W)) {
-                continue;
-            }
-            b.top = vt__acf_in(4 * cy + pad4, r);
-            for (cx = 0; cx <= cw - m->win_cw; ++cx) {
-                int full;
-                int64_t v = vt__acf_eval(m, ws->ch + (size_t)(cy - cya) * (size_t)cw + (size_t)cx,
-                                         ws->off, n_cy, cw, 1, &full);
-                int32_t sc = vt__sat_i32(v);
-                ++res->n_windows;
-                if (!full || sc < cfg->score_min) {
-                    continue;
-                }
-                ++res->n_window_hits;
-                b.left = vt__acf_in(4 * cx + pad4, r);
-                b.right = vt__acf_in(4 * (cx + m->win_cw) - pad4, r) - 1;
-                vt__acf_add(ws, res, &b, sc);
+        vt__acf_chan(ws, &L, ca, n_cy, ws->ch);
+        for (i = 0; i < n; ++i) {
+            if (ra[i] >= 0) {
+                vt__acf_scan(ws, m[i], cfg[i], cam, r, cw, ca, n_cy, ra[i], rb[i], res);
             }
         }
     }
-    s = vt_nms(ws->cand, res->n_cand, cfg->nms_iou_permille, 1000, &kept);
+    s = vt_nms(ws->cand, res->n_cand, cfg[0]->nms_iou_permille, 1000, &kept);
     if (s != VT_OK) {
         res->n_boxes = 0;
         return s;
@@ -507,4 +545,11 @@ vt_status vt_acf_detect(vt_acf_ws *ws, const vt_acf_model *m, const vt_acf_cfg *
         res->box[i] = ws->cand[i];
     }
     return VT_OK;
+}
+
+vt_status vt_acf_detect(vt_acf_ws *ws, const vt_acf_model *m, const vt_acf_cfg *cfg,
+                        const vt_camera_min *cam, const vt_image_u8 *img,
+                        vt_fulldet_result *res)
+{
+    return vt_acf_detect_n(ws, 1, &m, &cfg, cam, img, res);
 }

@@ -146,6 +146,7 @@ vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
     p->refine = NULL;
     p->acf = NULL;
     p->acf_ws = NULL;
+    p->acf_n = 0;
     p->horizon_y = 0;
     p->horizon_known = 0;
     p->flow_st = NULL;
@@ -243,25 +244,37 @@ vt_status vt_pipeline_set_wide(vt_pipeline *p, const vt_mlp_model *m, const vt_f
 vt_status vt_pipeline_set_acf(vt_pipeline *p, const vt_acf_model *m, const vt_acf_cfg *cfg,
                               vt_acf_ws *ws)
 {
-    vt_status s;
     if (p == NULL || (m != NULL && (cfg == NULL || ws == NULL))) {
         return VT_E_ARG;
     }
-    if (m == NULL) {
-        p->acf = NULL;
-        p->acf_ws = NULL;
-        return VT_OK;
+    return vt_pipeline_set_acf_n(p, m != NULL, &m, &cfg, ws);
+}
+
+vt_status vt_pipeline_set_acf_n(vt_pipeline *p, int32_t n, const vt_acf_model *const *m,
+                                const vt_acf_cfg *const *cfg, vt_acf_ws *ws)
+{
+    int32_t i;
+    vt_status s = VT_OK;
+    if (p == NULL || n < 0 || n > VT_ACF_MAX_MODELS ||
+        (n > 0 && (m == NULL || cfg == NULL || ws == NULL))) {
+        return VT_E_ARG;
     }
-    s = vt_acf_model_check(m);
-    if (s == VT_OK) {
-        s = vt_acf_cfg_check(cfg);
+    for (i = 0; i < n && s == VT_OK; ++i) {
+        s = vt_acf_model_check(m[i]);
+        if (s == VT_OK) {
+            s = vt_acf_cfg_check(cfg[i]);
+        }
     }
     if (s != VT_OK) {
         return s;
     }
-    p->acf = m;
-    p->acf_cfg = *cfg;
-    p->acf_ws = ws;
+    p->acf = n > 0 ? m[0] : NULL;
+    p->acf_ws = n > 0 ? ws : NULL;
+    p->acf_n = n;
+    for (i = 0; i < n; ++i) {
+        p->acf_m[i] = m[i];
+        p->acf_cfg[i] = *cfg[i];
+    }
     return VT_OK;
 }
 
@@ -689,7 +702,11 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
         return VT_OK;
     }
     if (p->acf != NULL) {
-        s = vt_acf_detect(p->acf_ws, p->acf, &p->acf_cfg, &cam, frame, &ws->res);
+        const vt_acf_cfg *cfgs[VT_ACF_MAX_MODELS];
+        for (i = 0; i < p->acf_n; ++i) {
+            cfgs[i] = &p->acf_cfg[i];
+        }
+        s = vt_acf_detect_n(p->acf_ws, p->acf_n, p->acf_m, cfgs, &cam, frame, &ws->res);
     } else {
         s = vt_fulldet(&ws->st, &fc, &cam, frame, &out->road, &p->scorer, &ws->res);
     }

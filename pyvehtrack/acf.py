@@ -20,6 +20,9 @@ SCALE_Q16 = (65536, 77936, 92682, 110218, 131072, 155872, 185364, 220436, 262144
              440872, 524288, 623487, 741455, 881744)
 
 
+MAX_MODELS = int(lib.VT_ACF_MAX_MODELS)
+
+
 def level_size(n: int, r_q16: int) -> int:
     return (int(n) << 16) // int(r_q16)
 
@@ -92,6 +95,8 @@ class AcfModel:
     reject_q16: np.ndarray | None = None   # (T,) int32
     score_min_q16: int = 0
     path: str = ""
+    band_mm: tuple | None = None   # its band's box widths (veh_w_min_mm, veh_w_max_mm); None: acf.h's
+    more: list = field(default_factory=list)   # further models on the same pyramid (vt_acf_detect_n)
     # what the whole-road detector reads from any model file (fullroad.load_model fills them)
     settings: dict = field(default_factory=dict)
     wide: object = None
@@ -121,6 +126,8 @@ class AcfModel:
 
     @classmethod
     def load(cls, path) -> "AcfModel":
+        """A model file: one tree ensemble under plain keys, and up to VT_ACF_MAX_MODELS - 1
+        more (other windows on the same pyramid) under the prefixes acf1_, acf2_, ..."""
         p = Path(path)
         if not p.is_file():
             raise FileNotFoundError(f"ACF model {p} does not exist")
@@ -128,23 +135,60 @@ class AcfModel:
         kind = str(z["kind"]) if "kind" in z.files else ""
         if kind != "acf":
             raise ValueError(f"{p}: not an ACF model (kind {kind!r})")
-        need = ("win_cw", "win_ch", "pad", "depth", "feat", "thr", "leaf", "leaf_q16", "bias")
-        miss = [k for k in need if k not in z.files]
-        if miss:
-            raise ValueError(f"{p}: ACF model lacks {', '.join(miss)}")
-        rej = z["reject_q16"].astype(np.int32) if "reject_q16" in z.files and z["reject_q16"].size else None
-        m = cls(int(z["win_cw"]), int(z["win_ch"]), int(z["pad"]), int(z["depth"]), z["feat"].astype(np.uint16),
-                z["thr"].astype(np.uint8), z["leaf"].astype(np.float64), z["leaf_q16"].astype(np.int32),
-                float(z["bias"]), rej, int(z["score_min_q16"]) if "score_min_q16" in z.files else 0, str(p))
-        m.c_model()  # the core's check
+        m = cls._from_keys(z, "", p)
+        for i in range(1, MAX_MODELS):
+            if f"acf{i}_feat" in z.files:
+                m.more.append(cls._from_keys(z, f"acf{i}_", p))
+            elif any(k.startswith(f"acf{i}_") for k in z.files):
+                raise ValueError(f"{p}: ACF model {i} (keys acf{i}_*) lacks acf{i}_feat")
         return m
 
+    @classmethod
+    def _from_keys(cls, z, pre: str, p: Path) -> "AcfModel":
+        need = ("win_cw", "win_ch", "pad", "depth", "feat", "thr", "leaf", "leaf_q16", "bias")
+        miss = [pre + k for k in need if pre + k not in z.files]
+        if miss:
+            raise ValueError(f"{p}: ACF model lacks {', '.join(miss)}")
+        rej = z[pre + "reject_q16"].astype(np.int32) if pre + "reject_q16" in z.files \
+            and z[pre + "reject_q16"].size else None
+        band = None
+        if pre + "band_mm" in z.files:
+            b = np.asarray(z[pre + "band_mm"]).ravel()
+            if b.size != 2:
+                raise ValueError(f"{p}: {pre}band_mm must hold 2 widths (mm), got {b.size} values")
+            band = (int(b[0]), int(b[1]))
+        m = cls(int(z[pre + "win_cw"]), int(z[pre + "win_ch"]), int(z[pre + "pad"]), int(z[pre + "depth"]),
+                z[pre + "feat"].astype(np.uint16), z[pre + "thr"].astype(np.uint8), z[pre + "leaf"].astype(np.float64),
+                z[pre + "leaf_q16"].astype(np.int32), float(z[pre + "bias"]), rej,
+                int(z[pre + "score_min_q16"]) if pre + "score_min_q16" in z.files else 0, str(p), band)
+        m.c_model()  # the core's check
+        m.c_cfg()    # and the band's
+        return m
+
+    def keys(self, pre: str = "") -> dict:
+        """This model's arrays under the file's key names (prefix pre), without the more models."""
+        d = dict(win_cw=self.win_cw, win_ch=self.win_ch, pad=self.pad, depth=self.depth, feat=self.feat,
+                 thr=self.thr, leaf=self.leaf, leaf_q16=self.leaf_q16, bias=self.bias,
+                 reject_q16=self.reject_q16 if self.reject_q16 is not None else np.zeros(0, np.int32),
+                 score_min_q16=self.score_min_q16)
+        if self.band_mm is not None:
+            d["band_mm"] = np.array(self.band_mm, np.int32)
+        return {pre + k: v for k, v in d.items()}
+
     def save(self, path, **extra) -> None:
-        np.savez_compressed(path, kind="acf", win_cw=self.win_cw, win_ch=self.win_ch, pad=self.pad,
-                            depth=self.depth, feat=self.feat, thr=self.thr, leaf=self.leaf,
-                            leaf_q16=self.leaf_q16, bias=self.bias,
-                            reject_q16=self.reject_q16 if self.reject_q16 is not None else np.zeros(0, np.int32),
-                            score_min_q16=self.score_min_q16, **extra)
+        d = self.keys()
+        for i, mm in enumerate(self.more, 1):
+            d.update(mm.keys(f"acf{i}_"))
+        np.savez_compressed(path, kind="acf", **d, **extra)
+
+    def c_cfg(self, score_offset_q16: int = 0):
+        """vt_acf_cfg for this model: acf.h's defaults, its band and threshold (+ an offset); checked."""
+        c = cfg_default()
+        if self.band_mm is not None:
+            c.veh_w_min_mm, c.veh_w_max_mm = self.band_mm
+        c.score_min = int(np.clip(self.score_min_q16 + int(score_offset_q16), -2 ** 31, 2 ** 31 - 1))
+        check("vt_acf_cfg_check", lib.vt_acf_cfg_check(c), f"band {self.band_mm}")
+        return c
 
     def c_model(self):
         """The vt_acf_model (checked by the core) and its keepalive; cached."""
@@ -181,16 +225,25 @@ class AcfModel:
 
 def detect(model: AcfModel, gray: np.ndarray, horizon_y: int, hood_y: int, fx: float,
            height_mm: int = 1800, cfg=None) -> tuple[np.ndarray, dict]:
-    """vt_acf_detect on one gray frame -> (SCORED_BOX_DTYPE boxes, counters)."""
+    """vt_acf_detect_n on one gray frame with the model and its more models -> (SCORED_BOX_DTYPE
+    boxes, counters). cfg: None (each model's own c_cfg()), one vt_acf_cfg for the first model
+    (the others keep theirs), or a list with one per model."""
     g = _gray(gray, "detect")
-    c = cfg
-    if c is None:
-        c = cfg_default()
-        c.score_min = model.score_min_q16
+    models = [model] + list(model.more)
+    if cfg is None:
+        cfgs = [m.c_cfg() for m in models]
+    elif isinstance(cfg, (list, tuple)):
+        if len(cfg) != len(models):
+            raise ValueError(f"detect: {len(cfg)} cfgs for {len(models)} models")
+        cfgs = list(cfg)
+    else:
+        cfgs = [cfg] + [m.c_cfg() for m in models[1:]]
     cam = camera_min(fx, int(horizon_y), int(height_mm), int(hood_y))
     res = ffi.new("vt_fulldet_result *")
-    check("vt_acf_detect", lib.vt_acf_detect(_ws(), model.c_model()[0], c, cam, view(g, "img"), res),
-          f"img {g.shape}, horizon {horizon_y}, hood {hood_y}")
+    mp = ffi.new("vt_acf_model *[]", [m.c_model()[0] for m in models])
+    cp = ffi.new("vt_acf_cfg *[]", cfgs)
+    check("vt_acf_detect_n", lib.vt_acf_detect_n(_ws(), len(models), mp, cp, cam, view(g, "img"), res),
+          f"img {g.shape}, horizon {horizon_y}, hood {hood_y}, {len(models)} models")
     boxes = np.frombuffer(ffi.buffer(res.box), SCORED_BOX_DTYPE)[:res.n_boxes].copy()
     return boxes, {"n_windows": res.n_windows, "n_window_hits": res.n_window_hits, "n_cand": res.n_cand,
                    "n_cand_dropped": res.n_cand_dropped}

@@ -204,7 +204,7 @@ class Pipeline:
         self._cmodel = self._cscorer = None
         self._wide = None   # the wide pass: (MlpModel, WideConfig, C model, C cfg, box ws) or None
         self._refine = None   # box regression: (BoxRegressor, (C regressor, keepalive), box ws) or None
-        self._acf = None   # the ACF first stage: ((C model, keepalive), C cfg) or None
+        self._acf = None   # the ACF first stage: (C model pointers, C cfg pointers, n, keepalive) or None
         if model is None:
             if road_camera is not None or fullroad is not None:
                 raise ValueError("road_camera and fullroad configure the whole-road detector: pass model= too")
@@ -242,10 +242,12 @@ class Pipeline:
                 if self.engine != "c":
                     raise ValueError("model: an ACF model runs on the C engine only (its float oracle is "
                                      "per stage: pyvehtrack.reference.acf)")
-                from .acf import cfg_default as _acf_cfg  # noqa: PLC0415
-                acfg = _acf_cfg()
-                acfg.score_min = int(_m.threshold_q16 + round(float(_frc.score_offset or 0) * 65536))
-                self._acf = (_m.c_model(), acfg)
+                # every model of the file (vt_pipeline_set_acf_n), the score offset on each threshold
+                off = round(float(_frc.score_offset or 0) * 65536)
+                models = [_m] + list(_m.more)
+                cfgs = [m_.c_cfg(off) for m_ in models]   # kept: the arrays below only point at them
+                self._acf = (ffi.new("vt_acf_model *[]", [m_.c_model()[0] for m_ in models]),
+                             ffi.new("vt_acf_cfg *[]", cfgs), len(models), (models, cfgs))
             reg = _fr.refine_setup(_m, _frc)   # the model's box regressor (vt_pipeline_set_refine)
             if reg is not None:
                 self._refine = (reg, reg.c(), _native.box_ws_new())
@@ -431,8 +433,9 @@ class Pipeline:
                     # the workspace, which then needs no scorer
                     if getattr(self, "_acf_ws", None) is None:
                         self._acf_ws = ffi.new("vt_acf_ws *")
-                    _native.check("vt_pipeline_set_acf",
-                                  lib.vt_pipeline_set_acf(self._p, self._acf[0][0], self._acf[1], self._acf_ws))
+                    _native.check("vt_pipeline_set_acf_n",
+                                  lib.vt_pipeline_set_acf_n(self._p, self._acf[2], self._acf[0], self._acf[1],
+                                                            self._acf_ws))
                 sc = self._cscorer[0] if self._cscorer is not None else ffi.NULL
                 _native.check("vt_pipeline_set_cls_ws", lib.vt_pipeline_set_cls_ws(self._p, self._cls_ws, sc))
                 if self._wide is not None:

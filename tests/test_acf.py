@@ -278,7 +278,8 @@ def test_channel_band_equals_full(seed, h, w, kind):
 
 # ------------------------------------------------------------------ scores
 SCORE_STATS = {"max": 0.0, "n": 0}
-DETECT_STATS = {"cases": 0, "windows": 0, "cand": 0, "boxes": 0, "dropped_by_trace": 0}
+DETECT_STATS = {"cases": 0, "windows": 0, "cand": 0, "boxes": 0, "dropped_by_trace": 0, "multi_cases": 0,
+                "multi_boxes": 0}
 
 
 @settings(max_examples=_n(150))
@@ -496,6 +497,71 @@ def test_detect_matches_numpy(seed, w, h, geo, target):
         assert len(got) >= 1            # a candidate survives NMS (the first one always does)
 
 
+@settings(max_examples=_n(100))
+@given(seed=st.integers(0, 2 ** 31), w=st.integers(160, 360), h=st.integers(120, 220),
+       geos=st.lists(DET_GEO, min_size=2, max_size=int(lib.VT_ACF_MAX_MODELS)),
+       target=st.sampled_from([1, 5, 40, 200]))
+def test_detect_n_matches_numpy(seed, w, h, geos, target):
+    """vt_acf_detect_n on 2..4 models (each its own window, levels, band and score_min) =
+    the NumPy re-run of each model on its own levels, the candidates in the C core's order
+    (level by level, model by model within a level), one greedy NMS at cfg[0]'s IoU; exact
+    boxes, scores and counters. No cascade here (test_soft_cascade covers the trace)."""
+    rng, img, hor, hood, height_mm, m0, c0 = _det_case(seed, w, h, geos[0], {})
+    models, cfgs = [m0], [c0]
+    for g in geos[1:]:
+        _, _, _, _, _, m_, c_ = _det_case(int(rng.integers(0, 2 ** 31)), w, h, g, {})
+        models.append(m_)
+        cfgs.append(c_)
+    per = []   # (level, model i, boxes, runs, floats)
+    for k in range(min(c.first_scale for c in cfgs), max(c.first_scale + c.n_scales for c in cfgs)):
+        for i, (m_, c_) in enumerate(zip(models, cfgs)):
+            if c_.first_scale <= k < c_.first_scale + c_.n_scales:
+                ck = _cfg(first_scale=k, n_scales=1, veh_w_min_mm=c_.veh_w_min_mm, veh_w_max_mm=c_.veh_w_max_mm,
+                          slack_px=c_.slack_px, above_px=c_.above_px)
+                per.append((i,) + _oracle_windows(m_, img, hor, hood, height_mm, ck))
+    for i, (m_, c_) in enumerate(zip(models, cfgs)):   # each model's threshold from its own windows
+        runs_i = [r for j, _, r, _ in per if j == i]
+        r_all = np.concatenate(runs_i, 1) if runs_i else np.zeros((m_.n_trees, 0), np.int64)
+        c_.score_min = _score_min_for(rng, r_all, m_, max(1, target // len(models)))
+    boxes, score, fl, tol = [], [], [], []
+    for i, b, r, f in per:
+        s_ = r[-1] if r.shape[1] else np.zeros(0, np.int64)
+        assert (np.abs(r) <= I32_MAX).all()
+        keep = s_ >= cfgs[i].score_min
+        boxes.append(b[keep])
+        score.append(s_[keep])
+        fl.append(f[keep])
+        tol.append(np.full(int(keep.sum()), _q16_tol(models[i])))
+    boxes, score, fl, tol = (np.concatenate(boxes), np.concatenate(score), np.concatenate(fl), np.concatenate(tol))
+    assert len(score) <= MAX_CAND
+    m_all = models[0]
+    m_all.more = models[1:]
+    got, info = A.detect(m_all, img, hor, hood, 300.0, height_mm, cfgs)
+    assert info["n_windows"] == sum(r.shape[1] for _, _, r, _ in per)
+    assert info["n_window_hits"] == info["n_cand"] == len(score) and info["n_cand_dropped"] == 0
+    kept = _nms(boxes, score, cfgs[0].nms_iou_permille)[:MAX_BOXES]
+    gb = np.stack([got["left"], got["top"], got["right"], got["bottom"]], 1) if len(got) else np.zeros((0, 4))
+    assert np.array_equal(gb, boxes[kept]), (gb[:5], boxes[kept][:5])
+    assert np.array_equal(got["score"], score[kept])
+    assert (np.abs(got["score"] / Q16 - fl[kept]) <= tol[kept]).all()
+    DETECT_STATS["multi_cases"] += 1
+    DETECT_STATS["multi_boxes"] += len(got)
+
+
+def test_detect_n_one_model_is_detect():
+    """n = 1 through vt_acf_detect_n and vt_acf_detect: the same result, field for field."""
+    rng, img, hor, hood, height_mm, m, c = _det_case(7, 320, 200, (10, 9, 1, 3, 20), {})
+    c.score_min = -(2 ** 31)
+    cam = N.camera_min(300.0, hor, height_mm, hood)
+    r1, r2 = ffi.new("vt_fulldet_result *"), ffi.new("vt_fulldet_result *")
+    ws = ffi.new("vt_acf_ws *")
+    mc = m.c_model()[0]
+    assert lib.vt_acf_detect(ws, mc, c, cam, N.view(img, "img"), r1) == lib.VT_OK
+    mp, cp = ffi.new("vt_acf_model *[1]", [mc]), ffi.new("vt_acf_cfg *[1]", [c])
+    assert lib.vt_acf_detect_n(ws, 1, mp, cp, cam, N.view(img, "img"), r2) == lib.VT_OK
+    assert r1.n_boxes > 0 and bytes(ffi.buffer(r1)) == bytes(ffi.buffer(r2))
+
+
 def test_detect_real_frames_not_vacuous():
     """Two real frames (KITTI 640x256, udacity at 400x225) with the default configuration and
     a random model: windows in the band on many levels, boxes after NMS, all as the oracle."""
@@ -710,7 +776,7 @@ def test_cfg_check_rows():
     for field, v in (("n_scales", 0), ("first_scale", 16), ("veh_w_min_mm", 5000), ("nms_iou_permille", 1001)):
         c2 = A.cfg_default()
         setattr(c2, field, v)
-        with pytest.raises(VtError, match="vt_acf_detect: bad argument"):
+        with pytest.raises(VtError, match="vt_acf_detect_n: bad argument"):
             A.detect(m, img, 10, 40, 300.0, cfg=c2)
     with pytest.raises(ValueError, match="horizon_y"):                   # the camera's own check
         A.detect(m, img, 10 ** 6, 40, 300.0)
@@ -738,7 +804,7 @@ def test_python_bad_images():
         A.channels(img, 4, 2)                                            # rows 4..5 of 5 cell rows
     with pytest.raises(VtError, match="vt_acf_channels: bad size"):
         A.channels(img, -1, 1)
-    with pytest.raises(VtError, match="vt_acf_detect: bad size"):
+    with pytest.raises(VtError, match="vt_acf_detect_n: bad size"):
         A.detect(m, np.zeros((8, lib.VT_MAX_WIDTH + 1), np.uint8), 2, 8, 300.0)
     with pytest.raises(VtError, match="vt_acf_score: bad size"):
         m.score_c(np.zeros((8, 3, 9), np.uint8), 0, 0)                   # 3 rows < 4
@@ -854,6 +920,60 @@ def test_c_null_and_size_rows():
         t = np.zeros((h_, w_), np.uint8)
         assert lib.vt_acf_detect(ws, cm, cfg, N.camera_min(300.0, 0, 1800, h_), _u8(t), res) == lib.VT_OK
         assert res.n_boxes == 0 and res.n_windows == 0
+    # detect_n: n, the arrays and each entry
+    mp = ffi.new("vt_acf_model *[5]", [cm] * 5)
+    cp = ffi.new("vt_acf_cfg *[5]", [cfg] * 5)
+    bad_c = ffi.new("vt_acf_cfg *", cfg[0])
+    bad_c.n_scales = 0
+    for n, m_, c_ in ((0, mp, cp), (-1, mp, cp), (int(lib.VT_ACF_MAX_MODELS) + 1, mp, cp), (I32_MIN, mp, cp),
+                      (2, ffi.NULL, cp), (2, mp, ffi.NULL)):
+        res.n_boxes = 7
+        assert lib.vt_acf_detect_n(ws, n, m_, c_, cam, _u8(g), res) == lib.VT_E_ARG, n
+        assert res.n_boxes == 0
+    for i, (mm, cc) in enumerate(((ffi.NULL, cfg), (cm, ffi.NULL), (bad_m, cfg), (cm, bad_c))):
+        m2 = ffi.new("vt_acf_model *[2]", [cm, mm])
+        c2 = ffi.new("vt_acf_cfg *[2]", [cfg, cc])
+        res.n_boxes = 7
+        assert lib.vt_acf_detect_n(ws, 2, m2, c2, cam, _u8(g), res) == lib.VT_E_ARG, i
+        assert res.n_boxes == 0
+    assert lib.vt_acf_detect_n(ffi.NULL, 2, mp, cp, cam, _u8(g), res) == lib.VT_E_ARG
+    assert lib.vt_acf_detect_n(ws, 2, mp, cp, cam, _u8(g), ffi.NULL) == lib.VT_E_ARG
+    assert lib.vt_acf_detect_n(ws, int(lib.VT_ACF_MAX_MODELS), mp, cp, cam, _u8(g), res) == lib.VT_OK
+
+
+def test_pipeline_set_acf_n_rows():
+    """vt_pipeline_set_acf_n: n outside 0..VT_ACF_MAX_MODELS, NULL arrays, entries or scratch,
+    a bad model or cfg -> VT_E_ARG with nothing changed; n = 0 (and set_acf with m NULL)
+    turn the stage off."""
+    rng = np.random.default_rng(3)
+    cm, keep = _cmodel(_model(rng, 6, 5, 1, 2, 3))
+    cfg = A.cfg_default()
+    p = ffi.new("vt_pipeline *")
+    pc = ffi.new("vt_pipeline_cfg *")
+    assert lib.vt_pipeline_cfg_default(pc) == lib.VT_OK
+    assert lib.vt_pipeline_init(p, pc, ffi.NULL, ffi.NULL) == lib.VT_OK
+    ws = ffi.new("vt_acf_ws *")
+    mp = ffi.new("vt_acf_model *[2]", [cm, cm])
+    cp = ffi.new("vt_acf_cfg *[2]", [cfg, cfg])
+    assert lib.vt_pipeline_set_acf_n(p, 2, mp, cp, ws) == lib.VT_OK
+    assert p.acf_n == 2 and p.acf == cm and p.acf_ws == ws
+    bad_m = ffi.new("vt_acf_model *", cm[0])
+    bad_m.depth = 0
+    bad_c = ffi.new("vt_acf_cfg *", cfg[0])
+    bad_c.nms_iou_permille = 1001
+    rows = [(ffi.NULL, 1, mp, cp, ws), (p, -1, mp, cp, ws), (p, int(lib.VT_ACF_MAX_MODELS) + 1, mp, cp, ws),
+            (p, 1, ffi.NULL, cp, ws), (p, 1, mp, ffi.NULL, ws), (p, 1, mp, cp, ffi.NULL),
+            (p, 2, ffi.new("vt_acf_model *[2]", [cm, ffi.NULL]), cp, ws),
+            (p, 2, mp, ffi.new("vt_acf_cfg *[2]", [cfg, ffi.NULL]), ws),
+            (p, 2, ffi.new("vt_acf_model *[2]", [cm, bad_m]), cp, ws),
+            (p, 2, mp, ffi.new("vt_acf_cfg *[2]", [cfg, bad_c]), ws)]
+    for i, args in enumerate(rows):
+        assert lib.vt_pipeline_set_acf_n(*args) == lib.VT_E_ARG, i
+        assert p.acf_n == 2 and p.acf == cm, i
+    assert lib.vt_pipeline_set_acf_n(p, 0, ffi.NULL, ffi.NULL, ffi.NULL) == lib.VT_OK
+    assert p.acf_n == 0 and p.acf == ffi.NULL
+    assert lib.vt_pipeline_set_acf(p, cm, cfg, ws) == lib.VT_OK and p.acf_n == 1
+    assert lib.vt_pipeline_set_acf(p, ffi.NULL, ffi.NULL, ffi.NULL) == lib.VT_OK and p.acf_n == 0
 
 
 def test_defaults():
@@ -880,5 +1000,5 @@ def _print_measured_differences():
               f"differing {(CHANNEL_STATS['neq'] / CHANNEL_STATS['n']).round(4).tolist()}")
     if SCORE_STATS["n"]:
         print(f"acf scores: max |C - float| {SCORE_STATS['max']:.4f} Q16 LSB over {SCORE_STATS['n']} windows")
-    if DETECT_STATS["cases"]:
+    if DETECT_STATS["cases"] or DETECT_STATS["multi_cases"]:
         print(f"acf detect: {DETECT_STATS}")

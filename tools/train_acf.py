@@ -49,7 +49,15 @@ def hood_y(h: int) -> int:
 
 
 class _Geo:
+    """The window being trained (train --win) and its positives and band (--aspect, --veh-w)."""
     win_cw, win_ch, pad = WIN_CW, WIN_CH, PAD
+    aspect = (0.0, 99.0)        # box height / width of the positives
+    veh_w = (1080, 3960)        # the band's box widths (mm), acf.h's veh_w_min_mm / veh_w_max_mm
+
+
+def _set_geo(geo) -> None:
+    if geo:
+        _Geo.win_cw, _Geo.win_ch, _Geo.aspect, _Geo.veh_w = geo
 
 
 def dense(gray: np.ndarray, hor: int, levels=range(15)):
@@ -59,14 +67,14 @@ def dense(gray: np.ndarray, hor: int, levels=range(15)):
     for k in levels:
         r = acf.SCALE_Q16[k]
         lw, lh = acf.level_size(gray.shape[1], r), acf.level_size(h, r)
-        if lw // 4 < WIN_CW or lh // 4 < WIN_CH:
+        if lw // 4 < _Geo.win_cw or lh // 4 < _Geo.win_ch:
             continue
         lv = gray if k == 0 else acf.resample(gray, k)
         ch = acf.channels(lv)
-        f, cx, cy = ra.window_features(ch, WIN_CW, WIN_CH)
+        f, cx, cy = ra.window_features(ch, _Geo.win_cw, _Geo.win_ch)
         b = ra.box_of(_Geo, k, cx, cy)
-        width = ((4 * (WIN_CW - 2 * PAD)) * r) >> 16
-        ok = ra.band_ok(b[:, 3], width, hor, hood_y(h))
+        width = ((4 * (_Geo.win_cw - 2 * PAD)) * r) >> 16
+        ok = ra.band_ok(b[:, 3], width, hor, hood_y(h), veh_w_min_mm=_Geo.veh_w[0], veh_w_max_mm=_Geo.veh_w[1])
         feats.append(f[ok])
         boxes.append(b[ok])
     return np.concatenate(feats), np.concatenate(boxes)
@@ -75,24 +83,25 @@ def dense(gray: np.ndarray, hor: int, levels=range(15)):
 def crop_feature(gray: np.ndarray, box) -> np.ndarray:
     """A box warped (area resampling) into the window, with its pad and MARGIN px of context."""
     l, t, r, b = [float(v) for v in box]
-    bw, bh = 4 * (WIN_CW - 2 * PAD), 4 * (WIN_CH - 2 * PAD)
+    bw, bh = 4 * (_Geo.win_cw - 2 * PAD), 4 * (_Geo.win_ch - 2 * PAD)
     sx, sy = (r - l + 1) / bw, (b - t + 1) / bh  # input px per window px
     ext = 4 * PAD + MARGIN
     x0, y0 = l - ext * sx, t - ext * sy
-    W, H = 4 * WIN_CW + 2 * MARGIN, 4 * WIN_CH + 2 * MARGIN
+    W, H = 4 * _Geo.win_cw + 2 * MARGIN, 4 * _Geo.win_ch + 2 * MARGIN
     mat = np.float32([[1 / sx, 0, -x0 / sx], [0, 1 / sy, -y0 / sy]])
     crop = cv2.warpAffine(gray, mat, (W, H), flags=cv2.INTER_AREA if sx > 1 else cv2.INTER_LINEAR,
                           borderMode=cv2.BORDER_REPLICATE)
     ch = acf.channels(crop)
     k = MARGIN // 4
-    return ch[:, k:k + WIN_CH, k:k + WIN_CW].ravel()
+    return ch[:, k:k + _Geo.win_ch, k:k + _Geo.win_cw].ravel()
 
 
 _G: dict = {}
 
 
-def _init(data, hor, model):
+def _init(data, hor, model, geo=None):
     os.environ["OMP_NUM_THREADS"] = "1"
+    _set_geo(geo)
     _G.update(data=data, hor=hor, model=acf.AcfModel.load(model) if model else None,
               ann={e["file_name"]: e for e in json.load(open(Path(data) / "annotation.json"))})
 
@@ -111,12 +120,13 @@ def _base(f):
     g = cv2.imread(str(Path(_G["data"]) / f), cv2.IMREAD_GRAYSCALE)
     gm, w, pos = np.ascontiguousarray(g[:, ::-1]), g.shape[1], []
     for b in _gt(f):
-        if b[2] - b[0] + 1 >= 24:
+        bw, bh = b[2] - b[0] + 1, b[3] - b[1] + 1
+        if bw >= 24 and _Geo.aspect[0] <= bh / bw < _Geo.aspect[1]:
             pos += [crop_feature(g, b), crop_feature(gm, [w - 1 - b[2], b[1], w - 1 - b[0], b[3]])]
     feats, boxes = dense(g, _G["hor"][f])
     ok = np.nonzero(_far(boxes, _gt(f)))[0]
     idx = rng.choice(ok, size=min(100, len(ok)), replace=False)
-    return np.array(pos, np.uint8).reshape(-1, WIN_CW * WIN_CH * 8), feats[idx]
+    return np.array(pos, np.uint8).reshape(-1, _Geo.win_cw * _Geo.win_ch * 8), feats[idx]
 
 
 def _mine(f):
@@ -135,6 +145,7 @@ def _detect(args):
     if not cascade:
         m.reject_q16, m._c = None, None
     cfg = acf.cfg_default()
+    cfg.veh_w_min_mm, cfg.veh_w_max_mm = _Geo.veh_w
     cfg.score_min = int(np.floor(thr * 65536))
     t0 = time.perf_counter()
     boxes, st = acf.detect(m, g, _G["hor"][f], hood_y(g.shape[0]), fx=1000.0, cfg=cfg)
@@ -183,7 +194,7 @@ def to_model(clf, depth: int, pos: np.ndarray, margin: float) -> acf.AcfModel:
         fill(0, 0, 0)
     bias = float(np.ravel(clf._baseline_prediction)[0])
     leaf_q16 = np.floor(leaf * 65536 + 0.5).astype(np.int32)
-    m = acf.AcfModel(WIN_CW, WIN_CH, PAD, depth, feat, thr, leaf, leaf_q16, bias)
+    m = acf.AcfModel(_Geo.win_cw, _Geo.win_ch, PAD, depth, feat, thr, leaf, leaf_q16, bias)
     # soft cascade: the running sums (Q16) of the positives that pass score 0
     n_in_ = n_in
     node = np.zeros((T, len(pos)), np.int64)
@@ -208,6 +219,12 @@ def main(argv=None) -> int:
     t.add_argument("--depth", type=int, default=3)
     t.add_argument("--margin", type=float, default=1.0, help="soft-cascade slack below the positives' trace")
     t.add_argument("--data", default=str(DATA))
+    t.add_argument("--win", nargs=2, type=int, default=[WIN_CW, WIN_CH], metavar=("CW", "CH"),
+                   help="window in 4 px cells incl. one pad cell each side")
+    t.add_argument("--aspect", nargs=2, type=float, default=[0.0, 99.0], metavar=("MIN", "MAX"),
+                   help="positives: boxes with MIN <= height / width < MAX")
+    t.add_argument("--veh-w", nargs=2, type=int, default=[1080, 3960], metavar=("MIN_MM", "MAX_MM"),
+                   help="the band's box widths at the camera height 1.8 m (acf.h)")
     e = sub.add_parser("eval")
     e.add_argument("model")
     e.add_argument("--split", default="val", choices=("fit", "val", "train", "test"))
@@ -215,6 +232,8 @@ def main(argv=None) -> int:
     e.add_argument("--no-cascade", action="store_true")
     e.add_argument("--json", type=Path, help="write the boxes at the first --thr as detect --json does")
     e.add_argument("--data", default=str(DATA))
+    e.add_argument("--veh-w", nargs=2, type=int, default=None, metavar=("MIN_MM", "MAX_MM"),
+                   help="the band (default: the model file's band_mm, else acf.h's)")
     k = sub.add_parser("pack", help="the shipped file: the trees, the detection threshold, and the box "
                                     "regressor (refine_*) and settings of a base model")
     k.add_argument("model")
@@ -239,10 +258,12 @@ def main(argv=None) -> int:
     from sklearn.ensemble import HistGradientBoostingClassifier
     if a.cmd == "train":
         a.out.mkdir(parents=True, exist_ok=True)
+        geo = (a.win[0], a.win[1], tuple(a.aspect), tuple(a.veh_w))
+        _set_geo(geo)
         files = [r["file_name"] for r in tusimple_frames(a.data, "fit")]
         hor = horizons(a.data, "fit", a.out / "horizons_fit.json")
         t0 = time.time()
-        with Pool(2, _init, (a.data, hor, None)) as pool:
+        with Pool(2, _init, (a.data, hor, None, geo)) as pool:
             r = pool.map(_base, files, chunksize=4)
         pos, neg = np.concatenate([p for p, _ in r]), np.concatenate([n for _, n in r])
         print(f"features: {time.time() - t0:.0f} s", flush=True)
@@ -254,20 +275,25 @@ def main(argv=None) -> int:
             m = to_model(clf, a.depth, pos, a.margin)
             d = np.abs(ra.tree_scores(m, x[:2000].astype(np.uint8)) - clf.decision_function(x[:2000]))
             path = a.out / f"acf_r{rnd}.npz"
-            m.save(path, n_pos=len(pos), n_neg=len(neg), rounds=rnd)
+            m.save(path, n_pos=len(pos), n_neg=len(neg), rounds=rnd, band_mm=np.array(a.veh_w, np.int32),
+                   aspect=np.array(a.aspect))
             print(f"{path}: {len(pos)} positives, {len(neg)} negatives, trees vs sklearn max |diff| {d.max():.2e}, "
                   f"{time.time() - t0:.0f} s", flush=True)
             if rnd == a.rounds:
                 break
-            with Pool(2, _init, (a.data, hor, str(path))) as pool:
+            with Pool(2, _init, (a.data, hor, str(path), geo)) as pool:
                 neg = np.concatenate([neg] + pool.map(_mine, files, chunksize=4))
         return 0
     from pyvehtrack import eval_boxes as eb
     files = [r["file_name"] for r in tusimple_frames(a.data, a.split)]
     hor = horizons(a.data, a.split, Path(a.model).parent / f"horizons_{a.split}.json")
-    _init(a.data, hor, None)
+    mz = np.load(a.model, allow_pickle=False)
+    band = tuple(a.veh_w) if a.veh_w else (tuple(int(v) for v in mz["band_mm"]) if "band_mm" in mz.files
+                                            else _Geo.veh_w)
+    geo = (int(mz["win_cw"]), int(mz["win_ch"]), _Geo.aspect, band)
+    _init(a.data, hor, None, geo)
     for thr in a.thr:
-        with Pool(2, _init, (a.data, hor, a.model)) as pool:
+        with Pool(2, _init, (a.data, hor, a.model, geo)) as pool:
             out = pool.map(_detect, [(f, thr, not a.no_cascade) for f in files], chunksize=2)
         gt = [eb.FrameBoxes(f, _gt(f), None) for f in files]
         pr = [eb.FrameBoxes(f, np.stack([b["left"], b["top"], b["right"], b["bottom"]], 1).astype(float),

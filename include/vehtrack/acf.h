@@ -75,6 +75,8 @@
 #ifndef VT_ACF_MAX_CAND
 #define VT_ACF_MAX_CAND 4096
 #endif
+/* Models vt_acf_detect_n runs on one pyramid, at most. */
+#define VT_ACF_MAX_MODELS 4
 #if VT_ACF_MAX_TREES < 1 || VT_ACF_MAX_CAND < 1 || VT_ACF_MAX_CAND > VT_MAX_NMS_BOXES
 #error "acf capacities out of range (see vehtrack/acf.h)"
 #endif
@@ -180,5 +182,17 @@ vt_status vt_acf_score(const vt_acf_model *m, const uint8_t *ch, int32_t rows, i
 vt_status vt_acf_detect(vt_acf_ws *ws, const vt_acf_model *m, const vt_acf_cfg *cfg,
                         const vt_camera_min *cam, const vt_image_u8 *img,
                         vt_fulldet_result *res);
+
+/* vt_acf_detect for n models on one pyramid (e.g. a rear-view window and a flat
+ * side-view window): each level is resampled and its channels computed once, for the
+ * union of the models' band rows (a cell row's channels do not depend on which rows
+ * are computed); model i scans its windows with cfg[i]'s levels, band and score_min;
+ * all candidates share the cap and one vt_nms at cfg[0]->nms_iou_permille (highest
+ * score first, whichever model scored it). n = 1 is vt_acf_detect. Errors: NULL ws,
+ * m, cfg or res, n outside 1..VT_ACF_MAX_MODELS -> VT_E_ARG; each m[i], cfg[i], cam,
+ * img as their checks. On error res->n_boxes is 0. */
+vt_status vt_acf_detect_n(vt_acf_ws *ws, int32_t n, const vt_acf_model *const *m,
+                          const vt_acf_cfg *const *cfg, const vt_camera_min *cam,
+                          const vt_image_u8 *img, vt_fulldet_result *res);
 
 #endif /* VEHTRACK_ACF_H */

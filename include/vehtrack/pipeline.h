@@ -246,8 +246,10 @@ typedef struct {
     vt_fulldet_wide_cfg wide_cfg;   /* and its settings (a checked copy)                     */
     const vt_box_regressor *refine; /* box regression (NULL: off; vt_pipeline_set_refine)   */
     const vt_acf_model *acf;        /* the ACF first stage (NULL: off; vt_pipeline_set_acf) */
-    vt_acf_cfg acf_cfg;             /* and its settings (a checked copy)                     */
     vt_acf_ws *acf_ws;              /* and its scratch                                       */
+    int32_t acf_n;                  /* its models (vt_pipeline_set_acf_n; acf_m[0] = acf)    */
+    const vt_acf_model *acf_m[VT_ACF_MAX_MODELS];
+    vt_acf_cfg acf_cfg[VT_ACF_MAX_MODELS]; /* and their settings (checked copies)          */
     int32_t horizon_y;           /* the last lanes' vanishing row, input px               */
     int32_t horizon_known;       /* 1 once the lanes gave one (this run)                  */
     vt_flow_state *flow_st;      /* the overtaking stage's state (NULL: none attached)    */
@@ -433,6 +435,13 @@ vt_status vt_pipeline_set_refine(vt_pipeline *p, const vt_box_regressor *r);
  * changes. */
 vt_status vt_pipeline_set_acf(vt_pipeline *p, const vt_acf_model *m, const vt_acf_cfg *cfg,
                               vt_acf_ws *ws);
+
+/* vt_pipeline_set_acf with n models on one pyramid (vt_acf_detect_n: e.g. rear and
+ * side views); m[i] kept by pointer, cfg[i] copied. n = 0 turns the stage off. VT_E_ARG
+ * for p NULL, n outside 0..VT_ACF_MAX_MODELS, or n > 0 with m, cfg, ws or an m[i] or
+ * cfg[i] NULL; m[i] and cfg[i] as their checks. On error nothing changes. */
+vt_status vt_pipeline_set_acf_n(vt_pipeline *p, int32_t n, const vt_acf_model *const *m,
+                                const vt_acf_cfg *const *cfg, vt_acf_ws *ws);
 
 /* Attach the caller's workspace for the tracker's edge-curve measurement
  * (cfg.tracker.measurement == VT_MEAS_EDGE_CURVES; vehtrack/edge_track.h), as

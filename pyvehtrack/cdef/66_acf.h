@@ -5,6 +5,7 @@
 #define VT_ACF_MAX_DEPTH ...
 #define VT_ACF_MAX_WIN_CELLS ...
 #define VT_ACF_MAX_CAND ...
+#define VT_ACF_MAX_MODELS ...
 
 typedef struct {
     int32_t win_cw;
@@ -45,3 +46,6 @@ vt_status vt_acf_score(const vt_acf_model *m, const uint8_t *ch, int32_t rows, i
 vt_status vt_acf_detect(vt_acf_ws *ws, const vt_acf_model *m, const vt_acf_cfg *cfg,
                         const vt_camera_min *cam, const vt_image_u8 *img,
                         vt_fulldet_result *res);
+vt_status vt_acf_detect_n(vt_acf_ws *ws, int32_t n, const vt_acf_model *const *m,
+                          const vt_acf_cfg *const *cfg, const vt_camera_min *cam,
+                          const vt_image_u8 *img, vt_fulldet_result *res);

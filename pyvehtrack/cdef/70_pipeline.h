@@ -79,6 +79,9 @@ typedef struct {
     vt_flow_state *flow_st;
     vt_flow_result flow;
     vt_model_ws *model_ws;
+    const vt_acf_model *acf;
+    vt_acf_ws *acf_ws;
+    int32_t acf_n;
     int32_t frame;
     vt_q16 ego_speed;
     vt_lane_state lane;
@@ -154,3 +157,5 @@ vt_status vt_fixed_road_check(const vt_fixed_road *fr);
 vt_status vt_road_camera_check(const vt_road_camera *rc);
 vt_status vt_pipeline_set_acf(vt_pipeline *p, const vt_acf_model *m, const vt_acf_cfg *cfg,
                               vt_acf_ws *ws);
+vt_status vt_pipeline_set_acf_n(vt_pipeline *p, int32_t n, const vt_acf_model *const *m,
+                                const vt_acf_cfg *const *cfg, vt_acf_ws *ws);
