@@ -27,7 +27,8 @@ vt_status vt_acf_cfg_check(const vt_acf_cfg *cfg)
         cfg->veh_w_min_mm < 100 || cfg->veh_w_max_mm < cfg->veh_w_min_mm ||
         cfg->veh_w_max_mm > 20000 || cfg->slack_px < 0 || cfg->slack_px > VT_MAX_HEIGHT ||
         cfg->above_px < 0 || cfg->above_px > VT_MAX_HEIGHT || cfg->nms_iou_permille < 0 ||
-        cfg->nms_iou_permille > 1000) {
+        cfg->nms_iou_permille > 1000 || cfg->nms_contain_permille < 0 ||
+        cfg->nms_contain_permille > 1000) {
         return VT_E_ARG;
     }
     return VT_OK;
@@ -535,7 +536,7 @@ vt_status vt_acf_detect_n(vt_acf_ws *ws, int32_t n, const vt_acf_model *const *m
             }
         }
     }
-    s = vt_nms(ws->cand, res->n_cand, cfg[0]->nms_iou_permille, 1000, &kept);
+    s = vt_nms(ws->cand, res->n_cand, cfg[0]->nms_iou_permille, cfg[0]->nms_contain_permille, &kept);
     if (s != VT_OK) {
         res->n_boxes = 0;
         return s;

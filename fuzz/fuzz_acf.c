@@ -176,7 +176,8 @@ static int cfg_ok(const vt_acf_cfg *c)
            c->n_scales <= VT_ACF_MAX_SCALES - c->first_scale && c->veh_w_min_mm >= 100 &&
            c->veh_w_min_mm <= c->veh_w_max_mm && c->veh_w_max_mm <= 20000 && c->slack_px >= 0 &&
            c->slack_px <= VT_MAX_HEIGHT && c->above_px >= 0 && c->above_px <= VT_MAX_HEIGHT &&
-           c->nms_iou_permille >= 0 && c->nms_iou_permille <= 1000;
+           c->nms_iou_permille >= 0 && c->nms_iou_permille <= 1000 && c->nms_contain_permille >= 0 &&
+           c->nms_contain_permille <= 1000;
 }
 
 static int cam_ok(const vt_camera_min *c)
@@ -438,8 +439,9 @@ static int in_frame(const vt_box *b, const vt_image_u8 *img)
            b->bottom < img->h;
 }
 
-/* vt_nms's test: suppressed when inter x 1000 > iou_permille x union (inclusive px areas). */
-static int overlaps(const vt_box *a, const vt_box *b, int32_t iou_permille)
+/* vt_nms's test: suppressed when inter x 1000 > iou_permille x union or > contain_permille x
+ * the smaller area (inclusive px areas). */
+static int overlaps(const vt_box *a, const vt_box *b, int32_t iou_permille, int32_t contain_permille)
 {
     int64_t iw = (int64_t)(a->right < b->right ? a->right : b->right) - (a->left > b->left ? a->left : b->left) + 1;
     int64_t ih = (int64_t)(a->bottom < b->bottom ? a->bottom : b->bottom) - (a->top > b->top ? a->top : b->top) + 1;
@@ -450,7 +452,8 @@ static int overlaps(const vt_box *a, const vt_box *b, int32_t iou_permille)
     inter = iw * ih;
     ua = ((int64_t)a->right - a->left + 1) * ((int64_t)a->bottom - a->top + 1);
     ub = ((int64_t)b->right - b->left + 1) * ((int64_t)b->bottom - b->top + 1);
-    return inter * 1000 > (int64_t)iou_permille * (ua + ub - inter);
+    return inter * 1000 > (int64_t)iou_permille * (ua + ub - inter) ||
+           inter * 1000 > (int64_t)contain_permille * (ua < ub ? ua : ub);
 }
 
 static void detect(fz *f, model_t *mt, const vt_acf_cfg *cfg, const vt_camera_min *cam, const vt_image_u8 *img,
@@ -488,8 +491,21 @@ static void detect(fz *f, model_t *mt, const vt_acf_cfg *cfg, const vt_camera_mi
         FZ_ASSERT(b->score >= cfg->score_min && b->source == VT_SRC_WINDOW);
         FZ_ASSERT(i == 0 || g_res.box[i - 1].score >= b->score);
         for (j = 0; j < i; j++) {
-            FZ_ASSERT(!overlaps(&g_res.box[j].box, &b->box, cfg->nms_iou_permille));
+            FZ_ASSERT(!overlaps(&g_res.box[j].box, &b->box, cfg->nms_iou_permille, cfg->nms_contain_permille));
         }
+    }
+    /* vt_acf_detect_n with the model twice: every window scored twice, and NMS keeps one of
+     * each twin (IoU 1) in the single run's order, so the boxes are the single run's */
+    if (g_res.n_cand_dropped == 0 && 2 * g_res.n_cand <= VT_ACF_MAX_CAND && cfg->nms_iou_permille < 1000 &&
+        (fz_u8(f) & 1)) {
+        const vt_acf_model *ms[2];
+        const vt_acf_cfg *cs[2];
+        ms[0] = ms[1] = &mt->m;
+        cs[0] = cs[1] = cfg;
+        s = vt_acf_detect_n(&g_ws, 2, ms, cs, cam, img, &g_res2);
+        FZ_ASSERT(s == VT_OK && g_res2.n_windows == 2 * g_res.n_windows && g_res2.n_cand == 2 * g_res.n_cand &&
+                  g_res2.n_boxes == g_res.n_boxes && g_res2.n_cand_dropped == 0);
+        FZ_ASSERT(memcmp(g_res.box, g_res2.box, (size_t)g_res.n_boxes * sizeof g_res.box[0]) == 0);
     }
     /* a trace of INT32_MIN drops nothing while no running sum can get below it */
     if (mt->m.reject == NULL && (int64_t)mt->m.n_trees * (1 << 24) + (1 << 30) < (int64_t)1 << 31 &&
@@ -533,6 +549,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         cfg.slack_px = fz_range(&f, 0, 200);
         cfg.above_px = fz_range(&f, 0, 200);
         cfg.nms_iou_permille = fz_range(&f, 0, 1000);
+        cfg.nms_contain_permille = fz_u8(&f) < 128 ? 1000 : fz_range(&f, 0, 1000);
     }
     cfg.score_min = fz_u8(&f) < 200 ? (int32_t)(int8_t)fz_u8(&f) * 4096 : fz_raw_i32(&f);
     fz_mutate_i32s(&f, &cfg, sizeof cfg);

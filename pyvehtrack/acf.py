@@ -96,6 +96,7 @@ class AcfModel:
     score_min_q16: int = 0
     path: str = ""
     band_mm: tuple | None = None   # its band's box widths (veh_w_min_mm, veh_w_max_mm); None: acf.h's
+    nms_contain_permille: int = 1000   # the detector's NMS containment limit (the first model's counts)
     more: list = field(default_factory=list)   # further models on the same pyramid (vt_acf_detect_n)
     # what the whole-road detector reads from any model file (fullroad.load_model fills them)
     settings: dict = field(default_factory=dict)
@@ -160,7 +161,8 @@ class AcfModel:
         m = cls(int(z[pre + "win_cw"]), int(z[pre + "win_ch"]), int(z[pre + "pad"]), int(z[pre + "depth"]),
                 z[pre + "feat"].astype(np.uint16), z[pre + "thr"].astype(np.uint8), z[pre + "leaf"].astype(np.float64),
                 z[pre + "leaf_q16"].astype(np.int32), float(z[pre + "bias"]), rej,
-                int(z[pre + "score_min_q16"]) if pre + "score_min_q16" in z.files else 0, str(p), band)
+                int(z[pre + "score_min_q16"]) if pre + "score_min_q16" in z.files else 0, str(p), band,
+                int(z[pre + "nms_contain_permille"]) if pre + "nms_contain_permille" in z.files else 1000)
         m.c_model()  # the core's check
         m.c_cfg()    # and the band's
         return m
@@ -170,7 +172,7 @@ class AcfModel:
         d = dict(win_cw=self.win_cw, win_ch=self.win_ch, pad=self.pad, depth=self.depth, feat=self.feat,
                  thr=self.thr, leaf=self.leaf, leaf_q16=self.leaf_q16, bias=self.bias,
                  reject_q16=self.reject_q16 if self.reject_q16 is not None else np.zeros(0, np.int32),
-                 score_min_q16=self.score_min_q16)
+                 score_min_q16=self.score_min_q16, nms_contain_permille=self.nms_contain_permille)
         if self.band_mm is not None:
             d["band_mm"] = np.array(self.band_mm, np.int32)
         return {pre + k: v for k, v in d.items()}
@@ -182,12 +184,15 @@ class AcfModel:
         np.savez_compressed(path, kind="acf", **d, **extra)
 
     def c_cfg(self, score_offset_q16: int = 0):
-        """vt_acf_cfg for this model: acf.h's defaults, its band and threshold (+ an offset); checked."""
+        """vt_acf_cfg for this model: acf.h's defaults, its band, threshold (+ an offset) and NMS
+        containment limit; checked."""
         c = cfg_default()
         if self.band_mm is not None:
             c.veh_w_min_mm, c.veh_w_max_mm = self.band_mm
         c.score_min = int(np.clip(self.score_min_q16 + int(score_offset_q16), -2 ** 31, 2 ** 31 - 1))
-        check("vt_acf_cfg_check", lib.vt_acf_cfg_check(c), f"band {self.band_mm}")
+        c.nms_contain_permille = int(self.nms_contain_permille)
+        check("vt_acf_cfg_check", lib.vt_acf_cfg_check(c),
+              f"band {self.band_mm}, nms_contain_permille {self.nms_contain_permille}")
         return c
 
     def c_model(self):

@@ -212,6 +212,9 @@ def _settings(z, p) -> dict:
         if k in _PERMILLE:
             if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v <= 1000:
                 raise ValueError(f"model: {p}: detector_json {k} must be an int in 0..1000, got {v!r}")
+        elif k == "verify_skip_flat":
+            if not isinstance(v, bool):
+                raise ValueError(f"model: {p}: detector_json verify_skip_flat must be true or false, got {v!r}")
         elif k == "sources":
             # "ego" beside them: pyvehtrack.Detector adds the ego-lane detector (VT_SRC_EGO)
             if not isinstance(v, list) or not any(x in SOURCES for x in v) or \
@@ -224,7 +227,7 @@ def _settings(z, p) -> dict:
                 raise ValueError(f"model: {p}: detector_json {k} must be a number in {lo}..{hi}, got {v!r}")
         else:
             raise ValueError(f"model: {p}: detector_json has an unknown key {k!r} "
-                             f"(known: sources, {', '.join(_PERMILLE + tuple(_SETTINGS))})")
+                             f"(known: sources, verify_skip_flat, {', '.join(_PERMILLE + tuple(_SETTINGS))})")
     for a, b in (("veh_w_min", "veh_w_max"), ("wide_veh_w_min", "wide_veh_w_max")):
         if d.get(a, 0.0) > d.get(b, 20.0):
             raise ValueError(f"model: {p}: detector_json {a} must not exceed {b}")
@@ -382,10 +385,14 @@ class FullRoadConfig:
     added to the model's own threshold for windows and shadow boxes; `verify_min`
     (float, or None: the model's setting, else off) turns on the second stage: the
     built-in HOG 64x64 MLP scores each box (the square on its bottom row) and boxes
-    below verify_min are dropped (vt_fulldet_verify)."""
+    below verify_min are dropped (vt_fulldet_verify); `verify_skip_flat` (None: the
+    model's setting, else False): in a Pipeline (vt_pipeline_cfg.verify 2) whole-road
+    boxes flatter than 1:2 (side views, which the rear-view MLP cannot judge on their
+    bottom-row square) skip that stage and keep their first-stage score."""
     det: FullDetConfig | None = None
     score_offset: float = 0.0
     verify_min: float | None = None
+    verify_skip_flat: bool | None = None
     wide: bool | None = None   # the wide pass: None = on when the model holds a wide model
     refine: bool | None = None   # box regression: None = on when the model holds a box regressor
 
@@ -472,7 +479,10 @@ def setup(model=None, sources=SOURCES, camera: Camera | None = None, cfg: FullRo
     if vmin is not None and (isinstance(vmin, bool) or not isinstance(vmin, (int, float))
                              or not np.isfinite(vmin)):
         raise TypeError(f"cfg.verify_min: expected a finite number or None, got {vmin!r}")
-    cfg = replace(cfg, det=det, verify_min=None if vmin is None else float(vmin))
+    veo = cfg.verify_skip_flat if cfg.verify_skip_flat is not None else st.get("verify_skip_flat", False)
+    if not isinstance(veo, bool):
+        raise TypeError(f"cfg.verify_skip_flat: expected True, False or None, got {veo!r}")
+    cfg = replace(cfg, det=det, verify_min=None if vmin is None else float(vmin), verify_skip_flat=veo)
     thr = 0
     if model is not None:
         thr = model.threshold_q16 + int(round((cfg.score_offset + float(st.get("score_offset", 0.0))) * 65536))
@@ -536,6 +546,7 @@ class FullRoadDetector:
             raise ValueError(f"engine: expected 'c' or 'reference', got {engine!r}")
         self.model, sources, self.camera, cfg, det = setup(model, sources, camera, cfg)
         vmin = cfg.verify_min
+        self.verify_skip_flat = bool(cfg.verify_skip_flat)
         self.verify_min_q16 = None if vmin is None else int(round(float(vmin) * 65536))
         use_v = vmin is not None or det.rerank_permille > 0   # the second stage's model, or re-ranking
         self._vmodel = _native.mlp_default_model() if use_v else None
@@ -622,6 +633,9 @@ class FullRoadDetector:
         if _is_acf(self.model):
             raise ValueError("detect_gray runs vt_fulldet's window models; an ACF model runs through "
                              "pyvehtrack.Detector / Pipeline (vt_pipeline_set_acf) or pyvehtrack.acf.detect")
+        if self.verify_skip_flat and self.verify_min_q16 is not None:
+            raise ValueError("detect_gray: verify_skip_flat (the second stage on all but flat boxes) runs in "
+                             "pyvehtrack.Detector / Pipeline (vt_pipeline_cfg.verify 2) only")
         cam = self.camera_for(h, w, horizon_y)
         ccam = self._c_camera(cam)
         if road is None:

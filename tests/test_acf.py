@@ -392,9 +392,10 @@ def _oracle_windows(model, img, horizon_y, hood_y, height_mm, cfg):
     return np.concatenate(boxes), np.concatenate(runs, 1), np.concatenate(fl)
 
 
-def _nms(boxes, scores, iou_permille):
-    """vt_nms without containment: stable sort by score descending, then greedy; suppressed when
-    inter x 1000 > iou_permille x union on inclusive pixel areas (exact integers)."""
+def _nms(boxes, scores, iou_permille, contain_permille=1000):
+    """vt_nms: stable sort by score descending, then greedy; suppressed when inter x 1000 >
+    iou_permille x union or > contain_permille x the smaller area, on inclusive pixel areas
+    (exact integers)."""
     order = np.argsort(-scores, kind="stable")
     b = boxes[order].astype(np.int64)
     area = (b[:, 2] - b[:, 0] + 1) * (b[:, 3] - b[:, 1] + 1)
@@ -406,7 +407,8 @@ def _nms(boxes, scores, iou_permille):
             ih = np.minimum(b[kk, 3], b[i, 3]) - np.maximum(b[kk, 1], b[i, 1]) + 1
             inter = np.where((iw > 0) & (ih > 0), iw * ih, 0)
             union = area[kk] + area[i] - inter
-            if (inter * 1000 > iou_permille * union).any():
+            if (inter * 1000 > iou_permille * union).any() or \
+                    (inter * 1000 > contain_permille * np.minimum(area[kk], area[i])).any():
                 continue
         kept.append(i)
     return order[np.array(kept, np.int64)]
@@ -426,7 +428,7 @@ def _compare(model, img, hor, hood, height_mm, cfg, boxes, runs, fl):
     assert info["n_windows"] == len(score)
     assert info["n_window_hits"] == info["n_cand"] == int(cand.sum()) and info["n_cand_dropped"] == 0
     idx = np.flatnonzero(cand)
-    kept = idx[_nms(boxes[idx], score[idx], cfg.nms_iou_permille)][:MAX_BOXES]
+    kept = idx[_nms(boxes[idx], score[idx], cfg.nms_iou_permille, cfg.nms_contain_permille)][:MAX_BOXES]
     gb = np.stack([got["left"], got["top"], got["right"], got["bottom"]], 1) if len(got) else np.zeros((0, 4))
     assert np.array_equal(gb, boxes[kept]), (gb[:5], boxes[kept][:5])
     assert np.array_equal(got["score"], score[kept])
@@ -468,7 +470,8 @@ def _det_case(seed, w, h, geo, cfg_draw):
     cfg = _cfg(first_scale=first, n_scales=int(rng.integers(1, 17 - first)), veh_w_min_mm=wmin,
                veh_w_max_mm=int(rng.integers(wmin, 6000)), slack_px=int(rng.integers(0, 41)),
                above_px=int(rng.integers(0, 21)),
-               nms_iou_permille=int(rng.choice([0, 300, 500, 1000, rng.integers(0, 1001)])))
+               nms_iou_permille=int(rng.choice([0, 300, 500, 1000, rng.integers(0, 1001)])),
+               nms_contain_permille=int(rng.choice([1000, 1000, 400, 700, rng.integers(0, 1001)])))
     for k, v in cfg_draw.items():
         setattr(cfg, k, v)
     return rng, img, hor, hood, height_mm, model, cfg
@@ -539,7 +542,7 @@ def test_detect_n_matches_numpy(seed, w, h, geos, target):
     got, info = A.detect(m_all, img, hor, hood, 300.0, height_mm, cfgs)
     assert info["n_windows"] == sum(r.shape[1] for _, _, r, _ in per)
     assert info["n_window_hits"] == info["n_cand"] == len(score) and info["n_cand_dropped"] == 0
-    kept = _nms(boxes, score, cfgs[0].nms_iou_permille)[:MAX_BOXES]
+    kept = _nms(boxes, score, cfgs[0].nms_iou_permille, cfgs[0].nms_contain_permille)[:MAX_BOXES]
     gb = np.stack([got["left"], got["top"], got["right"], got["bottom"]], 1) if len(got) else np.zeros((0, 4))
     assert np.array_equal(gb, boxes[kept]), (gb[:5], boxes[kept][:5])
     assert np.array_equal(got["score"], score[kept])
@@ -744,6 +747,47 @@ def test_python_model_errors(tmp_path):
     assert (back.win_cw, back.win_ch, back.pad, back.depth, back.bias) == (6, 5, 1, 3, good.bias)
 
 
+def test_model_file_with_more_models(tmp_path):
+    """A file with more models (acf1_*, acf2_* keys): save -> load keeps each model, its band,
+    threshold and the NMS containment limit; c_cfg carries them; a partial or bad extra model
+    is a clear ValueError / VtError naming it."""
+    rng = np.random.default_rng(11)
+    m0, m1, m2 = _model(rng, 10, 9, 1, 3, 5), _model(rng, 16, 8, 1, 2, 4), _model(rng, 6, 6, 0, 1, 3)
+    m0.nms_contain_permille, m1.band_mm, m1.score_min_q16, m2.score_min_q16 = 400, (1500, 9000), 7, -9
+    m0.more = [m1, m2]
+    p = tmp_path / "two.npz"
+    m0.save(p)
+    got = A.AcfModel.load(p)
+    assert len(got.more) == 2 and got.nms_contain_permille == 400 and got.band_mm is None
+    for a, b in zip([got] + got.more, [m0, m1, m2]):
+        assert (a.win_cw, a.win_ch, a.pad, a.depth, a.band_mm, a.score_min_q16) == \
+            (b.win_cw, b.win_ch, b.pad, b.depth, b.band_mm, b.score_min_q16)
+        assert np.array_equal(a.feat, b.feat) and np.array_equal(a.leaf_q16, b.leaf_q16)
+    c = got.more[0].c_cfg(65536)
+    assert (c.veh_w_min_mm, c.veh_w_max_mm, c.score_min) == (1500, 9000, 7 + 65536)
+    assert got.c_cfg().nms_contain_permille == 400
+    z = dict(np.load(p))
+    bad = dict(z)
+    del bad["acf2_feat"]
+    np.savez(tmp_path / "partial.npz", **bad)
+    with pytest.raises(ValueError, match="acf2_"):
+        A.AcfModel.load(tmp_path / "partial.npz")
+    bad = dict(z, acf1_band_mm=np.array([1, 2, 3]))
+    np.savez(tmp_path / "band3.npz", **bad)
+    with pytest.raises(ValueError, match="band_mm"):
+        A.AcfModel.load(tmp_path / "band3.npz")
+    bad = dict(z, acf1_band_mm=np.array([50, 9000]))      # below acf.h's 100 mm
+    np.savez(tmp_path / "band50.npz", **bad)
+    with pytest.raises(VtError, match="vt_acf_cfg_check"):
+        A.AcfModel.load(tmp_path / "band50.npz")
+    bad = dict(z, nms_contain_permille=np.int32(1001))
+    np.savez(tmp_path / "contain.npz", **bad)
+    with pytest.raises(VtError, match="nms_contain_permille"):
+        A.AcfModel.load(tmp_path / "contain.npz")
+    with pytest.raises(ValueError, match="2 cfgs for 3 models"):
+        A.detect(got, np.zeros((60, 80), np.uint8), 10, 60, 300.0, cfg=[A.cfg_default()] * 2)
+
+
 def test_cfg_check_rows():
     c = A.cfg_default()
     assert lib.vt_acf_cfg_check(c) == lib.VT_OK
@@ -752,7 +796,8 @@ def test_cfg_check_rows():
     rows = [("first_scale", -1), ("first_scale", 16), ("n_scales", 0), ("n_scales", 17),
             ("veh_w_min_mm", 99), ("veh_w_max_mm", 20001), ("slack_px", -1),
             ("slack_px", int(lib.VT_MAX_HEIGHT) + 1), ("above_px", -1), ("above_px", int(lib.VT_MAX_HEIGHT) + 1),
-            ("nms_iou_permille", -1), ("nms_iou_permille", 1001), ("n_scales", I32_MAX), ("first_scale", I32_MIN)]
+            ("nms_iou_permille", -1), ("nms_iou_permille", 1001), ("n_scales", I32_MAX), ("first_scale", I32_MIN),
+            ("nms_contain_permille", -1), ("nms_contain_permille", 1001), ("nms_contain_permille", I32_MIN)]
     for field, v in rows:
         c2 = A.cfg_default()
         setattr(c2, field, v)
@@ -766,6 +811,7 @@ def test_cfg_check_rows():
     c2.n_scales = 1
     assert lib.vt_acf_cfg_check(c2) == lib.VT_OK
     for field, v in (("score_min", I32_MIN), ("score_min", I32_MAX), ("nms_iou_permille", 0),
+                     ("nms_contain_permille", 0), ("nms_contain_permille", 1000),
                      ("nms_iou_permille", 1000), ("veh_w_max_mm", 20000)):
         c2 = A.cfg_default()
         setattr(c2, field, v)
@@ -980,7 +1026,7 @@ def test_defaults():
     """The documented defaults (acf.h, VT_ACF_CFG_DEFAULT)."""
     c = A.cfg_default()
     assert (c.first_scale, c.n_scales, c.veh_w_min_mm, c.veh_w_max_mm, c.slack_px, c.above_px, c.score_min,
-            c.nms_iou_permille) == (0, 15, 1080, 3960, 20, 5, 0, 300)
+            c.nms_iou_permille, c.nms_contain_permille) == (0, 15, 1080, 3960, 20, 5, 0, 300, 1000)
     # the oracle's band defaults are the C's
     import inspect
     p = inspect.signature(R.band_ok).parameters

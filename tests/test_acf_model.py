@@ -20,9 +20,15 @@ def test_model_loads_with_its_settings():
     m = load_model(MODEL)
     assert isinstance(m, acf.AcfModel)
     assert m.n_trees == 400 and m.depth == 3 and (m.win_cw, m.win_ch, m.pad) == (10, 9, 1)
-    assert m.refine is not None          # the box regressor rides along
+    assert m.refine is None              # no box regressor: it moved the flat window's boxes to rear-view shapes
     assert m.settings.get("sources") == ["ego", "windows"] and m.settings.get("verify_min") == 2.0
-    assert m.threshold_q16 == -65536
+    assert m.settings.get("verify_skip_flat") is True
+    assert m.threshold_q16 == -65536 and m.band_mm is None and m.nms_contain_permille == 400
+    # the flat (side-view) window on the same pyramid, its own band and threshold
+    assert len(m.more) == 1
+    f = m.more[0]
+    assert (f.win_cw, f.win_ch, f.pad, f.n_trees, f.depth) == (16, 8, 1, 400, 3)
+    assert f.band_mm == (1500, 9000) and f.threshold_q16 == 0
 
 
 def test_pipeline_boxes_are_the_acf_stage_s():

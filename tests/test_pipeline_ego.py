@@ -97,6 +97,44 @@ def test_union_is_ego_then_unsuppressed_whole_boxes():
     assert n_ego >= 4 and n_supp >= 3   # not vacuous: ego boxes kept, duplicates dropped
 
 
+def test_verify_skip_flat():
+    """FullRoadConfig(verify_skip_flat=True) (vt_pipeline_cfg.verify 2; a model's detector_json
+    "verify_skip_flat"): a whole-road box flatter than 1:2 skips the second stage and keeps its
+    first-stage score, every other box goes through it as with verify 1. The window model's
+    boxes are never that flat, so there it equals verify 1 (both engines, box for box); the
+    shipped ACF file's flat window gives flat boxes, checked in C (its windows alone): each box
+    of the verify-2 run is a verify-1 box (tall) or a box of the run whose second stage keeps
+    everything (flat), and no tall box is lost."""
+    from pyvehtrack import fullroad
+    cfg = fullroad.FullRoadConfig(verify_skip_flat=True)
+    srcs = ("ego", "shadow", "classifier")
+    assert Pipeline("c", model=MODEL, sources=srcs, fullroad=cfg)._ccfg.verify == 2
+    for p in FRAMES:
+        g = _gray(p)
+        v1 = _boxes(Pipeline("c", model=MODEL, sources=srcs, detect_every=1, track=False).step_gray(g))
+        v2 = _boxes(Pipeline("c", model=MODEL, sources=srcs, detect_every=1, track=False,
+                             fullroad=cfg).step_gray(g))
+        ref = _boxes(Pipeline("reference", model=MODEL, sources=srcs, detect_every=1, track=False,
+                              fullroad=cfg).step_gray(g))
+        assert v2 == v1 == ref, p.name
+    acf = str(ROOT / "pyvehtrack" / "models" / "acf_gray.npz")
+    flat_kept = 0
+    for p in FRAMES:
+        g = _gray(p)
+        run = [_boxes(Pipeline("c", model=acf, sources=("classifier",), detect_every=1, track=False,
+                               fullroad=c).step_gray(g))
+               for c in (fullroad.FullRoadConfig(verify_skip_flat=False), cfg,
+                         fullroad.FullRoadConfig(verify_min=-30000.0, verify_skip_flat=True))]
+        v1, v2, none = run
+        for src, b, sc in v2:
+            flat = 2 * (b[3] - b[1] + 1) < b[2] - b[0] + 1
+            assert (src, b, sc) in (none if flat else v1), (p.name, b)
+            flat_kept += flat
+        tall = [x for x in v1 if 2 * (x[1][3] - x[1][1] + 1) >= x[1][2] - x[1][0] + 1]
+        assert [x for x in v2 if x in tall] == tall, p.name   # no tall box lost
+    assert flat_kept >= 1   # not vacuous: flat boxes the rear-view stage would judge
+
+
 def test_ego_needs_a_classifier():
     c = _native.pipeline_cfg_default()
     c.sources = lib.VT_SRC_SHADOW | lib.VT_SRC_EGO

@@ -4,7 +4,9 @@
     PYTHONPATH=. python3 tools/train_acf.py train --out DIR [--rounds 2] [--trees 400] [--depth 3]
     PYTHONPATH=. python3 tools/train_acf.py eval MODEL.npz --split val [--thr -1 0 1]
     PYTHONPATH=. python3 tools/train_acf.py pack MODEL.npz --out OUT.npz [--thr T] [--base BASE.npz]
-                                                [--settings JSON]
+                                                [--settings JSON] [--nms-contain P] [--more M2.npz T2]
+    (train --win CW CH --aspect MIN MAX --veh-w MIN_MM MAX_MM: another window, e.g. the flat
+    side-view one: --win 16 8 --aspect 0.2 0.65 --veh-w 1500 9000)
 
 Features are the C core's channel bytes (pyvehtrack.acf: vt_acf_resample and
 vt_acf_channels through the binding), so the trees' integer thresholds decide
@@ -241,6 +243,10 @@ def main(argv=None) -> int:
     k.add_argument("--thr", type=float, default=0.0, help="score_min (real units)")
     k.add_argument("--base", default=None, help="a window model whose refine_* keys ride along")
     k.add_argument("--settings", default=None, help="detector_json (the whole-road settings), JSON text")
+    k.add_argument("--nms-contain", type=int, default=None, metavar="PERMILLE",
+                   help="the detector's NMS containment limit, 0..1000 (default: the model's, else 1000)")
+    k.add_argument("--more", nargs=2, action="append", default=[], metavar=("MODEL", "THR"),
+                   help="another window's model and its threshold, run on the same pyramid (acf1_* keys)")
     a = ap.parse_args(argv)
     if a.cmd == "pack":
         z = dict(np.load(a.model, allow_pickle=False))
@@ -251,9 +257,15 @@ def main(argv=None) -> int:
         if a.settings:
             json.loads(a.settings)  # a clear error for bad JSON
             z["detector_json"] = np.array(a.settings)
+        if a.nms_contain is not None:
+            z["nms_contain_permille"] = np.int32(a.nms_contain)
+        for i, (path, thr) in enumerate(a.more, 1):
+            mm = acf.AcfModel.load(path)
+            mm.score_min_q16 = int(np.floor(float(thr) * 65536 + 0.5))
+            z.update(mm.keys(f"acf{i}_"))
         np.savez_compressed(a.out, **z)
         m = acf.AcfModel.load(a.out)
-        print(f"{a.out}: {m.n_trees} trees, threshold {a.thr}, keys {sorted(z)}")
+        print(f"{a.out}: {m.n_trees} trees, threshold {a.thr}, {len(m.more)} more models, keys {sorted(z)}")
         return 0
     from sklearn.ensemble import HistGradientBoostingClassifier
     if a.cmd == "train":

@@ -109,7 +109,10 @@ typedef struct {
     int32_t slack_px;          /* 0..VT_MAX_HEIGHT                                    */
     int32_t above_px;          /* bottoms from horizon - above_px, 0..VT_MAX_HEIGHT   */
     int32_t score_min;         /* a window is a candidate when score >= this (Q16)    */
-    int32_t nms_iou_permille;  /* vt_nms IoU limit, 0..1000 (no containment test)     */
+    int32_t nms_iou_permille;  /* vt_nms IoU limit, 0..1000                           */
+    int32_t nms_contain_permille; /* vt_nms containment limit (a box mostly inside a
+                                  higher-scoring one: a part box, or a flat window on a
+                                  car's bottom), 0..1000; 1000: no containment test    */
 } vt_acf_cfg;
 
 /* Defaults (issue 8's prototype on 'val'): levels 0..14 (boxes 32 .. 362 px wide),
@@ -119,6 +122,7 @@ typedef struct {
     {                                                                                   \
         .first_scale = 0, .n_scales = 15, .veh_w_min_mm = 1080, .veh_w_max_mm = 3960,   \
         .slack_px = 20, .above_px = 5, .score_min = 0, .nms_iou_permille = 300,         \
+        .nms_contain_permille = 1000,                                                   \
     }
 
 /* Scratch of vt_acf_detect (static or caller-owned; no pointers kept between calls). */
@@ -174,8 +178,8 @@ vt_status vt_acf_score(const vt_acf_model *m, const uint8_t *ch, int32_t rows, i
  * first_scale + n_scales - 1 inside the band (above; cam's horizon, hood and
  * height) scored by m with its soft cascade; windows scoring >= score_min are
  * candidates (source VT_SRC_WINDOW; past VT_ACF_MAX_CAND the lowest-scoring one is
- * replaced, counted in n_cand_dropped), thinned by vt_nms (nms_iou_permille, no
- * containment test); res gets the first VT_MAX_BOXES, highest score first.
+ * replaced, counted in n_cand_dropped), thinned by vt_nms (nms_iou_permille,
+ * nms_contain_permille); res gets the first VT_MAX_BOXES, highest score first.
  * res->n_windows counts windows scored, n_window_hits those over score_min,
  * n_shadow 0. Levels smaller than a window are skipped. Errors: NULLs -> VT_E_ARG;
  * m, cfg, cam, img as their checks. On error res->n_boxes is 0. */
@@ -187,7 +191,7 @@ vt_status vt_acf_detect(vt_acf_ws *ws, const vt_acf_model *m, const vt_acf_cfg *
  * side-view window): each level is resampled and its channels computed once, for the
  * union of the models' band rows (a cell row's channels do not depend on which rows
  * are computed); model i scans its windows with cfg[i]'s levels, band and score_min;
- * all candidates share the cap and one vt_nms at cfg[0]->nms_iou_permille (highest
+ * all candidates share the cap and one vt_nms at cfg[0]'s NMS limits (highest
  * score first, whichever model scored it). n = 1 is vt_acf_detect. Errors: NULL ws,
  * m, cfg or res, n outside 1..VT_ACF_MAX_MODELS -> VT_E_ARG; each m[i], cfg[i], cam,
  * img as their checks. On error res->n_boxes is 0. */

@@ -174,7 +174,10 @@ typedef struct {
                                 (a cascade): the built-in HOG 64x64 MLP re-scores each
                                 box (vt_fulldet_verify) and those under verify_min are
                                 dropped; needs a classifier workspace and a build with
-                                the default MLP                                        */
+                                the default MLP. 2: the same, but a whole-road box
+                                flatter than 1:2 (height < width / 2: a side view, whose
+                                bottom-row square the rear-view MLP cannot judge) keeps
+                                its first-stage score; the ego boxes as with 1         */
     vt_q16 verify_min;       /* that stage's threshold, a Q16 decision value            */
     vt_ttc_cfg ttc;          /* the block-scale TTC (vehtrack/ttc_scale.h) run after the
                                 tracker when its state is attached (vt_pipeline_set_ttc_ws);

@@ -29,6 +29,7 @@ typedef struct {
     int32_t above_px;
     int32_t score_min;
     int32_t nms_iou_permille;
+    int32_t nms_contain_permille;
 } vt_acf_cfg;
 
 typedef struct { ...; } vt_acf_ws;

@@ -119,6 +119,7 @@ class PipelineRefConfig:
     model_fits: int = 2   # most model fits per frame
     model_min_fitness: int = 256  # a fit below this is not used
     verify_min: int | None = None  # Q16: the whole-road boxes' second stage (box_score) and its threshold
+    verify_flat: bool = True       # False: boxes flatter than 1:2 skip that stage (vt_pipeline_cfg.verify 2)
     ttc_points: object = None  # reference.ttc_scale.TtcScaleParams: the block-scale TTC after the
     #                            tracker (vt_pipeline_set_ttc_ws attached); None: not run
     handover: bool = True      # the reverse hand-over to the flow stage (with "flow")
@@ -627,7 +628,11 @@ class Pipeline:
                              rescore=(lambda l, t, r, b: self.box_score(gray, l, t, r, b))
                              if self.box_score is not None else None)
         if c.verify_min is not None:
-            arr = rfd.verify_boxes(arr, lambda l, t, r, b: self.box_score(gray, l, t, r, b), c.verify_min)
+            arr = np.asarray(arr, np.int64).reshape(-1, 6)
+            keep = [rfd.verify_boxes(row[None], lambda l, t, r, b: self.box_score(gray, l, t, r, b), c.verify_min)
+                    if c.verify_flat or 2 * (row[3] - row[1] + 1) >= row[2] - row[0] + 1 else row[None]
+                    for row in arr]   # one box at a time: a flat box keeps its place and score
+            arr = np.concatenate(keep) if keep else arr
         raw = np.asarray(arr, np.int64).reshape(-1, 6)[:, :4].copy()   # as detected: the tracker's boxes
         if self.refine is not None:
             margin, rsrc, offsets = self.refine
