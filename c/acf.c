@@ -197,7 +197,7 @@ static void vt__acf_raw(vt_acf_ws *ws, const vt__acf_src *L, int32_t cy, int32_t
                         uint32_t raw[VT_ACF_NCH][(VT_MAX_WIDTH) / 4])
 {
     int32_t i, x, c;
-    uint16_t *v = (uint16_t *)ws->hrow; /* scratch: w <= VT_MAX_WIDTH uint16 fit */
+    uint16_t *v = ws->vrow;
     for (c = 0; c < VT_ACF_NCH; ++c) {
         for (x = 0; x < cw; ++x) {
             raw[c][x] = 0;
@@ -373,29 +373,6 @@ vt_status vt_acf_score(const vt_acf_model *m, const uint8_t *ch, int32_t rows, i
     return VT_OK;
 }
 
-/* Add a candidate; when full, it replaces the lowest-scoring one if it scores higher. */
-static void vt__acf_add(vt_acf_ws *ws, vt_fulldet_result *res, const vt_box *b, int32_t score)
-{
-    int32_t i, lo = 0;
-    if (res->n_cand < VT_ACF_MAX_CAND) {
-        i = res->n_cand++;
-    } else {
-        for (i = 1; i < VT_ACF_MAX_CAND; ++i) {
-            if (ws->cand[i].score < ws->cand[lo].score) {
-                lo = i;
-            }
-        }
-        ++res->n_cand_dropped;
-        if (ws->cand[lo].score >= score) {
-            return;
-        }
-        i = lo;
-    }
-    ws->cand[i].box = *b;
-    ws->cand[i].score = score;
-    ws->cand[i].source = VT_SRC_WINDOW;
-}
-
 /* Input-px coordinate floor(v r / 65536) of level coordinate v. */
 static int32_t vt__acf_in(int32_t v, int32_t r)
 {
@@ -458,7 +435,8 @@ static void vt__acf_scan(vt_acf_ws *ws, const vt_acf_model *m, const vt_acf_cfg 
             ++res->n_window_hits;
             b.left = vt__acf_in(4 * cx + pad4, r);
             b.right = vt__acf_in(4 * (cx + m->win_cw) - pad4, r) - 1;
-            vt__acf_add(ws, res, &b, sc);
+            vt__cand_add(ws->cand, &res->n_cand, VT_ACF_MAX_CAND, &res->n_cand_dropped, &b, sc,
+                         VT_SRC_WINDOW);
         }
     }
 }

@@ -129,28 +129,11 @@ static int vt__rank_before(const vt_scored_box *a, const vt_scored_box *b)
     return a->box.bottom < b->box.bottom;
 }
 
-/* Add a candidate; when full, it replaces the lowest-scoring one if it scores higher. */
+/* Add a candidate (internal.h: vt__cand_add). */
 static void vt__add(vt_fulldet_state *st, vt_fulldet_result *out, const vt_box *b, int32_t score,
                     int32_t source)
 {
-    int32_t i, lo = 0;
-    if (out->n_cand < VT_FULLDET_MAX_CAND) {
-        i = out->n_cand++;
-    } else {
-        for (i = 1; i < VT_FULLDET_MAX_CAND; ++i) {
-            if (st->cand[i].score < st->cand[lo].score) {
-                lo = i;
-            }
-        }
-        ++out->n_cand_dropped;
-        if (st->cand[lo].score >= score) {
-            return;
-        }
-        i = lo;
-    }
-    st->cand[i].box = *b;
-    st->cand[i].score = score;
-    st->cand[i].source = source;
+    vt__cand_add(st->cand, &out->n_cand, VT_FULLDET_MAX_CAND, &out->n_cand_dropped, b, score, source);
 }
 
 /* Input-pixel box of a window, clipped to the frame (a level's last column or row

@@ -10,6 +10,7 @@
 #include "vehtrack/image.h"
 #include "vehtrack/shadow.h" /* vt_shadow_cfg, for vt__shadow_suppresses */
 #include "vehtrack/status.h"
+#include "vehtrack/windows.h" /* vt_scored_box, for vt__cand_add */
 
 /* Size check shared by every view type: VT_E_SIZE unless 1 <= w <= maxw,
  * 1 <= h <= maxh and stride >= w. */
@@ -91,6 +92,13 @@ static inline void vt__sobel_rows(const vt_image_u8 *img, int32_t y, const uint8
  * IoU exceeds iou_permille / 1000 or the intersection exceeds contain_permille / 1000
  * of the smaller box. Exact in int64 for coordinates within +-2^24. */
 int vt__box_suppress(const vt_box *a, const vt_box *b, int32_t iou_permille, int32_t contain_permille);
+
+/* c/windows.c: add a candidate to cand[0 .. *n - 1] (capacity cap >= 1): appended while
+ * there is room, else it replaces the lowest-scoring one (the first such) if it scores
+ * higher; every add past the capacity counts in *n_dropped. vt_fulldet's and
+ * vt_acf_detect's candidate lists. */
+void vt__cand_add(vt_scored_box *cand, int32_t *n, int32_t cap, int32_t *n_dropped, const vt_box *b,
+                  int32_t score, int32_t source);
 
 /* shadow.c: does the kept shadow edge k suppress edge c above it (the
  * one-edge-per-vehicle rule; vt_detect applies it to verified edges only when

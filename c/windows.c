@@ -198,6 +198,29 @@ static int64_t vt__area(const vt_box *b)
     return ((int64_t)b->right - b->left + 1) * ((int64_t)b->bottom - b->top + 1);
 }
 
+void vt__cand_add(vt_scored_box *cand, int32_t *n, int32_t cap, int32_t *n_dropped, const vt_box *b,
+                  int32_t score, int32_t source)
+{
+    int32_t i, lo = 0;
+    if (*n < cap) {
+        i = (*n)++;
+    } else {
+        for (i = 1; i < cap; ++i) {
+            if (cand[i].score < cand[lo].score) {
+                lo = i;
+            }
+        }
+        ++*n_dropped;
+        if (cand[lo].score >= score) {
+            return;
+        }
+        i = lo;
+    }
+    cand[i].box = *b;
+    cand[i].score = score;
+    cand[i].source = source;
+}
+
 /* 1 if box b is suppressed by the kept box a (internal.h; coordinates within +-2^24). */
 int vt__box_suppress(const vt_box *a, const vt_box *b, int32_t iou_permille, int32_t contain_permille)
 {

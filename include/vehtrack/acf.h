@@ -131,6 +131,7 @@ typedef struct {
     uint32_t hrow[VT_MAX_WIDTH];
     uint64_t acc[VT_MAX_WIDTH];
     uint16_t grow[6][(VT_MAX_WIDTH) + 2];
+    uint16_t vrow[VT_MAX_WIDTH]; /* the vertical [1 2 1] pass of one row */
     uint32_t raw[4][VT_ACF_NCH][(VT_MAX_WIDTH) / 4];
     uint32_t nrm[4][VT_ACF_NCH][(VT_MAX_WIDTH) / 4];
     uint8_t ch[VT_ACF_NCH * ((VT_MAX_HEIGHT) / 4) * ((VT_MAX_WIDTH) / 4)];
