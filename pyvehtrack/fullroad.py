@@ -479,10 +479,10 @@ def setup(model=None, sources=SOURCES, camera: Camera | None = None, cfg: FullRo
     if vmin is not None and (isinstance(vmin, bool) or not isinstance(vmin, (int, float))
                              or not np.isfinite(vmin)):
         raise TypeError(f"cfg.verify_min: expected a finite number or None, got {vmin!r}")
-    veo = cfg.verify_skip_flat if cfg.verify_skip_flat is not None else st.get("verify_skip_flat", False)
-    if not isinstance(veo, bool):
-        raise TypeError(f"cfg.verify_skip_flat: expected True, False or None, got {veo!r}")
-    cfg = replace(cfg, det=det, verify_min=None if vmin is None else float(vmin), verify_skip_flat=veo)
+    skip = cfg.verify_skip_flat if cfg.verify_skip_flat is not None else st.get("verify_skip_flat", False)
+    if not isinstance(skip, bool):
+        raise TypeError(f"cfg.verify_skip_flat: expected True, False or None, got {skip!r}")
+    cfg = replace(cfg, det=det, verify_min=None if vmin is None else float(vmin), verify_skip_flat=skip)
     thr = 0
     if model is not None:
         thr = model.threshold_q16 + int(round((cfg.score_offset + float(st.get("score_offset", 0.0))) * 65536))

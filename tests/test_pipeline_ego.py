@@ -133,6 +133,11 @@ def test_verify_skip_flat():
         tall = [x for x in v1 if 2 * (x[1][3] - x[1][1] + 1) >= x[1][2] - x[1][0] + 1]
         assert [x for x in v2 if x in tall] == tall, p.name   # no tall box lost
     assert flat_kept >= 1   # not vacuous: flat boxes the rear-view stage would judge
+    # bad values: a clear error naming the setting
+    with pytest.raises(TypeError, match="verify_skip_flat"):
+        Pipeline("c", model=MODEL, sources=srcs, fullroad=fullroad.FullRoadConfig(verify_skip_flat="yes"))
+    with pytest.raises(ValueError, match="verify_skip_flat"):
+        fullroad.FullRoadDetector(MODEL, cfg=cfg).detect_gray(_gray(FRAMES[0]))
 
 
 def test_ego_needs_a_classifier():
