@@ -404,6 +404,12 @@ static int vt__result_in(const vt_fulldet_result *res, const vt_image_u8 *img)
 vt_status vt_fulldet_verify(vt_cls_box_ws *ws, const vt_mlp_model *m, const vt_image_u8 *img,
                             int32_t score_min, vt_fulldet_result *res)
 {
+    return vt__fulldet_verify(ws, m, img, score_min, 0, res);
+}
+
+vt_status vt__fulldet_verify(vt_cls_box_ws *ws, const vt_mlp_model *m, const vt_image_u8 *img,
+                             int32_t score_min, int skip_flat, vt_fulldet_result *res)
+{
     vt_status s;
     int32_t i, n = 0;
     if (ws == NULL || m == NULL || img == NULL || res == NULL) {
@@ -422,17 +428,24 @@ vt_status vt_fulldet_verify(vt_cls_box_ws *ws, const vt_mlp_model *m, const vt_i
     /* score everything first, so an error leaves res unchanged */
     {
         int32_t sc[VT_MAX_BOXES];
+        uint8_t pass[VT_MAX_BOXES];
         for (i = 0; i < res->n_boxes; ++i) {
             vt_box sq = res->box[i].box;
             int32_t top = sq.bottom - (sq.right - sq.left);
+            if (skip_flat && 2 * ((int64_t)sq.bottom - sq.top + 1) < (int64_t)sq.right - sq.left + 1) {
+                sc[i] = res->box[i].score; /* flatter than 1:2: passes with its own score */
+                pass[i] = 1;
+                continue;
+            }
             sq.top = top > 0 ? top : 0;
             s = vt_classify_box_mlp(ws, m, img, &sq, &sc[i]);
             if (s != VT_OK) {
                 return s;
             }
+            pass[i] = sc[i] >= score_min;
         }
         for (i = 0; i < res->n_boxes; ++i) {
-            if (sc[i] >= score_min) {
+            if (pass[i]) {
                 res->box[n] = res->box[i];
                 res->box[n].score = sc[i];
                 ++n;

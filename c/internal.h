@@ -10,6 +10,7 @@
 #include "vehtrack/image.h"
 #include "vehtrack/shadow.h" /* vt_shadow_cfg, for vt__shadow_suppresses */
 #include "vehtrack/status.h"
+#include "vehtrack/fulldet.h" /* for vt__fulldet_verify */
 #include "vehtrack/windows.h" /* vt_scored_box, for vt__cand_add */
 
 /* Size check shared by every view type: VT_E_SIZE unless 1 <= w <= maxw,
@@ -97,6 +98,11 @@ int vt__box_suppress(const vt_box *a, const vt_box *b, int32_t iou_permille, int
  * there is room, else it replaces the lowest-scoring one (the first such) if it scores
  * higher; every add past the capacity counts in *n_dropped. vt_fulldet's and
  * vt_acf_detect's candidate lists. */
+/* c/fulldet.c: vt_fulldet_verify, and with skip_flat a box flatter than 1:2 (2 height <
+ * width) passes unscored with its own score (vt_pipeline_cfg.verify 2). */
+vt_status vt__fulldet_verify(vt_cls_box_ws *ws, const vt_mlp_model *m, const vt_image_u8 *img,
+                             int32_t score_min, int skip_flat, vt_fulldet_result *res);
+
 void vt__cand_add(vt_scored_box *cand, int32_t *n, int32_t cap, int32_t *n_dropped, const vt_box *b,
                   int32_t score, int32_t source);
 

@@ -627,37 +627,6 @@ static vt_status vt__detect_ego(vt_pipeline *p, const vt_image_u8 *frame, const 
     return s;
 }
 
-/* cfg.verify 2 on the detector's result: each box at least half as tall as wide through
- * the second stage (vt_fulldet_verify: dropped under vmin, else scored by it); a flatter
- * box (a side view: the square the stage scores on its bottom row would be mostly not
- * the vehicle) keeps its place and first-stage score. The order is kept. */
-static vt_status vt__verify_tall(vt_pipe_cls_ws *ws, const vt_mlp_model *m, const vt_image_u8 *frame,
-                                 vt_q16 vmin)
-{
-    vt_fulldet_result one;
-    int32_t i, k = 0;
-    vt_status s;
-    memset(&one, 0, sizeof one);
-    for (i = 0; i < ws->res.n_boxes; ++i) {
-        const vt_box *b = &ws->res.box[i].box;
-        if (2 * ((int64_t)b->bottom - b->top + 1) < (int64_t)b->right - b->left + 1) {
-            ws->res.box[k++] = ws->res.box[i];
-            continue;
-        }
-        one.n_boxes = 1;
-        one.box[0] = ws->res.box[i];
-        s = vt_fulldet_verify(&ws->box, m, frame, vmin, &one);
-        if (s != VT_OK) {
-            return s;
-        }
-        if (one.n_boxes == 1) {
-            ws->res.box[k++] = one.box[0];
-        }
-    }
-    ws->res.n_boxes = k;
-    return VT_OK;
-}
-
 /* The whole-road detector on a detection frame: its camera (the road camera of the
  * frame's size, the horizon the last lanes' vanishing row once known), the road (the
  * caller's when given, else the camera road), vt_fulldet, and its boxes into out and
@@ -752,10 +721,9 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
     if (s == VT_OK && p->cfg.verify != 0) {
         const vt_mlp_model *m = NULL;
         s = vt_mlp_default_model(&m);
-        if (s == VT_OK && p->cfg.verify == 1) {
-            s = vt_fulldet_verify(&ws->box, m, frame, p->cfg.verify_min, &ws->res);
-        } else if (s == VT_OK) {
-            s = vt__verify_tall(ws, m, frame, p->cfg.verify_min);
+        if (s == VT_OK) {
+            /* verify 2: boxes flatter than 1:2 (side views) pass with their own score */
+            s = vt__fulldet_verify(&ws->box, m, frame, p->cfg.verify_min, p->cfg.verify == 2, &ws->res);
         }
     }
     n_raw = s == VT_OK ? ws->res.n_boxes : 0;
