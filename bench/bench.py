@@ -503,6 +503,32 @@ def _fullroad_mlp(ctx: Ctx) -> Stage:
                       "same windows")
 
 
+@register("acf_detect", sizes=((1280, 720),), driver=False)
+def _acf_detect(ctx: Ctx) -> Stage:
+    """The ACF first stage of the opt-in pyvehtrack/models/acf_gray.npz (vt_acf_detect_n: its
+    rear-view and flat windows on one quarter-octave pyramid, channels, trees with the soft
+    cascade, one NMS) on the frame, with the pipeline's road camera for it; no reference
+    column (the float oracle is per stage: tests/test_acf.py)."""
+    from pyvehtrack import acf
+    from pyvehtrack.pipeline import Pipeline
+    img = ctx.frame
+    path = ROOT / "pyvehtrack" / "models" / "acf_gray.npz"
+    m = acf.AcfModel.load(path)
+    cam = Pipeline("c", model=str(path), detect_every=1, track=False).road_camera.for_frame(*img.shape, None)
+    last = {}
+
+    def c():
+        last["boxes"], last["st"] = acf.detect(m, img, cam.horizon_y, cam.hood_y, cam.fx,
+                                               round(cam.height_m * 1000))
+
+    def dig():
+        b = last.get("boxes")
+        return digest(np.stack([b["left"], b["top"], b["right"], b["bottom"]], 1)) if b is not None and len(b) else 0
+
+    return Stage("acf_detect", c, None, pixels=img.size, calls=1, digest=dig,
+                 note=f"C: vt_acf_detect_n, {1 + len(m.more)} windows (acf_gray.npz)")
+
+
 @register("fullroad_mlp_wide", sizes=((1280, 720),), driver=False)
 def _fullroad_mlp_wide(ctx: Ctx) -> Stage:
     """Whole-road detection in C with the opt-in tests/data/window_mlp_hog32_wide.npz and
