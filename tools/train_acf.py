@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Train and measure the ACF first stage (issue 8; C: include/vehtrack/acf.h).
 
-    PYTHONPATH=. python3 tools/train_acf.py train --out DIR [--rounds 2] [--trees 400] [--depth 3]
+    PYTHONPATH=. python3 tools/train_acf.py train --out DIR [--rounds 2] [--trees 400] [--depth 3] [--crops DIR]
     PYTHONPATH=. python3 tools/train_acf.py eval MODEL.npz --split val [--thr -1 0 1]
     PYTHONPATH=. python3 tools/train_acf.py pack MODEL.npz --out OUT.npz [--thr T] [--base BASE.npz]
                                                 [--settings JSON] [--nms-contain P] [--more M2.npz T2]
@@ -227,6 +227,10 @@ def main(argv=None) -> int:
                    help="positives: boxes with MIN <= height / width < MAX")
     t.add_argument("--veh-w", nargs=2, type=int, default=[1080, 3960], metavar=("MIN_MM", "MAX_MM"),
                    help="the band's box widths at the camera height 1.8 m (acf.h)")
+    t.add_argument("--crops", action="append", default=[], metavar="DIR",
+                   help="more positives: a folder of whole-vehicle crops (e.g. gti-vehicles/vehicles/GTI_Far), "
+                        "each with its mirror image, the box inset by --crop-inset of its size")
+    t.add_argument("--crop-inset", type=float, default=1 / 16)
     e = sub.add_parser("eval")
     e.add_argument("model")
     e.add_argument("--split", default="val", choices=("fit", "val", "train", "test"))
@@ -278,6 +282,19 @@ def main(argv=None) -> int:
         with Pool(2, _init, (a.data, hor, None, geo)) as pool:
             r = pool.map(_base, files, chunksize=4)
         pos, neg = np.concatenate([p for p, _ in r]), np.concatenate([n for _, n in r])
+        extra = []
+        for d in a.crops:
+            files_c = sorted(Path(d).glob("*.png"))
+            if not files_c:
+                raise SystemExit(f"--crops {d}: no .png files")
+            for f in files_c:
+                g = cv2.imread(str(f), cv2.IMREAD_GRAYSCALE)
+                h_, w_ = g.shape
+                box = [a.crop_inset * w_, a.crop_inset * h_, w_ - 1 - a.crop_inset * w_, h_ - 1 - a.crop_inset * h_]
+                extra += [crop_feature(g, box), crop_feature(np.ascontiguousarray(g[:, ::-1]), box)]
+        if extra:
+            pos = np.concatenate([pos, np.array(extra, np.uint8)])
+            print(f"crops: {len(extra)} positives from {len(a.crops)} folders", flush=True)
         print(f"features: {time.time() - t0:.0f} s", flush=True)
         for rnd in range(a.rounds + 1):
             x = np.concatenate([pos, neg]).astype(np.float32)
