@@ -24,11 +24,13 @@ def test_model_loads_with_its_settings():
     assert m.settings.get("sources") == ["ego", "windows"] and m.settings.get("verify_min") == 2.0
     assert m.settings.get("verify_skip_flat") is True
     assert m.threshold_q16 == -65536 and m.band_mm is None and m.nms_contain_permille == 400
-    # the flat (side-view) window on the same pyramid, its own band and threshold
-    assert len(m.more) == 1
-    f = m.more[0]
+    # the flat (side-view) and the small far-car windows on the same pyramid, each its own band and threshold
+    assert len(m.more) == 2
+    f, t = m.more
     assert (f.win_cw, f.win_ch, f.pad, f.n_trees, f.depth) == (16, 8, 1, 400, 3)
     assert f.band_mm == (1500, 9000) and f.threshold_q16 == 0
+    assert (t.win_cw, t.win_ch, t.pad, t.n_trees, t.depth, t.win_w, t.win_h) == (7, 6, 1, 400, 3, 20, 16)
+    assert t.band_mm == (1080, 3960) and t.threshold_q16 == 0
 
 
 def test_pipeline_boxes_are_the_acf_stage_s():

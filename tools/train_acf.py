@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Train and measure the ACF first stage (issue 8; C: include/vehtrack/acf.h).
 
-    PYTHONPATH=. python3 tools/train_acf.py train --out DIR [--rounds 2] [--trees 400] [--depth 3] [--crops DIR]
+    PYTHONPATH=. python3 tools/train_acf.py train --out DIR [--rounds 2] [--trees 400] [--depth 3] [--min-w PX] [--crops DIR]
     PYTHONPATH=. python3 tools/train_acf.py eval MODEL.npz --split val [--thr -1 0 1]
     PYTHONPATH=. python3 tools/train_acf.py pack MODEL.npz --out OUT.npz [--thr T] [--base BASE.npz]
                                                 [--settings JSON] [--nms-contain P] [--more M2.npz T2]
@@ -54,12 +54,14 @@ class _Geo:
     """The window being trained (train --win) and its positives and band (--aspect, --veh-w)."""
     win_cw, win_ch, pad = WIN_CW, WIN_CH, PAD
     aspect = (0.0, 99.0)        # box height / width of the positives
+    min_w = 24                  # the positives' smallest width (px)
     veh_w = (1080, 3960)        # the band's box widths (mm), acf.h's veh_w_min_mm / veh_w_max_mm
 
 
 def _set_geo(geo) -> None:
     if geo:
-        _Geo.win_cw, _Geo.win_ch, _Geo.aspect, _Geo.veh_w = geo
+        _Geo.win_cw, _Geo.win_ch, _Geo.aspect, _Geo.veh_w = geo[:4]
+        _Geo.min_w = geo[4] if len(geo) > 4 else 24
 
 
 def dense(gray: np.ndarray, hor: int, levels=range(15)):
@@ -123,7 +125,7 @@ def _base(f):
     gm, w, pos = np.ascontiguousarray(g[:, ::-1]), g.shape[1], []
     for b in _gt(f):
         bw, bh = b[2] - b[0] + 1, b[3] - b[1] + 1
-        if bw >= 24 and _Geo.aspect[0] <= bh / bw < _Geo.aspect[1]:
+        if bw >= _Geo.min_w and _Geo.aspect[0] <= bh / bw < _Geo.aspect[1]:
             pos += [crop_feature(g, b), crop_feature(gm, [w - 1 - b[2], b[1], w - 1 - b[0], b[3]])]
     feats, boxes = dense(g, _G["hor"][f])
     ok = np.nonzero(_far(boxes, _gt(f)))[0]
@@ -227,6 +229,7 @@ def main(argv=None) -> int:
                    help="positives: boxes with MIN <= height / width < MAX")
     t.add_argument("--veh-w", nargs=2, type=int, default=[1080, 3960], metavar=("MIN_MM", "MAX_MM"),
                    help="the band's box widths at the camera height 1.8 m (acf.h)")
+    t.add_argument("--min-w", type=int, default=24, help="the positives' smallest box width (px)")
     t.add_argument("--crops", action="append", default=[], metavar="DIR",
                    help="more positives: a folder of whole-vehicle crops (e.g. gti-vehicles/vehicles/GTI_Far), "
                         "each with its mirror image, the box inset by --crop-inset of its size")
@@ -274,7 +277,7 @@ def main(argv=None) -> int:
     from sklearn.ensemble import HistGradientBoostingClassifier
     if a.cmd == "train":
         a.out.mkdir(parents=True, exist_ok=True)
-        geo = (a.win[0], a.win[1], tuple(a.aspect), tuple(a.veh_w))
+        geo = (a.win[0], a.win[1], tuple(a.aspect), tuple(a.veh_w), a.min_w)
         _set_geo(geo)
         files = [r["file_name"] for r in tusimple_frames(a.data, "fit")]
         hor = horizons(a.data, "fit", a.out / "horizons_fit.json")
