@@ -37,6 +37,8 @@ from numpy.lib.stride_tricks import sliding_window_view
 _ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(_ROOT))
 from pyvehtrack.eval_boxes import box_iou_matrix  # noqa: E402
+sys.path.insert(0, str(_ROOT / "tools"))
+from train_acf import horizons  # noqa: E402  (the shipped detector's horizon per frame, cached)
 DATA = _ROOT.parent / "shared" / "data" / "tusimple-vehicles-dev"
 SH, BW, BH, PAD, NCH = 4, 32, 28, 1, 8
 CW, CH = BW // SH + 2 * PAD, BH // SH + 2 * PAD
@@ -165,19 +167,6 @@ def _candidates(f):
     s = _G["clf"].decision_function(feats)
     m = s > -2.5
     return f, boxes[m], s[m]
-
-
-def horizons(data, split, cache: Path) -> dict:
-    """The horizon row the shipped detector uses on each frame (its stats)."""
-    if cache.is_file():
-        return json.loads(cache.read_text())
-    from pyvehtrack.datasets import tusimple_frames
-    from pyvehtrack.detector import Detector
-    det, out = Detector(model=str(_ROOT / "pyvehtrack" / "models" / "window_mlp_hog32.npz")), {}
-    for e in tusimple_frames(data, split):
-        out[e["file_name"]] = int(det.detect(cv2.imread(str(Path(data) / e["file_name"]))).stats["horizon_y"])
-    cache.write_text(json.dumps(out))
-    return out
 
 
 def main(argv=None) -> int:
