@@ -28,7 +28,8 @@ vt_status vt_acf_cfg_check(const vt_acf_cfg *cfg)
         cfg->veh_w_max_mm > 20000 || cfg->slack_px < 0 || cfg->slack_px > VT_MAX_HEIGHT ||
         cfg->above_px < 0 || cfg->above_px > VT_MAX_HEIGHT || cfg->nms_iou_permille < 0 ||
         cfg->nms_iou_permille > 1000 || cfg->nms_contain_permille < 0 ||
-        cfg->nms_contain_permille > 1000) {
+        cfg->nms_contain_permille > 1000 || cfg->cols < VT_ACF_COLS_ALL ||
+        cfg->cols > VT_ACF_COLS_RIGHT) {
         return VT_E_ARG;
     }
     return VT_OK;
@@ -415,6 +416,8 @@ static void vt__acf_scan(vt_acf_ws *ws, const vt_acf_model *m, const vt_acf_cfg 
                          int32_t cya, int32_t cyb, vt_fulldet_result *res)
 {
     int32_t cy, cx, pad4 = 4 * m->pad, W = vt__acf_in(4 * (m->win_cw - 2 * m->pad), r);
+    int32_t cx0 = cfg->cols == VT_ACF_COLS_RIGHT ? cw - m->win_cw : 0;
+    int32_t cx1 = cfg->cols == VT_ACF_COLS_LEFT ? 0 : cw - m->win_cw;
     vt__acf_offsets(m, n_cy, cw, ws->off);
     for (cy = cya; cy <= cyb; ++cy) {
         vt_box b;
@@ -423,7 +426,7 @@ static void vt__acf_scan(vt_acf_ws *ws, const vt_acf_model *m, const vt_acf_cfg 
             continue;
         }
         b.top = vt__acf_in(4 * cy + pad4, r);
-        for (cx = 0; cx <= cw - m->win_cw; ++cx) {
+        for (cx = cx0; cx <= cx1; ++cx) {
             int full;
             int64_t v = vt__acf_eval(m, ws->ch + (size_t)(cy - ca) * (size_t)cw + (size_t)cx,
                                      ws->off, n_cy, cw, 1, &full);

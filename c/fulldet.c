@@ -408,7 +408,7 @@ vt_status vt_fulldet_verify(vt_cls_box_ws *ws, const vt_mlp_model *m, const vt_i
 }
 
 vt_status vt__fulldet_verify(vt_cls_box_ws *ws, const vt_mlp_model *m, const vt_image_u8 *img,
-                             int32_t score_min, int skip_flat, vt_fulldet_result *res)
+                             int32_t score_min, int32_t skip, vt_fulldet_result *res)
 {
     vt_status s;
     int32_t i, n = 0;
@@ -432,8 +432,11 @@ vt_status vt__fulldet_verify(vt_cls_box_ws *ws, const vt_mlp_model *m, const vt_
         for (i = 0; i < res->n_boxes; ++i) {
             vt_box sq = res->box[i].box;
             int32_t top = sq.bottom - (sq.right - sq.left);
-            if (skip_flat && 2 * ((int64_t)sq.bottom - sq.top + 1) < (int64_t)sq.right - sq.left + 1) {
-                sc[i] = res->box[i].score; /* flatter than 1:2: passes with its own score */
+            int64_t bw = (int64_t)sq.right - sq.left + 1;
+            if (((skip & VT__VERIFY_SKIP_FLAT) && 2 * ((int64_t)sq.bottom - sq.top + 1) < bw) ||
+                ((skip & VT__VERIFY_SKIP_SIDE) &&
+                 (4 * (int64_t)sq.left <= bw + 4 || 4 * ((int64_t)img->w - 1 - sq.right) <= bw + 4))) {
+                sc[i] = res->box[i].score; /* passes with its own score */
                 pass[i] = 1;
                 continue;
             }

@@ -98,10 +98,16 @@ int vt__box_suppress(const vt_box *a, const vt_box *b, int32_t iou_permille, int
  * there is room, else it replaces the lowest-scoring one (the first such) if it scores
  * higher; every add past the capacity counts in *n_dropped. vt_fulldet's and
  * vt_acf_detect's candidate lists. */
-/* c/fulldet.c: vt_fulldet_verify, and with skip_flat a box flatter than 1:2 (2 height <
- * width) passes unscored with its own score (vt_pipeline_cfg.verify 2). */
+/* c/fulldet.c: vt_fulldet_verify, where boxes that the rear-view stage cannot judge pass
+ * unscored with their own score: with VT__VERIFY_SKIP_FLAT in skip a box flatter than 1:2
+ * (2 height < width: a side view; vt_pipeline_cfg.verify 2), with VT__VERIFY_SKIP_SIDE also
+ * a box whose gap to the frame's left or right side is at most a quarter of its width
+ * plus 1 px (4 gap <= width + 4: a vehicle the frame's edge cuts, whose bottom-row square
+ * cannot show it whole; the edge models' boxes, acf.h's cols; verify 3). */
+#define VT__VERIFY_SKIP_FLAT 1
+#define VT__VERIFY_SKIP_SIDE 2
 vt_status vt__fulldet_verify(vt_cls_box_ws *ws, const vt_mlp_model *m, const vt_image_u8 *img,
-                             int32_t score_min, int skip_flat, vt_fulldet_result *res);
+                             int32_t score_min, int32_t skip, vt_fulldet_result *res);
 
 void vt__cand_add(vt_scored_box *cand, int32_t *n, int32_t cap, int32_t *n_dropped, const vt_box *b,
                   int32_t score, int32_t source);

@@ -104,7 +104,7 @@ vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg)
         s = vt_ttc_cfg_check(&cfg->ttc);
     }
     if (s == VT_OK && (cfg->model_fits < 0 || cfg->model_fits > VT_MAX_TRACKS ||
-                       cfg->model_min_fitness < 0 || cfg->verify < 0 || cfg->verify > 2)) {
+                       cfg->model_min_fitness < 0 || cfg->verify < 0 || cfg->verify > 3)) {
         s = VT_E_ARG;
     }
     if (s == VT_OK && ((cfg->handover != 0 && cfg->handover != 1) || cfg->handover_frames < 2 ||
@@ -722,8 +722,13 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
         const vt_mlp_model *m = NULL;
         s = vt_mlp_default_model(&m);
         if (s == VT_OK) {
-            /* verify 2: boxes flatter than 1:2 (side views) pass with their own score */
-            s = vt__fulldet_verify(&ws->box, m, frame, p->cfg.verify_min, p->cfg.verify == 2, &ws->res);
+            /* verify 2: boxes flatter than 1:2 (side views) pass with their own score; 3: and
+             * boxes the frame's side cuts */
+            s = vt__fulldet_verify(&ws->box, m, frame, p->cfg.verify_min,
+                                   p->cfg.verify == 2   ? VT__VERIFY_SKIP_FLAT
+                                   : p->cfg.verify == 3 ? VT__VERIFY_SKIP_FLAT | VT__VERIFY_SKIP_SIDE
+                                                        : 0,
+                                   &ws->res);
         }
     }
     n_raw = s == VT_OK ? ws->res.n_boxes : 0;

@@ -177,7 +177,7 @@ static int cfg_ok(const vt_acf_cfg *c)
            c->veh_w_min_mm <= c->veh_w_max_mm && c->veh_w_max_mm <= 20000 && c->slack_px >= 0 &&
            c->slack_px <= VT_MAX_HEIGHT && c->above_px >= 0 && c->above_px <= VT_MAX_HEIGHT &&
            c->nms_iou_permille >= 0 && c->nms_iou_permille <= 1000 && c->nms_contain_permille >= 0 &&
-           c->nms_contain_permille <= 1000;
+           c->nms_contain_permille <= 1000 && c->cols >= VT_ACF_COLS_ALL && c->cols <= VT_ACF_COLS_RIGHT;
 }
 
 static int cam_ok(const vt_camera_min *c)
@@ -550,6 +550,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         cfg.above_px = fz_range(&f, 0, 200);
         cfg.nms_iou_permille = fz_range(&f, 0, 1000);
         cfg.nms_contain_permille = fz_u8(&f) < 128 ? 1000 : fz_range(&f, 0, 1000);
+        cfg.cols = fz_range(&f, VT_ACF_COLS_ALL, VT_ACF_COLS_RIGHT);
     }
     cfg.score_min = fz_u8(&f) < 200 ? (int32_t)(int8_t)fz_u8(&f) * 4096 : fz_raw_i32(&f);
     fz_mutate_i32s(&f, &cfg, sizeof cfg);

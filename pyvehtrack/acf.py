@@ -97,6 +97,7 @@ class AcfModel:
     path: str = ""
     band_mm: tuple | None = None   # its band's box widths (veh_w_min_mm, veh_w_max_mm); None: acf.h's
     nms_contain_permille: int = 1000   # the detector's NMS containment limit (the first model's counts)
+    cols: int = 0           # vt_acf_cfg.cols: 0 every window column, 1 / 2 only the left / right edge's
     more: list = field(default_factory=list)   # further models on the same pyramid (vt_acf_detect_n)
     # what the whole-road detector reads from any model file (fullroad.load_model fills them)
     settings: dict = field(default_factory=dict)
@@ -162,7 +163,8 @@ class AcfModel:
                 z[pre + "feat"].astype(np.uint16), z[pre + "thr"].astype(np.uint8), z[pre + "leaf"].astype(np.float64),
                 z[pre + "leaf_q16"].astype(np.int32), float(z[pre + "bias"]), rej,
                 int(z[pre + "score_min_q16"]) if pre + "score_min_q16" in z.files else 0, str(p), band,
-                int(z[pre + "nms_contain_permille"]) if pre + "nms_contain_permille" in z.files else 1000)
+                int(z[pre + "nms_contain_permille"]) if pre + "nms_contain_permille" in z.files else 1000,
+                int(z[pre + "cols"]) if pre + "cols" in z.files else 0)
         m.c_model()  # the core's check
         m.c_cfg()    # and the band's
         return m
@@ -173,6 +175,8 @@ class AcfModel:
                  thr=self.thr, leaf=self.leaf, leaf_q16=self.leaf_q16, bias=self.bias,
                  reject_q16=self.reject_q16 if self.reject_q16 is not None else np.zeros(0, np.int32),
                  score_min_q16=self.score_min_q16, nms_contain_permille=self.nms_contain_permille)
+        if self.cols:
+            d["cols"] = np.int32(self.cols)
         if self.band_mm is not None:
             d["band_mm"] = np.array(self.band_mm, np.int32)
         return {pre + k: v for k, v in d.items()}
@@ -184,15 +188,16 @@ class AcfModel:
         np.savez_compressed(path, kind="acf", **d, **extra)
 
     def c_cfg(self, score_offset_q16: int = 0):
-        """vt_acf_cfg for this model: acf.h's defaults, its band, threshold (+ an offset) and NMS
-        containment limit; checked."""
+        """vt_acf_cfg for this model: acf.h's defaults, its band, threshold (+ an offset), NMS
+        containment limit and columns; checked."""
         c = cfg_default()
         if self.band_mm is not None:
             c.veh_w_min_mm, c.veh_w_max_mm = self.band_mm
         c.score_min = int(np.clip(self.score_min_q16 + int(score_offset_q16), -2 ** 31, 2 ** 31 - 1))
         c.nms_contain_permille = int(self.nms_contain_permille)
+        c.cols = int(self.cols)
         check("vt_acf_cfg_check", lib.vt_acf_cfg_check(c),
-              f"band {self.band_mm}, nms_contain_permille {self.nms_contain_permille}")
+              f"band {self.band_mm}, nms_contain_permille {self.nms_contain_permille}, cols {self.cols}")
         return c
 
     def c_model(self):

@@ -212,9 +212,9 @@ def _settings(z, p) -> dict:
         if k in _PERMILLE:
             if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v <= 1000:
                 raise ValueError(f"model: {p}: detector_json {k} must be an int in 0..1000, got {v!r}")
-        elif k == "verify_skip_flat":
+        elif k in ("verify_skip_flat", "verify_skip_edge"):
             if not isinstance(v, bool):
-                raise ValueError(f"model: {p}: detector_json verify_skip_flat must be true or false, got {v!r}")
+                raise ValueError(f"model: {p}: detector_json {k} must be true or false, got {v!r}")
         elif k == "sources":
             # "ego" beside them: pyvehtrack.Detector adds the ego-lane detector (VT_SRC_EGO)
             if not isinstance(v, list) or not any(x in SOURCES for x in v) or \
@@ -227,7 +227,8 @@ def _settings(z, p) -> dict:
                 raise ValueError(f"model: {p}: detector_json {k} must be a number in {lo}..{hi}, got {v!r}")
         else:
             raise ValueError(f"model: {p}: detector_json has an unknown key {k!r} "
-                             f"(known: sources, verify_skip_flat, {', '.join(_PERMILLE + tuple(_SETTINGS))})")
+                             f"(known: sources, verify_skip_flat, verify_skip_edge, "
+                             f"{', '.join(_PERMILLE + tuple(_SETTINGS))})")
     for a, b in (("veh_w_min", "veh_w_max"), ("wide_veh_w_min", "wide_veh_w_max")):
         if d.get(a, 0.0) > d.get(b, 20.0):
             raise ValueError(f"model: {p}: detector_json {a} must not exceed {b}")
@@ -388,13 +389,26 @@ class FullRoadConfig:
     below verify_min are dropped (vt_fulldet_verify); `verify_skip_flat` (None: the
     model's setting, else False): in a Pipeline (vt_pipeline_cfg.verify 2) whole-road
     boxes flatter than 1:2 (side views, which the rear-view MLP cannot judge on their
-    bottom-row square) skip that stage and keep their first-stage score."""
+    bottom-row square) skip that stage and keep their first-stage score;
+    `verify_skip_edge` (None: the model's setting while verify_skip_flat is on, else False;
+    needs verify_skip_flat):
+    so do boxes whose gap to the frame's left or right side is at most a quarter of their
+    width plus 1 px (vehicles the frame's edge cuts; vt_pipeline_cfg.verify 3)."""
     det: FullDetConfig | None = None
     score_offset: float = 0.0
     verify_min: float | None = None
     verify_skip_flat: bool | None = None
+    verify_skip_edge: bool | None = None
     wide: bool | None = None   # the wide pass: None = on when the model holds a wide model
     refine: bool | None = None   # box regression: None = on when the model holds a box regressor
+
+
+def verify_mode(cfg: FullRoadConfig) -> int:
+    """vt_pipeline_cfg.verify for a FullRoadConfig whose verify_min is set: 1 every box, 2 all
+    but flat boxes, 3 all but flat and edge-cut boxes."""
+    if cfg.verify_skip_edge and not cfg.verify_skip_flat:
+        raise ValueError("verify_skip_edge needs verify_skip_flat (vt_pipeline_cfg.verify 3 skips both)")
+    return 3 if cfg.verify_skip_edge else (2 if cfg.verify_skip_flat else 1)
 
 
 def _c_cfg(cfg: FullDetConfig):
@@ -482,7 +496,15 @@ def setup(model=None, sources=SOURCES, camera: Camera | None = None, cfg: FullRo
     skip = cfg.verify_skip_flat if cfg.verify_skip_flat is not None else st.get("verify_skip_flat", False)
     if not isinstance(skip, bool):
         raise TypeError(f"cfg.verify_skip_flat: expected True, False or None, got {skip!r}")
-    cfg = replace(cfg, det=det, verify_min=None if vmin is None else float(vmin), verify_skip_flat=skip)
+    # the model's verify_skip_edge rides with its verify_skip_flat (verify 3 skips both)
+    edge = cfg.verify_skip_edge if cfg.verify_skip_edge is not None else \
+        (skip and st.get("verify_skip_edge", False))
+    if not isinstance(edge, bool):
+        raise TypeError(f"cfg.verify_skip_edge: expected True, False or None, got {edge!r}")
+    if edge and not skip:
+        raise ValueError("verify_skip_edge needs verify_skip_flat (vt_pipeline_cfg.verify 3 skips both)")
+    cfg = replace(cfg, det=det, verify_min=None if vmin is None else float(vmin), verify_skip_flat=skip,
+                  verify_skip_edge=edge)
     thr = 0
     if model is not None:
         thr = model.threshold_q16 + int(round((cfg.score_offset + float(st.get("score_offset", 0.0))) * 65536))
@@ -546,7 +568,7 @@ class FullRoadDetector:
             raise ValueError(f"engine: expected 'c' or 'reference', got {engine!r}")
         self.model, sources, self.camera, cfg, det = setup(model, sources, camera, cfg)
         vmin = cfg.verify_min
-        self.verify_skip_flat = bool(cfg.verify_skip_flat)
+        self.verify_skip_flat = bool(cfg.verify_skip_flat) or bool(cfg.verify_skip_edge)
         self.verify_min_q16 = None if vmin is None else int(round(float(vmin) * 65536))
         use_v = vmin is not None or det.rerank_permille > 0   # the second stage's model, or re-ranking
         self._vmodel = _native.mlp_default_model() if use_v else None
@@ -634,8 +656,9 @@ class FullRoadDetector:
             raise ValueError("detect_gray runs vt_fulldet's window models; an ACF model runs through "
                              "pyvehtrack.Detector / Pipeline (vt_pipeline_set_acf) or pyvehtrack.acf.detect")
         if self.verify_skip_flat and self.verify_min_q16 is not None:
-            raise ValueError("detect_gray: verify_skip_flat (the second stage on all but flat boxes) runs in "
-                             "pyvehtrack.Detector / Pipeline (vt_pipeline_cfg.verify 2) only")
+            raise ValueError("detect_gray: verify_skip_flat / verify_skip_edge (the second stage on all but "
+                             "flat or edge-cut boxes) runs in pyvehtrack.Detector / Pipeline "
+                             "(vt_pipeline_cfg.verify 2 / 3) only")
         cam = self.camera_for(h, w, horizon_y)
         ccam = self._c_camera(cam)
         if road is None:

@@ -231,7 +231,7 @@ class Pipeline:
             det = frc.det if frc.det is not None else _fr.FullDetConfig()   # None: the library defaults
             det = replace(det, shadow_source="shadow" in srcs, window_source="windows" in srcs)
             if frc.verify_min is not None:   # the second stage (vt_fulldet_verify)
-                self._ccfg.verify, self._ccfg.verify_min = (2 if frc.verify_skip_flat else 1,
+                self._ccfg.verify, self._ccfg.verify_min = (_fr.verify_mode(frc),
                                                             int(round(float(frc.verify_min) * 65536)))
         else:
             _m, _, cam, _frc, det = _fr.setup(model, srcs or ("shadow",), road_camera, fullroad)
@@ -253,7 +253,7 @@ class Pipeline:
             if reg is not None:
                 self._refine = (reg, reg.c(), _native.box_ws_new())
             if _frc.verify_min is not None:   # the model's second stage (vt_fulldet_verify)
-                self._ccfg.verify, self._ccfg.verify_min = (2 if _frc.verify_skip_flat else 1,
+                self._ccfg.verify, self._ccfg.verify_min = (_fr.verify_mode(_frc),
                                                             int(round(_frc.verify_min * 65536)))
         self.model, self.road_camera, self._det_cfg = _m, cam, det
         self._ccfg.fulldet = _fr._c_cfg(det)[0]
@@ -495,7 +495,8 @@ class Pipeline:
                 if self._ccfg.verify:
                     import dataclasses  # noqa: PLC0415
                     rcfg = dataclasses.replace(rcfg, verify_min=int(self._ccfg.verify_min),
-                                               verify_flat=int(self._ccfg.verify) == 1)
+                                               verify_flat=int(self._ccfg.verify) == 1,
+                                               verify_side=int(self._ccfg.verify) < 3)
                     box_score = _native.classify_box_mlp_default
                 if self._ccfg.fulldet.rerank_permille > 0:   # re-ranking uses the same model
                     box_score = _native.classify_box_mlp_default

@@ -383,6 +383,10 @@ def _oracle_windows(model, img, horizon_y, hood_y, height_mm, cfg):
         feats, wcx, wcy = R.window_features(ch[:, lo:hi + model.win_ch], model.win_cw, model.win_ch)
         wcy = wcy + lo
         keep = ok[wcy]
+        if cfg.cols == lib.VT_ACF_COLS_LEFT:         # only the edge column (a cut vehicle's model)
+            keep &= wcx == 0
+        elif cfg.cols == lib.VT_ACF_COLS_RIGHT:
+            keep &= wcx == cw - model.win_cw
         feats, wcx, wcy = feats[keep], wcx[keep], wcy[keep]
         boxes.append(R.box_of(model, k, wcx, wcy))
         runs.append(_running_q16(model, feats))
@@ -471,7 +475,8 @@ def _det_case(seed, w, h, geo, cfg_draw):
                veh_w_max_mm=int(rng.integers(wmin, 6000)), slack_px=int(rng.integers(0, 41)),
                above_px=int(rng.integers(0, 21)),
                nms_iou_permille=int(rng.choice([0, 300, 500, 1000, rng.integers(0, 1001)])),
-               nms_contain_permille=int(rng.choice([1000, 1000, 400, 700, rng.integers(0, 1001)])))
+               nms_contain_permille=int(rng.choice([1000, 1000, 400, 700, rng.integers(0, 1001)])),
+               cols=int(rng.choice([0, 0, 0, 1, 2])))
     for k, v in cfg_draw.items():
         setattr(cfg, k, v)
     return rng, img, hor, hood, height_mm, model, cfg
@@ -520,7 +525,7 @@ def test_detect_n_matches_numpy(seed, w, h, geos, target):
         for i, (m_, c_) in enumerate(zip(models, cfgs)):
             if c_.first_scale <= k < c_.first_scale + c_.n_scales:
                 ck = _cfg(first_scale=k, n_scales=1, veh_w_min_mm=c_.veh_w_min_mm, veh_w_max_mm=c_.veh_w_max_mm,
-                          slack_px=c_.slack_px, above_px=c_.above_px)
+                          slack_px=c_.slack_px, above_px=c_.above_px, cols=c_.cols)
                 per.append((i,) + _oracle_windows(m_, img, hor, hood, height_mm, ck))
     for i, (m_, c_) in enumerate(zip(models, cfgs)):   # each model's threshold from its own windows
         runs_i = [r for j, _, r, _ in per if j == i]
@@ -788,6 +793,47 @@ def test_model_file_with_more_models(tmp_path):
         A.detect(got, np.zeros((60, 80), np.uint8), 10, 60, 300.0, cfg=[A.cfg_default()] * 2)
 
 
+def test_model_file_edge_columns(tmp_path):
+    """An edge model's columns (key `cols`) survive save -> load into its vt_acf_cfg; its
+    boxes are the edge column's windows only (the left edge's start at floor(4 pad r), the
+    right edge's end less than (4 pad + 4) r + 1 px before the frame's; acf.h); a bad value
+    is VtError."""
+    rng = np.random.default_rng(12)
+    img = _road(rng, 200, 320, 80)
+    base = _model(rng, 6, 5, 1, 2, 4, leaf_scale=30.0)
+    left, right = _model(rng, 6, 5, 1, 2, 4, leaf_scale=30.0), _model(rng, 6, 5, 1, 2, 4, leaf_scale=30.0)
+    left.cols, right.cols = int(lib.VT_ACF_COLS_LEFT), int(lib.VT_ACF_COLS_RIGHT)
+    base.more = [left, right]
+    base.save(tmp_path / "edge.npz")
+    got = A.AcfModel.load(tmp_path / "edge.npz")
+    assert [m.cols for m in [got] + got.more] == [0, 1, 2]
+    assert [m.c_cfg().cols for m in [got] + got.more] == [0, 1, 2]
+    cfgs = []
+    for m in got.more:
+        c = m.c_cfg()
+        c.score_min, c.nms_iou_permille = -(2 ** 31), 1000       # every window a box, no NMS
+        cfgs.append(c)
+    for m, c in zip(got.more, cfgs):
+        m2 = A.AcfModel(**{k: getattr(m, k) for k in ("win_cw", "win_ch", "pad", "depth", "feat", "thr", "leaf",
+                                                         "leaf_q16", "bias")}, cols=m.cols)
+        boxes, info = A.detect(m2, img, 80, 190, 300.0, cfg=c)
+        assert info["n_windows"] > 0 and len(boxes) > 0
+        r = [A.SCALE_Q16[k] for k in range(15)]
+        if m.cols == lib.VT_ACF_COLS_LEFT:
+            assert set(boxes["left"]) <= {(4 * m.pad * rk) >> 16 for rk in r}
+        else:
+            assert all(320 - 1 - b < ((4 * m.pad + 4) * max(r) >> 16) + 1 for b in boxes["right"])  # acf.h
+        # one column per level: no more windows than the levels' band rows
+        c_all = m2.c_cfg()
+        c_all.score_min, c_all.nms_iou_permille, c_all.cols = -(2 ** 31), 1000, 0
+        _, info_all = A.detect(m2, img, 80, 190, 300.0, cfg=c_all)
+        assert info["n_windows"] < info_all["n_windows"]
+    z = dict(np.load(tmp_path / "edge.npz"))
+    np.savez(tmp_path / "cols3.npz", **dict(z, acf1_cols=np.int32(3)))
+    with pytest.raises(VtError, match="cols 3"):
+        A.AcfModel.load(tmp_path / "cols3.npz")
+
+
 def test_cfg_check_rows():
     c = A.cfg_default()
     assert lib.vt_acf_cfg_check(c) == lib.VT_OK
@@ -797,7 +843,8 @@ def test_cfg_check_rows():
             ("veh_w_min_mm", 99), ("veh_w_max_mm", 20001), ("slack_px", -1),
             ("slack_px", int(lib.VT_MAX_HEIGHT) + 1), ("above_px", -1), ("above_px", int(lib.VT_MAX_HEIGHT) + 1),
             ("nms_iou_permille", -1), ("nms_iou_permille", 1001), ("n_scales", I32_MAX), ("first_scale", I32_MIN),
-            ("nms_contain_permille", -1), ("nms_contain_permille", 1001), ("nms_contain_permille", I32_MIN)]
+            ("nms_contain_permille", -1), ("nms_contain_permille", 1001), ("nms_contain_permille", I32_MIN),
+            ("cols", -1), ("cols", 3), ("cols", I32_MIN), ("cols", I32_MAX)]
     for field, v in rows:
         c2 = A.cfg_default()
         setattr(c2, field, v)
@@ -812,7 +859,8 @@ def test_cfg_check_rows():
     assert lib.vt_acf_cfg_check(c2) == lib.VT_OK
     for field, v in (("score_min", I32_MIN), ("score_min", I32_MAX), ("nms_iou_permille", 0),
                      ("nms_contain_permille", 0), ("nms_contain_permille", 1000),
-                     ("nms_iou_permille", 1000), ("veh_w_max_mm", 20000)):
+                     ("nms_iou_permille", 1000), ("veh_w_max_mm", 20000), ("cols", int(lib.VT_ACF_COLS_LEFT)),
+                     ("cols", int(lib.VT_ACF_COLS_RIGHT))):
         c2 = A.cfg_default()
         setattr(c2, field, v)
         assert lib.vt_acf_cfg_check(c2) == lib.VT_OK, (field, v)
@@ -967,8 +1015,9 @@ def test_c_null_and_size_rows():
         assert lib.vt_acf_detect(ws, cm, cfg, N.camera_min(300.0, 0, 1800, h_), _u8(t), res) == lib.VT_OK
         assert res.n_boxes == 0 and res.n_windows == 0
     # detect_n: n, the arrays and each entry
-    mp = ffi.new("vt_acf_model *[5]", [cm] * 5)
-    cp = ffi.new("vt_acf_cfg *[5]", [cfg] * 5)
+    n_arr = int(lib.VT_ACF_MAX_MODELS) + 1    # room for the n one past the limit
+    mp = ffi.new(f"vt_acf_model *[{n_arr}]", [cm] * n_arr)
+    cp = ffi.new(f"vt_acf_cfg *[{n_arr}]", [cfg] * n_arr)
     bad_c = ffi.new("vt_acf_cfg *", cfg[0])
     bad_c.n_scales = 0
     for n, m_, c_ in ((0, mp, cp), (-1, mp, cp), (int(lib.VT_ACF_MAX_MODELS) + 1, mp, cp), (I32_MIN, mp, cp),

@@ -22,11 +22,16 @@ def test_model_loads_with_its_settings():
     assert m.n_trees == 400 and m.depth == 3 and (m.win_cw, m.win_ch, m.pad) == (10, 9, 1)
     assert m.refine is None              # no box regressor: it moved the flat window's boxes to rear-view shapes
     assert m.settings.get("sources") == ["ego", "windows"] and m.settings.get("verify_min") == 2.0
-    assert m.settings.get("verify_skip_flat") is True
-    assert m.threshold_q16 == -65536 and m.band_mm is None and m.nms_contain_permille == 400
-    # the flat (side-view) and the small far-car windows on the same pyramid, each its own band and threshold
-    assert len(m.more) == 2
-    f, t = m.more
+    assert m.settings.get("verify_skip_flat") is True and m.settings.get("verify_skip_edge") is True
+    assert m.threshold_q16 == -65536 and m.band_mm is None and m.nms_contain_permille == 400 and m.cols == 0
+    # the flat (side-view), the small far-car and the two edge windows on the same pyramid, each its
+    # own band, threshold and columns
+    assert len(m.more) == 4
+    f, t, el, er = m.more
+    for e, cols in ((el, 1), (er, 2)):
+        assert (e.win_cw, e.win_ch, e.pad, e.n_trees, e.depth, e.cols) == (10, 8, 1, 400, 3, cols)
+        assert e.band_mm == (300, 9000) and e.threshold_q16 == 0 and e.c_cfg().cols == cols
+    assert f.cols == t.cols == 0
     assert (f.win_cw, f.win_ch, f.pad, f.n_trees, f.depth) == (16, 8, 1, 400, 3)
     assert f.band_mm == (1500, 9000) and f.threshold_q16 == 0
     assert (t.win_cw, t.win_ch, t.pad, t.n_trees, t.depth, t.win_w, t.win_h) == (7, 6, 1, 400, 3, 20, 16)

@@ -106,7 +106,7 @@ def test_verify_skip_flat():
     of the verify-2 run is a verify-1 box (tall) or a box of the run whose second stage keeps
     everything (flat), and no tall box is lost."""
     from pyvehtrack import fullroad
-    cfg = fullroad.FullRoadConfig(verify_skip_flat=True)
+    cfg = fullroad.FullRoadConfig(verify_skip_flat=True, verify_skip_edge=False)   # the ACF file's: True
     srcs = ("ego", "shadow", "classifier")
     assert Pipeline("c", model=MODEL, sources=srcs, fullroad=cfg)._ccfg.verify == 2
     for p in FRAMES:
@@ -124,7 +124,8 @@ def test_verify_skip_flat():
         run = [_boxes(Pipeline("c", model=acf, sources=("classifier",), detect_every=1, track=False,
                                fullroad=c).step_gray(g))
                for c in (fullroad.FullRoadConfig(verify_skip_flat=False), cfg,
-                         fullroad.FullRoadConfig(verify_min=-30000.0, verify_skip_flat=True))]
+                         fullroad.FullRoadConfig(verify_min=-30000.0, verify_skip_flat=True,
+                                                 verify_skip_edge=False))]
         v1, v2, none = run
         for src, b, sc in v2:
             flat = 2 * (b[3] - b[1] + 1) < b[2] - b[0] + 1
@@ -137,6 +138,60 @@ def test_verify_skip_flat():
     with pytest.raises(TypeError, match="verify_skip_flat"):
         Pipeline("c", model=MODEL, sources=srcs, fullroad=fullroad.FullRoadConfig(verify_skip_flat="yes"))
     with pytest.raises(ValueError, match="verify_skip_flat"):
+        fullroad.FullRoadDetector(MODEL, cfg=cfg).detect_gray(_gray(FRAMES[0]))
+
+
+def _side(b, w):
+    """vt_pipeline_cfg.verify 3's edge rule: the gap to the frame's left or right side is at
+    most a quarter of the box's width plus 1 px."""
+    bw = b[2] - b[0] + 1
+    return 4 * b[0] <= bw + 4 or 4 * (w - 1 - b[2]) <= bw + 4
+
+
+def test_verify_skip_edge():
+    """FullRoadConfig(verify_skip_edge=True) (vt_pipeline_cfg.verify 3; detector_json
+    "verify_skip_edge"): as verify 2, and a whole-road box the frame's side cuts (4 gap <=
+    width + 4) keeps its first-stage score. Window model: C == oracle box for box, and every
+    verify-3 box is a verify-2 box or a side box of the run whose second stage keeps
+    everything. The shipped ACF file (its edge models) likewise, with no verify-2 box lost
+    and >= 1 side box that verify 2 drops. Bad values are clear errors."""
+    from pyvehtrack import fullroad
+    cfg = fullroad.FullRoadConfig(verify_skip_flat=True, verify_skip_edge=True)
+    srcs = ("ego", "shadow", "classifier")
+    assert Pipeline("c", model=MODEL, sources=srcs, fullroad=cfg)._ccfg.verify == 3
+    acf = str(ROOT / "pyvehtrack" / "models" / "acf_gray.npz")
+    side_kept = 0
+    for model, engines, s_ in ((MODEL, ("c", "reference"), srcs), (acf, ("c",), ("classifier",))):
+        for p in FRAMES:
+            g = _gray(p)
+            w = g.shape[1]
+            v3 = [_boxes(Pipeline(e, model=model, sources=s_, detect_every=1, track=False,
+                                  fullroad=cfg).step_gray(g)) for e in engines]
+            assert all(x == v3[0] for x in v3), p.name                 # C == oracle
+            v3 = v3[0]
+            v2, none = [_boxes(Pipeline("c", model=model, sources=s_, detect_every=1, track=False,
+                                        fullroad=c).step_gray(g))
+                        for c in (fullroad.FullRoadConfig(verify_skip_flat=True, verify_skip_edge=False),
+                                  fullroad.FullRoadConfig(verify_min=-30000.0, verify_skip_flat=True,
+                                                          verify_skip_edge=True))]
+            ego = int(lib.VT_SRC_EGO)
+            for x in v3:
+                if x[0] == ego:   # the same ego box; its score may take a kept side box's
+                    assert any(y[0] == ego and y[1] == x[1] and y[2] <= x[2] for y in v2), (p.name, x)
+                else:
+                    assert x in v2 or (_side(x[1], w) and x in none), (p.name, x)
+                    side_kept += model == acf and x not in v2
+            for x in v2:          # no box lost but for the 32-box cap (a side box keeps its tree score)
+                if x[0] != ego and len(v3) < int(lib.VT_MAX_BOXES):
+                    assert (x in v3) if not _side(x[1], w) else any(y[1] == x[1] for y in v3), (p.name, x)
+    assert side_kept >= 1   # not vacuous: an edge-cut box that the rear-view stage drops
+    with pytest.raises(TypeError, match="verify_skip_edge"):
+        Pipeline("c", model=MODEL, sources=srcs,
+                 fullroad=fullroad.FullRoadConfig(verify_skip_flat=True, verify_skip_edge=1))
+    with pytest.raises(ValueError, match="verify_skip_edge needs verify_skip_flat"):
+        Pipeline("c", model=MODEL, sources=srcs,
+                 fullroad=fullroad.FullRoadConfig(verify_skip_flat=False, verify_skip_edge=True))
+    with pytest.raises(ValueError, match="verify_skip_edge"):
         fullroad.FullRoadDetector(MODEL, cfg=cfg).detect_gray(_gray(FRAMES[0]))
 
 

@@ -2,21 +2,27 @@
 """Train and measure the ACF first stage (issue 8; C: include/vehtrack/acf.h).
 
     PYTHONPATH=. python3 tools/train_acf.py train --out DIR [--rounds 2] [--trees 400] [--depth 3] [--min-w PX] [--crops DIR]
+                                                 [--split fit|train]
     PYTHONPATH=. python3 tools/train_acf.py eval MODEL.npz --split val [--thr -1 0 1]
     PYTHONPATH=. python3 tools/train_acf.py pack MODEL.npz --out OUT.npz [--thr T] [--base BASE.npz]
                                                 [--settings JSON] [--nms-contain P] [--more M2.npz T2]
     (train --win CW CH --aspect MIN MAX --veh-w MIN_MM MAX_MM: another window, e.g. the flat
-    side-view one: --win 16 8 --aspect 0.2 0.65 --veh-w 1500 9000)
+    side-view one: --win 16 8 --aspect 0.2 0.65 --veh-w 1500 9000; --edge left|right: a window
+    that scans only the frame's left / right edge column, for vehicles the edge cuts)
 
 Features are the C core's channel bytes (pyvehtrack.acf: vt_acf_resample and
 vt_acf_channels through the binding), so the trees' integer thresholds decide
 exactly as the trained float thresholds did on the same bytes. Training frames:
-tusimple-vehicles-dev 'fit' only (datasets.tusimple_subsplit); choices are made on
-'val'; TEST is for the final figure. Positives: every box >= 24 px wide and its
+tusimple-vehicles-dev 'fit' (datasets.tusimple_subsplit); choices are made on
+'val'; TEST is for the final figure (--split train: 'fit' + 'val', for the final
+model once the choices are made). Positives: every box >= 24 px wide and its
 mirror image, warped (area resampling) into the window with its pad cell of
 context; negatives: 100 random windows per frame of the detector's own dense
 grid inside its band (IoU < 0.3 with every box), then --rounds rounds of hard
-negatives (windows scoring > -1, at most 150 per frame). Trees:
+negatives (windows scoring > -1, at most 150 per frame). An edge model (--edge)
+learns from its own windows instead of warped crops (a cut vehicle has no whole
+box): positives are its windows with IoU >= 0.5 with a box the edge cuts, negatives
+its windows far from every box, each from the frame and its mirror image. Trees:
 scikit-learn's HistGradientBoostingClassifier (depth --depth), converted to full
 binary trees; the soft cascade's trace is the running minimum over the training
 positives that pass, less --margin.
@@ -56,12 +62,18 @@ class _Geo:
     aspect = (0.0, 99.0)        # box height / width of the positives
     min_w = 24                  # the positives' smallest width (px)
     veh_w = (1080, 3960)        # the band's box widths (mm), acf.h's veh_w_min_mm / veh_w_max_mm
+    cols = 0                    # acf.h's VT_ACF_COLS_*: 1 / 2 an edge model (train --edge left / right)
+
+
+EDGE_PX = 3      # a box within this many px of the frame's side is cut by it (the edge models' positives)
+EDGE_POS_IOU = 0.5
 
 
 def _set_geo(geo) -> None:
     if geo:
         _Geo.win_cw, _Geo.win_ch, _Geo.aspect, _Geo.veh_w = geo[:4]
         _Geo.min_w = geo[4] if len(geo) > 4 else 24
+        _Geo.cols = geo[5] if len(geo) > 5 else 0
 
 
 def dense(gray: np.ndarray, hor: int, levels=range(15)):
@@ -79,6 +91,8 @@ def dense(gray: np.ndarray, hor: int, levels=range(15)):
         b = ra.box_of(_Geo, k, cx, cy)
         width = ((4 * (_Geo.win_cw - 2 * PAD)) * r) >> 16
         ok = ra.band_ok(b[:, 3], width, hor, hood_y(h), veh_w_min_mm=_Geo.veh_w[0], veh_w_max_mm=_Geo.veh_w[1])
+        if _Geo.cols:   # an edge model scans one column (acf.h's cols)
+            ok &= cx == (0 if _Geo.cols == 1 else lw // 4 - _Geo.win_cw)
         feats.append(f[ok])
         boxes.append(b[ok])
     return np.concatenate(feats), np.concatenate(boxes)
@@ -119,8 +133,38 @@ def _far(boxes, gt, thr=0.3):
     return (box_iou_matrix(gt, boxes) < thr).all(0) if len(gt) else np.ones(len(boxes), bool)
 
 
+def _mirror(boxes, w):
+    return np.stack([w - 1 - boxes[:, 2], boxes[:, 1], w - 1 - boxes[:, 0], boxes[:, 3]], 1)
+
+
+def _cut(gt, w):
+    """The boxes >= min_w wide that the edge model's side of the frame cuts."""
+    bw = gt[:, 2] - gt[:, 0] + 1
+    side = gt[:, 0] <= EDGE_PX if _Geo.cols == 1 else gt[:, 2] >= w - 1 - EDGE_PX
+    return gt[side & (bw >= _Geo.min_w)]
+
+
+def _base_edge(f, rng):
+    """An edge model's examples are its own dense windows (a cut vehicle has no whole box to
+    warp): positives reach a cut box with IoU >= EDGE_POS_IOU, negatives (100 at random) are
+    far from every box; the frame and its mirror image (whose cut boxes are the other side's)."""
+    g = cv2.imread(str(Path(_G["data"]) / f), cv2.IMREAD_GRAYSCALE)
+    w, pos, neg = g.shape[1], [], []
+    for img, gt in ((g, _gt(f)), (np.ascontiguousarray(g[:, ::-1]), _mirror(_gt(f), w))):
+        feats, boxes = dense(img, _G["hor"][f])
+        cut = _cut(gt, w)
+        if len(cut):
+            pos.append(feats[box_iou_matrix(cut, boxes.astype(float)).max(0) >= EDGE_POS_IOU])
+        ok = np.nonzero(_far(boxes, gt))[0]
+        neg.append(feats[rng.choice(ok, size=min(50, len(ok)), replace=False)])
+    d = _Geo.win_cw * _Geo.win_ch * 8
+    return np.concatenate(pos) if pos else np.zeros((0, d), np.uint8), np.concatenate(neg)
+
+
 def _base(f):
     rng = np.random.default_rng(int(f[-8:-4]))
+    if _Geo.cols:
+        return _base_edge(f, rng)
     g = cv2.imread(str(Path(_G["data"]) / f), cv2.IMREAD_GRAYSCALE)
     gm, w, pos = np.ascontiguousarray(g[:, ::-1]), g.shape[1], []
     for b in _gt(f):
@@ -135,11 +179,17 @@ def _base(f):
 
 def _mine(f):
     g = cv2.imread(str(Path(_G["data"]) / f), cv2.IMREAD_GRAYSCALE)
-    feats, boxes = dense(g, _G["hor"][f])
-    s = ra.tree_scores(_G["model"], feats)
-    ok = (s > -1.0) & _far(boxes, _gt(f))
-    i = np.nonzero(ok)[0]
-    return feats[i[np.argsort(-s[i])[:150]]]
+    views = [(g, _gt(f))]
+    if _Geo.cols:   # the edge models' examples come from the mirror image too
+        views.append((np.ascontiguousarray(g[:, ::-1]), _mirror(_gt(f), g.shape[1])))
+    out = []
+    for img, gt in views:
+        feats, boxes = dense(img, _G["hor"][f])
+        s = ra.tree_scores(_G["model"], feats)
+        ok = (s > -1.0) & _far(boxes, gt)
+        i = np.nonzero(ok)[0]
+        out.append(feats[i[np.argsort(-s[i])[:150 // len(views)]]])
+    return np.concatenate(out)
 
 
 def _detect(args):
@@ -150,6 +200,7 @@ def _detect(args):
         m.reject_q16, m._c = None, None
     cfg = acf.cfg_default()
     cfg.veh_w_min_mm, cfg.veh_w_max_mm = _Geo.veh_w
+    cfg.cols = _Geo.cols
     cfg.score_min = int(np.floor(thr * 65536))
     t0 = time.perf_counter()
     boxes, st = acf.detect(m, g, _G["hor"][f], hood_y(g.shape[0]), fx=1000.0, cfg=cfg)
@@ -234,6 +285,12 @@ def main(argv=None) -> int:
                    help="more positives: a folder of whole-vehicle crops (e.g. gti-vehicles/vehicles/GTI_Far), "
                         "each with its mirror image, the box inset by --crop-inset of its size")
     t.add_argument("--crop-inset", type=float, default=1 / 16)
+    t.add_argument("--edge", choices=("left", "right"), default=None,
+                   help="a model of vehicles the frame's left / right edge cuts: it scans only that edge's "
+                        "window column (acf.h's cols); examples are its own windows (module doc)")
+    t.add_argument("--split", default="fit", choices=("fit", "train"),
+                   help="training frames: 'fit' (choices are made on 'val'), or 'train' = 'fit' + 'val' (the "
+                        "final model once the choices are made; TEST stays unseen either way)")
     e = sub.add_parser("eval")
     e.add_argument("model")
     e.add_argument("--split", default="val", choices=("fit", "val", "train", "test"))
@@ -277,10 +334,11 @@ def main(argv=None) -> int:
     from sklearn.ensemble import HistGradientBoostingClassifier
     if a.cmd == "train":
         a.out.mkdir(parents=True, exist_ok=True)
-        geo = (a.win[0], a.win[1], tuple(a.aspect), tuple(a.veh_w), a.min_w)
+        geo = (a.win[0], a.win[1], tuple(a.aspect), tuple(a.veh_w), a.min_w,
+               {None: 0, "left": 1, "right": 2}[a.edge])
         _set_geo(geo)
-        files = [r["file_name"] for r in tusimple_frames(a.data, "fit")]
-        hor = horizons(a.data, "fit", a.out / "horizons_fit.json")
+        files = [r["file_name"] for r in tusimple_frames(a.data, a.split)]
+        hor = horizons(a.data, a.split, a.out / f"horizons_{a.split}.json")
         t0 = time.time()
         with Pool(2, _init, (a.data, hor, None, geo)) as pool:
             r = pool.map(_base, files, chunksize=4)
@@ -307,6 +365,7 @@ def main(argv=None) -> int:
             m = to_model(clf, a.depth, pos, a.margin)
             d = np.abs(ra.tree_scores(m, x[:2000].astype(np.uint8)) - clf.decision_function(x[:2000]))
             path = a.out / f"acf_r{rnd}.npz"
+            m.cols = _Geo.cols
             m.save(path, n_pos=len(pos), n_neg=len(neg), rounds=rnd, band_mm=np.array(a.veh_w, np.int32),
                    aspect=np.array(a.aspect))
             print(f"{path}: {len(pos)} positives, {len(neg)} negatives, trees vs sklearn max |diff| {d.max():.2e}, "
@@ -322,7 +381,8 @@ def main(argv=None) -> int:
     mz = np.load(a.model, allow_pickle=False)
     band = tuple(a.veh_w) if a.veh_w else (tuple(int(v) for v in mz["band_mm"]) if "band_mm" in mz.files
                                             else _Geo.veh_w)
-    geo = (int(mz["win_cw"]), int(mz["win_ch"]), _Geo.aspect, band)
+    geo = (int(mz["win_cw"]), int(mz["win_ch"]), _Geo.aspect, band, _Geo.min_w,
+           int(mz["cols"]) if "cols" in mz.files else 0)
     _init(a.data, hor, None, geo)
     for thr in a.thr:
         with Pool(2, _init, (a.data, hor, a.model, geo)) as pool:

@@ -47,6 +47,10 @@
  *   W = floor(4 (win_cw - 2 pad) r) (a box's own width may differ by 1 px),
  *   d = b - horizon: b >= horizon - above_px, b < hood_y and
  *   veh_w_min_mm (d - slack_px) <= W height_mm <= veh_w_max_mm (d + slack_px).
+ *   Columns: cfg.cols VT_ACF_COLS_ALL scans cx = 0 .. cw - win_cw; LEFT only cx = 0,
+ *   RIGHT only cx = cw - win_cw (the pad cells then lie inside the frame: a LEFT box
+ *   starts at floor(4 pad r), a RIGHT box ends less than (4 pad + lw % 4 + 1) r + 1 px
+ *   before the frame's right edge).
  *
  * Cost: sizeof(vt_acf_ws) (printed by make bench) is the largest level's band of
  * level pixels, the channel bytes of a VT_MAX_WIDTH x VT_MAX_HEIGHT frame, a few
@@ -76,7 +80,12 @@
 #define VT_ACF_MAX_CAND 4096
 #endif
 /* Models vt_acf_detect_n runs on one pyramid, at most. */
-#define VT_ACF_MAX_MODELS 4
+#define VT_ACF_MAX_MODELS 6
+/* vt_acf_cfg.cols: which window columns a model scans. */
+#define VT_ACF_COLS_ALL 0   /* every column                                              */
+#define VT_ACF_COLS_LEFT 1  /* only cx = 0: vehicles cut by the frame's left edge        */
+#define VT_ACF_COLS_RIGHT 2 /* only cx = cw - win_cw (cw = the level's cells across): cut
+                               by the right edge                                          */
 #if VT_ACF_MAX_TREES < 1 || VT_ACF_MAX_CAND < 1 || VT_ACF_MAX_CAND > VT_MAX_NMS_BOXES
 #error "acf capacities out of range (see vehtrack/acf.h)"
 #endif
@@ -113,6 +122,9 @@ typedef struct {
     int32_t nms_contain_permille; /* vt_nms containment limit (a box mostly inside a
                                   higher-scoring one: a part box, or a flat window on a
                                   car's bottom), 0..1000; 1000: no containment test    */
+    int32_t cols;              /* VT_ACF_COLS_*: every window column, or only the one at
+                                  the left / right edge of each level (a model of the
+                                  part of a vehicle the frame's edge leaves in view)    */
 } vt_acf_cfg;
 
 /* Defaults (issue 8's prototype on 'val'): levels 0..14 (boxes 32 .. 362 px wide),
@@ -122,7 +134,7 @@ typedef struct {
     {                                                                                   \
         .first_scale = 0, .n_scales = 15, .veh_w_min_mm = 1080, .veh_w_max_mm = 3960,   \
         .slack_px = 20, .above_px = 5, .score_min = 0, .nms_iou_permille = 300,         \
-        .nms_contain_permille = 1000,                                                   \
+        .nms_contain_permille = 1000, .cols = VT_ACF_COLS_ALL,                          \
     }
 
 /* Scratch of vt_acf_detect (static or caller-owned; no pointers kept between calls). */

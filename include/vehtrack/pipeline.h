@@ -177,7 +177,11 @@ typedef struct {
                                 the default MLP. 2: the same, but a whole-road box
                                 flatter than 1:2 (height < width / 2: a side view, whose
                                 bottom-row square the rear-view MLP cannot judge) keeps
-                                its first-stage score; the ego boxes as with 1         */
+                                its first-stage score; the ego boxes as with 1. 3: as
+                                2, and so does a whole-road box whose gap to the
+                                frame's left or right side is at most a quarter of its
+                                width plus 1 px (4 gap <= width + 4: a vehicle the edge
+                                cuts; acf.h's edge models)                             */
     vt_q16 verify_min;       /* that stage's threshold, a Q16 decision value            */
     vt_ttc_cfg ttc;          /* the block-scale TTC (vehtrack/ttc_scale.h) run after the
                                 tracker when its state is attached (vt_pipeline_set_ttc_ws);

@@ -46,6 +46,16 @@ SRC_EGO = "ego"       # with a classifier: the ego-lane detector's boxes ahead o
 HANDOVER = 4   # a track's state once handed over to the flow stage (VT_PIPE_HANDOVER)
 
 
+def _verify_skips(row, w: int, c) -> bool:
+    """vt_pipeline_cfg.verify 2 / 3: a box the rear-view second stage does not judge (it keeps
+    its own score): flatter than 1:2 (verify_flat False), or with a gap to the frame's left
+    or right side of at most a quarter of its width plus 1 px (verify_side False)."""
+    bw = int(row[2]) - int(row[0]) + 1
+    flat = 2 * (int(row[3]) - int(row[1]) + 1) < bw
+    side = 4 * int(row[0]) <= bw + 4 or 4 * (w - 1 - int(row[2])) <= bw + 4
+    return (not c.verify_flat and flat) or (not c.verify_side and side)
+
+
 @dataclass
 class RoadCameraRef:
     """The whole-road detector's camera relative to the frame (vt_road_camera): the
@@ -120,6 +130,7 @@ class PipelineRefConfig:
     model_min_fitness: int = 256  # a fit below this is not used
     verify_min: int | None = None  # Q16: the whole-road boxes' second stage (box_score) and its threshold
     verify_flat: bool = True       # False: boxes flatter than 1:2 skip that stage (vt_pipeline_cfg.verify 2)
+    verify_side: bool = True       # False: boxes the frame's side cuts (4 gap <= width + 4) skip it too (verify 3)
     ttc_points: object = None  # reference.ttc_scale.TtcScaleParams: the block-scale TTC after the
     #                            tracker (vt_pipeline_set_ttc_ws attached); None: not run
     handover: bool = True      # the reverse hand-over to the flow stage (with "flow")
@@ -630,8 +641,8 @@ class Pipeline:
         if c.verify_min is not None:
             arr = np.asarray(arr, np.int64).reshape(-1, 6)
             keep = [rfd.verify_boxes(row[None], lambda l, t, r, b: self.box_score(gray, l, t, r, b), c.verify_min)
-                    if c.verify_flat or 2 * (row[3] - row[1] + 1) >= row[2] - row[0] + 1 else row[None]
-                    for row in arr]   # one box at a time: a flat box keeps its place and score
+                    if not _verify_skips(row, w, c) else row[None]
+                    for row in arr]   # one box at a time: a skipped box keeps its place and score
             arr = np.concatenate(keep) if keep else arr
         raw = np.asarray(arr, np.int64).reshape(-1, 6)[:, :4].copy()   # as detected: the tracker's boxes
         if self.refine is not None:
