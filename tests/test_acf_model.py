@@ -30,7 +30,7 @@ def test_model_loads_with_its_settings():
     f, t, el, er = m.more
     for e, cols in ((el, 1), (er, 2)):
         assert (e.win_cw, e.win_ch, e.pad, e.n_trees, e.depth, e.cols) == (10, 8, 1, 400, 3, cols)
-        assert e.band_mm == (300, 9000) and e.threshold_q16 == 0 and e.c_cfg().cols == cols
+        assert e.band_mm == (1000, 5000) and e.threshold_q16 == 0 and e.c_cfg().cols == cols
     assert f.cols == t.cols == 0
     assert (f.win_cw, f.win_ch, f.pad, f.n_trees, f.depth) == (16, 8, 1, 400, 3)
     assert f.band_mm == (1500, 9000) and f.threshold_q16 == 0
@@ -70,3 +70,33 @@ def test_detector_finds_the_udacity_cars():
 def test_reference_engine_says_so():
     with pytest.raises(ValueError, match="C engine only"):
         Pipeline("reference", model=str(MODEL), detect_every=1, track=False)
+
+
+def test_pack_rebuilds_the_shipped_file(tmp_path, monkeypatch):
+    """tools/train_acf.py pack is the shipped file's recipe (README): packing the shipped file's own five
+    windows again, each with its threshold and band, gives back every array of the shipped file."""
+    import importlib.util
+    import json
+    spec = importlib.util.spec_from_file_location("train_acf", ROOT / "tools" / "train_acf.py")
+    ta = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(ta)
+    m = acf.AcfModel.load(MODEL)
+    z = np.load(MODEL, allow_pickle=False)
+    rear = acf.AcfModel.load(MODEL)
+    rear.more = []
+    rear.save(tmp_path / "rear.npz", **{k: z[k] for k in ("n_pos", "n_neg", "rounds")})  # training notes
+    more = []
+    for i, mm in enumerate(m.more):
+        thr, mm.score_min_q16 = mm.score_min_q16 / 65536.0, 1 << 20     # pack must set the threshold
+        band, mm.band_mm = mm.band_mm, (700, 7000)                          # ... and the band
+        mm.save(tmp_path / f"m{i}.npz")
+        more += ["--more", str(tmp_path / f"m{i}.npz"), str(thr), str(band[0]), str(band[1])]
+    out = tmp_path / "packed.npz"
+    assert ta.main(["pack", str(tmp_path / "rear.npz"), "--out", str(out), "--thr", str(m.threshold_q16 / 65536),
+                    "--settings", json.dumps(m.settings), "--nms-contain", str(m.nms_contain_permille)] + more) == 0
+    p = np.load(out, allow_pickle=False)
+    arrays = [k for k in z.files if k != "detector_json"]
+    assert not [k for k in arrays if k not in p.files or not np.array_equal(z[k], p[k])]
+    assert json.loads(str(p["detector_json"])) == m.settings
+    with pytest.raises(SystemExit):    # --more takes 2 or 4 values
+        ta.main(["pack", str(tmp_path / "rear.npz"), "--out", str(out), "--more", str(tmp_path / "m0.npz"), "0", "1"])

@@ -309,8 +309,9 @@ def main(argv=None) -> int:
     k.add_argument("--settings", default=None, help="detector_json (the whole-road settings), JSON text")
     k.add_argument("--nms-contain", type=int, default=None, metavar="PERMILLE",
                    help="the detector's NMS containment limit, 0..1000 (default: the model's, else 1000)")
-    k.add_argument("--more", nargs=2, action="append", default=[], metavar=("MODEL", "THR"),
-                   help="another window's model and its threshold, run on the same pyramid (acf1_* keys)")
+    k.add_argument("--more", nargs="+", action="append", default=[], metavar="MODEL THR [MIN_MM MAX_MM]",
+                   help="another window's model and its threshold, run on the same pyramid (acf1_* keys); "
+                        "MIN_MM MAX_MM replace that model's band (the widths it was trained on may be wider)")
     a = ap.parse_args(argv)
     if a.cmd == "pack":
         z = dict(np.load(a.model, allow_pickle=False))
@@ -323,9 +324,13 @@ def main(argv=None) -> int:
             z["detector_json"] = np.array(a.settings)
         if a.nms_contain is not None:
             z["nms_contain_permille"] = np.int32(a.nms_contain)
-        for i, (path, thr) in enumerate(a.more, 1):
-            mm = acf.AcfModel.load(path)
-            mm.score_min_q16 = int(np.floor(float(thr) * 65536 + 0.5))
+        for i, more in enumerate(a.more, 1):
+            if len(more) not in (2, 4):
+                ap.error(f"--more takes MODEL THR [MIN_MM MAX_MM], got {more}")
+            mm = acf.AcfModel.load(more[0])
+            mm.score_min_q16 = int(np.floor(float(more[1]) * 65536 + 0.5))
+            if len(more) == 4:
+                mm.band_mm = (int(more[2]), int(more[3]))
             z.update(mm.keys(f"acf{i}_"))
         np.savez_compressed(a.out, **z)
         m = acf.AcfModel.load(a.out)
