@@ -435,7 +435,8 @@ vt_status vt__fulldet_verify(vt_cls_box_ws *ws, const vt_mlp_model *m, const vt_
             int64_t bw = (int64_t)sq.right - sq.left + 1;
             if (((skip & VT__VERIFY_SKIP_FLAT) && 2 * ((int64_t)sq.bottom - sq.top + 1) < bw) ||
                 ((skip & VT__VERIFY_SKIP_SIDE) &&
-                 (4 * (int64_t)sq.left <= bw + 4 || 4 * ((int64_t)img->w - 1 - sq.right) <= bw + 4))) {
+                 (4 * (int64_t)sq.left <= bw + 4 || 4 * ((int64_t)img->w - 1 - sq.right) <= bw + 4)) ||
+                ((skip & VT__VERIFY_SKIP_SMALL) && bw < VT__VERIFY_SMALL_W)) {
                 sc[i] = res->box[i].score; /* passes with its own score */
                 pass[i] = 1;
                 continue;

@@ -103,9 +103,13 @@ int vt__box_suppress(const vt_box *a, const vt_box *b, int32_t iou_permille, int
  * (2 height < width: a side view; vt_pipeline_cfg.verify 2), with VT__VERIFY_SKIP_SIDE also
  * a box whose gap to the frame's left or right side is at most a quarter of its width
  * plus 1 px (4 gap <= width + 4: a vehicle the frame's edge cuts, whose bottom-row square
- * cannot show it whole; the edge models' boxes, acf.h's cols; verify 3). */
+ * cannot show it whole; the edge models' boxes, acf.h's cols; verify 3), with
+ * VT__VERIFY_SKIP_SMALL also a box narrower than VT__VERIFY_SMALL_W px (a far car: the
+ * 64x64 MLP would see it enlarged 2x or more, with no detail to judge; verify 4). */
 #define VT__VERIFY_SKIP_FLAT 1
 #define VT__VERIFY_SKIP_SIDE 2
+#define VT__VERIFY_SKIP_SMALL 4
+#define VT__VERIFY_SMALL_W 32
 vt_status vt__fulldet_verify(vt_cls_box_ws *ws, const vt_mlp_model *m, const vt_image_u8 *img,
                              int32_t score_min, int32_t skip, vt_fulldet_result *res);
 

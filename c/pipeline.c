@@ -104,7 +104,7 @@ vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg)
         s = vt_ttc_cfg_check(&cfg->ttc);
     }
     if (s == VT_OK && (cfg->model_fits < 0 || cfg->model_fits > VT_MAX_TRACKS ||
-                       cfg->model_min_fitness < 0 || cfg->verify < 0 || cfg->verify > 3)) {
+                       cfg->model_min_fitness < 0 || cfg->verify < 0 || cfg->verify > 4)) {
         s = VT_E_ARG;
     }
     if (s == VT_OK && ((cfg->handover != 0 && cfg->handover != 1) || cfg->handover_frames < 2 ||
@@ -723,11 +723,12 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
         s = vt_mlp_default_model(&m);
         if (s == VT_OK) {
             /* verify 2: boxes flatter than 1:2 (side views) pass with their own score; 3: and
-             * boxes the frame's side cuts */
-            s = vt__fulldet_verify(&ws->box, m, frame, p->cfg.verify_min,
-                                   p->cfg.verify == 2   ? VT__VERIFY_SKIP_FLAT
-                                   : p->cfg.verify == 3 ? VT__VERIFY_SKIP_FLAT | VT__VERIFY_SKIP_SIDE
-                                                        : 0,
+             * boxes the frame's side cuts; 4: and boxes narrower than 32 px (far cars) */
+            static const int32_t skip[5] = {0, 0, VT__VERIFY_SKIP_FLAT,
+                                            VT__VERIFY_SKIP_FLAT | VT__VERIFY_SKIP_SIDE,
+                                            VT__VERIFY_SKIP_FLAT | VT__VERIFY_SKIP_SIDE |
+                                                VT__VERIFY_SKIP_SMALL};
+            s = vt__fulldet_verify(&ws->box, m, frame, p->cfg.verify_min, skip[p->cfg.verify],
                                    &ws->res);
         }
     }

@@ -98,6 +98,7 @@ class AcfModel:
     band_mm: tuple | None = None   # its band's box widths (veh_w_min_mm, veh_w_max_mm); None: acf.h's
     nms_contain_permille: int = 1000   # the detector's NMS containment limit (the first model's counts)
     cols: int = 0           # vt_acf_cfg.cols: 0 every window column, 1 / 2 only the left / right edge's
+    first_scale: int = 0    # vt_acf_cfg.first_scale: its first pyramid level (levels first_scale..14)
     more: list = field(default_factory=list)   # further models on the same pyramid (vt_acf_detect_n)
     # what the whole-road detector reads from any model file (fullroad.load_model fills them)
     settings: dict = field(default_factory=dict)
@@ -164,7 +165,8 @@ class AcfModel:
                 z[pre + "leaf_q16"].astype(np.int32), float(z[pre + "bias"]), rej,
                 int(z[pre + "score_min_q16"]) if pre + "score_min_q16" in z.files else 0, str(p), band,
                 int(z[pre + "nms_contain_permille"]) if pre + "nms_contain_permille" in z.files else 1000,
-                int(z[pre + "cols"]) if pre + "cols" in z.files else 0)
+                int(z[pre + "cols"]) if pre + "cols" in z.files else 0,
+                int(z[pre + "first_scale"]) if pre + "first_scale" in z.files else 0)
         m.c_model()  # the core's check
         m.c_cfg()    # and the band's
         return m
@@ -177,6 +179,8 @@ class AcfModel:
                  score_min_q16=self.score_min_q16, nms_contain_permille=self.nms_contain_permille)
         if self.cols:
             d["cols"] = np.int32(self.cols)
+        if self.first_scale:
+            d["first_scale"] = np.int32(self.first_scale)
         if self.band_mm is not None:
             d["band_mm"] = np.array(self.band_mm, np.int32)
         return {pre + k: v for k, v in d.items()}
@@ -189,15 +193,18 @@ class AcfModel:
 
     def c_cfg(self, score_offset_q16: int = 0):
         """vt_acf_cfg for this model: acf.h's defaults, its band, threshold (+ an offset), NMS
-        containment limit and columns; checked."""
+        containment limit, columns and first level (to acf.h's last default level); checked."""
         c = cfg_default()
+        if self.first_scale:   # a window for near vehicles starts at a coarser level
+            c.first_scale, c.n_scales = int(self.first_scale), max(1, int(c.n_scales) - int(self.first_scale))
         if self.band_mm is not None:
             c.veh_w_min_mm, c.veh_w_max_mm = self.band_mm
         c.score_min = int(np.clip(self.score_min_q16 + int(score_offset_q16), -2 ** 31, 2 ** 31 - 1))
         c.nms_contain_permille = int(self.nms_contain_permille)
         c.cols = int(self.cols)
         check("vt_acf_cfg_check", lib.vt_acf_cfg_check(c),
-              f"band {self.band_mm}, nms_contain_permille {self.nms_contain_permille}, cols {self.cols}")
+              f"band {self.band_mm}, nms_contain_permille {self.nms_contain_permille}, cols {self.cols}, "
+              f"first_scale {self.first_scale}")
         return c
 
     def c_model(self):

@@ -212,7 +212,7 @@ def _settings(z, p) -> dict:
         if k in _PERMILLE:
             if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v <= 1000:
                 raise ValueError(f"model: {p}: detector_json {k} must be an int in 0..1000, got {v!r}")
-        elif k in ("verify_skip_flat", "verify_skip_edge"):
+        elif k in ("verify_skip_flat", "verify_skip_edge", "verify_skip_small"):
             if not isinstance(v, bool):
                 raise ValueError(f"model: {p}: detector_json {k} must be true or false, got {v!r}")
         elif k == "sources":
@@ -227,7 +227,7 @@ def _settings(z, p) -> dict:
                 raise ValueError(f"model: {p}: detector_json {k} must be a number in {lo}..{hi}, got {v!r}")
         else:
             raise ValueError(f"model: {p}: detector_json has an unknown key {k!r} "
-                             f"(known: sources, verify_skip_flat, verify_skip_edge, "
+                             f"(known: sources, verify_skip_flat, verify_skip_edge, verify_skip_small, "
                              f"{', '.join(_PERMILLE + tuple(_SETTINGS))})")
     for a, b in (("veh_w_min", "veh_w_max"), ("wide_veh_w_min", "wide_veh_w_max")):
         if d.get(a, 0.0) > d.get(b, 20.0):
@@ -393,22 +393,28 @@ class FullRoadConfig:
     `verify_skip_edge` (None: the model's setting while verify_skip_flat is on, else False;
     needs verify_skip_flat):
     so do boxes whose gap to the frame's left or right side is at most a quarter of their
-    width plus 1 px (vehicles the frame's edge cuts; vt_pipeline_cfg.verify 3)."""
+    width plus 1 px (vehicles the frame's edge cuts; vt_pipeline_cfg.verify 3);
+    `verify_skip_small` (None: the model's setting while verify_skip_edge is on, else False;
+    needs verify_skip_edge): so do boxes narrower than 32 px (far cars, which the 64x64 MLP
+    would judge enlarged 2x or more; vt_pipeline_cfg.verify 4)."""
     det: FullDetConfig | None = None
     score_offset: float = 0.0
     verify_min: float | None = None
     verify_skip_flat: bool | None = None
     verify_skip_edge: bool | None = None
+    verify_skip_small: bool | None = None
     wide: bool | None = None   # the wide pass: None = on when the model holds a wide model
     refine: bool | None = None   # box regression: None = on when the model holds a box regressor
 
 
 def verify_mode(cfg: FullRoadConfig) -> int:
     """vt_pipeline_cfg.verify for a FullRoadConfig whose verify_min is set: 1 every box, 2 all
-    but flat boxes, 3 all but flat and edge-cut boxes."""
+    but flat boxes, 3 all but flat and edge-cut boxes, 4 all but those and boxes < 32 px wide."""
     if cfg.verify_skip_edge and not cfg.verify_skip_flat:
         raise ValueError("verify_skip_edge needs verify_skip_flat (vt_pipeline_cfg.verify 3 skips both)")
-    return 3 if cfg.verify_skip_edge else (2 if cfg.verify_skip_flat else 1)
+    if cfg.verify_skip_small and not cfg.verify_skip_edge:
+        raise ValueError("verify_skip_small needs verify_skip_edge (vt_pipeline_cfg.verify 4 skips all three)")
+    return 4 if cfg.verify_skip_small else 3 if cfg.verify_skip_edge else (2 if cfg.verify_skip_flat else 1)
 
 
 def _c_cfg(cfg: FullDetConfig):
@@ -503,8 +509,15 @@ def setup(model=None, sources=SOURCES, camera: Camera | None = None, cfg: FullRo
         raise TypeError(f"cfg.verify_skip_edge: expected True, False or None, got {edge!r}")
     if edge and not skip:
         raise ValueError("verify_skip_edge needs verify_skip_flat (vt_pipeline_cfg.verify 3 skips both)")
+    # and its verify_skip_small with its verify_skip_edge (verify 4 skips all three)
+    small = cfg.verify_skip_small if cfg.verify_skip_small is not None else \
+        (edge and st.get("verify_skip_small", False))
+    if not isinstance(small, bool):
+        raise TypeError(f"cfg.verify_skip_small: expected True, False or None, got {small!r}")
+    if small and not edge:
+        raise ValueError("verify_skip_small needs verify_skip_edge (vt_pipeline_cfg.verify 4 skips all three)")
     cfg = replace(cfg, det=det, verify_min=None if vmin is None else float(vmin), verify_skip_flat=skip,
-                  verify_skip_edge=edge)
+                  verify_skip_edge=edge, verify_skip_small=small)
     thr = 0
     if model is not None:
         thr = model.threshold_q16 + int(round((cfg.score_offset + float(st.get("score_offset", 0.0))) * 65536))
@@ -568,7 +581,8 @@ class FullRoadDetector:
             raise ValueError(f"engine: expected 'c' or 'reference', got {engine!r}")
         self.model, sources, self.camera, cfg, det = setup(model, sources, camera, cfg)
         vmin = cfg.verify_min
-        self.verify_skip_flat = bool(cfg.verify_skip_flat) or bool(cfg.verify_skip_edge)
+        self.verify_skip_flat = bool(cfg.verify_skip_flat) or bool(cfg.verify_skip_edge) or \
+            bool(cfg.verify_skip_small)
         self.verify_min_q16 = None if vmin is None else int(round(float(vmin) * 65536))
         use_v = vmin is not None or det.rerank_permille > 0   # the second stage's model, or re-ranking
         self._vmodel = _native.mlp_default_model() if use_v else None
@@ -656,9 +670,9 @@ class FullRoadDetector:
             raise ValueError("detect_gray runs vt_fulldet's window models; an ACF model runs through "
                              "pyvehtrack.Detector / Pipeline (vt_pipeline_set_acf) or pyvehtrack.acf.detect")
         if self.verify_skip_flat and self.verify_min_q16 is not None:
-            raise ValueError("detect_gray: verify_skip_flat / verify_skip_edge (the second stage on all but "
-                             "flat or edge-cut boxes) runs in pyvehtrack.Detector / Pipeline "
-                             "(vt_pipeline_cfg.verify 2 / 3) only")
+            raise ValueError("detect_gray: verify_skip_flat / verify_skip_edge / verify_skip_small (the second "
+                             "stage on all but flat, edge-cut or small boxes) runs in pyvehtrack.Detector / "
+                             "Pipeline (vt_pipeline_cfg.verify 2 / 3 / 4) only")
         cam = self.camera_for(h, w, horizon_y)
         ccam = self._c_camera(cam)
         if road is None:

@@ -496,7 +496,8 @@ class Pipeline:
                     import dataclasses  # noqa: PLC0415
                     rcfg = dataclasses.replace(rcfg, verify_min=int(self._ccfg.verify_min),
                                                verify_flat=int(self._ccfg.verify) == 1,
-                                               verify_side=int(self._ccfg.verify) < 3)
+                                               verify_side=int(self._ccfg.verify) < 3,
+                                               verify_small=int(self._ccfg.verify) < 4)
                     box_score = _native.classify_box_mlp_default
                 if self._ccfg.fulldet.rerank_permille > 0:   # re-ranking uses the same model
                     box_score = _native.classify_box_mlp_default

@@ -23,6 +23,7 @@ def test_model_loads_with_its_settings():
     assert m.refine is None              # no box regressor: it moved the flat window's boxes to rear-view shapes
     assert m.settings.get("sources") == ["ego", "windows"] and m.settings.get("verify_min") == 2.0
     assert m.settings.get("verify_skip_flat") is True and m.settings.get("verify_skip_edge") is True
+    assert m.settings.get("verify_skip_small") is True
     assert m.threshold_q16 == -65536 and m.band_mm is None and m.nms_contain_permille == 400 and m.cols == 0
     # the flat (side-view), the small far-car and the two edge windows on the same pyramid, each its
     # own band, threshold and columns
@@ -100,3 +101,26 @@ def test_pack_rebuilds_the_shipped_file(tmp_path, monkeypatch):
     assert json.loads(str(p["detector_json"])) == m.settings
     with pytest.raises(SystemExit):    # --more takes 2 or 4 values
         ta.main(["pack", str(tmp_path / "rear.npz"), "--out", str(out), "--more", str(tmp_path / "m0.npz"), "0", "1"])
+
+
+def test_first_scale_reaches_the_core(tmp_path):
+    """A model's first_scale (a near-vehicle window: train_acf.py train --first-level) is saved, loaded
+    and given to vt_acf_detect_n: from level 4 on every box is at least twice the window (level 4's
+    input px per level px: SCALE_Q16[4] = 2.0 exactly), while the same trees from level 0 box smaller
+    cars on the same frame; a first level past acf.h's last is a clear error."""
+    m = acf.AcfModel.load(MODEL)
+    m.more, m.score_min_q16 = [], -4 << 16    # a low threshold: many boxes at every level
+    gray = cv2.imread(str(DATA / "udacity_test1_640x360.jpg"), cv2.IMREAD_GRAYSCALE)
+    allb, _ = acf.detect(m, gray, 200, 330, 600.0)
+    m.first_scale = 4
+    m.save(tmp_path / "near.npz")
+    n = acf.AcfModel.load(tmp_path / "near.npz")
+    assert n.first_scale == 4 and (n.c_cfg().first_scale, n.c_cfg().n_scales) == (4, 11)
+    nearb, _ = acf.detect(n, gray, 200, 330, 600.0)
+    w = lambda b: b["right"] - b["left"] + 1   # noqa: E731
+    assert len(nearb) and (w(nearb) >= 2 * m.win_w).all()
+    assert (w(allb) < 2 * m.win_w).any()
+    n.first_scale = 16
+    n.save(tmp_path / "bad.npz")
+    with pytest.raises(ValueError, match="first_scale 16"):
+        acf.AcfModel.load(tmp_path / "bad.npz")

@@ -156,7 +156,8 @@ def test_verify_skip_edge():
     everything. The shipped ACF file (its edge models) likewise, with no verify-2 box lost
     and >= 1 side box that verify 2 drops. Bad values are clear errors."""
     from pyvehtrack import fullroad
-    cfg = fullroad.FullRoadConfig(verify_skip_flat=True, verify_skip_edge=True)
+    cfg = fullroad.FullRoadConfig(verify_skip_flat=True, verify_skip_edge=True,
+                                  verify_skip_small=False)   # the ACF file's: True (verify 4, below)
     srcs = ("ego", "shadow", "classifier")
     assert Pipeline("c", model=MODEL, sources=srcs, fullroad=cfg)._ccfg.verify == 3
     acf = str(ROOT / "pyvehtrack" / "models" / "acf_gray.npz")
@@ -173,7 +174,7 @@ def test_verify_skip_edge():
                                         fullroad=c).step_gray(g))
                         for c in (fullroad.FullRoadConfig(verify_skip_flat=True, verify_skip_edge=False),
                                   fullroad.FullRoadConfig(verify_min=-30000.0, verify_skip_flat=True,
-                                                          verify_skip_edge=True))]
+                                                          verify_skip_edge=True, verify_skip_small=False))]
             ego = int(lib.VT_SRC_EGO)
             for x in v3:
                 if x[0] == ego:   # the same ego box; its score may take a kept side box's
@@ -194,6 +195,60 @@ def test_verify_skip_edge():
     with pytest.raises(ValueError, match="verify_skip_edge"):
         fullroad.FullRoadDetector(MODEL, cfg=cfg).detect_gray(_gray(FRAMES[0]))
 
+
+
+def test_verify_skip_small():
+    """FullRoadConfig(verify_skip_small=True) (vt_pipeline_cfg.verify 4; detector_json
+    "verify_skip_small"): as verify 3, and a whole-road box narrower than 32 px (a far car, which
+    the 64x64 MLP would judge enlarged 2x or more) keeps its first-stage score. Window model: C ==
+    oracle box for box; every verify-4 box is a verify-3 box or a small box of the run whose
+    second stage keeps everything. The shipped ACF file (its small far-car window) likewise, with
+    no verify-3 box lost and >= 1 small box that verify 3 drops. Bad values are clear errors."""
+    from pyvehtrack import fullroad
+    cfg = fullroad.FullRoadConfig(verify_skip_flat=True, verify_skip_edge=True, verify_skip_small=True)
+    srcs = ("ego", "shadow", "classifier")
+    assert Pipeline("c", model=MODEL, sources=srcs, fullroad=cfg)._ccfg.verify == 4
+    acf = str(ROOT / "pyvehtrack" / "models" / "acf_gray.npz")
+    assert Pipeline("c", model=acf, sources=("classifier",))._ccfg.verify == 4   # the shipped file's setting
+    small_kept = 0
+    for model, engines, s_ in ((MODEL, ("c", "reference"), srcs), (acf, ("c",), ("classifier",))):
+        for p in FRAMES:
+            g = _gray(p)
+            v4 = [_boxes(Pipeline(e, model=model, sources=s_, detect_every=1, track=False,
+                                  fullroad=cfg).step_gray(g)) for e in engines]
+            assert all(x == v4[0] for x in v4), p.name                 # C == oracle
+            v4 = v4[0]
+            v3, none = [_boxes(Pipeline("c", model=model, sources=s_, detect_every=1, track=False,
+                                        fullroad=c).step_gray(g))
+                        for c in (fullroad.FullRoadConfig(verify_skip_flat=True, verify_skip_edge=True,
+                                                          verify_skip_small=False),
+                                  fullroad.FullRoadConfig(verify_min=-30000.0, verify_skip_flat=True,
+                                                          verify_skip_edge=True, verify_skip_small=True))]
+            ego = int(lib.VT_SRC_EGO)
+            for x in v4:
+                if x[0] == ego:   # the same ego box; its score may take a kept small box's
+                    assert any(y[0] == ego and y[1] == x[1] and y[2] <= x[2] for y in v3), (p.name, x)
+                else:
+                    small = x[1][2] - x[1][0] + 1 < 32
+                    assert x in v3 or (small and x in none), (p.name, x)
+                    small_kept += model == acf and x not in v3
+            for x in v3:          # no box lost but for the 32-box cap (a small box keeps its tree score)
+                if x[0] != ego and len(v4) < int(lib.VT_MAX_BOXES):
+                    assert any(y[1] == x[1] for y in v4), (p.name, x)
+    assert small_kept >= 1   # not vacuous: a far car's box that the rear-view stage drops
+    with pytest.raises(TypeError, match="verify_skip_small"):
+        Pipeline("c", model=MODEL, sources=srcs,
+                 fullroad=fullroad.FullRoadConfig(verify_skip_flat=True, verify_skip_edge=True, verify_skip_small=1))
+    with pytest.raises(ValueError, match="verify_skip_small needs verify_skip_edge"):
+        Pipeline("c", model=MODEL, sources=srcs,
+                 fullroad=fullroad.FullRoadConfig(verify_skip_flat=True, verify_skip_edge=False,
+                                                  verify_skip_small=True))
+    with pytest.raises(ValueError, match="verify_skip_small"):
+        fullroad.FullRoadDetector(MODEL, cfg=cfg).detect_gray(_gray(FRAMES[0]))
+    c = _native.pipeline_cfg_default()
+    c.verify = 5
+    with pytest.raises(ValueError):
+        _native.pipeline_cfg_check(c)
 
 def test_ego_needs_a_classifier():
     c = _native.pipeline_cfg_default()

@@ -171,7 +171,7 @@ def test_model_detector_settings(tmp_path):
     for bad, what in (("{", "not JSON"), ("[1]", "JSON object"), ('{"nms_iou_permille": 1001}', "nms_iou_permille"),
                       ('{"merge_iou_permille": 0.3}', "merge_iou_permille"),
                       ('{"sources": ["trees"]}', "sources"), ('{"colour": 1}', "unknown key"),
-                      ('{"verify_min": true}', "verify_min")):
+                      ('{"verify_min": true}', "verify_min"), ('{"verify_skip_small": 1}', "verify_skip_small")):
         with pytest.raises(ValueError, match=what):
             fullroad.load_model(_save(tmp_path, "bad.npz", detector_json=np.array(bad)))
     with pytest.raises(TypeError, match="verify_min"):

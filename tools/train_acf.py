@@ -63,6 +63,7 @@ class _Geo:
     min_w = 24                  # the positives' smallest width (px)
     veh_w = (1080, 3960)        # the band's box widths (mm), acf.h's veh_w_min_mm / veh_w_max_mm
     cols = 0                    # acf.h's VT_ACF_COLS_*: 1 / 2 an edge model (train --edge left / right)
+    first = 0                   # acf.h's first_scale: a near-vehicle model's first level (train --first-level)
 
 
 EDGE_PX = 3      # a box within this many px of the frame's side is cut by it (the edge models' positives)
@@ -74,13 +75,15 @@ def _set_geo(geo) -> None:
         _Geo.win_cw, _Geo.win_ch, _Geo.aspect, _Geo.veh_w = geo[:4]
         _Geo.min_w = geo[4] if len(geo) > 4 else 24
         _Geo.cols = geo[5] if len(geo) > 5 else 0
+        _Geo.first = geo[6] if len(geo) > 6 else 0
 
 
-def dense(gray: np.ndarray, hor: int, levels=range(15)):
-    """Every window of the band over the pyramid -> (features (N, 720) uint8, boxes (N, 4))."""
+def dense(gray: np.ndarray, hor: int):
+    """Every window of the band over the pyramid's levels _Geo.first..14 -> (features (N, 720)
+    uint8, boxes (N, 4))."""
     feats, boxes = [], []
     h = gray.shape[0]
-    for k in levels:
+    for k in range(_Geo.first, 15):
         r = acf.SCALE_Q16[k]
         lw, lh = acf.level_size(gray.shape[1], r), acf.level_size(h, r)
         if lw // 4 < _Geo.win_cw or lh // 4 < _Geo.win_ch:
@@ -201,6 +204,7 @@ def _detect(args):
     cfg = acf.cfg_default()
     cfg.veh_w_min_mm, cfg.veh_w_max_mm = _Geo.veh_w
     cfg.cols = _Geo.cols
+    cfg.first_scale, cfg.n_scales = _Geo.first, 15 - _Geo.first
     cfg.score_min = int(np.floor(thr * 65536))
     t0 = time.perf_counter()
     boxes, st = acf.detect(m, g, _G["hor"][f], hood_y(g.shape[0]), fx=1000.0, cfg=cfg)
@@ -288,6 +292,9 @@ def main(argv=None) -> int:
     t.add_argument("--edge", choices=("left", "right"), default=None,
                    help="a model of vehicles the frame's left / right edge cuts: it scans only that edge's "
                         "window column (acf.h's cols); examples are its own windows (module doc)")
+    t.add_argument("--first-level", type=int, default=0, choices=range(15), metavar="K",
+                   help="a model of near vehicles: negatives and detection from pyramid level K on (level k's "
+                        "boxes are 2^(k/4) x the window's; acf.h's first_scale); pair with --min-w")
     t.add_argument("--split", default="fit", choices=("fit", "train"),
                    help="training frames: 'fit' (choices are made on 'val'), or 'train' = 'fit' + 'val' (the "
                         "final model once the choices are made; TEST stays unseen either way)")
@@ -340,7 +347,7 @@ def main(argv=None) -> int:
     if a.cmd == "train":
         a.out.mkdir(parents=True, exist_ok=True)
         geo = (a.win[0], a.win[1], tuple(a.aspect), tuple(a.veh_w), a.min_w,
-               {None: 0, "left": 1, "right": 2}[a.edge])
+               {None: 0, "left": 1, "right": 2}[a.edge], a.first_level)
         _set_geo(geo)
         files = [r["file_name"] for r in tusimple_frames(a.data, a.split)]
         hor = horizons(a.data, a.split, a.out / f"horizons_{a.split}.json")
@@ -370,7 +377,7 @@ def main(argv=None) -> int:
             m = to_model(clf, a.depth, pos, a.margin)
             d = np.abs(ra.tree_scores(m, x[:2000].astype(np.uint8)) - clf.decision_function(x[:2000]))
             path = a.out / f"acf_r{rnd}.npz"
-            m.cols = _Geo.cols
+            m.cols, m.first_scale = _Geo.cols, _Geo.first
             m.save(path, n_pos=len(pos), n_neg=len(neg), rounds=rnd, band_mm=np.array(a.veh_w, np.int32),
                    aspect=np.array(a.aspect))
             print(f"{path}: {len(pos)} positives, {len(neg)} negatives, trees vs sklearn max |diff| {d.max():.2e}, "
@@ -387,7 +394,7 @@ def main(argv=None) -> int:
     band = tuple(a.veh_w) if a.veh_w else (tuple(int(v) for v in mz["band_mm"]) if "band_mm" in mz.files
                                             else _Geo.veh_w)
     geo = (int(mz["win_cw"]), int(mz["win_ch"]), _Geo.aspect, band, _Geo.min_w,
-           int(mz["cols"]) if "cols" in mz.files else 0)
+           int(mz["cols"]) if "cols" in mz.files else 0, int(mz["first_scale"]) if "first_scale" in mz.files else 0)
     _init(a.data, hor, None, geo)
     for thr in a.thr:
         with Pool(2, _init, (a.data, hor, a.model, geo)) as pool:

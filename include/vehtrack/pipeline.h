@@ -181,7 +181,9 @@ typedef struct {
                                 2, and so does a whole-road box whose gap to the
                                 frame's left or right side is at most a quarter of its
                                 width plus 1 px (4 gap <= width + 4: a vehicle the edge
-                                cuts; acf.h's edge models)                             */
+                                cuts; acf.h's edge models). 4: as 3, and so does a
+                                whole-road box narrower than 32 px (a far car, which the
+                                64x64 MLP would judge enlarged 2x or more)             */
     vt_q16 verify_min;       /* that stage's threshold, a Q16 decision value            */
     vt_ttc_cfg ttc;          /* the block-scale TTC (vehtrack/ttc_scale.h) run after the
                                 tracker when its state is attached (vt_pipeline_set_ttc_ws);

@@ -47,13 +47,14 @@ HANDOVER = 4   # a track's state once handed over to the flow stage (VT_PIPE_HAN
 
 
 def _verify_skips(row, w: int, c) -> bool:
-    """vt_pipeline_cfg.verify 2 / 3: a box the rear-view second stage does not judge (it keeps
-    its own score): flatter than 1:2 (verify_flat False), or with a gap to the frame's left
-    or right side of at most a quarter of its width plus 1 px (verify_side False)."""
+    """vt_pipeline_cfg.verify 2 / 3 / 4: a box the rear-view second stage does not judge (it
+    keeps its own score): flatter than 1:2 (verify_flat False), or with a gap to the frame's
+    left or right side of at most a quarter of its width plus 1 px (verify_side False), or
+    narrower than 32 px (verify_small False)."""
     bw = int(row[2]) - int(row[0]) + 1
     flat = 2 * (int(row[3]) - int(row[1]) + 1) < bw
     side = 4 * int(row[0]) <= bw + 4 or 4 * (w - 1 - int(row[2])) <= bw + 4
-    return (not c.verify_flat and flat) or (not c.verify_side and side)
+    return (not c.verify_flat and flat) or (not c.verify_side and side) or (not c.verify_small and bw < 32)
 
 
 @dataclass
@@ -131,6 +132,7 @@ class PipelineRefConfig:
     verify_min: int | None = None  # Q16: the whole-road boxes' second stage (box_score) and its threshold
     verify_flat: bool = True       # False: boxes flatter than 1:2 skip that stage (vt_pipeline_cfg.verify 2)
     verify_side: bool = True       # False: boxes the frame's side cuts (4 gap <= width + 4) skip it too (verify 3)
+    verify_small: bool = True      # False: boxes narrower than 32 px skip it too (verify 4)
     ttc_points: object = None  # reference.ttc_scale.TtcScaleParams: the block-scale TTC after the
     #                            tracker (vt_pipeline_set_ttc_ws attached); None: not run
     handover: bool = True      # the reverse hand-over to the flow stage (with "flow")
