@@ -2,7 +2,7 @@
 style ground truth (pyvehtrack.eval_boxes does the scoring).
 
     pyvehtrack eval-boxes --gt annotation.json --pred found.json [--image-size 1280x720]
-                          [--json scores.json]
+                          [--json scores.json] [--sheet errors.png [--images DIR]]
 """
 from __future__ import annotations
 
@@ -28,6 +28,11 @@ def register_eval_boxes(sub) -> None:
     p.add_argument("--image-size", default="1280x720", metavar="WxH",
                    help="frame size that places the bottom centre for the lead vehicle (default 1280x720)")
     p.add_argument("--json", metavar="OUT.json", help="also write the scores as JSON")
+    p.add_argument("--sheet", metavar="OUT.png",
+                   help="a picture of what went wrong: the missed vehicles and the false boxes >= 32 px wide, "
+                        "each cut from its frame (needs the frames: --images)")
+    p.add_argument("--images", metavar="DIR", default=None,
+                   help="the folder the --gt file names are relative to (default: the --gt file's folder)")
     p.set_defaults(func=run_eval_boxes)
 
 
@@ -49,8 +54,14 @@ def run_eval_boxes(args) -> int:
             raise ValueError
     except ValueError:
         raise CliError(f"--image-size {args.image_size}: expected WxH with positive integers") from None
-    if args.json and not Path(args.json).parent.exists():
-        raise CliError(f"--json {args.json}: folder {Path(args.json).parent} does not exist")
+    for flag in ("json", "sheet"):
+        v = getattr(args, flag, None)
+        if v and not Path(v).parent.exists():
+            raise CliError(f"--{flag} {v}: folder {Path(v).parent} does not exist")
+    if getattr(args, "sheet", None) and Path(args.sheet).suffix.lower() not in (".png", ".jpg", ".jpeg"):
+        raise CliError(f"--sheet {args.sheet}: expected a .png or .jpg name")
+    if getattr(args, "images", None) and not getattr(args, "sheet", None):
+        raise CliError("--images is read only with --sheet")
     try:
         gt = eb.load_gt(_read_json(args.gt, "--gt"))
     except ValueError as e:
@@ -66,4 +77,28 @@ def run_eval_boxes(args) -> int:
     print(eb.format_scores(s))
     if args.json:
         Path(args.json).write_text(json.dumps(s.as_dict(), indent=1) + "\n")
+    if getattr(args, "sheet", None):
+        _write_sheet(args, gt, pred)
     return 0
+
+
+def _write_sheet(args, gt, pred) -> None:
+    import cv2  # noqa: PLC0415
+    from . import eval_boxes as eb
+    root = Path(args.images) if args.images else Path(args.gt).parent
+    if not root.is_dir():
+        raise CliError(f"--images {root}: no such folder")
+
+    def load(name):
+        img = cv2.imread(str(root / name), cv2.IMREAD_COLOR)
+        if img is None:
+            raise CliError(f"--sheet: cannot read the frame {root / name} (--images names the folder the "
+                           "--gt file names are relative to)")
+        return img
+
+    errs = eb.errors(gt, pred)
+    sheet = eb.error_sheet(errs, load)
+    if not cv2.imwrite(str(args.sheet), sheet):
+        raise CliError(f"--sheet {args.sheet}: could not be written")
+    n_miss = sum(e["kind"] == "missed" for e in errs)
+    print(f"sheet: {args.sheet} ({n_miss} missed, {len(errs) - n_miss} false, >= 32 px)")

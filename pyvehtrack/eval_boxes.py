@@ -42,7 +42,7 @@ IOU_MIN = 0.5
 SIZE_CLASSES = (0, 32, 64)
 
 __all__ = ["FrameBoxes", "BoxScores", "load_gt", "load_pred", "pair_frames", "score",
-           "format_scores", "box_iou_matrix", "lead_index"]
+           "format_scores", "box_iou_matrix", "lead_index", "errors", "error_sheet"]
 
 
 @dataclass
@@ -285,3 +285,78 @@ def format_scores(s: BoxScores) -> str:
                  f"{pct(ld['precision']):>9}")
     lines.append(f"COCO AP50 (pycocotools): {pct(s.ap50)}")
     return "\n".join(lines)
+
+
+# ------------------------------------------------------------------------ what went wrong
+def errors(gt: list[FrameBoxes], pred: list[FrameBoxes], min_w: float = 32) -> list[dict]:
+    """The boxes behind score()'s size class "width >= min_w", matched by the same rule: each
+    ground-truth box of that width left unmatched ({"kind": "missed", ...}, `iou` its best
+    IoU with any prediction) and each unmatched prediction of that width ({"kind": "false",
+    ...}, `iou` its best IoU with any ground-truth box, `score` its score or None); every
+    entry names the ground-truth `file` and its `box` [l, t, r, b]. Misses first, in frame
+    order. Their counts are that class's gt - matched and false positives."""
+    pairs, _ = pair_frames(gt, pred)
+    missed, false = [], []
+    for g, p in pairs:
+        m = _match(g.boxes, p.boxes, p.scores)
+        iou = box_iou_matrix(g.boxes, p.boxes)
+        matched = np.zeros(len(g.boxes), bool)
+        matched[m[m >= 0]] = True
+        for j in np.nonzero(~matched & (_widths(g.boxes) >= min_w))[0]:
+            missed.append({"kind": "missed", "file": g.file, "box": g.boxes[j].tolist(),
+                           "iou": float(iou[j].max()) if len(p.boxes) else 0.0, "score": None})
+        for i in np.nonzero((m < 0) & (_widths(p.boxes) >= min_w))[0]:
+            false.append({"kind": "false", "file": g.file, "box": p.boxes[i].tolist(),
+                          "iou": float(iou[:, i].max()) if len(g.boxes) else 0.0,
+                          "score": None if p.scores is None else float(p.scores[i])})
+    return missed + false
+
+
+def error_sheet(errs: list[dict], load_image, tile=(160, 120), cols: int = 8, per_kind: int = 120) -> np.ndarray:
+    """A contact sheet (BGR uint8) of errors() entries, for a person to look at: a band per
+    kind ("missed" in red, "false" in orange) with up to per_kind tiles, each the box with a
+    quarter of its size of context around it, scaled to fit the tile, labelled with its
+    width x height, file and IoU (and score). load_image(file) returns the frame (gray or
+    BGR) or raises; a frame is read once."""
+    import cv2  # noqa: PLC0415  (drawing only)
+    tw, th = int(tile[0]), int(tile[1])
+    if tw < 40 or th < 40 or cols < 1 or per_kind < 1:
+        raise ValueError(f"error_sheet: tile {tile} (>= 40x40), cols {cols}, per_kind {per_kind} (>= 1)")
+    colour = {"missed": (0, 0, 255), "false": (0, 140, 255)}
+    cache: dict = {}
+    bands = []
+    for kind in ("missed", "false"):
+        ent = [e for e in errs if e["kind"] == kind]
+        head = np.zeros((24, cols * tw, 3), np.uint8)
+        what = "missed vehicles" if kind == "missed" else "false boxes"
+        shown = f" (first {per_kind} shown)" if len(ent) > per_kind else ""
+        cv2.putText(head, f"{what}: {len(ent)}{shown}", (6, 17), cv2.FONT_HERSHEY_SIMPLEX, 0.55, colour[kind], 1)
+        tiles = []
+        for e in ent[:per_kind]:
+            if e["file"] not in cache:
+                img = load_image(e["file"])
+                cache[e["file"]] = cv2.cvtColor(img, cv2.COLOR_GRAY2BGR) if img.ndim == 2 else img
+            img = cache[e["file"]]
+            h, w = img.shape[:2]
+            l, t, r, b = (int(round(v)) for v in e["box"])
+            bw, bh = r - l + 1, b - t + 1
+            x0, y0 = max(0, l - bw // 4), max(0, t - bh // 4)
+            x1, y1 = min(w, r + 1 + bw // 4), min(h, b + 1 + bh // 4)
+            t_img = np.zeros((th, tw, 3), np.uint8)
+            if x1 > x0 and y1 > y0:
+                crop = img[y0:y1, x0:x1].copy()
+                cv2.rectangle(crop, (l - x0, t - y0), (r - x0, b - y0), colour[kind], 1)
+                k = min(tw / crop.shape[1], (th - 28) / crop.shape[0])
+                crop = cv2.resize(crop, (max(1, int(crop.shape[1] * k)), max(1, int(crop.shape[0] * k))),
+                                  interpolation=cv2.INTER_AREA if k < 1 else cv2.INTER_LINEAR)
+                t_img[14:14 + crop.shape[0], :crop.shape[1]] = crop
+            name = str(e["file"]).replace("\\", "/").rsplit("/", 1)[-1]
+            cv2.putText(t_img, f"{bw}x{bh} {name}", (2, 10), cv2.FONT_HERSHEY_SIMPLEX, 0.33, (255, 255, 255), 1)
+            sc = "" if e["score"] is None else f" s {e['score']:.2f}"
+            cv2.putText(t_img, f"IoU {e['iou']:.2f}{sc}", (2, th - 4), cv2.FONT_HERSHEY_SIMPLEX, 0.33,
+                        colour[kind], 1)
+            tiles.append(t_img)
+        rows = [np.hstack(tiles[i:i + cols] + [np.zeros((th, tw, 3), np.uint8)] * (cols - len(tiles[i:i + cols])))
+                for i in range(0, len(tiles), cols)]
+        bands += [head] + rows
+    return np.vstack(bands)

@@ -117,3 +117,51 @@ def test_cli_errors(tmp_path, capsys, args, msg):
     assert cli_main(["eval-boxes"] + args) == 2
     err = capsys.readouterr().err
     assert msg.replace("MISSING", str(tmp_path / "MISSING")) in err
+
+
+def test_errors_are_the_class_s_misses_and_false_boxes():
+    """errors(): frame a's 70-px car (only the far car's box touches it: 20 x 11 px of a union
+    of 1470 + 400 - 220, IoU 0.133) and frame b's 80-px lead (the shifted box, IoU 0.4545) are
+    the misses >= 32 px; the false 40-px box of frame a and frame
+    b's shifted box the false ones -- score()'s >=32px counts (gt - matched, FP)."""
+    gt, pred = eb.load_gt(GT), eb.load_pred(PRED)
+    errs = eb.errors(gt, pred, min_w=32)
+    miss = [e for e in errs if e["kind"] == "missed"]
+    false = [e for e in errs if e["kind"] == "false"]
+    assert [(e["file"], e["box"]) for e in miss] == [("supp_img/0001.jpg", [0, 0, 69, 20]),
+                                                     ("supp_img/0002.jpg", [10, 19, 89, 98])]
+    assert miss[0]["iou"] == pytest.approx(220 / 1650) and miss[1]["iou"] == pytest.approx(4000 / 8800)
+    assert [(e["file"], e["box"], e["score"]) for e in false] == [("supp_img/0001.jpg", [50, 30, 89, 69], 0.95),
+                                                                  ("supp_img/0002.jpg", [40, 19, 119, 98], 0.5)]
+    c = eb.score(gt, pred, image_size=(100, 100)).classes[">=32px"]
+    assert len(miss) == c["gt"] - round(c["recall"] * c["gt"]) and len(false) == c["pred"] - round(
+        c["precision"] * c["pred"])
+    assert len(eb.errors(gt, pred, min_w=0)) == 4   # + nothing: the 20-px car is matched
+
+
+def test_cli_sheet(tmp_path, capsys):
+    """--sheet: a picture with a band per kind; the frames come from --images (default: the
+    --gt file's folder); a frame that cannot be read or --images without --sheet is a clear error."""
+    import cv2
+    (tmp_path / "supp_img").mkdir()
+    for f in ("0001.jpg", "0002.jpg"):
+        cv2.imwrite(str(tmp_path / "supp_img" / f), np.full((100, 100, 3), 128, np.uint8))
+    gt, pred, sheet = tmp_path / "gt.json", tmp_path / "pred.json", tmp_path / "errors.png"
+    gt.write_text(json.dumps(GT))
+    pred.write_text(json.dumps(PRED))
+    assert cli_main(["eval-boxes", "--gt", str(gt), "--pred", str(pred), "--image-size", "100x100",
+                     "--sheet", str(sheet)]) == 0
+    assert "2 missed, 2 false" in capsys.readouterr().out
+    img = cv2.imread(str(sheet))
+    assert img.shape == (2 * (24 + 120), 8 * 160, 3)   # two bands: a header and one row of tiles each
+    # a missed tile holds the frame's gray (128) and the red box
+    tile = img[24:144, :160]
+    assert (np.abs(tile.astype(int) - 128).max(2) <= 2).sum() > 1000
+    assert ((tile[:, :, 2] > 200) & (tile[:, :, 0] < 60)).any()
+    (tmp_path / "supp_img" / "0002.jpg").unlink()
+    assert cli_main(["eval-boxes", "--gt", str(gt), "--pred", str(pred), "--sheet", str(sheet)]) == 2
+    assert "cannot read the frame" in capsys.readouterr().err
+    assert cli_main(["eval-boxes", "--gt", str(gt), "--pred", str(pred), "--images", str(tmp_path)]) == 2
+    assert "--images is read only with --sheet" in capsys.readouterr().err
+    assert cli_main(["eval-boxes", "--gt", str(gt), "--pred", str(pred), "--sheet", str(tmp_path / "e.txt")]) == 2
+    assert "--sheet" in capsys.readouterr().err
