@@ -499,25 +499,20 @@ def setup(model=None, sources=SOURCES, camera: Camera | None = None, cfg: FullRo
     if vmin is not None and (isinstance(vmin, bool) or not isinstance(vmin, (int, float))
                              or not np.isfinite(vmin)):
         raise TypeError(f"cfg.verify_min: expected a finite number or None, got {vmin!r}")
-    skip = cfg.verify_skip_flat if cfg.verify_skip_flat is not None else st.get("verify_skip_flat", False)
-    if not isinstance(skip, bool):
-        raise TypeError(f"cfg.verify_skip_flat: expected True, False or None, got {skip!r}")
-    # the model's verify_skip_edge rides with its verify_skip_flat (verify 3 skips both)
-    edge = cfg.verify_skip_edge if cfg.verify_skip_edge is not None else \
-        (skip and st.get("verify_skip_edge", False))
-    if not isinstance(edge, bool):
-        raise TypeError(f"cfg.verify_skip_edge: expected True, False or None, got {edge!r}")
-    if edge and not skip:
-        raise ValueError("verify_skip_edge needs verify_skip_flat (vt_pipeline_cfg.verify 3 skips both)")
-    # and its verify_skip_small with its verify_skip_edge (verify 4 skips all three)
-    small = cfg.verify_skip_small if cfg.verify_skip_small is not None else \
-        (edge and st.get("verify_skip_small", False))
-    if not isinstance(small, bool):
-        raise TypeError(f"cfg.verify_skip_small: expected True, False or None, got {small!r}")
-    if small and not edge:
-        raise ValueError("verify_skip_small needs verify_skip_edge (vt_pipeline_cfg.verify 4 skips all three)")
-    cfg = replace(cfg, det=det, verify_min=None if vmin is None else float(vmin), verify_skip_flat=skip,
-                  verify_skip_edge=edge, verify_skip_small=small)
+    # the second stage's skips, each on top of the one before (vt_pipeline_cfg.verify 2, 3, 4); a
+    # model's own setting rides with the one before it (verify_skip_edge with verify_skip_flat, ...)
+    skips, prev = {}, None
+    for name, what in (("verify_skip_flat", ""), ("verify_skip_edge", "verify 3 skips both"),
+                       ("verify_skip_small", "verify 4 skips all three")):
+        v = getattr(cfg, name)
+        if v is None:
+            v = st.get(name, False) if prev is None else (skips[prev] and st.get(name, False))
+        if not isinstance(v, bool):
+            raise TypeError(f"cfg.{name}: expected True, False or None, got {v!r}")
+        if v and prev is not None and not skips[prev]:
+            raise ValueError(f"{name} needs {prev} (vt_pipeline_cfg.{what})")
+        skips[name], prev = v, name
+    cfg = replace(cfg, det=det, verify_min=None if vmin is None else float(vmin), **skips)
     thr = 0
     if model is not None:
         thr = model.threshold_q16 + int(round((cfg.score_offset + float(st.get("score_offset", 0.0))) * 65536))

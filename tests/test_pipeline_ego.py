@@ -148,44 +148,56 @@ def _side(b, w):
     return 4 * b[0] <= bw + 4 or 4 * (w - 1 - b[2]) <= bw + 4
 
 
+def _skip_kept(cfg_new, cfg_old, skipped) -> int:
+    """The second stage with one more kind of box skipped (cfg_new) against the run before
+    (cfg_old), both window models: with the window model C == oracle box for box; every
+    cfg_new box is a cfg_old box or a box that skipped(box, frame width) says may skip, as in
+    the run whose second stage keeps everything; no cfg_old box is lost but for the 32-box
+    cap (a skipped box keeps its tree score). Returns how many boxes the shipped ACF file keeps
+    that cfg_old dropped."""
+    from dataclasses import replace
+
+    from pyvehtrack import fullroad
+    keep_all = replace(cfg_new, verify_min=-30000.0)
+    srcs = ("ego", "shadow", "classifier")
+    acf = str(ROOT / "pyvehtrack" / "models" / "acf_gray.npz")
+    kept = 0
+    ego = int(lib.VT_SRC_EGO)
+    for model, engines, s_ in ((MODEL, ("c", "reference"), srcs), (acf, ("c",), ("classifier",))):
+        for p in FRAMES:
+            g = _gray(p)
+            w = g.shape[1]
+            new = [_boxes(Pipeline(e, model=model, sources=s_, detect_every=1, track=False,
+                                   fullroad=cfg_new).step_gray(g)) for e in engines]
+            assert all(x == new[0] for x in new), p.name                 # C == oracle
+            new = new[0]
+            old, none = [_boxes(Pipeline("c", model=model, sources=s_, detect_every=1, track=False,
+                                         fullroad=c).step_gray(g)) for c in (cfg_old, keep_all)]
+            for x in new:
+                if x[0] == ego:   # the same ego box; its score may take a kept skipped box's
+                    assert any(y[0] == ego and y[1] == x[1] and y[2] <= x[2] for y in old), (p.name, x)
+                else:
+                    assert x in old or (skipped(x[1], w) and x in none), (p.name, x)
+                    kept += model == acf and x not in old
+            for x in old:
+                if x[0] != ego and len(new) < int(lib.VT_MAX_BOXES):
+                    assert (x in new) if not skipped(x[1], w) else any(y[1] == x[1] for y in new), (p.name, x)
+    return kept
+
+
 def test_verify_skip_edge():
     """FullRoadConfig(verify_skip_edge=True) (vt_pipeline_cfg.verify 3; detector_json
     "verify_skip_edge"): as verify 2, and a whole-road box the frame's side cuts (4 gap <=
-    width + 4) keeps its first-stage score. Window model: C == oracle box for box, and every
-    verify-3 box is a verify-2 box or a side box of the run whose second stage keeps
-    everything. The shipped ACF file (its edge models) likewise, with no verify-2 box lost
-    and >= 1 side box that verify 2 drops. Bad values are clear errors."""
+    width + 4) keeps its first-stage score (_skip_kept: C == oracle, nothing else changes),
+    with >= 1 side box of the shipped ACF file (its edge models) that verify 2 drops. Bad
+    values are clear errors."""
     from pyvehtrack import fullroad
     cfg = fullroad.FullRoadConfig(verify_skip_flat=True, verify_skip_edge=True,
                                   verify_skip_small=False)   # the ACF file's: True (verify 4, below)
     srcs = ("ego", "shadow", "classifier")
     assert Pipeline("c", model=MODEL, sources=srcs, fullroad=cfg)._ccfg.verify == 3
-    acf = str(ROOT / "pyvehtrack" / "models" / "acf_gray.npz")
-    side_kept = 0
-    for model, engines, s_ in ((MODEL, ("c", "reference"), srcs), (acf, ("c",), ("classifier",))):
-        for p in FRAMES:
-            g = _gray(p)
-            w = g.shape[1]
-            v3 = [_boxes(Pipeline(e, model=model, sources=s_, detect_every=1, track=False,
-                                  fullroad=cfg).step_gray(g)) for e in engines]
-            assert all(x == v3[0] for x in v3), p.name                 # C == oracle
-            v3 = v3[0]
-            v2, none = [_boxes(Pipeline("c", model=model, sources=s_, detect_every=1, track=False,
-                                        fullroad=c).step_gray(g))
-                        for c in (fullroad.FullRoadConfig(verify_skip_flat=True, verify_skip_edge=False),
-                                  fullroad.FullRoadConfig(verify_min=-30000.0, verify_skip_flat=True,
-                                                          verify_skip_edge=True, verify_skip_small=False))]
-            ego = int(lib.VT_SRC_EGO)
-            for x in v3:
-                if x[0] == ego:   # the same ego box; its score may take a kept side box's
-                    assert any(y[0] == ego and y[1] == x[1] and y[2] <= x[2] for y in v2), (p.name, x)
-                else:
-                    assert x in v2 or (_side(x[1], w) and x in none), (p.name, x)
-                    side_kept += model == acf and x not in v2
-            for x in v2:          # no box lost but for the 32-box cap (a side box keeps its tree score)
-                if x[0] != ego and len(v3) < int(lib.VT_MAX_BOXES):
-                    assert (x in v3) if not _side(x[1], w) else any(y[1] == x[1] for y in v3), (p.name, x)
-    assert side_kept >= 1   # not vacuous: an edge-cut box that the rear-view stage drops
+    old = fullroad.FullRoadConfig(verify_skip_flat=True, verify_skip_edge=False)
+    assert _skip_kept(cfg, old, _side) >= 1   # not vacuous: an edge-cut box that the rear-view stage drops
     with pytest.raises(TypeError, match="verify_skip_edge"):
         Pipeline("c", model=MODEL, sources=srcs,
                  fullroad=fullroad.FullRoadConfig(verify_skip_flat=True, verify_skip_edge=1))
@@ -196,46 +208,20 @@ def test_verify_skip_edge():
         fullroad.FullRoadDetector(MODEL, cfg=cfg).detect_gray(_gray(FRAMES[0]))
 
 
-
 def test_verify_skip_small():
     """FullRoadConfig(verify_skip_small=True) (vt_pipeline_cfg.verify 4; detector_json
     "verify_skip_small"): as verify 3, and a whole-road box narrower than 32 px (a far car, which
-    the 64x64 MLP would judge enlarged 2x or more) keeps its first-stage score. Window model: C ==
-    oracle box for box; every verify-4 box is a verify-3 box or a small box of the run whose
-    second stage keeps everything. The shipped ACF file (its small far-car window) likewise, with
-    no verify-3 box lost and >= 1 small box that verify 3 drops. Bad values are clear errors."""
+    the 64x64 MLP would judge enlarged 2x or more) keeps its first-stage score (_skip_kept: C ==
+    oracle, nothing else changes), with >= 1 small box of the shipped ACF file (its far-car
+    window) that verify 3 drops. Bad values are clear errors."""
     from pyvehtrack import fullroad
     cfg = fullroad.FullRoadConfig(verify_skip_flat=True, verify_skip_edge=True, verify_skip_small=True)
     srcs = ("ego", "shadow", "classifier")
     assert Pipeline("c", model=MODEL, sources=srcs, fullroad=cfg)._ccfg.verify == 4
     acf = str(ROOT / "pyvehtrack" / "models" / "acf_gray.npz")
     assert Pipeline("c", model=acf, sources=("classifier",))._ccfg.verify == 4   # the shipped file's setting
-    small_kept = 0
-    for model, engines, s_ in ((MODEL, ("c", "reference"), srcs), (acf, ("c",), ("classifier",))):
-        for p in FRAMES:
-            g = _gray(p)
-            v4 = [_boxes(Pipeline(e, model=model, sources=s_, detect_every=1, track=False,
-                                  fullroad=cfg).step_gray(g)) for e in engines]
-            assert all(x == v4[0] for x in v4), p.name                 # C == oracle
-            v4 = v4[0]
-            v3, none = [_boxes(Pipeline("c", model=model, sources=s_, detect_every=1, track=False,
-                                        fullroad=c).step_gray(g))
-                        for c in (fullroad.FullRoadConfig(verify_skip_flat=True, verify_skip_edge=True,
-                                                          verify_skip_small=False),
-                                  fullroad.FullRoadConfig(verify_min=-30000.0, verify_skip_flat=True,
-                                                          verify_skip_edge=True, verify_skip_small=True))]
-            ego = int(lib.VT_SRC_EGO)
-            for x in v4:
-                if x[0] == ego:   # the same ego box; its score may take a kept small box's
-                    assert any(y[0] == ego and y[1] == x[1] and y[2] <= x[2] for y in v3), (p.name, x)
-                else:
-                    small = x[1][2] - x[1][0] + 1 < 32
-                    assert x in v3 or (small and x in none), (p.name, x)
-                    small_kept += model == acf and x not in v3
-            for x in v3:          # no box lost but for the 32-box cap (a small box keeps its tree score)
-                if x[0] != ego and len(v4) < int(lib.VT_MAX_BOXES):
-                    assert any(y[1] == x[1] for y in v4), (p.name, x)
-    assert small_kept >= 1   # not vacuous: a far car's box that the rear-view stage drops
+    old = fullroad.FullRoadConfig(verify_skip_flat=True, verify_skip_edge=True, verify_skip_small=False)
+    assert _skip_kept(cfg, old, lambda b, w: b[2] - b[0] + 1 < 32) >= 1   # not vacuous: a far car's box
     with pytest.raises(TypeError, match="verify_skip_small"):
         Pipeline("c", model=MODEL, sources=srcs,
                  fullroad=fullroad.FullRoadConfig(verify_skip_flat=True, verify_skip_edge=True, verify_skip_small=1))
@@ -249,6 +235,7 @@ def test_verify_skip_small():
     c.verify = 5
     with pytest.raises(ValueError):
         _native.pipeline_cfg_check(c)
+
 
 def test_ego_needs_a_classifier():
     c = _native.pipeline_cfg_default()
