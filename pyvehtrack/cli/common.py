@@ -41,9 +41,10 @@ def add_model_arg(p) -> None:
     """--model / --sources of `detect` and `track` (the full-road detector)."""
     p.add_argument("--model", metavar="MODEL.npz", default=None,
                    help="classifier model for detection over the whole road, run with the settings it "
-                        "carries (default: the shipped pyvehtrack/models/window_mlp_hog32.npz: the "
-                        "ego-lane detector, shadow hypotheses and sliding windows, each box checked by "
-                        "the classifier); 'none': the thesis's ego-lane detector alone")
+                        "carries (default: the shipped pyvehtrack/models/acf_gray.npz on the C engine: "
+                        "five ACF windows on one pyramid beside the ego-lane detector, boxes checked by a "
+                        "second stage; window_mlp_hog32.npz with --engine reference); 'none': the thesis's "
+                        "ego-lane detector alone")
     p.add_argument("--sources", nargs="+", choices=("shadow", "windows", "ego"), default=None,
                    help="full-road hypothesis sources (default with --model: the model's, else shadow; "
                         "windows = classifier sliding windows; ego beside them = the ego-lane detector's "
@@ -74,13 +75,13 @@ def out_folder(path: str) -> Path:
     return out
 
 
-def resolve_model(model, sources=None):
-    """--model as a path or None: not given -> the shipped whole-road model (unless
-    --sources chose the built-in classifier); "none" -> None, the ego-lane detector
-    alone. CliError for a missing file or "none" with --sources."""
-    from ..fullroad import DEFAULT_WINDOW_MODEL
+def resolve_model(model, sources=None, engine="c"):
+    """--model as a path or None: not given -> the shipped whole-road model of the engine
+    (fullroad.default_model_path; unless --sources chose the built-in classifier); "none"
+    -> None, the ego-lane detector alone. CliError for a missing file or "none" with --sources."""
+    from ..fullroad import default_model_path
     if model is None and not sources:
-        model = str(DEFAULT_WINDOW_MODEL)      # no choice made: the shipped whole-road model
+        model = str(default_model_path(engine))   # no choice made: the shipped whole-road model
     elif model == "none":
         if sources:
             raise CliError("--sources needs a classifier; --model none is the ego-lane detector alone")
@@ -96,7 +97,7 @@ def make_detector(args, cam=None):
     whole-road detector's windows (Camera.road_camera), else the defaults (TuSimple's)."""
     from ..detector import Detector
     srcs = getattr(args, "sources", None)
-    model = resolve_model(getattr(args, "model", None), srcs)
+    model = resolve_model(getattr(args, "model", None), srcs, getattr(args, "engine", "c"))
     try:
         road_cam = cam.road_camera() if cam is not None else None
         return Detector(engine=args.engine, road=args.road, model=model,

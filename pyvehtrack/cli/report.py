@@ -44,7 +44,8 @@ def register(sub) -> None:
                         "own, else 10 as KITTI)")
     p.add_argument("--model", metavar="MODEL.npz", default=None,
                    help="whole-road classifier model, as `track --model` (default: the shipped "
-                        "pyvehtrack/models/window_mlp_hog32.npz); 'none': the ego-lane detector alone")
+                        "pyvehtrack/models/acf_gray.npz, window_mlp_hog32.npz with --engine reference); "
+                        "'none': the ego-lane detector alone")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
@@ -63,7 +64,7 @@ def run(args) -> int:
     for t in args.truth or []:
         if not Path(t).is_file():
             raise CliError(f"--truth {t}: no such file")
-    model = resolve_model(args.model)
+    model = resolve_model(args.model, engine=args.engine)
     try:
         auto = None if args.no_find else "auto"
         page = make_report(args.input, out, truth=args.truth or (auto or ()), camera=args.camera or auto,

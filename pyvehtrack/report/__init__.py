@@ -38,8 +38,9 @@ def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "
     finds (records.companion_files); camera: a camera JSON path or dict, None, or "auto".
     fps: frame rate (the range stage's time step, the truth TTC's); None: a video's own
     frame rate, else 10 (KITTI's).
-    model: the whole-road classifier .npz, "default" (pyvehtrack/models/window_mlp_hog32.npz,
-    as `pyvehtrack track` without --model) or None (the thesis's ego-lane detector alone).
+    model: the whole-road classifier .npz, "default" (fullroad.default_model_path(engine):
+    acf_gray.npz on the C engine, window_mlp_hog32.npz on the reference one, as `pyvehtrack
+    track` without --model) or None (the thesis's ego-lane detector alone).
     Returns the page path. ValueError / TypeError naming the argument for bad input."""
     from tqdm import tqdm
 
@@ -64,8 +65,8 @@ def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "
     tr = load_truth(list(truth or ()), dt=1.0 / fps)
     total, frames = recording_frames(inputs)
     if isinstance(model, str) and model == "default":
-        from ..fullroad import DEFAULT_WINDOW_MODEL
-        model = DEFAULT_WINDOW_MODEL
+        from ..fullroad import default_model_path
+        model = default_model_path(engine)
     if model is not None and not Path(model).is_file():
         raise ValueError(f"model {model}: no such file")
     pipe = PythonPipeline(engine=engine, detect_every=detect_every, camera=cam, fps=fps, model=model)
