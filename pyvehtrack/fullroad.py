@@ -48,12 +48,12 @@ from .shared import Camera as FrameCamera
 from .shared import FULLDET_RENAMED, FullDetConfig, RoadArea, WideConfig, take_renamed
 
 SOURCES = ("shadow", "windows")
-# The whole-road model `pyvehtrack detect` / `track` / `report` use when no --model is
-# given (HOG 32x32 + 32-unit MLP with its settings: ego-lane detector, shadow and windows;
+# The whole-road model `pyvehtrack detect` / `track` / `report` use on the reference engine when
+# no --model is given (HOG 32x32 + 32-unit MLP with its settings: ego-lane detector, shadow and windows;
 # how it was made: pyvehtrack/models/README.md). A file, not a C table: firmware that wants
 # it generates tables from it as for c/tables/svm_default.h.
 DEFAULT_WINDOW_MODEL = Path(__file__).resolve().parent / "models" / "window_mlp_hog32.npz"
-# ... on the C engine the ACF first stage instead (five windows on one pyramid with the
+# On the C engine they use the ACF first stage instead (five windows on one pyramid with the
 # ego-lane detector beside them; pyvehtrack/models/README.md): on unseen TuSimple frames it
 # finds more vehicles with fewer false boxes, at about 4.5 x the time; it has no float
 # twin of the whole stage, so the reference engine keeps the window model.
