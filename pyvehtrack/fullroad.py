@@ -742,6 +742,7 @@ class FullRoadDetector:
                           self.refine.margin_permille, self.refine.sources, w, h)
 
 
-__all__ = ["Camera", "SvmModel", "MlpModel", "FullRoadConfig", "FullRoadDetector", "load_model", "default_model", "default_model_path", "SOURCES",
+__all__ = ["Camera", "SvmModel", "MlpModel", "FullRoadConfig", "FullRoadDetector", "load_model", "default_model",
+           "default_model_path", "SOURCES",
            "DEFAULT_SOURCES", "setup", "road_camera_to_c", "c_scorer", "wide_setup", "wide_c_cfg", "WideConfig",
            "BoxRegressor", "refine_setup", "refine_offsets_c"]
