@@ -54,13 +54,12 @@ def run_eval_boxes(args) -> int:
             raise ValueError
     except ValueError:
         raise CliError(f"--image-size {args.image_size}: expected WxH with positive integers") from None
-    for flag in ("json", "sheet"):
-        v = getattr(args, flag, None)
+    for flag, v in (("json", args.json), ("sheet", args.sheet)):
         if v and not Path(v).parent.exists():
             raise CliError(f"--{flag} {v}: folder {Path(v).parent} does not exist")
-    if getattr(args, "sheet", None) and Path(args.sheet).suffix.lower() not in (".png", ".jpg", ".jpeg"):
+    if args.sheet and Path(args.sheet).suffix.lower() not in (".png", ".jpg", ".jpeg"):
         raise CliError(f"--sheet {args.sheet}: expected a .png or .jpg name")
-    if getattr(args, "images", None) and not getattr(args, "sheet", None):
+    if args.images and not args.sheet:
         raise CliError("--images is read only with --sheet")
     try:
         gt = eb.load_gt(_read_json(args.gt, "--gt"))
@@ -77,7 +76,7 @@ def run_eval_boxes(args) -> int:
     print(eb.format_scores(s))
     if args.json:
         Path(args.json).write_text(json.dumps(s.as_dict(), indent=1) + "\n")
-    if getattr(args, "sheet", None):
+    if args.sheet:
         _write_sheet(args, gt, pred)
     return 0
 

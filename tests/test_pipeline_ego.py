@@ -221,7 +221,9 @@ def test_verify_skip_small():
     acf = str(ROOT / "pyvehtrack" / "models" / "acf_gray.npz")
     assert Pipeline("c", model=acf, sources=("classifier",))._ccfg.verify == 4   # the shipped file's setting
     old = fullroad.FullRoadConfig(verify_skip_flat=True, verify_skip_edge=True, verify_skip_small=False)
-    assert _skip_kept(cfg, old, lambda b, w: b[2] - b[0] + 1 < 32) >= 1   # not vacuous: a far car's box
+    from pyvehtrack.reference.pipeline import VERIFY_SMALL_W
+    assert VERIFY_SMALL_W == 32   # c/internal.h VT__VERIFY_SMALL_W
+    assert _skip_kept(cfg, old, lambda b, w: b[2] - b[0] + 1 < VERIFY_SMALL_W) >= 1   # not vacuous: a far car's box
     with pytest.raises(TypeError, match="verify_skip_small"):
         Pipeline("c", model=MODEL, sources=srcs,
                  fullroad=fullroad.FullRoadConfig(verify_skip_flat=True, verify_skip_edge=True, verify_skip_small=1))

@@ -46,15 +46,20 @@ SRC_EGO = "ego"       # with a classifier: the ego-lane detector's boxes ahead o
 HANDOVER = 4   # a track's state once handed over to the flow stage (VT_PIPE_HANDOVER)
 
 
+# vt_pipeline_cfg.verify 4: boxes narrower than this (px) skip the second stage (c/internal.h
+# VT__VERIFY_SMALL_W: the rear-view window's smallest box; the 64x64 MLP would see them enlarged 2x+)
+VERIFY_SMALL_W = 32
+
+
 def _verify_skips(row, w: int, c) -> bool:
     """vt_pipeline_cfg.verify 2 / 3 / 4: a box the rear-view second stage does not judge (it
     keeps its own score): flatter than 1:2 (verify_flat False), or with a gap to the frame's
     left or right side of at most a quarter of its width plus 1 px (verify_side False), or
-    narrower than 32 px (verify_small False)."""
+    narrower than VERIFY_SMALL_W px (verify_small False)."""
     bw = int(row[2]) - int(row[0]) + 1
     flat = 2 * (int(row[3]) - int(row[1]) + 1) < bw
     side = 4 * int(row[0]) <= bw + 4 or 4 * (w - 1 - int(row[2])) <= bw + 4
-    return (not c.verify_flat and flat) or (not c.verify_side and side) or (not c.verify_small and bw < 32)
+    return (not c.verify_flat and flat) or (not c.verify_side and side) or (not c.verify_small and bw < VERIFY_SMALL_W)
 
 
 @dataclass
