@@ -308,6 +308,24 @@ static int64_t vt__acf_eval(const vt_acf_model *m, const uint8_t *base, const in
 {
     int32_t n_in = (1 << m->depth) - 1, t, d;
     int64_t acc = m->bias_q16;
+    if (off != NULL && m->depth == 3) {
+        /* the shipped depth unrolled: the same nodes and sums, ~40% fewer instructions
+         * per tree (the scan's hot loop; make bench) */
+        const uint8_t *th = m->thr;
+        const int32_t *lf = m->leaf, *rej = use_reject ? m->reject : NULL;
+        for (t = 0; t < m->n_trees; ++t, off += 7, th += 7, lf += 8) {
+            int32_t n = 1 + (base[off[0]] > th[0]);
+            n = 2 * n + 1 + (base[off[n]] > th[n]);
+            n = 2 * n + 1 + (base[off[n]] > th[n]);
+            acc += lf[n - 7];
+            if (rej != NULL && acc < rej[t]) {
+                *full = 0;
+                return acc;
+            }
+        }
+        *full = 1;
+        return acc;
+    }
     for (t = 0; t < m->n_trees; ++t) {
         const uint8_t *th = m->thr + (size_t)t * (size_t)n_in;
         int32_t n = 0;

@@ -27,6 +27,7 @@ sys.path.insert(0, str(_ROOT))
 from pyvehtrack import eval_boxes as eb  # noqa: E402
 from pyvehtrack.datasets import tusimple_frames  # noqa: E402
 from pyvehtrack.detector import Detector  # noqa: E402
+from pyvehtrack.eval import kitti_lead  # noqa: E402
 from pyvehtrack.shared import FULLDET_RENAMED, take_renamed  # noqa: E402
 
 _PERMILLE = ("nms_iou_permille", "nms_contain_permille", "merge_iou_permille", "rerank_permille")
@@ -66,6 +67,11 @@ def main(argv=None) -> int:
                     help="ShadowConfig.reduce_verified of the shadow stage, ego-lane and full-road "
                          "(default: the config's)")
     ap.add_argument("--limit", type=int, default=0)
+    ap.add_argument("--mp4", action="store_true",
+                    help="detect on the frames after one MP4 round trip (OpenCV mp4v, default quality), as "
+                         "eval_kitti_lead.py --mp4 does: a compression set to tune on that is not KITTI")
+    ap.add_argument("--jpeg", type=int, default=None, metavar="Q",
+                    help="detect on every frame after a JPEG round trip of quality Q (1..100)")
     ap.add_argument("--out", default=None, help="write the predictions (detect --json format)")
     ap.add_argument("--draw", default=None, help="folder for annotated frames (green: found, red: truth)")
     args = ap.parse_args(argv)
@@ -84,8 +90,19 @@ def main(argv=None) -> int:
     for k, v in lim.items():
         if not 0 <= v <= 1000:
             ap.error(f"--{k.replace('_', '-')}: expected 0..1000 (permille), got {v}")
+    if args.jpeg is not None and not 1 <= args.jpeg <= 100:
+        ap.error(f"--jpeg: expected a quality 1..100, got {args.jpeg}")
+    if args.mp4 and args.jpeg is not None:
+        ap.error("--jpeg and --mp4: choose one")
     data = Path(args.data)
     frames = tusimple_frames(data, args.split, args.limit)
+    images = [(i, cv2.imread(str(data / e["file_name"]))) for i, e in enumerate(frames)]
+    if args.mp4:
+        images = kitti_lead.through_mp4(images)
+        if images is None:
+            raise SystemExit("--mp4: the decoded video lost frames (OpenCV's mp4v writer)")
+    elif args.jpeg is not None:
+        images = kitti_lead.through_jpeg(images, args.jpeg)
     cfg = None
     if args.reduce_verified is not None:
         from pyvehtrack.detector import DetectConfig
@@ -116,8 +133,7 @@ def main(argv=None) -> int:
         det.full = fullroad.FullRoadDetector(det.full.model, sources=det.full.sources, camera=det.full.camera,
                                              cfg=c)
     preds, t0 = [], time.time()
-    for i, e in enumerate(frames):
-        img = cv2.imread(str(data / e["file_name"]))
+    for (i, img), e in zip(images, frames):
         res = det.detect(img)
         scores = res.scores if res.scores is not None else [None] * len(res.boxes)
         boxes = [[int(v) for v in b] + ([round(float(s), 4)] if s is not None else [])

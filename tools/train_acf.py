@@ -64,6 +64,8 @@ class _Geo:
     veh_w = (1080, 3960)        # the band's box widths (mm), acf.h's veh_w_min_mm / veh_w_max_mm
     cols = 0                    # acf.h's VT_ACF_COLS_*: 1 / 2 an edge model (train --edge left / right)
     first = 0                   # acf.h's first_scale: a near-vehicle model's first level (train --first-level)
+    jitter = 0                  # jittered copies of each positive box (train --jitter)
+    degrade = 0                 # also learn from a JPEG round trip of each frame (train --degrade)
 
 
 EDGE_PX = 3      # a box within this many px of the frame's side is cut by it (the edge models' positives)
@@ -76,6 +78,8 @@ def _set_geo(geo) -> None:
         _Geo.min_w = geo[4] if len(geo) > 4 else 24
         _Geo.cols = geo[5] if len(geo) > 5 else 0
         _Geo.first = geo[6] if len(geo) > 6 else 0
+        _Geo.jitter = geo[7] if len(geo) > 7 else 0
+        _Geo.degrade = geo[8] if len(geo) > 8 else 0
 
 
 def dense(gray: np.ndarray, hor: int):
@@ -164,25 +168,56 @@ def _base_edge(f, rng):
     return np.concatenate(pos) if pos else np.zeros((0, d), np.uint8), np.concatenate(neg)
 
 
+JIT_SHIFT, JIT_SCALE = 0.05, 0.08   # the jittered boxes' shift (of the size) and log-scale ranges
+
+
+def _jitter(b, rng):
+    """_Geo.jitter copies of box b, moved up to JIT_SHIFT of its size and scaled by up to
+    exp(JIT_SCALE) (the detector's grid places a vehicle that loosely: a level is 2^(1/4) apart)."""
+    out = []
+    bw, bh = b[2] - b[0] + 1, b[3] - b[1] + 1
+    for _ in range(_Geo.jitter):
+        dx, dy = rng.uniform(-JIT_SHIFT, JIT_SHIFT, 2) * (bw, bh)
+        s = np.exp(rng.uniform(-JIT_SCALE, JIT_SCALE))
+        cx, cy = (b[0] + b[2]) / 2 + dx, (b[1] + b[3]) / 2 + dy
+        out.append([cx - s * bw / 2, cy - s * bh / 2, cx + s * bw / 2 - 1, cy + s * bh / 2 - 1])
+    return out
+
+
+DEGRADE_Q = (30, 70)   # the JPEG qualities of train --degrade (eval_kitti_lead.py: 50 is a little harder than mp4v)
+
+
+def _views(f, g):
+    """The frame, and with _Geo.degrade a JPEG round trip of it at a quality drawn from DEGRADE_Q
+    (what a dashcam's codec does to the pixels; the same quality each time for one file)."""
+    if not _Geo.degrade:
+        return [g]
+    q = int(np.random.default_rng(int(f[-8:-4]) + 7919).integers(DEGRADE_Q[0], DEGRADE_Q[1] + 1))
+    return [g, cv2.imdecode(cv2.imencode(".jpg", g, [cv2.IMWRITE_JPEG_QUALITY, q])[1], cv2.IMREAD_GRAYSCALE)]
+
+
 def _base(f):
     rng = np.random.default_rng(int(f[-8:-4]))
     if _Geo.cols:
         return _base_edge(f, rng)
-    g = cv2.imread(str(Path(_G["data"]) / f), cv2.IMREAD_GRAYSCALE)
-    gm, w, pos = np.ascontiguousarray(g[:, ::-1]), g.shape[1], []
-    for b in _gt(f):
-        bw, bh = b[2] - b[0] + 1, b[3] - b[1] + 1
-        if bw >= _Geo.min_w and _Geo.aspect[0] <= bh / bw < _Geo.aspect[1]:
-            pos += [crop_feature(g, b), crop_feature(gm, [w - 1 - b[2], b[1], w - 1 - b[0], b[3]])]
-    feats, boxes = dense(g, _G["hor"][f])
-    ok = np.nonzero(_far(boxes, _gt(f)))[0]
-    idx = rng.choice(ok, size=min(100, len(ok)), replace=False)
-    return np.array(pos, np.uint8).reshape(-1, _Geo.win_cw * _Geo.win_ch * 8), feats[idx]
+    g0 = cv2.imread(str(Path(_G["data"]) / f), cv2.IMREAD_GRAYSCALE)
+    w, pos, negs = g0.shape[1], [], []
+    for g in _views(f, g0):
+        gm = np.ascontiguousarray(g[:, ::-1])
+        for b in _gt(f):
+            bw, bh = b[2] - b[0] + 1, b[3] - b[1] + 1
+            if bw >= _Geo.min_w and _Geo.aspect[0] <= bh / bw < _Geo.aspect[1]:
+                for bj in [b] + _jitter(b, rng):
+                    pos += [crop_feature(g, bj), crop_feature(gm, [w - 1 - bj[2], bj[1], w - 1 - bj[0], bj[3]])]
+        feats, boxes = dense(g, _G["hor"][f])
+        ok = np.nonzero(_far(boxes, _gt(f)))[0]
+        negs.append(feats[rng.choice(ok, size=min(100, len(ok)), replace=False)])
+    return np.array(pos, np.uint8).reshape(-1, _Geo.win_cw * _Geo.win_ch * 8), np.concatenate(negs)
 
 
 def _mine(f):
     g = cv2.imread(str(Path(_G["data"]) / f), cv2.IMREAD_GRAYSCALE)
-    views = [(g, _gt(f))]
+    views = [(v, _gt(f)) for v in _views(f, g)]
     if _Geo.cols:   # the edge models' examples come from the mirror image too
         views.append((np.ascontiguousarray(g[:, ::-1]), _mirror(_gt(f), g.shape[1])))
     out = []
@@ -295,6 +330,10 @@ def main(argv=None) -> int:
     t.add_argument("--first-level", type=int, default=0, choices=range(15), metavar="K",
                    help="a model of near vehicles: negatives and detection from pyramid level K on (level k's "
                         "boxes are 2^(k/4) x the window's; acf.h's first_scale); pair with --min-w")
+    t.add_argument("--jitter", type=int, default=0, metavar="N",
+                   help="N more positives per box, shifted and scaled a little (_jitter), each with its mirror")
+    t.add_argument("--degrade", action="store_true",
+                   help="also learn from a JPEG round trip of each frame (quality DEGRADE_Q): compressed video")
     t.add_argument("--split", default="fit", choices=("fit", "train"),
                    help="training frames: 'fit' (choices are made on 'val'), or 'train' = 'fit' + 'val' (the "
                         "final model once the choices are made; TEST stays unseen either way)")
@@ -347,7 +386,7 @@ def main(argv=None) -> int:
     if a.cmd == "train":
         a.out.mkdir(parents=True, exist_ok=True)
         geo = (a.win[0], a.win[1], tuple(a.aspect), tuple(a.veh_w), a.min_w,
-               {None: 0, "left": 1, "right": 2}[a.edge], a.first_level)
+               {None: 0, "left": 1, "right": 2}[a.edge], a.first_level, a.jitter, int(a.degrade))
         _set_geo(geo)
         files = [r["file_name"] for r in tusimple_frames(a.data, a.split)]
         hor = horizons(a.data, a.split, a.out / f"horizons_{a.split}.json")

@@ -133,7 +133,7 @@ def main(argv=None, default_data: Path = DEFAULT_DATA) -> int:
             print(f"eval_kitti_codec: cannot read frame {idx}", file=sys.stderr)
             return 2
         frames.append((idx, img))
-    coded = kl._through_jpeg(frames, a.jpeg) if a.jpeg is not None else kl._through_mp4(frames)
+    coded = kl.through_jpeg(frames, a.jpeg) if a.jpeg is not None else kl.through_mp4(frames)
     if coded is None:
         print("eval_kitti_codec: the MP4 lost frames", file=sys.stderr)
         return 2

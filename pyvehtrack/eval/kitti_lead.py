@@ -86,7 +86,7 @@ def inside(poly: np.ndarray, x: float, y: float) -> bool:
     return cv2.pointPolygonTest(poly.astype(np.float32).reshape(-1, 1, 2), (float(x), float(y)), False) >= 0
 
 
-def _through_mp4(frames):
+def through_mp4(frames):
     """The frames encoded as one MP4 (OpenCV mp4v, default quality) and decoded again, or
     None when the video lost frames: what a dashcam recording does to them."""
     import tempfile
@@ -108,7 +108,7 @@ def _through_mp4(frames):
     return decoded
 
 
-def _through_jpeg(frames, quality: int):
+def through_jpeg(frames, quality: int):
     """Every frame encoded as JPEG of `quality` (OpenCV) and decoded again."""
     return [(idx, cv2.imdecode(cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_QUALITY, quality])[1],
                                cv2.IMREAD_COLOR)) for idx, img in frames]
@@ -196,9 +196,9 @@ def main(argv=None, default_data: Path = DEFAULT_DATA) -> int:
             ap.error("--jpeg and --mp4: choose one")
         if not 1 <= a.jpeg <= 100:
             ap.error(f"--jpeg: quality must be in 1..100, got {a.jpeg}")
-        frames = _through_jpeg(frames, a.jpeg)
+        frames = through_jpeg(frames, a.jpeg)
     if a.mp4:
-        frames = _through_mp4(frames)
+        frames = through_mp4(frames)
         if frames is None:
             print("eval_kitti_lead: the MP4 lost frames", file=sys.stderr)
             return 2

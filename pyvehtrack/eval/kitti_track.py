@@ -105,8 +105,8 @@ def main(argv=None, default_data: Path = DEFAULT_DATA) -> int:
         from ..shared import ShadowConfig  # noqa: PLC0415
         cfg = DetectConfig(shadow=ShadowConfig(reduce_verified=a.reduce_verified))
     if a.mp4:
-        from .kitti_lead import _through_mp4  # noqa: PLC0415
-        files = _through_mp4([(k, cv2.imread(str(f))) for k, f in enumerate(files)])
+        from .kitti_lead import through_mp4  # noqa: PLC0415
+        files = through_mp4([(k, cv2.imread(str(f))) for k, f in enumerate(files)])
         if files is None:
             print("error: the MP4 lost frames", file=sys.stderr)
             return 2
