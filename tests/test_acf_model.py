@@ -1,5 +1,6 @@
 """The shipped ACF model (pyvehtrack/models/acf_gray.npz) through the pipeline
 (vt_pipeline_set_acf), on frames shipped in tests/data (README there: sources)."""
+import json
 from pathlib import Path
 
 import cv2
@@ -20,7 +21,12 @@ def test_model_loads_with_its_settings():
     m = load_model(MODEL)
     assert isinstance(m, acf.AcfModel)
     assert m.n_trees == 400 and m.depth == 3 and (m.win_cw, m.win_ch, m.pad) == (10, 9, 1)
-    assert m.refine is None              # no box regressor: it moved the flat window's boxes to rear-view shapes
+    # its box regressor learnt from its own window boxes (train_box_regressor.py --sources windows
+    # --jitter 0): one learnt from rear-view jitter moved the flat window's boxes to rear-view shapes
+    r = m.refine
+    assert r is not None and r.sources == 2 and (r.win_w, r.win_h, r.margin_permille) == (48, 48, 250)
+    info = json.loads(str(np.load(MODEL)["refine_info"]))
+    assert info["split"] == "fit" and info["jitter"] == 0 and info["sources"] == ["windows"]
     assert m.settings.get("sources") == ["ego", "windows"] and m.settings.get("verify_min") == 2.0
     assert m.settings.get("verify_skip_flat") is True and m.settings.get("verify_skip_edge") is True
     assert m.settings.get("verify_skip_small") is True
@@ -77,7 +83,6 @@ def test_pack_rebuilds_the_shipped_file(tmp_path, monkeypatch):
     """tools/train_acf.py pack is the shipped file's recipe (README): packing the shipped file's own five
     windows again, each with its threshold and band, gives back every array of the shipped file."""
     import importlib.util
-    import json
     spec = importlib.util.spec_from_file_location("train_acf", ROOT / "tools" / "train_acf.py")
     ta = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(ta)
@@ -94,7 +99,8 @@ def test_pack_rebuilds_the_shipped_file(tmp_path, monkeypatch):
         more += ["--more", str(tmp_path / f"m{i}.npz"), str(thr), str(band[0]), str(band[1])]
     out = tmp_path / "packed.npz"
     assert ta.main(["pack", str(tmp_path / "rear.npz"), "--out", str(out), "--thr", str(m.threshold_q16 / 65536),
-                    "--settings", json.dumps(m.settings), "--nms-contain", str(m.nms_contain_permille)] + more) == 0
+                    "--settings", json.dumps(m.settings), "--nms-contain", str(m.nms_contain_permille),
+                    "--base", str(MODEL)] + more) == 0
     p = np.load(out, allow_pickle=False)
     arrays = [k for k in z.files if k != "detector_json"]
     assert not [k for k in arrays if k not in p.files or not np.array_equal(z[k], p[k])]

@@ -58,7 +58,7 @@ def context_features(gray: np.ndarray, box, margin_permille: int, win: int, ws) 
     return N.hog_descriptor(ws, 0, 0, win, win)
 
 
-def jitter_boxes(gt: np.ndarray, k: int, rng, w_img: int, h_img: int) -> list:
+def jitter_boxes(gt: np.ndarray, k: int, rng, w_img: int, h_img: int, aspect: str = "rear") -> list:
     out = []
     for g in gt:
         gw = g[2] - g[0]
@@ -68,7 +68,10 @@ def jitter_boxes(gt: np.ndarray, k: int, rng, w_img: int, h_img: int) -> list:
             w = gw * np.exp(rng.normal(0, 0.2))
             cx = (g[0] + g[2]) / 2 + rng.normal(0, 0.12) * gw
             bot = g[3] + rng.normal(0, 0.1) * gw
-            hh = w * rng.uniform(0.75, 0.95)
+            if aspect == "gt":   # the vehicle's own shape, as a detector with several windows errs
+                hh = w * (g[3] - g[1]) / gw * np.exp(rng.normal(0, 0.1))
+            else:
+                hh = w * rng.uniform(0.75, 0.95)
             b = [max(0, round(cx - w / 2)), max(0, round(bot - hh)), min(w_img - 1, round(cx + w / 2)),
                  min(h_img - 1, round(bot))]
             if b[2] - b[0] >= 24 and b[3] - b[1] >= 8:
@@ -99,7 +102,12 @@ def main(argv=None) -> int:
     ap.add_argument("--win", type=int, default=48)
     ap.add_argument("--alpha", type=float, default=1.0)
     ap.add_argument("--jitter", type=int, default=6)
+    ap.add_argument("--jitter-aspect", choices=("rear", "gt"), default="rear",
+                    help="the jittered boxes' height: 0.75-0.95 of their width (one rear-view window's "
+                         "shape), or the vehicle's own aspect x exp(N(0, 0.1)) (a detector of several windows)")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--offset", type=float, default=0.0,
+                    help="added to MODEL's score threshold while collecting its boxes (below 0: more of them)")
     ap.add_argument("--sources", nargs="+", default=["shadow", "windows"], choices=tuple(SRC_BITS))
     args = ap.parse_args(argv)
 
@@ -114,7 +122,7 @@ def main(argv=None) -> int:
 
     model = load_model(args.model)
     model.refine = None   # the detector's boxes as they are without a regressor
-    det = Detector(model=model)
+    det = Detector(model=model, score_offset=args.offset)
     frames = tusimple_frames(args.data, args.split)
     if not frames:
         raise SystemExit(f"no {args.split} frames under {args.data}")
@@ -131,7 +139,7 @@ def main(argv=None) -> int:
         res = det.detect(img)
         boxes = [[int(v) for v in b[:4]] for b, s in zip(res.boxes, res.sources) if s in args.sources]
         n_det += len(boxes)
-        boxes += jitter_boxes(gt, args.jitter, rng, w, h)
+        boxes += jitter_boxes(gt, args.jitter, rng, w, h, args.jitter_aspect)
         for b in boxes:
             ious = [_iou(b, g) for g in gt]
             j = int(np.argmax(ious))
@@ -155,6 +163,7 @@ def main(argv=None) -> int:
                refine_sources=np.int32(sum(SRC_BITS[s] for s in set(args.sources))),
                refine_info=np.array(json.dumps({"tool": "tools/train_box_regressor.py", "split": args.split,
                                                 "alpha": args.alpha, "jitter": args.jitter, "seed": args.seed,
+                                                "jitter_aspect": args.jitter_aspect, "offset": args.offset, "sources": args.sources,
                                                 "samples": len(X)})))
     np.savez(args.out, **out)
     print(f"wrote {args.out} (shifts {shifts.tolist()})")
