@@ -96,13 +96,13 @@ def main(argv=None) -> int:
         ap.error("--jpeg and --mp4: choose one")
     data = Path(args.data)
     frames = tusimple_frames(data, args.split, args.limit)
-    images = [(i, cv2.imread(str(data / e["file_name"]))) for i, e in enumerate(frames)]
-    if args.mp4:
-        images = kitti_lead.through_mp4(images)
+    images = ((i, cv2.imread(str(data / e["file_name"]))) for i, e in enumerate(frames))   # one at a time
+    if args.mp4:   # one video of every frame: they are all in memory for it
+        images = kitti_lead.through_mp4(list(images))
         if images is None:
             raise SystemExit("--mp4: the decoded video lost frames (OpenCV's mp4v writer)")
     elif args.jpeg is not None:
-        images = kitti_lead.through_jpeg(images, args.jpeg)
+        images = (kitti_lead.through_jpeg([x], args.jpeg)[0] for x in images)
     cfg = None
     if args.reduce_verified is not None:
         from pyvehtrack.detector import DetectConfig
