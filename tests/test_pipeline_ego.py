@@ -9,9 +9,9 @@ asking for "ego" without a classifier is an error; the Detector and CLI spelling
 from __future__ import annotations
 
 import json
-from dataclasses import replace
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import cv2

@@ -43,6 +43,7 @@ import numpy as np
 _ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(_ROOT))
 from pyvehtrack import acf  # noqa: E402
+from pyvehtrack.eval.kitti_lead import through_jpeg  # noqa: E402
 from pyvehtrack.eval_boxes import box_iou_matrix  # noqa: E402
 from pyvehtrack.reference import acf as ra  # noqa: E402
 
@@ -193,7 +194,7 @@ def _views(f, g):
     if not _Geo.degrade:
         return [g]
     q = int(np.random.default_rng(int(f[-8:-4]) + 7919).integers(DEGRADE_Q[0], DEGRADE_Q[1] + 1))
-    return [g, cv2.imdecode(cv2.imencode(".jpg", g, [cv2.IMWRITE_JPEG_QUALITY, q])[1], cv2.IMREAD_GRAYSCALE)]
+    return [g, through_jpeg([(0, g)], q)[0][1]]
 
 
 def _base(f):

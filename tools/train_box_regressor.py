@@ -163,7 +163,8 @@ def main(argv=None) -> int:
                refine_sources=np.int32(sum(SRC_BITS[s] for s in set(args.sources))),
                refine_info=np.array(json.dumps({"tool": "tools/train_box_regressor.py", "split": args.split,
                                                 "alpha": args.alpha, "jitter": args.jitter, "seed": args.seed,
-                                                "jitter_aspect": args.jitter_aspect, "offset": args.offset, "sources": args.sources,
+                                                "jitter_aspect": args.jitter_aspect, "offset": args.offset,
+                                                "sources": args.sources,
                                                 "samples": len(X)})))
     np.savez(args.out, **out)
     print(f"wrote {args.out} (shifts {shifts.tolist()})")

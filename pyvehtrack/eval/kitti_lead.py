@@ -109,9 +109,9 @@ def through_mp4(frames):
 
 
 def through_jpeg(frames, quality: int):
-    """Every frame encoded as JPEG of `quality` (OpenCV) and decoded again."""
+    """Every frame encoded as JPEG of `quality` (OpenCV) and decoded again, gray or colour as it came."""
     return [(idx, cv2.imdecode(cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_QUALITY, quality])[1],
-                               cv2.IMREAD_COLOR)) for idx, img in frames]
+                               cv2.IMREAD_UNCHANGED)) for idx, img in frames]
 
 
 SPLIT = 39   # frames 0-38: the tuning part; 39-77: held out
