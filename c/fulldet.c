@@ -931,3 +931,174 @@ vt_status vt_fulldet_refine(vt_cls_box_ws *ws, const vt_box_regressor *r, const 
     }
     return VT_OK;
 }
+
+/* ------------------------------------------------------------ box rescoring */
+
+vt_status vt_box_rescorer_check(const vt_box_rescorer *r)
+{
+    int64_t i, n_in;
+    if (r == NULL || vt_svm_model_check(&r->hog) != VT_OK || r->hog.kind != VT_DESC_HOG ||
+        r->margin_permille < 0 || r->margin_permille > 1000 || r->n_trees < 1 ||
+        r->n_trees > VT_RESCORE_MAX_TREES || r->depth < 1 || r->depth > VT_RESCORE_MAX_DEPTH ||
+        r->feat == NULL || r->thr == NULL || r->leaf == NULL || r->nms_iou_permille < 0 ||
+        r->nms_iou_permille > 1000 || r->nms_contain_permille < 0 || r->nms_contain_permille > 1000) {
+        return VT_E_ARG;
+    }
+    n_in = (int64_t)r->n_trees * ((1 << r->depth) - 1);
+    for (i = 0; i < n_in; ++i) {
+        if (r->feat[i] >= VT_RESCORE_N_FEAT) {
+            return VT_E_ARG;
+        }
+    }
+    return VT_OK;
+}
+
+/* The checked core of vt_box_rescore_trees. */
+static int32_t vt__rescore_trees(const vt_box_rescorer *r, const int32_t *f)
+{
+    int32_t t, d, n_in = (1 << r->depth) - 1;
+    int64_t acc = r->bias; /* |sum| <= 4096 x 2^31 + 2^31 < 2^44: exact */
+    for (t = 0; t < r->n_trees; ++t) {
+        const uint8_t *ft = r->feat + (size_t)t * (size_t)n_in;
+        const int32_t *th = r->thr + (size_t)t * (size_t)n_in;
+        int32_t node = 0;
+        for (d = 0; d < r->depth; ++d) {
+            node = 2 * node + 1 + (f[ft[node]] > th[node]);
+        }
+        acc += r->leaf[(size_t)t * (size_t)(n_in + 1) + (size_t)(node - n_in)];
+    }
+    return acc > INT32_MAX ? INT32_MAX : acc < INT32_MIN ? INT32_MIN : (int32_t)acc;
+}
+
+vt_status vt_box_rescore_trees(const vt_box_rescorer *r, const int32_t *f, int32_t *score)
+{
+    vt_status s;
+    if (score != NULL) {
+        *score = 0;
+    }
+    if (f == NULL || score == NULL) {
+        return VT_E_ARG;
+    }
+    s = vt_box_rescorer_check(r);
+    if (s != VT_OK) {
+        return s;
+    }
+    *score = vt__rescore_trees(r, f);
+    return VT_OK;
+}
+
+/* The checked core of vt_box_rescore_features (r, cam, img and in->box valid). */
+static vt_status vt__rescore_features(vt_cls_box_ws *ws, const vt_box_rescorer *r,
+                                      const vt_camera_min *cam, const vt_image_u8 *img,
+                                      const vt_scored_box *in, int32_t *f)
+{
+    const vt_box *b = &in->box;
+    int64_t w = (int64_t)b->right - b->left + 1;
+    int64_t m = ((int64_t)r->margin_permille * w + 500) / 1000;
+    int64_t d = (int64_t)b->bottom - cam->horizon_y;
+    vt_box ctx;
+    vt_status s;
+    ctx.left = vt__clamp32(b->left - m, 0, img->w - 1);
+    ctx.top = vt__clamp32(b->top - m, 0, img->h - 1);
+    ctx.right = vt__clamp32(b->right + m, 0, img->w - 1);
+    ctx.bottom = vt__clamp32(b->bottom + m, 0, img->h - 1);
+    s = vt_classify_box(ws, &r->hog, img, &ctx, &f[0]);
+    if (s != VT_OK) {
+        return s;
+    }
+    d = d < 1 ? 1 : d;
+    /* every numerator below is >= 0 and < 2^45: floor is C's division */
+    f[1] = in->score;
+    f[2] = (int32_t)w;
+    f[3] = (int32_t)(((int64_t)b->bottom - b->top + 1) * 1000 / w);
+    f[4] = (int32_t)(w * 1000 / d);
+    f[5] = (int32_t)(((int64_t)b->left + b->right + 1) * 1000 / (2 * (int64_t)img->w));
+    f[6] = (int32_t)(d * 1000 / img->h);
+    return VT_OK;
+}
+
+vt_status vt_box_rescore_features(vt_cls_box_ws *ws, const vt_box_rescorer *r,
+                                  const vt_camera_min *cam, const vt_image_u8 *img,
+                                  const vt_scored_box *in, int32_t *f)
+{
+    vt_status s;
+    if (ws == NULL || in == NULL || f == NULL) {
+        return VT_E_ARG;
+    }
+    s = vt_box_rescorer_check(r);
+    if (s == VT_OK) {
+        s = vt_camera_min_check(cam);
+    }
+    if (s == VT_OK) {
+        s = vt_image_u8_check(img);
+    }
+    if (s != VT_OK) {
+        return s;
+    }
+    if (!vt__box_in(&in->box, img)) {
+        return VT_E_ARG;
+    }
+    return vt__rescore_features(ws, r, cam, img, in, f);
+}
+
+vt_status vt_fulldet_rescore(vt_cls_box_ws *ws, const vt_box_rescorer *r,
+                             const vt_camera_min *cam, const vt_image_u8 *img,
+                             vt_fulldet_result *res)
+{
+    vt_scored_box cand[VT_MAX_BOXES];
+    int32_t f[VT_RESCORE_N_FEAT];
+    int32_t i, j, n = 0, kept = 0;
+    vt_status s;
+    if (ws == NULL || res == NULL) {
+        return VT_E_ARG;
+    }
+    s = vt_box_rescorer_check(r);
+    if (s == VT_OK) {
+        s = vt_camera_min_check(cam);
+    }
+    if (s == VT_OK) {
+        s = vt_image_u8_check(img);
+    }
+    if (s != VT_OK) {
+        return s;
+    }
+    if (!vt__result_in(res, img)) {
+        return VT_E_ARG;
+    }
+    /* score every box first, so an error leaves res unchanged */
+    for (i = 0; i < res->n_boxes; ++i) {
+        s = vt__rescore_features(ws, r, cam, img, &res->box[i], f);
+        if (s != VT_OK) {
+            return s;
+        }
+        cand[n] = res->box[i];
+        cand[n].score = vt__rescore_trees(r, f);
+        if (cand[n].score >= r->score_min) {
+            ++n;
+        }
+    }
+    for (i = 1; i < n; ++i) { /* stable insertion sort, highest score first */
+        vt_scored_box t = cand[i];
+        j = i - 1;
+        while (j >= 0 && cand[j].score < t.score) {
+            cand[j + 1] = cand[j];
+            --j;
+        }
+        cand[j + 1] = t;
+    }
+    for (i = 0; i < n; ++i) {
+        int keep = 1;
+        for (j = 0; j < kept && keep; ++j) {
+            keep = !vt__box_suppress(&cand[j].box, &cand[i].box, r->nms_iou_permille,
+                                     r->nms_contain_permille);
+        }
+        if (keep) {
+            cand[kept++] = cand[i];
+        }
+    }
+    for (i = 0; i < kept; ++i) {
+        res->box[i] = cand[i];
+    }
+    res->n_boxes = kept;
+    return VT_OK;
+}

@@ -144,6 +144,7 @@ vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
     memset(&p->scorer, 0, sizeof(p->scorer));
     p->wide_model = NULL;
     p->refine = NULL;
+    p->rescore = NULL;
     p->acf = NULL;
     p->acf_ws = NULL;
     p->acf_n = 0;
@@ -289,6 +290,21 @@ vt_status vt_pipeline_set_refine(vt_pipeline *p, const vt_box_regressor *r)
     }
     if (s == VT_OK) {
         p->refine = r;
+    }
+    return s;
+}
+
+vt_status vt_pipeline_set_rescore(vt_pipeline *p, const vt_box_rescorer *r)
+{
+    vt_status s = VT_OK;
+    if (p == NULL) {
+        return VT_E_ARG;
+    }
+    if (r != NULL) {
+        s = vt_box_rescorer_check(r);
+    }
+    if (s == VT_OK) {
+        p->rescore = r;
     }
     return s;
 }
@@ -707,6 +723,9 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
             cfgs[i] = &p->acf_cfg[i];
         }
         s = vt_acf_detect_n(p->acf_ws, p->acf_n, p->acf_m, cfgs, &cam, frame, &ws->res);
+        if (s == VT_OK && p->rescore != NULL) {
+            s = vt_fulldet_rescore(&ws->box, p->rescore, &cam, frame, &ws->res);
+        }
     } else {
         s = vt_fulldet(&ws->st, &fc, &cam, frame, &out->road, &p->scorer, &ws->res);
     }
@@ -718,7 +737,7 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
             s = vt_fulldet_rerank(&ws->st, &ws->box, m, &fc, frame, &ws->res);
         }
     }
-    if (s == VT_OK && p->cfg.verify != 0) {
+    if (s == VT_OK && p->cfg.verify != 0 && !(p->acf != NULL && p->rescore != NULL)) {
         const vt_mlp_model *m = NULL;
         s = vt_mlp_default_model(&m);
         if (s == VT_OK) {

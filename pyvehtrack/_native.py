@@ -773,6 +773,73 @@ def fulldet_refine(ws, reg, img: np.ndarray, out) -> np.ndarray:
     v = view(img, "img")
     check("vt_fulldet_refine", lib.vt_fulldet_refine(ws, reg, v, out), f"img {img.shape}, {out.n_boxes} boxes")
     return np.frombuffer(ffi.buffer(out.box), SCORED_BOX_DTYPE)[:out.n_boxes].copy()
+
+def box_rescorer(win_w: int, win_h: int, w_q, w_shift: int, b_q16: int, margin_permille: int, depth: int,
+                 feat, thr, leaf_q16, bias_q16: int, score_min_q16: int, nms_iou_permille: int,
+                 nms_contain_permille: int):
+    """A vt_box_rescorer: a HOG linear model (w_q, w_shift, b_q16) over a win_w x win_h
+    window and boosted trees (feat, thr: (T, 2^depth - 1); leaf_q16: (T, 2^depth)).
+    Returns (rescorer, keepalive)."""
+    depth = int(depth)
+    if not 1 <= depth <= int(lib.VT_RESCORE_MAX_DEPTH):
+        raise ValueError(f"rescorer depth: expected 1..{int(lib.VT_RESCORE_MAX_DEPTH)}, got {depth}")
+    f, t, lf = np.asarray(feat), np.asarray(thr), np.asarray(leaf_q16)
+    n_in = (1 << depth) - 1
+    if f.ndim != 2 or f.shape[1] != n_in or t.shape != f.shape or lf.shape != (f.shape[0], n_in + 1):
+        raise ValueError(f"rescorer trees: feat {f.shape}, thr {t.shape}, leaf {lf.shape} do not fit "
+                         f"trees of depth {depth}")
+    if f.size and (f.min() < 0 or f.max() > 255):
+        raise ValueError("rescorer feat: indices must fit a byte")
+    for name, a in (("thr", t), ("leaf_q16", lf)):
+        if a.size and (a.min() < -2 ** 31 or a.max() >= 2 ** 31):
+            raise ValueError(f"rescorer {name}: values must fit int32")
+    r = ffi.new("vt_box_rescorer *")
+    m, wbuf = svm_model(int(lib.VT_DESC_HOG), win_w, win_h, w_q, int(w_shift), int(b_q16))
+    r.hog = m[0]
+    keep = [wbuf, ffi.new("uint8_t[]", max(1, f.size)), ffi.new("int32_t[]", max(1, t.size)),
+            ffi.new("int32_t[]", max(1, lf.size))]
+    for buf, a in zip(keep[1:], (f, t, lf)):
+        for i, v in enumerate(a.ravel().tolist()):
+            buf[i] = int(v)
+    r.feat, r.thr, r.leaf = keep[1], keep[2], keep[3]
+    r.margin_permille, r.n_trees, r.depth = int(margin_permille), int(f.shape[0]), depth
+    r.bias, r.score_min = int(bias_q16), int(score_min_q16)
+    r.nms_iou_permille, r.nms_contain_permille = int(nms_iou_permille), int(nms_contain_permille)
+    check("vt_box_rescorer_check", lib.vt_box_rescorer_check(r),
+          f"{f.shape[0]} trees of depth {depth}, margin {margin_permille}, NMS {nms_iou_permille} / "
+          f"{nms_contain_permille} permille")
+    return r, keep
+
+
+def box_rescore_trees(r, f) -> int:
+    """vt_box_rescore_trees of one feature vector (VT_RESCORE_N_FEAT ints)."""
+    a = np.asarray(f).reshape(-1)
+    if a.shape != (int(lib.VT_RESCORE_N_FEAT),):
+        raise ValueError(f"rescore features: expected {int(lib.VT_RESCORE_N_FEAT)} values, got {a.shape}")
+    buf = ffi.new("int32_t[]", [int(v) for v in a])
+    out = ffi.new("int32_t *")
+    check("vt_box_rescore_trees", lib.vt_box_rescore_trees(r, buf, out), "features")
+    return int(out[0])
+
+
+def box_rescore_features(ws, r, cam, img: np.ndarray, box, score: int) -> np.ndarray:
+    """vt_box_rescore_features of one inclusive box with its first-stage score (Q16)."""
+    v = view(img, "img")
+    b = ffi.new("vt_scored_box *")
+    b.box.left, b.box.top, b.box.right, b.box.bottom = (int(x) for x in box)
+    b.score, b.source = int(score), int(lib.VT_SRC_WINDOW)
+    out = ffi.new("int32_t[]", int(lib.VT_RESCORE_N_FEAT))
+    check("vt_box_rescore_features", lib.vt_box_rescore_features(ws, r, cam, v, b, out),
+          f"img {img.shape}, box {list(box)}")
+    return np.array(list(out), np.int64)
+
+
+def fulldet_rescore(ws, r, cam, img: np.ndarray, out) -> np.ndarray:
+    """vt_fulldet_rescore on the result `out` in place -> its boxes (a copy)."""
+    v = view(img, "img")
+    check("vt_fulldet_rescore", lib.vt_fulldet_rescore(ws, r, cam, v, out),
+          f"img {img.shape}, {out.n_boxes} boxes")
+    return np.frombuffer(ffi.buffer(out.box), SCORED_BOX_DTYPE)[:out.n_boxes].copy()
 # ================================================================ end fulldet.h
 
 # ================================================================ classify.h

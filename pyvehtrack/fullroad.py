@@ -197,6 +197,61 @@ def _refine_model(z, p) -> "BoxRegressor | None":
     return r
 
 
+@dataclass
+class Rescorer:
+    """The ACF boxes' second stage (vt_box_rescorer, fulldet.h; tools/train_rescorer.py):
+    a HOG linear model (w_q int16 in Q(w_shift), b_q16) over a win x win window of the
+    box's context (grown by margin_permille of its width) and boosted trees of `depth`
+    (feat, thr, leaf_q16, bias_q16) on seven integer features; boxes scoring below
+    score_min_q16 go, the rest pass an NMS at the two permille limits."""
+    win: int
+    w_q: np.ndarray
+    w_shift: int
+    b_q16: int
+    margin_permille: int
+    depth: int
+    feat: np.ndarray
+    thr: np.ndarray
+    leaf_q16: np.ndarray
+    bias_q16: int
+    score_min_q16: int
+    nms_iou_permille: int
+    nms_contain_permille: int
+    info: str = ""
+
+    def c(self):
+        """(vt_box_rescorer *, keepalive)."""
+        return _native.box_rescorer(self.win, self.win, self.w_q, self.w_shift, self.b_q16, self.margin_permille,
+                                    self.depth, self.feat, self.thr, self.leaf_q16, self.bias_q16,
+                                    self.score_min_q16, self.nms_iou_permille, self.nms_contain_permille)
+
+
+_RESCORE_KEYS = ("rescore_w_q", "rescore_w_shift", "rescore_b_q16", "rescore_win", "rescore_margin_permille",
+                 "rescore_depth", "rescore_feat", "rescore_thr", "rescore_leaf_q16", "rescore_bias_q16",
+                 "rescore_score_min_q16", "rescore_nms_iou_permille", "rescore_nms_contain_permille")
+
+
+def _rescore_model(z, p) -> "Rescorer | None":
+    """The rescorer of an ACF model file (keys rescore_*), or None when it has none."""
+    have = [k for k in _RESCORE_KEYS if k in z.files]
+    if not have:
+        return None
+    if len(have) != len(_RESCORE_KEYS):
+        raise ValueError(f"model: {p}: a rescorer needs all of {', '.join(_RESCORE_KEYS)}")
+    try:
+        r = Rescorer(int(z["rescore_win"]), np.asarray(z["rescore_w_q"]).reshape(-1),
+                     int(z["rescore_w_shift"]), int(z["rescore_b_q16"]), int(z["rescore_margin_permille"]),
+                     int(z["rescore_depth"]), np.asarray(z["rescore_feat"]), np.asarray(z["rescore_thr"]),
+                     np.asarray(z["rescore_leaf_q16"]), int(z["rescore_bias_q16"]),
+                     int(z["rescore_score_min_q16"]), int(z["rescore_nms_iou_permille"]),
+                     int(z["rescore_nms_contain_permille"]),
+                     str(z["rescore_info"]) if "rescore_info" in z.files else "")
+        r.c()   # validates every array and limit against the C core
+    except (ValueError, TypeError, RuntimeError) as e:
+        raise ValueError(f"model: {p}: rescorer: {e}") from None
+    return r
+
+
 _SETTINGS = {"score_offset": (-32768.0, 32767.0), "box_height": (1 / 256, 4.0),
              "verify_min": (-32768.0, 32767.0), "veh_w_min": (0.1, 20.0), "veh_w_max": (0.1, 20.0),
              # the wide pass (WideConfig; used when the file holds a wide model)
@@ -262,6 +317,7 @@ def load_model(path) -> SvmModel | MlpModel:
         from .acf import AcfModel  # noqa: PLC0415
         m = AcfModel.load(p)
         m.settings, m.wide, m.refine = _settings(z, p), _wide_model(z, p), _refine_model(z, p)
+        m.rescore = _rescore_model(z, p)
         return m
     mlp = "model_type" in z.files and str(z["model_type"]) == "mlp"
     need = ("kind", "win_w", "win_h") + (("w1_q", "w1_shift", "b1_q16", "w2_q", "w2_shift", "b2_q16") if mlp
@@ -417,6 +473,7 @@ class FullRoadConfig:
     verify_skip_small: bool | None = None
     wide: bool | None = None   # the wide pass: None = on when the model holds a wide model
     refine: bool | None = None   # box regression: None = on when the model holds a box regressor
+    rescore: bool | None = None   # the ACF boxes' rescorer: None = on when the model holds one
 
 
 def verify_mode(cfg: FullRoadConfig) -> int:
@@ -497,6 +554,10 @@ def setup(model=None, sources=SOURCES, camera: Camera | None = None, cfg: FullRo
         raise TypeError(f"cfg.refine: expected True, False or None, got {cfg.refine!r}")
     if cfg.refine is True and getattr(model, "refine", None) is None:
         raise ValueError("cfg.refine: the model holds no box regressor (see tools/train_box_regressor.py)")
+    if cfg.rescore is not None and not isinstance(cfg.rescore, bool):
+        raise TypeError(f"cfg.rescore: expected True, False or None, got {cfg.rescore!r}")
+    if cfg.rescore is True and getattr(model, "rescore", None) is None:
+        raise ValueError("cfg.rescore: the model holds no rescorer (see tools/train_rescorer.py)")
     st = getattr(model, "settings", {}) or {}
     det = cfg.det
     if det is None:

@@ -204,6 +204,7 @@ class Pipeline:
         self._cmodel = self._cscorer = None
         self._wide = None   # the wide pass: (MlpModel, WideConfig, C model, C cfg, box ws) or None
         self._refine = None   # box regression: (BoxRegressor, (C regressor, keepalive), box ws) or None
+        self._rescore = None   # the ACF boxes' rescorer: (Rescorer, (C rescorer, keepalive)) or None
         self._acf = None   # the ACF first stage: (C model pointers, C cfg pointers, n, keepalive) or None
         if model is None:
             if road_camera is not None or fullroad is not None:
@@ -249,6 +250,9 @@ class Pipeline:
                 cfgs = [m_.c_cfg(off) for m_ in models]   # kept: the arrays below only point at them
                 self._acf = (ffi.new("vt_acf_model *[]", [m_.c_model()[0] for m_ in models]),
                              ffi.new("vt_acf_cfg *[]", cfgs), len(models), (models, cfgs))
+                rs = getattr(_m, "rescore", None)
+                if rs is not None and _frc.rescore is not False:   # vt_pipeline_set_rescore
+                    self._rescore = (rs, rs.c())
             reg = _fr.refine_setup(_m, _frc)   # the model's box regressor (vt_pipeline_set_refine)
             if reg is not None:
                 self._refine = (reg, reg.c(), _native.box_ws_new())
@@ -445,6 +449,9 @@ class Pipeline:
                                   lib.vt_pipeline_set_wide(self._p, self._wide[2][0], self._wide[3]))
                 if self._refine is not None:
                     _native.check("vt_pipeline_set_refine", lib.vt_pipeline_set_refine(self._p, self._refine[1][0]))
+                if self._rescore is not None:
+                    _native.check("vt_pipeline_set_rescore",
+                                  lib.vt_pipeline_set_rescore(self._p, self._rescore[1][0]))
 
             if "flow" in self.cfg.sources:
                 # the overtaking stage's state (sizeof(vt_flow_state), ~1.9 MB at the default

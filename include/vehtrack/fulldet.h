@@ -394,4 +394,65 @@ vt_status vt_box_regress(vt_cls_box_ws *ws, const vt_box_regressor *r, const vt_
 vt_status vt_fulldet_refine(vt_cls_box_ws *ws, const vt_box_regressor *r, const vt_image_u8 *img,
                             vt_fulldet_result *res);
 
+/* ------------------------------------------------------------ box rescoring
+ * A second stage learnt on the first stage's own boxes (issue 8): the ACF trees
+ * at a low threshold find most vehicles but with many false boxes (tusimple 'val',
+ * threshold - 1.5: 3 in 4 of the vehicles >= 32 px, 31 false boxes a frame), and
+ * the rear-view MLP (vt_fulldet_verify) judges squares, not the boxes they give.
+ * vt_fulldet_rescore scores each box again from VT_RESCORE_N_FEAT integer features:
+ *   0  hog's decision (Q16) on the HOG of the context box (vt_box_regressor's:
+ *      the box grown by margin_permille of its width, cut to the image)
+ *   1  the box's own score (Q16, the first stage's)
+ *   2  w = right - left + 1 (px)
+ *   3  floor(1000 (bottom - top + 1) / w)                        (aspect)
+ *   4  floor(1000 w / d), d = max(1, bottom - horizon_y)        (width on the road)
+ *   5  floor(1000 (left + right + 1) / (2 w_img))               (centre column)
+ *   6  floor(1000 d / h_img)                                     (row below horizon)
+ * (exact in int64) with boosted trees (full binary trees of `depth`: node 0, then
+ * node = 2 node + 1 + (x[feat[node]] > thr[node]) `depth` times; score = bias +
+ * sum of the trees' leaves, Q16, saturated to int32). Trees do not care about a
+ * monotone change of a feature, so integer features lose nothing against the float
+ * ones they were trained on. Trained by tools/train_rescorer.py (scikit-learn). */
+#define VT_RESCORE_N_FEAT 7
+#define VT_RESCORE_MAX_TREES 4096
+#define VT_RESCORE_MAX_DEPTH 6
+typedef struct {
+    vt_svm_model hog;             /* linear model on the context HOG (kind VT_DESC_HOG) */
+    int32_t margin_permille;      /* context margin, 0..1000 of the box width         */
+    int32_t n_trees;              /* 1..VT_RESCORE_MAX_TREES                          */
+    int32_t depth;                /* 1..VT_RESCORE_MAX_DEPTH                          */
+    const uint8_t *feat;          /* n_trees x (2^depth - 1) feature indices          */
+    const int32_t *thr;           /* n_trees x (2^depth - 1): right when x > thr      */
+    const int32_t *leaf;          /* n_trees x 2^depth, Q16                           */
+    int32_t bias;                 /* Q16                                              */
+    int32_t score_min;            /* Q16: boxes scoring less go                       */
+    int32_t nms_iou_permille;     /* the NMS after rescoring, 0..1000 (vt_nms's test) */
+    int32_t nms_contain_permille;
+} vt_box_rescorer;
+
+/* VT_OK if hog passes vt_svm_model_check with kind VT_DESC_HOG, margin, n_trees,
+ * depth and the NMS limits are in range, the arrays are given and every feature
+ * index is < VT_RESCORE_N_FEAT; else VT_E_ARG (NULL too). Cost: one pass over feat. */
+vt_status vt_box_rescorer_check(const vt_box_rescorer *r);
+
+/* The trees' score (Q16) of one feature vector f[VT_RESCORE_N_FEAT] (any values).
+ * Errors: NULL -> VT_E_ARG; r as vt_box_rescorer_check. */
+vt_status vt_box_rescore_trees(const vt_box_rescorer *r, const int32_t *f, int32_t *score);
+
+/* The features (above) of one scored box of img; cam gives horizon_y. Errors: NULL
+ * -> VT_E_ARG; r, cam, img as their checks; a box outside img -> VT_E_ARG. */
+vt_status vt_box_rescore_features(vt_cls_box_ws *ws, const vt_box_rescorer *r,
+                                  const vt_camera_min *cam, const vt_image_u8 *img,
+                                  const vt_scored_box *in, int32_t *f);
+
+/* Every box of res rescored: the boxes scoring >= score_min, with their new scores,
+ * sorted by score (stable) and thinned by greedy NMS (vt__box_suppress's test at the
+ * rescorer's limits: a box goes when a box kept before it overlaps it by more);
+ * sources kept. Errors as vt_box_rescore_features and res->n_boxes outside
+ * 0..VT_MAX_BOXES -> VT_E_ARG; on error res is unchanged. Cost: one
+ * vt_classify_box per box plus the trees. */
+vt_status vt_fulldet_rescore(vt_cls_box_ws *ws, const vt_box_rescorer *r,
+                             const vt_camera_min *cam, const vt_image_u8 *img,
+                             vt_fulldet_result *res);
+
 #endif /* VEHTRACK_FULLDET_H */

@@ -254,6 +254,7 @@ typedef struct {
     const vt_mlp_model *wide_model; /* the wide pass's model (NULL: off; vt_pipeline_set_wide) */
     vt_fulldet_wide_cfg wide_cfg;   /* and its settings (a checked copy)                     */
     const vt_box_regressor *refine; /* box regression (NULL: off; vt_pipeline_set_refine)   */
+    const vt_box_rescorer *rescore; /* the ACF boxes' second stage (vt_pipeline_set_rescore) */
     const vt_acf_model *acf;        /* the ACF first stage (NULL: off; vt_pipeline_set_acf) */
     vt_acf_ws *acf_ws;              /* and its scratch                                       */
     int32_t acf_n;                  /* its models (vt_pipeline_set_acf_n; acf_m[0] = acf)    */
@@ -430,6 +431,16 @@ vt_status vt_pipeline_set_wide(vt_pipeline *p, const vt_mlp_model *m, const vt_f
  * must outlive the run; may live in flash). r NULL turns it off, as vt_pipeline_init
  * does. VT_E_ARG for p NULL; r as vt_box_regressor_check. On error nothing changes. */
 vt_status vt_pipeline_set_refine(vt_pipeline *p, const vt_box_regressor *r);
+
+/* Rescore the ACF first stage's boxes (vt_fulldet_rescore, vehtrack/fulldet.h: boosted
+ * trees on the box's context HOG score, its ACF score and its place on the road) in
+ * place of the second stage (cfg.verify) on them: on every detection frame that runs
+ * the ACF stage (vt_pipeline_set_acf), after it and before box regression, with the
+ * detector's camera and the attached vt_pipe_cls_ws as scratch; the ego-lane
+ * detector's boxes keep the second stage. r is kept by pointer (it must outlive the
+ * run; may live in flash). r NULL turns it off, as vt_pipeline_init does. VT_E_ARG for
+ * p NULL; r as vt_box_rescorer_check. On error nothing changes. */
+vt_status vt_pipeline_set_rescore(vt_pipeline *p, const vt_box_rescorer *r);
 
 /* Use the ACF first stage (vehtrack/acf.h: channel features + boosted trees, dense over
  * a quarter-octave pyramid) in place of vt_fulldet on every detection frame of the

@@ -106,3 +106,27 @@ vt_status vt_box_regress(vt_cls_box_ws *ws, const vt_box_regressor *r, const vt_
                          const vt_box *in, vt_box *out);
 vt_status vt_fulldet_refine(vt_cls_box_ws *ws, const vt_box_regressor *r, const vt_image_u8 *img,
                             vt_fulldet_result *res);
+#define VT_RESCORE_N_FEAT 7
+#define VT_RESCORE_MAX_TREES 4096
+#define VT_RESCORE_MAX_DEPTH 6
+typedef struct {
+    vt_svm_model hog;
+    int32_t margin_permille;
+    int32_t n_trees;
+    int32_t depth;
+    const uint8_t *feat;
+    const int32_t *thr;
+    const int32_t *leaf;
+    int32_t bias;
+    int32_t score_min;
+    int32_t nms_iou_permille;
+    int32_t nms_contain_permille;
+} vt_box_rescorer;
+vt_status vt_box_rescorer_check(const vt_box_rescorer *r);
+vt_status vt_box_rescore_trees(const vt_box_rescorer *r, const int32_t *f, int32_t *score);
+vt_status vt_box_rescore_features(vt_cls_box_ws *ws, const vt_box_rescorer *r,
+                                  const vt_camera_min *cam, const vt_image_u8 *img,
+                                  const vt_scored_box *in, int32_t *f);
+vt_status vt_fulldet_rescore(vt_cls_box_ws *ws, const vt_box_rescorer *r,
+                             const vt_camera_min *cam, const vt_image_u8 *img,
+                             vt_fulldet_result *res);

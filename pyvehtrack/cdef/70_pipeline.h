@@ -140,6 +140,7 @@ vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
 vt_status vt_pipeline_set_cls_ws(vt_pipeline *p, vt_pipe_cls_ws *ws, const vt_window_scorer *scorer);
 vt_status vt_pipeline_set_wide(vt_pipeline *p, const vt_mlp_model *m, const vt_fulldet_wide_cfg *cfg);
 vt_status vt_pipeline_set_refine(vt_pipeline *p, const vt_box_regressor *r);
+vt_status vt_pipeline_set_rescore(vt_pipeline *p, const vt_box_rescorer *r);
 vt_status vt_pipeline_set_edge_ws(vt_pipeline *p, vt_edge_ws *ws);
 vt_status vt_pipeline_set_flow_ws(vt_pipeline *p, vt_flow_state *st);
 vt_status vt_pipeline_set_model_ws(vt_pipeline *p, vt_model_ws *ws);

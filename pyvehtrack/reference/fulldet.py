@@ -251,3 +251,47 @@ def wide(gray: np.ndarray, road, cam: rw.Camera, win, wcfg, score_box, boxes, *,
 
 
 __all__ = ["FullDetConfig", "detect", "verify_boxes", "wide"]
+
+
+RESCORE_N_FEAT = 7
+
+
+def rescore_features(box, score_q16: int, hog_q16: int, horizon_y: int, w_img: int, h_img: int) -> list:
+    """Twin of vt_box_rescore_features (fulldet.h) given the context HOG's decision:
+    [hog, score, w, aspect, width on the road, centre column, row below the horizon]."""
+    l, t, r, b = (int(v) for v in box)
+    w = r - l + 1
+    d = max(1, b - int(horizon_y))
+    return [int(hog_q16), int(score_q16), w, (b - t + 1) * 1000 // w, w * 1000 // d,
+            (l + r + 1) * 1000 // (2 * w_img), d * 1000 // h_img]
+
+
+def rescore_trees(feat, thr, leaf_q16, bias_q16: int, depth: int, f) -> int:
+    """Twin of vt_box_rescore_trees: bias + the leaves the feature vector f reaches,
+    saturated to int32."""
+    n_in = (1 << depth) - 1
+    acc = int(bias_q16)
+    for ft, th, lf in zip(np.asarray(feat), np.asarray(thr), np.asarray(leaf_q16)):
+        node = 0
+        for _ in range(depth):
+            node = 2 * node + 1 + int(int(f[int(ft[node])]) > int(th[node]))
+        acc += int(lf[node - n_in])
+    return max(-2 ** 31, min(2 ** 31 - 1, acc))
+
+
+def rescore(boxes: np.ndarray, score_of, score_min: int, nms_iou_permille: int,
+            nms_contain_permille: int) -> np.ndarray:
+    """Twin of vt_fulldet_rescore: score_of(row) -> the trees' Q16 score of a result row
+    (l, t, r, b, score, source); rows scoring >= score_min, sorted by the new score
+    (stable), thinned by greedy NMS (windows.suppresses)."""
+    rows = []
+    for row in np.asarray(boxes, np.int64).reshape(-1, 6):
+        s = int(score_of(row))
+        if s >= score_min:
+            rows.append((*[int(v) for v in row[:4]], s, int(row[5])))
+    rows.sort(key=lambda r: -r[4])   # Python's sort is stable
+    kept = []
+    for r in rows:
+        if not any(rw.suppresses(k[:4], r[:4], nms_iou_permille, nms_contain_permille) for k in kept):
+            kept.append(r)
+    return np.array(kept, np.int64).reshape(-1, 6)
