@@ -836,6 +836,16 @@ static int32_t vt__clamp32(int64_t v, int32_t lo, int32_t hi)
     return v < lo ? lo : v > hi ? hi : (int32_t)v;
 }
 
+/* The box grown by m px on every side, cut to img (the regressor's and the rescorer's
+ * context box). */
+static void vt__context_box(const vt_box *b, int64_t m, const vt_image_u8 *img, vt_box *ctx)
+{
+    ctx->left = vt__clamp32(b->left - m, 0, img->w - 1);
+    ctx->top = vt__clamp32(b->top - m, 0, img->h - 1);
+    ctx->right = vt__clamp32(b->right + m, 0, img->w - 1);
+    ctx->bottom = vt__clamp32(b->bottom + m, 0, img->h - 1);
+}
+
 /* The checked core of vt_box_regress (r, img and *in already valid). */
 static vt_status vt__regress(vt_cls_box_ws *ws, const vt_box_regressor *r, const vt_image_u8 *img,
                              const vt_box *in, vt_box *out)
@@ -846,10 +856,7 @@ static vt_status vt__regress(vt_cls_box_ws *ws, const vt_box_regressor *r, const
     int32_t o[4], k;
     vt_box ctx, nb;
     vt_status s;
-    ctx.left = vt__clamp32(in->left - m, 0, img->w - 1);
-    ctx.top = vt__clamp32(in->top - m, 0, img->h - 1);
-    ctx.right = vt__clamp32(in->right + m, 0, img->w - 1);
-    ctx.bottom = vt__clamp32(in->bottom + m, 0, img->h - 1);
+    vt__context_box(in, m, img, &ctx);
     s = vt_classify_box(ws, &r->side[0], img, &ctx, &o[0]);
     for (k = 1; k < 4 && s == VT_OK; ++k) {
         s = vt_svm_decision(&r->side[k], ws->desc, r->side[k].dim, &o[k]);
@@ -998,10 +1005,7 @@ static vt_status vt__rescore_features(vt_cls_box_ws *ws, const vt_box_rescorer *
     int64_t d = (int64_t)b->bottom - cam->horizon_y;
     vt_box ctx;
     vt_status s;
-    ctx.left = vt__clamp32(b->left - m, 0, img->w - 1);
-    ctx.top = vt__clamp32(b->top - m, 0, img->h - 1);
-    ctx.right = vt__clamp32(b->right + m, 0, img->w - 1);
-    ctx.bottom = vt__clamp32(b->bottom + m, 0, img->h - 1);
+    vt__context_box(b, m, img, &ctx);
     s = vt_classify_box(ws, &r->hog, img, &ctx, &f[0]);
     if (s != VT_OK) {
         return s;

@@ -160,8 +160,7 @@ def main(argv=None) -> int:
     dummy = (np.zeros((1, (1 << a.depth) - 1), np.uint8), np.zeros((1, (1 << a.depth) - 1), np.int32),
              np.zeros((1, 1 << a.depth), np.int32))
 
-    def c_features(w_q, sh, b, idx):
-        r, _keep = N.box_rescorer(a.win, a.win, w_q, sh, b, a.margin_permille, a.depth, *dummy, 0, 0, 0, 0)
+    def c_features(r, idx):
         out = []
         for k in idx:
             _i, bx, sc, _f, _y, h, shape = rows[k]
@@ -189,8 +188,9 @@ def main(argv=None) -> int:
     for fold in range(5):   # out-of-fold HOG decisions for the trees
         te = (fr // 10) % 5 == fold
         w_q, sh, b = head(X[~te], y[~te])
+        r, _keep = N.box_rescorer(a.win, a.win, w_q, sh, b, a.margin_permille, a.depth, *dummy, 0, 0, 0, 0)
         idx = np.flatnonzero(te)
-        F[idx] = np.array([c_features(w_q, sh, b, [k])[0] for k in load(idx)]).reshape(-1, 7)
+        F[idx] = np.array([c_features(r, [k])[0] for k in load(idx)]).reshape(-1, 7)
     w_q, sh, b = head(X, y)
     clf = HistGradientBoostingClassifier(max_iter=a.trees, max_depth=a.depth, learning_rate=0.1,
                                          random_state=0).fit(F.astype(np.float64), y)
