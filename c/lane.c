@@ -1083,7 +1083,12 @@ vt_status vt_lane_detect(vt_lane_state *st, const vt_lane_cfg *cfg, const vt_ima
     if (lines[VT_LANE_LEFT].state != VT_LANE_NONE && lines[VT_LANE_RIGHT].state != VT_LANE_NONE) {
         int64_t num = (int64_t)lines[VT_LANE_RIGHT].xb - lines[VT_LANE_LEFT].xb;
         int64_t den = (int64_t)lines[VT_LANE_RIGHT].slope - lines[VT_LANE_LEFT].slope;
-        if (num > 0 && den > 0) {
+        /* num is the ego lane's width at the bottom row. Two lines the refine passes or
+         * the tracker pulled onto one marking meet at a false vanishing row (the
+         * whole-road detector's horizon, 100 rows off on tusimple-vehicles-dev 4065):
+         * the pair must still be at least half the selection's minimum width apart
+         * (half: a pair selected at the minimum may narrow a little as it is refined). */
+        if (num > 0 && den > 0 && num * 2000 >= (int64_t)g.W * cfg->lane_w_min_permille * VT__Q16) {
             int64_t yv = (int64_t)(g.H - 1) - num / den;
             if (yv >= g.roi_top && yv <= g.vp_low) {
                 vp_known = 1;

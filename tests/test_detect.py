@@ -639,3 +639,18 @@ def test_cli_default_is_the_shipped_whole_road_model(tmp_path, capsys):
     assert cli_main(["detect", frame, "--model", "none", "--sources", "windows", "--json", str(tmp_path / "e.json"),
                      "--no-progress"]) == 2
     assert "--model none" in capsys.readouterr().err
+
+
+def test_collapsed_lane_pair_keeps_the_horizon(tmp_path):
+    """tusimple-vehicles-dev 4065 (640x360 gray copy): the lane stage's ego pair collapses onto
+    one marking and its lines meet 110 rows below the true horizon. That row used to become
+    the whole-road detector's horizon, and the pickup straight ahead (human box 343,165 -
+    390,204 at this scale) lay above it: no box at all. The pair gives no vanishing row
+    now (tests/test_lane.py), the camera's horizon stays, and the CLI default boxes it."""
+    from pyvehtrack.eval_boxes import box_iou_matrix
+    frame = Path(__file__).parent / "data" / "tusimple_vehicles_4065_gray_640x360.png"
+    js = tmp_path / "d.json"
+    assert cli_main(["detect", str(frame), "--json", str(js), "--no-progress"]) == 0
+    boxes = np.array([b[:4] for b in json.loads(js.read_text())[0]["boxes"]], float).reshape(-1, 4)
+    truth = np.array([[343, 165, 390, 204]], float)
+    assert len(boxes) and box_iou_matrix(truth, boxes).max() >= 0.5, boxes

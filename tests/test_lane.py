@@ -274,6 +274,24 @@ def test_tracker_smooths_toward_the_new_line():
         assert abs(x1 - (x0 + xf) / 2) <= 0.01
 
 
+def test_collapsed_pair_gives_no_vanishing_row():
+    """tusimple-vehicles-dev 4065 (640x360 copy, overcast): the refine passes pull the chosen
+    ego pair onto one dashed marking, 27 px apart at the bottom row, about 4% of W. The two
+    lines still meet, at row 224.5 (449 at 1280x720, against a camera horizon near 340):
+    that is no vanishing point, so neither engine reports one (vp_known needs the pair to
+    be at least half the selection's minimum width, W * lane_w_min_permille / 2000, apart
+    at the bottom; 80 px here). Without the check both reported 224.5."""
+    img = cv2.imread(str(DATA / "tusimple_vehicles_4065_gray_640x360.png"), cv2.IMREAD_GRAYSCALE)
+    cfg = default_config()
+    for engine in ("c", "reference"):
+        res = LaneDetector(engine).detect(img)
+        left, right = res.lane("left"), res.lane("right")
+        assert left is not None and right is not None, engine   # the pair itself is still reported
+        gap = right.points[np.argmax(right.points[:, 1]), 0] - left.points[np.argmax(left.points[:, 1]), 0]
+        assert 0 < gap < img.shape[1] * cfg.lane_w_min_permille / 2000, (engine, gap)
+        assert res.vanishing_row is None, (engine, res.vanishing_row)
+
+
 # ------------------------------------------------------------------ real frames
 def _labels():
     return json.loads((DATA / "lane_tusimple_ego_labels_640x360.json").read_text())

@@ -200,7 +200,8 @@ typedef struct {
     int32_t roi_top;       /* first working row looked at                            */
     int32_t band_top;      /* first row of the Hough band                            */
     int32_t vp_known;      /* 1 if the two ego lines meet in rows [roi_top,          */
-                           /* H*vp_low_permille/1000]                                */
+                           /* H*vp_low_permille/1000] and are >= W*lane_w_min_      */
+                           /* permille/2000 apart at the bottom row                  */
     int32_t vp_y;          /* that row (roi_top if unknown)                          */
     int32_t n_marks;       /* marking centres kept                                   */
     int32_t rows_dropped;  /* rows dropped as texture or for lack of room            */

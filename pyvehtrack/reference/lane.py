@@ -364,13 +364,15 @@ def refine(line: LaneLine, marks, W: int, H: int, cfg: LaneConfig) -> None:
         line.xb = float(x.mean() - slope * tm)
 
 
-def vanishing_row(left: LaneLine | None, right: LaneLine | None, H: int, cfg: LaneConfig):
+def vanishing_row(left: LaneLine | None, right: LaneLine | None, W: int, H: int, cfg: LaneConfig):
     """(known, y_v): the row where the two ego lines meet when it lies in
-    [roi_top, H * vp_low / 1000]; else (False, roi_top)."""
+    [roi_top, H * vp_low / 1000] and the lines are still at least half the selection's
+    minimum lane width apart at the bottom row (not pulled onto one marking); else
+    (False, roi_top)."""
     roi_top, band_top = row_limits(H, cfg)
     if left is not None and right is not None:
         num, den = right.xb - left.xb, right.slope - left.slope
-        if num > 0 and den > 0:
+        if num > 0 and den > 0 and num >= W * cfg.lane_w_min_permille / 2000.0:
             y = (H - 1) - math.floor(num / den)
             if roi_top <= y <= H * cfg.vp_low_permille // 1000:
                 return True, y
@@ -580,7 +582,7 @@ class LaneDetector:
         kr, accr, b0r = candidates(marks, W, H, 1, cfg)
         found, extra = select_lines(kl, kr, W, H, cfg)
         lines = [self._track(i, found[i], W, H) for i in range(4)]
-        known, y_v = vanishing_row(lines[LEFT], lines[RIGHT], H, cfg)
+        known, y_v = vanishing_row(lines[LEFT], lines[RIGHT], W, H, cfg)
         for ln in lines:
             if ln is not None:
                 extend(ln, marks, W, H, known, y_v, cfg, self.max_verts)
