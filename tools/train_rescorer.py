@@ -184,13 +184,14 @@ def main(argv=None) -> int:
         w_q, sh, b = quantise(lr.coef_, lr.intercept_)
         return w_q[0], int(sh[0]), int(b[0])
 
-    F = np.zeros((len(rows), 7), np.int64)
+    nf = int(N.lib.VT_RESCORE_N_FEAT)
+    F = np.zeros((len(rows), nf), np.int64)
     for fold in range(5):   # out-of-fold HOG decisions for the trees
         te = (fr // 10) % 5 == fold
         w_q, sh, b = head(X[~te], y[~te])
         r, _keep = N.box_rescorer(a.win, a.win, w_q, sh, b, a.margin_permille, a.depth, *dummy, 0, 0, 0, 0)
         idx = np.flatnonzero(te)
-        F[idx] = np.array([c_features(r, [k])[0] for k in load(idx)]).reshape(-1, 7)
+        F[idx] = np.array([c_features(r, [k])[0] for k in load(idx)]).reshape(-1, nf)
     w_q, sh, b = head(X, y)
     clf = HistGradientBoostingClassifier(max_iter=a.trees, max_depth=a.depth, learning_rate=0.1,
                                          random_state=0).fit(F.astype(np.float64), y)

@@ -106,9 +106,9 @@ vt_status vt_box_regress(vt_cls_box_ws *ws, const vt_box_regressor *r, const vt_
                          const vt_box *in, vt_box *out);
 vt_status vt_fulldet_refine(vt_cls_box_ws *ws, const vt_box_regressor *r, const vt_image_u8 *img,
                             vt_fulldet_result *res);
-#define VT_RESCORE_N_FEAT 7
-#define VT_RESCORE_MAX_TREES 4096
-#define VT_RESCORE_MAX_DEPTH 6
+#define VT_RESCORE_N_FEAT ...
+#define VT_RESCORE_MAX_TREES ...
+#define VT_RESCORE_MAX_DEPTH ...
 typedef struct {
     vt_svm_model hog;
     int32_t margin_permille;
