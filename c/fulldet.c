@@ -1051,7 +1051,7 @@ vt_status vt_fulldet_rescore(vt_cls_box_ws *ws, const vt_box_rescorer *r,
 {
     vt_scored_box cand[VT_MAX_BOXES];
     int32_t f[VT_RESCORE_N_FEAT];
-    int32_t i, j, n = 0, kept = 0;
+    int32_t i, n = 0, kept = 0;
     vt_status s;
     if (ws == NULL || res == NULL) {
         return VT_E_ARG;
@@ -1081,24 +1081,10 @@ vt_status vt_fulldet_rescore(vt_cls_box_ws *ws, const vt_box_rescorer *r,
             ++n;
         }
     }
-    for (i = 1; i < n; ++i) { /* stable insertion sort, highest score first */
-        vt_scored_box t = cand[i];
-        j = i - 1;
-        while (j >= 0 && cand[j].score < t.score) {
-            cand[j + 1] = cand[j];
-            --j;
-        }
-        cand[j + 1] = t;
-    }
-    for (i = 0; i < n; ++i) {
-        int keep = 1;
-        for (j = 0; j < kept && keep; ++j) {
-            keep = !vt__box_suppress(&cand[j].box, &cand[i].box, r->nms_iou_permille,
-                                     r->nms_contain_permille);
-        }
-        if (keep) {
-            cand[kept++] = cand[i];
-        }
+    /* sorted (stable, highest first) and thinned as every other result is */
+    s = vt_nms(cand, n, r->nms_iou_permille, r->nms_contain_permille, &kept);
+    if (s != VT_OK) {
+        return s;
     }
     for (i = 0; i < kept; ++i) {
         res->box[i] = cand[i];

@@ -260,12 +260,17 @@ def horizons(data, split, cache: Path) -> dict:
     return out
 
 
-def to_model(clf, depth: int, pos: np.ndarray, margin: float) -> acf.AcfModel:
-    """Full binary trees of `depth` from a fitted HistGradientBoostingClassifier."""
-    n_in, n_leaf = (1 << depth) - 1, 1 << depth
+def hgb_full_trees(clf, depth: int):
+    """A fitted HistGradientBoostingClassifier as full binary trees of `depth` (node 0, then
+    node = 2 node + 1 + (x[feat] > thr)): feat (T, 2^depth - 1) int64, its float thresholds
+    thr, `split` (True where a node is a real split; a padding node sends everything left,
+    its leaf copied under both children), leaf (T, 2^depth) float and the baseline. Shared
+    by the ACF trees and the rescorer's (tools/train_rescorer.py)."""
+    n_in = (1 << depth) - 1
     T = len(clf._predictors)
-    feat, thr = np.zeros((T, n_in), np.uint16), np.full((T, n_in), 255, np.uint8)
-    leaf = np.zeros((T, n_leaf))
+    feat, thr = np.zeros((T, n_in), np.int64), np.zeros((T, n_in))
+    split = np.zeros((T, n_in), bool)
+    leaf = np.zeros((T, n_in + 1))
     for t, (pred,) in enumerate(clf._predictors):
         nodes = pred.nodes
 
@@ -279,15 +284,27 @@ def to_model(clf, depth: int, pos: np.ndarray, margin: float) -> acf.AcfModel:
                 return
             if d >= depth:
                 raise ValueError(f"tree {t} deeper than {depth}")
-            th = float(nd["num_threshold"])
-            if not 0 <= th < 255:
-                raise ValueError(f"tree {t}: threshold {th} outside the byte range")
-            feat[t, pos_], thr[t, pos_] = int(nd["feature_idx"]), int(np.floor(th))
+            feat[t, pos_], thr[t, pos_], split[t, pos_] = int(nd["feature_idx"]), float(nd["num_threshold"]), True
             fill(int(nd["left"]), 2 * pos_ + 1, d + 1)
             fill(int(nd["right"]), 2 * pos_ + 2, d + 1)
 
         fill(0, 0, 0)
-    bias = float(np.ravel(clf._baseline_prediction)[0])
+    return feat, thr, split, leaf, float(np.ravel(clf._baseline_prediction)[0])
+
+
+def to_model(clf, depth: int, pos: np.ndarray, margin: float) -> acf.AcfModel:
+    """Full binary trees of `depth` from a fitted HistGradientBoostingClassifier."""
+    n_in = (1 << depth) - 1
+    feat, th, split, leaf, bias = hgb_full_trees(clf, depth)
+    T = len(feat)
+    bad = split & ~((th >= 0) & (th < 255))
+    if bad.any():
+        t = int(np.argwhere(bad)[0, 0])
+        raise ValueError(f"tree {t}: threshold {th[bad][0]} outside the byte range")
+    # sklearn goes left when x <= t: with byte x that is x <= floor(t); a padding node's
+    # 255 sends every byte left
+    thr = np.where(split, np.floor(np.where(split, th, 0)), 255).astype(np.uint8)
+    feat = feat.astype(np.uint16)
     leaf_q16 = np.floor(leaf * 65536 + 0.5).astype(np.int32)
     m = acf.AcfModel(_Geo.win_cw, _Geo.win_ch, PAD, depth, feat, thr, leaf, leaf_q16, bias)
     # soft cascade: the running sums (Q16) of the positives that pass score 0

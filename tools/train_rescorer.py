@@ -63,33 +63,13 @@ def loosened(z: dict, offset: float, slack: float) -> dict:
 
 
 def hgb_trees(clf, depth: int):
-    """Full binary trees (feat, thr, leaf_q16, bias_q16) of a fitted HistGradientBoostingClassifier."""
-    n_in = (1 << depth) - 1
-    T = len(clf._predictors)
-    feat = np.zeros((T, n_in), np.uint8)
-    thr = np.full((T, n_in), 2 ** 31 - 1, np.int64)   # a padding node sends everything left
-    leaf = np.zeros((T, n_in + 1))
-    for t, (pred,) in enumerate(clf._predictors):
-        nodes = pred.nodes
-
-        def fill(i, pos, d):
-            nd = nodes[i]
-            if nd["is_leaf"]:
-                lo = pos
-                for _ in range(depth - d):
-                    lo = 2 * lo + 1
-                leaf[t, lo - n_in: lo - n_in + (1 << (depth - d))] = nd["value"]
-                return
-            if d >= depth:
-                raise ValueError(f"tree {t} deeper than {depth}")
-            feat[t, pos] = int(nd["feature_idx"])
-            thr[t, pos] = int(np.clip(np.floor(float(nd["num_threshold"])), -2 ** 31, 2 ** 31 - 1))
-            fill(int(nd["left"]), 2 * pos + 1, d + 1)
-            fill(int(nd["right"]), 2 * pos + 2, d + 1)
-
-        fill(0, 0, 0)
-    bias = float(np.ravel(clf._baseline_prediction)[0])
-    return (feat, thr.astype(np.int32), np.floor(leaf * 65536 + 0.5).astype(np.int32),
+    """Full binary trees (feat, thr, leaf_q16, bias_q16) of a fitted HistGradientBoostingClassifier
+    (train_acf.hgb_full_trees): sklearn goes left when x <= t, with integer x that is
+    x <= floor(t); a padding node's 2^31 - 1 sends everything left."""
+    from train_acf import hgb_full_trees
+    feat, th, split, leaf, bias = hgb_full_trees(clf, depth)
+    thr = np.where(split, np.clip(np.floor(np.where(split, th, 0)), -2 ** 31, 2 ** 31 - 1), 2 ** 31 - 1)
+    return (feat.astype(np.uint8), thr.astype(np.int32), np.floor(leaf * 65536 + 0.5).astype(np.int32),
             int(np.floor(bias * 65536 + 0.5)))
 
 

@@ -43,7 +43,8 @@
 #ifndef VT_FULLDET_MAX_CAND
 #define VT_FULLDET_MAX_CAND 1024
 #endif
-#if VT_FULLDET_MAX_WINDOWS < 1 || VT_FULLDET_MAX_CAND < 1 || VT_FULLDET_MAX_CAND > VT_MAX_NMS_BOXES
+#if VT_FULLDET_MAX_WINDOWS < 1 || VT_FULLDET_MAX_CAND < 1 || VT_FULLDET_MAX_CAND > VT_MAX_NMS_BOXES || \
+    VT_MAX_BOXES > VT_MAX_NMS_BOXES
 #error "fulldet capacities out of range (see vehtrack/fulldet.h)"
 #endif
 /* Bytes of pyramid levels 1..VT_WIN_MAX_LEVELS-1 of the largest frame: each level
