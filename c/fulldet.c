@@ -387,6 +387,14 @@ static int vt__box_in(const vt_box *b, const vt_image_u8 *img)
 }
 
 /* A result a second pass may work on: 0..VT_MAX_BOXES boxes, each inside img. */
+/* 1 when the frame's left or right side cuts b (within a quarter of its width + 1 px):
+ * the second stages learnt from whole vehicles and cannot judge what the edge hides */
+static int vt__box_side_cut(const vt_box *b, int32_t w_img)
+{
+    int64_t bw = (int64_t)b->right - b->left + 1;
+    return 4 * (int64_t)b->left <= bw + 4 || 4 * ((int64_t)w_img - 1 - b->right) <= bw + 4;
+}
+
 static int vt__result_in(const vt_fulldet_result *res, const vt_image_u8 *img)
 {
     int32_t i;
@@ -434,8 +442,7 @@ vt_status vt__fulldet_verify(vt_cls_box_ws *ws, const vt_mlp_model *m, const vt_
             int32_t top = sq.bottom - (sq.right - sq.left);
             int64_t bw = (int64_t)sq.right - sq.left + 1;
             if (((skip & VT__VERIFY_SKIP_FLAT) && 2 * ((int64_t)sq.bottom - sq.top + 1) < bw) ||
-                ((skip & VT__VERIFY_SKIP_SIDE) &&
-                 (4 * (int64_t)sq.left <= bw + 4 || 4 * ((int64_t)img->w - 1 - sq.right) <= bw + 4)) ||
+                ((skip & VT__VERIFY_SKIP_SIDE) && vt__box_side_cut(&sq, img->w)) ||
                 ((skip & VT__VERIFY_SKIP_SMALL) && bw < VT__VERIFY_SMALL_W)) {
                 sc[i] = res->box[i].score; /* passes with its own score */
                 pass[i] = 1;
@@ -948,7 +955,8 @@ vt_status vt_box_rescorer_check(const vt_box_rescorer *r)
         r->margin_permille < 0 || r->margin_permille > 1000 || r->n_trees < 1 ||
         r->n_trees > VT_RESCORE_MAX_TREES || r->depth < 1 || r->depth > VT_RESCORE_MAX_DEPTH ||
         r->feat == NULL || r->thr == NULL || r->leaf == NULL || r->nms_iou_permille < 0 ||
-        r->nms_iou_permille > 1000 || r->nms_contain_permille < 0 || r->nms_contain_permille > 1000) {
+        r->nms_iou_permille > 1000 || r->nms_contain_permille < 0 || r->nms_contain_permille > 1000 ||
+        (r->side_keep != 0 && r->side_keep != 1)) {
         return VT_E_ARG;
     }
     n_in = (int64_t)r->n_trees * ((1 << r->depth) - 1);
@@ -1077,6 +1085,10 @@ vt_status vt_fulldet_rescore(vt_cls_box_ws *ws, const vt_box_rescorer *r,
         }
         cand[n] = res->box[i];
         cand[n].score = vt__rescore_trees(r, f);
+        if (cand[n].score < r->score_min && r->side_keep && res->box[i].score >= r->side_score_min &&
+            vt__box_side_cut(&res->box[i].box, img->w)) {
+            cand[n].score = r->score_min;
+        }
         if (cand[n].score >= r->score_min) {
             ++n;
         }

@@ -316,6 +316,7 @@ static void vt__start(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *cfg,
     t->aspect_q8 = (int32_t)(((int64_t)h * 256 + w / 2) / w);
     t->ref_w = w;
     t->ref_b = d->bottom;
+    t->tm_only = 1;
     t->sides.have_prev = 1;
     t->sides.prev_left = d->left;
     t->sides.prev_right = d->right;
@@ -462,6 +463,7 @@ static int vt__predict_measure(vt_tracker *tr, vt_track *t, const vt_tracker_cfg
         vt__scale_ok(tr, t, cfg, meas.left, meas.bottom, meas.right) &&
         vt__update(t, meas.left, meas.bottom, meas.right) == VT_OK) {
         t->sides = sides;
+        t->tm_only = 0;
         vt__hit(t, cfg, img);
         if (cfg->measurement == VT_MEAS_EDGE_CURVES) {
             vt__edge_refresh(tr, t, cfg, img);
@@ -470,8 +472,11 @@ static int vt__predict_measure(vt_tracker *tr, vt_track *t, const vt_tracker_cfg
     }
     /* A tentative track's template keeps its filter on the vehicle; no hit (only
      * real measurements confirm) and no miss (the lifecycle waits for a detection).
-     * Confirmed tracks coast as in the thesis (tracker.h says why). */
-    if (cfg->tmatch_radius > 0 && t->state == VT_TRACK_TENTATIVE && t->tm_frames < INT32_MAX &&
+     * Confirmed tracks coast as in the thesis (tracker.h says why), but for those the
+     * measurement never took (tm_only). */
+    if (cfg->tmatch_radius > 0 &&
+        (t->state == VT_TRACK_TENTATIVE || (t->state == VT_TRACK_CONFIRMED && t->tm_only)) &&
+        t->tm_frames < INT32_MAX &&
         vt__tmatch(t, cfg, img, &meas) && vt__scale_ok(tr, t, cfg, meas.left, meas.bottom, meas.right) &&
         vt__update(t, meas.left, meas.bottom, meas.right) == VT_OK) {
         t->tm_frames += 1;

@@ -776,7 +776,7 @@ def fulldet_refine(ws, reg, img: np.ndarray, out) -> np.ndarray:
 
 def box_rescorer(win_w: int, win_h: int, w_q, w_shift: int, b_q16: int, margin_permille: int, depth: int,
                  feat, thr, leaf_q16, bias_q16: int, score_min_q16: int, nms_iou_permille: int,
-                 nms_contain_permille: int):
+                 nms_contain_permille: int, side_keep: int = 0, side_score_min_q16: int = 0):
     """A vt_box_rescorer: a HOG linear model (w_q, w_shift, b_q16) over a win_w x win_h
     window and boosted trees (feat, thr: (T, 2^depth - 1); leaf_q16: (T, 2^depth)).
     Returns (rescorer, keepalive)."""
@@ -805,6 +805,11 @@ def box_rescorer(win_w: int, win_h: int, w_q, w_shift: int, b_q16: int, margin_p
     r.margin_permille, r.n_trees, r.depth = int(margin_permille), int(f.shape[0]), depth
     r.bias, r.score_min = int(bias_q16), int(score_min_q16)
     r.nms_iou_permille, r.nms_contain_permille = int(nms_iou_permille), int(nms_contain_permille)
+    if int(side_keep) not in (0, 1):
+        raise ValueError(f"rescorer side_keep: expected 0 or 1, got {side_keep}")
+    if not -2 ** 31 <= int(side_score_min_q16) < 2 ** 31:
+        raise ValueError(f"rescorer side_score_min_q16: must fit int32, got {side_score_min_q16}")
+    r.side_keep, r.side_score_min = int(side_keep), int(side_score_min_q16)
     check("vt_box_rescorer_check", lib.vt_box_rescorer_check(r),
           f"{f.shape[0]} trees of depth {depth}, margin {margin_permille}, NMS {nms_iou_permille} / "
           f"{nms_contain_permille} permille")

@@ -203,7 +203,8 @@ class Rescorer:
     a HOG linear model (w_q int16 in Q(w_shift), b_q16) over a win x win window of the
     box's context (grown by margin_permille of its width) and boosted trees of `depth`
     (feat, thr, leaf_q16, bias_q16) on seven integer features; boxes scoring below
-    score_min_q16 go, the rest pass an NMS at the two permille limits."""
+    score_min_q16 go, the rest pass an NMS at the two permille limits; with side_keep a box
+    the frame's side cuts stays when its first-stage score is >= side_score_min_q16."""
     win: int
     w_q: np.ndarray
     w_shift: int
@@ -218,12 +219,15 @@ class Rescorer:
     nms_iou_permille: int
     nms_contain_permille: int
     info: str = ""
+    side_keep: int = 0
+    side_score_min_q16: int = 0
 
     def c(self):
         """(vt_box_rescorer *, keepalive)."""
         return _native.box_rescorer(self.win, self.win, self.w_q, self.w_shift, self.b_q16, self.margin_permille,
                                     self.depth, self.feat, self.thr, self.leaf_q16, self.bias_q16,
-                                    self.score_min_q16, self.nms_iou_permille, self.nms_contain_permille)
+                                    self.score_min_q16, self.nms_iou_permille, self.nms_contain_permille,
+                                    self.side_keep, self.side_score_min_q16)
 
 
 _RESCORE_KEYS = ("rescore_w_q", "rescore_w_shift", "rescore_b_q16", "rescore_win", "rescore_margin_permille",
@@ -245,7 +249,10 @@ def _rescore_model(z, p) -> "Rescorer | None":
                      np.asarray(z["rescore_leaf_q16"]), int(z["rescore_bias_q16"]),
                      int(z["rescore_score_min_q16"]), int(z["rescore_nms_iou_permille"]),
                      int(z["rescore_nms_contain_permille"]),
-                     str(z["rescore_info"]) if "rescore_info" in z.files else "")
+                     str(z["rescore_info"]) if "rescore_info" in z.files else "",
+                     # optional (older files: off): the side rule of vt_box_rescorer
+                     int(z["rescore_side_keep"]) if "rescore_side_keep" in z.files else 0,
+                     int(z["rescore_side_score_min_q16"]) if "rescore_side_score_min_q16" in z.files else 0)
         r.c()   # validates every array and limit against the C core
     except (ValueError, TypeError, RuntimeError) as e:
         raise ValueError(f"model: {p}: rescorer: {e}") from None

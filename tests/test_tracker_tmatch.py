@@ -102,6 +102,23 @@ def test_template_keeps_a_tentative_track_until_the_next_detection(engine):
 
 
 @pytest.mark.parametrize("engine", ["c", "reference"])
+def test_template_carries_a_track_only_detections_confirmed(engine):
+    """A track the ROI search never measured (no shadow edge: a side view's box) is
+    confirmed by its third detection and then has nothing but its template: it stays
+    confirmed on the patch between detections, one id throughout. (Coasting, as
+    confirmed tracks do, dropped it after max_coast frames and the next detection
+    started a second id.)"""
+    bg, tex = _textures(3)
+    frames, boxes = zip(*(textured_scene(t, bg, tex) for t in range(40)))
+    tr = Tracker(engine, cfg=rtrk.TrackerCfg(tmatch_radius=4))
+    out = [tr.step(f, detections=[boxes[t]] if t % 10 == 0 else None) for t, f in enumerate(frames)]
+    for t in range(40):
+        assert [o.id for o in out[t]] == [1], t
+        assert iou(out[t][0].box, boxes[t]) >= 0.85, (t, out[t][0].box, boxes[t])
+    assert all(out[t][0].state == "confirmed" for t in range(20, 40))
+
+
+@pytest.mark.parametrize("engine", ["c", "reference"])
 def test_template_gives_up_after_tmatch_max_frames_and_below_threshold(engine):
     bg, tex = _textures(4)
     frames, boxes = zip(*(textured_scene(t, bg, tex) for t in range(12)))

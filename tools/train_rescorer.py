@@ -4,7 +4,7 @@ sec. III classifier stage on the first stage's own boxes) and write a model file
 
     python tools/train_rescorer.py MODEL.npz OUT.npz [--offset -1.5] [--slack 1.5]
         [--trees 150] [--depth 3] [--C 0.3] [--margin-permille 250] [--win 48]
-        [--split fit] [--nms-iou 300] [--nms-contain 400] [--score-min 0]
+        [--split fit] [--nms-iou 300] [--nms-contain 400] [--score-min 0] [--side-score-min T]
 
 Why: at its own thresholds the ACF file finds about half of the vehicles >= 32 px on
 unseen frames; lowered by 1.5 it boxes three in four, with 31 false boxes a frame that
@@ -27,6 +27,9 @@ choose the settings; never TEST):
      seven integer features exactly as the C core computes them, turned into full
      binary trees (sklearn goes left when x <= t: with integer x that is x <= floor(t),
      so C's threshold is floor(t)), leaves and baseline in Q16.
+  5. with --side-score-min T: a box the frame's side cuts stays when its ACF score is >= T
+     (the side rule: the trees learnt from whole boxes; T = 0, the edge windows' own
+     threshold in MODEL, chosen on 'val').
 OUT: every key of MODEL with the lowered thresholds and traces and containment 1000,
 plus rescore_* keys (fullroad.load_model / acf.AcfModel read them).
 """
@@ -74,8 +77,11 @@ def hgb_trees(clf, depth: int):
 
 
 def rescorer_keys(w_q, w_shift, b_q16, win, margin, depth, feat, thr, leaf, bias, score_min, iou, contain,
-                  info: dict) -> dict:
-    return {"rescore_w_q": np.asarray(w_q, np.int16), "rescore_w_shift": np.asarray(w_shift, np.int32),
+                  info: dict, side_score_min=None) -> dict:
+    """The rescore_* keys; side_score_min (Q16, or None: off) is vt_box_rescorer's side rule."""
+    side = {} if side_score_min is None else {"rescore_side_keep": np.asarray(1, np.int32),
+                                              "rescore_side_score_min_q16": np.asarray(side_score_min, np.int32)}
+    return {**side, "rescore_w_q": np.asarray(w_q, np.int16), "rescore_w_shift": np.asarray(w_shift, np.int32),
             "rescore_b_q16": np.asarray(b_q16, np.int32), "rescore_win": np.asarray(win, np.int32),
             "rescore_margin_permille": np.asarray(margin, np.int32), "rescore_depth": np.asarray(depth, np.int32),
             "rescore_feat": feat, "rescore_thr": thr, "rescore_leaf_q16": leaf,
@@ -101,6 +107,9 @@ def main(argv=None) -> int:
     ap.add_argument("--nms-iou", type=int, default=300, help="permille")
     ap.add_argument("--nms-contain", type=int, default=400, help="permille")
     ap.add_argument("--score-min", type=float, default=0.0, help="rescorer threshold (log-odds)")
+    ap.add_argument("--side-score-min", type=float, default=None,
+                    help="keep a box the frame's side cuts when its ACF score is >= this (vt_box_rescorer's "
+                         "side rule; default: off)")
     a = ap.parse_args(argv)
     from sklearn.ensemble import HistGradientBoostingClassifier
     from sklearn.linear_model import LogisticRegression
@@ -187,7 +196,8 @@ def main(argv=None) -> int:
     info = {"split": a.split, "offset": a.offset, "slack": a.slack, "trees": a.trees, "depth": a.depth, "C": a.C,
             "n_boxes": len(rows), "n_pos": int(y.sum())}
     keys = rescorer_keys(w_q, sh, b, a.win, a.margin_permille, a.depth, feat, thr, leaf, bias,
-                         int(round(a.score_min * 65536)), a.nms_iou, a.nms_contain, info)
+                         int(round(a.score_min * 65536)), a.nms_iou, a.nms_contain, info,
+                         None if a.side_score_min is None else int(round(a.side_score_min * 65536)))
     np.savez_compressed(a.out, **{k: v for k, v in z.items() if not k.startswith("rescore_")}, **keys)
     print(f"wrote {a.out}", flush=True)
     return 0

@@ -429,6 +429,12 @@ typedef struct {
     int32_t score_min;            /* Q16: boxes scoring less go                       */
     int32_t nms_iou_permille;     /* the NMS after rescoring, 0..1000 (vt_nms's test) */
     int32_t nms_contain_permille;
+    int32_t side_keep;            /* 1: a box the frame's side cuts (vt_fulldet_verify's
+                                     side test: 4 left <= w + 4 or 4 (w_img - 1 - right)
+                                     <= w + 4) whose first-stage score >= side_score_min
+                                     stays, scored max(its new score, score_min): the
+                                     trees learnt from whole boxes; 0: no such rule    */
+    int32_t side_score_min;       /* Q16, the first stage's scale                     */
 } vt_box_rescorer;
 
 /* VT_OK if hog passes vt_svm_model_check with kind VT_DESC_HOG, margin, n_trees,

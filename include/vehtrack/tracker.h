@@ -79,7 +79,11 @@ typedef struct {
      * wants) lives on until a detection re-confirms it, for at most tmatch_max
      * consecutive template frames. Confirmed tracks keep the thesis's coasting:
      * the template's coarse 16x16 grid (a cell is w/16 px) is a poor measurement
-     * of the sides and fed a wrong side velocity into a confirmed KITTI track.
+     * of the sides and fed a wrong side velocity into a confirmed KITTI track;
+     * except a track the frame's measurement has never taken (vt_track.tm_only,
+     * e.g. a side view with no shadow edge under its box, confirmed by
+     * detections alone): it has nothing else, and coasting dropped it within
+     * max_coast frames of its confirmation.
      * tmatch_radius 0: off (the thesis's lifecycle). */
     int32_t tmatch_radius;
     int32_t tmatch_ncc_permille;
@@ -154,6 +158,9 @@ typedef struct {
     vt_box tmpl_box;      /* the box tmpl was sampled from */
     int32_t ref_w;        /* width and bottom row after the last detection taken */
     int32_t ref_b;        /* (scale_tol_permille's reference) */
+    int32_t tm_only;      /* 1 until a real measurement (ROI search, edge curves)
+                             took the track: between detections only its template
+                             measures it, confirmed or not */
 } vt_track;
 
 typedef struct {

@@ -74,6 +74,7 @@ typedef struct {
     vt_box tmpl_box;
     int32_t ref_w;
     int32_t ref_b;
+    int32_t tm_only;
 } vt_track;
 
 typedef struct {

@@ -121,6 +121,8 @@ typedef struct {
     int32_t score_min;
     int32_t nms_iou_permille;
     int32_t nms_contain_permille;
+    int32_t side_keep;
+    int32_t side_score_min;
 } vt_box_rescorer;
 vt_status vt_box_rescorer_check(const vt_box_rescorer *r);
 vt_status vt_box_rescore_trees(const vt_box_rescorer *r, const int32_t *f, int32_t *score);

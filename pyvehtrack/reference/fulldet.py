@@ -279,14 +279,27 @@ def rescore_trees(feat, thr, leaf_q16, bias_q16: int, depth: int, f) -> int:
     return max(-2 ** 31, min(2 ** 31 - 1, acc))
 
 
+def side_cut(box, w_img: int) -> bool:
+    """Twin of fulldet.c's vt__box_side_cut: the frame's left or right side cuts the box
+    (within a quarter of its width + 1 px)."""
+    l, r = int(box[0]), int(box[2])
+    w = r - l + 1
+    return 4 * l <= w + 4 or 4 * (int(w_img) - 1 - r) <= w + 4
+
+
 def rescore(boxes: np.ndarray, score_of, score_min: int, nms_iou_permille: int,
-            nms_contain_permille: int) -> np.ndarray:
+            nms_contain_permille: int, side_keep: int = 0, side_score_min: int = 0,
+            w_img: int = 0) -> np.ndarray:
     """Twin of vt_fulldet_rescore: score_of(row) -> the trees' Q16 score of a result row
     (l, t, r, b, score, source); rows scoring >= score_min, sorted by the new score
-    (stable), thinned by greedy NMS (windows.suppresses)."""
+    (stable), thinned by greedy NMS (windows.suppresses). With side_keep, a row the
+    frame's side cuts (side_cut, frame width w_img) whose first-stage score is >=
+    side_score_min stays, scored max(new score, score_min)."""
     rows = []
     for row in np.asarray(boxes, np.int64).reshape(-1, 6):
         s = int(score_of(row))
+        if s < score_min and side_keep and int(row[4]) >= side_score_min and side_cut(row[:4], w_img):
+            s = int(score_min)
         if s >= score_min:
             rows.append((*[int(v) for v in row[:4]], s, int(row[5])))
     rows.sort(key=lambda r: -r[4])   # Python's sort is stable

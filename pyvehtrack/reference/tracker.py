@@ -16,7 +16,8 @@ frame's curves by chamfer distance (reference/edge_track.py), and the template
 is refreshed from the box after every update.
 
 Template tracking (tmatch_radius > 0, GIST paper sec. III.B tracks by matching): when
-the measurement of a tentative track fails, the box (template's size) near the prediction whose 16x16 resample correlates
+the measurement of a tentative track (or of a confirmed one that no real measurement
+has taken yet: tm_only, confirmed by detections alone) fails, the box (template's size) near the prediction whose 16x16 resample correlates
 best with the track's template (taken at its last real measurement) measures it if
 the correlation reaches tmatch_ncc_permille / 1000; that is neither a hit nor a miss.
 Parts (part_permille > 0): a detection mostly inside a live track starts none, a
@@ -70,6 +71,7 @@ class Track:
     tmpl_box: tuple = (0, 0, 0, 0)
     ref_w: int = 0                 # width and bottom row after the last detection taken
     ref_b: int = 0
+    tm_only: bool = True           # no real measurement (ROI search, edge curves) took it yet
 
     def box_from_state(self):
         x = self.kf.x[:, 0]
@@ -304,12 +306,13 @@ class Tracker:
                     and abs(meas[3] - b) <= gate_b and self._scale_ok(t, meas):
                 self._update(t, meas[0], meas[3], meas[2])
                 t.sides = sides
+                t.tm_only = False
                 measured[i] = True
                 self._hit(t, img)
                 if c.measurement == MEAS_EDGE_CURVES:
                     self._edge_refresh(t, img)
-            elif c.tmatch_radius > 0 and t.state == TENTATIVE and (tm := self._tmatch(t, img)) is not None \
-                    and self._scale_ok(t, tm):
+            elif c.tmatch_radius > 0 and (t.state == TENTATIVE or (t.state == CONFIRMED and t.tm_only)) \
+                    and (tm := self._tmatch(t, img)) is not None and self._scale_ok(t, tm):
                 self._update(t, tm[0], tm[3], tm[2])
                 t.tm_frames += 1
             else:
