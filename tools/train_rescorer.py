@@ -4,7 +4,7 @@ sec. III classifier stage on the first stage's own boxes) and write a model file
 
     python tools/train_rescorer.py MODEL.npz OUT.npz [--offset -1.5] [--slack 1.5]
         [--trees 150] [--depth 3] [--C 0.3] [--margin-permille 250] [--win 48]
-        [--split fit] [--nms-iou 300] [--nms-contain 400] [--score-min 0] [--side-score-min T]
+        [--split fit] [--nms-iou 300] [--nms-contain 400] [--score-min 0] [--side-score-min T] [--mirror]
 
 Why: at its own thresholds the ACF file finds about half of the vehicles >= 32 px on
 unseen frames; lowered by 1.5 it boxes three in four, with 31 false boxes a frame that
@@ -107,6 +107,8 @@ def main(argv=None) -> int:
     ap.add_argument("--nms-iou", type=int, default=300, help="permille")
     ap.add_argument("--nms-contain", type=int, default=400, help="permille")
     ap.add_argument("--score-min", type=float, default=0.0, help="rescorer threshold (log-odds)")
+    ap.add_argument("--mirror", action="store_true",
+                    help="also learn from each frame's mirror image (twice the boxes)")
     ap.add_argument("--side-score-min", type=float, default=None,
                     help="keep a box the frame's side cuts when its ACF score is >= this (vt_box_rescorer's "
                          "side rule; default: off)")
@@ -133,16 +135,21 @@ def main(argv=None) -> int:
     rows = []   # (frame index, box, score, hog, label)
     frames = tusimple_frames(a.data, a.split)
     for i, e in enumerate(tqdm(frames, desc="candidates", unit="frame")):
-        g = cv2.imread(str(Path(a.data) / e["file_name"]), cv2.IMREAD_GRAYSCALE)
-        gt = np.array([(b["left"], b["top"], b["right"], b["bottom"]) for b in e["bbox"]], float).reshape(-1, 4)
+        g0 = cv2.imread(str(Path(a.data) / e["file_name"]), cv2.IMREAD_GRAYSCALE)
+        gt0 = np.array([(b["left"], b["top"], b["right"], b["bottom"]) for b in e["bbox"]], float).reshape(-1, 4)
         h = hor[e["file_name"]]
-        boxes, _ = acf.detect(m, g, h, hood_y(g.shape[0]), 1000.0)
-        for b in boxes:
-            bx = (int(b["left"]), int(b["top"]), int(b["right"]), int(b["bottom"]))
-            iou = box_iou_matrix(np.array([bx], float), gt).max() if len(gt) else 0.0
-            rows.append((i, bx, int(b["score"]), context_features(g, bx, a.margin_permille, a.win, hws), iou >= 0.5,
-                         h, g.shape))
-    fr = np.array([r[0] for r in rows])
+        for mir in ((False, True) if a.mirror else (False,)):
+            # the mirror image: the same road seen with left and right swapped (its boxes too)
+            g = g0[:, ::-1].copy() if mir else g0
+            gt = np.stack([g.shape[1] - 1 - gt0[:, 2], gt0[:, 1], g.shape[1] - 1 - gt0[:, 0], gt0[:, 3]], 1) \
+                if mir else gt0
+            boxes, _ = acf.detect(m, g, h, hood_y(g.shape[0]), 1000.0)
+            for b in boxes:
+                bx = (int(b["left"]), int(b["top"]), int(b["right"]), int(b["bottom"]))
+                iou = box_iou_matrix(np.array([bx], float), gt).max() if len(gt) else 0.0
+                rows.append(((i, mir), bx, int(b["score"]), context_features(g, bx, a.margin_permille, a.win, hws),
+                             iou >= 0.5, h, g.shape))
+    fr = np.array([r[0][0] for r in rows])   # a mirror image's boxes share its frame's fold
     X = np.array([r[3] for r in rows], np.float64) / 32768
     y = np.array([r[4] for r in rows])
     print(f"{len(rows)} boxes on {len(frames)} frames, {int(y.sum())} on a vehicle", flush=True)
@@ -162,10 +169,11 @@ def main(argv=None) -> int:
 
     def load(idx):
         for k in idx:
-            i = rows[k][0]
-            if i not in cache:
+            i, mir = rows[k][0]
+            if (i, mir) not in cache:
                 cache.clear()
-                cache[i] = cv2.imread(str(Path(a.data) / frames[i]["file_name"]), cv2.IMREAD_GRAYSCALE)
+                g = cv2.imread(str(Path(a.data) / frames[i]["file_name"]), cv2.IMREAD_GRAYSCALE)
+                cache[(i, mir)] = g[:, ::-1].copy() if mir else g
             yield k
 
     def head(Xs, ys):
@@ -194,7 +202,7 @@ def main(argv=None) -> int:
     print(f"trees: {len(feat)} of depth {a.depth}; C vs sklearn max |diff| {d:.2e} (Q16 leaves: "
           f"<= {len(feat)} x 2^-17)", flush=True)
     info = {"split": a.split, "offset": a.offset, "slack": a.slack, "trees": a.trees, "depth": a.depth, "C": a.C,
-            "n_boxes": len(rows), "n_pos": int(y.sum())}
+            "n_boxes": len(rows), "n_pos": int(y.sum()), "mirror": bool(a.mirror)}
     keys = rescorer_keys(w_q, sh, b, a.win, a.margin_permille, a.depth, feat, thr, leaf, bias,
                          int(round(a.score_min * 65536)), a.nms_iou, a.nms_contain, info,
                          None if a.side_score_min is None else int(round(a.side_score_min * 65536)))
