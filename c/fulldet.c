@@ -386,7 +386,6 @@ static int vt__box_in(const vt_box *b, const vt_image_u8 *img)
            b->bottom < img->h;
 }
 
-/* A result a second pass may work on: 0..VT_MAX_BOXES boxes, each inside img. */
 /* 1 when the frame's left or right side cuts b (within a quarter of its width + 1 px):
  * the second stages learnt from whole vehicles and cannot judge what the edge hides */
 static int vt__box_side_cut(const vt_box *b, int32_t w_img)
@@ -395,6 +394,7 @@ static int vt__box_side_cut(const vt_box *b, int32_t w_img)
     return 4 * (int64_t)b->left <= bw + 4 || 4 * ((int64_t)w_img - 1 - b->right) <= bw + 4;
 }
 
+/* A result a second pass may work on: 0..VT_MAX_BOXES boxes, each inside img. */
 static int vt__result_in(const vt_fulldet_result *res, const vt_image_u8 *img)
 {
     int32_t i;
