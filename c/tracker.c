@@ -109,7 +109,8 @@ vt_status vt_tracker_cfg_check(const vt_tracker_cfg *c)
         c->tmatch_ncc_permille > 1000 || c->tmatch_max < 0 ||
         c->tmatch_max > VT_TRACK_MAX_FRAMES_CFG || c->part_permille < 0 ||
         c->part_permille > 1000 || c->min_width < 0 || c->min_width > VT_MAX_WIDTH ||
-        c->scale_tol_permille < 0 || c->scale_tol_permille > 1000) {
+        c->scale_tol_permille < 0 || c->scale_tol_permille > 1000 ||
+        (c->snap_bottom != 0 && c->snap_bottom != 1)) {
         return VT_E_ARG;
     }
     return VT_OK;
@@ -300,9 +301,35 @@ static void vt__edge_measure(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *
     meas->bottom = tb->bottom + dy;
 }
 
-static void vt__start(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *cfg,
-                      const vt_image_u8 *img, const vt_box *d)
+/* snap_bottom (tracker.h): `d` with its bottom moved down to the row the ROI
+ * search finds under it, searched as a track with the box `d` would search its next frame. */
+static vt_box vt__snap(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_image_u8 *img,
+                              const vt_box *d)
 {
+    vt_box out = *d, roi, meas;
+    int32_t w = d->right - d->left + 1, found = 0, m, gate, gate_b;
+    if (!cfg->snap_bottom) {
+        return out;
+    }
+    m = vt__roi_margin(cfg, w);
+    gate = vt__max_i32(8, (int32_t)((int64_t)w * cfg->gate_permille / 1000));
+    gate_b = vt__max_i32(4, (int32_t)((int64_t)w * cfg->gate_bottom_permille / 1000));
+    roi.left = d->left - m;
+    roi.right = d->right + m;
+    roi.top = d->bottom - w / 2;
+    roi.bottom = d->bottom + vt__max_i32(m, gate_b);
+    if (vt_track_search(&tr->ws, NULL, &cfg->search, img, &roi, &meas, &found) == VT_OK && found &&
+        vt__abs_i32(meas.left - d->left) <= gate && vt__abs_i32(meas.right - d->right) <= gate &&
+        meas.bottom > d->bottom && meas.bottom - d->bottom <= gate_b) {
+        out.bottom = meas.bottom;
+    }
+    return out;
+}
+
+static void vt__start(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *cfg,
+                      const vt_image_u8 *img, const vt_box *d_in)
+{
+    const vt_box snapped = vt__snap(tr, cfg, img, d_in), *d = &snapped;
     int32_t w = d->right - d->left + 1, h = d->bottom - d->top + 1;
     memset(t, 0, sizeof(*t));
     if (vt_kf_init_bottom_edge(&t->kf, &cfg->model, vt_q16_from_int(d->left),
@@ -510,8 +537,9 @@ static void vt__after_reset(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *c
  * of the same bottom edge: it pulls back a search that drifted, and re-anchors
  * the aspect ratio and the side memory. */
 static void vt__absorb_detection(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *cfg,
-                                 const vt_image_u8 *img, const vt_box *d, uint8_t *measured)
+                                 const vt_image_u8 *img, const vt_box *d_in, uint8_t *measured)
 {
+    const vt_box snapped = vt__snap(tr, cfg, img, d_in), *d = &snapped;
     int32_t dw = d->right - d->left + 1;
     if (vt__update(t, d->left, d->bottom, d->right) != VT_OK) {
         return;
@@ -531,8 +559,9 @@ static void vt__absorb_detection(vt_tracker *tr, vt_track *t, const vt_tracker_c
  * detection: the filter restarts on the detection's bottom edge (a Kalman update
  * would only drag it halfway); id, hits and state are kept. */
 static void vt__reanchor(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *cfg,
-                         const vt_image_u8 *img, const vt_box *d, uint8_t *measured)
+                         const vt_image_u8 *img, const vt_box *d_in, uint8_t *measured)
 {
+    const vt_box snapped = vt__snap(tr, cfg, img, d_in), *d = &snapped;
     int32_t w = d->right - d->left + 1;
     if (vt_kf_init_bottom_edge(&t->kf, &cfg->model, vt_q16_from_int(d->left),
                                vt_q16_from_int(d->bottom), vt_q16_from_int(d->right)) != VT_OK) {

@@ -371,7 +371,7 @@ class TrackerCfg:
     gate_permille: int = 350
     gate_bottom_permille: int = 100
     confirm_hits: int = 3
-    max_coast: int = 6
+    max_coast: int = 9             # lives to the next detection run (every 10th frame)
     match_iou_permille: int = 300
     keep_ncc: float = 0.7
     init_max_change: int = 3
@@ -386,6 +386,8 @@ class TrackerCfg:
     # flat-road scale consistency: w / (bottom - horizon) kept within this permille of
     # the last detection's, plus 2 px (0: off; needs Tracker.set_horizon)
     scale_tol_permille: int = 200
+    # a detection's bottom snapped down to the row the ROI search finds under it (0: off)
+    snap_bottom: int = 1
 
 
 accept_renamed(TrackerCfg, TRACKER_RENAMED)  # the percent names of before issue 10

@@ -131,7 +131,7 @@ def test_ids_never_reused_and_full_capacity_is_defined():
     out = tr.step(img, detections=boxes)
     assert len(out) == cap and tr._tr.dropped_full == 4
     ids = {o.id for o in out}
-    for _ in range(12):  # everything coasts out and is deleted (max_coast = 6)
+    for _ in range(12):  # everything coasts out and is deleted (max_coast = 9)
         out = tr.step(img)
     assert out == []
     out = tr.step(img, detections=boxes[:1])
@@ -184,7 +184,8 @@ def test_python_defaults_equal_c_defaults():
     for f in ("roi_margin_min", "roi_margin_permille", "gate_permille", "gate_bottom_permille",
               "confirm_hits", "max_coast",
               "match_iou_permille", "keep_ncc", "init_max_change", "tmatch_radius",
-              "tmatch_ncc_permille", "tmatch_max", "part_permille", "min_width"):
+              "tmatch_ncc_permille", "tmatch_max", "part_permille", "min_width", "scale_tol_permille",
+              "snap_bottom"):
         assert getattr(c, f) == getattr(p, f), f
 
 

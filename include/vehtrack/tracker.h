@@ -59,7 +59,11 @@ typedef struct {
                                     permille of the box width (or 8 px) is rejected */
     int32_t gate_bottom_permille; /* ... or the bottom more than this (or 4 px)     */
     int32_t confirm_hits;        /* measurements before tentative -> confirmed      */
-    int32_t max_coast;           /* frames without measurement before deletion      */
+    int32_t max_coast;           /* frames without measurement before deletion
+                                    (9: a track lost between two detection runs
+                                    every 10th frame lives to the next one, where
+                                    a detection or keep_ncc decides, as the thesis
+                                    checks correlation before dropping a track)     */
     int32_t match_iou_permille;  /* detection <-> track association: IoU >= this/1000 */
     vt_q14 keep_ncc;             /* correlation that keeps an undetected track      */
     int32_t init_max_change;     /* px: the two-threshold rule's starting allowance */
@@ -110,6 +114,22 @@ typedef struct {
      * growing (a classifier box whose search walks onto the road's shadows) is
      * then no longer followed. 0, no horizon given, or R < 1: no check. */
     int32_t scale_tol_permille;
+    /* A detection's bottom row snapped down to the ROI search (thesis sec. 2.4.2:
+     * the verification step gives the box): before a detection starts, re-anchors
+     * or updates a track, the ROI search runs on the ROI a track with the
+     * detection's box would search (same margin, gates and rules, no side memory);
+     * if it finds a box whose sides are within the side gate of the detection's
+     * and whose bottom row lies below the detection's, by at most the bottom gate,
+     * the detection's bottom becomes that row (its top and sides stay). A
+     * classifier box's bottom may sit above the wheels (a side view's window ends
+     * at the sills); the next frames' search, and the scale check's reference,
+     * then agree with it. Not upwards: on a far car (the KITTI clip's right-lane
+     * car, 66 px wide) the search's row above a box's bottom was a bumper line the
+     * next frames' search did not find again, and the track was lost. Not the
+     * sides: on a 3/4 view the search measures the rear only, and snapping to it
+     * split the Udacity clip's white car into two tracks.
+     * 0: off (detections taken as given), 1: on. */
+    int32_t snap_bottom;
 } vt_tracker_cfg;
 
 #define VT_MEAS_ROI_SEARCH 0
@@ -124,7 +144,7 @@ typedef struct {
         .gate_permille = 350,                                               \
         .gate_bottom_permille = 100,                                        \
         .confirm_hits = 3,                                                  \
-        .max_coast = 6,                                                     \
+        .max_coast = 9,                                                     \
         .match_iou_permille = 300,                                          \
         .keep_ncc = (vt_q14)((VT_Q14_ONE * 7 + 5) / 10), /* 0.7, rounded */ \
         .init_max_change = 3,                                               \
@@ -136,6 +156,7 @@ typedef struct {
         .part_permille = 600,                                               \
         .min_width = 4,                                                     \
         .scale_tol_permille = 200,                                          \
+        .snap_bottom = 1,                                                   \
     }
 
 /* One track. Public so that callers can inspect and save it; change it only
@@ -197,7 +218,7 @@ typedef struct {
  * (Q14), 0 <= init_max_change <= VT_MAX_WIDTH, 0 <= tmatch_radius <= 64,
  * tmatch_ncc_permille in -1000..1000, 0 <= tmatch_max <= VT_TRACK_MAX_FRAMES_CFG,
  * part_permille in 0..1000, 0 <= min_width <= VT_MAX_WIDTH, scale_tol_permille in
- * 0..1000. VT_E_ARG otherwise and for NULL.
+ * 0..1000, snap_bottom 0 or 1. VT_E_ARG otherwise and for NULL.
  * vt_tracker_step checks the same before touching the tracker. */
 vt_status vt_tracker_cfg_check(const vt_tracker_cfg *cfg);
 

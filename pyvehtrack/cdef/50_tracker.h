@@ -52,6 +52,7 @@ typedef struct {
     int32_t part_permille;
     int32_t min_width;
     int32_t scale_tol_permille;
+    int32_t snap_bottom;
 } vt_tracker_cfg;
 #define VT_MEAS_ROI_SEARCH ...
 #define VT_MEAS_EDGE_CURVES ...

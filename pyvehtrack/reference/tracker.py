@@ -28,7 +28,11 @@ paper sec. 4's road restriction over time): a vehicle's width over its bottom ro
 distance below the horizon stays what it was at the last detection the track took; a
 measurement that changes it by more than the tolerance (plus 2 px in width and bottom)
 is refused, and a track whose frame brought no real measurement is dropped when its
-predicted box fails the same test."""
+predicted box fails the same test.
+Bottom snap (snap_bottom, thesis sec. 2.4.2's verification gives the box): a detection
+that starts, re-anchors or updates a track first has its bottom moved down to the row
+the ROI search finds under it (sides within the side gate, at most the bottom gate
+down), so a classifier box ending above the wheels and the next frames' search agree."""
 from __future__ import annotations
 
 import math
@@ -235,6 +239,23 @@ class Tracker:
             return None
         return best[1]
 
+    def _snap(self, img, d, grads):
+        """snap_bottom: the detection with its bottom moved down to the row the ROI
+        search finds under it, searched as a track with the box `d` would search its next frame."""
+        c = self.cfg
+        if not c.snap_bottom:
+            return d
+        l, top, r, b = d
+        w = r - l + 1
+        m = max(c.roi_margin_min, (w * c.roi_margin_permille) // 1000)
+        gate = max(8, (w * c.gate_permille) // 1000)
+        gate_b = max(4, (w * c.gate_bottom_permille) // 1000)
+        meas = track_search(img, c.search, (l - m, b - w // 2, r + m, b + max(m, gate_b)), None, grads)
+        if meas is not None and abs(meas[0] - l) <= gate and abs(meas[2] - r) <= gate and \
+                b < meas[3] <= b + gate_b:
+            return (l, top, r, meas[3])
+        return d
+
     def _reanchor(self, t: Track, img, d, measured: bool) -> None:
         """A part-track restarts on the whole detection, keeping id, hits and state."""
         c = self.cfg
@@ -339,7 +360,7 @@ class Tracker:
                 matched[bi] = True
                 match_of_det[bj] = bi
                 # the detection is a second measurement of the bottom edge
-                t, d = self.tracks[bi], dets[bj]
+                t, d = self.tracks[bi], self._snap(img, dets[bj], grads)
                 dw = d[2] - d[0] + 1
                 self._update(t, d[0], d[3], d[2])
                 t.aspect_q8 = ((d[3] - d[1] + 1) * 256 + dw // 2) // dw
@@ -363,7 +384,7 @@ class Tracker:
                                 _inside(t.box, d, c.part_permille):
                             matched[i] = True
                             match_of_det[j] = i
-                            self._reanchor(t, img, d, measured[i])
+                            self._reanchor(t, img, self._snap(img, d, grads), measured[i])
                             measured[i] = True
                             break
             for i, t in enumerate(self.tracks):
@@ -390,7 +411,7 @@ class Tracker:
                 if free is None:
                     self.dropped_full += 1
                     continue
-                self._start(self.tracks[free], img, d)
+                self._start(self.tracks[free], img, self._snap(img, d, grads))
         h, w = img.shape
         for t in self.tracks:
             if t.state == FREE:
