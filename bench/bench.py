@@ -529,6 +529,27 @@ def _acf_detect(ctx: Ctx) -> Stage:
                  note=f"C: vt_acf_detect_n, {1 + len(m.more)} windows (acf_gray.npz)")
 
 
+@register("detect_default", sizes=((1280, 720),), driver=False)
+def _detect_default(ctx: Ctx) -> Stage:
+    """One detection frame as `pyvehtrack detect` runs it without --model on the C engine
+    (fullroad.default_model_path: acf_gray_rescore.npz and its settings): the lane stage,
+    the ego-lane detector, the ACF windows, the second stage, the box regressor and the
+    rescorer, one vt_pipeline_step; no reference column (no float twin of the ACF stage)."""
+    from pyvehtrack.fullroad import default_model_path
+    from pyvehtrack.pipeline import Pipeline
+    img = ctx.frame
+    path = default_model_path("c")
+    pipe = Pipeline("c", model=str(path), detect_every=1, track=False)
+    last = {}
+
+    def c():
+        last["boxes"] = pipe.step_gray(img).box_array
+
+    return Stage("detect_default", c, None, pixels=img.size, calls=1,
+                 digest=lambda: digest(np.asarray(last["boxes"])[:, :4]) if len(last.get("boxes", [])) else 0,
+                 note=f"C: vt_pipeline_step, detection frame, {path.name} and its settings")
+
+
 @register("fullroad_mlp_wide", sizes=((1280, 720),), driver=False)
 def _fullroad_mlp_wide(ctx: Ctx) -> Stage:
     """Whole-road detection in C with the opt-in tests/data/window_mlp_hog32_wide.npz and
