@@ -142,7 +142,11 @@ def test_c_matches_reference_with_a_horizon(seed, horizon, every, n, tol):
         frames.append(img)
         if t % every == 0:
             dets_at[t] = boxes
-    cfg = rtrk.TrackerCfg(scale_tol_permille=tol)
+    assert_engines_agree(rtrk.TrackerCfg(scale_tol_permille=tol), frames, dets_at, horizon)
+
+
+def assert_engines_agree(cfg, frames, dets_at, horizon):
+    """The tolerance above: the same ids and states every frame, boxes within IoU >= 0.9."""
     c_out = run("c", cfg, frames, dets_at, horizon)
     r_out = run("reference", cfg, frames, dets_at, horizon)
     for k, (c, r) in enumerate(zip(c_out, r_out)):

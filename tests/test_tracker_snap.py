@@ -17,10 +17,9 @@ from pyvehtrack.reference.track_search import track_search
 from pyvehtrack.tracker import Tracker
 
 from test_tracker import draw_car
-from test_tracker_scale import run
+from test_tracker_scale import assert_engines_agree, run
 
 ffi, lib = vt.ffi, vt.lib
-iou = rtrk.box_iou
 
 
 def one_car(l=120, by=150, w=60, seed=0, n=1):
@@ -114,13 +113,7 @@ def test_c_matches_reference_with_snapped_detections(seed, every, n, snap, horiz
         frames.append(img)
         if t % every == 0:
             dets_at[t] = [(l, tp, r, bt + int(rng.integers(-12, 5))) for l, tp, r, bt in boxes]
-    cfg = rtrk.TrackerCfg(snap_bottom=snap)
-    c_out = run("c", cfg, frames, dets_at, horizon)
-    r_out = run("reference", cfg, frames, dets_at, horizon)
-    for k, (c, r) in enumerate(zip(c_out, r_out)):
-        assert [(i, s) for i, s, _ in c] == [(i, s) for i, s, _ in r], k
-        for a, b in zip(c, r):
-            assert iou(a[2], b[2]) >= 0.9, (k, a, b)
+    assert_engines_agree(rtrk.TrackerCfg(snap_bottom=snap), frames, dets_at, horizon)
 
 
 def test_bad_values():
