@@ -1002,6 +1002,20 @@ vt_status vt_box_rescore_trees(const vt_box_rescorer *r, const int32_t *f, int32
     return VT_OK;
 }
 
+/* The rescorer, camera and image checks vt_box_rescore_features and
+ * vt_fulldet_rescore share, in that order (the first failure's status). */
+static vt_status vt__rescore_args(const vt_box_rescorer *r, const vt_camera_min *cam, const vt_image_u8 *img)
+{
+    vt_status s = vt_box_rescorer_check(r);
+    if (s == VT_OK) {
+        s = vt_camera_min_check(cam);
+    }
+    if (s == VT_OK) {
+        s = vt_image_u8_check(img);
+    }
+    return s;
+}
+
 /* The checked core of vt_box_rescore_features (r, cam, img and in->box valid). */
 static vt_status vt__rescore_features(vt_cls_box_ws *ws, const vt_box_rescorer *r,
                                       const vt_camera_min *cam, const vt_image_u8 *img,
@@ -1037,13 +1051,7 @@ vt_status vt_box_rescore_features(vt_cls_box_ws *ws, const vt_box_rescorer *r,
     if (ws == NULL || in == NULL || f == NULL) {
         return VT_E_ARG;
     }
-    s = vt_box_rescorer_check(r);
-    if (s == VT_OK) {
-        s = vt_camera_min_check(cam);
-    }
-    if (s == VT_OK) {
-        s = vt_image_u8_check(img);
-    }
+    s = vt__rescore_args(r, cam, img);
     if (s != VT_OK) {
         return s;
     }
@@ -1064,13 +1072,7 @@ vt_status vt_fulldet_rescore(vt_cls_box_ws *ws, const vt_box_rescorer *r,
     if (ws == NULL || res == NULL) {
         return VT_E_ARG;
     }
-    s = vt_box_rescorer_check(r);
-    if (s == VT_OK) {
-        s = vt_camera_min_check(cam);
-    }
-    if (s == VT_OK) {
-        s = vt_image_u8_check(img);
-    }
+    s = vt__rescore_args(r, cam, img);
     if (s != VT_OK) {
         return s;
     }

@@ -301,23 +301,34 @@ static void vt__edge_measure(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *
     meas->bottom = tb->bottom + dy;
 }
 
+/* The ROI of the verification step around `box` (thesis sec. 3.6: "determined as
+ * described in the hypothesis verification step"): the bottom edge widened by
+ * the margin *m, half the edge length high; below it, as far as the bottom gate
+ * *gate_b lets the edge move. *gate: how far a side may move. */
+static void vt__search_roi(const vt_tracker_cfg *cfg, const vt_box *box, vt_box *roi, int32_t *m,
+                           int32_t *gate, int32_t *gate_b)
+{
+    int32_t w = box->right - box->left + 1;
+    *m = vt__roi_margin(cfg, w);
+    *gate = vt__max_i32(8, (int32_t)((int64_t)w * cfg->gate_permille / 1000));
+    *gate_b = vt__max_i32(4, (int32_t)((int64_t)w * cfg->gate_bottom_permille / 1000));
+    roi->left = box->left - *m;
+    roi->right = box->right + *m;
+    roi->top = box->bottom - w / 2;
+    roi->bottom = box->bottom + vt__max_i32(*m, *gate_b);
+}
+
 /* snap_bottom (tracker.h): `d` with its bottom moved down to the row the ROI
  * search finds under it, searched as a track with the box `d` would search its next frame. */
 static vt_box vt__snap(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_image_u8 *img,
                               const vt_box *d)
 {
     vt_box out = *d, roi, meas;
-    int32_t w = d->right - d->left + 1, found = 0, m, gate, gate_b;
+    int32_t found = 0, m, gate, gate_b;
     if (!cfg->snap_bottom) {
         return out;
     }
-    m = vt__roi_margin(cfg, w);
-    gate = vt__max_i32(8, (int32_t)((int64_t)w * cfg->gate_permille / 1000));
-    gate_b = vt__max_i32(4, (int32_t)((int64_t)w * cfg->gate_bottom_permille / 1000));
-    roi.left = d->left - m;
-    roi.right = d->right + m;
-    roi.top = d->bottom - w / 2;
-    roi.bottom = d->bottom + vt__max_i32(m, gate_b);
+    vt__search_roi(cfg, d, &roi, &m, &gate, &gate_b);
     if (vt_track_search(&tr->ws, NULL, &cfg->search, img, &roi, &meas, &found) == VT_OK && found &&
         vt__abs_i32(meas.left - d->left) <= gate && vt__abs_i32(meas.right - d->right) <= gate &&
         meas.bottom > d->bottom && meas.bottom - d->bottom <= gate_b) {
@@ -457,7 +468,7 @@ static int vt__predict_measure(vt_tracker *tr, vt_track *t, const vt_tracker_cfg
 {
     vt_box roi, meas;
     vt_track_sides sides;
-    int32_t found = 0, w, m, gate, gate_b;
+    int32_t found = 0, m, gate, gate_b;
     vt_status s;
     t->age = vt__inc_sat(t->age);
     if (vt_kf_predict(&t->kf) != VT_OK) {
@@ -465,18 +476,7 @@ static int vt__predict_measure(vt_tracker *tr, vt_track *t, const vt_tracker_cfg
         return 0;
     }
     vt__box_from_state(t);
-    w = t->box.right - t->box.left + 1;
-    m = vt__roi_margin(cfg, w);
-    gate = vt__max_i32(8, (int32_t)((int64_t)w * cfg->gate_permille / 1000));
-    gate_b = vt__max_i32(4, (int32_t)((int64_t)w * cfg->gate_bottom_permille / 1000));
-    /* The ROI of the verification step (thesis sec. 3.6: "determined as
-     * described in the hypothesis verification step"): the bottom edge widened
-     * by the margin, half the edge length high; below it, as far as the bottom
-     * gate lets the edge move. */
-    roi.left = t->box.left - m;
-    roi.right = t->box.right + m;
-    roi.top = t->box.bottom - w / 2;
-    roi.bottom = t->box.bottom + vt__max_i32(m, gate_b);
+    vt__search_roi(cfg, &t->box, &roi, &m, &gate, &gate_b);
     sides = t->sides;
     if (cfg->measurement == VT_MEAS_EDGE_CURVES) {
         vt__edge_measure(tr, t, cfg, img, m, &meas, &found);

@@ -239,6 +239,17 @@ class Tracker:
             return None
         return best[1]
 
+    def _search_roi(self, box):
+        """c/tracker.c's vt__search_roi: the verification step's ROI around `box` (the
+        bottom edge widened by the margin, half the edge length high; below, as far as
+        the bottom gate lets the edge move), the margin, the side gate, the bottom gate."""
+        c = self.cfg
+        l, _, r, b = box
+        w = r - l + 1
+        m = max(c.roi_margin_min, (w * c.roi_margin_permille) // 1000)
+        gate_b = max(4, (w * c.gate_bottom_permille) // 1000)
+        return (l - m, b - w // 2, r + m, b + max(m, gate_b)), m, max(8, (w * c.gate_permille) // 1000), gate_b
+
     def _snap(self, img, d, grads):
         """snap_bottom: the detection with its bottom moved down to the row the ROI
         search finds under it, searched as a track with the box `d` would search its next frame."""
@@ -246,11 +257,8 @@ class Tracker:
         if not c.snap_bottom:
             return d
         l, top, r, b = d
-        w = r - l + 1
-        m = max(c.roi_margin_min, (w * c.roi_margin_permille) // 1000)
-        gate = max(8, (w * c.gate_permille) // 1000)
-        gate_b = max(4, (w * c.gate_bottom_permille) // 1000)
-        meas = track_search(img, c.search, (l - m, b - w // 2, r + m, b + max(m, gate_b)), None, grads)
+        roi, _, gate, gate_b = self._search_roi(d)
+        meas = track_search(img, c.search, roi, None, grads)
         if meas is not None and abs(meas[0] - l) <= gate and abs(meas[2] - r) <= gate and \
                 b < meas[3] <= b + gate_b:
             return (l, top, r, meas[3])
@@ -311,18 +319,12 @@ class Tracker:
             t.kf.predict()
             t.box_from_state()
             l, top, r, b = t.box
-            w = r - l + 1
-            m = max(c.roi_margin_min, (w * c.roi_margin_permille) // 1000)
-            gate = max(8, (w * c.gate_permille) // 1000)
-            gate_b = max(4, (w * c.gate_bottom_permille) // 1000)
+            roi, m, gate, gate_b = self._search_roi(t.box)
             sides = Sides(**vars(t.sides))
-            # the verification step's ROI: half the edge length high; below, as far
-            # as the bottom gate lets the edge move
             if c.measurement == MEAS_EDGE_CURVES:
                 meas = self._edge_measure(t, img, m)
             else:
-                meas = track_search(img, c.search, (l - m, b - w // 2, r + m, b + max(m, gate_b)),
-                                    sides, grads)
+                meas = track_search(img, c.search, roi, sides, grads)
             if meas is not None and abs(meas[0] - l) <= gate and abs(meas[2] - r) <= gate \
                     and abs(meas[3] - b) <= gate_b and self._scale_ok(t, meas):
                 self._update(t, meas[0], meas[3], meas[2])
