@@ -109,6 +109,37 @@ def test_pack_rebuilds_the_shipped_file(tmp_path, monkeypatch):
         ta.main(["pack", str(tmp_path / "rear.npz"), "--out", str(out), "--more", str(tmp_path / "m0.npz"), "0", "1"])
 
 
+def test_add_appends_a_window_and_keeps_the_rest(tmp_path):
+    """tools/train_acf.py add (the recipe of the windows measured beside the rescorer, README): the
+    window goes under the file's next prefix with its threshold, loosened as train_rescorer.py loosens
+    the others when asked; every key of the file stays as it was; a full file is refused (exit 2)."""
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("train_acf", ROOT / "tools" / "train_acf.py")
+    ta = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(ta)
+    base = MODEL.parent / "acf_gray_rescore.npz"
+    win = acf.AcfModel.load(MODEL)
+    win.more = []
+    win.first_scale = 4
+    win.save(tmp_path / "near.npz")
+    out = tmp_path / "added.npz"
+    assert ta.main(["add", str(base), str(tmp_path / "near.npz"), "--thr", "0.5", "--loosen", "-1.5", "1.5",
+                    "--out", str(out)]) == 0
+    z, p = np.load(base, allow_pickle=False), np.load(out, allow_pickle=False)
+    assert all(np.array_equal(z[k], p[k]) for k in z.files)
+    m = acf.AcfModel.load(out)
+    i = len(acf.AcfModel.load(base).more) + 1
+    assert len(m.more) == i and i == acf.MAX_MODELS - 1
+    got = m.more[-1]
+    # 0.5 - 1.5 = -1.0 real units = -65536 in Q16; each trace entry 1.5 * 65536 = 98304 lower
+    assert got.score_min_q16 == -65536 and got.first_scale == 4 and got.nms_contain_permille == 1000
+    assert np.array_equal(got.reject_q16.astype(np.int64), win.reject_q16.astype(np.int64) - 98304)
+    assert np.array_equal(got.leaf_q16, win.leaf_q16) and np.array_equal(p[f"acf{i}_feat"], win.feat)
+    with pytest.raises(SystemExit) as e:    # VT_ACF_MAX_MODELS windows already
+        ta.main(["add", str(out), str(tmp_path / "near.npz"), "--out", str(tmp_path / "more.npz")])
+    assert e.value.code == 2 and not (tmp_path / "more.npz").exists()
+
+
 def test_first_scale_reaches_the_core(tmp_path):
     """A model's first_scale (a near-vehicle window: train_acf.py train --first-level) is saved, loaded
     and given to vt_acf_detect_n: from level 4 on every box is at least twice the window (level 4's

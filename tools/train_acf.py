@@ -6,6 +6,7 @@
     PYTHONPATH=. python3 tools/train_acf.py eval MODEL.npz --split val [--thr -1 0 1]
     PYTHONPATH=. python3 tools/train_acf.py pack MODEL.npz --out OUT.npz [--thr T] [--base BASE.npz]
                                                 [--settings JSON] [--nms-contain P] [--more M2.npz T2]
+    PYTHONPATH=. python3 tools/train_acf.py add MODEL.npz WINDOW.npz --out OUT.npz [--thr T] [--loosen -1.5 1.5]
     (train --win CW CH --aspect MIN MAX --veh-w MIN_MM MAX_MM: another window, e.g. the flat
     side-view one: --win 16 8 --aspect 0.2 0.65 --veh-w 1500 9000; --edge left|right: a window
     that scans only the frame's left / right edge column, for vehicles the edge cuts)
@@ -376,7 +377,32 @@ def main(argv=None) -> int:
     k.add_argument("--more", nargs="+", action="append", default=[], metavar="MODEL THR [MIN_MM MAX_MM]",
                    help="another window's model and its threshold, run on the same pyramid (acf1_* keys); "
                         "MIN_MM MAX_MM replace that model's band (the widths it was trained on may be wider)")
+    d = sub.add_parser("add", help="a window model appended to a shipped file (its next acfN_ prefix), the "
+                                   "file's other keys (a rescorer's too) unchanged")
+    d.add_argument("model")
+    d.add_argument("window", help="the window's model (train --out DIR: DIR/acf_r1.npz)")
+    d.add_argument("--thr", type=float, default=0.0, help="the window's score_min (real units)")
+    d.add_argument("--loosen", nargs=2, type=float, default=None, metavar=("OFFSET", "SLACK"),
+                   help="lower its threshold by OFFSET and its soft-cascade trace by SLACK, as "
+                        "train_rescorer.py does to every window of a rescorer's file (e.g. -1.5 1.5)")
+    d.add_argument("--out", required=True, type=Path)
     a = ap.parse_args(argv)
+    if a.cmd == "add":
+        z = dict(np.load(a.model, allow_pickle=False))
+        i = 1 + len(acf.AcfModel.load(a.model).more)
+        if i >= acf.MAX_MODELS:
+            ap.error(f"{a.model}: already {i} windows (VT_ACF_MAX_MODELS {acf.MAX_MODELS})")
+        mm = acf.AcfModel.load(a.window)
+        mm.score_min_q16 = int(np.floor(a.thr * 65536 + 0.5))
+        keys = mm.keys(f"acf{i}_")
+        if a.loosen:
+            sys.path.insert(0, str(_ROOT / "tools"))
+            from train_rescorer import loosened  # noqa: PLC0415
+            keys = loosened(keys, -abs(a.loosen[0]), abs(a.loosen[1]))
+        z.update(keys)
+        np.savez_compressed(a.out, **z)
+        print(f"{a.out}: window {i} ({mm.win_cw} x {mm.win_ch} cells) added to {a.model}")
+        return 0
     if a.cmd == "pack":
         z = dict(np.load(a.model, allow_pickle=False))
         z["score_min_q16"] = np.int64(np.floor(a.thr * 65536 + 0.5))
