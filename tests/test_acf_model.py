@@ -17,6 +17,15 @@ MODEL = ROOT / "pyvehtrack" / "models" / "acf_gray.npz"
 DATA = Path(__file__).resolve().parent / "data"
 
 
+def _train_acf():
+    """tools/train_acf.py as a module (it is a script, not part of the package)."""
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("train_acf", ROOT / "tools" / "train_acf.py")
+    ta = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(ta)
+    return ta
+
+
 def test_model_loads_with_its_settings():
     m = load_model(MODEL)
     assert isinstance(m, acf.AcfModel)
@@ -82,10 +91,7 @@ def test_reference_engine_says_so():
 def test_pack_rebuilds_the_shipped_file(tmp_path, monkeypatch):
     """tools/train_acf.py pack is the shipped file's recipe (README): packing the shipped file's own five
     windows again, each with its threshold and band, gives back every array of the shipped file."""
-    import importlib.util
-    spec = importlib.util.spec_from_file_location("train_acf", ROOT / "tools" / "train_acf.py")
-    ta = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(ta)
+    ta = _train_acf()
     m = acf.AcfModel.load(MODEL)
     z = np.load(MODEL, allow_pickle=False)
     rear = acf.AcfModel.load(MODEL)
@@ -113,10 +119,7 @@ def test_add_appends_a_window_and_keeps_the_rest(tmp_path):
     """tools/train_acf.py add (the recipe of the windows measured beside the rescorer, README): the
     window goes under the file's next prefix with its threshold, loosened as train_rescorer.py loosens
     the others when asked; every key of the file stays as it was; a full file is refused (exit 2)."""
-    import importlib.util
-    spec = importlib.util.spec_from_file_location("train_acf", ROOT / "tools" / "train_acf.py")
-    ta = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(ta)
+    ta = _train_acf()
     base = MODEL.parent / "acf_gray_rescore.npz"
     win = acf.AcfModel.load(MODEL)
     win.more = []

@@ -155,6 +155,26 @@ def assert_engines_agree(cfg, frames, dets_at, horizon):
             assert iou(a[2], b[2]) >= 0.9, (k, a, b)
 
 
+def assert_cfg_field_refused(tr, field, values, text=None):
+    """Each of `values` in TrackerConfig `field`: VT_E_ARG from vt_tracker_cfg_check and from
+    vt_tracker_step on tracker `tr` (nothing stepped), ValueError naming the field from Python;
+    a string (`text`, when given) in it: TypeError naming the field."""
+    img = np.zeros((40, 40), np.uint8)
+    v = _native.view(img, "img")
+    out = ffi.new("vt_track_out[4]")
+    n = ffi.new("int32_t *")
+    for value in values:
+        c = _native.tracker_cfg_default()
+        setattr(c, field, value)
+        assert lib.vt_tracker_cfg_check(c) == lib.VT_E_ARG, value
+        assert lib.vt_tracker_step(tr, c, v, 0, ffi.NULL, 0, out, 4, n) == lib.VT_E_ARG, value
+        with pytest.raises(ValueError, match=field):
+            Tracker(cfg=rtrk.TrackerCfg(**{field: value}))
+    if text is not None:
+        with pytest.raises(TypeError, match=field):
+            Tracker(cfg=rtrk.TrackerCfg(**{field: text}))
+
+
 def test_bad_values():
     tr = _native.tracker_new()
     assert lib.vt_tracker_set_horizon(ffi.NULL, 1, 10) == lib.VT_E_ARG
@@ -164,17 +184,5 @@ def test_bad_values():
         assert tr.horizon_known == 0   # unchanged
     assert lib.vt_tracker_set_horizon(tr, 1, lim) == lib.VT_OK and tr.horizon_y == lim
     assert lib.vt_tracker_set_horizon(tr, 0, 2**31 - 1) == lib.VT_OK and tr.horizon_known == 0
-    img = np.zeros((40, 40), np.uint8)
-    v = _native.view(img, "img")
-    out = ffi.new("vt_track_out[4]")
-    n = ffi.new("int32_t *")
-    for value in (-1, 1001):
-        c2 = _native.tracker_cfg_default()
-        c2.scale_tol_permille = value
-        assert lib.vt_tracker_cfg_check(c2) == lib.VT_E_ARG, value
-        assert lib.vt_tracker_step(tr, c2, v, 0, ffi.NULL, 0, out, 4, n) == lib.VT_E_ARG, value
-        with pytest.raises(ValueError, match="scale_tol_permille"):
-            Tracker(cfg=rtrk.TrackerCfg(scale_tol_permille=value))
-    with pytest.raises(TypeError, match="scale_tol_permille"):
-        Tracker(cfg=rtrk.TrackerCfg(scale_tol_permille="200"))
+    assert_cfg_field_refused(tr, "scale_tol_permille", (-1, 1001), "200")
     assert tr.frame == 0

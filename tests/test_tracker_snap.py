@@ -10,16 +10,12 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-import pyvehtrack as vt
 from pyvehtrack import _native
 from pyvehtrack.reference import tracker as rtrk
 from pyvehtrack.reference.track_search import track_search
-from pyvehtrack.tracker import Tracker
 
 from test_tracker import draw_car
-from test_tracker_scale import assert_engines_agree, run
-
-ffi, lib = vt.ffi, vt.lib
+from test_tracker_scale import assert_cfg_field_refused, assert_engines_agree, run
 
 
 def one_car(l=120, by=150, w=60, seed=0, n=1):
@@ -117,17 +113,4 @@ def test_c_matches_reference_with_snapped_detections(seed, every, n, snap, horiz
 
 
 def test_bad_values():
-    img = np.zeros((40, 40), np.uint8)
-    v = _native.view(img, "img")
-    out = ffi.new("vt_track_out[4]")
-    n = ffi.new("int32_t *")
-    tr = _native.tracker_new()
-    for value in (-1, 2, 2**31 - 1, -2**31):
-        c = _native.tracker_cfg_default()
-        c.snap_bottom = value
-        assert lib.vt_tracker_cfg_check(c) == lib.VT_E_ARG, value
-        assert lib.vt_tracker_step(tr, c, v, 0, ffi.NULL, 0, out, 4, n) == lib.VT_E_ARG, value
-        with pytest.raises(ValueError, match="snap_bottom"):
-            Tracker(cfg=rtrk.TrackerCfg(snap_bottom=value))
-    with pytest.raises(TypeError, match="snap_bottom"):
-        Tracker(cfg=rtrk.TrackerCfg(snap_bottom="1"))
+    assert_cfg_field_refused(_native.tracker_new(), "snap_bottom", (-1, 2, 2**31 - 1, -2**31), "1")

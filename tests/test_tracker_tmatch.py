@@ -14,6 +14,7 @@ from pyvehtrack.reference import tracker as rtrk
 from pyvehtrack.tracker import Tracker
 
 from test_tracker import make_scene
+from test_tracker_scale import assert_cfg_field_refused
 
 ffi, lib = vt.ffi, vt.lib
 iou = rtrk.box_iou
@@ -187,20 +188,10 @@ def test_narrow_detections_start_no_track(engine):
 
 def test_new_fields_bad_values():
     tr = _native.tracker_new()
-    img = np.zeros((40, 40), np.uint8)
-    v = _native.view(img, "img")
-    out = ffi.new("vt_track_out[4]")
-    n = ffi.new("int32_t *")
-    for field, value in [("tmatch_radius", -1), ("tmatch_radius", 65), ("tmatch_ncc_permille", 1001),
-                         ("tmatch_ncc_permille", -1001), ("tmatch_max", -1), ("tmatch_max", 1801),
-                         ("part_permille", -1), ("part_permille", 1001), ("min_width", -1),
-                         ("min_width", int(lib.VT_MAX_WIDTH) + 1)]:
-        c2 = _native.tracker_cfg_default()
-        setattr(c2, field, value)
-        assert lib.vt_tracker_cfg_check(c2) == lib.VT_E_ARG, field
-        assert lib.vt_tracker_step(tr, c2, v, 0, ffi.NULL, 0, out, 4, n) == lib.VT_E_ARG, field
-        with pytest.raises(ValueError, match=field):
-            Tracker(cfg=rtrk.TrackerCfg(**{field: value}))
+    for field, values in [("tmatch_radius", (-1, 65)), ("tmatch_ncc_permille", (1001, -1001)),
+                          ("tmatch_max", (-1, 1801)), ("part_permille", (-1, 1001)),
+                          ("min_width", (-1, int(lib.VT_MAX_WIDTH) + 1))]:
+        assert_cfg_field_refused(tr, field, values)
     with pytest.raises(ValueError, match="tmatch_radius"):  # the project's rule: no silent rounding
         Tracker(cfg=rtrk.TrackerCfg(tmatch_radius=2.5))
     with pytest.raises(TypeError, match="part_permille"):
