@@ -113,7 +113,8 @@ vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg)
                        cfg->handover_edge_permille > 500)) {
         s = VT_E_ARG;
     }
-    if (s == VT_OK && (cfg->ttc_fuse_permille < 0 || cfg->ttc_fuse_permille > 1000)) {
+    if (s == VT_OK && (cfg->ttc_fuse_permille < 0 || cfg->ttc_fuse_permille > 1000 ||
+                       (cfg->road_above_hood != 0 && cfg->road_above_hood != 1))) {
         s = VT_E_ARG;
     }
     return s;
@@ -625,6 +626,20 @@ static vt_status vt__detect_ego(vt_pipeline *p, const vt_image_u8 *frame, const 
     int32_t i;
     vt_status s = VT_OK;
     vt__road(p, frame, given, out, lanes_ok);
+    if (p->cfg.road_above_hood && out->road_source != VT_ROAD_SRC_NONE &&
+        (out->road_source == VT_ROAD_SRC_LANES || given == NULL)) {
+        /* the hood is not road: its edge against the road is dark above bright. The
+         * shadow scan's Sobel at a row reads the row below, so the last road row is
+         * two above the hood's first */
+        int32_t hood = vt__frac_q16(frame->h, p->cfg.road_camera.hood_q16);
+        hood = hood < 1 ? 1 : hood;
+        if (hood - 2 < out->road.y_top) {
+            out->road.valid = 0;
+            out->road_source = VT_ROAD_SRC_NONE;
+        } else if (out->road.y_bottom > hood - 2) {
+            out->road.y_bottom = hood - 2;
+        }
+    }
     p->det.n_hyp = 0;
     p->det.n_boxes = 0;
     if (out->road_source != VT_ROAD_SRC_NONE) {

@@ -5,7 +5,8 @@ The camera file (JSON) is what every command takes (`--camera CAMERA.json`):
     {"fx": 721.5, "fy": 721.5, "cx": 609.6, "cy": 172.9, "height_m": 1.65,
      "pitch_deg": 0.0,                       optional, positive = looking down
      "dist": [k1, k2, p1, p2, k3],           optional, OpenCV order
-     "image_size": [1242, 375]}              optional, written by `pyvehtrack calibrate`
+     "image_size": [1242, 375],              optional, written by `pyvehtrack calibrate`
+     "hood_row": 668}                        optional (needs image_size): the hood's highest row
 
 in pixels of the input frame. `height_m` (the camera's height above the road) cannot
 come from a chessboard: `pyvehtrack calibrate` takes it as --height-m or leaves it
@@ -74,7 +75,11 @@ def _num(d: dict, key: str, *, required: bool, positive: bool = False, lo=None, 
 @dataclass(frozen=True)
 class Camera:
     """Intrinsics (px of the input frame), height above the road (m), nominal pitch
-    (degrees, positive = looking down), OpenCV distortion coefficients."""
+    (degrees, positive = looking down), OpenCV distortion coefficients, the image size the
+    pixels refer to and the first row of the ego car's hood in that image (hood_row, the
+    hood's highest row; image_size's height when no hood is in view): with it the
+    ego-lane detector's road ends above the hood, whose edge against the road looks
+    like a vehicle's shadow."""
     fx: float
     fy: float
     cx: float
@@ -83,10 +88,11 @@ class Camera:
     pitch_deg: float | None = None
     dist: tuple | None = None
     image_size: tuple | None = None
+    hood_row: int | None = None
 
     def __post_init__(self):
         v = Camera.from_dict(self.to_dict())  # one validation path for files and code
-        for f in ("fx", "fy", "cx", "cy", "height_m", "pitch_deg", "dist", "image_size"):
+        for f in ("fx", "fy", "cx", "cy", "height_m", "pitch_deg", "dist", "image_size", "hood_row"):
             object.__setattr__(self, f, getattr(v, f))
 
     # -- file I/O ---------------------------------------------------------------------
@@ -98,13 +104,15 @@ class Camera:
             d["dist"] = list(self.dist)
         if self.image_size is not None:
             d["image_size"] = list(self.image_size)
+        if self.hood_row is not None:
+            d["hood_row"] = self.hood_row
         return d
 
     @staticmethod
     def from_dict(d) -> "Camera":
         if not isinstance(d, dict):
             raise CameraFileError(f"camera: expected a JSON object, got {type(d).__name__}")
-        known = {"fx", "fy", "cx", "cy", "height_m", "pitch_deg", "dist", "image_size"}
+        known = {"fx", "fy", "cx", "cy", "height_m", "pitch_deg", "dist", "image_size", "hood_row"}
         unknown = sorted(set(d) - known)
         if unknown:
             raise CameraFileError(f"camera: unknown key(s) {unknown} (known: {sorted(known)})")
@@ -129,10 +137,19 @@ class Camera:
                                for v in size)):
                 raise CameraFileError(f"camera: 'image_size' must be [width, height] in pixels, got {size!r}")
             size = (int(size[0]), int(size[1]))
-        return Camera.__new__(Camera)._init(fx, fy, cx, cy, h, pitch, dist, size)
+        hood = d.get("hood_row")
+        if hood is not None:
+            if size is None:
+                raise CameraFileError("camera: 'hood_row' needs 'image_size' (the row is in pixels of that image)")
+            # the road camera holds the hood as a fraction of the height, 0.05 .. 2
+            lo = math.ceil(0.05 * size[1])
+            if isinstance(hood, bool) or not isinstance(hood, int) or not lo <= hood <= size[1]:
+                raise CameraFileError(f"camera: 'hood_row' must be a whole row {lo}..{size[1]} (the image "
+                                      f"height: no hood in view), got {hood!r}")
+        return Camera.__new__(Camera)._init(fx, fy, cx, cy, h, pitch, dist, size, hood)
 
     def _init(self, *vals) -> "Camera":
-        for f, v in zip(("fx", "fy", "cx", "cy", "height_m", "pitch_deg", "dist", "image_size"), vals):
+        for f, v in zip(("fx", "fy", "cx", "cy", "height_m", "pitch_deg", "dist", "image_size", "hood_row"), vals):
             object.__setattr__(self, f, v)
         return self
 
@@ -173,15 +190,17 @@ class Camera:
         """The whole-road detector's flat-road camera (pyvehtrack.fullroad.Camera: where
         its windows go and how wide a vehicle is at each row) from this file: the horizon
         row cy - fy tan(pitch) and fx as fractions of image_size, the camera height; the
-        hood at its default. None without image_size or height_m (the fractions and the
-        distances need them)."""
+        hood row hood_row / height (hood_known: the ego-lane detector's road ends above
+        it too), without hood_row the default fraction. None without image_size or
+        height_m (the fractions and the distances need them)."""
         if self.image_size is None or self.height_m is None:
             return None
         from .fullroad import Camera as RoadCamera  # noqa: PLC0415  (fullroad loads the C core)
         w, h = self.image_size
         horizon = self.cy - self.fy * math.tan(math.radians(self.pitch_deg or 0.0))
+        hood = {} if self.hood_row is None else {"hood_frac": self.hood_row / h, "hood_known": True}
         return RoadCamera(horizon_frac=min(max(horizon / h, -1.0), 1.0), fx_per_width=self.fx / w,
-                          height_m=self.height_m)
+                          height_m=self.height_m, **hood)
 
     def check_frame(self, w: int, h: int) -> None:
         if self.image_size is not None and tuple(self.image_size) != (int(w), int(h)):

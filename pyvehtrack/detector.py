@@ -358,6 +358,12 @@ class Detector:
             # the ego detector's road where the lanes give none: this Detector's trapezoid
             h, w = gray.shape
             given = self.fixed_road.make(h, w)
+            if self.full.camera.hood_known:
+                # the pipeline cuts its own roads at the hood, never a caller's: cut this one
+                from .reference.pipeline import road_above_hood  # noqa: PLC0415
+                from .pipeline import NO_ROAD  # noqa: PLC0415
+                hood = round(self.full.camera.hood_frac * 65536) / 65536   # as C holds it (Q16)
+                given = road_above_hood(given, hood, h) or NO_ROAD
         res = pipe.step_gray(gray, road=given)
         lanes = []
         for ln in (res.lanes.lanes if res.lanes is not None else []):

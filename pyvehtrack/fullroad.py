@@ -86,13 +86,20 @@ class Camera:
     camera height in metres, focal length as a multiple of the frame width.
     Defaults: the horizon fitted on the TRAIN part of tusimple-vehicles-dev (row 330 of
     720, from the boxes' bottom rows and heights), TuSimple's 1.8 m camera height and
-    714 px focal length at 1280 px, the hood from row 0.93 h."""
+    714 px focal length at 1280 px, the hood from row 0.93 h. hood_known: the hood row
+    is the camera's own (a camera file's hood_row), so the ego-lane detector's road
+    ends above it too (vt_pipeline_cfg.road_above_hood); the default fraction is a
+    guess only the windows heed (KITTI's cameras see no hood, and a near lead car's
+    bottom lies below 0.93 h)."""
     horizon_frac: float = 330 / 720
     hood_frac: float = 0.93
     height_m: float = 1.8
     fx_per_width: float = 714.15 / 1280
+    hood_known: bool = False
 
     def __post_init__(self):
+        if not isinstance(self.hood_known, bool):
+            raise TypeError(f"camera hood_known: expected a bool, got {self.hood_known!r}")
         for name, lo, hi in (("horizon_frac", -1.0, 1.0), ("hood_frac", 0.05, 2.0), ("height_m", 0.1, 20.0),
                              ("fx_per_width", 0.05, 20.0)):
             v = getattr(self, name)

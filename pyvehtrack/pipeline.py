@@ -262,6 +262,7 @@ class Pipeline:
         self.model, self.road_camera, self._det_cfg = _m, cam, det
         self._ccfg.fulldet = _fr._c_cfg(det)[0]
         self._ccfg.road_camera = _fr.road_camera_to_c(cam)[0]
+        self._ccfg.road_above_hood = int(cam.hood_known)
         _native.pipeline_cfg_check(self._ccfg)
         self._cmodel = None
         if isinstance(_m, _fr.SvmModel):
@@ -724,7 +725,7 @@ def _whole_road_reference(rcfg, c):
     rc = c.road_camera
     cam = rpipe.RoadCameraRef(rc.horizon_q16 / 65536, rc.hood_q16 / 65536, rc.height_mm / 1000,
                               rc.fx_per_w_q16 / 65536)
-    return dataclasses.replace(rcfg, fulldet=det, road_camera=cam)
+    return dataclasses.replace(rcfg, fulldet=det, road_camera=cam, road_above_hood=bool(c.road_above_hood))
 
 
 def _rescale(res: FrameResult, sx: float, sy: float, h0: int, w0: int) -> FrameResult:

@@ -201,6 +201,17 @@ typedef struct {
                                 the distance/rate TTC, 0..1000 permille; the block-scale
                                 TTC gets the rest. Default 300, chosen on KITTI frames
                                 0-38 only (tools/eval_kitti_range.py)                  */
+    int32_t road_above_hood; /* 0/1: the ego-lane detector's road (the lanes' or the fixed
+                                trapezoid; never a caller's) ends two rows above the
+                                road camera's hood row (road_camera.hood_q16, rounded
+                                as there; the shadow scan's Sobel reads the row below),
+                                none if that is above its top: the hood's edge against
+                                the road, dark above bright, is not a vehicle's shadow.
+                                Set it when the camera's hood row is known (a camera
+                                file's hood_row); 0 (default): the road runs to the
+                                frame's bottom, as the default hood fraction is a
+                                guess and a near lead car's bottom may be below it
+                                (KITTI's cameras see no hood)                          */
 } vt_pipeline_cfg;
 
 #define VT_PIPELINE_CFG_DEFAULT                                   \
@@ -229,6 +240,7 @@ typedef struct {
         .handover_dy_permille = 10,                               \
         .handover_edge_permille = 20,                             \
         .ttc_fuse_permille = 300,                                 \
+        .road_above_hood = 0,                                     \
     }
 
 /* The whole-road detector's scratch, owned by the caller and attached with

@@ -60,6 +60,7 @@ typedef struct {
     int32_t handover_dy_permille;
     int32_t handover_edge_permille;
     int32_t ttc_fuse_permille;
+    int32_t road_above_hood;
 } vt_pipeline_cfg;
 
 typedef struct {

@@ -21,7 +21,7 @@ oracle drops what C drops.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -76,6 +76,16 @@ class RoadCameraRef:
         hy = int(np.floor(h * self.horizon + 0.5)) if horizon_y is None else horizon_y
         return rw.Camera(fx=max(1.0, self.fx_per_w * w), horizon_y=hy, height_m=self.height_m,
                          hood_y=max(1, int(np.floor(h * self.hood + 0.5))))
+
+
+def road_above_hood(road: RoadArea, hood: float, h: int) -> RoadArea | None:
+    """The road without the hood's rows (vt_pipeline_cfg.road_above_hood): it ends two
+    rows above the hood's first row round(h hood) (half up, at least 1), as the shadow
+    scan's Sobel at the last road row reads the row below; None when nothing is left."""
+    first = max(1, int(np.floor(h * hood + 0.5)))
+    if first - 2 < road.y_top:
+        return None
+    return replace(road, y_bottom=first - 2) if road.y_bottom > first - 2 else road
 
 
 @dataclass
@@ -145,6 +155,7 @@ class PipelineRefConfig:
     handover_dy_permille: int = 10   # bottom row down by >= this permille of h over N frames
     handover_edge_permille: int = 20  # outer side within this permille of w of the border
     ttc_fuse_permille: int = 300  # the fused TTC: weight of the distance/rate TTC (permille)
+    road_above_hood: bool = False  # the ego detector's road ends above road_camera's hood row
 
 
 @dataclass
@@ -593,6 +604,9 @@ class Pipeline:
                 road, source = c.fixed_road.make(h, w), "fixed"
             elif getattr(given, "valid", True):
                 road, source = given, "fixed"
+        if road is not None and c.road_above_hood and (source == "lanes" or given is None):
+            road = road_above_hood(road, c.road_camera.hood, h)
+            source = source if road is not None else "none"
         if road is not None:
             res, boxes = rdetect.detect(gray, road, c.shadow, c.verify,
                                         max_active=self.caps.max_shadow_active,
@@ -626,6 +640,8 @@ class Pipeline:
             kept = rfd.verify_boxes(rows, lambda l, t, r, b: self.box_score(gray, l, t, r, b), c.verify_min)
             ego_boxes, ego_scores = kept[:, :4], [int(v) for v in kept[:, 4]]
         empty = (ego_hyp, ego_boxes, [SRC_EGO] * len(ego_boxes), list(ego_scores))
+        # the tracker's boxes when no road is left for the windows: the ego boxes alone
+        self._trk_whole = np.asarray(ego_boxes, np.int64).reshape(-1, 4)
         if given is not None:
             if not getattr(given, "valid", True):
                 return (None, "none") + empty + (stats,)
