@@ -178,6 +178,19 @@ PY_ROWS = [
     ("box_sum w=True", lambda: vt.image.box_sum(vt.image.integral(U8), 0, 0, True, 2), TypeError, "w"),
     ("box_sum h=2**40", lambda: vt.image.box_sum(vt.image.integral(U8), 0, 0, 2, 2**40), ValueError, "h"),
     ("box_sum outside", lambda: vt.image.box_sum(vt.image.integral(U8), 120, 0, 20, 2), VtError, "vt_box_sum"),
+    # the CNN detector (pyvehtrack.cnn; more rows in tests/test_cnn.py)
+    ("cnn forward None", lambda: _cnn_mod().forward(_cnn(), None), TypeError, "gray"),
+    ("cnn forward float32", lambda: _cnn_mod().forward(_cnn(), U8.astype(np.float32)), TypeError, "uint8"),
+    ("cnn forward 0x4 frame", lambda: _cnn_mod().forward(_cnn(), np.zeros((0, 4), np.uint8)), ValueError, "empty"),
+    ("cnn forward over capacity", lambda: _cnn_mod().forward(_cnn(), np.zeros((1, int(lib.VT_MAX_WIDTH) + 1),
+                                                                               np.uint8)), VtError, "bad size"),
+    ("cnn forward 1x1 frame", lambda: _cnn_mod().forward(_cnn(), np.zeros((1, 1), np.uint8)).shape == (1, 1, 5),
+     OK, "one cell"),
+    ("cnn decode int16 out", lambda: _cnn_mod().decode(_cnn(), np.zeros((2, 2, 5), np.int16)), TypeError, "int8"),
+    ("cnn decode cap=0", lambda: _cnn_mod().decode(_cnn(), np.zeros((2, 2, 5), np.int8), cap=0), ValueError, "cap"),
+    ("cnn decode scale_shift=9", lambda: _cnn_mod().decode(_cnn(), np.zeros((2, 2, 5), np.int8), scale_shift=9),
+     ValueError, "scale_shift"),
+    ("cnn load missing key", lambda: _cnn_mod().CnnModel.load({"cnn_n_layers": 1}), ValueError, "cnn_l0_meta"),
     ("ncc shape mismatch", lambda: vt.image.ncc(U8[:4, :4], U8[:4, :5]), VtError, "vt_ncc_u8"),
     ("sad str", lambda: vt.image.sad("a", U8), TypeError, "a"),
     # evaluation inputs
@@ -187,6 +200,30 @@ PY_ROWS = [
     ("read_kitti bad number", lambda: _read_kitti_text("0 x Car 0 0 0 1 2 3 4\n"), ValueError, ":1:"),
     ("evaluate preproc='x'", lambda: _evaluate(preproc="x"), ValueError, "preproc"),
 ]
+
+
+def _cnn_mod():
+    from pyvehtrack import cnn
+    return cnn
+
+
+def _cnn():
+    """A one-layer 1x1 CNN model (5 output channels)."""
+    i8 = lambda v: np.array(v, np.int8)   # noqa: E731
+    layer = dict(ksize=1, stride=1, dilation=1, relu=0, cin=1, cout=5, w=i8([1, -1, 2, 0, 3]).reshape(5, 1, 1, 1),
+                 bias=np.zeros(5, np.int32), mult=np.ones(5, np.int32), shift=np.ones(5, np.uint8))
+    return _cnn_mod().CnnModel([layer], np.zeros((4, 256), np.uint16))
+
+
+def _cnn_c(**kw):
+    """vt_cnn_forward on a 4x4 image with the one-layer model; kw: NULL pointers, sizes."""
+    m = _cnn().c_model()[0]
+    img = np.zeros((4, 4), np.uint8)
+    out = ffi.new("int8_t[80]")
+    px = ffi.NULL if kw.get("img") is None and "img" in kw else ffi.cast("uint8_t *", img.ctypes.data)
+    return lib.vt_cnn_forward(ffi.NULL if "model" in kw else m, px, kw.get("w", 4), kw.get("h", 4),
+                              kw.get("stride", 4), ffi.NULL, 0, ffi.NULL if "out" in kw else out,
+                              kw.get("out_len", 80))
 
 
 def _search(**kw):
@@ -279,6 +316,14 @@ C_ROWS = [
     ("vt_kf_init dim_x=0", lambda: lib.vt_kf_init(ffi.new("vt_kf *"), 0, 1), "VT_E_SIZE"),
     ("vt_kf_predict(NULL)", lambda: lib.vt_kf_predict(ffi.NULL), "VT_E_ARG"),
     ("vt_kf_update NULL z", lambda: lib.vt_kf_update(_kf_c(), ffi.NULL), "VT_E_ARG"),
+    ("vt_cnn_forward ok", lambda: _cnn_c(), "VT_OK"),
+    ("vt_cnn_forward NULL model", lambda: _cnn_c(model=None), "VT_E_ARG"),
+    ("vt_cnn_forward NULL image", lambda: _cnn_c(img=None), "VT_E_ARG"),
+    ("vt_cnn_forward NULL out", lambda: _cnn_c(out=None), "VT_E_ARG"),
+    ("vt_cnn_forward w=0", lambda: _cnn_c(w=0), "VT_E_SIZE"),
+    ("vt_cnn_forward stride < w", lambda: _cnn_c(stride=3), "VT_E_SIZE"),
+    ("vt_cnn_forward out one short", lambda: _cnn_c(out_len=79), "VT_E_CAPACITY"),
+    ("vt_cnn_check_model(NULL)", lambda: lib.vt_cnn_check_model(ffi.NULL), "VT_E_ARG"),
 ]
 
 

@@ -18,6 +18,7 @@
 #include "vehtrack/windows.h"
 #include "vehtrack/fulldet.h"
 #include "vehtrack/acf.h"
+#include "vehtrack/cnn.h"
 #include "vehtrack/kalman.h"
 #include "vehtrack/track_search.h"
 #include "vehtrack/edge_track.h"

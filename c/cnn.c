@@ -1,0 +1,314 @@
+/* cnn.c -- the appearance stage as a small CNN detector: a CenterNet-style heat
+ * map + box sides at stride 8 (the model's out_stride), replacing the sliding-window
+ * classifier of the GIST paper sec. III for full-frame hypotheses. Quantised int8
+ * weights, uint8 activations, int32 accumulators, per-channel requantisation; the
+ * arithmetic is stated in cnn.h, pyvehtrack/reference/cnn.py is its bit-exact twin. */
+#include <stddef.h>
+
+#include "vehtrack/cnn.h"
+#include "vehtrack/fixed.h"
+#include "internal.h"
+
+vt_status vt_cnn_check_model(const vt_cnn_model *m)
+{
+    int32_t i, c, prod = 1;
+    if (m == NULL || m->n_layers < 1 || m->n_layers > VT_CNN_MAX_LAYERS || m->side_lut == NULL) {
+        return VT_E_ARG;
+    }
+    for (i = 0; i < m->n_layers; ++i) {
+        const vt_cnn_layer *L = &m->layer[i];
+        int last = i == m->n_layers - 1;
+        if ((L->ksize != 1 && L->ksize != 3) || (L->stride != 1 && L->stride != 2) ||
+            (L->dilation != 1 && L->dilation != 2) || (L->ksize == 1 && L->dilation != 1) ||
+            L->relu != (last ? 0 : 1) || L->cin < 1 || L->cin > VT_CNN_MAX_CH || L->cout < 1 ||
+            L->cout > VT_CNN_MAX_CH || (last && L->cout != VT_CNN_OUT_CH) ||
+            L->cin != (i == 0 ? 1 : m->layer[i - 1].cout) || L->w == NULL || L->bias == NULL ||
+            L->mult == NULL || L->shift == NULL) {
+            return VT_E_ARG;
+        }
+        for (c = 0; c < L->cout; ++c) {
+            if (L->bias[c] < -VT_CNN_BIAS_MAX || L->bias[c] > VT_CNN_BIAS_MAX || L->mult[c] < 1 ||
+                L->shift[c] < 1 || L->shift[c] > 62) {
+                return VT_E_ARG;
+            }
+        }
+        prod *= L->stride;
+    }
+    return prod == m->out_stride ? VT_OK : VT_E_ARG;
+}
+
+/* Checks shared by the size queries and the forward pass; sizes[i] = the bytes of
+ * layer i's output, *gw, *gh the last layer's grid. */
+static vt_status vt__cnn_plan(const vt_cnn_model *m, int32_t w, int32_t h, size_t *sizes,
+                              int32_t *gw, int32_t *gh)
+{
+    int32_t i;
+    vt_status s = vt_cnn_check_model(m);
+    if (s != VT_OK) {
+        return s;
+    }
+    if (w < 1 || h < 1 || w > VT_MAX_WIDTH || h > VT_MAX_HEIGHT) {
+        return VT_E_SIZE;
+    }
+    for (i = 0; i < m->n_layers; ++i) {
+        int32_t st = m->layer[i].stride;
+        w = (w + st - 1) / st;
+        h = (h + st - 1) / st;
+        sizes[i] = (size_t)w * (size_t)h * (size_t)m->layer[i].cout;
+    }
+    *gw = w;
+    *gh = h;
+    return VT_OK;
+}
+
+/* The two ping-pong regions: *r0 the largest even-indexed, *r1 the largest
+ * odd-indexed output of the layers before the last. */
+static void vt__cnn_regions(const vt_cnn_model *m, const size_t *sizes, size_t *r0, size_t *r1)
+{
+    int32_t i;
+    *r0 = 0;
+    *r1 = 0;
+    for (i = 0; i + 1 < m->n_layers; ++i) {
+        size_t *r = (i & 1) ? r1 : r0;
+        if (sizes[i] > *r) {
+            *r = sizes[i];
+        }
+    }
+}
+
+vt_status vt_cnn_out_size(const vt_cnn_model *m, int32_t w, int32_t h, int32_t *gw, int32_t *gh)
+{
+    size_t sizes[VT_CNN_MAX_LAYERS];
+    if (gw == NULL || gh == NULL) {
+        return VT_E_ARG;
+    }
+    return vt__cnn_plan(m, w, h, sizes, gw, gh);
+}
+
+vt_status vt_cnn_work_bytes(const vt_cnn_model *m, int32_t w, int32_t h, size_t *bytes)
+{
+    size_t sizes[VT_CNN_MAX_LAYERS], r0, r1;
+    int32_t gw, gh;
+    vt_status s;
+    if (bytes == NULL) {
+        return VT_E_ARG;
+    }
+    s = vt__cnn_plan(m, w, h, sizes, &gw, &gh);
+    if (s != VT_OK) {
+        return s;
+    }
+    vt__cnn_regions(m, sizes, &r0, &r1);
+    *bytes = r0 + r1;
+    return VT_OK;
+}
+
+/* q = acc mult / 2^shift rounded half up (cnn.h), in int64; |acc| < 2^31 and
+ * mult < 2^31, so the sum stays below 2^63. */
+static int64_t vt__cnn_requant(int32_t acc, int32_t mult, int32_t shift)
+{
+    return vt__floor_shr64((int64_t)acc * mult + ((int64_t)1 << (shift - 1)), shift);
+}
+
+/* One layer (arguments checked): input iw x ih x cin at in, row stride rs bytes
+ * (pixel stride cin); output ow x oh x cout to out_u8 (relu) or out_s8 (last).
+ * Loop order: output pixel -> its in-bounds taps (found once per pixel, so the
+ * border test is per tap, not per multiply-add) -> output channel -> a dot product
+ * over cin, which is contiguous in both the [cout][ky][kx][cin] weights and the
+ * HWC input. */
+static void vt__cnn_layer(const vt_cnn_layer *L, const uint8_t *in, int32_t iw, int32_t ih,
+                          size_t rs, int32_t ow, int32_t oh, uint8_t *out_u8, int8_t *out_s8)
+{
+    int32_t k = L->ksize, st = L->stride, d = L->dilation, cin = L->cin, cout = L->cout;
+    int32_t half = k / 2, ox, oy, ky, kx, co, t, ci;
+    size_t wtaps = (size_t)k * (size_t)k * (size_t)cin;
+    size_t ioff[9], woff[9];
+    for (oy = 0; oy < oh; ++oy) {
+        for (ox = 0; ox < ow; ++ox) {
+            size_t o = ((size_t)oy * (size_t)ow + (size_t)ox) * (size_t)cout;
+            int32_t nt = 0;
+            for (ky = 0; ky < k; ++ky) {
+                int32_t iy = oy * st + (ky - half) * d;
+                if (iy < 0 || iy >= ih) {
+                    continue;
+                }
+                for (kx = 0; kx < k; ++kx) {
+                    int32_t ix = ox * st + (kx - half) * d;
+                    if (ix < 0 || ix >= iw) {
+                        continue;
+                    }
+                    ioff[nt] = (size_t)iy * rs + (size_t)ix * (size_t)cin;
+                    woff[nt] = (size_t)(ky * k + kx) * (size_t)cin;
+                    ++nt;
+                }
+            }
+            for (co = 0; co < cout; ++co) {
+                const int8_t *wc = L->w + (size_t)co * wtaps;
+                int32_t acc = L->bias[co];
+                int64_t q;
+                for (t = 0; t < nt; ++t) {
+                    const int8_t *wp = wc + woff[t];
+                    const uint8_t *ap = in + ioff[t];
+                    for (ci = 0; ci < cin; ++ci) {
+                        acc += (int32_t)wp[ci] * (int32_t)ap[ci];
+                    }
+                }
+                q = vt__cnn_requant(acc, L->mult[co], L->shift[co]);
+                if (out_s8 != NULL) {
+                    out_s8[o + (size_t)co] = (int8_t)(q < -128 ? -128 : (q > 127 ? 127 : q));
+                } else {
+                    out_u8[o + (size_t)co] = (uint8_t)(q < 0 ? 0 : (q > 255 ? 255 : q));
+                }
+            }
+        }
+    }
+}
+
+vt_status vt_cnn_forward(const vt_cnn_model *m, const uint8_t *img, int32_t w, int32_t h,
+                         int32_t stride, uint8_t *work, size_t work_bytes, int8_t *out,
+                         size_t out_len)
+{
+    size_t sizes[VT_CNN_MAX_LAYERS], r0, r1, rs;
+    int32_t gw, gh, i, iw, ih;
+    const uint8_t *in;
+    vt_status s;
+    if (img == NULL || out == NULL) {
+        return VT_E_ARG;
+    }
+    s = vt__cnn_plan(m, w, h, sizes, &gw, &gh);
+    if (s != VT_OK) {
+        return s;
+    }
+    if (stride < w) {
+        return VT_E_SIZE;
+    }
+    vt__cnn_regions(m, sizes, &r0, &r1);
+    if (work == NULL && r0 + r1 > 0) {
+        return VT_E_ARG;
+    }
+    if (work_bytes < r0 + r1 || out_len < sizes[m->n_layers - 1]) {
+        return VT_E_CAPACITY;
+    }
+    in = img;
+    iw = w;
+    ih = h;
+    rs = (size_t)stride;
+    for (i = 0; i < m->n_layers; ++i) {
+        const vt_cnn_layer *L = &m->layer[i];
+        int32_t ow = (iw + L->stride - 1) / L->stride, oh = (ih + L->stride - 1) / L->stride;
+        if (i == m->n_layers - 1) {
+            vt__cnn_layer(L, in, iw, ih, rs, ow, oh, NULL, out);
+        } else {
+            uint8_t *dst = (i & 1) ? work + r0 : work;
+            vt__cnn_layer(L, in, iw, ih, rs, ow, oh, dst, NULL);
+            in = dst;
+            rs = (size_t)ow * (size_t)L->cout;
+        }
+        iw = ow;
+        ih = oh;
+    }
+    return VT_OK;
+}
+
+/* 1 if cell (x, y) is a peak: heat >= thr and >= every in-grid neighbour's. */
+static int vt__cnn_is_peak(const int8_t *out, int32_t gw, int32_t gh, int32_t x, int32_t y,
+                           int32_t thr)
+{
+    int32_t hv = out[((size_t)y * (size_t)gw + (size_t)x) * VT_CNN_OUT_CH], dx, dy;
+    if (hv < thr) {
+        return 0;
+    }
+    for (dy = -1; dy <= 1; ++dy) {
+        int32_t ny = y + dy;
+        if (ny < 0 || ny >= gh) {
+            continue;
+        }
+        for (dx = -1; dx <= 1; ++dx) {
+            int32_t nx = x + dx;
+            if (nx < 0 || nx >= gw || (dx == 0 && dy == 0)) {
+                continue;
+            }
+            if (out[((size_t)ny * (size_t)gw + (size_t)nx) * VT_CNN_OUT_CH] > hv) {
+                return 0;
+            }
+        }
+    }
+    return 1;
+}
+
+/* Q4 level px -> full-frame px: floor((v 2^ss + 8) / 16). */
+static int32_t vt__cnn_px(int64_t v_q4, int32_t ss)
+{
+    return (int32_t)vt__floor_shr64(v_q4 * ((int64_t)1 << ss) + 8, 4);
+}
+
+/* The box of the peak at (x, y) (cnn.h's decode). */
+static void vt__cnn_box(const vt_cnn_model *m, const int8_t *cell, int32_t x, int32_t y,
+                        int32_t ss, vt_cnn_box *b)
+{
+    const uint16_t *lut = m->side_lut;
+    int32_t S = m->out_stride;
+    int64_t cx = ((int64_t)x * S + S / 2) * 16, cy = ((int64_t)y * S + S / 2) * 16;
+    b->l = vt__cnn_px(cx - lut[0 * 256 + cell[1] + 128], ss);
+    b->t = vt__cnn_px(cy - lut[1 * 256 + cell[2] + 128], ss);
+    b->r = vt__cnn_px(cx + lut[2 * 256 + cell[3] + 128], ss) - 1;
+    b->b = vt__cnn_px(cy + lut[3 * 256 + cell[4] + 128], ss) - 1;
+    b->score = cell[0];
+}
+
+vt_status vt_cnn_decode(const vt_cnn_model *m, const int8_t *out, int32_t gw, int32_t gh,
+                        int32_t thr, int32_t scale_shift, vt_cnn_box *boxes, int32_t cap,
+                        int32_t *n, int32_t *n_peaks)
+{
+    /* pos[heat + 128]: first the peak count per heat, then the output slot of the
+     * next peak of that heat (a counting sort: heat descending, raster order kept) */
+    int32_t pos[256], x, y, v, run = 0;
+    vt_status s;
+    if (n != NULL) {
+        *n = 0;
+    }
+    if (n_peaks != NULL) {
+        *n_peaks = 0;
+    }
+    if (out == NULL || boxes == NULL || n == NULL || n_peaks == NULL || cap < 1 ||
+        scale_shift < 0 || scale_shift > 4) {
+        return VT_E_ARG;
+    }
+    s = vt_cnn_check_model(m);
+    if (s != VT_OK) {
+        return s;
+    }
+    if (gw < 1 || gh < 1 || gw > VT_MAX_WIDTH || gh > VT_MAX_HEIGHT) {
+        return VT_E_SIZE;
+    }
+    for (v = 0; v < 256; ++v) {
+        pos[v] = 0;
+    }
+    for (y = 0; y < gh; ++y) {
+        for (x = 0; x < gw; ++x) {
+            if (vt__cnn_is_peak(out, gw, gh, x, y, thr)) {
+                ++pos[out[((size_t)y * (size_t)gw + (size_t)x) * VT_CNN_OUT_CH] + 128];
+            }
+        }
+    }
+    for (v = 255; v >= 0; --v) {
+        int32_t c = pos[v];
+        pos[v] = run;
+        run += c;
+    }
+    for (y = 0; y < gh; ++y) {
+        for (x = 0; x < gw; ++x) {
+            const int8_t *cell = out + ((size_t)y * (size_t)gw + (size_t)x) * VT_CNN_OUT_CH;
+            int32_t p;
+            if (!vt__cnn_is_peak(out, gw, gh, x, y, thr)) {
+                continue;
+            }
+            p = pos[cell[0] + 128]++;
+            if (p < cap) {
+                vt__cnn_box(m, cell, x, y, scale_shift, &boxes[p]);
+            }
+        }
+    }
+    *n_peaks = run;
+    *n = run < cap ? run : cap;
+    return VT_OK;
+}

@@ -1,0 +1,140 @@
+/* vehtrack/cnn.h -- a small quantised CNN detector: the appearance stage as a
+ * CenterNet-style heat map + box sides at the model's output stride (8 for the
+ * shipped layout), in place of the GIST paper's sliding-window classifier (sec.
+ * III) for full-frame hypotheses. The model is caller-owned and const (firmware
+ * keeps it in flash); the activations live in one caller-owned uint8 work buffer
+ * (vt_cnn_work_bytes). pyvehtrack/reference/cnn.py is the bit-exact NumPy twin.
+ *
+ * Arithmetic (all integer, exact; the C and the twin agree bit for bit):
+ *   Activations are channel-last (HWC), row-major, tightly packed. The input is a
+ *   uint8 gray image (w x h, row stride in bytes), the activation of layer 0 with
+ *   one channel and zero point 0.
+ *   Layer: ksize k (1 or 3), stride s (1 or 2), dilation d (1 or 2; 1 for 1x1),
+ *   zero ("same") padding pad = d (k / 2). Output size per axis: out = (in + s - 1)
+ *   / s (ceil). Output pixel (ox, oy) is centred on input (ox s, oy s): its taps
+ *   are (ox s + (kx - 1) d, oy s + (ky - 1) d) for 3x3, (ox s, oy s) for 1x1; a tap
+ *   outside the input reads 0.
+ *   acc = bias[co] + sum over taps and ci of w[co][ky][kx][ci] a[ci] in int32:
+ *   |w| <= 128, a <= 255, at most 9 x 64 taps: |sum| <= 18,800,640 < 2^25, and
+ *   |bias| <= 2^30 (checked), so |acc| < 2^30 + 2^25 < 2^31: no overflow.
+ *   Requantise: q = floor((acc mult[co] + 2^(shift[co] - 1)) / 2^shift[co]) in
+ *   int64 (|acc mult| < 2^62, so no overflow), i.e. acc mult / 2^shift rounded
+ *   half up (toward +inf); mult 1 .. 2^31 - 1, shift 1 .. 62.
+ *   Clamp: relu layers (all but the last) write uint8 q clamped to 0..255; the
+ *   last layer (relu 0) writes int8 q clamped to -128..127, 5 channels: heat
+ *   (channel 0) and the left, top, right, bottom side codes (channels 1..4).
+ *   Decode (vt_cnn_decode): grid cell (x, y) is a peak when its heat >= thr and
+ *   >= the heat of each of its (up to 8) in-grid neighbours (plateaus give every
+ *   cell). Peaks are ordered by heat descending, ties in raster order (y, then
+ *   x) ascending. Box in level pixels Q4, S = out_stride:
+ *   cx = (x S + S / 2) 16, cy = (y S + S / 2) 16 (S / 2 floor);
+ *   l = cx - lut[0][ql + 128], t = cy - lut[1][qt + 128],
+ *   r = cx + lut[2][qr + 128], b = cy + lut[3][qb + 128];
+ *   full-frame pixels: each v' = v 2^scale_shift; left / top = floor((v' + 8) / 16),
+ *   right / bottom = floor((v' + 8) / 16) - 1 (the Q4 box is exclusive, vt_cnn_box
+ *   inclusive). score = heat. Exact in int64, every value fits int32.
+ *
+ * Cost: no state; sizeof(vt_cnn_model) is 204 bytes on a 32-bit core (344 on a
+ * 64-bit host) plus the caller's arrays. Work per frame: the sum over layers of
+ * out_w out_h cout k^2 cin multiply-adds (about 10^8 for a stride-8 detector of
+ * 32 channels on a 640x256 frame) and one int64 multiply per output value; the
+ * decode is two passes over the grid with 1 KB of stack. Work buffer
+ * (vt_cnn_work_bytes): the largest even-indexed plus the largest odd-indexed
+ * layer output (the last layer writes the caller's out). */
+#ifndef VEHTRACK_CNN_H
+#define VEHTRACK_CNN_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include "vehtrack/config.h"
+#include "vehtrack/status.h"
+
+#define VT_CNN_MAX_LAYERS 8
+#define VT_CNN_MAX_CH 64
+/* Channels of the last layer: heat, left, top, right, bottom. */
+#define VT_CNN_OUT_CH 5
+/* Largest |bias| (accumulator units): keeps acc inside int32 (above). */
+#define VT_CNN_BIAS_MAX 1073741824
+
+/* One convolution layer (const: may live in flash). */
+typedef struct {
+    uint8_t ksize;        /* 1 or 3                                                    */
+    uint8_t stride;       /* 1 or 2                                                    */
+    uint8_t dilation;     /* 1 or 2 for 3x3; 1 for 1x1                                 */
+    uint8_t relu;         /* 1: uint8 out = clamp(q, 0, 255) (every layer but the
+                             last); 0: only the last layer, int8 out = clamp(q, -128, 127) */
+    uint16_t cin;         /* 1 .. VT_CNN_MAX_CH; layer 0: 1; else the previous cout    */
+    uint16_t cout;        /* 1 .. VT_CNN_MAX_CH; the last layer: VT_CNN_OUT_CH         */
+    const int8_t *w;      /* [cout][ksize][ksize][cin], symmetric per output channel   */
+    const int32_t *bias;  /* [cout], accumulator units, |bias| <= VT_CNN_BIAS_MAX      */
+    const int32_t *mult;  /* [cout], 1 .. 2^31 - 1                                     */
+    const uint8_t *shift; /* [cout], 1 .. 62                                           */
+} vt_cnn_layer;
+
+/* A network: layers 0 .. n_layers - 1, then the box decoder's settings. */
+typedef struct {
+    uint8_t n_layers;                     /* 1 .. VT_CNN_MAX_LAYERS                      */
+    vt_cnn_layer layer[VT_CNN_MAX_LAYERS];
+    uint8_t out_stride;                   /* the product of the layers' strides          */
+    int8_t heat_thr;                      /* the default peak threshold (heat channel)   */
+    const uint16_t *side_lut;             /* [4][256]: side distances in level px Q4 for
+                                             channels 1..4 (l, t, r, b), index q + 128  */
+} vt_cnn_model;
+
+/* A decoded box: inclusive full-frame pixels, score = the peak's heat (-128..127). */
+typedef struct {
+    int32_t l;
+    int32_t t;
+    int32_t r;
+    int32_t b;
+    int32_t score;
+} vt_cnn_box;
+
+/* VT_OK if the model is valid: n_layers in range; per layer ksize, stride,
+ * dilation (1 for 1x1), cin, cout in range and the pointers non-NULL; cin of
+ * layer 0 is 1 and cin of layer i the cout of layer i - 1; relu 1 on every layer
+ * but the last, relu 0 on the last, whose cout is VT_CNN_OUT_CH; every bias,
+ * mult and shift in range; out_stride the product of the strides; side_lut
+ * non-NULL. Else (NULL m included) VT_E_ARG. Cost: one pass over the per-channel
+ * arrays (not the weights: every int8 weight is valid). */
+vt_status vt_cnn_check_model(const vt_cnn_model *m);
+
+/* *gw, *gh = the last layer's output size for a w x h input (each layer's ceil
+ * above). Errors: NULL m, gw or gh, or an invalid model -> VT_E_ARG; w or h
+ * outside 1 .. VT_MAX_WIDTH / VT_MAX_HEIGHT -> VT_E_SIZE. */
+vt_status vt_cnn_out_size(const vt_cnn_model *m, int32_t w, int32_t h, int32_t *gw, int32_t *gh);
+
+/* *bytes = the work buffer vt_cnn_forward needs for a w x h input: the largest
+ * even-indexed layer output plus the largest odd-indexed one, the last layer's
+ * excluded (0 for a one-layer model). Errors as vt_cnn_out_size (NULL bytes ->
+ * VT_E_ARG). */
+vt_status vt_cnn_work_bytes(const vt_cnn_model *m, int32_t w, int32_t h, size_t *bytes);
+
+/* The forward pass over a gray image img (w x h, row stride `stride` bytes):
+ * out = the last layer's gh x gw x 5 int8 (HWC, vt_cnn_out_size). Layer i < the
+ * last writes its uint8 output at work (i even) or at work + the largest even
+ * layer output (i odd); nothing is written outside work[0 .. needed) and
+ * out[0 .. gh gw 5). work may be NULL only when vt_cnn_work_bytes gives 0.
+ * Errors: NULL m, img or out, an invalid model, or a NULL work that is needed ->
+ * VT_E_ARG; w, h outside 1 .. VT_MAX_WIDTH / VT_MAX_HEIGHT or stride < w ->
+ * VT_E_SIZE; work_bytes or out_len (int8 values) smaller than needed ->
+ * VT_E_CAPACITY. Nothing is written on an error. */
+vt_status vt_cnn_forward(const vt_cnn_model *m, const uint8_t *img, int32_t w, int32_t h,
+                         int32_t stride, uint8_t *work, size_t work_bytes, int8_t *out,
+                         size_t out_len);
+
+/* The peaks of a forward output `out` (gh x gw x 5 int8, HWC) as boxes (decode
+ * above): any int32 thr (the model's heat_thr is the caller's default; thr > 127
+ * finds nothing, thr <= -128 makes every plateau cell a peak), scale_shift 0..4
+ * (the input was a level 2^scale_shift times smaller than the frame). The first
+ * min(cap, peaks) peaks in the order above go to boxes[0 ..], *n = how many were
+ * written, *n_peaks = how many peaks there are (so a truncation is never silent;
+ * boxes past *n are not written). Errors: NULL m, out, boxes, n or n_peaks, an
+ * invalid model, cap < 1 or scale_shift outside 0..4 -> VT_E_ARG; gw, gh outside
+ * 1 .. VT_MAX_WIDTH / VT_MAX_HEIGHT -> VT_E_SIZE. On an error *n and *n_peaks are
+ * 0 where they are not NULL. Cost: two passes over the grid. */
+vt_status vt_cnn_decode(const vt_cnn_model *m, const int8_t *out, int32_t gw, int32_t gh,
+                        int32_t thr, int32_t scale_shift, vt_cnn_box *boxes, int32_t cap,
+                        int32_t *n, int32_t *n_peaks);
+
+#endif /* VEHTRACK_CNN_H */

@@ -1,0 +1,44 @@
+/* cnn.h: a small quantised CNN detector (heat map + box sides) and its peak decoder. */
+#define VT_CNN_MAX_LAYERS ...
+#define VT_CNN_MAX_CH ...
+#define VT_CNN_OUT_CH ...
+#define VT_CNN_BIAS_MAX ...
+
+typedef struct {
+    uint8_t ksize;
+    uint8_t stride;
+    uint8_t dilation;
+    uint8_t relu;
+    uint16_t cin;
+    uint16_t cout;
+    const int8_t *w;
+    const int32_t *bias;
+    const int32_t *mult;
+    const uint8_t *shift;
+} vt_cnn_layer;
+
+typedef struct {
+    uint8_t n_layers;
+    vt_cnn_layer layer[...];
+    uint8_t out_stride;
+    int8_t heat_thr;
+    const uint16_t *side_lut;
+} vt_cnn_model;
+
+typedef struct {
+    int32_t l;
+    int32_t t;
+    int32_t r;
+    int32_t b;
+    int32_t score;
+} vt_cnn_box;
+
+vt_status vt_cnn_check_model(const vt_cnn_model *m);
+vt_status vt_cnn_out_size(const vt_cnn_model *m, int32_t w, int32_t h, int32_t *gw, int32_t *gh);
+vt_status vt_cnn_work_bytes(const vt_cnn_model *m, int32_t w, int32_t h, size_t *bytes);
+vt_status vt_cnn_forward(const vt_cnn_model *m, const uint8_t *img, int32_t w, int32_t h,
+                         int32_t stride, uint8_t *work, size_t work_bytes, int8_t *out,
+                         size_t out_len);
+vt_status vt_cnn_decode(const vt_cnn_model *m, const int8_t *out, int32_t gw, int32_t gh,
+                        int32_t thr, int32_t scale_shift, vt_cnn_box *boxes, int32_t cap,
+                        int32_t *n, int32_t *n_peaks);

@@ -1,0 +1,292 @@
+"""The quantised CNN detector from Python (C: include/vehtrack/cnn.h, c/cnn.c).
+
+The appearance stage as a small CNN: a CenterNet-style heat map + box sides at the model's
+output stride (8 for the intended layout), in place of the GIST paper's sliding-window
+classifier (sec. III) for full-frame hypotheses. The arithmetic (int8 weights, uint8
+activations, int32 accumulators, per-channel requantisation) is cnn.h's;
+pyvehtrack/reference/cnn.py is its bit-exact NumPy twin.
+
+Model file (.npz), every key required:
+    cnn_n_layers        int, 1 .. VT_CNN_MAX_LAYERS
+    cnn_l{i}_meta       int32 (6,): ksize, stride, dilation, relu, cin, cout
+    cnn_l{i}_w          int8 (cout, k, k, cin)
+    cnn_l{i}_bias       int32 (cout,)
+    cnn_l{i}_mult       int32 (cout,)
+    cnn_l{i}_shift      uint8 (cout,)
+    cnn_side_lut        uint16 (4, 256)
+    cnn_heat_thr        int, -128..127
+(Any integer dtype whose values fit the stated one is accepted; out_stride is the product of
+the strides.)
+"""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+
+from . import _check
+from ._native import VtError, check, ffi, lib, view
+
+MAX_LAYERS = int(lib.VT_CNN_MAX_LAYERS)
+MAX_CH = int(lib.VT_CNN_MAX_CH)
+OUT_CH = int(lib.VT_CNN_OUT_CH)
+BIAS_MAX = int(lib.VT_CNN_BIAS_MAX)
+META = ("ksize", "stride", "dilation", "relu", "cin", "cout")
+
+
+def _int_array(z, key: str, dtype, shape=None) -> np.ndarray:
+    """z[key] as a C-contiguous array of `dtype`; ValueError naming the key if it is missing,
+    not integers, of another shape, or holds values `dtype` cannot."""
+    if key not in z:
+        raise ValueError(f"CNN model: missing key {key!r}")
+    a = np.asarray(z[key])
+    if a.dtype == np.bool_ or not np.issubdtype(a.dtype, np.integer):
+        raise ValueError(f"CNN model: {key} must hold integers, got dtype {a.dtype}")
+    if shape is not None and a.shape != tuple(shape):
+        raise ValueError(f"CNN model: {key} must have shape {tuple(shape)}, got {a.shape}")
+    info = np.iinfo(dtype)
+    if a.size and (int(a.min()) < info.min or int(a.max()) > info.max):
+        raise ValueError(f"CNN model: {key} holds values outside {np.dtype(dtype)} "
+                         f"[{info.min}, {info.max}]")
+    return np.ascontiguousarray(a, dtype=dtype)
+
+
+def _int_scalar(z, key: str, lo: int, hi: int) -> int:
+    a = _int_array(z, key, np.int64)
+    if a.size != 1:
+        raise ValueError(f"CNN model: {key} must be one integer, got shape {a.shape}")
+    v = int(a.reshape(-1)[0])
+    if not lo <= v <= hi:
+        raise ValueError(f"CNN model: {key} = {v} is outside [{lo}, {hi}]")
+    return v
+
+
+class CnnModel:
+    """A vt_cnn_model and the NumPy arrays behind it (kept alive as long as the model)."""
+
+    def __init__(self, layers: list[dict], side_lut: np.ndarray, heat_thr: int = 0, path: str = ""):
+        self.path = str(path)
+        self.layers = [dict(L) for L in layers]
+        self.side_lut = side_lut
+        self.heat_thr = int(heat_thr)
+        self._c = None
+        self.c_model()  # the core's check, now
+
+    @property
+    def out_stride(self) -> int:
+        s = 1
+        for L in self.layers:
+            s *= int(L["stride"])
+        return s
+
+    # ------------------------------------------------------------ file
+    @classmethod
+    def load(cls, path_or_npz) -> "CnnModel":
+        """From an .npz path or an already opened mapping (np.load result, dict)."""
+        if isinstance(path_or_npz, (str, Path)):
+            p = Path(path_or_npz)
+            if not p.is_file():
+                raise FileNotFoundError(f"CNN model {p} does not exist")
+            with np.load(p, allow_pickle=False) as z:
+                return cls._from_keys(z, str(p))
+        return cls._from_keys(path_or_npz, "")
+
+    @classmethod
+    def _from_keys(cls, z, path: str) -> "CnnModel":
+        keys = set(z.files) if hasattr(z, "files") else set(z.keys())
+        zz = {k: z[k] for k in keys}
+        n = _int_scalar(zz, "cnn_n_layers", 1, MAX_LAYERS)
+        layers = []
+        for i in range(n):
+            meta = _int_array(zz, f"cnn_l{i}_meta", np.int32, (6,))
+            L = {name: int(v) for name, v in zip(META, meta)}
+            for name in META[:4]:
+                if not 0 <= L[name] <= 255:
+                    raise ValueError(f"CNN model: cnn_l{i}_meta {name} = {L[name]} is outside [0, 255]")
+            for name in META[4:]:
+                if not 1 <= L[name] <= MAX_CH:
+                    raise ValueError(f"CNN model: cnn_l{i}_meta {name} = {L[name]} is outside [1, {MAX_CH}]")
+            k, cin, cout = L["ksize"], L["cin"], L["cout"]
+            L["w"] = _int_array(zz, f"cnn_l{i}_w", np.int8, (cout, k, k, cin))
+            L["bias"] = _int_array(zz, f"cnn_l{i}_bias", np.int32, (cout,))
+            L["mult"] = _int_array(zz, f"cnn_l{i}_mult", np.int32, (cout,))
+            L["shift"] = _int_array(zz, f"cnn_l{i}_shift", np.uint8, (cout,))
+            layers.append(L)
+        extra = sorted(k for k in keys if int((re.match(r"cnn_l(\d+)_", k) or [0, -1])[1]) >= n)
+        if extra:
+            raise ValueError(f"CNN model: cnn_n_layers is {n} but the file has {', '.join(extra)}")
+        lut = _int_array(zz, "cnn_side_lut", np.uint16, (4, 256))
+        thr = _int_scalar(zz, "cnn_heat_thr", -128, 127)
+        return cls(layers, lut, thr, path)
+
+    def keys(self) -> dict:
+        """The model under the file's key names (np.savez(path, **m.keys()) writes it)."""
+        d = {"cnn_n_layers": np.int32(len(self.layers)), "cnn_side_lut": np.asarray(self.side_lut, np.uint16),
+             "cnn_heat_thr": np.int32(self.heat_thr)}
+        for i, L in enumerate(self.layers):
+            d[f"cnn_l{i}_meta"] = np.array([L[k] for k in META], np.int32)
+            d[f"cnn_l{i}_w"] = np.asarray(L["w"], np.int8)
+            d[f"cnn_l{i}_bias"] = np.asarray(L["bias"], np.int32)
+            d[f"cnn_l{i}_mult"] = np.asarray(L["mult"], np.int32)
+            d[f"cnn_l{i}_shift"] = np.asarray(L["shift"], np.uint8)
+        return d
+
+    def save(self, path) -> None:
+        np.savez_compressed(path, **self.keys())
+
+    # ------------------------------------------------------------ the C struct
+    def _why(self) -> str:
+        """Which rule of vt_cnn_check_model the model breaks, named by its file key."""
+        n = len(self.layers)
+        if not 1 <= n <= MAX_LAYERS:
+            return f"cnn_n_layers = {n} is outside [1, {MAX_LAYERS}]"
+        for i, L in enumerate(self.layers):
+            key, last = f"cnn_l{i}_meta", i == n - 1
+            if L["ksize"] not in (1, 3):
+                return f"{key}: ksize {L['ksize']} is not 1 or 3"
+            if L["stride"] not in (1, 2):
+                return f"{key}: stride {L['stride']} is not 1 or 2"
+            if L["dilation"] not in (1, 2) or (L["ksize"] == 1 and L["dilation"] != 1):
+                return f"{key}: dilation {L['dilation']} (1 or 2 for 3x3, 1 for 1x1)"
+            if L["relu"] != (0 if last else 1):
+                return f"{key}: relu {L['relu']} (1 on every layer but the last, 0 on the last)"
+            if not 1 <= L["cin"] <= MAX_CH or not 1 <= L["cout"] <= MAX_CH:
+                return f"{key}: cin {L['cin']}, cout {L['cout']} outside [1, {MAX_CH}]"
+            want = 1 if i == 0 else self.layers[i - 1]["cout"]
+            if L["cin"] != want:
+                return f"{key}: cin {L['cin']} must be {want} ({'the gray input' if i == 0 else 'the previous cout'})"
+            if last and L["cout"] != OUT_CH:
+                return f"{key}: the last layer's cout {L['cout']} must be {OUT_CH}"
+            if np.abs(np.asarray(L["bias"], np.int64)).max(initial=0) > BIAS_MAX:
+                return f"cnn_l{i}_bias: |bias| must be <= {BIAS_MAX}"
+            if np.asarray(L["mult"], np.int64).min(initial=1) < 1:
+                return f"cnn_l{i}_mult: every mult must be >= 1"
+            sh = np.asarray(L["shift"], np.int64)
+            if sh.size and (sh.min() < 1 or sh.max() > 62):
+                return f"cnn_l{i}_shift: every shift must be in 1..62"
+        if self.out_stride > 255:
+            return f"the strides' product {self.out_stride} does not fit out_stride (uint8)"
+        return "see vt_cnn_check_model"
+
+    def c_model(self):
+        """The checked vt_cnn_model (cached); its arrays point into this object's NumPy arrays."""
+        if self._c is not None:
+            return self._c
+        n = len(self.layers)
+        if not 1 <= n <= MAX_LAYERS:
+            raise ValueError(f"CNN model: cnn_n_layers = {n} is outside [1, {MAX_LAYERS}]")
+        m = ffi.new("vt_cnn_model *")
+        keep = []
+
+        def ptr(a, dtype, ctype):
+            a = np.ascontiguousarray(a, dtype=dtype)
+            keep.append(a)
+            return ffi.cast(ctype, a.ctypes.data)
+
+        m.n_layers = n
+        for i, L in enumerate(self.layers):
+            c = m.layer[i]
+            for k in META[:4]:
+                if not 0 <= int(L[k]) <= 255:
+                    raise ValueError(f"CNN model: cnn_l{i}_meta {k} = {L[k]} is outside [0, 255]")
+                setattr(c, k, int(L[k]))
+            for k in META[4:]:
+                if not 0 <= int(L[k]) <= 65535:
+                    raise ValueError(f"CNN model: cnn_l{i}_meta {k} = {L[k]} is outside [0, 65535]")
+                setattr(c, k, int(L[k]))
+            c.w = ptr(L["w"], np.int8, "const int8_t *")
+            c.bias = ptr(L["bias"], np.int32, "const int32_t *")
+            c.mult = ptr(L["mult"], np.int32, "const int32_t *")
+            c.shift = ptr(L["shift"], np.uint8, "const uint8_t *")
+            want = (int(L["cout"]), int(L["ksize"]), int(L["ksize"]), int(L["cin"]))
+            if keep[-4].shape != want:
+                raise ValueError(f"CNN model: cnn_l{i}_w has shape {keep[-4].shape}, the meta says {want}")
+            for j, name in ((-3, "bias"), (-2, "mult"), (-1, "shift")):
+                if keep[j].shape != (want[0],):
+                    raise ValueError(f"CNN model: cnn_l{i}_{name} has shape {keep[j].shape}, "
+                                     f"the meta says ({want[0]},)")
+        m.out_stride = self.out_stride & 0xFF
+        m.heat_thr = _check.integer(self.heat_thr, "cnn_heat_thr", -128, 127)
+        lut = np.asarray(self.side_lut)
+        if lut.shape != (4, 256):
+            raise ValueError(f"CNN model: cnn_side_lut must have shape (4, 256), got {lut.shape}")
+        m.side_lut = ptr(lut, np.uint16, "const uint16_t *")
+        s = lib.vt_cnn_check_model(m)
+        if s < 0:
+            raise VtError("vt_cnn_check_model", s, self._why() + (f" ({self.path})" if self.path else ""))
+        self._c = (m, keep)
+        return self._c
+
+
+def _gray(img, name: str = "gray") -> np.ndarray:
+    if not isinstance(img, np.ndarray):
+        raise TypeError(f"{name}: expected a numpy.ndarray, got {type(img).__name__}")
+    if img.dtype != np.uint8:
+        raise TypeError(f"{name}: expected a uint8 gray image, got dtype {img.dtype}")
+    if img.ndim != 2:
+        raise ValueError(f"{name}: expected a 2-D gray image (h, w), got shape {img.shape}")
+    if img.size == 0:
+        raise ValueError(f"{name}: the image is empty (shape {img.shape})")
+    return img
+
+
+def out_size(model: CnnModel, w: int, h: int) -> tuple[int, int]:
+    """vt_cnn_out_size: (gw, gh) of the last layer for a w x h input."""
+    gw, gh = ffi.new("int32_t *"), ffi.new("int32_t *")
+    w = _check.integer(w, "w")
+    h = _check.integer(h, "h")
+    check("vt_cnn_out_size", lib.vt_cnn_out_size(model.c_model()[0], w, h, gw, gh), f"input {w}x{h}")
+    return int(gw[0]), int(gh[0])
+
+
+def work_bytes(model: CnnModel, w: int, h: int) -> int:
+    """vt_cnn_work_bytes: the work buffer a w x h input needs."""
+    b = ffi.new("size_t *")
+    w = _check.integer(w, "w")
+    h = _check.integer(h, "h")
+    check("vt_cnn_work_bytes", lib.vt_cnn_work_bytes(model.c_model()[0], w, h, b), f"input {w}x{h}")
+    return int(b[0])
+
+
+def forward(model: CnnModel, gray: np.ndarray) -> np.ndarray:
+    """vt_cnn_forward: (gh, gw, 5) int8 (heat, then the l, t, r, b side codes) of a uint8 gray
+    image (rows may be padded: any row stride, contiguous columns)."""
+    g = _gray(gray)
+    v = view(g, "gray")              # dtype, ndim and column contiguity; keeps the row stride
+    m = model.c_model()[0]
+    gw, gh = out_size(model, g.shape[1], g.shape[0])
+    nb = work_bytes(model, g.shape[1], g.shape[0])
+    work = np.empty(max(nb, 1), np.uint8)
+    out = np.empty((gh, gw, OUT_CH), np.int8)
+    check("vt_cnn_forward",
+          lib.vt_cnn_forward(m, v.px, v.w, v.h, v.stride, ffi.cast("uint8_t *", work.ctypes.data), nb,
+                             ffi.cast("int8_t *", out.ctypes.data), out.size),
+          f"gray {g.shape}, row stride {v.stride}")
+    return out
+
+
+def decode(model: CnnModel, out: np.ndarray, thr=None, scale_shift: int = 0, cap=None) -> tuple[np.ndarray, int]:
+    """vt_cnn_decode: ((N, 5) int32 [l, t, r, b, score] inclusive full-frame px, heat descending,
+    ties in raster order; the total number of peaks). thr: None = the model's heat_thr; cap:
+    None = every cell (nothing clipped), else at most cap boxes (the total still counts all)."""
+    if not isinstance(out, np.ndarray):
+        raise TypeError(f"out: expected a numpy.ndarray, got {type(out).__name__}")
+    if out.dtype != np.int8:
+        raise TypeError(f"out: expected the int8 output of forward, got dtype {out.dtype}")
+    if out.ndim != 3 or out.shape[2] != OUT_CH or out.shape[0] < 1 or out.shape[1] < 1:
+        raise ValueError(f"out: expected shape (gh, gw, {OUT_CH}) with gh, gw >= 1, got {out.shape}")
+    o = np.ascontiguousarray(out)
+    gh, gw = o.shape[:2]
+    thr = model.heat_thr if thr is None else _check.integer(thr, "thr")
+    ss = _check.integer(scale_shift, "scale_shift", 0, 4)
+    cap = gh * gw if cap is None else _check.integer(cap, "cap", 1)
+    cap = min(cap, gh * gw)          # no more peaks than cells: no bigger buffer needed
+    boxes = ffi.new("vt_cnn_box[]", cap)
+    n, tot = ffi.new("int32_t *"), ffi.new("int32_t *")
+    check("vt_cnn_decode",
+          lib.vt_cnn_decode(model.c_model()[0], ffi.cast("const int8_t *", o.ctypes.data), gw, gh, thr, ss,
+                            boxes, cap, n, tot),
+          f"out {o.shape}, thr {thr}, scale_shift {ss}, cap {cap}")
+    res = np.frombuffer(ffi.buffer(boxes), np.int32).reshape(-1, 5)[:n[0]].copy()
+    return res, int(tot[0])
