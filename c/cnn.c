@@ -4,6 +4,7 @@
  * weights, uint8 activations, int32 accumulators, per-channel requantisation; the
  * arithmetic is stated in cnn.h, pyvehtrack/reference/cnn.py is its bit-exact twin. */
 #include <stddef.h>
+#include <stdint.h>
 
 #include "vehtrack/cnn.h"
 #include "vehtrack/fixed.h"
@@ -12,7 +13,8 @@
 vt_status vt_cnn_check_model(const vt_cnn_model *m)
 {
     int32_t i, c, prod = 1;
-    if (m == NULL || m->n_layers < 1 || m->n_layers > VT_CNN_MAX_LAYERS || m->side_lut == NULL) {
+    if (m == NULL || m->n_layers < 1 || m->n_layers > VT_CNN_MAX_LAYERS || m->side_lut == NULL ||
+        m->heat_scale_q16 < 1 || m->heat_scale_q16 > VT_CNN_HEAT_SCALE_MAX) {
         return VT_E_ARG;
     }
     for (i = 0; i < m->n_layers; ++i) {
@@ -270,7 +272,7 @@ vt_status vt_cnn_decode(const vt_cnn_model *m, const int8_t *out, int32_t gw, in
         *n_peaks = 0;
     }
     if (out == NULL || boxes == NULL || n == NULL || n_peaks == NULL || cap < 1 ||
-        scale_shift < 0 || scale_shift > 4) {
+        scale_shift < 0 || scale_shift > VT_CNN_MAX_LEVEL) {
         return VT_E_ARG;
     }
     s = vt_cnn_check_model(m);
@@ -310,5 +312,235 @@ vt_status vt_cnn_decode(const vt_cnn_model *m, const int8_t *out, int32_t gw, in
     }
     *n_peaks = run;
     *n = run < cap ? run : cap;
+    return VT_OK;
+}
+
+
+/* ------------------------------------------------------------ frame-level detection */
+
+vt_status vt_cnn_cfg_default(vt_cnn_cfg *cfg)
+{
+    static const vt_cnn_cfg def = VT_CNN_CFG_DEFAULT;
+    return vt__cfg_copy(cfg, &def, sizeof def);
+}
+
+vt_status vt_cnn_cfg_check(const vt_cnn_cfg *cfg)
+{
+    if (cfg == NULL || cfg->first_level < 0 || cfg->first_level > VT_CNN_MAX_LEVEL - 1 ||
+        cfg->n_levels < 1 || cfg->n_levels > VT_CNN_MAX_RUN_LEVELS ||
+        cfg->first_level + cfg->n_levels - 1 > VT_CNN_MAX_LEVEL || cfg->cap_per_level < 1 ||
+        cfg->cap_per_level > VT_CNN_MAX_PEAKS ||
+        (int64_t)cfg->n_levels * cfg->cap_per_level > VT_MAX_NMS_BOXES ||
+        cfg->nms_iou_permille < 0 || cfg->nms_iou_permille > 1000 ||
+        cfg->nms_contain_permille < 0 || cfg->nms_contain_permille > 1000) {
+        return VT_E_ARG;
+    }
+    return VT_OK;
+}
+
+/* Alignment of the work buffer's box regions (int32 structs): the first region starts
+ * at the first multiple of VT__CNN_ALIGN in work, so the size query adds
+ * VT__CNN_ALIGN - 1 bytes for any caller's pointer (a static uint8_t array in firmware
+ * has no alignment of its own). */
+#define VT__CNN_ALIGN 8
+
+/* The work buffer's regions for one frame (offsets from the aligned start). */
+typedef struct {
+    int32_t lw[VT_CNN_MAX_LEVEL + 1]; /* level sizes, level 0 = the frame */
+    int32_t lh[VT_CNN_MAX_LEVEL + 1];
+    size_t sbox;   /* vt_scored_box[n_levels cap_per_level]          */
+    size_t cbox;   /* vt_cnn_box[cap_per_level]: one level's decode  */
+    size_t lvl[2]; /* level images: odd levels, even levels >= 2     */
+    size_t fwd;    /* vt_cnn_forward's work                          */
+    size_t out;    /* the forward output (int8)                      */
+    size_t fwd_bytes;
+    size_t out_bytes;
+    size_t total;  /* bytes after the aligned start                  */
+} vt__cnn_frame_plan;
+
+/* The plan for a w x h frame (m, cfg valid; w, h in range): every run level's forward
+ * sizes through vt__cnn_plan, so they are the single-level functions' own. */
+static vt_status vt__cnn_frame_layout(const vt_cnn_model *m, const vt_cnn_cfg *cfg, int32_t w,
+                                      int32_t h, vt__cnn_frame_plan *pl)
+{
+    int32_t k, last = cfg->first_level + cfg->n_levels - 1;
+    size_t lvl_bytes[2] = {0, 0}, off;
+    pl->lw[0] = w;
+    pl->lh[0] = h;
+    for (k = 1; k <= VT_CNN_MAX_LEVEL; ++k) {
+        pl->lw[k] = (pl->lw[k - 1] + 1) / 2;
+        pl->lh[k] = (pl->lh[k - 1] + 1) / 2;
+    }
+    for (k = 1; k <= last; ++k) {
+        size_t b = (size_t)pl->lw[k] * (size_t)pl->lh[k];
+        size_t *r = &lvl_bytes[(k & 1) ? 0 : 1];
+        *r = b > *r ? b : *r;
+    }
+    pl->fwd_bytes = 0;
+    pl->out_bytes = 0;
+    for (k = cfg->first_level; k <= last; ++k) {
+        size_t sizes[VT_CNN_MAX_LAYERS], r0, r1, ob;
+        int32_t gw, gh;
+        vt_status s = vt__cnn_plan(m, pl->lw[k], pl->lh[k], sizes, &gw, &gh);
+        if (s != VT_OK) {
+            return s;
+        }
+        vt__cnn_regions(m, sizes, &r0, &r1);
+        ob = sizes[m->n_layers - 1];
+        pl->fwd_bytes = r0 + r1 > pl->fwd_bytes ? r0 + r1 : pl->fwd_bytes;
+        pl->out_bytes = ob > pl->out_bytes ? ob : pl->out_bytes;
+    }
+    /* structs first (aligned), then the byte regions */
+    pl->sbox = 0;
+    off = (size_t)cfg->n_levels * (size_t)cfg->cap_per_level * sizeof(vt_scored_box);
+    pl->cbox = off;
+    off += (size_t)cfg->cap_per_level * sizeof(vt_cnn_box);
+    pl->lvl[0] = off;
+    off += lvl_bytes[0];
+    pl->lvl[1] = off;
+    off += lvl_bytes[1];
+    pl->fwd = off;
+    off += pl->fwd_bytes;
+    pl->out = off;
+    pl->total = off + pl->out_bytes;
+    return VT_OK;
+}
+
+vt_status vt_cnn_frame_work_bytes(const vt_cnn_model *m, const vt_cnn_cfg *cfg, int32_t w,
+                                  int32_t h, size_t *bytes)
+{
+    vt__cnn_frame_plan pl;
+    vt_status s;
+    if (bytes == NULL || vt_cnn_check_model(m) != VT_OK || vt_cnn_cfg_check(cfg) != VT_OK) {
+        return VT_E_ARG;
+    }
+    if (w < 1 || h < 1 || w > VT_MAX_WIDTH || h > VT_MAX_HEIGHT) {
+        return VT_E_SIZE;
+    }
+    s = vt__cnn_frame_layout(m, cfg, w, h, &pl);
+    if (s == VT_OK) {
+        *bytes = pl.total + (VT__CNN_ALIGN - 1);
+    }
+    return s;
+}
+
+/* The threshold heat_thr + thr_offset, exact in int64, clamped to -128..128: every
+ * heat is -128..127, so a lower sum finds the same peaks as -128 and a higher one
+ * none, as 128. */
+static int32_t vt__cnn_thr(const vt_cnn_model *m, const vt_cnn_cfg *cfg)
+{
+    int64_t t = (int64_t)m->heat_thr + cfg->thr_offset;
+    return (int32_t)(t < -128 ? -128 : (t > 128 ? 128 : t));
+}
+
+vt_status vt_cnn_detect_frame(const vt_cnn_model *m, const vt_cnn_cfg *cfg, const uint8_t *img,
+                              int32_t w, int32_t h, int32_t stride, uint8_t *work,
+                              size_t work_bytes, vt_cnn_box *boxes, int32_t cap, int32_t *n,
+                              int32_t *n_peaks)
+{
+    vt__cnn_frame_plan pl;
+    vt_scored_box *sb;
+    vt_cnn_box *cb;
+    uint8_t *base;
+    size_t pad;
+    int32_t k, i, last, total = 0, peaks = 0, kept = 0, thr;
+    vt_image_u8 src;
+    vt_status s;
+    if (n != NULL) {
+        *n = 0;
+    }
+    if (n_peaks != NULL) {
+        *n_peaks = 0;
+    }
+    if (img == NULL || work == NULL || boxes == NULL || n == NULL || n_peaks == NULL || cap < 1 ||
+        vt_cnn_check_model(m) != VT_OK || vt_cnn_cfg_check(cfg) != VT_OK) {
+        return VT_E_ARG;
+    }
+    s = vt__check_dims(w, h, stride, VT_MAX_WIDTH, VT_MAX_HEIGHT);
+    if (s != VT_OK) {
+        return s;
+    }
+    s = vt__cnn_frame_layout(m, cfg, w, h, &pl);
+    if (s != VT_OK) {
+        return s;
+    }
+    if (work_bytes < pl.total + (VT__CNN_ALIGN - 1)) {
+        return VT_E_CAPACITY;
+    }
+    /* the pointer's low bits only (uintptr_t: every target this core builds for has it) */
+    pad = (size_t)((VT__CNN_ALIGN - ((uintptr_t)work % VT__CNN_ALIGN)) % VT__CNN_ALIGN);
+    base = work + pad;
+    sb = (vt_scored_box *)(void *)(base + pl.sbox);
+    cb = (vt_cnn_box *)(void *)(base + pl.cbox);
+    thr = vt__cnn_thr(m, cfg);
+    last = cfg->first_level + cfg->n_levels - 1;
+    src.px = img;
+    src.w = w;
+    src.h = h;
+    src.stride = stride;
+    for (k = 0; k <= last; ++k) {
+        int32_t gw, gh, nd = 0, np = 0;
+        int8_t *out = (int8_t *)(void *)(base + pl.out);
+        if (k > 0) {
+            /* level k from level k - 1: odd levels in the first image, even in the second */
+            vt_image_u8_mut dst;
+            dst.px = base + pl.lvl[(k & 1) ? 0 : 1];
+            dst.w = pl.lw[k];
+            dst.h = pl.lh[k];
+            dst.stride = pl.lw[k];
+            s = vt_pyr_down(&src, &dst);
+            if (s != VT_OK) {
+                return s;
+            }
+            src.px = dst.px;
+            src.w = dst.w;
+            src.h = dst.h;
+            src.stride = dst.stride;
+        }
+        if (k < cfg->first_level) {
+            continue;
+        }
+        s = vt_cnn_forward(m, src.px, src.w, src.h, src.stride, base + pl.fwd, pl.fwd_bytes, out,
+                           pl.out_bytes);
+        if (s == VT_OK) {
+            s = vt_cnn_out_size(m, src.w, src.h, &gw, &gh);
+        }
+        if (s == VT_OK) {
+            s = vt_cnn_decode(m, out, gw, gh, thr, k, cb, cfg->cap_per_level, &nd, &np);
+        }
+        if (s != VT_OK) {
+            return s; /* not reached: every argument was checked above */
+        }
+        peaks += np;
+        for (i = 0; i < nd; ++i) {
+            /* clipped to the frame; empty after that (outside, or a zero side) dropped */
+            vt_scored_box *o = &sb[total];
+            o->box.left = cb[i].l < 0 ? 0 : cb[i].l;
+            o->box.top = cb[i].t < 0 ? 0 : cb[i].t;
+            o->box.right = cb[i].r > w - 1 ? w - 1 : cb[i].r;
+            o->box.bottom = cb[i].b > h - 1 ? h - 1 : cb[i].b;
+            if (o->box.left > o->box.right || o->box.top > o->box.bottom) {
+                continue;
+            }
+            o->score = cb[i].score;
+            o->source = k;
+            ++total;
+        }
+    }
+    /* vt_nms' stable sort keeps level, then decode order among equal heats */
+    s = vt_nms(sb, total, cfg->nms_iou_permille, cfg->nms_contain_permille, &kept);
+    if (s != VT_OK) {
+        return s; /* not reached: total <= VT_MAX_NMS_BOXES (cfg check), boxes in the frame */
+    }
+    kept = kept < cap ? kept : cap;
+    for (i = 0; i < kept; ++i) {
+        boxes[i].l = sb[i].box.left;
+        boxes[i].t = sb[i].box.top;
+        boxes[i].r = sb[i].box.right;
+        boxes[i].b = sb[i].box.bottom;
+        boxes[i].score = sb[i].score;
+    }
+    *n = kept;
+    *n_peaks = peaks;
     return VT_OK;
 }

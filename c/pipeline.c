@@ -2,7 +2,8 @@
  * detection, ch. 3 for tracking): lanes and the road area (sec. 2.4.1), shadow
  * hypotheses and their verification (sec. 2.4.2) -- or, with a classifier, the
  * whole-road detector (IVVI paper sec. 4/5 windows, GIST paper sec. III
- * classifier, c/fulldet.c) -- every detect_every frames, the
+ * classifier, c/fulldet.c; or the ACF stage, c/acf.c, or the CNN, c/cnn.c, in place of
+ * its windows) -- every detect_every frames, the
  * tracker on every frame (sec. 3.5-3.6), and with a camera the distance, TTC and
  * warning per track (IVVI paper sec. 4, c/camera.c), and the block-scale TTC per track
  * (IVVI paper sec. 4's scale-change TTC, c/ttc_scale.c). It only composes the stages through
@@ -149,6 +150,10 @@ vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
     p->acf = NULL;
     p->acf_ws = NULL;
     p->acf_n = 0;
+    p->cnn = NULL;
+    memset(&p->cnn_cfg, 0, sizeof(p->cnn_cfg));
+    p->cnn_work = NULL;
+    p->cnn_work_bytes = 0;
     p->horizon_y = 0;
     p->horizon_known = 0;
     p->flow_st = NULL;
@@ -201,8 +206,9 @@ vt_status vt_pipeline_set_cls_ws(vt_pipeline *p, vt_pipe_cls_ws *ws, const vt_wi
         memset(&p->scorer, 0, sizeof(p->scorer));
         return VT_OK;
     }
-    if (scorer == NULL && p->model == NULL && p->acf != NULL) {
-        memset(&p->scorer, 0, sizeof(p->scorer)); /* the ACF stage needs no window scorer */
+    if (scorer == NULL && p->model == NULL && (p->acf != NULL || p->cnn != NULL)) {
+        /* the ACF stage and the CNN detector need no window scorer */
+        memset(&p->scorer, 0, sizeof(p->scorer));
     } else if (scorer == NULL) {
         if (p->model == NULL) {
             return VT_E_ARG;
@@ -277,6 +283,33 @@ vt_status vt_pipeline_set_acf_n(vt_pipeline *p, int32_t n, const vt_acf_model *c
         p->acf_m[i] = m[i];
         p->acf_cfg[i] = *cfg[i];
     }
+    return VT_OK;
+}
+
+vt_status vt_pipeline_set_cnn(vt_pipeline *p, const vt_cnn_model *m, const vt_cnn_cfg *cfg,
+                              uint8_t *work, size_t work_bytes)
+{
+    vt_status s;
+    if (p == NULL || (m != NULL && (cfg == NULL || work == NULL))) {
+        return VT_E_ARG;
+    }
+    if (m == NULL) {
+        p->cnn = NULL;
+        p->cnn_work = NULL;
+        p->cnn_work_bytes = 0;
+        return VT_OK;
+    }
+    s = vt_cnn_check_model(m);
+    if (s == VT_OK) {
+        s = vt_cnn_cfg_check(cfg);
+    }
+    if (s != VT_OK) {
+        return s;
+    }
+    p->cnn = m;
+    p->cnn_cfg = *cfg;
+    p->cnn_work = work;
+    p->cnn_work_bytes = work_bytes;
     return VT_OK;
 }
 
@@ -658,6 +691,40 @@ static vt_status vt__detect_ego(vt_pipeline *p, const vt_image_u8 *frame, const 
     return s;
 }
 
+/* The CNN detector on the frame into res (vt_pipeline_set_cnn): its boxes as classifier
+ * boxes (VT_FULLDET_WINDOWS), score = heat x heat_scale_q16 (Q16 logit; |heat| <= 128
+ * and heat_scale_q16 <= 2^24 keep it in int32), the first VT_MAX_BOXES in NMS order;
+ * the counters: every peak is a window hit and a candidate (n_peaks), nothing else. */
+static vt_status vt__detect_cnn(const vt_pipeline *p, const vt_image_u8 *frame,
+                                vt_fulldet_result *res)
+{
+    vt_cnn_box b[VT_MAX_BOXES];
+    int32_t i, n = 0, n_peaks = 0;
+    vt_status s = vt_cnn_detect_frame(p->cnn, &p->cnn_cfg, frame->px, frame->w, frame->h,
+                                      frame->stride, p->cnn_work, p->cnn_work_bytes, b,
+                                      VT_MAX_BOXES, &n, &n_peaks);
+    res->n_boxes = 0;
+    res->n_windows = 0;
+    res->n_windows_dropped = 0;
+    res->n_window_hits = n_peaks;
+    res->n_shadow = 0;
+    res->n_cand = n_peaks;
+    res->n_cand_dropped = 0;
+    if (s != VT_OK) {
+        return s;
+    }
+    for (i = 0; i < n; ++i) {
+        res->box[i].box.left = b[i].l;
+        res->box[i].box.top = b[i].t;
+        res->box[i].box.right = b[i].r;
+        res->box[i].box.bottom = b[i].b;
+        res->box[i].score = b[i].score * p->cnn->heat_scale_q16;
+        res->box[i].source = VT_FULLDET_WINDOWS;
+    }
+    res->n_boxes = n;
+    return VT_OK;
+}
+
 /* The whole-road detector on a detection frame: its camera (the road camera of the
  * frame's size, the horizon the last lanes' vanishing row once known), the road (the
  * caller's when given, else the camera road), vt_fulldet, and its boxes into out and
@@ -732,7 +799,9 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
     if (out->road_source == VT_ROAD_SRC_NONE) {
         return VT_OK;
     }
-    if (p->acf != NULL) {
+    if (p->cnn != NULL) {
+        s = vt__detect_cnn(p, frame, &ws->res);
+    } else if (p->acf != NULL) {
         const vt_acf_cfg *cfgs[VT_ACF_MAX_MODELS];
         for (i = 0; i < p->acf_n; ++i) {
             cfgs[i] = &p->acf_cfg[i];
@@ -744,7 +813,8 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
     } else {
         s = vt_fulldet(&ws->st, &fc, &cam, frame, &out->road, &p->scorer, &ws->res);
     }
-    if (s == VT_OK && fc.rerank_permille > 0 && p->acf == NULL) {
+    /* the CNN is its own verification: none of the stages below run on its boxes */
+    if (s == VT_OK && fc.rerank_permille > 0 && p->acf == NULL && p->cnn == NULL) {
         /* NMS again, ranked with the second stage's model too (fulldet.h) */
         const vt_mlp_model *m = NULL;
         s = vt_mlp_default_model(&m);
@@ -752,7 +822,8 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
             s = vt_fulldet_rerank(&ws->st, &ws->box, m, &fc, frame, &ws->res);
         }
     }
-    if (s == VT_OK && p->cfg.verify != 0 && !(p->acf != NULL && p->rescore != NULL)) {
+    if (s == VT_OK && p->cfg.verify != 0 && p->cnn == NULL &&
+        !(p->acf != NULL && p->rescore != NULL)) {
         const vt_mlp_model *m = NULL;
         s = vt_mlp_default_model(&m);
         if (s == VT_OK) {
@@ -770,13 +841,13 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
     for (i = 0; i < n_raw; ++i) {
         raw[i] = ws->res.box[i].box;
     }
-    if (s == VT_OK && p->refine != NULL) {
+    if (s == VT_OK && p->refine != NULL && p->cnn == NULL) {
         /* box regression on the detector's own boxes (the ego boxes are not in res); the
          * tracker keeps the boxes as detected (raw), whose bottom edge and sides its ROI
          * search measures */
         s = vt_fulldet_refine(&ws->box, p->refine, frame, &ws->res);
     }
-    if (s == VT_OK && p->wide_model != NULL) {
+    if (s == VT_OK && p->wide_model != NULL && p->cnn == NULL) {
         /* the wide pass (side views, trucks): its scratch is the detector's, done with */
         s = vt_fulldet_wide(&ws->st, &ws->box, &p->wide_cfg, &fc.win, p->wide_model, &cam, frame,
                             &out->road, &ws->res);
@@ -785,7 +856,7 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
         return s;
     }
     /* The shadow source's hypotheses (fulldet keeps them in its detect result). */
-    if ((fc.sources & VT_FULLDET_SHADOW) && p->acf == NULL) {
+    if ((fc.sources & VT_FULLDET_SHADOW) && p->acf == NULL && p->cnn == NULL) {
         for (i = 0; i < ws->st.dres.n_hyp && n_hyp0 + i < VT_MAX_HYPOTHESES; ++i) {
             out->hyp[n_hyp0 + i] = ws->st.dres.hyp[i];
         }
@@ -1188,7 +1259,7 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
     }
     /* A classifier asked for (a model, or the classifier source) needs its
      * workspace and scorer attached (vt_pipeline_set_cls_ws). */
-    whole = p->cls_ws != NULL && (p->scorer.score != NULL || p->acf != NULL);
+    whole = p->cls_ws != NULL && (p->scorer.score != NULL || p->acf != NULL || p->cnn != NULL);
     if (!whole && (p->model != NULL || (p->cfg.sources & (VT_SRC_CLASSIFIER | VT_SRC_EGO)) != 0)) {
         return VT_E_ARG;
     }

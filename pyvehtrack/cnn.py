@@ -15,12 +15,20 @@ Model file (.npz), every key required:
     cnn_l{i}_shift      uint8 (cout,)
     cnn_side_lut        uint16 (4, 256)
     cnn_heat_thr        int, -128..127
+    cnn_heat_scale_q16  int, 1..VT_CNN_HEAT_SCALE_MAX: the float logit of one heat step, Q16
+                        (the pipeline reports a CNN box's score as heat x this / 65536)
 (Any integer dtype whose values fit the stated one is accepted; out_stride is the product of
 the strides.)
+
+Frame-level detection (detect_frame, C vt_cnn_detect_frame): the network on several Gaussian
+pyramid levels of a frame (CnnConfig: which levels, threshold offset, peaks per level, the NMS
+merging all levels' boxes). is_cnn(path_or_npz) tells a CNN model file from the other
+detectors' (its keys start with cnn_).
 """
 from __future__ import annotations
 
 import re
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 import numpy as np
@@ -32,6 +40,10 @@ MAX_LAYERS = int(lib.VT_CNN_MAX_LAYERS)
 MAX_CH = int(lib.VT_CNN_MAX_CH)
 OUT_CH = int(lib.VT_CNN_OUT_CH)
 BIAS_MAX = int(lib.VT_CNN_BIAS_MAX)
+HEAT_SCALE_MAX = int(lib.VT_CNN_HEAT_SCALE_MAX)
+MAX_LEVEL = int(lib.VT_CNN_MAX_LEVEL)
+MAX_RUN_LEVELS = int(lib.VT_CNN_MAX_RUN_LEVELS)
+MAX_PEAKS = int(lib.VT_CNN_MAX_PEAKS)
 META = ("ksize", "stride", "dilation", "relu", "cin", "cout")
 
 
@@ -63,13 +75,17 @@ def _int_scalar(z, key: str, lo: int, hi: int) -> int:
 
 
 class CnnModel:
-    """A vt_cnn_model and the NumPy arrays behind it (kept alive as long as the model)."""
+    """A vt_cnn_model and the NumPy arrays behind it (kept alive as long as the model).
+    heat_scale_q16: the float logit of one heat step in Q16 (the file's required
+    cnn_heat_scale_q16; 65536, one logit per step, when a model is built in code)."""
 
-    def __init__(self, layers: list[dict], side_lut: np.ndarray, heat_thr: int = 0, path: str = ""):
+    def __init__(self, layers: list[dict], side_lut: np.ndarray, heat_thr: int = 0, path: str = "", *,
+                 heat_scale_q16: int = 65536):
         self.path = str(path)
         self.layers = [dict(L) for L in layers]
         self.side_lut = side_lut
         self.heat_thr = int(heat_thr)
+        self.heat_scale_q16 = _check.integer(heat_scale_q16, "cnn_heat_scale_q16", 1, HEAT_SCALE_MAX)
         self._c = None
         self.c_model()  # the core's check, now
 
@@ -118,12 +134,13 @@ class CnnModel:
             raise ValueError(f"CNN model: cnn_n_layers is {n} but the file has {', '.join(extra)}")
         lut = _int_array(zz, "cnn_side_lut", np.uint16, (4, 256))
         thr = _int_scalar(zz, "cnn_heat_thr", -128, 127)
-        return cls(layers, lut, thr, path)
+        scale = _int_scalar(zz, "cnn_heat_scale_q16", 1, HEAT_SCALE_MAX)
+        return cls(layers, lut, thr, path, heat_scale_q16=scale)
 
     def keys(self) -> dict:
         """The model under the file's key names (np.savez(path, **m.keys()) writes it)."""
         d = {"cnn_n_layers": np.int32(len(self.layers)), "cnn_side_lut": np.asarray(self.side_lut, np.uint16),
-             "cnn_heat_thr": np.int32(self.heat_thr)}
+             "cnn_heat_thr": np.int32(self.heat_thr), "cnn_heat_scale_q16": np.int32(self.heat_scale_q16)}
         for i, L in enumerate(self.layers):
             d[f"cnn_l{i}_meta"] = np.array([L[k] for k in META], np.int32)
             d[f"cnn_l{i}_w"] = np.asarray(L["w"], np.int8)
@@ -165,6 +182,8 @@ class CnnModel:
             sh = np.asarray(L["shift"], np.int64)
             if sh.size and (sh.min() < 1 or sh.max() > 62):
                 return f"cnn_l{i}_shift: every shift must be in 1..62"
+        if not 1 <= self.heat_scale_q16 <= HEAT_SCALE_MAX:
+            return f"cnn_heat_scale_q16 = {self.heat_scale_q16} is outside [1, {HEAT_SCALE_MAX}]"
         if self.out_stride > 255:
             return f"the strides' product {self.out_stride} does not fit out_stride (uint8)"
         return "see vt_cnn_check_model"
@@ -208,6 +227,7 @@ class CnnModel:
                                      f"the meta says ({want[0]},)")
         m.out_stride = self.out_stride & 0xFF
         m.heat_thr = _check.integer(self.heat_thr, "cnn_heat_thr", -128, 127)
+        m.heat_scale_q16 = _check.integer(self.heat_scale_q16, "cnn_heat_scale_q16", 1, HEAT_SCALE_MAX)
         lut = np.asarray(self.side_lut)
         if lut.shape != (4, 256):
             raise ValueError(f"CNN model: cnn_side_lut must have shape (4, 256), got {lut.shape}")
@@ -279,7 +299,7 @@ def decode(model: CnnModel, out: np.ndarray, thr=None, scale_shift: int = 0, cap
     o = np.ascontiguousarray(out)
     gh, gw = o.shape[:2]
     thr = model.heat_thr if thr is None else _check.integer(thr, "thr")
-    ss = _check.integer(scale_shift, "scale_shift", 0, 4)
+    ss = _check.integer(scale_shift, "scale_shift", 0, MAX_LEVEL)
     cap = gh * gw if cap is None else _check.integer(cap, "cap", 1)
     cap = min(cap, gh * gw)          # no more peaks than cells: no bigger buffer needed
     boxes = ffi.new("vt_cnn_box[]", cap)
@@ -290,3 +310,121 @@ def decode(model: CnnModel, out: np.ndarray, thr=None, scale_shift: int = 0, cap
           f"out {o.shape}, thr {thr}, scale_shift {ss}, cap {cap}")
     res = np.frombuffer(ffi.buffer(boxes), np.int32).reshape(-1, 5)[:n[0]].copy()
     return res, int(tot[0])
+
+
+# ---------------------------------------------------------------- frame-level detection
+@dataclass(frozen=True)
+class CnnConfig:
+    """vt_cnn_cfg (cnn.h): the levels the network runs on, the threshold, the per-level cap and
+    the NMS over every level's boxes. None fields take the core's default (vt_cnn_cfg_default)."""
+    first_level: int | None = None       # 0..MAX_LEVEL - 1 (1 = half size)
+    n_levels: int | None = None          # 1..MAX_RUN_LEVELS, first_level + n_levels - 1 <= MAX_LEVEL
+    thr_offset: int | None = None        # added to the model's heat_thr (any int32)
+    cap_per_level: int | None = None     # 1..MAX_PEAKS peaks decoded per level
+    nms_iou_permille: int | None = None  # 0..1000
+    nms_contain_permille: int | None = None  # 0..1000
+
+    def c(self):
+        """The checked vt_cnn_cfg (a new cffi struct); ValueError / TypeError naming the field."""
+        c = ffi.new("vt_cnn_cfg *")
+        check("vt_cnn_cfg_default", lib.vt_cnn_cfg_default(c))
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if v is not None:
+                setattr(c, f.name, _check.integer(v, f"CnnConfig.{f.name}"))
+        if lib.vt_cnn_cfg_check(c) != lib.VT_OK:
+            raise ValueError(f"CnnConfig: {self._why(c)}")
+        return c
+
+    @staticmethod
+    def _why(c) -> str:
+        fl, nl = int(c.first_level), int(c.n_levels)
+        if not 0 <= fl <= MAX_LEVEL - 1:
+            return f"first_level = {fl} is outside [0, {MAX_LEVEL - 1}]"
+        if not 1 <= nl <= MAX_RUN_LEVELS:
+            return f"n_levels = {nl} is outside [1, {MAX_RUN_LEVELS}]"
+        if fl + nl - 1 > MAX_LEVEL:
+            return f"first_level + n_levels - 1 = {fl + nl - 1} is past the deepest level {MAX_LEVEL}"
+        if not 1 <= int(c.cap_per_level) <= MAX_PEAKS:
+            return f"cap_per_level = {int(c.cap_per_level)} is outside [1, {MAX_PEAKS}]"
+        for k in ("nms_iou_permille", "nms_contain_permille"):
+            if not 0 <= int(getattr(c, k)) <= 1000:
+                return f"{k} = {int(getattr(c, k))} is outside [0, 1000]"
+        return (f"n_levels x cap_per_level = {nl * int(c.cap_per_level)} exceeds VT_MAX_NMS_BOXES "
+                f"({int(lib.VT_MAX_NMS_BOXES)})")
+
+    @classmethod
+    def from_c(cls, c) -> "CnnConfig":
+        return cls(**{f.name: int(getattr(c, f.name)) for f in fields(cls)})
+
+
+def _cfg(cfg) -> object:
+    if cfg is None:
+        cfg = CnnConfig()
+    if not isinstance(cfg, CnnConfig):
+        raise TypeError(f"cfg: expected a pyvehtrack.cnn.CnnConfig or None, got {type(cfg).__name__}")
+    return cfg.c()
+
+
+def _model(model) -> CnnModel:
+    if not isinstance(model, CnnModel):
+        raise TypeError(f"model: expected a pyvehtrack.cnn.CnnModel, got {type(model).__name__}")
+    return model
+
+
+def frame_work_bytes(model: CnnModel, w: int, h: int, cfg: CnnConfig | None = None) -> int:
+    """vt_cnn_frame_work_bytes: the work buffer detect_frame needs for a w x h frame."""
+    b = ffi.new("size_t *")
+    c = _cfg(cfg)
+    w = _check.integer(w, "w")
+    h = _check.integer(h, "h")
+    check("vt_cnn_frame_work_bytes", lib.vt_cnn_frame_work_bytes(_model(model).c_model()[0], c, w, h, b),
+          f"frame {w}x{h}")
+    return int(b[0])
+
+
+def detect_frame(model: CnnModel, gray: np.ndarray, cfg: CnnConfig | None = None) -> tuple[np.ndarray, int]:
+    """vt_cnn_detect_frame: ((N, 5) int32 [l, t, r, b, heat] inclusive frame px, clipped to the
+    frame, in NMS order over the pyramid levels cfg names; the peaks over those levels before
+    the per-level cap, the clipping and the NMS). gray: a uint8 (h, w) image (any row stride,
+    contiguous columns)."""
+    m = _model(model).c_model()[0]
+    c = _cfg(cfg)
+    g = _gray(gray)
+    v = view(g, "gray")
+    b = ffi.new("size_t *")
+    check("vt_cnn_frame_work_bytes", lib.vt_cnn_frame_work_bytes(m, c, v.w, v.h, b), f"gray {g.shape}")
+    nb = int(b[0])
+    work = np.empty(nb, np.uint8)
+    cap = int(c.n_levels) * int(c.cap_per_level)       # NMS keeps no more than it is given
+    boxes = ffi.new("vt_cnn_box[]", cap)
+    n, tot = ffi.new("int32_t *"), ffi.new("int32_t *")
+    check("vt_cnn_detect_frame",
+          lib.vt_cnn_detect_frame(m, c, v.px, v.w, v.h, v.stride, ffi.cast("uint8_t *", work.ctypes.data), nb,
+                                  boxes, cap, n, tot),
+          f"gray {g.shape}, row stride {v.stride}")
+    res = np.frombuffer(ffi.buffer(boxes), np.int32).reshape(-1, 5)[:n[0]].copy()
+    return res, int(tot[0])
+
+
+def is_cnn(path_or_npz) -> bool:
+    """True when a model file (a path or an opened .npz / mapping) is a CNN model: it has
+    cnn_n_layers and every key starts with cnn_. A path that is not a readable .npz is not."""
+    if isinstance(path_or_npz, CnnModel):
+        return True
+    if isinstance(path_or_npz, (str, Path)):
+        p = Path(path_or_npz)
+        if not p.is_file():
+            return False
+        try:
+            with np.load(p, allow_pickle=False) as z:
+                keys = set(z.files) if hasattr(z, "files") else set()
+        except (OSError, ValueError):
+            return False
+    elif hasattr(path_or_npz, "files"):
+        keys = set(path_or_npz.files)
+    elif hasattr(path_or_npz, "keys"):
+        keys = set(path_or_npz.keys())
+    else:
+        return False
+    return "cnn_n_layers" in keys and all(str(k).startswith("cnn_") for k in keys)

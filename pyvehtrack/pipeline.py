@@ -38,6 +38,17 @@ road; fullroad (a fullroad.FullRoadConfig) tunes it. The C engine allocates the
 detector's workspace (sizeof(vt_pipe_cls_ws)) and attaches it with
 vt_pipeline_set_cls_ws.
 
+With a CNN detector (Pipeline(model=cnn_model) with a pyvehtrack.cnn.CnnModel, or the path
+of an .npz whose keys are cnn_*; cnn_cfg=pyvehtrack.cnn.CnnConfig(...) sets its levels,
+threshold offset, cap and NMS) the detection frames run vt_cnn_detect_frame over the pyramid
+levels in place of the windows (vt_pipeline_set_cnn): its boxes are source "classifier",
+score = heat x the model's heat_scale_q16 (a logit, as pyvehtrack.cnn.detect_frame's heat
+times heat_scale_q16 / 65536); no second stage, re-ranking, box regression, wide pass or
+shadow hypotheses on them (the network is its own verification); "ego" boxes beside them
+as for any classifier. The C engine's CNN work buffer is sized for the first frame's size
+and grown (re-attached) when a frame needs more; the reference engine runs the twin
+(pyvehtrack.reference.cnn.detect_frame) in the same place.
+
 sources "flow" (Pipeline(sources=("shadow", "flow"), flow={"sides": 3})): the overtaking
 stage (c/flow.c) on every frame, its blobs handed to the tracker (source "flow"); and
 the reverse case: a confirmed track the ego car overtakes, leaving by the side, is handed
@@ -63,6 +74,7 @@ one where only one is (vt_pipe_track.ttc_fused_q16).
 """
 from __future__ import annotations
 
+import os
 import warnings
 from dataclasses import dataclass, field
 
@@ -164,7 +176,7 @@ class Pipeline:
                  cfg: PipelineConfig | None = None, *, fps: float | None = None,
                  ego_speed: float | None = None, reference_quantized: bool = True,
                  road_camera=None, fullroad=None, flow=None, vehicle_model=None, ttc_points=None,
-                 **config):
+                 cnn_cfg=None, **config):
         if engine not in ENGINES:
             raise ValueError(f"engine: expected one of {ENGINES}, got {engine!r}")
         if camera is not None:
@@ -189,7 +201,7 @@ class Pipeline:
         self._ref_quantized = bool(reference_quantized)
         self.cfg = _config.from_kwargs(cfg, **config)
         self._ccfg = _config.to_c(self.cfg)  # checks the whole config once, for both engines
-        self._setup_classifier(model, road_camera, fullroad)
+        self._setup_classifier(model, road_camera, fullroad, cnn_cfg)
         self._setup_flow(flow)
         self._setup_vehicle_model(vehicle_model)
         self._setup_ttc_points(ttc_points, fps)
@@ -197,15 +209,24 @@ class Pipeline:
         self._warned = False
         self.reset()
 
-    def _setup_classifier(self, model, road_camera, fullroad) -> None:
+    def _setup_classifier(self, model, road_camera, fullroad, cnn_cfg=None) -> None:
         """The whole-road detector's model, scorer and configuration (C and oracle)."""
+        from . import cnn as _cnn  # noqa: PLC0415
         from . import fullroad as _fr  # noqa: PLC0415
         self.model, self._score_fn, self.whole_road = None, None, model is not None
         self._cmodel = self._cscorer = None
+        self._cnn = None   # the CNN detector: (CnnModel, checked vt_cnn_cfg) or None
+        self._cnn_work = None
         self._wide = None   # the wide pass: (MlpModel, WideConfig, C model, C cfg, box ws) or None
         self._refine = None   # box regression: (BoxRegressor, (C regressor, keepalive), box ws) or None
         self._rescore = None   # the ACF boxes' rescorer: (Rescorer, (C rescorer, keepalive)) or None
         self._acf = None   # the ACF first stage: (C model pointers, C cfg pointers, n, keepalive) or None
+        is_cnn = isinstance(model, _cnn.CnnModel) or (isinstance(model, (str, os.PathLike)) and _cnn.is_cnn(model))
+        if cnn_cfg is not None and not is_cnn:
+            raise ValueError("cnn_cfg configures the CNN detector: pass a CNN model (model=CnnModel or a cnn_* .npz)")
+        if is_cnn:
+            self._setup_cnn(model, road_camera, fullroad, cnn_cfg)
+            return
         if model is None:
             if road_camera is not None or fullroad is not None:
                 raise ValueError("road_camera and fullroad configure the whole-road detector: pass model= too")
@@ -272,6 +293,54 @@ class Pipeline:
             self._cscorer = _callback_scorer(self._score_fn)
         elif isinstance(_m, _fr.MlpModel):
             self._cscorer = _fr.c_scorer(_m)
+
+    def _setup_cnn(self, model, road_camera, fullroad, cnn_cfg) -> None:
+        """The CNN detector in place of the windows (vt_pipeline_set_cnn): the model, its
+        checked vt_cnn_cfg, and the whole-road detector's camera road, NMS against the ego
+        boxes and (for the ego boxes only) second stage from road_camera / fullroad."""
+        from . import cnn as _cnn  # noqa: PLC0415
+        from . import fullroad as _fr  # noqa: PLC0415
+        m = model if isinstance(model, _cnn.CnnModel) else _cnn.CnnModel.load(model)
+        if cnn_cfg is not None and not isinstance(cnn_cfg, _cnn.CnnConfig):
+            raise TypeError(f"cnn_cfg: expected a pyvehtrack.cnn.CnnConfig or None, got {type(cnn_cfg).__name__}")
+        ccfg = (cnn_cfg or _cnn.CnnConfig()).c()
+        cam = road_camera if road_camera is not None else _fr.Camera()
+        if not isinstance(cam, _fr.Camera):
+            raise TypeError(f"road_camera: expected a fullroad.Camera, got {type(cam).__name__}")
+        frc = fullroad if fullroad is not None else _fr.FullRoadConfig()
+        if not isinstance(frc, _fr.FullRoadConfig):
+            raise TypeError(f"fullroad: expected a fullroad.FullRoadConfig, got {type(frc).__name__}")
+        det = frc.det if frc.det is not None else _fr.FullDetConfig()   # None: the library defaults
+        srcs = tuple({"shadow": "shadow", "classifier": "windows"}[s] for s in self.cfg.sources
+                     if s in ("shadow", "classifier"))
+        det = replace_sources(det, srcs)
+        if frc.verify_min is not None:   # the second stage, on the ego boxes only
+            self._ccfg.verify, self._ccfg.verify_min = (_fr.verify_mode(frc),
+                                                        int(round(float(frc.verify_min) * 65536)))
+        self._cnn = (m, ccfg)
+        self.model, self.road_camera, self._det_cfg = m, cam, det
+        self._ccfg.fulldet = _fr._c_cfg(det)[0]
+        self._ccfg.road_camera = _fr.road_camera_to_c(cam)[0]
+        self._ccfg.road_above_hood = int(cam.hood_known)
+        _native.pipeline_cfg_check(self._ccfg)
+
+    def _cnn_attach(self, w: int, h: int) -> None:
+        """vt_pipeline_set_cnn with a work buffer of at least vt_cnn_frame_work_bytes for a w x h
+        frame: allocated at the first size asked for, grown (and re-attached) when a frame needs
+        more; one per Pipeline serves every run."""
+        m, ccfg = self._cnn
+        nb = ffi.new("size_t *")
+        _native.check("vt_cnn_frame_work_bytes", lib.vt_cnn_frame_work_bytes(m.c_model()[0], ccfg, w, h, nb),
+                      f"frame {w}x{h}")
+        grown = self._cnn_work is None or self._cnn_work.size < nb[0]
+        if grown:
+            self._cnn_work = np.zeros(int(nb[0]), np.uint8)
+        if grown or getattr(self, "_cnn_p", None) is not self._p:   # a new buffer, or a new run's pipeline
+            _native.check("vt_pipeline_set_cnn",
+                          lib.vt_pipeline_set_cnn(self._p, m.c_model()[0], ccfg,
+                                                  ffi.cast("uint8_t *", self._cnn_work.ctypes.data),
+                                                  self._cnn_work.size))
+            self._cnn_p = self._p
 
     def _setup_flow(self, flow) -> None:
         """The overtaking stage's settings (sources "flow"): a dict of vt_flow_cfg fields
@@ -435,6 +504,10 @@ class Pipeline:
                 # default capacities): one per Pipeline serves every run (init detaches it)
                 if getattr(self, "_cls_ws", None) is None:
                     self._cls_ws = ffi.new("vt_pipe_cls_ws *")
+                if self._cnn is not None:
+                    # the CNN's work buffer: the last size seen (1 x 1 before any frame), grown
+                    # by _step_c; set before the workspace, which then needs no scorer
+                    self._cnn_attach(*getattr(self, "_cnn_wh", (1, 1)))
                 if self._acf is not None:
                     # the ACF scratch (sizeof(vt_acf_ws), a few MB): one per Pipeline; set before
                     # the workspace, which then needs no scorer
@@ -497,9 +570,13 @@ class Pipeline:
                 rcfg = dataclasses.replace(rcfg, flow=SimpleNamespace(**self._flow_fields),
                                            **{k: int(getattr(self._ccfg, k)) for k in HANDOVER_KEYS})
             box_score = None
+            cnn = None
             if self.whole_road:
                 rcfg = _whole_road_reference(rcfg, self._ccfg)
-                score = self._ref_score()
+                if self._cnn is not None:
+                    cnn = _cnn_reference(*self._cnn, int(lib.VT_MAX_BOXES))
+                else:
+                    score = self._ref_score()
                 if self._ccfg.verify:
                     import dataclasses  # noqa: PLC0415
                     rcfg = dataclasses.replace(rcfg, verify_min=int(self._ccfg.verify_min),
@@ -527,7 +604,7 @@ class Pipeline:
                 refine = (reg.margin_permille, reg.sources,
                           lambda g, l, t, r, b: refine_offsets_c(rws, creg, g, (l, t, r, b)))
             self._ref = rpipe.Pipeline(rcfg, caps, camera=geom, score=score,
-                                       box_score=box_score, wide=wide, refine=refine)
+                                       box_score=box_score, wide=wide, refine=refine, cnn=cnn)
         self.set_ego_speed(self.ego_speed)
 
     @property
@@ -600,6 +677,9 @@ class Pipeline:
 
     def _step_c(self, gray: np.ndarray, road, detections) -> FrameResult:
         o = self._out
+        if self._cnn is not None and self.whole_road:
+            self._cnn_wh = (int(gray.shape[1]), int(gray.shape[0]))
+            self._cnn_attach(*self._cnn_wh)
         croad = None
         if road is not None and detections is None:
             croad = _native.road_area(None if road is NO_ROAD else road, gray.shape[0])
@@ -677,6 +757,22 @@ def _score(source, v):
     if source in (1, 2, 32, "shadow", "classifier", "ego"):
         return v / 65536
     return v
+
+
+def _cnn_reference(model, ccfg, max_boxes: int):
+    """The reference engine's CNN detector: the twin of vt_cnn_detect_frame as the pipeline
+    runs it (c/pipeline.c's vt__detect_cnn): gray -> (N, 6) [l, t, r, b, heat x
+    heat_scale_q16, 2 (windows)] for the first max_boxes boxes in NMS order."""
+    from .cnn import CnnConfig  # noqa: PLC0415
+    from .reference import cnn as rcnn  # noqa: PLC0415  (the reference engine only)
+    cfg = CnnConfig.from_c(ccfg)
+
+    def detect(gray):
+        b, _n = rcnn.detect_frame(model, gray, cfg)
+        b = np.asarray(b, np.int64).reshape(-1, 5)[:max_boxes]
+        return np.concatenate([b[:, :4], b[:, 4:5] * int(model.heat_scale_q16),
+                               np.full((len(b), 1), 2, np.int64)], axis=1)
+    return detect
 
 
 def replace_sources(det, srcs):

@@ -191,6 +191,20 @@ PY_ROWS = [
     ("cnn decode scale_shift=9", lambda: _cnn_mod().decode(_cnn(), np.zeros((2, 2, 5), np.int8), scale_shift=9),
      ValueError, "scale_shift"),
     ("cnn load missing key", lambda: _cnn_mod().CnnModel.load({"cnn_n_layers": 1}), ValueError, "cnn_l0_meta"),
+    ("cnn detect_frame None", lambda: _cnn_mod().detect_frame(_cnn(), None), TypeError, "gray"),
+    ("cnn detect_frame float32", lambda: _cnn_mod().detect_frame(_cnn(), U8.astype(np.float32)), TypeError, "uint8"),
+    ("cnn detect_frame over capacity", lambda: _cnn_mod().detect_frame(_cnn(), np.zeros((1, int(lib.VT_MAX_WIDTH) + 1),
+                                                                                        np.uint8)), VtError, "bad size"),
+    ("cnn detect_frame cfg dict", lambda: _cnn_mod().detect_frame(_cnn(), U8, {"n_levels": 1}), TypeError, "CnnConfig"),
+    ("cnn detect_frame n_levels=0", lambda: _cnn_mod().detect_frame(_cnn(), U8, _cnn_mod().CnnConfig(n_levels=0)),
+     ValueError, "n_levels"),
+    ("cnn detect_frame cap_per_level=1.5", lambda: _cnn_mod().CnnConfig(cap_per_level=1.5).c(), ValueError,
+     "cap_per_level"),
+    ("cnn heat_scale_q16=0", lambda: _cnn_mod().CnnModel(_cnn().layers, np.zeros((4, 256), np.uint16), heat_scale_q16=0),
+     ValueError, "cnn_heat_scale_q16"),
+    ("cnn load missing heat scale", lambda: _cnn_mod().CnnModel.load({k: v for k, v in _cnn().keys().items()
+                                                                      if k != "cnn_heat_scale_q16"}),
+     ValueError, "cnn_heat_scale_q16"),
     ("ncc shape mismatch", lambda: vt.image.ncc(U8[:4, :4], U8[:4, :5]), VtError, "vt_ncc_u8"),
     ("sad str", lambda: vt.image.sad("a", U8), TypeError, "a"),
     # evaluation inputs
@@ -224,6 +238,23 @@ def _cnn_c(**kw):
     return lib.vt_cnn_forward(ffi.NULL if "model" in kw else m, px, kw.get("w", 4), kw.get("h", 4),
                               kw.get("stride", 4), ffi.NULL, 0, ffi.NULL if "out" in kw else out,
                               kw.get("out_len", 80))
+
+
+def _cnn_frame_c(**kw):
+    """vt_cnn_detect_frame on a 4x4 image with the one-layer model and the default cfg; kw:
+    NULL pointers, sizes, the work buffer `short` bytes below vt_cnn_frame_work_bytes."""
+    m = _cnn().c_model()[0]
+    cfg = _cnn_mod().CnnConfig().c()
+    img = np.zeros((4, 4), np.uint8)
+    nb = _cnn_mod().frame_work_bytes(_cnn(), 4, 4)
+    work = np.zeros(nb, np.uint8)
+    boxes = ffi.new("vt_cnn_box[4]")
+    n, t = ffi.new("int32_t *"), ffi.new("int32_t *")
+    nul = lambda k, v: ffi.NULL if k in kw and kw[k] is None else v   # noqa: E731
+    return lib.vt_cnn_detect_frame(nul("model", m), nul("cfg", cfg), nul("img", ffi.cast("uint8_t *", img.ctypes.data)),
+                                   kw.get("w", 4), kw.get("h", 4), kw.get("stride", 4),
+                                   nul("work", ffi.cast("uint8_t *", work.ctypes.data)), nb - kw.get("short", 0),
+                                   nul("boxes", boxes), kw.get("cap", 4), n, t)
 
 
 def _search(**kw):
@@ -324,6 +355,24 @@ C_ROWS = [
     ("vt_cnn_forward stride < w", lambda: _cnn_c(stride=3), "VT_E_SIZE"),
     ("vt_cnn_forward out one short", lambda: _cnn_c(out_len=79), "VT_E_CAPACITY"),
     ("vt_cnn_check_model(NULL)", lambda: lib.vt_cnn_check_model(ffi.NULL), "VT_E_ARG"),
+    ("vt_cnn_cfg_check(NULL)", lambda: lib.vt_cnn_cfg_check(ffi.NULL), "VT_E_ARG"),
+    ("vt_cnn_cfg_default(NULL)", lambda: lib.vt_cnn_cfg_default(ffi.NULL), "VT_E_ARG"),
+    ("vt_cnn_detect_frame ok", lambda: _cnn_frame_c(), "VT_OK"),
+    ("vt_cnn_detect_frame NULL model", lambda: _cnn_frame_c(model=None), "VT_E_ARG"),
+    ("vt_cnn_detect_frame NULL cfg", lambda: _cnn_frame_c(cfg=None), "VT_E_ARG"),
+    ("vt_cnn_detect_frame NULL image", lambda: _cnn_frame_c(img=None), "VT_E_ARG"),
+    ("vt_cnn_detect_frame NULL work", lambda: _cnn_frame_c(work=None), "VT_E_ARG"),
+    ("vt_cnn_detect_frame NULL boxes", lambda: _cnn_frame_c(boxes=None), "VT_E_ARG"),
+    ("vt_cnn_detect_frame cap=0", lambda: _cnn_frame_c(cap=0), "VT_E_ARG"),
+    ("vt_cnn_detect_frame w=0", lambda: _cnn_frame_c(w=0), "VT_E_SIZE"),
+    ("vt_cnn_detect_frame stride < w", lambda: _cnn_frame_c(stride=3), "VT_E_SIZE"),
+    ("vt_cnn_detect_frame over VT_MAX_WIDTH", lambda: _cnn_frame_c(w=int(lib.VT_MAX_WIDTH) + 1,
+                                                                   stride=int(lib.VT_MAX_WIDTH) + 1), "VT_E_SIZE"),
+    ("vt_cnn_detect_frame work one short", lambda: _cnn_frame_c(short=1), "VT_E_CAPACITY"),
+    ("vt_cnn_frame_work_bytes NULL bytes", lambda: lib.vt_cnn_frame_work_bytes(
+        _cnn().c_model()[0], _cnn_mod().CnnConfig().c(), 4, 4, ffi.NULL), "VT_E_ARG"),
+    ("vt_pipeline_set_cnn NULL pipeline", lambda: lib.vt_pipeline_set_cnn(ffi.NULL, ffi.NULL, ffi.NULL, ffi.NULL, 0),
+     "VT_E_ARG"),
 ]
 
 

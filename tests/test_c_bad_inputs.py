@@ -6,7 +6,8 @@ rows are wip/house's.)
 Rows, each a documented outcome -- an exact status, or "any vt_status, and then
 the stage runs without UB" -- never a crash:
   * every int32 field of every configuration (lane, shadow, verify, detect,
-    track search, Kalman model, tracker, ACF detector; nested ones included) set to
+    track search, Kalman model, tracker, ACF detector, CNN frame detection; nested ones
+    included) set to
     INT32_MIN, -1, 0, 1, 2^30 and INT32_MAX: its _cfg_check returns a status,
     and a configuration it accepts runs its stage over a small synthetic frame
     (under `make check SAN=1 CC=clang` any UB there aborts);
@@ -156,6 +157,37 @@ def run_acf(cfg):
     return [lib.vt_acf_detect(_ACF["ws"], _ACF["model"].c_model()[0], cfg, cam, img_view(_ACF["img"]), res)]
 
 
+_CNN = {}
+
+
+def run_cnn(cfg):
+    """vt_cnn_detect_frame with a small fixed model (3x3 s2, 3x3 s2, 1x1 head) on the tiled
+    scene, the work buffer sized by vt_cnn_frame_work_bytes for this cfg."""
+    if not _CNN:
+        from pyvehtrack.cnn import CnnModel
+        rng = np.random.default_rng(5)
+
+        def lay(k, s, relu, cin, cout):
+            return dict(ksize=k, stride=s, dilation=1, relu=relu, cin=cin, cout=cout,
+                        w=rng.integers(-60, 60, (cout, k, k, cin)).astype(np.int8),
+                        bias=rng.integers(-500, 500, cout).astype(np.int32),
+                        mult=np.full(cout, 1 << 12, np.int32), shift=np.full(cout, 16, np.uint8))
+        _CNN["model"] = CnnModel([lay(3, 2, 1, 1, 4), lay(3, 2, 1, 4, 4), lay(1, 1, 0, 4, 5)],
+                                 rng.integers(0, 800, (4, 256)).astype(np.uint16), -10)
+        _CNN["img"] = np.tile(scene(), (3, 3))
+    m = _CNN["model"].c_model()[0]
+    img = _CNN["img"]
+    nb = ffi.new("size_t *")
+    s = lib.vt_cnn_frame_work_bytes(m, cfg, img.shape[1], img.shape[0], nb)
+    if s != lib.VT_OK:
+        return [s]
+    work = np.zeros(nb[0], np.uint8)
+    boxes = ffi.new("vt_cnn_box[8]")
+    n, t = ffi.new("int32_t *"), ffi.new("int32_t *")
+    return [s, lib.vt_cnn_detect_frame(m, cfg, ffi.cast("uint8_t *", img.ctypes.data), img.shape[1], img.shape[0],
+                                       img.shape[1], ffi.cast("uint8_t *", work.ctypes.data), nb[0], boxes, 8, n, t)]
+
+
 STAGES = {
     "vt_lane_cfg": (lib.vt_lane_cfg_default, lib.vt_lane_cfg_check, run_lane),
     "vt_shadow_cfg": (lib.vt_shadow_cfg_default, lib.vt_shadow_cfg_check, run_shadow),
@@ -165,6 +197,7 @@ STAGES = {
     "vt_kf_model_cfg": (lib.vt_kf_model_cfg_default, lib.vt_kf_model_cfg_check, run_kf_model),
     "vt_tracker_cfg": (lib.vt_tracker_cfg_default, lib.vt_tracker_cfg_check, run_tracker),
     "vt_acf_cfg": (lib.vt_acf_cfg_default, lib.vt_acf_cfg_check, run_acf),
+    "vt_cnn_cfg": (lib.vt_cnn_cfg_default, lib.vt_cnn_cfg_check, run_cnn),
 }
 
 

@@ -209,7 +209,7 @@ def test_hand_computed_decode():
 
 # ---------------------------------------------------------------- decode: C == twin
 @given(st.integers(1, 30), st.integers(1, 30), st.integers(0, 2 ** 32 - 1), st.sampled_from([2, 3, 5, 256]),
-       st.integers(-130, 130), st.integers(0, 4), st.integers(1, 40), st.sampled_from([1, 2, 4, 8]))
+       st.integers(-130, 130), st.integers(0, 5), st.integers(1, 40), st.sampled_from([1, 2, 4, 8]))
 def test_decode_equals_twin(gw, gh, seed, n_vals, thr, scale_shift, cap, stride):
     """Outputs with few distinct heats (many ties and plateaus), any threshold, a cap that
     often truncates: the same boxes in the same order, the same total."""
@@ -316,6 +316,9 @@ def _mut_rows():
         ("w NULL", L(1, w=ffi.NULL)), ("bias NULL", L(0, bias=ffi.NULL)), ("mult NULL", L(2, mult=ffi.NULL)),
         ("shift NULL", L(1, shift=ffi.NULL)), ("side_lut NULL", M(side_lut=ffi.NULL)),
         ("out_stride 2", M(out_stride=2)), ("out_stride 0", M(out_stride=0)),
+        ("heat_scale_q16 0", M(heat_scale_q16=0)), ("heat_scale_q16 -1", M(heat_scale_q16=-1)),
+        ("heat_scale_q16 2^24 + 1", M(heat_scale_q16=2 ** 24 + 1)),
+        ("heat_scale_q16 INT32_MIN", M(heat_scale_q16=I32_MIN)),
         ("mult 0", arr(1, "mult", 2, 0)), ("mult -1", arr(0, "mult", 0, -1)),
         ("mult INT32_MIN", arr(2, "mult", 4, I32_MIN)),
         ("shift 0", arr(0, "shift", 1, 0)), ("shift 63", arr(2, "shift", 0, 63)),
@@ -339,7 +342,13 @@ def _call_all(cm):
     out = np.zeros(6 * 5 * 5, np.int8)   # the 24x20 input's 6x5 grid
     boxes = ffi.new("vt_cnn_box[4]")
     n, t = ffi.new("int32_t *"), ffi.new("int32_t *")
+    fcfg = ffi.new("vt_cnn_cfg *")
+    lib.vt_cnn_cfg_default(fcfg)
+    fb = ffi.new("vt_cnn_box[4]")
     return [lib.vt_cnn_check_model(cm), lib.vt_cnn_out_size(cm, 24, 20, gw, gh),
+            lib.vt_cnn_frame_work_bytes(cm, fcfg, 24, 20, nb),
+            lib.vt_cnn_detect_frame(cm, fcfg, ffi.cast("uint8_t *", IMG.ctypes.data), 24, 20, 24,
+                                    ffi.cast("uint8_t *", work.ctypes.data), work.size, fb, 4, n, t),
             lib.vt_cnn_work_bytes(cm, 24, 20, nb),
             lib.vt_cnn_forward(cm, ffi.cast("uint8_t *", IMG.ctypes.data), 24, 20, 24,
                                ffi.cast("uint8_t *", work.ctypes.data), work.size,
@@ -349,12 +358,15 @@ def _call_all(cm):
 
 def test_good_model_passes_every_function():
     m = _good()
-    assert _call_all(m.c_model()[0]) == [lib.VT_OK] * 5
+    assert _call_all(m.c_model()[0]) == [lib.VT_OK] * 7
     boundary = ffi.new("vt_cnn_model *", m.c_model()[0][0])
     keep = [ffi.new("int32_t[]", [2 ** 30, -(2 ** 30), 0, 1, -1, 5]), ffi.new("uint8_t[]", [1, 62, 1, 62, 1, 62]),
             ffi.new("int32_t[]", [1, I32_MAX, 1, 1, 1, 1])]
     boundary.layer[0].bias, boundary.layer[0].shift, boundary.layer[0].mult = keep
-    assert _call_all(boundary) == [lib.VT_OK] * 5
+    boundary.heat_scale_q16 = lib.VT_CNN_HEAT_SCALE_MAX
+    assert _call_all(boundary) == [lib.VT_OK] * 7
+    boundary.heat_scale_q16 = 1
+    assert _call_all(boundary) == [lib.VT_OK] * 7
 
 
 @pytest.mark.parametrize("name,mut", _mut_rows(), ids=[r[0] for r in _mut_rows()])
@@ -363,7 +375,7 @@ def test_bad_model_field(name, mut):
     cm = ffi.new("vt_cnn_model *", m.c_model()[0][0])
     keep = []
     mut(cm, keep) if mut.__code__.co_argcount == 2 else mut(cm)
-    assert _call_all(cm) == [lib.VT_E_ARG] * 5, name
+    assert _call_all(cm) == [lib.VT_E_ARG] * 7, name
 
 
 def test_forward_bad_args():
@@ -446,7 +458,8 @@ def test_decode_bad_args():
         ((cm, po, 4, 3, 0, 0, b, -1, n, t), lib.VT_E_ARG),
         ((cm, po, 4, 3, 0, 0, b, I32_MIN, n, t), lib.VT_E_ARG),
         ((cm, po, 4, 3, 0, -1, b, 2, n, t), lib.VT_E_ARG),
-        ((cm, po, 4, 3, 0, 5, b, 2, n, t), lib.VT_E_ARG),
+        ((cm, po, 4, 3, 0, 6, b, 2, n, t), lib.VT_E_ARG),
+        ((cm, po, 4, 3, 0, 5, b, 2, n, t), lib.VT_OK),
         ((cm, po, 4, 3, 0, I32_MAX, b, 2, n, t), lib.VT_E_ARG),
         ((cm, po, 0, 3, 0, 0, b, 2, n, t), lib.VT_E_SIZE),
         ((cm, po, 4, 0, 0, 0, b, 2, n, t), lib.VT_E_SIZE),
@@ -472,7 +485,11 @@ def test_save_load_round_trip(tmp_path):
     m = _good()
     m.save(tmp_path / "m.npz")
     m2 = C.CnnModel.load(tmp_path / "m.npz")
-    assert m2.out_stride == 4 and m2.heat_thr == m.heat_thr
+    assert m2.out_stride == 4 and m2.heat_thr == m.heat_thr and m2.heat_scale_q16 == m.heat_scale_q16 == 65536
+    m4 = C.CnnModel(m.layers, m.side_lut, m.heat_thr, heat_scale_q16=12345)
+    m4.save(tmp_path / "m4.npz")
+    assert C.CnnModel.load(tmp_path / "m4.npz").heat_scale_q16 == 12345
+    assert m4.c_model()[0].heat_scale_q16 == 12345
     np.testing.assert_array_equal(C.forward(m2, IMG), C.forward(m, IMG))
     m3 = C.CnnModel.load(np.load(tmp_path / "m.npz"))   # an opened npz works too
     np.testing.assert_array_equal(C.forward(m3, IMG), C.forward(m, IMG))
@@ -514,6 +531,10 @@ def _keys_with(**over):
     (dict(cnn_side_lut=np.full((4, 256), -1, np.int32)), ValueError, "cnn_side_lut"),
     (dict(cnn_heat_thr=np.int32(128)), ValueError, "cnn_heat_thr"),
     (dict(cnn_heat_thr=None), ValueError, "cnn_heat_thr"),
+    (dict(cnn_heat_scale_q16=None), ValueError, "cnn_heat_scale_q16"),
+    (dict(cnn_heat_scale_q16=np.int32(0)), ValueError, "cnn_heat_scale_q16"),
+    (dict(cnn_heat_scale_q16=np.int64(2 ** 24 + 1)), ValueError, "cnn_heat_scale_q16"),
+    (dict(cnn_heat_scale_q16=np.float32(1.5)), ValueError, "cnn_heat_scale_q16"),
 ])
 def test_load_bad_keys(tmp_path, over, exc, words):
     p = tmp_path / "bad.npz"
@@ -544,7 +565,7 @@ def test_load_missing_file(tmp_path):
     (lambda m: C.decode(m, np.zeros((3, 3, 4), np.int8)), ValueError, "shape"),
     (lambda m: C.decode(m, np.zeros((0, 3, 5), np.int8)), ValueError, "shape"),
     (lambda m: C.decode(m, "out"), TypeError, "out"),
-    (lambda m: C.decode(m, np.zeros((3, 3, 5), np.int8), scale_shift=5), ValueError, "scale_shift"),
+    (lambda m: C.decode(m, np.zeros((3, 3, 5), np.int8), scale_shift=6), ValueError, "scale_shift"),
     (lambda m: C.decode(m, np.zeros((3, 3, 5), np.int8), cap=0), ValueError, "cap"),
     (lambda m: C.decode(m, np.zeros((3, 3, 5), np.int8), thr=1.5), ValueError, "thr"),
     (lambda m: C.decode(m, np.zeros((3, 3, 5), np.int8), thr=True), TypeError, "thr"),

@@ -34,7 +34,7 @@
  *   right / bottom = floor((v' + 8) / 16) - 1 (the Q4 box is exclusive, vt_cnn_box
  *   inclusive). score = heat. Exact in int64, every value fits int32.
  *
- * Cost: no state; sizeof(vt_cnn_model) is 204 bytes on a 32-bit core (344 on a
+ * Cost: no state; sizeof(vt_cnn_model) is 208 bytes on a 32-bit core (344 on a
  * 64-bit host) plus the caller's arrays. Work per frame: the sum over layers of
  * out_w out_h cout k^2 cin multiply-adds (about 10^8 for a stride-8 detector of
  * 32 channels on a 640x256 frame) and one int64 multiply per output value; the
@@ -48,6 +48,7 @@
 #include <stdint.h>
 #include "vehtrack/config.h"
 #include "vehtrack/status.h"
+#include "vehtrack/windows.h" /* VT_MAX_NMS_BOXES: the frame-level merge is vt_nms */
 
 #define VT_CNN_MAX_LAYERS 8
 #define VT_CNN_MAX_CH 64
@@ -55,6 +56,14 @@
 #define VT_CNN_OUT_CH 5
 /* Largest |bias| (accumulator units): keeps acc inside int32 (above). */
 #define VT_CNN_BIAS_MAX 1073741824
+/* Largest heat_scale_q16 (256.0 per heat step): 128 x 2^24 = 2^31, so a heat times
+ * the scale (the pipeline's Q16 score) stays inside int32. */
+#define VT_CNN_HEAT_SCALE_MAX 16777216
+/* Frame-level detection (vt_cnn_detect_frame): the deepest pyramid level, the most
+ * levels one call runs, and the most peaks decoded per level (cap_per_level). */
+#define VT_CNN_MAX_LEVEL 5
+#define VT_CNN_MAX_RUN_LEVELS 4
+#define VT_CNN_MAX_PEAKS 256
 
 /* One convolution layer (const: may live in flash). */
 typedef struct {
@@ -77,6 +86,10 @@ typedef struct {
     vt_cnn_layer layer[VT_CNN_MAX_LAYERS];
     uint8_t out_stride;                   /* the product of the layers' strides          */
     int8_t heat_thr;                      /* the default peak threshold (heat channel)   */
+    int32_t heat_scale_q16;               /* the float logit of one heat step, Q16,
+                                             1 .. VT_CNN_HEAT_SCALE_MAX: a heat h is the
+                                             logit h heat_scale_q16 / 2^16 (the pipeline's
+                                             score; |h| <= 128 keeps it in int32)       */
     const uint16_t *side_lut;             /* [4][256]: side distances in level px Q4 for
                                              channels 1..4 (l, t, r, b), index q + 128  */
 } vt_cnn_model;
@@ -95,7 +108,7 @@ typedef struct {
  * layer 0 is 1 and cin of layer i the cout of layer i - 1; relu 1 on every layer
  * but the last, relu 0 on the last, whose cout is VT_CNN_OUT_CH; every bias,
  * mult and shift in range; out_stride the product of the strides; side_lut
- * non-NULL. Else (NULL m included) VT_E_ARG. Cost: one pass over the per-channel
+ * non-NULL; heat_scale_q16 in 1 .. VT_CNN_HEAT_SCALE_MAX. Else (NULL m included) VT_E_ARG. Cost: one pass over the per-channel
  * arrays (not the weights: every int8 weight is valid). */
 vt_status vt_cnn_check_model(const vt_cnn_model *m);
 
@@ -125,16 +138,90 @@ vt_status vt_cnn_forward(const vt_cnn_model *m, const uint8_t *img, int32_t w, i
 
 /* The peaks of a forward output `out` (gh x gw x 5 int8, HWC) as boxes (decode
  * above): any int32 thr (the model's heat_thr is the caller's default; thr > 127
- * finds nothing, thr <= -128 makes every plateau cell a peak), scale_shift 0..4
- * (the input was a level 2^scale_shift times smaller than the frame). The first
+ * finds nothing, thr <= -128 makes every plateau cell a peak), scale_shift 0..5
+ * (the input was pyramid level scale_shift, 2^scale_shift times smaller than
+ * the frame). The first
  * min(cap, peaks) peaks in the order above go to boxes[0 ..], *n = how many were
  * written, *n_peaks = how many peaks there are (so a truncation is never silent;
  * boxes past *n are not written). Errors: NULL m, out, boxes, n or n_peaks, an
- * invalid model, cap < 1 or scale_shift outside 0..4 -> VT_E_ARG; gw, gh outside
+ * invalid model, cap < 1 or scale_shift outside 0..VT_CNN_MAX_LEVEL -> VT_E_ARG; gw, gh outside
  * 1 .. VT_MAX_WIDTH / VT_MAX_HEIGHT -> VT_E_SIZE. On an error *n and *n_peaks are
  * 0 where they are not NULL. Cost: two passes over the grid. */
 vt_status vt_cnn_decode(const vt_cnn_model *m, const int8_t *out, int32_t gw, int32_t gh,
                         int32_t thr, int32_t scale_shift, vt_cnn_box *boxes, int32_t cap,
                         int32_t *n, int32_t *n_peaks);
+
+/* Frame-level detection: one network over several Gaussian pyramid levels of a
+ * frame (level k = the frame after k vt_pyr_down steps, image.h), the peaks of
+ * every level merged by greedy NMS. Settings (const: may live in flash): */
+typedef struct {
+    int32_t first_level;      /* 0..VT_CNN_MAX_LEVEL - 1: the first level the network
+                                 runs on (1 = half size; the levels above are only
+                                 pyramid steps)                                        */
+    int32_t n_levels;         /* 1..VT_CNN_MAX_RUN_LEVELS, and first_level + n_levels - 1
+                                 <= VT_CNN_MAX_LEVEL                                   */
+    int32_t thr_offset;       /* any int32: the peak threshold is the model's heat_thr
+                                 + thr_offset (in int64, clamped to -128..128, which
+                                 finds the same peaks as the exact sum)                */
+    int32_t cap_per_level;    /* 1..VT_CNN_MAX_PEAKS: peaks decoded per level, highest
+                                 heat first; n_levels cap_per_level <= VT_MAX_NMS_BOXES */
+    int32_t nms_iou_permille; /* 0..1000: vt_nms's IoU limit over all levels' boxes    */
+    int32_t nms_contain_permille; /* 0..1000: vt_nms's containment limit               */
+} vt_cnn_cfg;
+
+/* Defaults: levels 1..3 (a vehicle 16..128 px wide at the frame is 8..64 px on one of
+ * them, the shipped stride-8 head's range); the model's own threshold; 64 peaks per
+ * level (more than a road scene has vehicles, so the cap only bounds the NMS's
+ * O(n^2)); NMS at IoU 0.5 and containment 0.8: the same car found on two adjacent
+ * levels gives boxes of IoU ~0.7+ (one kept), while two cars side by side or one
+ * partly behind another overlap less (vt_nms' other callers, fulldet and ACF, use
+ * 0.301 / 0.699 and 0.3 / 1.0 for sliding windows, whose neighbours overlap more). */
+#define VT_CNN_CFG_DEFAULT                                                                \
+    {                                                                                    \
+        .first_level = 1, .n_levels = 3, .thr_offset = 0, .cap_per_level = 64,           \
+        .nms_iou_permille = 500, .nms_contain_permille = 800,                            \
+    }
+
+/* Fill *cfg with VT_CNN_CFG_DEFAULT (VT_E_ARG for NULL). */
+vt_status vt_cnn_cfg_default(vt_cnn_cfg *cfg);
+
+/* VT_OK if every field of cfg is in its range above; VT_E_ARG otherwise (NULL too). */
+vt_status vt_cnn_cfg_check(const vt_cnn_cfg *cfg);
+
+/* *bytes = the work buffer vt_cnn_detect_frame needs for a w x h frame: up to 7 bytes
+ * to align what follows for int32; the boxes of every run level (n_levels
+ * cap_per_level vt_scored_box) and one level's decode (cap_per_level vt_cnn_box);
+ * two ping-pong level images (level 1, then level 2, each built from the one before:
+ * odd levels in the first, even levels >= 2 in the second; only as many as the last
+ * run level needs; level 0 is the caller's frame); the largest vt_cnn_work_bytes and
+ * the largest forward output (gw gh 5 int8) over the run levels. Errors: NULL m, cfg
+ * or bytes, an invalid model or cfg -> VT_E_ARG; w, h outside 1 .. VT_MAX_WIDTH /
+ * VT_MAX_HEIGHT -> VT_E_SIZE. */
+vt_status vt_cnn_frame_work_bytes(const vt_cnn_model *m, const vt_cnn_cfg *cfg, int32_t w,
+                                  int32_t h, size_t *bytes);
+
+/* Detection over pyramid levels first_level .. first_level + n_levels - 1 of the gray
+ * frame img (w x h, row stride `stride` bytes): per level k, vt_cnn_forward on the
+ * level image, vt_cnn_decode with thr (cfg's thr_offset above), scale_shift k and cap
+ * cap_per_level; each box clipped to the frame (0..w - 1, 0..h - 1) and dropped when
+ * that leaves it empty (entirely outside, or zero width or height: decode's r = l - 1
+ * for zero sides); then vt_nms over all levels' boxes (cfg's limits; score = heat),
+ * so the output is in NMS order: heat descending, ties by level, then decode order
+ * (heat descending, raster). The first min(cap, kept) go to boxes[0 ..] (score = the
+ * heat, -128..127), *n = how many were written, *n_peaks = the peaks over all levels
+ * before the cap, clipping and NMS (a truncation is never silent). Nothing is written
+ * outside work[0 .. vt_cnn_frame_work_bytes) and boxes[0 .. *n). Errors: NULL m, cfg,
+ * img, work, boxes, n or n_peaks, an invalid model or cfg, cap < 1 -> VT_E_ARG; w, h
+ * outside 1 .. VT_MAX_WIDTH / VT_MAX_HEIGHT or stride < w -> VT_E_SIZE; work_bytes
+ * below vt_cnn_frame_work_bytes -> VT_E_CAPACITY. On an error *n and *n_peaks are 0
+ * where not NULL and boxes is not written. Cost: the pyramid steps (25 multiply-adds
+ * per level pixel), the forward passes (cnn.h's cost per level: the levels after the
+ * first add at most a third of the first's), the decodes, and the NMS's O(n^2) over
+ * at most n_levels cap_per_level boxes; stack: vt_pyr_down's row (image.h) or
+ * vt_cnn_decode's 1 KB. */
+vt_status vt_cnn_detect_frame(const vt_cnn_model *m, const vt_cnn_cfg *cfg, const uint8_t *img,
+                              int32_t w, int32_t h, int32_t stride, uint8_t *work,
+                              size_t work_bytes, vt_cnn_box *boxes, int32_t cap, int32_t *n,
+                              int32_t *n_peaks);
 
 #endif /* VEHTRACK_CNN_H */

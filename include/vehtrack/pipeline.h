@@ -18,7 +18,8 @@
  * capacities, 568,488 at VGA), the overtaking stage's vt_flow_state
  * (vt_pipeline_set_flow_ws; 1,917,112 / 592,312) and the vehicle model's vt_model_ws
  * (vt_pipeline_set_model_ws; 416,760), and the block-scale TTC's vt_ttc_state
- * (vt_pipeline_set_ttc_ws; 113,064 at the defaults). Work: the stages' own (see their headers);
+ * (vt_pipeline_set_ttc_ws; 113,064 at the defaults), and the CNN detector's work buffer
+ * (vt_pipeline_set_cnn; vt_cnn_frame_work_bytes for the largest frame). Work: the stages' own (see their headers);
  * detection runs only every detect_every frames, the flow stage on every frame, the
  * vehicle model at most model_fits times per frame. Stack: measured in firmware_demo/
  * (`stack step`: 3.5 KB on the Cortex-M3 with every source on, the vehicle model
@@ -31,6 +32,7 @@
 #include "vehtrack/acf.h"
 #include "vehtrack/camera.h"
 #include "vehtrack/classify.h"
+#include "vehtrack/cnn.h"
 #include "vehtrack/config.h"
 #include "vehtrack/detect.h"
 #include "vehtrack/flow.h"
@@ -272,6 +274,10 @@ typedef struct {
     int32_t acf_n;                  /* its models (vt_pipeline_set_acf_n; acf_m[0] = acf)    */
     const vt_acf_model *acf_m[VT_ACF_MAX_MODELS];
     vt_acf_cfg acf_cfg[VT_ACF_MAX_MODELS]; /* and their settings (checked copies)          */
+    const vt_cnn_model *cnn;        /* the CNN detector (NULL: off; vt_pipeline_set_cnn)     */
+    vt_cnn_cfg cnn_cfg;             /* its settings (a checked copy)                         */
+    uint8_t *cnn_work;              /* its work buffer (caller-owned) ...                    */
+    size_t cnn_work_bytes;          /* ... and its size, checked at each detection step      */
     int32_t horizon_y;           /* the last lanes' vanishing row, input px               */
     int32_t horizon_known;       /* 1 once the lanes gave one (this run)                  */
     vt_flow_state *flow_st;      /* the overtaking stage's state (NULL: none attached)    */
@@ -417,7 +423,8 @@ vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
 /* Attach the whole-road detector's workspace (after vt_pipeline_init, which detaches
  * it; ws NULL detaches it and the scorer). scorer: NULL for the HOG scorer of the
  * model given at init (vt_hog_scorer in ws: VT_E_ARG without a model, unless the ACF
- * first stage is set (vt_pipeline_set_acf, before this): then no scorer), or the
+ * first stage or the CNN detector is set (vt_pipeline_set_acf / vt_pipeline_set_cnn,
+ * before this): then no scorer), or the
  * caller's classifier (e.g. {NULL, vt_mlp_scorer_score, &mlp}; copied, its ctx must
  * outlive the run). The pipeline keeps the pointer (*ws must outlive the run). With
  * a classifier attached, detection frames run vt_fulldet (see VT_SRC_SHADOW). VT_E_ARG
@@ -474,6 +481,27 @@ vt_status vt_pipeline_set_acf(vt_pipeline *p, const vt_acf_model *m, const vt_ac
  * cfg[i] NULL; m[i] and cfg[i] as their checks. On error nothing changes. */
 vt_status vt_pipeline_set_acf_n(vt_pipeline *p, int32_t n, const vt_acf_model *const *m,
                                 const vt_acf_cfg *const *cfg, vt_acf_ws *ws);
+
+/* Use the CNN detector (vehtrack/cnn.h: vt_cnn_detect_frame over pyramid levels of the
+ * frame) in place of vt_fulldet and of the ACF stage (it wins when both are set) on every
+ * detection frame of the whole-road detector that has a road (the camera road, or the
+ * caller's, as for the other detectors): its boxes go into the detector's result as
+ * classifier boxes (VT_SRC_CLASSIFIER in the output, the tracker's input as ACF boxes
+ * are) with score = heat x m->heat_scale_q16 (a Q16 logit, in int32 by
+ * VT_CNN_HEAT_SCALE_MAX), at most VT_MAX_BOXES of them in NMS order. The network is its
+ * own verification: the second stage (cfg.verify), re-ranking, box regression, the wide
+ * pass and the shadow hypotheses are skipped for its boxes; the ego-lane detector's
+ * boxes (VT_SRC_EGO) are merged beside them as for the ACF stage. As the ACF stage, it
+ * needs the whole-road detector's workspace (vt_pipeline_set_cls_ws after this, which
+ * then needs no scorer: the merge and the result live there). m and work are kept by
+ * pointer (they must outlive the run; m may live in flash), cfg is copied. work_bytes
+ * is checked at each detection step against vt_cnn_frame_work_bytes for that frame
+ * (VT_E_CAPACITY from the step when short), so one buffer sized for the largest frame
+ * serves every size. m NULL turns it off, as vt_pipeline_init does (cfg and work are
+ * then ignored). VT_E_ARG for p NULL, or m given with cfg or work NULL; m and cfg as
+ * vt_cnn_check_model / vt_cnn_cfg_check. On error nothing changes. */
+vt_status vt_pipeline_set_cnn(vt_pipeline *p, const vt_cnn_model *m, const vt_cnn_cfg *cfg,
+                              uint8_t *work, size_t work_bytes);
 
 /* Attach the caller's workspace for the tracker's edge-curve measurement
  * (cfg.tracker.measurement == VT_MEAS_EDGE_CURVES; vehtrack/edge_track.h), as

@@ -3,6 +3,10 @@
 #define VT_CNN_MAX_CH ...
 #define VT_CNN_OUT_CH ...
 #define VT_CNN_BIAS_MAX ...
+#define VT_CNN_HEAT_SCALE_MAX ...
+#define VT_CNN_MAX_LEVEL ...
+#define VT_CNN_MAX_RUN_LEVELS ...
+#define VT_CNN_MAX_PEAKS ...
 
 typedef struct {
     uint8_t ksize;
@@ -22,6 +26,7 @@ typedef struct {
     vt_cnn_layer layer[...];
     uint8_t out_stride;
     int8_t heat_thr;
+    int32_t heat_scale_q16;
     const uint16_t *side_lut;
 } vt_cnn_model;
 
@@ -33,6 +38,15 @@ typedef struct {
     int32_t score;
 } vt_cnn_box;
 
+typedef struct {
+    int32_t first_level;
+    int32_t n_levels;
+    int32_t thr_offset;
+    int32_t cap_per_level;
+    int32_t nms_iou_permille;
+    int32_t nms_contain_permille;
+} vt_cnn_cfg;
+
 vt_status vt_cnn_check_model(const vt_cnn_model *m);
 vt_status vt_cnn_out_size(const vt_cnn_model *m, int32_t w, int32_t h, int32_t *gw, int32_t *gh);
 vt_status vt_cnn_work_bytes(const vt_cnn_model *m, int32_t w, int32_t h, size_t *bytes);
@@ -42,3 +56,11 @@ vt_status vt_cnn_forward(const vt_cnn_model *m, const uint8_t *img, int32_t w, i
 vt_status vt_cnn_decode(const vt_cnn_model *m, const int8_t *out, int32_t gw, int32_t gh,
                         int32_t thr, int32_t scale_shift, vt_cnn_box *boxes, int32_t cap,
                         int32_t *n, int32_t *n_peaks);
+vt_status vt_cnn_cfg_default(vt_cnn_cfg *cfg);
+vt_status vt_cnn_cfg_check(const vt_cnn_cfg *cfg);
+vt_status vt_cnn_frame_work_bytes(const vt_cnn_model *m, const vt_cnn_cfg *cfg, int32_t w,
+                                  int32_t h, size_t *bytes);
+vt_status vt_cnn_detect_frame(const vt_cnn_model *m, const vt_cnn_cfg *cfg, const uint8_t *img,
+                              int32_t w, int32_t h, int32_t stride, uint8_t *work,
+                              size_t work_bytes, vt_cnn_box *boxes, int32_t cap, int32_t *n,
+                              int32_t *n_peaks);

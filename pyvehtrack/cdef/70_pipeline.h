@@ -83,6 +83,10 @@ typedef struct {
     const vt_acf_model *acf;
     vt_acf_ws *acf_ws;
     int32_t acf_n;
+    const vt_cnn_model *cnn;
+    vt_cnn_cfg cnn_cfg;
+    uint8_t *cnn_work;
+    size_t cnn_work_bytes;
     int32_t frame;
     vt_q16 ego_speed;
     vt_lane_state lane;
@@ -161,3 +165,5 @@ vt_status vt_pipeline_set_acf(vt_pipeline *p, const vt_acf_model *m, const vt_ac
                               vt_acf_ws *ws);
 vt_status vt_pipeline_set_acf_n(vt_pipeline *p, int32_t n, const vt_acf_model *const *m,
                                 const vt_acf_cfg *const *cfg, vt_acf_ws *ws);
+vt_status vt_pipeline_set_cnn(vt_pipeline *p, const vt_cnn_model *m, const vt_cnn_cfg *cfg,
+                              uint8_t *work, size_t work_bytes);

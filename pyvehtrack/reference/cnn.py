@@ -8,6 +8,11 @@ requantisation floor((acc mult + 2^(shift-1)) / 2^shift), the clamps, the peak r
 Q4 box decode), so the tests hold the two to 0 LSB. A layer is a dict (or any object with
 the same keys as attributes): ksize, stride, dilation, relu, w (cout, k, k, cin) int8,
 bias, mult (cout,) int32, shift (cout,) uint8.
+
+detect_frame is vt_cnn_detect_frame: the pyramid from reference.image.pyr_down (exact: its
+float sums of 1/256 steps are exact in float64, then rounded half up as the C), forward and
+decode per level, clipping to the frame, and greedy NMS with reference.windows.suppresses (the
+permille test of c/windows.c) after a stable sort by heat.
 """
 from __future__ import annotations
 
@@ -106,3 +111,42 @@ def decode(out: np.ndarray, out_stride: int, side_lut: np.ndarray, thr: int, sca
         px = [((int(v) << scale_shift) + 8) >> 4 for v in q4]
         res[i] = (px[0], px[1], px[2] - 1, px[3] - 1, c[0])
     return res, total
+
+
+def _cfg_get(cfg, key):
+    return int(cfg[key] if isinstance(cfg, dict) else getattr(cfg, key))
+
+
+def detect_frame(model, img: np.ndarray, cfg) -> tuple[np.ndarray, int]:
+    """vt_cnn_detect_frame (cnn.h). model: an object with layers, out_stride, side_lut,
+    heat_thr (e.g. pyvehtrack.cnn.CnnModel); cfg: every vt_cnn_cfg field as an attribute or a
+    key (first_level, n_levels, thr_offset, cap_per_level, nms_iou_permille,
+    nms_contain_permille), none left to defaults. Returns ((N, 5) int64 [l, t, r, b, heat]
+    in NMS order, the peaks over the levels before cap, clipping and NMS)."""
+    from . import image as rimage     # noqa: PLC0415
+    from . import windows as rw       # noqa: PLC0415
+    first, nl = _cfg_get(cfg, "first_level"), _cfg_get(cfg, "n_levels")
+    cap = _cfg_get(cfg, "cap_per_level")
+    thr = min(max(int(model.heat_thr) + _cfg_get(cfg, "thr_offset"), -128), 128)
+    g = np.asarray(img, np.uint8)
+    h, w = g.shape
+    level, rows, total = g, [], 0
+    for k in range(first + nl):
+        if k > 0:
+            level = rimage.pyr_down(level)
+        if k < first:
+            continue
+        out = forward(model.layers, level)
+        b, n = decode(out, model.out_stride, model.side_lut, thr, k, cap)
+        total += n
+        for l, t, r, bt, sc in b.tolist():
+            l, t, r, bt = max(l, 0), max(t, 0), min(r, w - 1), min(bt, h - 1)
+            if l <= r and t <= bt:
+                rows.append((l, t, r, bt, sc))
+    order = sorted(range(len(rows)), key=lambda i: -rows[i][4])     # stable: level, then decode order
+    iou, con = _cfg_get(cfg, "nms_iou_permille"), _cfg_get(cfg, "nms_contain_permille")
+    kept = []
+    for i in order:
+        if not any(rw.suppresses(rows[j][:4], rows[i][:4], iou, con) for j in kept):
+            kept.append(i)
+    return np.array([rows[i] for i in kept], np.int64).reshape(-1, 5), total

@@ -212,7 +212,7 @@ class Pipeline:
     """One run over a video: step(gray) per frame, in order."""
 
     def __init__(self, cfg: PipelineRefConfig | None = None, caps: Capacities | None = None,
-                 camera=None, score=None, box_score=None, wide=None, refine=None):
+                 camera=None, score=None, box_score=None, wide=None, refine=None, cnn=None):
         """camera: None, or (reference.camera.CameraParams, RangeParams) for frames of
         exactly the camera's img_w x img_h. score: None (the ego-lane detector), or the
         classifier of the whole-road detector, score(level_image, level, size, x, y) ->
@@ -223,8 +223,12 @@ class Pipeline:
         vt_pipeline_set_wide). refine: None, or (margin_permille, sources,
         offsets(gray, l, t, r, b) -> four Q16 ints on a context box): box regression of
         the whole-road detector's boxes after the second stage, before the wide pass
-        (reference.fulldet.refine; vt_pipeline_set_refine)."""
+        (reference.fulldet.refine; vt_pipeline_set_refine). cnn: None, or the CNN detector in
+        place of the windows (vt_pipeline_set_cnn), cnn(gray) -> (N, 6) [l, t, r, b, score,
+        2] (e.g. reference.cnn.detect_frame with the score in Q16 logits): its boxes skip the
+        second stage, box regression and the wide pass, and bring no shadow hypotheses."""
         self.cfg = cfg or PipelineRefConfig()
+        self.cnn = cnn
         self.wide = wide
         self.refine = refine
         self.score = score
@@ -262,7 +266,7 @@ class Pipeline:
                              f"got {self.cfg.handover_frames}")
         self.last_tracks = []      # the previous step's tracks (the vehicle model's rule)
         for need in (SRC_CLASSIFIER, SRC_EGO):
-            if need in self.cfg.sources and score is None:
+            if need in self.cfg.sources and score is None and cnn is None:
                 raise ValueError(f"sources: {need!r} needs a classifier (score)")
         self.lane = rlane.LaneDetector(self.cfg.lane, max_height=self.caps.max_height,
                                        max_verts=self.caps.max_verts)
@@ -318,7 +322,7 @@ class Pipeline:
             lanes = self.lane.detect(gray)
             lanes_ok = True
         lane_road = _road_from_lane_frame(lanes) if lanes_ok else None
-        whole = self.score is not None
+        whole = self.score is not None or self.cnn is not None
         if lanes_ok and lanes.vp_known:
             # the lane stage's own vanishing row in input rows, (vp + 1/2) 2^s - 1/2 half up
             vp = (lanes.vp_y + 0.5) * 2 ** lanes.shift - 0.5
@@ -654,6 +658,9 @@ class Pipeline:
         from dataclasses import replace  # noqa: PLC0415
         fc = replace(c.fulldet, shadow_source=SRC_SHADOW in c.sources,
                      window_source=SRC_CLASSIFIER in c.sources)
+        if self.cnn is not None:
+            return self._merge_whole(gray, road, source, ego_hyp, ego_boxes, ego_scores, fc,
+                                     np.asarray(self.cnn(gray), np.int64).reshape(-1, 6), None, stats)
         arr, st = rfd.detect(gray, road, cam, fc, self.score, max_windows=self.caps.max_windows,
                              max_cand=self.caps.max_cand, max_boxes=self.caps.max_boxes,
                              max_hyp=self.caps.max_hypotheses,
@@ -683,6 +690,13 @@ class Pipeline:
                                   max_cand=self.caps.max_shadow_cand, max_hyp=self.caps.max_hypotheses,
                                   max_boxes=self.caps.max_boxes)[0].hypotheses
             hyp = np.concatenate([hyp, np.asarray(more, np.int64).reshape(-1, 3)])[:self.caps.max_hypotheses]
+        return self._merge_whole(gray, road, source, hyp, ego_boxes, ego_scores, fc, arr, raw, stats)
+
+    def _merge_whole(self, gray, road, source, hyp, ego_boxes, ego_scores, fc, arr, raw, stats):
+        """The whole-road boxes arr (rows [l, t, r, b, score, source]; raw: the boxes as
+        detected, the tracker's input, None when arr's are) after the ego boxes: a box one of
+        them suppresses is dropped and raises that ego box's score (c/pipeline.c)."""
+        raw = np.asarray(arr, np.int64).reshape(-1, 6)[:, :4] if raw is None else raw
         boxes, src, scores = [list(b) for b in ego_boxes], [SRC_EGO] * len(ego_boxes), list(ego_scores)
         tboxes = [list(b) for b in ego_boxes]
         for i, row in enumerate(arr):

@@ -1,0 +1,205 @@
+"""The CNN detector in the pipeline (vt_pipeline_set_cnn; pyvehtrack.Pipeline(model=CnnModel or a
+cnn_* .npz)): on a detection frame its boxes replace the whole-road windows, as classifier
+boxes scored heat x heat_scale_q16 (Q16 logit), with no second stage, regression or wide pass.
+
+Tolerance: exact. The pipeline copies vt_cnn_detect_frame's boxes (the first VT_MAX_BOXES) into
+the detector's result, so its classifier boxes equal pyvehtrack.cnn.detect_frame's, box for box
+and in order; the reference engine runs the bit-exact twin in the same place, so it agrees too.
+Bad arguments to vt_pipeline_set_cnn are refused with nothing changed; a work buffer too small
+for a frame is VT_E_CAPACITY from the step.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pyvehtrack import Pipeline
+from pyvehtrack import cnn as C
+from pyvehtrack._native import ffi, lib
+from test_cnn import random_model
+
+MAX_BOXES = int(lib.VT_MAX_BOXES)
+
+
+def scene(w=320, h=180, seed=0):
+    """A road ramp with a few dark car-like blocks below the horizon."""
+    rng = np.random.default_rng(seed)
+    img = np.tile(np.linspace(120, 200, h).astype(np.uint8)[:, None], (1, w))
+    img[: h // 3] = 210
+    for _ in range(5):
+        x0, y0 = int(rng.integers(0, w - 30)), int(rng.integers(h // 2, h - 20))
+        img[y0:y0 + int(rng.integers(10, 30)), x0:x0 + int(rng.integers(15, 50))] = int(rng.integers(10, 70))
+    return img + rng.integers(0, 6, (h, w)).astype(np.uint8)
+
+
+def tiny_model(seed=1, scale=3 * 65536):
+    rng = np.random.default_rng(seed)
+    img = scene(seed=seed)
+    m = random_model(rng, [(3, 2, 1, 4), (3, 2, 1, 6), (3, 2, 1, 6), (1, 1, 1, 5)], img, 60.0,
+                     rng.integers(0, 500, (4, 256)))
+    return C.CnnModel(m.layers, m.side_lut, m.heat_thr, heat_scale_q16=scale)
+
+
+CFG = C.CnnConfig(first_level=0, n_levels=3, thr_offset=-30, cap_per_level=16)
+
+
+def _expected(model, gray, cfg=CFG):
+    b, _ = C.detect_frame(model, gray, cfg)
+    return [((int(r[0]), int(r[1]), int(r[2]), int(r[3])), "classifier", int(r[4]) * model.heat_scale_q16 / 65536)
+            for r in b[:MAX_BOXES]]
+
+
+def _got(res):
+    return [(b.box, b.source, b.score) for b in res.boxes]
+
+
+@pytest.mark.parametrize("engine", ["c", "reference"])
+def test_pipeline_boxes_are_detect_frame_boxes(engine):
+    m = tiny_model()
+    gray = scene()
+    want = _expected(m, gray)
+    assert len(want) >= 3, "the drawn model finds too little to compare"
+    pipe = Pipeline(engine, model=m, cnn_cfg=CFG, sources=("classifier",), road="fixed", detect_every=1,
+                    track=False)
+    for _ in range(2):
+        res = pipe.step(gray)
+        assert res.detection_frame and res.road_source == "camera"
+        assert _got(res) == want
+        assert len(res.hypotheses) == 0    # no shadow hypotheses beside the CNN
+    if engine == "c":
+        assert res.stats["n_cand"] == C.detect_frame(m, gray, CFG)[1] and res.stats["n_windows"] == 0
+
+
+def test_pipeline_from_a_cnn_file_and_second_stage_skipped(tmp_path):
+    """A cnn_* .npz path is a CNN model; the second stage (verify_min) and the shadow source
+    leave the CNN's boxes as they are (no verification, no shadow boxes)."""
+    from pyvehtrack.fullroad import FullRoadConfig
+    m = tiny_model(2)
+    m.save(tmp_path / "cnn.npz")
+    gray = scene(seed=2)
+    want = _expected(m, gray, C.CnnConfig(thr_offset=-30))
+    assert want
+    pipe = Pipeline(model=str(tmp_path / "cnn.npz"), cnn_cfg=C.CnnConfig(thr_offset=-30),
+                    sources=("shadow", "classifier"), fullroad=FullRoadConfig(verify_min=50.0), road="fixed",
+                    detect_every=1, track=False)
+    assert isinstance(pipe.model, C.CnnModel) and int(pipe._ccfg.verify) != 0
+    assert _got(pipe.step(gray)) == want
+
+
+def test_pipeline_ego_boxes_beside_the_cnn():
+    """With the ego-lane detector, its boxes come first (source "ego"); the CNN's boxes that no
+    ego box suppresses follow in detect_frame's order."""
+    m = tiny_model(3)
+    gray = scene(seed=3)
+    want = _expected(m, gray)
+    res = Pipeline(model=m, cnn_cfg=CFG, sources=("ego", "classifier"), road="fixed", detect_every=1,
+                   track=False).step(gray)
+    cls = [g for g in _got(res) if g[1] == "classifier"]
+    assert all(b.source in ("ego", "classifier") for b in res.boxes)
+    it = iter(want)
+    assert all(any(g == w for w in it) for g in cls), "classifier boxes not a subsequence of detect_frame's"
+    assert [b.source for b in res.boxes] == sorted((b.source for b in res.boxes), key=lambda s: s != "ego")
+
+
+def test_pipeline_tracks_cnn_boxes_and_grows_its_work():
+    """Tracking on: the CNN's boxes reach the tracker (tracks start from source "classifier");
+    a larger frame after a smaller one grows the work buffer (re-attached), the boxes stay
+    detect_frame's."""
+    m = tiny_model(4)
+    pipe = Pipeline(model=m, cnn_cfg=CFG, sources=("classifier",), road="fixed", detect_every=1)
+    small, big = scene(160, 90, 4), scene(320, 180, 4)
+    res = pipe.step(small)
+    n0 = pipe._cnn_work.size
+    assert _got(res) == _expected(m, small)
+    pipe.reset()
+    for _ in range(3):
+        res = pipe.step(big)
+        assert _got(res) == _expected(m, big)
+    assert pipe._cnn_work.size > n0
+    assert res.tracks and all(t.source == "classifier" for t in res.tracks)
+
+
+def test_pipeline_cnn_python_bad_inputs(tmp_path):
+    m = tiny_model()
+    with pytest.raises(TypeError, match="cnn_cfg"):
+        Pipeline(model=m, cnn_cfg={"n_levels": 2})
+    with pytest.raises(ValueError, match="n_levels"):
+        Pipeline(model=m, cnn_cfg=C.CnnConfig(n_levels=0))
+    with pytest.raises(ValueError, match="cnn_cfg"):
+        Pipeline(cnn_cfg=C.CnnConfig())
+    k = m.keys()
+    k.pop("cnn_heat_scale_q16")
+    np.savez(tmp_path / "old.npz", **k)
+    with pytest.raises(ValueError, match="cnn_heat_scale_q16"):
+        Pipeline(model=str(tmp_path / "old.npz"))
+
+
+# ---------------------------------------------------------------- the C entry point
+def _c_pipeline():
+    p = ffi.new("vt_pipeline *")
+    pc = ffi.new("vt_pipeline_cfg *")
+    assert lib.vt_pipeline_cfg_default(pc) == lib.VT_OK
+    pc.sources = lib.VT_SRC_CLASSIFIER
+    pc.road_policy = lib.VT_ROAD_FIXED
+    pc.track = 0
+    pc.detect_every = 1
+    assert lib.vt_pipeline_init(p, pc, ffi.NULL, ffi.NULL) == lib.VT_OK
+    return p
+
+
+def test_set_cnn_rows():
+    m = tiny_model()
+    cm = m.c_model()[0]
+    cfg = C.CnnConfig().c()
+    work = np.zeros(64, np.uint8)
+    pw = ffi.cast("uint8_t *", work.ctypes.data)
+    p = _c_pipeline()
+    ws = ffi.new("vt_pipe_cls_ws *")
+    # no classifier yet: the workspace without a scorer is refused; with the CNN set it is not
+    assert lib.vt_pipeline_set_cls_ws(p, ws, ffi.NULL) == lib.VT_E_ARG
+    assert lib.vt_pipeline_set_cnn(p, cm, cfg, pw, work.size) == lib.VT_OK
+    assert p.cnn == cm and p.cnn_work == pw and p.cnn_work_bytes == 64 and p.cnn_cfg.n_levels == cfg.n_levels
+    assert lib.vt_pipeline_set_cls_ws(p, ws, ffi.NULL) == lib.VT_OK
+    bad_m = ffi.new("vt_cnn_model *", cm[0])
+    bad_m.heat_scale_q16 = 0
+    bad_m2 = ffi.new("vt_cnn_model *", cm[0])
+    bad_m2.n_layers = 0
+    bad_c = ffi.new("vt_cnn_cfg *", cfg[0])
+    bad_c.nms_iou_permille = 1001
+    other = C.CnnConfig(n_levels=1).c()
+    rows = [(ffi.NULL, cm, other, pw, 1), (p, cm, ffi.NULL, pw, 1), (p, cm, other, ffi.NULL, 1),
+            (p, bad_m, other, pw, 1), (p, bad_m2, other, pw, 1), (p, cm, bad_c, pw, 1)]
+    for i, args in enumerate(rows):
+        assert lib.vt_pipeline_set_cnn(*args) == lib.VT_E_ARG, i
+        assert p.cnn == cm and p.cnn_work_bytes == 64 and p.cnn_cfg.n_levels == cfg.n_levels, i
+    # off: m NULL (cfg and work ignored); init turns it off too
+    assert lib.vt_pipeline_set_cnn(p, ffi.NULL, ffi.NULL, ffi.NULL, 0) == lib.VT_OK and p.cnn == ffi.NULL
+    assert lib.vt_pipeline_set_cnn(p, cm, cfg, pw, 64) == lib.VT_OK
+    pc = ffi.new("vt_pipeline_cfg *", p.cfg)
+    assert lib.vt_pipeline_init(p, pc, ffi.NULL, ffi.NULL) == lib.VT_OK and p.cnn == ffi.NULL
+
+
+def test_step_refuses_a_short_work_buffer():
+    """The work size is checked at each detection step: one byte short of
+    vt_cnn_frame_work_bytes for the frame -> VT_E_CAPACITY from the step; enough -> VT_OK."""
+    m = tiny_model()
+    cm = m.c_model()[0]
+    cfg = CFG.c()
+    gray = scene()
+    need = C.frame_work_bytes(m, gray.shape[1], gray.shape[0], CFG)
+    work = np.zeros(need, np.uint8)
+    p = _c_pipeline()
+    ws = ffi.new("vt_pipe_cls_ws *")
+    out = ffi.new("vt_frame_out *")
+    from pyvehtrack import _native
+    v = _native.view(gray, "img")
+    assert lib.vt_pipeline_set_cnn(p, cm, cfg, ffi.cast("uint8_t *", work.ctypes.data), need - 1) == lib.VT_OK
+    assert lib.vt_pipeline_set_cls_ws(p, ws, ffi.NULL) == lib.VT_OK
+    assert lib.vt_pipeline_step(p, v, out) == lib.VT_E_CAPACITY and out.n_boxes == 0
+    assert lib.vt_pipeline_set_cnn(p, cm, cfg, ffi.cast("uint8_t *", work.ctypes.data), need) == lib.VT_OK
+    assert lib.vt_pipeline_step(p, v, out) == lib.VT_OK and out.detection_frame
+    b, _ = C.detect_frame(m, gray, CFG)
+    got = [(o.box.left, o.box.top, o.box.right, o.box.bottom, o.source, o.score)
+           for o in (out.boxes[i] for i in range(out.n_boxes))]
+    assert got == [(*map(int, r[:4]), int(lib.VT_SRC_CLASSIFIER), int(r[4]) * m.heat_scale_q16)
+                   for r in b[:MAX_BOXES]]
