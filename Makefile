@@ -54,6 +54,7 @@ setup:
 
 tables:
 	$(PY) tools/gen_tables.py
+	$(PY) tools/gen_cnn_table.py
 
 # The smallest sensible build: one track slot, VGA-sized frames at most.
 SMALL_DEFS := -DVT_MAX_TRACKS=1 -DVT_MAX_WIDTH=700 -DVT_MAX_HEIGHT=500

@@ -9,7 +9,9 @@
  * every vt_frame_out (the host test repeats them too); then once more with every
  * hypothesis source built: the whole-road detector with the default classifier
  * model (c/tables, in flash), the overtaking flow stage, the block-scale TTC and
- * the GA vehicle model refitting coasting tracks (run_pipeline).
+ * the GA vehicle model refitting coasting tracks (run_pipeline). Last, the CNN
+ * detector (vt_cnn_detect_frame) with a model held in flash (cnn_data.h, from
+ * tools/gen_cnn_table.py) on a synthetic frame it draws (run_cnn).
  * Equal checksums mean the same C gives the same bits on ARM and on the host.
  *
  * Every buffer is static (.bss), so the linker's size table is the RAM bill.
@@ -17,6 +19,7 @@
  * in tests/test_firmware.py; change both together. */
 #include <stddef.h>
 #include <stdint.h>
+#include "vehtrack/cnn.h"
 #include "vehtrack/fixed.h"
 #include "vehtrack/image.h"
 #include "vehtrack/pipeline.h"
@@ -24,6 +27,7 @@
 #include "vehtrack/trig.h"
 #include "board.h"
 #include "clip_data.h"
+#include "cnn_data.h"
 #include "frame_data.h"
 
 #ifndef FW_CORE_NAME
@@ -811,9 +815,112 @@ static void run_handover(void)
     print_checksum("pipeline_handover", h);
 }
 
+/* The CNN detector (cnn.h): the model of cnn_data.h (static const, in flash;
+ * tools/gen_cnn_table.py writes it) run twice through vt_cnn_detect_frame. First on a
+ * synthetic FW_CNN_FRAME_W x FW_CNN_FRAME_H frame drawn here (cnn_make_frame; the
+ * generator's cnn_frame() is the same recipe: a textured road ramp and three dark
+ * textured "cars" with a bright window band and a black shadow row pair) with
+ * fw_cnn_cfg_synth (the model's settings from level 0: the frame is small); then on
+ * the first clip frame in flash with the model's own settings fw_cnn_cfg.
+ * `checksum cnn_input` is the synthetic frame's bytes; per run, `checksum cnn_NAME`
+ * folds the model and cfg checks, vt_cnn_frame_work_bytes (and that it is the
+ * header's size), a call with one byte too few (VT_E_CAPACITY), then the detection's
+ * status, box count, peak count and every box (l, t, r, b, heat), printed as
+ * `cnn NAME N PEAKS` and `cnn_box NAME I L T R B HEAT` lines; tests/test_firmware.py
+ * recomputes them through pyvehtrack.cnn. One work buffer serves both runs. */
+#if FW_CNN_CLIP_W != FW_CLIP_W || FW_CNN_CLIP_H != FW_CLIP_H
+#error "cnn_data.h was generated for another clip size: rerun tools/gen_cnn_table.py"
+#endif
+static uint8_t g_cnn_frame[FW_CNN_FRAME_W * FW_CNN_FRAME_H];
+static uint8_t g_cnn_work[FW_CNN_WORK_BYTES];
+static vt_cnn_box g_cnn_boxes[FW_CNN_MAX_BOXES];
+
+static void cnn_make_frame(void)
+{
+    static const int32_t cars[3][4] = {{18, 44, 40, 30}, {84, 36, 52, 38}, {128, 62, 26, 20}};
+    int32_t x, y, c;
+    for (y = 0; y < FW_CNN_FRAME_H; ++y) {
+        for (x = 0; x < FW_CNN_FRAME_W; ++x) {
+            uint32_t v = 70u + (uint32_t)(y * 80 / FW_CNN_FRAME_H) + (ho_tex((uint32_t)x, (uint32_t)y, 0xc0deu) & 31u);
+            g_cnn_frame[y * FW_CNN_FRAME_W + x] = (uint8_t)v;
+        }
+    }
+    for (c = 0; c < 3; ++c) {
+        int32_t l = cars[c][0], t = cars[c][1], w = cars[c][2], h = cars[c][3];
+        for (y = t; y < t + h && y < FW_CNN_FRAME_H; ++y) {
+            for (x = l; x < l + w && x < FW_CNN_FRAME_W; ++x) {
+                uint32_t tx = ho_tex((uint32_t)(x - l), (uint32_t)(y - t), 0xca75u) & 31u, v;
+                if (y - t < h / 3) {
+                    v = 170u + tx;
+                } else if (y - t >= h - 2) {
+                    v = 8u;
+                } else {
+                    v = 30u + tx;
+                }
+                g_cnn_frame[y * FW_CNN_FRAME_W + x] = (uint8_t)v;
+            }
+        }
+    }
+}
+
+static void run_cnn_on(const char *name, const char *sum_name, const vt_cnn_cfg *cfg, const uint8_t *img,
+                       int32_t w, int32_t h, size_t header_need)
+{
+    uint32_t hs = FNV_BASIS;
+    size_t need = 0;
+    int32_t i, n = -1, n_peaks = -1;
+    vt_status s;
+    hs = fnv_status(hs, vt_cnn_check_model(&fw_cnn_model));
+    hs = fnv_status(hs, vt_cnn_cfg_check(cfg));
+    s = vt_cnn_frame_work_bytes(&fw_cnn_model, cfg, w, h, &need);
+    hs = fnv_u32(fnv_status(hs, s), (uint32_t)need);
+    hs = fnv_s32(hs, need == header_need); /* the header's size is the core's */
+    /* one byte short: refused, nothing decoded */
+    s = vt_cnn_detect_frame(&fw_cnn_model, cfg, img, w, h, w, g_cnn_work, need - 1, g_cnn_boxes,
+                            FW_CNN_MAX_BOXES, &n, &n_peaks);
+    hs = fnv_s32(fnv_s32(fnv_status(hs, s), n), n_peaks);
+    start();
+    s = vt_cnn_detect_frame(&fw_cnn_model, cfg, img, w, h, w, g_cnn_work, sizeof g_cnn_work, g_cnn_boxes,
+                            FW_CNN_MAX_BOXES, &n, &n_peaks);
+    stop(sum_name);
+    hs = fnv_s32(fnv_s32(fnv_status(hs, s), n), n_peaks);
+    fw_line_str("cnn ");
+    fw_line_str(name);
+    line_sp(n);
+    line_sp(n_peaks);
+    fw_line_end();
+    for (i = 0; i < n && i < FW_CNN_MAX_BOXES; ++i) {
+        const vt_cnn_box *b = &g_cnn_boxes[i];
+        hs = fnv_s32(fnv_s32(fnv_s32(fnv_s32(fnv_s32(hs, b->l), b->t), b->r), b->b), b->score);
+        fw_line_str("cnn_box ");
+        fw_line_str(name);
+        line_sp(i);
+        line_sp(b->l);
+        line_sp(b->t);
+        line_sp(b->r);
+        line_sp(b->b);
+        line_sp(b->score);
+        fw_line_end();
+    }
+    print_checksum(sum_name, hs);
+}
+
+static void run_cnn(void)
+{
+    uint32_t h = FNV_BASIS;
+    int32_t i;
+    cnn_make_frame();
+    for (i = 0; i < FW_CNN_FRAME_W * FW_CNN_FRAME_H; ++i) {
+        h = fnv_u8(h, g_cnn_frame[i]);
+    }
+    print_checksum("cnn_input", h);
+    run_cnn_on("synth", "cnn_synth", &fw_cnn_cfg_synth, g_cnn_frame, FW_CNN_FRAME_W, FW_CNN_FRAME_H, FW_CNN_WORK_SYNTH);
+    run_cnn_on("clip0", "cnn_clip0", &fw_cnn_cfg, fw_clip[0], FW_CLIP_W, FW_CLIP_H, FW_CNN_WORK_CLIP);
+}
+
 int main(void)
 {
-    uint32_t stack_primitives, stack_pipeline;
+    uint32_t stack_primitives, stack_pipeline, stack_cnn;
 
     fw_line_str("core " FW_CORE_NAME);
     fw_line_end();
@@ -845,6 +952,9 @@ int main(void)
     run_pipeline(1);
     run_handover();
     stack_pipeline = fw_stack_used();
+    fw_stack_paint();
+    run_cnn();
+    stack_cnn = fw_stack_used();
 
     /* The RAM bill, from sizeof: the static outputs, then the stack. */
     print_size("ram filter_h101", (uint32_t)sizeof g_h101);
@@ -866,11 +976,16 @@ int main(void)
     print_size("ram model_ws", (uint32_t)sizeof g_model_ws);
 #endif
     print_size("ram pipeline_cfg", (uint32_t)sizeof g_pipe_cfg);
+    print_size("ram cnn_frame", (uint32_t)sizeof g_cnn_frame);
+    print_size("ram cnn_work", (uint32_t)sizeof g_cnn_work);
+    print_size("ram cnn_boxes", (uint32_t)sizeof g_cnn_boxes);
     print_size("sizeof vt_image_u8", (uint32_t)sizeof(vt_image_u8));
     print_size("sizeof vt_road_area", (uint32_t)sizeof(vt_road_area));
     print_size("stack reserved", fw_stack_size());
     print_size("stack pipeline", stack_pipeline);
     print_size("stack step", g_stack_step);
+    print_size("stack cnn", stack_cnn);
+    stack_pipeline = stack_pipeline > stack_cnn ? stack_pipeline : stack_cnn;
     print_size("stack used", stack_primitives > stack_pipeline ? stack_primitives : stack_pipeline);
     fw_line_str("done");
     fw_line_end();

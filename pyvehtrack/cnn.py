@@ -87,6 +87,7 @@ class CnnModel:
         self.heat_thr = int(heat_thr)
         self.heat_scale_q16 = _check.integer(heat_scale_q16, "cnn_heat_scale_q16", 1, HEAT_SCALE_MAX)
         self._c = None
+        self.cfg = None   # CnnConfig the model was validated with (file key cnn_cfg), or None
         self.c_model()  # the core's check, now
 
     @property
@@ -135,7 +136,12 @@ class CnnModel:
         lut = _int_array(zz, "cnn_side_lut", np.uint16, (4, 256))
         thr = _int_scalar(zz, "cnn_heat_thr", -128, 127)
         scale = _int_scalar(zz, "cnn_heat_scale_q16", 1, HEAT_SCALE_MAX)
-        return cls(layers, lut, thr, path, heat_scale_q16=scale)
+        m = cls(layers, lut, thr, path, heat_scale_q16=scale)
+        if "cnn_cfg" in zz:   # optional: the settings the model was validated with
+            v = _int_array(zz, "cnn_cfg", np.int32, (len(CFG_KEYS),))
+            m.cfg = CnnConfig(**{k: int(x) for k, x in zip(CFG_KEYS, v)})
+            m.cfg.c()   # checked now: the file is refused, not the first frame
+        return m
 
     def keys(self) -> dict:
         """The model under the file's key names (np.savez(path, **m.keys()) writes it)."""
@@ -150,7 +156,10 @@ class CnnModel:
         return d
 
     def save(self, path) -> None:
-        np.savez_compressed(path, **self.keys())
+        d = self.keys()
+        if self.cfg is not None:
+            d["cnn_cfg"] = np.array([getattr(self.cfg.c(), k) for k in CFG_KEYS], np.int32)
+        np.savez_compressed(path, **d)
 
     # ------------------------------------------------------------ the C struct
     def _why(self) -> str:
@@ -313,6 +322,10 @@ def decode(model: CnnModel, out: np.ndarray, thr=None, scale_shift: int = 0, cap
 
 
 # ---------------------------------------------------------------- frame-level detection
+# The file key cnn_cfg: int32 values of these CnnConfig fields, in this order.
+CFG_KEYS = ("first_level", "n_levels", "thr_offset", "cap_per_level", "nms_iou_permille", "nms_contain_permille")
+
+
 @dataclass(frozen=True)
 class CnnConfig:
     """vt_cnn_cfg (cnn.h): the levels the network runs on, the threshold, the per-level cap and

@@ -321,6 +321,13 @@ def _settings(z, p) -> dict:
     return d
 
 
+class _Keys(dict):
+    """A mapping read like an opened .npz (its .files), for keys renamed on the way."""
+    @property
+    def files(self):
+        return list(self)
+
+
 def load_model(path) -> SvmModel | MlpModel:
     """A model from an .npz file (see the module doc); ValueError naming the problem."""
     p = os.fspath(path)
@@ -330,6 +337,14 @@ def load_model(path) -> SvmModel | MlpModel:
         z = np.load(p, allow_pickle=False)
     except Exception as e:  # noqa: BLE001  (any unreadable file is the same user error)
         raise ValueError(f"model: {p} is not a readable .npz file ({e})") from None
+    from .cnn import CnnModel, is_cnn  # noqa: PLC0415
+    if is_cnn(z):
+        # the CNN detector (cnn.h): its settings (sources, ...) in cnn_detector_json
+        m = CnnModel.load(p)
+        m.settings = _settings(_Keys(detector_json=z["cnn_detector_json"]) if "cnn_detector_json" in z.files
+                               else _Keys(), p)
+        m.wide = m.refine = m.rescore = None
+        return m
     if "kind" in z.files and str(z["kind"]) == "acf":
         # the ACF first stage (acf.h); the whole-road settings, wide pass and box
         # regressor ride along in the same keys as for the window models
@@ -417,6 +432,11 @@ def wide_setup(model, cfg: "FullRoadConfig") -> "tuple[MlpModel, WideConfig] | N
 def _is_acf(model) -> bool:
     from .acf import AcfModel  # noqa: PLC0415
     return isinstance(model, AcfModel)
+
+
+def _is_cnn(model) -> bool:
+    from .cnn import CnnModel  # noqa: PLC0415
+    return isinstance(model, CnnModel)
 
 
 def refine_setup(model, cfg: "FullRoadConfig") -> "BoxRegressor | None":
@@ -550,9 +570,10 @@ def setup(model=None, sources=SOURCES, camera: Camera | None = None, cfg: FullRo
     if bad or not sources:
         raise ValueError(f"sources: expected a non-empty subset of {SOURCES}, got {sources!r}")
     from .acf import AcfModel  # noqa: PLC0415
+    from .cnn import CnnModel  # noqa: PLC0415
     if model is None:
         model = default_model()
-    elif isinstance(model, (SvmModel, MlpModel, AcfModel)):
+    elif isinstance(model, (SvmModel, MlpModel, AcfModel, CnnModel)):
         pass
     elif isinstance(model, (str, os.PathLike)):
         model = load_model(model)
@@ -606,7 +627,7 @@ def setup(model=None, sources=SOURCES, camera: Camera | None = None, cfg: FullRo
         skips[name], prev = v, name
     cfg = replace(cfg, det=det, verify_min=None if vmin is None else float(vmin), **skips)
     thr = 0
-    if model is not None:
+    if model is not None and not _is_cnn(model):   # a CNN's threshold is its own (Pipeline)
         thr = model.threshold_q16 + int(round((cfg.score_offset + float(st.get("score_offset", 0.0))) * 65536))
         sizes = model.scan_sizes or (model.win_w,)
         if det.win.sizes != sizes and model.win_w == model.win_h:
@@ -698,7 +719,7 @@ class FullRoadDetector:
             self._scorer.level = ffi.NULL
             self._scorer.score = ffi.addressof(lib, "vt_mlp_scorer_score")
             self._scorer.ctx = self._mlp
-        elif self.model is not None and not _is_acf(self.model):
+        elif self.model is not None and not _is_acf(self.model) and not _is_cnn(self.model):
             self._m, self._keep = _c_model(self.model)
             self._hog = ffi.new("vt_hog_scorer *")
             _native.check("vt_hog_scorer_init", lib.vt_hog_scorer_init(self._hog, self._m))
@@ -753,9 +774,10 @@ class FullRoadDetector:
         road: a RoadArea-like restriction, or None for the camera road (all columns
         between the horizon and the hood). Scores are in the model's units (Q16 / 65536)."""
         h, w = gray.shape
-        if _is_acf(self.model):
-            raise ValueError("detect_gray runs vt_fulldet's window models; an ACF model runs through "
-                             "pyvehtrack.Detector / Pipeline (vt_pipeline_set_acf) or pyvehtrack.acf.detect")
+        if _is_acf(self.model) or _is_cnn(self.model):
+            raise ValueError("detect_gray runs vt_fulldet's window models; an ACF or CNN model runs through "
+                             "pyvehtrack.Detector / Pipeline (vt_pipeline_set_acf / _cnn), or "
+                             "pyvehtrack.acf.detect / pyvehtrack.cnn.detect_frame")
         if self.verify_skip_flat and self.verify_min_q16 is not None:
             raise ValueError("detect_gray: verify_skip_flat / verify_skip_edge / verify_skip_small (the second "
                              "stage on all but flat, edge-cut or small boxes) runs in pyvehtrack.Detector / "

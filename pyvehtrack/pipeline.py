@@ -303,13 +303,15 @@ class Pipeline:
         m = model if isinstance(model, _cnn.CnnModel) else _cnn.CnnModel.load(model)
         if cnn_cfg is not None and not isinstance(cnn_cfg, _cnn.CnnConfig):
             raise TypeError(f"cnn_cfg: expected a pyvehtrack.cnn.CnnConfig or None, got {type(cnn_cfg).__name__}")
-        ccfg = (cnn_cfg or _cnn.CnnConfig()).c()
+        ccfg = (cnn_cfg or m.cfg or _cnn.CnnConfig()).c()
         cam = road_camera if road_camera is not None else _fr.Camera()
         if not isinstance(cam, _fr.Camera):
             raise TypeError(f"road_camera: expected a fullroad.Camera, got {type(cam).__name__}")
         frc = fullroad if fullroad is not None else _fr.FullRoadConfig()
         if not isinstance(frc, _fr.FullRoadConfig):
             raise TypeError(f"fullroad: expected a fullroad.FullRoadConfig, got {type(frc).__name__}")
+        if frc.score_offset:   # a logit offset (the CLI's --offset) in heat steps, rounded
+            ccfg.thr_offset += int(round(float(frc.score_offset) * 65536 / m.heat_scale_q16))
         det = frc.det if frc.det is not None else _fr.FullDetConfig()   # None: the library defaults
         srcs = tuple({"shadow": "shadow", "classifier": "windows"}[s] for s in self.cfg.sources
                      if s in ("shadow", "classifier"))

@@ -4,7 +4,8 @@ bits under every compiler, optimisation level, word size and core.
 The run is firmware_demo/main.c itself: its checksums of every primitive on a
 real frame, then lanes -> detection -> tracking over five real KITTI frames
 (road areas, boxes, tracks with Q16 velocities, and their FNV-1a digests), and
-again with every source (classifier, flow, block TTC, the GA vehicle model). On
+again with every source (classifier, flow, block TTC, the GA vehicle model), then
+the CNN detector's boxes on a synthetic frame (`cnn` / `cnn_box` lines). On
 the host it is linked with tests/c/board_host.c (stdio instead of semihosting)
 and built, without Python, with the images' capacity flags (`make firmware-caps`)
 under gcc -O0, gcc -O3, clang -O2,
@@ -47,7 +48,7 @@ MATRIX = {
     "clang -O3 -march=native": ("clang", ["-O3", "-march=native"]),
     "gcc -m32 -O2": ("gcc", ["-m32", "-O2"]),
 }
-COMPARED = re.compile(r"(checksum|clip|road|boxes|box|model|tracks|track) ")
+COMPARED = re.compile(r"(checksum|clip|road|boxes|box|model|tracks|track|cnn|cnn_box) ")
 
 
 def digest_lines(text: str) -> list[str]:
@@ -70,7 +71,7 @@ def qemu_lines():
     out = {}
     for core, info in parse_run(proc.stdout).items():
         assert info["done"], f"{core} did not finish"
-        out[core] = [f"checksum {n} 0x{v:08x}" for n, v in info["checksums"]] + info["pipeline"]
+        out[core] = [f"checksum {n} 0x{v:08x}" for n, v in info["checksums"]] + info["pipeline"] + info["cnn"]
     assert set(out) == {"cortex-m3", "cortex-m7"}, sorted(out)
     return out
 

@@ -19,6 +19,14 @@ tracks (box and Q16 velocity) and a checksum of every vt_frame_out;
 `host_pipeline()` repeats it and every line must be equal, again with no tolerance
 (the Kalman filter and the GA are fixed-point too).
 
+Last, the CNN detector (vt_cnn_detect_frame) with the model and settings of
+firmware_demo/cnn_data.h (static const, written by tools/gen_cnn_table.py: the shipped
+pyvehtrack/models/cnn_gray.npz when it exists, else the script's deterministic tiny model)
+on a synthetic 160x96 frame the image draws itself, then on clip frame 0; `host_cnn()`
+draws the same frame (the generator's cnn_frame()) and detects through pyvehtrack.cnn, and
+the `cnn` / `cnn_box` lines and the cnn_input / cnn_synth / cnn_clip0 checksums must be
+equal too.
+
 Same capacities on both sides: the images are built with firmware.mk's FW_CAPS (the
 clip's 640x256, so every workspace fits the boards' 4 MB of RAM) and FW_DEFS, which
 `make firmware-caps` prints; the host recipe runs through a cffi extension built
@@ -420,6 +428,72 @@ def test_handover_scene_hands_over(fw):
     assert n_ho >= 10, n_ho
 
 
+# ---------------------------------------------------------------- the CNN, on the host
+CNN_GEN = ROOT / "tools" / "gen_cnn_table.py"
+CNN_HEADER = ROOT / "firmware_demo" / "cnn_data.h"
+
+
+def cnn_gen():
+    """tools/gen_cnn_table.py as a module: the frame recipe and the model the header holds."""
+    spec = importlib.util.spec_from_file_location("gen_cnn_table", CNN_GEN)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def _host_cnn_run(name: str, model, cfg, frame: np.ndarray, header_need: int):
+    """main.c's run_cnn_on(): (lines, checksum, what the tests check)."""
+    from pyvehtrack import cnn as C
+
+    h_, w_ = frame.shape
+    frame = np.ascontiguousarray(frame)
+    m, c = model.c_model()[0], cfg.c()
+    h = fnv_s32(FNV_BASIS, lib.vt_cnn_check_model(m))
+    h = fnv_s32(h, lib.vt_cnn_cfg_check(c))
+    need = C.frame_work_bytes(model, w_, h_, cfg)
+    h = fnv_u32(fnv_s32(h, lib.VT_OK), need)
+    h = fnv_s32(h, int(need == header_need))
+    work = np.zeros(need, np.uint8)
+    cap = cfg.n_levels * cfg.cap_per_level
+    boxes = ffi.new("vt_cnn_box[]", cap)
+    n, tot = ffi.new("int32_t *", -1), ffi.new("int32_t *", -1)
+    s = lib.vt_cnn_detect_frame(m, c, ffi.cast("const uint8_t *", frame.ctypes.data), w_, h_, w_,
+                                ffi.cast("uint8_t *", work.ctypes.data), need - 1, boxes, cap, n, tot)
+    h = fnv_s32(fnv_s32(fnv_s32(h, s), n[0]), tot[0])
+    got, n_peaks = C.detect_frame(model, frame, cfg)
+    h = fnv_s32(fnv_s32(fnv_s32(h, lib.VT_OK), len(got)), n_peaks)
+    lines = [f"cnn {name} {len(got)} {n_peaks}"]
+    for i, b in enumerate(got.tolist()):
+        for v in b:
+            h = fnv_s32(h, v)
+        lines.append(f"cnn_box {name} {i} {' '.join(map(str, b))}")
+    info = dict(cfg=cfg, frame=frame, boxes=got, n_peaks=n_peaks, need=need, header_need=header_need,
+                refused=int(s))
+    return lines, h, info
+
+
+def host_cnn() -> tuple[list[str], list[tuple[str, int]], dict]:
+    """main.c's run_cnn() through pyvehtrack.cnn (and, for the refused call, the suite's cffi
+    build): the synthetic frame's checksum, then per run (the synthetic frame with the model's
+    settings from level 0, clip frame 0 with the model's own) its `cnn` / `cnn_box` lines and
+    checksum; plus what the tests below check, per run name."""
+    g = cnn_gen()
+    model, cfg, _ = g.load_model()
+    header = CNN_HEADER.read_text()
+
+    def define(name: str) -> int:
+        return int(re.search(rf"#define {name} (\d+)", header).group(1))
+
+    synth = g.cnn_frame()
+    lines, sums, info = [], [("cnn_input", fnv(FNV_BASIS, synth.tobytes()))], {"model": model}
+    for name, c, frame, need in (("synth", g.synth_cfg(cfg), synth, define("FW_CNN_WORK_SYNTH")),
+                                 ("clip0", cfg, load_clip()[0], define("FW_CNN_WORK_CLIP"))):
+        ln, h, info[name] = _host_cnn_run(name, model, c, frame, need)
+        lines += ln
+        sums.append((f"cnn_{name}", h))
+    return lines, sums, info
+
+
 def host_pipeline_run(frames: list[np.ndarray], n: SimpleNamespace, full: bool,
                       with_model: bool = True) -> tuple[list[str], list[tuple[str, int]]]:
     """main.c's run_pipeline(full): the printed lines (clip, then per frame road/boxes/box/
@@ -524,12 +598,14 @@ def parse_run(text: str) -> dict[str, dict]:
         if m:
             cur = cores.setdefault(m.group(1), {"board": m.group(2), "checksums": [],
                                                 "frame": None, "done": False, "core": None,
-                                                "pipeline": [], "config": {}})
+                                                "pipeline": [], "config": {}, "cnn": []})
             continue
         if cur is None:
             continue
         if re.match(r"(clip|road|boxes|box|model|tracks|track) ", line):
             cur["pipeline"].append(line)
+        elif re.match(r"(cnn|cnn_box) ", line):
+            cur["cnn"].append(line)
         elif m := re.match(r"config (\w+) (-?\d+)$", line):
             cur["config"][m.group(1)] = int(m.group(2))
         elif m := re.match(r"checksum (\S+) 0x([0-9a-f]{8})$", line):
@@ -579,10 +655,15 @@ def pipeline(fw, caps):
 
 
 @pytest.fixture(scope="module")
-def host(pipeline, fw):
+def cnn_host():
+    return host_cnn()
+
+
+@pytest.fixture(scope="module")
+def host(pipeline, fw, cnn_host):
     """Every checksum line the image prints, in order: the primitives (ending with
-    `all`, which covers them alone), then detect, road, tracker and pipeline."""
-    return host_checksums(load_frame(), fw) + pipeline[1]
+    `all`, which covers them alone), then detect, road, tracker and pipeline, then the CNN."""
+    return host_checksums(load_frame(), fw) + pipeline[1] + cnn_host[1]
 
 
 def test_symbol_check_ran_and_passed(firmware_run):
@@ -735,6 +816,44 @@ def test_frame_header_is_fresh():
     proc = subprocess.run([sys.executable, str(ROOT / "tools" / "gen_firmware_frame.py"), "--check"],
                           capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
+
+
+def test_cnn_header_is_fresh():
+    """firmware_demo/cnn_data.h is what tools/gen_cnn_table.py writes now (the model it picks:
+    the shipped cnn_gray.npz when it exists, else the tiny one)."""
+    proc = subprocess.run([sys.executable, str(CNN_GEN), "--check"], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+
+
+@pytest.mark.parametrize("core", CORES)
+def test_qemu_cnn_equal_host(firmware_run, cnn_host, core):
+    """The CNN's `cnn NAME N PEAKS` and every `cnn_box` line (frame px, heat) as on the host."""
+    run = parse_run(firmware_run).get(core)
+    assert run is not None and run["done"], f"{core} image did not finish:\n{firmware_run[-3000:]}"
+    assert run["cnn"] == cnn_host[0], f"{core}: CNN lines differ:\n{run['cnn']}\nhost:\n{cnn_host[0]}"
+
+
+def test_cnn_run_is_not_empty(cnn_host):
+    """A proof over no boxes would prove little: per run, the work size in the header is the
+    core's, one byte fewer is refused, the boxes lie inside the frame and are the bit-exact
+    NumPy twin's (pyvehtrack/reference/cnn.py) too; and the runs find boxes."""
+    from pyvehtrack.reference import cnn as R
+
+    lines, _, info = cnn_host
+    total = 0
+    for name in ("synth", "clip0"):
+        i = info[name]
+        assert i["need"] == i["header_need"], (name, i["need"], i["header_need"])
+        assert i["refused"] == lib.VT_E_CAPACITY, name
+        b = i["boxes"]
+        h_, w_ = i["frame"].shape
+        assert i["n_peaks"] >= len(b), (name, lines)
+        assert (b[:, 0] >= 0).all() and (b[:, 2] < w_).all() and (b[:, 1] >= 0).all() and (b[:, 3] < h_).all()
+        assert (b[:, 0] <= b[:, 2]).all() and (b[:, 1] <= b[:, 3]).all()
+        rb, rn = R.detect_frame(info["model"], i["frame"], i["cfg"])
+        assert rn == i["n_peaks"] and np.array_equal(rb, b), name
+        total += len(b)
+    assert total >= 2, lines
 
 
 BAD_SOFT = r"""

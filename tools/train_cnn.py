@@ -1,0 +1,488 @@
+"""Train the small fully convolutional vehicle detector (CenterNet-style heat map + box
+sides at stride 8, one network shared by three pyramid levels) on tusimple-vehicles-dev.
+
+    python tools/train_cnn.py --out /tmp/cnn [--epochs 60] [--split fit]
+
+Float training in PyTorch (a tool dependency only: the C core and the shipped model file
+need no torch). Writes OUT/cnn_float.pt and prints the 'val' scores of the float model.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from pyvehtrack import eval_boxes as eb  # noqa: E402
+from pyvehtrack.datasets import tusimple_frames  # noqa: E402
+from pyvehtrack.image import pyr_down  # noqa: E402
+
+DATA = ROOT.parent / "shared" / "data" / "tusimple-vehicles-dev"
+STRIDE = 8
+# Level k is the frame after k pyr_down steps (k = 1, 2, 3); a vehicle is a positive on a
+# level when its width there lies in that level's band (level pixels), "ignored" (no loss)
+# when it lies outside but is visible, so the bands overlap and NMS merges across levels.
+BANDS = {1: (6.0, 56.0), 2: (22.0, 56.0), 3: (22.0, 56.0), 4: (22.0, 400.0)}
+LEVELS = (1, 2, 3, 4)
+CH = (16, 24, 32, 32, 32, 32)
+
+
+def levels_of(gray):
+    out, img = {}, gray
+    for k in range(1, max(LEVELS) + 1):
+        img = pyr_down(np.ascontiguousarray(img))
+        if k in LEVELS:
+            out[k] = img
+    return out
+
+
+def build_net():
+    import torch.nn as nn
+
+    def cbr(ci, co, s, d=1):
+        return [nn.Conv2d(ci, co, 3, s, padding=d, dilation=d, bias=False), nn.BatchNorm2d(co), nn.ReLU()]
+    c = CH
+    layers = (cbr(1, c[0], 2) + cbr(c[0], c[1], 2) + cbr(c[1], c[2], 2) + cbr(c[2], c[3], 1)
+              + cbr(c[3], c[4], 1, 2) + cbr(c[4], c[5], 1, 2))
+    head = nn.Conv2d(c[-1], 5, 1)
+    nn.init.constant_(head.bias[:1], -4.0)   # a rare-object prior: the first steps do not drown in negatives
+    return nn.Sequential(*layers, head)
+
+
+def targets(boxes, h, w, band):
+    """Heat (1), ltrb log-distance (4), regression weight (1), loss mask (1) on the stride-8
+    grid of a level image h x w; boxes (N, 4) exclusive level pixels."""
+    gh, gw = (h + STRIDE - 1) // STRIDE, (w + STRIDE - 1) // STRIDE
+    heat = np.zeros((gh, gw), np.float32)
+    reg = np.zeros((4, gh, gw), np.float32)
+    rw = np.zeros((gh, gw), np.float32)
+    mask = np.ones((gh, gw), np.float32)
+    ys, xs = (np.arange(gh) + 0.5) * STRIDE, (np.arange(gw) + 0.5) * STRIDE
+    # larger boxes first so a small box in front wins the cells they share
+    order = np.argsort(-(boxes[:, 2] - boxes[:, 0]) * (boxes[:, 3] - boxes[:, 1])) if len(boxes) else []
+    for i in order:
+        x0, y0, x1, y1 = boxes[i]
+        bw, bh = x1 - x0, y1 - y0
+        if bw < 2 or bh < 2:
+            continue
+        if not (band[0] <= bw < band[1]):
+            gx0, gx1 = int(max(0, x0 // STRIDE)), int(min(gw, math.ceil(x1 / STRIDE)))
+            gy0, gy1 = int(max(0, y0 // STRIDE)), int(min(gh, math.ceil(y1 / STRIDE)))
+            mask[gy0:gy1, gx0:gx1] = 0
+            continue
+        cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
+        sx, sy = max(0.6, bw / STRIDE / 6), max(0.6, bh / STRIDE / 6)
+        g = np.exp(-((xs[None, :] / STRIDE - cx / STRIDE) ** 2) / (2 * sx * sx)
+                   - ((ys[:, None] / STRIDE - cy / STRIDE) ** 2) / (2 * sy * sy))
+        icx, icy = int(min(gw - 1, cx // STRIDE)), int(min(gh - 1, cy // STRIDE))
+        g[icy, icx] = 1.0
+        heat = np.maximum(heat, g)
+        inside = (g > 0.3) & (xs[None, :] > x0) & (xs[None, :] < x1) & (ys[:, None] > y0) & (ys[:, None] < y1)
+        inside[icy, icx] = True
+        yy, xx = np.nonzero(inside)
+        cxs, cys = xs[xx], ys[yy]
+        d = np.stack([cxs - x0, cys - y0, x1 - cxs, y1 - cys])
+        reg[:, yy, xx] = np.log(np.maximum(d, 1.0) / STRIDE)
+        rw[yy, xx] = g[yy, xx]
+    mask = np.maximum(mask, (heat > 0).astype(np.float32))
+    return heat, reg, rw, mask
+
+
+def augment(gray, boxes, rng):
+    """Scale jitter (crop / pad back to the frame size), flip, light, JPEG; boxes (N, 4)
+    exclusive full-frame pixels."""
+    h, w = gray.shape
+    s = math.exp(rng.uniform(math.log(0.7), math.log(1.45)))
+    img = cv2.resize(gray, (int(round(w * s)), int(round(h * s))), interpolation=cv2.INTER_AREA if s < 1 else cv2.INTER_LINEAR)
+    b = boxes * s
+    H, W = img.shape
+    out = np.full((h, w), int(gray.mean()), np.uint8)
+    ox = rng.integers(min(0, w - W), max(0, w - W) + 1)
+    oy = rng.integers(min(0, h - H), max(0, h - H) + 1)
+    sx0, sy0 = max(0, -ox), max(0, -oy)
+    dx0, dy0 = max(0, ox), max(0, oy)
+    cw, ch = min(W - sx0, w - dx0), min(H - sy0, h - dy0)
+    out[dy0:dy0 + ch, dx0:dx0 + cw] = img[sy0:sy0 + ch, sx0:sx0 + cw]
+    b = b + np.array([ox, oy, ox, oy], np.float32)
+    vis = b.copy()
+    vis[:, [0, 2]] = vis[:, [0, 2]].clip(0, w)
+    vis[:, [1, 3]] = vis[:, [1, 3]].clip(0, h)
+    area = (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])
+    varea = (vis[:, 2] - vis[:, 0]).clip(0) * (vis[:, 3] - vis[:, 1]).clip(0)
+    keep = varea > 0.4 * np.maximum(area, 1)
+    b = vis[keep]
+    if rng.random() < 0.5:
+        out = out[:, ::-1].copy()
+        b = np.stack([w - b[:, 2], b[:, 1], w - b[:, 0], b[:, 3]], 1) if len(b) else b
+    g = rng.uniform(0.6, 1.6)
+    a, c = rng.uniform(0.6, 1.3), rng.uniform(-30, 30)
+    lut = np.clip(a * 255.0 * (np.arange(256) / 255.0) ** g + c, 0, 255).astype(np.uint8)
+    out = lut[out]
+    if rng.random() < 0.5:
+        q = int(rng.integers(20, 90))
+        out = cv2.imdecode(cv2.imencode(".jpg", out, [cv2.IMWRITE_JPEG_QUALITY, q])[1], cv2.IMREAD_GRAYSCALE)
+    return np.ascontiguousarray(out), b.astype(np.float32).reshape(-1, 4)
+
+
+def load(split):
+    frames = tusimple_frames(DATA, split)
+    out = []
+    for e in frames:
+        g = cv2.imread(str(DATA / e["file_name"]), cv2.IMREAD_GRAYSCALE)
+        bx = np.array([[d["left"], d["top"], d["right"] + 1, d["bottom"] + 1] for d in e["bbox"]],
+                      np.float32).reshape(-1, 4)
+        out.append((e, g, bx))
+    return out
+
+
+def focal(pred, gt, mask):
+    import torch
+    p = torch.sigmoid(pred).clamp(1e-4, 1 - 1e-4)
+    pos = gt.eq(1).float()
+    neg = (1 - pos) * mask
+    pl = torch.log(p) * (1 - p) ** 2 * pos
+    nl = torch.log(1 - p) * p ** 2 * (1 - gt) ** 4 * neg
+    n = pos.sum().clamp(min=1)
+    return -(pl.sum() + nl.sum()) / n
+
+
+def decode(out, k, thr=0.3, topk=60):
+    """Boxes (N, 5) [l, t, r, b, score] in full-frame exclusive pixels from one level's
+    network output (5, gh, gw) as NumPy float."""
+    heat = 1 / (1 + np.exp(-out[0]))
+    gh, gw = heat.shape
+    pad = np.pad(heat, 1, constant_values=0)
+    mx = np.max(np.stack([pad[dy:dy + gh, dx:dx + gw] for dy in range(3) for dx in range(3)]), 0)
+    peak = (heat >= mx) & (heat >= thr)
+    ys, xs = np.nonzero(peak)
+    sc = heat[ys, xs]
+    o = np.argsort(-sc)[:topk]
+    ys, xs, sc = ys[o], xs[o], sc[o]
+    cx, cy = (xs + 0.5) * STRIDE, (ys + 0.5) * STRIDE
+    d = np.exp(out[1:5, ys, xs]) * STRIDE
+    f = 2 ** k
+    return np.stack([(cx - d[0]) * f, (cy - d[1]) * f, (cx + d[2]) * f, (cy + d[3]) * f, sc], 1)
+
+
+def nms(b, iou=0.5, contain=0.7):
+    """Greedy NMS by score: a box goes when its IoU with a kept box exceeds `iou` or when
+    more than `contain` of the smaller box lies inside the other (a part of a vehicle the
+    finer level boxed, vt_nms' containment rule)."""
+    if not len(b):
+        return b
+    b = b[np.argsort(-b[:, 4])]
+    keep = []
+    for i in range(len(b)):
+        ok = True
+        for j in keep:
+            xx0, yy0 = max(b[i, 0], b[j, 0]), max(b[i, 1], b[j, 1])
+            xx1, yy1 = min(b[i, 2], b[j, 2]), min(b[i, 3], b[j, 3])
+            inter = max(0, xx1 - xx0) * max(0, yy1 - yy0)
+            a = (b[i, 2] - b[i, 0]) * (b[i, 3] - b[i, 1]) + (b[j, 2] - b[j, 0]) * (b[j, 3] - b[j, 1]) - inter
+            small = min((b[i, 2] - b[i, 0]) * (b[i, 3] - b[i, 1]), (b[j, 2] - b[j, 0]) * (b[j, 3] - b[j, 1]))
+            if inter / max(a, 1e-6) > iou or inter / max(small, 1e-6) > contain:
+                ok = False
+                break
+        if ok:
+            keep.append(i)
+    return b[keep]
+
+
+def evaluate(net, data, thr=0.3):
+    import torch
+    net.eval()
+    preds = []
+    with torch.no_grad():
+        for i, (e, g, _) in enumerate(data):
+            lv = levels_of(g)
+            allb = []
+            for k in LEVELS:
+                x = torch.from_numpy(lv[k].astype(np.float32) / 255.0)[None, None]
+                allb.append(decode(net(x)[0].numpy(), k, thr))
+            b = nms(np.concatenate(allb))
+            preds.append({"frame": i, "file": e["file_name"],
+                          "boxes": [[int(v[0]), int(v[1]), int(v[2]) - 1, int(v[3]) - 1, float(v[4])] for v in b]})
+    net.train()
+    return eb.score(eb.load_gt([d[0] for d in data]), eb.load_pred(preds)), preds
+
+
+def fold(net):
+    """Conv + BatchNorm pairs folded into float (w (cout, k, k, cin), b, meta) per layer."""
+    import torch.nn as nn
+    mods, out, i = list(net), [], 0
+    while i < len(mods):
+        c = mods[i]
+        if not isinstance(c, nn.Conv2d):
+            i += 1
+            continue
+        w = c.weight.detach().double().numpy()
+        b = c.bias.detach().double().numpy() if c.bias is not None else np.zeros(w.shape[0])
+        relu = 0
+        if i + 1 < len(mods) and isinstance(mods[i + 1], nn.BatchNorm2d):
+            bn = mods[i + 1]
+            g = (bn.weight / (bn.running_var + bn.eps).sqrt()).detach().double().numpy()
+            w = w * g[:, None, None, None]
+            b = (bn.bias.detach().double().numpy() - bn.running_mean.detach().double().numpy() * g) + b * g
+            relu = 1
+        out.append({"w": w.transpose(0, 2, 3, 1).copy(), "b": b, "k": c.kernel_size[0], "s": c.stride[0],
+                    "d": c.dilation[0], "relu": relu})
+        i += 1
+    return out
+
+
+def float_forward(layers, img):
+    """The folded float network on a uint8 image (h, w) scaled to [0, 1]: per layer the
+    HWC activation (for calibration) and the head output."""
+    import torch
+    import torch.nn.functional as F
+    x = torch.from_numpy(img.astype(np.float64) / 255.0)[None, None]
+    acts = []
+    for L in layers:
+        w = torch.from_numpy(L["w"].transpose(0, 3, 1, 2).copy())
+        p = L["d"] * (L["k"] // 2)
+        x = F.conv2d(x, w, torch.from_numpy(L["b"]), L["s"], p, L["d"])
+        if L["relu"]:
+            x = torch.relu(x)
+        acts.append(x[0].numpy().transpose(1, 2, 0))
+    return acts
+
+
+def _mult_shift(m):
+    e = np.floor(np.log2(m)).astype(int)
+    shift = 30 - e
+    mult = np.round(m * 2.0 ** shift).astype(np.int64)
+    big = mult >= 2 ** 31
+    mult[big] //= 2
+    shift[big] -= 1
+    if (shift < 1).any() or (shift > 62).any():
+        raise ValueError(f"requantisation scale out of range: {m}")
+    return mult.astype(np.int32), shift.astype(np.uint8)
+
+
+def quantise(layers, calib_imgs, pct=99.99, heat_p=0.3):
+    """Post-training quantisation to the vt_cnn_model arithmetic (include/vehtrack/cnn.h):
+    int8 weights per output channel, uint8 activations with the scale of each layer's
+    `pct` percentile on the calibration images, int8 head outputs per channel."""
+    acts = [[] for _ in layers]
+    for img in calib_imgs:
+        for i, a in enumerate(float_forward(layers, img)):
+            acts[i].append(a.reshape(-1, a.shape[-1]))
+    z, s_in = {"cnn_n_layers": np.int32(len(layers))}, 1.0 / 255.0
+    for i, L in enumerate(layers):
+        a = np.concatenate(acts[i])
+        last = i == len(layers) - 1
+        if last:
+            s_out = np.maximum(np.abs(a).max(0), 1e-6) / 127.0          # per channel
+        else:
+            s_out = max(float(np.percentile(a, pct)), 1e-6) / 255.0
+        sw = np.maximum(np.abs(L["w"]).reshape(L["w"].shape[0], -1).max(1), 1e-12) / 127.0
+        wq = np.clip(np.round(L["w"] / sw[:, None, None, None]), -127, 127).astype(np.int8)
+        bq = np.round(L["b"] / (sw * s_in)).astype(np.int64)
+        if (np.abs(bq) > 2 ** 30).any():
+            raise ValueError(f"layer {i}: bias beyond 2^30 accumulator units")
+        mult, shift = _mult_shift(sw * s_in / s_out)
+        cout, k, _, cin = wq.shape
+        z[f"cnn_l{i}_meta"] = np.array([k, L["s"], L["d"], L["relu"], cin, cout], np.int32)
+        z[f"cnn_l{i}_w"], z[f"cnn_l{i}_bias"] = wq, bq.astype(np.int32)
+        z[f"cnn_l{i}_mult"], z[f"cnn_l{i}_shift"] = mult, shift
+        s_in = s_out
+    q = np.arange(-128, 128)
+    lut = np.stack([np.minimum(65535, np.round(np.exp(q * s_in[c]) * STRIDE * 16)) for c in range(1, 5)])
+    z["cnn_side_lut"] = lut.astype(np.uint16)
+    z["cnn_heat_thr"] = np.int32(min(127, max(-128, math.ceil(math.log(heat_p / (1 - heat_p)) / s_in[0]))))
+    z["cnn_out_scale"] = s_in.astype(np.float64)   # information: the head's float per step
+    return z
+
+
+def int_forward(z, img):
+    """The quantised network on a uint8 image, exactly as include/vehtrack/cnn.h states it
+    (the accumulators are integers below 2^31, exact in float64 convolution)."""
+    import torch
+    import torch.nn.functional as F
+    x = torch.from_numpy(img.astype(np.float64))[None, None]
+    for i in range(int(z["cnn_n_layers"])):
+        k, s, d, relu, cin, cout = (int(v) for v in z[f"cnn_l{i}_meta"])
+        w = torch.from_numpy(z[f"cnn_l{i}_w"].astype(np.float64).transpose(0, 3, 1, 2).copy())
+        acc = F.conv2d(x, w, torch.from_numpy(z[f"cnn_l{i}_bias"].astype(np.float64)), s, d * (k // 2), d)
+        acc = acc[0].numpy().astype(np.int64)
+        m = z[f"cnn_l{i}_mult"].astype(np.int64)[:, None, None]
+        sh = z[f"cnn_l{i}_shift"].astype(np.int64)[:, None, None]
+        q = (acc * m + (np.int64(1) << (sh - 1))) >> sh
+        q = np.clip(q, 0, 255) if relu else np.clip(q, -128, 127)
+        x = torch.from_numpy(q.astype(np.float64))[None]
+    return x[0].numpy().astype(np.int8).transpose(1, 2, 0)
+
+
+def int_decode(z, out, k, thr=None, topk=60):
+    """int_forward's output (gh, gw, 5) to full-frame boxes (N, 5), exclusive, float score
+    (the heat step): the LUT sides as the C decoder takes them."""
+    heat = out[:, :, 0].astype(np.int32)
+    thr = int(z["cnn_heat_thr"]) if thr is None else thr
+    gh, gw = heat.shape
+    pad = np.pad(heat, 1, constant_values=-999)
+    mx = np.max(np.stack([pad[dy:dy + gh, dx:dx + gw] for dy in range(3) for dx in range(3)]), 0)
+    ys, xs = np.nonzero((heat >= mx) & (heat >= thr))
+    sc = heat[ys, xs]
+    o = np.lexsort((xs, ys, -sc))[:topk]
+    ys, xs, sc = ys[o], xs[o], sc[o]
+    lut = z["cnn_side_lut"].astype(np.float64) / 16.0
+    cx, cy = (xs + 0.5) * STRIDE, (ys + 0.5) * STRIDE
+    d = [lut[c][out[ys, xs, c + 1].astype(np.int32) + 128] for c in range(4)]
+    f = 2 ** k
+    s_heat = float(z["cnn_out_scale"][0])
+    return np.stack([(cx - d[0]) * f, (cy - d[1]) * f, (cx + d[2]) * f, (cy + d[3]) * f,
+                     1 / (1 + np.exp(-sc * s_heat))], 1)
+
+
+def evaluate_int(z, data, thr=None):
+    preds = []
+    for i, (e, g, _) in enumerate(data):
+        lv = levels_of(g)
+        b = nms(np.concatenate([int_decode(z, int_forward(z, lv[k]), k, thr) for k in LEVELS]))
+        preds.append({"frame": i, "file": e["file_name"],
+                      "boxes": [[int(v[0]), int(v[1]), int(v[2]) - 1, int(v[3]) - 1, float(v[4])] for v in b]})
+    return eb.score(eb.load_gt([d[0] for d in data]), eb.load_pred(preds)), preds
+
+
+def pretrain_gti(net, epochs, rng, log=print):
+    """The backbone (every layer but the head) first learns vehicle / non-vehicle on the GTI
+    crops of gti_split's TRAIN blocks (global average pool + one linear unit): a start with
+    vehicle features for a detector that has only a few hundred frames to learn from. Each
+    vehicle crop is shrunk to 24..64 px and laid on a random non-vehicle crop."""
+    import torch
+    import torch.nn as nn
+    from pyvehtrack.datasets import gti_sorted, gti_split
+    gti = DATA.parent / "gti-vehicles"
+    pos, neg = [], []
+    for kind, lst in (("vehicles", pos), ("non-vehicles", neg)):
+        for folder in sorted((gti / kind).iterdir()):
+            for i, f in enumerate(gti_sorted(folder)):
+                if gti_split(i) == "train":
+                    lst.append(cv2.imread(str(f), cv2.IMREAD_GRAYSCALE))
+    log(f"GTI pretraining: {len(pos)} vehicle, {len(neg)} non-vehicle TRAIN crops")
+    body = nn.Sequential(*list(net)[:-1])
+    cls = nn.Linear(CH[-1], 1)
+    opt = torch.optim.AdamW(list(body.parameters()) + list(cls.parameters()), lr=3e-3, weight_decay=1e-4)
+    items = [(x, 1.0) for x in pos] + [(x, 0.0) for x in neg]
+    for ep in range(epochs):
+        perm = rng.permutation(len(items))
+        tot, nb = 0.0, 0
+        for bi in range(0, len(perm), 64):
+            xs, ys = [], []
+            for j in perm[bi:bi + 64]:
+                img, y = items[j]
+                if y > 0:
+                    s = int(rng.integers(24, 65))
+                    bg = neg[int(rng.integers(len(neg)))].copy()
+                    ox, oy = rng.integers(0, 64 - s + 1, 2)
+                    bg[oy:oy + s, ox:ox + s] = cv2.resize(img, (s, s), interpolation=cv2.INTER_AREA)
+                    img = bg
+                if rng.random() < 0.5:
+                    img = img[:, ::-1]
+                xs.append(img.astype(np.float32) / 255.0)
+                ys.append(y)
+            x = torch.from_numpy(np.stack(xs))[:, None]
+            logit = cls(body(x).mean((2, 3)))[:, 0]
+            loss = nn.functional.binary_cross_entropy_with_logits(logit, torch.tensor(ys))
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+            tot, nb = tot + float(loss.detach()), nb + 1
+        log(f"GTI epoch {ep + 1}/{epochs} loss {tot / nb:.3f}")
+
+
+def main(argv=None):
+    import torch
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--out", required=True)
+    ap.add_argument("--epochs", type=int, default=60)
+    ap.add_argument("--split", default="fit")
+    ap.add_argument("--eval-split", default="val")
+    ap.add_argument("--batch", type=int, default=8)
+    ap.add_argument("--lr", type=float, default=3e-3)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--pretrain-gti", type=int, default=0, metavar="EPOCHS",
+                    help="first train the backbone on GTI TRAIN crops for this many epochs")
+    ap.add_argument("--export-only", metavar="PT", help="quantise a saved cnn_float.pt, no training")
+    a = ap.parse_args(argv)
+    torch.manual_seed(a.seed)
+    rng = np.random.default_rng(a.seed)
+    out = Path(a.out)
+    out.mkdir(parents=True, exist_ok=True)
+    train, val = load(a.split), load(a.eval_split)
+    print(f"{len(train)} {a.split} frames, {len(val)} {a.eval_split} frames", flush=True)
+    net = build_net()
+    if a.export_only:
+        net.load_state_dict(torch.load(a.export_only))
+        return export(net, train, val, out)
+    if a.pretrain_gti:
+        pretrain_gti(net, a.pretrain_gti, rng, lambda m: print(m, flush=True))
+    opt = torch.optim.AdamW(net.parameters(), lr=a.lr, weight_decay=1e-4)
+    steps = a.epochs * math.ceil(len(train) / a.batch)
+    sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=a.lr, total_steps=steps, pct_start=0.1)
+    t0 = time.time()
+    for ep in range(a.epochs):
+        perm = rng.permutation(len(train))
+        tot = 0.0
+        for bi in range(0, len(perm), a.batch):
+            loss = 0.0
+            lv_imgs = {k: [] for k in LEVELS}
+            lv_t = {k: [] for k in LEVELS}
+            for j in perm[bi:bi + a.batch]:
+                g, b = augment(train[j][1], train[j][2], rng)
+                lv = levels_of(g)
+                for k in LEVELS:
+                    f = 2 ** k
+                    lv_imgs[k].append(lv[k].astype(np.float32) / 255.0)
+                    lv_t[k].append(targets(b / f, *lv[k].shape, BANDS[k]))
+            for k in LEVELS:
+                x = torch.from_numpy(np.stack(lv_imgs[k]))[:, None]
+                heat, reg, rw, mask = (torch.from_numpy(np.stack([t[i] for t in lv_t[k]])) for i in range(4))
+                p = net(x)
+                loss = loss + focal(p[:, 0], heat, mask)
+                wsum = rw.sum().clamp(min=1)
+                loss = loss + (torch.abs(p[:, 1:5] - reg).sum(1) * rw).sum() / wsum
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+            sched.step()
+            tot += float(loss.detach())
+        msg = f"epoch {ep + 1}/{a.epochs} loss {tot / math.ceil(len(train) / a.batch):.3f} ({time.time() - t0:.0f} s)"
+        if (ep + 1) % 30 == 0 or ep + 1 == a.epochs:
+            s, _ = evaluate(net, val)
+            msg += "  " + eb.format_scores(s).replace("\n", " | ")
+        print(msg, flush=True)
+    torch.save(net.state_dict(), out / "cnn_float.pt")
+    return export(net, train, val, out)
+
+
+def export(net, train, val, out, heat_p=0.3):
+    """Quantise on 'fit' frames, compare the integer model with the float one on the eval
+    frames, write OUT/cnn.npz."""
+    net.eval()
+    calib = [levels_of(g)[k] for _, g, _ in train[::6] for k in LEVELS]
+    z = quantise(fold(net), calib, heat_p=heat_p)
+    s_f, _ = evaluate(net, val, heat_p)
+    s_q, _ = evaluate_int(z, val)
+    print("float:    " + eb.format_scores(s_f).replace("\n", " | "))
+    print("integer:  " + eb.format_scores(s_q).replace("\n", " | "))
+    z["cnn_heat_scale_q16"] = np.int32(max(1, round(float(z["cnn_out_scale"][0]) * 65536)))
+    # the detection settings it is validated with (pyvehtrack.cnn.CFG_KEYS order): the levels
+    # trained, the decoder cap, the NMS of nms() above; the ego-lane detector beside it
+    z["cnn_cfg"] = np.array([LEVELS[0], len(LEVELS), 0, 64, 500, 700], np.int32)
+    z["cnn_detector_json"] = np.array(json.dumps({"sources": ["windows", "ego"]}))
+    np.savez_compressed(out / "cnn.npz", **z)
+    print(f"wrote {out / 'cnn.npz'}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
