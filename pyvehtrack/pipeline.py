@@ -155,6 +155,19 @@ def _polygon(x_left, x_right, y_top, y_bottom) -> np.ndarray:
     return _lane._polygon(True, y_top, y_bottom, np.asarray(x_left), np.asarray(x_right)).astype(np.int64)
 
 
+def _camera_and_cfg(road_camera, fullroad):
+    """The whole-road detector's camera and configuration as given, or their defaults;
+    TypeError naming the argument otherwise."""
+    from . import fullroad as _fr  # noqa: PLC0415
+    cam = road_camera if road_camera is not None else _fr.Camera()
+    if not isinstance(cam, _fr.Camera):
+        raise TypeError(f"road_camera: expected a fullroad.Camera, got {type(cam).__name__}")
+    frc = fullroad if fullroad is not None else _fr.FullRoadConfig()
+    if not isinstance(frc, _fr.FullRoadConfig):
+        raise TypeError(f"fullroad: expected a fullroad.FullRoadConfig, got {type(frc).__name__}")
+    return cam, frc
+
+
 class Pipeline:
     """Frame-by-frame detection and tracking of one video.
 
@@ -244,12 +257,7 @@ class Pipeline:
             # any classifier: the configuration as given (thresholds in its own scale)
             from dataclasses import replace  # noqa: PLC0415
             self._score_fn, _m = model, None
-            cam = road_camera if road_camera is not None else _fr.Camera()
-            if not isinstance(cam, _fr.Camera):
-                raise TypeError(f"road_camera: expected a fullroad.Camera, got {type(cam).__name__}")
-            frc = fullroad if fullroad is not None else _fr.FullRoadConfig()
-            if not isinstance(frc, _fr.FullRoadConfig):
-                raise TypeError(f"fullroad: expected a fullroad.FullRoadConfig, got {type(frc).__name__}")
+            cam, frc = _camera_and_cfg(road_camera, fullroad)
             det = frc.det if frc.det is not None else _fr.FullDetConfig()   # None: the library defaults
             det = replace(det, shadow_source="shadow" in srcs, window_source="windows" in srcs)
             if frc.verify_min is not None:   # the second stage (vt_fulldet_verify)
@@ -304,12 +312,7 @@ class Pipeline:
         if cnn_cfg is not None and not isinstance(cnn_cfg, _cnn.CnnConfig):
             raise TypeError(f"cnn_cfg: expected a pyvehtrack.cnn.CnnConfig or None, got {type(cnn_cfg).__name__}")
         ccfg = (cnn_cfg or m.cfg or _cnn.CnnConfig()).c()
-        cam = road_camera if road_camera is not None else _fr.Camera()
-        if not isinstance(cam, _fr.Camera):
-            raise TypeError(f"road_camera: expected a fullroad.Camera, got {type(cam).__name__}")
-        frc = fullroad if fullroad is not None else _fr.FullRoadConfig()
-        if not isinstance(frc, _fr.FullRoadConfig):
-            raise TypeError(f"fullroad: expected a fullroad.FullRoadConfig, got {type(frc).__name__}")
+        cam, frc = _camera_and_cfg(road_camera, fullroad)
         if frc.score_offset:   # a logit offset (the CLI's --offset) in heat steps, rounded
             ccfg.thr_offset += int(round(float(frc.score_offset) * 65536 / m.heat_scale_q16))
         det = frc.det if frc.det is not None else _fr.FullDetConfig()   # None: the library defaults
