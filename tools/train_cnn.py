@@ -154,6 +154,20 @@ def focal(pred, gt, mask):
     return -(pl.sum() + nl.sum()) / n
 
 
+def giou_loss(pred, target):
+    """1 - GIoU of the boxes the side codes (log distances from the cell centre, (B, 4, h, w))
+    give, per cell: a loss on the box's overlap itself, which the L1 on the codes only
+    approximates (a short box costs as much as a narrow one there)."""
+    import torch
+    p, t = torch.exp(pred.clamp(max=6)), torch.exp(target)
+    pl, pt, pr, pb = p.unbind(1)
+    tl, tt, tr, tb = t.unbind(1)
+    inter = (torch.minimum(pl, tl) + torch.minimum(pr, tr)) * (torch.minimum(pt, tt) + torch.minimum(pb, tb))
+    union = (pl + pr) * (pt + pb) + (tl + tr) * (tt + tb) - inter
+    enc = (torch.maximum(pl, tl) + torch.maximum(pr, tr)) * (torch.maximum(pt, tt) + torch.maximum(pb, tb))
+    return 1 - inter / union + (enc - union) / enc
+
+
 def decode(out, k, thr=0.3, topk=60):
     """Boxes (N, 5) [l, t, r, b, score] in full-frame exclusive pixels from one level's
     network output (5, gh, gw) as NumPy float."""
@@ -409,6 +423,8 @@ def main(argv=None):
     ap.add_argument("--batch", type=int, default=8)
     ap.add_argument("--lr", type=float, default=3e-3)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--giou", type=float, default=0.0, metavar="W",
+                    help="add W x (1 - GIoU) of the decoded boxes to the side codes' L1 loss")
     ap.add_argument("--pretrain-gti", type=int, default=0, metavar="EPOCHS",
                     help="first train the backbone on GTI TRAIN crops for this many epochs")
     ap.add_argument("--export-only", metavar="PT", help="quantise a saved cnn_float.pt, no training")
@@ -450,6 +466,8 @@ def main(argv=None):
                 loss = loss + focal(p[:, 0], heat, mask)
                 wsum = rw.sum().clamp(min=1)
                 loss = loss + (torch.abs(p[:, 1:5] - reg).sum(1) * rw).sum() / wsum
+                if a.giou:
+                    loss = loss + a.giou * (giou_loss(p[:, 1:5], reg) * rw).sum() / wsum
             opt.zero_grad()
             loss.backward()
             opt.step()
