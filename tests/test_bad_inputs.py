@@ -229,9 +229,17 @@ def _cnn():
     return _cnn_mod().CnnModel([layer], np.zeros((4, 256), np.uint16))
 
 
+def _cnn_call(f):
+    """f(the one-layer model's C struct), the model kept alive over the call (its arrays are
+    what the struct points at)."""
+    model = _cnn()
+    return f(model.c_model()[0])
+
+
 def _cnn_c(**kw):
     """vt_cnn_forward on a 4x4 image with the one-layer model; kw: NULL pointers, sizes."""
-    m = _cnn().c_model()[0]
+    model = _cnn()
+    m = model.c_model()[0]   # model holds the arrays m points at: keep it alive over the call
     img = np.zeros((4, 4), np.uint8)
     out = ffi.new("int8_t[80]")
     px = ffi.NULL if kw.get("img") is None and "img" in kw else ffi.cast("uint8_t *", img.ctypes.data)
@@ -243,7 +251,8 @@ def _cnn_c(**kw):
 def _cnn_frame_c(**kw):
     """vt_cnn_detect_frame on a 4x4 image with the one-layer model and the default cfg; kw:
     NULL pointers, sizes, the work buffer `short` bytes below vt_cnn_frame_work_bytes."""
-    m = _cnn().c_model()[0]
+    model = _cnn()
+    m = model.c_model()[0]   # model holds the arrays m points at: keep it alive over the call
     cfg = _cnn_mod().CnnConfig().c()
     img = np.zeros((4, 4), np.uint8)
     nb = _cnn_mod().frame_work_bytes(_cnn(), 4, 4)
@@ -369,8 +378,8 @@ C_ROWS = [
     ("vt_cnn_detect_frame over VT_MAX_WIDTH", lambda: _cnn_frame_c(w=int(lib.VT_MAX_WIDTH) + 1,
                                                                    stride=int(lib.VT_MAX_WIDTH) + 1), "VT_E_SIZE"),
     ("vt_cnn_detect_frame work one short", lambda: _cnn_frame_c(short=1), "VT_E_CAPACITY"),
-    ("vt_cnn_frame_work_bytes NULL bytes", lambda: lib.vt_cnn_frame_work_bytes(
-        _cnn().c_model()[0], _cnn_mod().CnnConfig().c(), 4, 4, ffi.NULL), "VT_E_ARG"),
+    ("vt_cnn_frame_work_bytes NULL bytes", lambda: _cnn_call(lambda m: lib.vt_cnn_frame_work_bytes(
+        m, _cnn_mod().CnnConfig().c(), 4, 4, ffi.NULL)), "VT_E_ARG"),
     ("vt_pipeline_set_cnn NULL pipeline", lambda: lib.vt_pipeline_set_cnn(ffi.NULL, ffi.NULL, ffi.NULL, ffi.NULL, 0),
      "VT_E_ARG"),
 ]
