@@ -4,7 +4,8 @@ sides at stride 8, one network shared by three pyramid levels) on tusimple-vehic
     python tools/train_cnn.py --out /tmp/cnn [--epochs 60] [--split fit]
 
 Float training in PyTorch (a tool dependency only: the C core and the shipped model file
-need no torch). Writes OUT/cnn_float.pt and prints the 'val' scores of the float model.
+need no torch). Writes OUT/cnn_float.pt and OUT/cnn.npz and prints the 'val' scores of the float model and
+of the quantised one run by the C core.
 """
 from __future__ import annotations
 
@@ -187,27 +188,14 @@ def decode(out, k, thr=0.3, topk=60):
 
 
 def nms(b, iou=0.5, contain=0.7):
-    """Greedy NMS by score: a box goes when its IoU with a kept box exceeds `iou` or when
-    more than `contain` of the smaller box lies inside the other (a part of a vehicle the
-    finer level boxed, vt_nms' containment rule)."""
+    """The float network's boxes (N, 5) [l, t, r, b exclusive, score] thinned by the
+    reference's greedy NMS (vt_nms' rule: IoU above `iou` or more than `contain` of the
+    smaller box inside the other), on the inclusive integer boxes the C core would hold."""
+    from pyvehtrack.reference.windows import nms as ref_nms
     if not len(b):
         return b
-    b = b[np.argsort(-b[:, 4])]
-    keep = []
-    for i in range(len(b)):
-        ok = True
-        for j in keep:
-            xx0, yy0 = max(b[i, 0], b[j, 0]), max(b[i, 1], b[j, 1])
-            xx1, yy1 = min(b[i, 2], b[j, 2]), min(b[i, 3], b[j, 3])
-            inter = max(0, xx1 - xx0) * max(0, yy1 - yy0)
-            a = (b[i, 2] - b[i, 0]) * (b[i, 3] - b[i, 1]) + (b[j, 2] - b[j, 0]) * (b[j, 3] - b[j, 1]) - inter
-            small = min((b[i, 2] - b[i, 0]) * (b[i, 3] - b[i, 1]), (b[j, 2] - b[j, 0]) * (b[j, 3] - b[j, 1]))
-            if inter / max(a, 1e-6) > iou or inter / max(small, 1e-6) > contain:
-                ok = False
-                break
-        if ok:
-            keep.append(i)
-    return b[keep]
+    ib = np.stack([np.floor(b[:, 0]), np.floor(b[:, 1]), np.floor(b[:, 2]) - 1, np.floor(b[:, 3]) - 1], 1)
+    return b[ref_nms(ib.astype(np.int64), b[:, 4], iou, contain)]
 
 
 def evaluate(net, data, thr=0.3):
@@ -316,53 +304,18 @@ def quantise(layers, calib_imgs, pct=99.99, heat_p=0.3):
     return z
 
 
-def int_forward(z, img):
-    """The quantised network on a uint8 image, exactly as include/vehtrack/cnn.h states it
-    (the accumulators are integers below 2^31, exact in float64 convolution)."""
-    import torch
-    import torch.nn.functional as F
-    x = torch.from_numpy(img.astype(np.float64))[None, None]
-    for i in range(int(z["cnn_n_layers"])):
-        k, s, d, relu, cin, cout = (int(v) for v in z[f"cnn_l{i}_meta"])
-        w = torch.from_numpy(z[f"cnn_l{i}_w"].astype(np.float64).transpose(0, 3, 1, 2).copy())
-        acc = F.conv2d(x, w, torch.from_numpy(z[f"cnn_l{i}_bias"].astype(np.float64)), s, d * (k // 2), d)
-        acc = acc[0].numpy().astype(np.int64)
-        m = z[f"cnn_l{i}_mult"].astype(np.int64)[:, None, None]
-        sh = z[f"cnn_l{i}_shift"].astype(np.int64)[:, None, None]
-        q = (acc * m + (np.int64(1) << (sh - 1))) >> sh
-        q = np.clip(q, 0, 255) if relu else np.clip(q, -128, 127)
-        x = torch.from_numpy(q.astype(np.float64))[None]
-    return x[0].numpy().astype(np.int8).transpose(1, 2, 0)
-
-
-def int_decode(z, out, k, thr=None, topk=60):
-    """int_forward's output (gh, gw, 5) to full-frame boxes (N, 5), exclusive, float score
-    (the heat step): the LUT sides as the C decoder takes them."""
-    heat = out[:, :, 0].astype(np.int32)
-    thr = int(z["cnn_heat_thr"]) if thr is None else thr
-    gh, gw = heat.shape
-    pad = np.pad(heat, 1, constant_values=-999)
-    mx = np.max(np.stack([pad[dy:dy + gh, dx:dx + gw] for dy in range(3) for dx in range(3)]), 0)
-    ys, xs = np.nonzero((heat >= mx) & (heat >= thr))
-    sc = heat[ys, xs]
-    o = np.lexsort((xs, ys, -sc))[:topk]
-    ys, xs, sc = ys[o], xs[o], sc[o]
-    lut = z["cnn_side_lut"].astype(np.float64) / 16.0
-    cx, cy = (xs + 0.5) * STRIDE, (ys + 0.5) * STRIDE
-    d = [lut[c][out[ys, xs, c + 1].astype(np.int32) + 128] for c in range(4)]
-    f = 2 ** k
-    s_heat = float(z["cnn_out_scale"][0])
-    return np.stack([(cx - d[0]) * f, (cy - d[1]) * f, (cx + d[2]) * f, (cy + d[3]) * f,
-                     1 / (1 + np.exp(-sc * s_heat))], 1)
-
-
-def evaluate_int(z, data, thr=None):
+def evaluate_int(z, data):
+    """The quantised model z (its file keys) on the eval frames through the C core
+    (pyvehtrack.cnn.detect_frame at the levels trained, the decoder's threshold, nms()'s
+    limits): exactly what the shipped file does."""
+    from pyvehtrack import cnn
+    m = cnn.CnnModel.load(z)
+    cfg = cnn.CnnConfig(first_level=LEVELS[0], n_levels=len(LEVELS), thr_offset=0, cap_per_level=64,
+                        nms_iou_permille=500, nms_contain_permille=700)
     preds = []
     for i, (e, g, _) in enumerate(data):
-        lv = levels_of(g)
-        b = nms(np.concatenate([int_decode(z, int_forward(z, lv[k]), k, thr) for k in LEVELS]))
-        preds.append({"frame": i, "file": e["file_name"],
-                      "boxes": [[int(v[0]), int(v[1]), int(v[2]) - 1, int(v[3]) - 1, float(v[4])] for v in b]})
+        b, _ = cnn.detect_frame(m, g, cfg)
+        preds.append({"frame": i, "file": e["file_name"], "boxes": [[int(v) for v in r[:4]] + [int(r[4])] for r in b]})
     return eb.score(eb.load_gt([d[0] for d in data]), eb.load_pred(preds)), preds
 
 
@@ -488,11 +441,11 @@ def export(net, train, val, out, heat_p=0.3):
     net.eval()
     calib = [levels_of(g)[k] for _, g, _ in train[::6] for k in LEVELS]
     z = quantise(fold(net), calib, heat_p=heat_p)
+    z["cnn_heat_scale_q16"] = np.int32(max(1, round(float(z["cnn_out_scale"][0]) * 65536)))
     s_f, _ = evaluate(net, val, heat_p)
     s_q, _ = evaluate_int(z, val)
     print("float:    " + eb.format_scores(s_f).replace("\n", " | "))
     print("integer:  " + eb.format_scores(s_q).replace("\n", " | "))
-    z["cnn_heat_scale_q16"] = np.int32(max(1, round(float(z["cnn_out_scale"][0]) * 65536)))
     # the detection settings it is validated with (pyvehtrack.cnn.CFG_KEYS order): the levels
     # trained, the decoder cap, the NMS of nms() above; the ego-lane detector beside it
     z["cnn_cfg"] = np.array([LEVELS[0], len(LEVELS), 0, 64, 500, 700], np.int32)

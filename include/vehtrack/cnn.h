@@ -86,7 +86,7 @@ typedef struct {
     vt_cnn_layer layer[VT_CNN_MAX_LAYERS];
     uint8_t out_stride;                   /* the product of the layers' strides          */
     int8_t heat_thr;                      /* the default peak threshold (heat channel)   */
-    int32_t heat_scale_q16;               /* the float logit of one heat step, Q16,
+    int32_t heat_scale_q16;               /* the logit of one heat step, Q16,
                                              1 .. VT_CNN_HEAT_SCALE_MAX: a heat h is the
                                              logit h heat_scale_q16 / 2^16 (the pipeline's
                                              score; |h| <= 128 keeps it in int32)       */
