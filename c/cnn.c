@@ -332,10 +332,20 @@ vt_status vt_cnn_cfg_check(const vt_cnn_cfg *cfg)
         cfg->cap_per_level > VT_CNN_MAX_PEAKS ||
         (int64_t)cfg->n_levels * cfg->cap_per_level > VT_MAX_NMS_BOXES ||
         cfg->nms_iou_permille < 0 || cfg->nms_iou_permille > 1000 ||
-        cfg->nms_contain_permille < 0 || cfg->nms_contain_permille > 1000) {
+        cfg->nms_contain_permille < 0 || cfg->nms_contain_permille > 1000 ||
+        cfg->l0_top_permille < 0 || cfg->l0_top_permille >= cfg->l0_bottom_permille ||
+        cfg->l0_bottom_permille > 1000) {
         return VT_E_ARG;
     }
     return VT_OK;
+}
+
+/* Level 0's band rows y0 .. y1 - 1 of an h-row frame (cfg checked, h >= 1): cnn.h's
+ * floor / ceil in int64 (h <= 4096 and permille <= 1000, so exact and nonnegative). */
+static void vt__cnn_band(const vt_cnn_cfg *cfg, int32_t h, int32_t *y0, int32_t *y1)
+{
+    *y0 = (int32_t)(((int64_t)h * cfg->l0_top_permille) / 1000);
+    *y1 = (int32_t)(((int64_t)h * cfg->l0_bottom_permille + 999) / 1000);
 }
 
 /* Alignment of the work buffer's box regions (int32 structs): the first region starts
@@ -348,6 +358,8 @@ vt_status vt_cnn_cfg_check(const vt_cnn_cfg *cfg)
 typedef struct {
     int32_t lw[VT_CNN_MAX_LEVEL + 1]; /* level sizes, level 0 = the frame */
     int32_t lh[VT_CNN_MAX_LEVEL + 1];
+    int32_t y0;    /* level 0's band: rows y0 .. y0 + bh - 1 (bh >= 1) */
+    int32_t bh;
     size_t sbox;   /* vt_scored_box[n_levels cap_per_level]          */
     size_t cbox;   /* vt_cnn_box[cap_per_level]: one level's decode  */
     size_t lvl[2]; /* level images: odd levels, even levels >= 2     */
@@ -363,10 +375,12 @@ typedef struct {
 static vt_status vt__cnn_frame_layout(const vt_cnn_model *m, const vt_cnn_cfg *cfg, int32_t w,
                                       int32_t h, vt__cnn_frame_plan *pl)
 {
-    int32_t k, last = cfg->first_level + cfg->n_levels - 1;
+    int32_t k, y1, last = cfg->first_level + cfg->n_levels - 1;
     size_t lvl_bytes[2] = {0, 0}, off;
     pl->lw[0] = w;
     pl->lh[0] = h;
+    vt__cnn_band(cfg, h, &pl->y0, &y1);
+    pl->bh = y1 - pl->y0;
     for (k = 1; k <= VT_CNN_MAX_LEVEL; ++k) {
         pl->lw[k] = (pl->lw[k - 1] + 1) / 2;
         pl->lh[k] = (pl->lh[k - 1] + 1) / 2;
@@ -381,7 +395,8 @@ static vt_status vt__cnn_frame_layout(const vt_cnn_model *m, const vt_cnn_cfg *c
     for (k = cfg->first_level; k <= last; ++k) {
         size_t sizes[VT_CNN_MAX_LAYERS], r0, r1, ob;
         int32_t gw, gh;
-        vt_status s = vt__cnn_plan(m, pl->lw[k], pl->lh[k], sizes, &gw, &gh);
+        /* level 0 runs on its band only: the same sizes vt_cnn_detect_frame passes */
+        vt_status s = vt__cnn_plan(m, pl->lw[k], k == 0 ? pl->bh : pl->lh[k], sizes, &gw, &gh);
         if (s != VT_OK) {
             return s;
         }
@@ -479,8 +494,9 @@ vt_status vt_cnn_detect_frame(const vt_cnn_model *m, const vt_cnn_cfg *cfg, cons
     src.h = h;
     src.stride = stride;
     for (k = 0; k <= last; ++k) {
-        int32_t gw, gh, nd = 0, np = 0;
+        int32_t gw, gh, nd = 0, np = 0, dy = 0;
         int8_t *out = (int8_t *)(void *)(base + pl.out);
+        vt_image_u8 run;
         if (k > 0) {
             /* level k from level k - 1: odd levels in the first image, even in the second */
             vt_image_u8_mut dst;
@@ -500,10 +516,18 @@ vt_status vt_cnn_detect_frame(const vt_cnn_model *m, const vt_cnn_cfg *cfg, cons
         if (k < cfg->first_level) {
             continue;
         }
-        s = vt_cnn_forward(m, src.px, src.w, src.h, src.stride, base + pl.fwd, pl.fwd_bytes, out,
+        run = src;
+        if (k == 0) {
+            /* level 0: only the band's rows (a view into the caller's frame), its boxes
+             * moved back down by y0; src stays the whole frame for the pyramid */
+            dy = pl.y0;
+            run.px = img + (size_t)pl.y0 * (size_t)stride;
+            run.h = pl.bh;
+        }
+        s = vt_cnn_forward(m, run.px, run.w, run.h, run.stride, base + pl.fwd, pl.fwd_bytes, out,
                            pl.out_bytes);
         if (s == VT_OK) {
-            s = vt_cnn_out_size(m, src.w, src.h, &gw, &gh);
+            s = vt_cnn_out_size(m, run.w, run.h, &gw, &gh);
         }
         if (s == VT_OK) {
             s = vt_cnn_decode(m, out, gw, gh, thr, k, cb, cfg->cap_per_level, &nd, &np);
@@ -515,10 +539,13 @@ vt_status vt_cnn_detect_frame(const vt_cnn_model *m, const vt_cnn_cfg *cfg, cons
         for (i = 0; i < nd; ++i) {
             /* clipped to the frame; empty after that (outside, or a zero side) dropped */
             vt_scored_box *o = &sb[total];
+            /* dy is nonzero at level 0 only, where |t|, |b| < 2^20 (a grid row < 4096
+             * at stride <= 128, a side < 4096 px) and dy < 4096: no overflow */
+            int32_t t = cb[i].t + dy, b = cb[i].b + dy;
             o->box.left = cb[i].l < 0 ? 0 : cb[i].l;
-            o->box.top = cb[i].t < 0 ? 0 : cb[i].t;
+            o->box.top = t < 0 ? 0 : t;
             o->box.right = cb[i].r > w - 1 ? w - 1 : cb[i].r;
-            o->box.bottom = cb[i].b > h - 1 ? h - 1 : cb[i].b;
+            o->box.bottom = b > h - 1 ? h - 1 : b;
             if (o->box.left > o->box.right || o->box.top > o->box.bottom) {
                 continue;
             }

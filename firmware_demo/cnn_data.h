@@ -1834,6 +1834,8 @@ static const vt_cnn_cfg fw_cnn_cfg = {
     .cap_per_level = 64,
     .nms_iou_permille = 500,
     .nms_contain_permille = 700,
+    .l0_top_permille = 0,
+    .l0_bottom_permille = 1000,
 };
 
 static const vt_cnn_cfg fw_cnn_cfg_synth = {
@@ -1843,6 +1845,8 @@ static const vt_cnn_cfg fw_cnn_cfg_synth = {
     .cap_per_level = 64,
     .nms_iou_permille = 500,
     .nms_contain_permille = 700,
+    .l0_top_permille = 0,
+    .l0_bottom_permille = 1000,
 };
 
 #endif /* FW_CNN_DATA_H */

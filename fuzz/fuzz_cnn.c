@@ -5,7 +5,7 @@
  * each field sometimes on or past the edge of its range, arrays sometimes NULL; every
  * array an exact-size heap block, so ASan sees a read past the model's own sizes), a
  * fuzzed view (1..~40 px mostly, degenerate sizes, stride < w, px NULL), and a
- * vt_cnn_cfg mutated from its default. Then:
+ * vt_cnn_cfg mutated from its default (level 0's row band drawn too). Then:
  *   vt_cnn_check_model / vt_cnn_cfg_check / vt_cnn_cfg_default: the status a mirror of
  *     the header's ranges gives;
  *   vt_cnn_out_size / vt_cnn_work_bytes / vt_cnn_frame_work_bytes (NULLs, any w, h):
@@ -22,7 +22,8 @@
  *   vt_cnn_detect_frame with a work buffer of fuzzed size at a fuzzed misalignment
  *     (guard bytes before it and after the needed bytes) and a fuzzed cap: the status;
  *     on success the boxes equal to the same detection composed here (vt_pyr_down per
- *     level, the direct forward and decode above, clipping, vt_nms, the cap), every
+ *     level, the direct forward and decode above, level 0 on its band's rows and its
+ *     boxes moved down to them, clipping, vt_nms, the cap), every
  *     box inside the frame, heat descending; nothing written outside the work buffer's
  *     needed bytes or past boxes[*n]; on error boxes untouched and *n = *n_peaks = 0.
  * Calls the harness predicts to succeed with more than WORK_BUDGET multiply-adds are
@@ -595,15 +596,25 @@ static int cfg_ok(const vt_cnn_cfg *c)
            c->n_levels <= VT_CNN_MAX_RUN_LEVELS && c->first_level + c->n_levels - 1 <= VT_CNN_MAX_LEVEL &&
            c->cap_per_level >= 1 && c->cap_per_level <= VT_CNN_MAX_PEAKS &&
            (int64_t)c->n_levels * c->cap_per_level <= VT_MAX_NMS_BOXES && c->nms_iou_permille >= 0 &&
-           c->nms_iou_permille <= 1000 && c->nms_contain_permille >= 0 && c->nms_contain_permille <= 1000;
+           c->nms_iou_permille <= 1000 && c->nms_contain_permille >= 0 && c->nms_contain_permille <= 1000 &&
+           c->l0_top_permille >= 0 && c->l0_top_permille < c->l0_bottom_permille && c->l0_bottom_permille <= 1000;
+}
+
+/* The header's level-0 band of an h-row frame (cfg valid): rows *y0 .. *y1 - 1. */
+static void band(const vt_cnn_cfg *c, int32_t h, int32_t *y0, int32_t *y1)
+{
+    *y0 = (int32_t)((int64_t)h * c->l0_top_permille / 1000);
+    *y1 = (int32_t)(((int64_t)h * c->l0_bottom_permille + 999) / 1000);
+    FZ_ASSERT(0 <= *y0 && *y0 < *y1 && *y1 <= h); /* never empty (cnn.h) */
 }
 
 /* The header's vt_cnn_frame_work_bytes and the multiply-adds of a frame (m, cfg valid). */
 static size_t frame_need(const vt_cnn_model *m, const vt_cnn_cfg *c, int32_t w, int32_t h, int64_t *macs)
 {
-    int32_t k, lw = w, lh = h, last = c->first_level + c->n_levels - 1;
+    int32_t k, lw = w, lh = h, last = c->first_level + c->n_levels - 1, y0, y1;
     size_t odd = 0, even = 0, fwd = 0, out = 0;
     *macs = 0;
+    band(c, h, &y0, &y1);
     for (k = 0; k <= last; k++) {
         if (k > 0) {
             size_t b;
@@ -617,7 +628,7 @@ static size_t frame_need(const vt_cnn_model *m, const vt_cnn_cfg *c, int32_t w, 
             }
         }
         if (k >= c->first_level) {
-            plan_t p = plan(m, lw, lh);
+            plan_t p = plan(m, lw, k == 0 ? y1 - y0 : lh); /* level 0: its band */
             fwd = p.r0 + p.r1 > fwd ? p.r0 + p.r1 : fwd;
             out = p.out > out ? p.out : out;
             *macs += p.macs;
@@ -637,7 +648,7 @@ static int32_t clampi(int32_t v, int32_t lo, int32_t hi)
 static int32_t ref_detect(const vt_cnn_model *m, const vt_cnn_cfg *c, const vt_image_u8 *img, vt_cnn_box *res,
                           int32_t cap, int32_t *n)
 {
-    int32_t k, i, total = 0, peaks = 0, kept = 0, last = c->first_level + c->n_levels - 1;
+    int32_t k, i, total = 0, peaks = 0, kept = 0, last = c->first_level + c->n_levels - 1, y0, y1;
     int64_t t = (int64_t)m->heat_thr + c->thr_offset;
     int32_t thr = (int32_t)(t < -128 ? -128 : (t > 128 ? 128 : t));
     vt_scored_box *sb = (vt_scored_box *)malloc((size_t)c->n_levels * (size_t)c->cap_per_level * sizeof *sb);
@@ -647,6 +658,7 @@ static int32_t ref_detect(const vt_cnn_model *m, const vt_cnn_cfg *c, const vt_i
     if (sb == NULL || cb == NULL) {
         abort();
     }
+    band(c, img->h, &y0, &y1);
     for (k = 0; k <= last; k++) {
         if (k > 0) {
             vt_image_u8_mut dst;
@@ -666,22 +678,25 @@ static int32_t ref_detect(const vt_cnn_model *m, const vt_cnn_cfg *c, const vt_i
             src.stride = dst.stride;
         }
         if (k >= c->first_level) {
-            plan_t p = plan(m, src.w, src.h);
+            /* level 0: the band's rows of the caller's frame, boxes moved down by y0 */
+            int32_t rh = k == 0 ? y1 - y0 : src.h, dy = k == 0 ? y0 : 0;
+            const uint8_t *rpx = k == 0 ? src.px + (size_t)y0 * (size_t)src.stride : src.px;
+            plan_t p = plan(m, src.w, rh);
             int8_t *out = (int8_t *)malloc(p.out);
             int32_t nd;
             if (out == NULL) {
                 abort();
             }
-            ref_forward(m, src.px, src.w, src.h, src.stride, out);
+            ref_forward(m, rpx, src.w, rh, src.stride, out);
             nd = ref_decode(m, out, p.gw, p.gh, thr, k, cb, c->cap_per_level);
             peaks += nd;
             nd = nd < c->cap_per_level ? nd : c->cap_per_level;
             for (i = 0; i < nd; i++) {
                 vt_scored_box *o = &sb[total];
                 o->box.left = clampi(cb[i].l, 0, INT32_MAX);
-                o->box.top = clampi(cb[i].t, 0, INT32_MAX);
+                o->box.top = clampi(cb[i].t + dy, 0, INT32_MAX);
                 o->box.right = clampi(cb[i].r, INT32_MIN, img->w - 1);
-                o->box.bottom = clampi(cb[i].b, INT32_MIN, img->h - 1);
+                o->box.bottom = clampi(cb[i].b + dy, INT32_MIN, img->h - 1);
                 o->score = cb[i].score;
                 o->source = k;
                 if (o->box.left <= o->box.right && o->box.top <= o->box.bottom) {
@@ -831,6 +846,12 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         cfg.cap_per_level = fz_u8(&f) < 220 ? fz_range(&f, 1, 16) : fz_range(&f, 1, VT_CNN_MAX_PEAKS);
         cfg.nms_iou_permille = fz_range(&f, 0, 1000);
         cfg.nms_contain_permille = fz_range(&f, 0, 1000);
+        /* level 0's band: the whole frame, a band, or one as thin as a permille */
+        if (fz_u8(&f) >= 96) {
+            cfg.l0_top_permille = fz_range(&f, 0, 999);
+            cfg.l0_bottom_permille = fz_u8(&f) < 64 ? cfg.l0_top_permille + 1
+                                                    : fz_range(&f, cfg.l0_top_permille + 1, 1000);
+        }
     }
     fz_mutate_i32s(&f, &cfg, sizeof cfg);
     ok_c = cfg_ok(&cfg);

@@ -22,8 +22,10 @@ the strides.)
 
 Frame-level detection (detect_frame, C vt_cnn_detect_frame): the network on several Gaussian
 pyramid levels of a frame (CnnConfig: which levels, threshold offset, peaks per level, the NMS
-merging all levels' boxes). is_cnn(path_or_npz) tells a CNN model file from the other
-detectors' (its keys start with cnn_).
+merging all levels' boxes, the row band of level 0 it runs on). The optional file key cnn_cfg
+holds those settings as int32 in CFG_KEYS order; a file written before the level-0 band (its
+first 6 entries only) loads with the band's defaults (the whole frame). is_cnn(path_or_npz)
+tells a CNN model file from the other detectors' (its keys start with cnn_).
 """
 from __future__ import annotations
 
@@ -138,8 +140,15 @@ class CnnModel:
         scale = _int_scalar(zz, "cnn_heat_scale_q16", 1, HEAT_SCALE_MAX)
         m = cls(layers, lut, thr, path, heat_scale_q16=scale)
         if "cnn_cfg" in zz:   # optional: the settings the model was validated with
-            v = _int_array(zz, "cnn_cfg", np.int32, (len(CFG_KEYS),))
-            m.cfg = CnnConfig(**{k: int(x) for k, x in zip(CFG_KEYS, v)})
+            v = _int_array(zz, "cnn_cfg", np.int32)
+            if v.shape not in ((len(CFG_KEYS),), (CFG_KEYS_OLD,)):
+                raise ValueError(f"CNN model: cnn_cfg must have shape ({len(CFG_KEYS)},) (CFG_KEYS), or "
+                                 f"({CFG_KEYS_OLD},) in a file from before the level-0 band, got {v.shape}")
+            d = {k: int(x) for k, x in zip(CFG_KEYS, v)}
+            if len(d) < len(CFG_KEYS):   # an old file: the band's defaults (the whole frame)
+                dc = CnnConfig().c()
+                d.update({k: int(getattr(dc, k)) for k in CFG_KEYS[len(d):]})
+            m.cfg = CnnConfig(**d)
             m.cfg.c()   # checked now: the file is refused, not the first frame
         return m
 
@@ -322,20 +331,27 @@ def decode(model: CnnModel, out: np.ndarray, thr=None, scale_shift: int = 0, cap
 
 
 # ---------------------------------------------------------------- frame-level detection
-# The file key cnn_cfg: int32 values of these CnnConfig fields, in this order.
-CFG_KEYS = ("first_level", "n_levels", "thr_offset", "cap_per_level", "nms_iou_permille", "nms_contain_permille")
+# The file key cnn_cfg: int32 values of these CnnConfig fields, in this order. Files written
+# before the level-0 band hold the first CFG_KEYS_OLD only (the rest then take the defaults).
+CFG_KEYS = ("first_level", "n_levels", "thr_offset", "cap_per_level", "nms_iou_permille", "nms_contain_permille",
+            "l0_top_permille", "l0_bottom_permille")
+CFG_KEYS_OLD = 6
 
 
 @dataclass(frozen=True)
 class CnnConfig:
-    """vt_cnn_cfg (cnn.h): the levels the network runs on, the threshold, the per-level cap and
-    the NMS over every level's boxes. None fields take the core's default (vt_cnn_cfg_default)."""
+    """vt_cnn_cfg (cnn.h): the levels the network runs on, the threshold, the per-level cap,
+    the NMS over every level's boxes and the rows of level 0 the network runs on (when
+    first_level is 0: rows floor(h top / 1000) .. ceil(h bottom / 1000) - 1 of an h-row frame,
+    never empty). None fields take the core's default (vt_cnn_cfg_default)."""
     first_level: int | None = None       # 0..MAX_LEVEL - 1 (1 = half size)
     n_levels: int | None = None          # 1..MAX_RUN_LEVELS, first_level + n_levels - 1 <= MAX_LEVEL
     thr_offset: int | None = None        # added to the model's heat_thr (any int32)
     cap_per_level: int | None = None     # 1..MAX_PEAKS peaks decoded per level
     nms_iou_permille: int | None = None  # 0..1000
     nms_contain_permille: int | None = None  # 0..1000
+    l0_top_permille: int | None = None   # 0 <= top < bottom <= 1000; default 0
+    l0_bottom_permille: int | None = None  # default 1000 (with top 0: the whole frame)
 
     def c(self):
         """The checked vt_cnn_cfg (a new cffi struct); ValueError / TypeError naming the field."""
@@ -363,6 +379,14 @@ class CnnConfig:
         for k in ("nms_iou_permille", "nms_contain_permille"):
             if not 0 <= int(getattr(c, k)) <= 1000:
                 return f"{k} = {int(getattr(c, k))} is outside [0, 1000]"
+        top, bot = int(c.l0_top_permille), int(c.l0_bottom_permille)
+        if not 0 <= top <= 999:
+            return f"l0_top_permille = {top} is outside [0, 999]"
+        if not 1 <= bot <= 1000:
+            return f"l0_bottom_permille = {bot} is outside [1, 1000]"
+        if top >= bot:
+            return (f"l0_top_permille = {top} must be below l0_bottom_permille = {bot} "
+                    f"(level 0's band would be empty)")
         return (f"n_levels x cap_per_level = {nl * int(c.cap_per_level)} exceeds VT_MAX_NMS_BOXES "
                 f"({int(lib.VT_MAX_NMS_BOXES)})")
 

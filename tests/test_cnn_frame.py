@@ -30,7 +30,8 @@ from test_cnn import layer, random_model
 
 GUARD = 0xA5
 I32_MIN, I32_MAX = -(2 ** 31), 2 ** 31 - 1
-FIELDS = ("first_level", "n_levels", "thr_offset", "cap_per_level", "nms_iou_permille", "nms_contain_permille")
+FIELDS = ("first_level", "n_levels", "thr_offset", "cap_per_level", "nms_iou_permille", "nms_contain_permille",
+          "l0_top_permille", "l0_bottom_permille")
 
 
 def c_cfg(**kw):
@@ -201,10 +202,12 @@ def test_frame_work_bytes_layout():
 # ---------------------------------------------------------------- bad arguments
 CFG_BOUNDS = [   # (field, lowest accepted, highest accepted) with the other fields at the defaults
     ("first_level", 0, int(lib.VT_CNN_MAX_LEVEL) - 1),
-    ("n_levels", 1, 4),    # first_level 1: 1 + 4 - 1 = 4 <= 5
+    ("n_levels", 1, 5),    # first_level 1: 1 + 5 - 1 = 5 <= 5; 6 is past VT_CNN_MAX_RUN_LEVELS too
     ("cap_per_level", 1, int(lib.VT_CNN_MAX_PEAKS)),
     ("nms_iou_permille", 0, 1000),
     ("nms_contain_permille", 0, 1000),
+    ("l0_top_permille", 0, 999),       # bottom 1000: top 1000 is an empty band
+    ("l0_bottom_permille", 1, 1000),   # top 0: bottom 0 is an empty band
 ]
 
 
@@ -229,7 +232,7 @@ def test_cfg_field_bounds(field, lo, hi):
 
 def test_cfg_level_sum_and_defaults():
     d = C.CnnConfig().c()
-    assert [getattr(d, f) for f in FIELDS] == [1, 3, 0, 64, 500, 800]
+    assert [getattr(d, f) for f in FIELDS] == [1, 3, 0, 64, 500, 800, 0, 1000]
     assert lib.vt_cnn_cfg_check(ffi.NULL) == lib.VT_E_ARG
     assert lib.vt_cnn_cfg_default(ffi.NULL) == lib.VT_E_ARG
     assert lib.vt_cnn_cfg_check(c_cfg(first_level=2, n_levels=4)) == lib.VT_OK     # levels 2..5

@@ -62,7 +62,7 @@
 /* Frame-level detection (vt_cnn_detect_frame): the deepest pyramid level, the most
  * levels one call runs, and the most peaks decoded per level (cap_per_level). */
 #define VT_CNN_MAX_LEVEL 5
-#define VT_CNN_MAX_RUN_LEVELS 4
+#define VT_CNN_MAX_RUN_LEVELS 5
 #define VT_CNN_MAX_PEAKS 256
 
 /* One convolution layer (const: may live in flash). */
@@ -167,6 +167,16 @@ typedef struct {
                                  heat first; n_levels cap_per_level <= VT_MAX_NMS_BOXES */
     int32_t nms_iou_permille; /* 0..1000: vt_nms's IoU limit over all levels' boxes    */
     int32_t nms_contain_permille; /* 0..1000: vt_nms's containment limit               */
+    int32_t l0_top_permille;  /* 0 <= l0_top_permille < l0_bottom_permille <= 1000: the
+                                 rows of level 0 the network runs on (a band around the
+                                 horizon, where small far vehicles stand, at full
+                                 resolution), y0 .. y1 - 1 with, exactly in int64,
+                                 y0 = floor(h l0_top_permille / 1000),
+                                 y1 = ceil(h l0_bottom_permille / 1000) (h = the frame's
+                                 height). Never empty: y1 >= h bottom / 1000 > h top / 1000
+                                 >= y0, so 1 <= y1 - y0 <= h. Used only when first_level is
+                                 0 (checked always); 0 and 1000 = the whole frame        */
+    int32_t l0_bottom_permille; /* see l0_top_permille                                 */
 } vt_cnn_cfg;
 
 /* Defaults: levels 1..3 (a vehicle 16..128 px wide at the frame is 8..64 px on one of
@@ -175,11 +185,14 @@ typedef struct {
  * O(n^2)); NMS at IoU 0.5 and containment 0.8: the same car found on two adjacent
  * levels gives boxes of IoU ~0.7+ (one kept), while two cars side by side or one
  * partly behind another overlap less (vt_nms' other callers, fulldet and ACF, use
- * 0.301 / 0.699 and 0.3 / 1.0 for sliding windows, whose neighbours overlap more). */
+ * 0.301 / 0.699 and 0.3 / 1.0 for sliding windows, whose neighbours overlap more);
+ * level 0's band the whole frame. A struct filled field by field should start from
+ * these (vt_cnn_cfg_default): zeroed band fields (0, 0) are refused, not a default. */
 #define VT_CNN_CFG_DEFAULT                                                                \
     {                                                                                    \
         .first_level = 1, .n_levels = 3, .thr_offset = 0, .cap_per_level = 64,           \
-        .nms_iou_permille = 500, .nms_contain_permille = 800,                            \
+        .nms_iou_permille = 500, .nms_contain_permille = 800, .l0_top_permille = 0,      \
+        .l0_bottom_permille = 1000,                                                      \
     }
 
 /* Fill *cfg with VT_CNN_CFG_DEFAULT (VT_E_ARG for NULL). */
@@ -194,18 +207,25 @@ vt_status vt_cnn_cfg_check(const vt_cnn_cfg *cfg);
  * two ping-pong level images (level 1, then level 2, each built from the one before:
  * odd levels in the first, even levels >= 2 in the second; only as many as the last
  * run level needs; level 0 is the caller's frame); the largest vt_cnn_work_bytes and
- * the largest forward output (gw gh 5 int8) over the run levels. Errors: NULL m, cfg
- * or bytes, an invalid model or cfg -> VT_E_ARG; w, h outside 1 .. VT_MAX_WIDTH /
- * VT_MAX_HEIGHT -> VT_E_SIZE. */
+ * the largest forward output (gw gh 5 int8) over the run levels, level 0's for its
+ * band (w x (y1 - y0), vt_cnn_cfg) when first_level is 0. Exact, so with a band it is
+ * not monotone in h (the band's rounding can give a frame of h rows one band row more
+ * than one of h + 1): size a buffer by the query for each frame size it serves. Errors: NULL m, cfg or bytes, an
+ * invalid model or cfg -> VT_E_ARG; w, h outside 1 .. VT_MAX_WIDTH / VT_MAX_HEIGHT ->
+ * VT_E_SIZE. */
 vt_status vt_cnn_frame_work_bytes(const vt_cnn_model *m, const vt_cnn_cfg *cfg, int32_t w,
                                   int32_t h, size_t *bytes);
 
 /* Detection over pyramid levels first_level .. first_level + n_levels - 1 of the gray
  * frame img (w x h, row stride `stride` bytes): per level k, vt_cnn_forward on the
  * level image, vt_cnn_decode with thr (cfg's thr_offset above), scale_shift k and cap
- * cap_per_level; each box clipped to the frame (0..w - 1, 0..h - 1) and dropped when
- * that leaves it empty (entirely outside, or zero width or height: decode's r = l - 1
- * for zero sides); then vt_nms over all levels' boxes (cfg's limits; score = heat),
+ * cap_per_level. Level 0 (when first_level is 0) is only cfg's band: the forward pass
+ * on the w x (y1 - y0) image at img + y0 stride (same stride), its decoded boxes moved
+ * down y0 rows (t + y0, b + y0; |values| stay far inside int32); the pyramid for the
+ * levels >= 1 is built from the whole frame. Each box clipped to the frame (0..w - 1,
+ * 0..h - 1; not to the band: a box may reach past the rows its peak came from) and
+ * dropped when that leaves it empty (entirely outside, or zero width or height:
+ * decode's r = l - 1 for zero sides); then vt_nms over all levels' boxes (cfg's limits; score = heat),
  * so the output is in NMS order: heat descending, ties by level, then decode order
  * (heat descending, raster). The first min(cap, kept) go to boxes[0 ..] (score = the
  * heat, -128..127), *n = how many were written, *n_peaks = the peaks over all levels
@@ -216,7 +236,8 @@ vt_status vt_cnn_frame_work_bytes(const vt_cnn_model *m, const vt_cnn_cfg *cfg, 
  * below vt_cnn_frame_work_bytes -> VT_E_CAPACITY. On an error *n and *n_peaks are 0
  * where not NULL and boxes is not written. Cost: the pyramid steps (25 multiply-adds
  * per level pixel), the forward passes (cnn.h's cost per level: the levels after the
- * first add at most a third of the first's), the decodes, and the NMS's O(n^2) over
+ * first add at most a third of the first's whole-level cost; level 0's is its band's
+ * share, (y1 - y0) / h, of it), the decodes, and the NMS's O(n^2) over
  * at most n_levels cap_per_level boxes; stack: vt_pyr_down's row (image.h) or
  * vt_cnn_decode's 1 KB. */
 vt_status vt_cnn_detect_frame(const vt_cnn_model *m, const vt_cnn_cfg *cfg, const uint8_t *img,

@@ -497,7 +497,9 @@ vt_status vt_pipeline_set_acf_n(vt_pipeline *p, int32_t n, const vt_acf_model *c
  * pointer (they must outlive the run; m may live in flash), cfg is copied. work_bytes
  * is checked at each detection step against vt_cnn_frame_work_bytes for that frame
  * (VT_E_CAPACITY from the step when short), so one buffer sized for the largest frame
- * serves every size. m NULL turns it off, as vt_pipeline_init does (cfg and work are
+ * serves every size (with a level-0 band, first_level 0, size it by the query for each
+ * frame size: the band's rounding can make a shorter frame need one band row more,
+ * cnn.h). m NULL turns it off, as vt_pipeline_init does (cfg and work are
  * then ignored). VT_E_ARG for p NULL, or m given with cfg or work NULL; m and cfg as
  * vt_cnn_check_model / vt_cnn_cfg_check. On error nothing changes. */
 vt_status vt_pipeline_set_cnn(vt_pipeline *p, const vt_cnn_model *m, const vt_cnn_cfg *cfg,

@@ -45,6 +45,8 @@ typedef struct {
     int32_t cap_per_level;
     int32_t nms_iou_permille;
     int32_t nms_contain_permille;
+    int32_t l0_top_permille;
+    int32_t l0_bottom_permille;
 } vt_cnn_cfg;
 
 vt_status vt_cnn_check_model(const vt_cnn_model *m);

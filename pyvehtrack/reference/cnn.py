@@ -11,8 +11,9 @@ bias, mult (cout,) int32, shift (cout,) uint8.
 
 detect_frame is vt_cnn_detect_frame: the pyramid from reference.image.pyr_down (exact: its
 float sums of 1/256 steps are exact in float64, then rounded half up as the C), forward and
-decode per level, clipping to the frame, and greedy NMS with reference.windows.suppresses (the
-permille test of c/windows.c) after a stable sort by heat.
+decode per level (level 0 on its row band only, the boxes moved down by the band's first row),
+clipping to the frame, and greedy NMS with reference.windows.suppresses (the permille test of
+c/windows.c) after a stable sort by heat.
 """
 from __future__ import annotations
 
@@ -113,15 +114,32 @@ def decode(out: np.ndarray, out_stride: int, side_lut: np.ndarray, thr: int, sca
     return res, total
 
 
+# The level-0 band's fields a cfg may leave out (a dict or object written before they
+# existed): the whole frame, as VT_CNN_CFG_DEFAULT and an old 6-entry cnn_cfg file.
+_BAND_DEFAULTS = {"l0_top_permille": 0, "l0_bottom_permille": 1000}
+
+
 def _cfg_get(cfg, key):
+    if key in _BAND_DEFAULTS:
+        has = key in cfg if isinstance(cfg, dict) else hasattr(cfg, key)
+        if not has:
+            return _BAND_DEFAULTS[key]
     return int(cfg[key] if isinstance(cfg, dict) else getattr(cfg, key))
+
+
+def band_rows(h: int, top_permille: int, bottom_permille: int) -> tuple[int, int]:
+    """(y0, y1): level 0's band rows y0 .. y1 - 1 of an h-row frame (cnn.h), exact integers:
+    y0 = floor(h top / 1000), y1 = ceil(h bottom / 1000). Never empty for 0 <= top < bottom
+    <= 1000 and h >= 1 (y1 >= h bottom / 1000 > h top / 1000 >= y0)."""
+    return (h * top_permille) // 1000, (h * bottom_permille + 999) // 1000
 
 
 def detect_frame(model, img: np.ndarray, cfg) -> tuple[np.ndarray, int]:
     """vt_cnn_detect_frame (cnn.h). model: an object with layers, out_stride, side_lut,
     heat_thr (e.g. pyvehtrack.cnn.CnnModel); cfg: every vt_cnn_cfg field as an attribute or a
     key (first_level, n_levels, thr_offset, cap_per_level, nms_iou_permille,
-    nms_contain_permille), none left to defaults. Returns ((N, 5) int64 [l, t, r, b, heat]
+    nms_contain_permille, l0_top_permille, l0_bottom_permille), none left to defaults but the
+    last two (absent: 0 and 1000, the whole frame). Returns ((N, 5) int64 [l, t, r, b, heat]
     in NMS order, the peaks over the levels before cap, clipping and NMS)."""
     from . import image as rimage     # noqa: PLC0415
     from . import windows as rw       # noqa: PLC0415
@@ -130,17 +148,19 @@ def detect_frame(model, img: np.ndarray, cfg) -> tuple[np.ndarray, int]:
     thr = min(max(int(model.heat_thr) + _cfg_get(cfg, "thr_offset"), -128), 128)
     g = np.asarray(img, np.uint8)
     h, w = g.shape
+    y0, y1 = band_rows(h, _cfg_get(cfg, "l0_top_permille"), _cfg_get(cfg, "l0_bottom_permille"))
     level, rows, total = g, [], 0
     for k in range(first + nl):
         if k > 0:
-            level = rimage.pyr_down(level)
+            level = rimage.pyr_down(level)     # from the whole frame: the band is level 0's only
         if k < first:
             continue
-        out = forward(model.layers, level)
+        dy = y0 if k == 0 else 0
+        out = forward(model.layers, level[y0:y1] if k == 0 else level)
         b, n = decode(out, model.out_stride, model.side_lut, thr, k, cap)
         total += n
         for l, t, r, bt, sc in b.tolist():
-            l, t, r, bt = max(l, 0), max(t, 0), min(r, w - 1), min(bt, h - 1)
+            l, t, r, bt = max(l, 0), max(t + dy, 0), min(r, w - 1), min(bt + dy, h - 1)
             if l <= r and t <= bt:
                 rows.append((l, t, r, bt, sc))
     order = sorted(range(len(rows)), key=lambda i: -rows[i][4])     # stable: level, then decode order
