@@ -31,13 +31,26 @@ STRIDE = 8
 # Level k is the frame after k pyr_down steps (k = 1, 2, 3); a vehicle is a positive on a
 # level when its width there lies in that level's band (level pixels), "ignored" (no loss)
 # when it lies outside but is visible, so the bands overlap and NMS merges across levels.
-BANDS = {1: (6.0, 56.0), 2: (22.0, 56.0), 3: (22.0, 56.0), 4: (22.0, 400.0)}
+BANDS = {0: (6.0, 40.0), 1: (6.0, 56.0), 2: (22.0, 56.0), 3: (22.0, 56.0), 4: (22.0, 400.0)}
 LEVELS = (1, 2, 3, 4)
+# --level0 TOP BOTTOM: level 0 (full resolution, for vehicles 6..40 px wide) runs only on
+# the rows TOP..BOTTOM permille of the frame height, where small (far) vehicles stand,
+# as vt_cnn_cfg's l0_top_permille / l0_bottom_permille do in C; None: no level 0.
+L0_BAND = None
+
+
+def band_rows(h):
+    """Rows y0 .. y1 - 1 of level 0 (vt_cnn_cfg's rounding: floor / ceil of h x permille)."""
+    top, bot = L0_BAND
+    return (h * top) // 1000, -((-h * bot) // 1000)
 CH = (16, 24, 32, 32, 32, 32)
 
 
 def levels_of(gray):
     out, img = {}, gray
+    if 0 in LEVELS:
+        y0, y1 = band_rows(gray.shape[0])
+        out[0] = np.ascontiguousarray(gray[y0:y1])
     for k in range(1, max(LEVELS) + 1):
         img = pyr_down(np.ascontiguousarray(img))
         if k in LEVELS:
@@ -74,7 +87,9 @@ def targets(boxes, h, w, band):
         bw, bh = x1 - x0, y1 - y0
         if bw < 2 or bh < 2:
             continue
-        if not (band[0] <= bw < band[1]):
+        # out of the level's band, or centred outside its image (level 0's row band):
+        # no positive here, and no negative either where it shows
+        if not (band[0] <= bw < band[1]) or not (0 <= (y0 + y1) / 2 < h):
             gx0, gx1 = int(max(0, x0 // STRIDE)), int(min(gw, math.ceil(x1 / STRIDE)))
             gy0, gy1 = int(max(0, y0 // STRIDE)), int(min(gh, math.ceil(y1 / STRIDE)))
             mask[gy0:gy1, gx0:gx1] = 0
@@ -208,7 +223,10 @@ def evaluate(net, data, thr=0.3):
             allb = []
             for k in LEVELS:
                 x = torch.from_numpy(lv[k].astype(np.float32) / 255.0)[None, None]
-                allb.append(decode(net(x)[0].numpy(), k, thr))
+                bk = decode(net(x)[0].numpy(), k, thr)
+                if k == 0:
+                    bk[:, [1, 3]] += band_rows(g.shape[0])[0]
+                allb.append(bk)
             b = nms(np.concatenate(allb))
             preds.append({"frame": i, "file": e["file_name"],
                           "boxes": [[int(v[0]), int(v[1]), int(v[2]) - 1, int(v[3]) - 1, float(v[4])] for v in b]})
@@ -304,14 +322,20 @@ def quantise(layers, calib_imgs, pct=99.99, heat_p=0.3):
     return z
 
 
+def cfg_row():
+    """pyvehtrack.cnn.CFG_KEYS' values: the levels trained, the decoder cap, nms()'s limits
+    (and level 0's row band when it runs)."""
+    row = [LEVELS[0], len(LEVELS), 0, 64, 500, 700]
+    return row + list(L0_BAND) if L0_BAND is not None else row
+
+
 def evaluate_int(z, data):
     """The quantised model z (its file keys) on the eval frames through the C core
     (pyvehtrack.cnn.detect_frame at the levels trained, the decoder's threshold, nms()'s
     limits): exactly what the shipped file does."""
     from pyvehtrack import cnn
     m = cnn.CnnModel.load(z)
-    cfg = cnn.CnnConfig(first_level=LEVELS[0], n_levels=len(LEVELS), thr_offset=0, cap_per_level=64,
-                        nms_iou_permille=500, nms_contain_permille=700)
+    cfg = cnn.CnnConfig(*cfg_row())
     preds = []
     for i, (e, g, _) in enumerate(data):
         b, _ = cnn.detect_frame(m, g, cfg)
@@ -381,7 +405,15 @@ def main(argv=None):
     ap.add_argument("--pretrain-gti", type=int, default=0, metavar="EPOCHS",
                     help="first train the backbone on GTI TRAIN crops for this many epochs")
     ap.add_argument("--export-only", metavar="PT", help="quantise a saved cnn_float.pt, no training")
+    ap.add_argument("--level0", nargs=2, type=int, metavar=("TOP", "BOTTOM"),
+                    help="also run on level 0 (full resolution, vehicles 6..40 px wide), rows TOP..BOTTOM "
+                         "permille of the frame height")
     a = ap.parse_args(argv)
+    global LEVELS, L0_BAND
+    if a.level0:
+        if not 0 <= a.level0[0] < a.level0[1] <= 1000:
+            ap.error("--level0: 0 <= TOP < BOTTOM <= 1000")
+        L0_BAND, LEVELS = tuple(a.level0), (0,) + LEVELS
     torch.manual_seed(a.seed)
     rng = np.random.default_rng(a.seed)
     out = Path(a.out)
@@ -408,10 +440,13 @@ def main(argv=None):
             for j in perm[bi:bi + a.batch]:
                 g, b = augment(train[j][1], train[j][2], rng)
                 lv = levels_of(g)
+                lv0_y0 = band_rows(g.shape[0])[0] if 0 in LEVELS else 0
                 for k in LEVELS:
                     f = 2 ** k
                     lv_imgs[k].append(lv[k].astype(np.float32) / 255.0)
-                    lv_t[k].append(targets(b / f, *lv[k].shape, BANDS[k]))
+                    # level 0 is the row band: its boxes move up by the band's first row
+                    bk = b - np.float32([0, lv0_y0, 0, lv0_y0]) if k == 0 else b
+                    lv_t[k].append(targets(bk / f, *lv[k].shape, BANDS[k]))
             for k in LEVELS:
                 x = torch.from_numpy(np.stack(lv_imgs[k]))[:, None]
                 heat, reg, rw, mask = (torch.from_numpy(np.stack([t[i] for t in lv_t[k]])) for i in range(4))
@@ -448,7 +483,7 @@ def export(net, train, val, out, heat_p=0.3):
     print("integer:  " + eb.format_scores(s_q).replace("\n", " | "))
     # the detection settings it is validated with (pyvehtrack.cnn.CFG_KEYS order): the levels
     # trained, the decoder cap, the NMS of nms() above; the ego-lane detector beside it
-    z["cnn_cfg"] = np.array([LEVELS[0], len(LEVELS), 0, 64, 500, 700], np.int32)
+    z["cnn_cfg"] = np.array(cfg_row(), np.int32)
     z["cnn_detector_json"] = np.array(json.dumps({"sources": ["windows", "ego"]}))
     np.savez_compressed(out / "cnn.npz", **z)
     print(f"wrote {out / 'cnn.npz'}")
