@@ -550,45 +550,68 @@ def _detect_default(ctx: Ctx) -> Stage:
                  note=f"C: vt_pipeline_step, detection frame, {path.name} and its settings")
 
 
-@register("cnn_detect", sizes=((1280, 720),), driver=False)
-def _cnn_detect(ctx: Ctx) -> Stage:
-    """The CNN detector of pyvehtrack/models/cnn_gray.npz alone (vt_cnn_detect_frame at the
-    file's cnn_cfg: the pyramid, the network on each level, the peak decoder, one NMS); the
+def _cnn_alone(name: str, fname: str) -> Stage:
+    """The CNN detector of pyvehtrack/models/<fname> alone (vt_cnn_detect_frame at the file's
+    cnn_cfg: the pyramid, the network on each level, the peak decoder, one NMS); the
     reference column is its bit-exact NumPy twin (pyvehtrack.reference.cnn.detect_frame)."""
     from pyvehtrack import cnn
     from pyvehtrack.reference import cnn as rcnn
-    img = ctx.frame
-    m = cnn.CnnModel.load(ROOT / "pyvehtrack" / "models" / "cnn_gray.npz")
+    m = cnn.CnnModel.load(ROOT / "pyvehtrack" / "models" / fname)
     last = {}
 
-    def c():
-        last["boxes"] = cnn.detect_frame(m, img, m.cfg)[0]
+    def run(img):
+        def c():
+            last["boxes"] = cnn.detect_frame(m, img, m.cfg)[0]
 
-    def reference():
-        return rcnn.detect_frame(m, img, m.cfg)
+        def reference():
+            return rcnn.detect_frame(m, img, m.cfg)
+        return Stage(name, c, reference, pixels=img.size, calls=1,
+                     digest=lambda: digest(last["boxes"][:, :4]) if len(last.get("boxes", [])) else 0,
+                     note=f"C: vt_cnn_detect_frame ({fname}); reference: the NumPy integer twin")
+    return run
 
-    return Stage("cnn_detect", c, reference, pixels=img.size, calls=1,
-                 digest=lambda: digest(last["boxes"][:, :4]) if len(last.get("boxes", [])) else 0,
-                 note="C: vt_cnn_detect_frame (cnn_gray.npz); reference: the NumPy integer twin")
+
+def _cnn_frame(name: str, fname: str):
+    """One detection frame as `pyvehtrack detect --model pyvehtrack/models/<fname>` runs it on
+    the C engine: the lane stage, the ego-lane detector, the CNN over its levels, the NMS
+    against the ego boxes, one vt_pipeline_step; no reference column (the CNN-alone stage has
+    it)."""
+    from pyvehtrack.pipeline import Pipeline
+    path = ROOT / "pyvehtrack" / "models" / fname
+    pipe = Pipeline("c", model=str(path), detect_every=1, track=False, sources=("ego", "classifier"))
+    last = {}
+
+    def run(img):
+        def c():
+            last["boxes"] = pipe.step_gray(img).box_array
+        return Stage(name, c, None, pixels=img.size, calls=1,
+                     digest=lambda: digest(np.asarray(last["boxes"])[:, :4]) if len(last.get("boxes", [])) else 0,
+                     note=f"C: vt_pipeline_step, detection frame, {path.name} with the ego-lane detector")
+    return run
+
+
+@register("cnn_detect", sizes=((1280, 720),), driver=False)
+def _cnn_detect(ctx: Ctx) -> Stage:
+    """cnn_gray.npz alone (_cnn_alone)."""
+    return _cnn_alone("cnn_detect", "cnn_gray.npz")(ctx.frame)
+
+
+@register("cnn_l0_detect", sizes=((1280, 720),), driver=False)
+def _cnn_l0_detect(ctx: Ctx) -> Stage:
+    """cnn_gray_l0.npz alone (_cnn_alone): levels 1-4 and level 0's row band."""
+    return _cnn_alone("cnn_l0_detect", "cnn_gray_l0.npz")(ctx.frame)
 
 
 @register("detect_cnn", sizes=((1280, 720),), driver=False)
 def _detect_cnn(ctx: Ctx) -> Stage:
-    """One detection frame as `pyvehtrack detect --model pyvehtrack/models/cnn_gray.npz` runs
-    it on the C engine: the lane stage, the ego-lane detector, the CNN over its levels, the
-    NMS against the ego boxes, one vt_pipeline_step; no reference column (cnn_detect has it)."""
-    from pyvehtrack.pipeline import Pipeline
-    img = ctx.frame
-    path = ROOT / "pyvehtrack" / "models" / "cnn_gray.npz"
-    pipe = Pipeline("c", model=str(path), detect_every=1, track=False, sources=("ego", "classifier"))
-    last = {}
+    """One detection frame with cnn_gray.npz (_cnn_frame)."""
+    return _cnn_frame("detect_cnn", "cnn_gray.npz")(ctx.frame)
 
-    def c():
-        last["boxes"] = pipe.step_gray(img).box_array
 
-    return Stage("detect_cnn", c, None, pixels=img.size, calls=1,
-                 digest=lambda: digest(np.asarray(last["boxes"])[:, :4]) if len(last.get("boxes", [])) else 0,
-                 note=f"C: vt_pipeline_step, detection frame, {path.name} with the ego-lane detector")
+@register("detect_cnn_l0", sizes=((1280, 720),), driver=False)
+def _detect_cnn_l0(ctx: Ctx) -> Stage:
+    """One detection frame with cnn_gray_l0.npz (_cnn_frame)."""
+    return _cnn_frame("detect_cnn_l0", "cnn_gray_l0.npz")(ctx.frame)
 
 
 @register("fullroad_mlp_wide", sizes=((1280, 720),), driver=False)

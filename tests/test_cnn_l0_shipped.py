@@ -1,0 +1,71 @@
+"""The shipped CNN detector with a full-resolution band (pyvehtrack/models/cnn_gray_l0.npz,
+tools/train_cnn.py --level0 380 640): it loads with the settings it was validated with (levels
+0-4, level 0 on rows 380..640 permille of the frame, the ego-lane detector beside it and the
+second stage on the ego boxes), the C core and the NumPy twin give the same boxes on real
+frames, and it boxes real vehicles on frames from other cameras than its training set's.
+
+Tolerances: C = twin is exact (integer arithmetic on both sides, tests/test_cnn.py's
+contract). The detection checks are floors on frames nothing was tuned on (KITTI, Udacity;
+the model learnt on tusimple-vehicles-dev TRAIN frames only): a box counts at IoU >= 0.5 with
+the frame's reference box (KITTI: the lidar-derived lead-car box of
+tests/data/kitti_lead_boxes_621x188.csv; Udacity test1: the two cars labelled by hand on the
+640x360 frame, tests/test_fullroad.py's CARS).
+"""
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from pyvehtrack import Detector, cnn, fullroad
+from pyvehtrack.eval.boxes import iou
+from pyvehtrack.reference import cnn as rcnn
+
+DATA = Path(__file__).parent / "data"
+MODEL = Path(fullroad.__file__).parent / "models" / "cnn_gray_l0.npz"
+UDACITY_CARS = [[408, 206, 471, 246], [527, 204, 635, 252]]   # tests/test_fullroad.py's CARS
+
+
+def test_shipped_l0_model_loads_with_its_settings():
+    m = fullroad.load_model(MODEL)
+    assert isinstance(m, cnn.CnnModel)
+    c = m.cfg
+    assert (c.first_level, c.n_levels, c.l0_top_permille, c.l0_bottom_permille) == (0, 5, 380, 640)
+    assert m.settings == {"sources": ["windows", "ego"], "verify_min": 2.0}
+    assert m.out_stride == 8
+
+
+@pytest.mark.parametrize("name", ["udacity_test1_640x360.jpg", "kitti_lead_30_gray_621x188.png",
+                                  "tusimple_vehicles_4065_gray_640x360.png"])
+def test_shipped_l0_model_c_equals_twin(name):
+    """Level 0's band included: the same boxes, peaks and order from C and the twin."""
+    m = cnn.CnnModel.load(MODEL)
+    g = cv2.imread(str(DATA / name), cv2.IMREAD_GRAYSCALE)
+    got, n = cnn.detect_frame(m, g, m.cfg)
+    want, n_r = rcnn.detect_frame(m, g, m.cfg)
+    assert n == n_r and np.array_equal(got, np.asarray(want, np.int64).astype(np.int32))
+    assert len(got) >= 1
+
+
+def test_shipped_l0_model_boxes_the_kitti_lead_car():
+    """Detector(model=cnn_gray_l0.npz) boxes the lead car at IoU >= 0.5 on at least 5 of the 6
+    KITTI frames (another camera: 1242x375 halved, no hood)."""
+    det = Detector(model=MODEL)
+    hits = 0
+    for row in csv.DictReader((DATA / "kitti_lead_boxes_621x188.csv").open()):
+        f = int(row["frame"])
+        img = cv2.imread(str(DATA / f"kitti_lead_{f:02d}_gray_621x188.png"), cv2.IMREAD_GRAYSCALE)
+        gt = [float(row[k]) for k in ("left", "top", "right", "bottom")]
+        hits += max([iou(b, gt) for b in det.detect(img).boxes] or [0.0]) >= 0.5
+    assert hits >= 5
+
+
+def test_shipped_l0_model_boxes_both_udacity_cars():
+    """Udacity test1 (another camera): the dark car ahead-right and the white car in the right
+    lane are both boxed at IoU >= 0.5."""
+    det = Detector(model=MODEL)
+    boxes = det.detect(cv2.imread(str(DATA / "udacity_test1_640x360.jpg"))).boxes
+    assert all(max([iou(b, car) for b in boxes] or [0.0]) >= 0.5 for car in UDACITY_CARS), boxes
