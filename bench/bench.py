@@ -550,7 +550,7 @@ def _detect_default(ctx: Ctx) -> Stage:
                  note=f"C: vt_pipeline_step, detection frame, {path.name} and its settings")
 
 
-def _cnn_alone(name: str, fname: str) -> Stage:
+def _cnn_alone(name: str, fname: str, img: np.ndarray) -> Stage:
     """The CNN detector of pyvehtrack/models/<fname> alone (vt_cnn_detect_frame at the file's
     cnn_cfg: the pyramid, the network on each level, the peak decoder, one NMS); the
     reference column is its bit-exact NumPy twin (pyvehtrack.reference.cnn.detect_frame)."""
@@ -559,19 +559,18 @@ def _cnn_alone(name: str, fname: str) -> Stage:
     m = cnn.CnnModel.load(ROOT / "pyvehtrack" / "models" / fname)
     last = {}
 
-    def run(img):
-        def c():
-            last["boxes"] = cnn.detect_frame(m, img, m.cfg)[0]
+    def c():
+        last["boxes"] = cnn.detect_frame(m, img, m.cfg)[0]
 
-        def reference():
-            return rcnn.detect_frame(m, img, m.cfg)
-        return Stage(name, c, reference, pixels=img.size, calls=1,
-                     digest=lambda: digest(last["boxes"][:, :4]) if len(last.get("boxes", [])) else 0,
-                     note=f"C: vt_cnn_detect_frame ({fname}); reference: the NumPy integer twin")
-    return run
+    def reference():
+        return rcnn.detect_frame(m, img, m.cfg)
+
+    return Stage(name, c, reference, pixels=img.size, calls=1,
+                 digest=lambda: digest(last["boxes"][:, :4]) if len(last.get("boxes", [])) else 0,
+                 note=f"C: vt_cnn_detect_frame ({fname}); reference: the NumPy integer twin")
 
 
-def _cnn_frame(name: str, fname: str):
+def _cnn_frame(name: str, fname: str, img: np.ndarray) -> Stage:
     """One detection frame as `pyvehtrack detect --model pyvehtrack/models/<fname>` runs it on
     the C engine: the lane stage, the ego-lane detector, the CNN over its levels, the NMS
     against the ego boxes, one vt_pipeline_step; no reference column (the CNN-alone stage has
@@ -581,37 +580,36 @@ def _cnn_frame(name: str, fname: str):
     pipe = Pipeline("c", model=str(path), detect_every=1, track=False, sources=("ego", "classifier"))
     last = {}
 
-    def run(img):
-        def c():
-            last["boxes"] = pipe.step_gray(img).box_array
-        return Stage(name, c, None, pixels=img.size, calls=1,
-                     digest=lambda: digest(np.asarray(last["boxes"])[:, :4]) if len(last.get("boxes", [])) else 0,
-                     note=f"C: vt_pipeline_step, detection frame, {path.name} with the ego-lane detector")
-    return run
+    def c():
+        last["boxes"] = pipe.step_gray(img).box_array
+
+    return Stage(name, c, None, pixels=img.size, calls=1,
+                 digest=lambda: digest(np.asarray(last["boxes"])[:, :4]) if len(last.get("boxes", [])) else 0,
+                 note=f"C: vt_pipeline_step, detection frame, {path.name} with the ego-lane detector")
 
 
 @register("cnn_detect", sizes=((1280, 720),), driver=False)
 def _cnn_detect(ctx: Ctx) -> Stage:
     """cnn_gray.npz alone (_cnn_alone)."""
-    return _cnn_alone("cnn_detect", "cnn_gray.npz")(ctx.frame)
+    return _cnn_alone("cnn_detect", "cnn_gray.npz", ctx.frame)
 
 
 @register("cnn_l0_detect", sizes=((1280, 720),), driver=False)
 def _cnn_l0_detect(ctx: Ctx) -> Stage:
     """cnn_gray_l0.npz alone (_cnn_alone): levels 1-4 and level 0's row band."""
-    return _cnn_alone("cnn_l0_detect", "cnn_gray_l0.npz")(ctx.frame)
+    return _cnn_alone("cnn_l0_detect", "cnn_gray_l0.npz", ctx.frame)
 
 
 @register("detect_cnn", sizes=((1280, 720),), driver=False)
 def _detect_cnn(ctx: Ctx) -> Stage:
     """One detection frame with cnn_gray.npz (_cnn_frame)."""
-    return _cnn_frame("detect_cnn", "cnn_gray.npz")(ctx.frame)
+    return _cnn_frame("detect_cnn", "cnn_gray.npz", ctx.frame)
 
 
 @register("detect_cnn_l0", sizes=((1280, 720),), driver=False)
 def _detect_cnn_l0(ctx: Ctx) -> Stage:
     """One detection frame with cnn_gray_l0.npz (_cnn_frame)."""
-    return _cnn_frame("detect_cnn_l0", "cnn_gray_l0.npz")(ctx.frame)
+    return _cnn_frame("detect_cnn_l0", "cnn_gray_l0.npz", ctx.frame)
 
 
 @register("fullroad_mlp_wide", sizes=((1280, 720),), driver=False)

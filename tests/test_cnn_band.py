@@ -37,7 +37,7 @@ from pyvehtrack import cnn as C
 from pyvehtrack._native import ffi, lib
 from pyvehtrack.reference import cnn as R
 from test_cnn import random_model
-from test_cnn_frame import GUARD, I32_MAX, I32_MIN, c_cfg, c_detect_guarded, const_model
+from test_cnn_frame import GUARD, I32_MAX, I32_MIN, c_cfg, c_detect_guarded, check_c_equals_twin, const_model
 from test_pipeline_cnn import scene, tiny_model
 
 BAND = ("l0_top_permille", "l0_bottom_permille")
@@ -109,16 +109,7 @@ def test_band_equals_twin(hidden, last_k, w, h, pad, seed, band, n_levels, thr_o
     y0, y1 = R.band_rows(h, top, bot)
     assert (y0, y1) == (floor(Fraction(h * top, 1000)), ceil(Fraction(h * bot, 1000)))
     assert 0 <= y0 < y1 <= h
-    cfg = c_cfg(**cfgd)
-    got, tot, intact = c_detect_guarded(model, img, cfg, cap, pad, shift=shift)
-    want, want_tot = R.detect_frame(model, img, cfgd)
-    assert tot == want_tot
-    np.testing.assert_array_equal(got, want[:cap])
-    assert intact, "vt_cnn_detect_frame wrote outside vt_cnn_frame_work_bytes or past boxes[*n]"
-    assert ((got[:, 0] >= 0) & (got[:, 2] < w) & (got[:, 1] >= 0) & (got[:, 3] < h)).all()
-    pb, pt = C.detect_frame(model, img, C.CnnConfig(**cfgd))
-    assert pt == want_tot
-    np.testing.assert_array_equal(pb, want)
+    check_c_equals_twin(model, img, cfgd, cap, pad, shift)
     # the size: the single-level pieces with level 0 at its band; never above the band-less size
     need = C.frame_work_bytes(model, w, h, C.CnnConfig(**cfgd))
     assert need == _need_by_hand(model, cfgd, w, h)
@@ -128,8 +119,8 @@ def test_band_equals_twin(hidden, last_k, w, h, pad, seed, band, n_levels, thr_o
     work = np.full(need + 8, GUARD, np.uint8)
     boxes = ffi.new("vt_cnn_box[2]", [(9,) * 5, (9,) * 5])
     n, t = ffi.new("int32_t *", 77), ffi.new("int32_t *", 77)
-    s = lib.vt_cnn_detect_frame(model.c_model()[0], cfg, ffi.cast("uint8_t *", img.ctypes.data), w, h, w,
-                                ffi.cast("uint8_t *", work.ctypes.data), need - 1, boxes, 2, n, t)
+    s = lib.vt_cnn_detect_frame(model.c_model()[0], c_cfg(**cfgd), ffi.cast("uint8_t *", img.ctypes.data), w, h,
+                                w, ffi.cast("uint8_t *", work.ctypes.data), need - 1, boxes, 2, n, t)
     assert s == lib.VT_E_CAPACITY and (n[0], t[0]) == (0, 0)
     assert (work == GUARD).all() and [tuple([b.l, b.t, b.r, b.b, b.score]) for b in boxes] == [(9,) * 5] * 2
 

@@ -102,19 +102,26 @@ def test_detect_frame_equals_twin(hidden, last_k, w, h, pad, seed, cfgd, kind, c
             img[y0:y0 + int(rng.integers(2, 40)), x0:x0 + int(rng.integers(2, 50))] = int(rng.integers(0, 60))
     lut = rng.integers(0, 600, (4, 256))    # sides up to 37 level px: boxes that overlap and cross the border
     model = random_model(rng, spec, img, 60.0, lut)
-    cfg = c_cfg(**cfgd)
-    got, tot, intact = c_detect_guarded(model, img, cfg, cap, pad, shift=shift)
+    got = check_c_equals_twin(model, img, cfgd, cap, pad, shift)
+    assert (got[:, 0] <= got[:, 2]).all() and (got[:, 1] <= got[:, 3]).all()
+    assert (np.diff(got[:, 4]) <= 0).all()     # NMS order: heat descending
+
+
+def check_c_equals_twin(model, img, cfgd, cap, pad, shift):
+    """vt_cnn_detect_frame (guarded, c_detect_guarded) = the twin's first cap boxes and its peak
+    count, nothing written outside, every box inside the frame; the Python wrapper = every kept
+    box of the twin (its cap is n_levels x cap_per_level). Returns C's boxes."""
+    h, w = img.shape
+    got, tot, intact = c_detect_guarded(model, img, c_cfg(**cfgd), cap, pad, shift=shift)
     want, want_tot = R.detect_frame(model, img, cfgd)
     assert tot == want_tot
     np.testing.assert_array_equal(got, want[:cap])
-    assert intact, "vt_cnn_detect_frame wrote outside its work buffer or past boxes[*n]"
+    assert intact, "vt_cnn_detect_frame wrote outside vt_cnn_frame_work_bytes or past boxes[*n]"
     assert ((got[:, 0] >= 0) & (got[:, 2] < w) & (got[:, 1] >= 0) & (got[:, 3] < h)).all()
-    assert (got[:, 0] <= got[:, 2]).all() and (got[:, 1] <= got[:, 3]).all()
-    assert (np.diff(got[:, 4]) <= 0).all()     # NMS order: heat descending
-    # the Python wrapper: every kept box (its cap is n_levels x cap_per_level)
     pb, pt = C.detect_frame(model, img, C.CnnConfig(**cfgd))
     assert pt == want_tot
     np.testing.assert_array_equal(pb, want)
+    return got
 
 
 # ---------------------------------------------------------------- a constant head

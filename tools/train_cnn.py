@@ -25,6 +25,7 @@ sys.path.insert(0, str(ROOT))
 from pyvehtrack import eval_boxes as eb  # noqa: E402
 from pyvehtrack.datasets import tusimple_frames  # noqa: E402
 from pyvehtrack.image import pyr_down  # noqa: E402
+from pyvehtrack.reference.cnn import band_rows as ref_band_rows  # noqa: E402
 
 DATA = ROOT.parent / "shared" / "data" / "tusimple-vehicles-dev"
 STRIDE = 8
@@ -40,9 +41,8 @@ L0_BAND = None
 
 
 def band_rows(h):
-    """Rows y0 .. y1 - 1 of level 0 (vt_cnn_cfg's rounding: floor / ceil of h x permille)."""
-    top, bot = L0_BAND
-    return (h * top) // 1000, -((-h * bot) // 1000)
+    """Rows y0 .. y1 - 1 of level 0: vt_cnn_cfg's rounding, as the twin computes it."""
+    return ref_band_rows(h, *L0_BAND)
 CH = (16, 24, 32, 32, 32, 32)
 
 
