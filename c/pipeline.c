@@ -115,8 +115,12 @@ vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg)
         s = VT_E_ARG;
     }
     if (s == VT_OK && (cfg->ttc_fuse_permille < 0 || cfg->ttc_fuse_permille > 1000 ||
-                       (cfg->road_above_hood != 0 && cfg->road_above_hood != 1))) {
+                       (cfg->road_above_hood != 0 && cfg->road_above_hood != 1) ||
+                       (cfg->auto_hood != 0 && cfg->auto_hood != 1))) {
         s = VT_E_ARG;
+    }
+    if (s == VT_OK) {
+        s = vt_hood_cfg_check(&cfg->hood);
     }
     return s;
 }
@@ -658,14 +662,26 @@ static vt_status vt__detect_ego(vt_pipeline *p, const vt_image_u8 *frame, const 
 {
     int32_t i;
     vt_status s = VT_OK;
+    int32_t hood = -1;
     vt__road(p, frame, given, out, lanes_ok);
-    if (p->cfg.road_above_hood && out->road_source != VT_ROAD_SRC_NONE &&
+    if (p->cfg.road_above_hood) {
+        hood = vt__frac_q16(frame->h, p->cfg.road_camera.hood_q16);
+        hood = hood < 1 ? 1 : hood;
+    } else if (p->cfg.auto_hood) {
+        /* no known hood row: the hood's edge found in this frame, if any */
+        vt_hood_result hr;
+        s = vt_hood_find(&p->hood, &p->cfg.hood, frame, &hr);
+        if (s != VT_OK) {
+            return s;
+        }
+        hood = hr.found ? hr.row : -1;
+        out->hood_row = hood;
+    }
+    if (hood >= 0 && out->road_source != VT_ROAD_SRC_NONE &&
         (out->road_source == VT_ROAD_SRC_LANES || given == NULL)) {
         /* the hood is not road: its edge against the road is dark above bright. The
          * shadow scan's Sobel at a row reads the row below, so the last road row is
          * two above the hood's first */
-        int32_t hood = vt__frac_q16(frame->h, p->cfg.road_camera.hood_q16);
-        hood = hood < 1 ? 1 : hood;
         if (hood - 2 < out->road.y_top) {
             out->road.valid = 0;
             out->road_source = VT_ROAD_SRC_NONE;
@@ -1282,6 +1298,7 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
     out->n_boxes = 0;
     out->n_boxes_in = 0;
     out->flow_ready = 0;
+    out->hood_row = -1;
     out->model_fits = 0;
     out->n_tracks = 0;
     memset(&out->lanes, 0, sizeof(out->lanes));

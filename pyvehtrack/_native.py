@@ -695,6 +695,25 @@ def nms(boxes: np.ndarray, iou_permille: int, contain_permille: int = 1000) -> n
     check("vt_nms", lib.vt_nms(p, len(a), int(iou_permille), int(contain_permille), n), f"{len(a)} boxes")
     return a[: n[0]].copy()
 # ================================================================ end windows.h
+# ================================================================ hood.h
+def hood_cfg_default():
+    return _defaults("vt_hood_cfg")
+
+
+def hood_find(gray: np.ndarray, cfg=None) -> dict:
+    """vt_hood_find on a 2-D uint8 frame -> {'found', 'row', 'n_cols', 'n_strong',
+    'path_end'} (keys as pyvehtrack.reference.hood.find)."""
+    c = hood_cfg_default() if cfg is None else cfg
+    if isinstance(c, ffi.CData) and ffi.typeof(c).kind == "struct":   # a field of a larger struct
+        c = ffi.addressof(c)
+    st = ffi.new("vt_hood_state *")
+    res = ffi.new("vt_hood_result *")
+    g = np.asarray(gray)
+    v = view(g, "gray")
+    check("vt_hood_find", lib.vt_hood_find(st, c, v, res), _describe(g))
+    return {"found": bool(res.found), "row": int(res.row), "n_cols": int(res.n_cols),
+            "n_strong": int(res.n_strong), "path_end": int(res.path_end)}
+# ================================================================ end hood.h
 
 
 # ================================================================ fulldet.h

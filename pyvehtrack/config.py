@@ -48,6 +48,8 @@ VerifyConfig = accept_renamed(_int_config("VerifyConfig", "vt_verify_cfg",
 SearchConfig = accept_renamed(_int_config("SearchConfig", "vt_track_search_cfg",
                                           "vt_track_search_cfg (vehtrack/track_search.h): ROI measurement.",
                                           _native.tracker_cfg_default().search), SEARCH_RENAMED)
+HoodConfig = _int_config("HoodConfig", "vt_hood_cfg",
+                         "vt_hood_cfg (vehtrack/hood.h): the hood finder (PipelineConfig.auto_hood).")
 EdgeConfig = _int_config("EdgeConfig", "vt_edge_cfg",
                          "vt_edge_cfg (vehtrack/edge_track.h): the edge-curve measurement "
                          "(GIST paper sec. III.B), used when TrackerConfig.measurement is "
@@ -126,7 +128,7 @@ def _policy_defaults():
     c = _native.pipeline_cfg_default()
     road = next(k for k, v in ROAD_POLICIES.items() if getattr(lib, v) == c.road_policy)
     src = tuple(k for k, v in SOURCES.items() if c.sources & getattr(lib, v))
-    return int(c.detect_every), road, bool(c.lanes_every_frame), src, bool(c.track)
+    return int(c.detect_every), road, bool(c.lanes_every_frame), src, bool(c.track), bool(c.auto_hood)
 
 
 _PD = _policy_defaults()
@@ -140,7 +142,9 @@ class PipelineConfig:
     stage on every frame (else on detection frames only); sources: hypothesis
     sources, a subset of "shadow", "classifier", "flow", "model" and "ego" ("classifier"
     and "ego" need a classifier, "flow" and "model" their settings: pyvehtrack.Pipeline;
-    () for none: detections only from the caller); track: run the tracker (False: detection only)."""
+    () for none: detections only from the caller); track: run the tracker (False: detection only);
+    auto_hood: on detection frames look for the ego car's hood (hood: its settings) and end the
+    ego-lane detector's road above it, unless a camera file gives the hood row."""
     lane: LaneConfig = field(default_factory=LaneConfig)
     shadow: ShadowConfig = field(default_factory=ShadowConfig)
     verify: VerifyConfig = field(default_factory=VerifyConfig)
@@ -151,6 +155,8 @@ class PipelineConfig:
     lanes_every_frame: bool = _PD[2]
     sources: tuple = _PD[3]
     track: bool = _PD[4]
+    auto_hood: bool = _PD[5]
+    hood: HoodConfig = field(default_factory=HoodConfig)
 
     def replace(self, **changes) -> "PipelineConfig":
         return dataclasses.replace(self, **changes)
@@ -259,6 +265,11 @@ def to_c(cfg: PipelineConfig):
     if not isinstance(cfg.track, (bool, np.bool_)):
         raise TypeError(f"track: expected a bool, got {type(cfg.track).__name__}")
     c.track = int(bool(cfg.track))
+    if not isinstance(cfg.auto_hood, (bool, np.bool_)):
+        raise TypeError(f"auto_hood: expected a bool, got {type(cfg.auto_hood).__name__}")
+    c.auto_hood = int(bool(cfg.auto_hood))
+    _fill_ints(c.hood, cfg.hood, HoodConfig, "hood")
+    _native.check("vt_hood_cfg_check", lib.vt_hood_cfg_check(ffi.addressof(c, "hood")), f"hood config {cfg.hood}")
     src = tuple(cfg.sources) if isinstance(cfg.sources, (tuple, list)) else None
     if src is None or any(s not in SOURCES for s in src):
         raise ValueError(f"sources: expected a tuple of {sorted(SOURCES)}, got {cfg.sources!r}")
@@ -299,7 +310,7 @@ def from_c(c) -> PipelineConfig:
                              fr.lane_bottom_permille / 1000, int(fr.top_margin)),
         detect_every=int(c.detect_every), road=road, lanes_every_frame=bool(c.lanes_every_frame),
         sources=tuple(k for k, v in SOURCES.items() if c.sources & getattr(lib, v)),
-        track=bool(c.track))
+        track=bool(c.track), auto_hood=bool(c.auto_hood), hood=ints(c.hood, HoodConfig))
 
 
 # ---------------------------------------------------------------- to the oracle
@@ -308,7 +319,8 @@ def to_reference(cfg: PipelineConfig, quantize: bool = True):
     C actually runs: the Kalman model rounded to Q15.16 and keep_ncc to Q1.14, so both
     engines start from the same numbers (quantize=False: the float values as given,
     as the Tracker's reference engine always had them). Validates through to_c first."""
-    from .reference import lane as rlane  # noqa: PLC0415  (the reference engine only)
+    from .reference import hood as rhood  # noqa: PLC0415  (the reference engine only)
+    from .reference import lane as rlane  # noqa: PLC0415
     from .reference import pipeline as rpipe  # noqa: PLC0415
     from .reference import shadow as rshadow  # noqa: PLC0415
     from .reference import track_search as rts  # noqa: PLC0415
@@ -332,7 +344,8 @@ def to_reference(cfg: PipelineConfig, quantize: bool = True):
         lane=conv(q.lane, rlane.LaneConfig), shadow=conv(q.shadow, rshadow.ShadowConfig),
         verify=conv(q.verify, rverify.VerifyConfig), tracker=tracker, fixed_road=fr,
         detect_every=q.detect_every, road_policy=q.road, lanes_every_frame=q.lanes_every_frame,
-        sources=q.sources, track=q.track)
+        sources=q.sources, track=q.track, auto_hood=q.auto_hood,
+        hood=rhood.HoodConfig(**dataclasses.asdict(q.hood)))
 
 
 def reference_capacities():

@@ -145,11 +145,13 @@ class Detector:
     the ego detector's road is the lanes', else fixed_road's trapezoid or the given road,
     and its settings are cfg's; the whole-road detector keeps the camera road); camera: a fullroad.Camera (horizon, hood, camera height;
     the horizon follows the lanes' vanishing row when the lane stage finds one);
-    score_offset: added to the model's score threshold (float, the SVM's units)."""
+    score_offset: added to the model's score threshold (float, the SVM's units);
+    auto_hood: without a known hood row (camera), the ego-lane detector's road ends above
+    the hood found in the frame (pyvehtrack.config.PipelineConfig.auto_hood), if any."""
 
     def __init__(self, engine: str = "c", cfg: DetectConfig | None = None, *, road="auto",
                  fixed_road: FixedRoad | None = None, lane_detector=None, model=None,
-                 sources=None, camera=None, score_offset: float = 0.0):
+                 sources=None, camera=None, score_offset: float = 0.0, auto_hood: bool = True):
         if engine not in ENGINES:
             raise ValueError(f"engine: expected one of {ENGINES}, got {engine!r}")
         # "ego" beside whole-road sources: the ego-lane detector's boxes ahead of the
@@ -163,6 +165,9 @@ class Detector:
             raise ValueError("sources: 'ego' (given, or in the model's settings) runs inside the pipeline with "
                              "the Detector's own lane stage: pass no lane_detector")
         self.engine = engine
+        if not isinstance(auto_hood, (bool, np.bool_)):
+            raise TypeError(f"auto_hood: expected a bool, got {type(auto_hood).__name__}")
+        self.auto_hood = bool(auto_hood)   # the ego detector's road ends above a hood found in the frame
         self.cfg = cfg if cfg is not None else DetectConfig()
         if not isinstance(self.cfg, DetectConfig):
             raise TypeError(f"cfg: expected a DetectConfig, got {type(self.cfg).__name__}")
@@ -214,7 +219,8 @@ class Detector:
         return {"shadow": config.ShadowConfig(**{f.name: getattr(self.cfg.shadow, f.name)
                                                  for f in fields(ShadowConfig)}),
                 "verify": config.VerifyConfig(**{f.name: getattr(self.cfg.verify, f.name)
-                                                 for f in fields(VerifyConfig)})}
+                                                 for f in fields(VerifyConfig)}),
+                "auto_hood": self.auto_hood}
 
     def pipeline_overrides(self):
         """The pipeline configuration fields that make a Pipeline detect as this
@@ -358,12 +364,17 @@ class Detector:
             # the ego detector's road where the lanes give none: this Detector's trapezoid
             h, w = gray.shape
             given = self.fixed_road.make(h, w)
+            first = -1
             if self.full.camera.hood_known:
                 # the pipeline cuts its own roads at the hood, never a caller's: cut this one
+                hood = round(self.full.camera.hood_frac * 65536) / 65536   # as C holds it (Q16)
+                first = max(1, int(np.floor(h * hood + 0.5)))
+            elif pipe.cfg.auto_hood:   # as the pipeline cuts its own roads at a found hood
+                first = _native.hood_find(gray, pipe._ccfg.hood)["row"]
+            if first >= 0:
                 from .reference.pipeline import road_above_hood  # noqa: PLC0415
                 from .pipeline import NO_ROAD  # noqa: PLC0415
-                hood = round(self.full.camera.hood_frac * 65536) / 65536   # as C holds it (Q16)
-                given = road_above_hood(given, hood, h) or NO_ROAD
+                given = road_above_hood(given, first, h) or NO_ROAD
         res = pipe.step_gray(gray, road=given)
         lanes = []
         for ln in (res.lanes.lanes if res.lanes is not None else []):

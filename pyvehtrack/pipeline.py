@@ -143,6 +143,8 @@ class FrameResult:
     flow_ready: bool = False       # the overtaking stage compared two frames (sources "flow")
     model_fits: int = 0            # vehicle-model fits run on this frame (sources "model"), used
                                    # or not; the used ones are the boxes of source "model"
+    hood_row: int = -1             # the hood's top row found on this detection frame
+                                   # (PipelineConfig.auto_hood), -1 if none or not looked for
 
     @property
     def box_array(self) -> np.ndarray:
@@ -726,7 +728,7 @@ class Pipeline:
                      "n_runs": int(s.n_runs), "n_dropped": int(s.n_dropped)}
         return FrameResult(int(o.frame), bool(o.detection_frame), lanes, road,
                            ROAD_SOURCES[int(o.road_source)], hyp, boxes, tracks, 1.0, stats,
-                           bool(o.flow_ready), model_fits=int(o.model_fits))
+                           bool(o.flow_ready), model_fits=int(o.model_fits), hood_row=int(o.hood_row))
 
     def _horizon_c(self, shape) -> int:
         """The horizon row the C whole-road detector used on this frame."""
@@ -750,7 +752,8 @@ class Pipeline:
         return FrameResult(r.frame, r.detection_frame, lanes, road, r.road_source,
                            np.asarray(r.hypotheses, np.int64).reshape(-1, 3), boxes, tracks, 1.0,
                            dict(r.stats), bool(getattr(r, "flow_ready", False)),
-                           model_fits=int(getattr(r, "model_fits", 0)))
+                           model_fits=int(getattr(r, "model_fits", 0)),
+                           hood_row=int(getattr(r, "hood_row", -1)))
 
 
 def _score(source, v):

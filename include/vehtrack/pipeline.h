@@ -37,6 +37,7 @@
 #include "vehtrack/detect.h"
 #include "vehtrack/flow.h"
 #include "vehtrack/fulldet.h"
+#include "vehtrack/hood.h"
 #include "vehtrack/image.h"
 #include "vehtrack/lane.h"
 #include "vehtrack/road.h"
@@ -214,6 +215,12 @@ typedef struct {
                                 frame's bottom, as the default hood fraction is a
                                 guess and a near lead car's bottom may be below it
                                 (KITTI's cameras see no hood)                          */
+    int32_t auto_hood;       /* 0/1: with road_above_hood 0 (no known hood row), look for
+                                the hood in each detection frame (vt_hood_find with
+                                `hood`) and, when found, end the ego-lane detector's road
+                                two rows above its top row, as road_above_hood does with
+                                a known one; vt_frame_out.hood_row says what was found */
+    vt_hood_cfg hood;        /* the hood finder's settings (vehtrack/hood.h)             */
 } vt_pipeline_cfg;
 
 #define VT_PIPELINE_CFG_DEFAULT                                   \
@@ -243,6 +250,8 @@ typedef struct {
         .handover_edge_permille = 20,                             \
         .ttc_fuse_permille = 300,                                 \
         .road_above_hood = 0,                                     \
+        .auto_hood = 1,                                           \
+        .hood = VT_HOOD_CFG_DEFAULT,                              \
     }
 
 /* The whole-road detector's scratch, owned by the caller and attached with
@@ -288,6 +297,7 @@ typedef struct {
     vt_lane_state lane;
     vt_detect_state detect;
     vt_detect_result det;
+    vt_hood_state hood;    /* the hood finder's scratch (cfg.auto_hood)            */
     vt_tracker tracker;
     vt_track_out tracks[VT_MAX_TRACKS];
     vt_pitch_state pitch;  /* camera stage: pitch from the lanes' vanishing row */
@@ -387,6 +397,11 @@ typedef struct {
                                 detections (vt_pipeline_step_dets) exceed VT_MAX_BOXES,
                                 or the flow boxes did not fit (not handed over)      */
     int32_t flow_ready;      /* the overtaking stage compared two frames (VT_SRC_FLOW) */
+    int32_t hood_row;        /* the hood's top row found on this detection frame
+                                (cfg.auto_hood; the ego-lane road then ends two rows
+                                above it), -1 if none was found or the finder did not
+                                run (not a detection frame, auto_hood 0, or a known
+                                hood row: road_above_hood 1)                        */
     int32_t model_fits;      /* vehicle-model fits run on this frame (VT_SRC_MODEL; each
                                 a GA over a coasting track's ROI, used or not: the used
                                 ones are the boxes of source VT_SRC_MODEL)           */

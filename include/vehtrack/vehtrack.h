@@ -16,6 +16,7 @@
 #include "vehtrack/verify.h"
 #include "vehtrack/detect.h"
 #include "vehtrack/windows.h"
+#include "vehtrack/hood.h"
 #include "vehtrack/fulldet.h"
 #include "vehtrack/acf.h"
 #include "vehtrack/cnn.h"

@@ -61,6 +61,8 @@ typedef struct {
     int32_t handover_edge_permille;
     int32_t ttc_fuse_permille;
     int32_t road_above_hood;
+    int32_t auto_hood;
+    vt_hood_cfg hood;
 } vt_pipeline_cfg;
 
 typedef struct {
@@ -132,6 +134,7 @@ typedef struct {
     int32_t n_boxes;
     int32_t n_boxes_in;
     int32_t flow_ready;
+    int32_t hood_row;
     int32_t model_fits;
     vt_pipe_box boxes[...];
     int32_t n_tracks;

@@ -27,6 +27,7 @@ import numpy as np
 
 from . import camera as rcam
 from . import flow as rflow
+from . import hood as rhood
 from . import fulldet as rfd
 from . import lane as rlane
 from . import tracker as rtrk
@@ -78,11 +79,12 @@ class RoadCameraRef:
                          hood_y=max(1, int(np.floor(h * self.hood + 0.5))))
 
 
-def road_above_hood(road: RoadArea, hood: float, h: int) -> RoadArea | None:
-    """The road without the hood's rows (vt_pipeline_cfg.road_above_hood): it ends two
-    rows above the hood's first row round(h hood) (half up, at least 1), as the shadow
-    scan's Sobel at the last road row reads the row below; None when nothing is left."""
-    first = max(1, int(np.floor(h * hood + 0.5)))
+def road_above_hood(road: RoadArea, first: int, h: int) -> RoadArea | None:
+    """The road without the hood's rows (vt_pipeline_cfg.road_above_hood, auto_hood): it
+    ends two rows above the hood's first row `first` (a known hood: round(h hood), half up,
+    at least 1; a found one: its top row), as the shadow scan's Sobel at the last road row
+    reads the row below; None when nothing is left. h: the frame's height (unused: the
+    rows are the frame's)."""
     if first - 2 < road.y_top:
         return None
     return replace(road, y_bottom=first - 2) if road.y_bottom > first - 2 else road
@@ -156,6 +158,8 @@ class PipelineRefConfig:
     handover_edge_permille: int = 20  # outer side within this permille of w of the border
     ttc_fuse_permille: int = 300  # the fused TTC: weight of the distance/rate TTC (permille)
     road_above_hood: bool = False  # the ego detector's road ends above road_camera's hood row
+    auto_hood: bool = True    # else, above the hood found in the frame (reference.hood), if any
+    hood: rhood.HoodConfig = field(default_factory=rhood.HoodConfig)
 
 
 @dataclass
@@ -330,6 +334,7 @@ class Pipeline:
         hyp = np.zeros((0, 3), np.int64)
         boxes = np.zeros((0, 4), np.int64)
         stats = {}
+        self._hood_row = -1   # _detect_ego's finding (vt_frame_out.hood_row)
         box_source = SRC_SHADOW
         scores = None
         if ext:
@@ -414,6 +419,7 @@ class Pipeline:
                                for p, t in zip(out.track_ttc_points, tracks)]
         out.flow_ready = flow_ready
         out.model_fits = model_fits
+        out.hood_row = self._hood_row
         self.last_boxes = [t[2] for t in tracks[:n_trk]]
         self.last_tracks = tracks[:n_trk]
         self.frame = self.frame + 1 if self.frame < 2**31 - 1 else 0
@@ -608,9 +614,18 @@ class Pipeline:
                 road, source = c.fixed_road.make(h, w), "fixed"
             elif getattr(given, "valid", True):
                 road, source = given, "fixed"
-        if road is not None and c.road_above_hood and (source == "lanes" or given is None):
-            road = road_above_hood(road, c.road_camera.hood, h)
+        hood_row = -1   # vt_frame_out.hood_row: the hood found (auto_hood), else -1
+        if c.road_above_hood:
+            first = max(1, int(np.floor(h * c.road_camera.hood + 0.5)))
+        elif c.auto_hood:
+            hood_row = rhood.find(gray, c.hood)["row"]
+            first = hood_row
+        else:
+            first = -1
+        if road is not None and first >= 0 and (source == "lanes" or given is None):
+            road = road_above_hood(road, first, h)
             source = source if road is not None else "none"
+        self._hood_row = hood_row
         if road is not None:
             res, boxes = rdetect.detect(gray, road, c.shadow, c.verify,
                                         max_active=self.caps.max_shadow_active,
