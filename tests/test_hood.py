@@ -231,3 +231,20 @@ def test_udacity_test4_default_model_no_hood_box():
     assert not any(b[2] - b[0] > 300 for b in r.boxes.tolist())
     for car in ([834, 414, 950, 494], [1050, 390, 1262, 510]):
         assert iou_matrix([car], r.boxes).max() >= 0.5, car
+
+
+@FULL_SIZE
+def test_cli_hood_finder_flag(tmp_path):
+    """`detect` on test4: by default no box reaches the hood; --no-hood-finder gives back the
+    ego box on the hood's edge (bottom at or below row 666), so the flag reaches the core."""
+    import json
+    import subprocess
+    import sys
+    boxes = {}
+    for name, extra in (("on", []), ("off", ["--no-hood-finder"])):
+        out = tmp_path / f"{name}.json"
+        subprocess.run([sys.executable, "-m", "pyvehtrack", "detect", str(TEST4), "--json", str(out),
+                        "--no-progress"] + extra, check=True, capture_output=True, cwd=tmp_path)
+        boxes[name] = json.loads(out.read_text())[0]["boxes"]
+    assert boxes["on"] and all(b[3] < 666 for b in boxes["on"])
+    assert any(b[3] >= 666 for b in boxes["off"])

@@ -25,11 +25,11 @@
  * All integer: gain sums <= 765 * 2048 < 2^31, counts and rows fit int16.
  *
  * Defaults (band 880, step 8, grad_min 24 (an 8-level step summed over 3 columns),
- * jump 2, cover 750): chosen looking at Udacity straight_lines1/2 and test1..6 (hood
- * found on all 8, rows 659-669, the hood's centre at ~666), the 405 tusimple TRAIN
- * frames (whose hood is a small bump in the bottom centre, not found; a crosswalk's
- * stop line is the false case the cover bounds) and the 78 KITTI frames (no hood,
- * none found). Not a figure on unseen data: README "The hood found in the frame".
+ * jump 2, cover 750): the smallest cover that finds a hood on at most one of the 405
+ * tusimple TRAIN frames (their hood is a small bump in the bottom centre; a crosswalk's
+ * stop line is the false case the cover bounds), while Udacity straight_lines1/2 (the
+ * camera file's frames) keep theirs and none of the 78 KITTI frames gets one. A count
+ * of found hoods, not a detection figure: README "The hood found in the frame".
  *
  * Cost: one pass over band rows x sampled columns, 2 max_jump + 1 compares and six
  * pixel reads per cell (about 0.25 M operations at 1280x720). Memory: vt_hood_state,

@@ -51,6 +51,10 @@ def add_model_arg(p) -> None:
                         "windows = classifier sliding windows; ego beside them = the ego-lane detector's "
                         "boxes first, e.g. --sources ego shadow windows); without --model the built-in "
                         "classifier is used")
+    p.add_argument("--no-hood-finder", action="store_true",
+                   help="do not look for the ego car's hood in the frame (by default, without a camera file's "
+                        "hood_row, the ego-lane detector's road ends above a hood found as a level edge across "
+                        "the frame's bottom)")
 
 
 def load_camera(path: str, hint: str = ""):
@@ -102,7 +106,8 @@ def make_detector(args, cam=None):
     try:
         road_cam = cam.road_camera() if cam is not None else None
         return Detector(engine=args.engine, road=args.road, model=model,
-                        sources=tuple(srcs) if srcs else None, camera=road_cam)
+                        sources=tuple(srcs) if srcs else None, camera=road_cam,
+                        auto_hood=not getattr(args, "no_hood_finder", False))
     except (RuntimeError, ValueError, TypeError) as e:
         raise CliError(f"--model {model}: {e}" if model else str(e)) from None
 
