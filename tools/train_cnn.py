@@ -148,6 +148,24 @@ def augment(gray, boxes, rng):
     return np.ascontiguousarray(out), b.astype(np.float32).reshape(-1, 4)
 
 
+def strip(gray, boxes, ratio, at, horizon=330 / 720):
+    """A wide-aspect strip of the frame (KITTI-like 1242 x 375: width / height `ratio`,
+    drawn in 2.5..3.5): full width, the rows chosen so that the frame's horizon (tusimple's
+    mean, 0.46 h) lies at `at` (drawn in 0.35..0.6) of the strip, as on KITTI (0.45..0.5); boxes at least 40% inside kept,
+    cut to the strip. A network whose level images are only this high sees the near car
+    with little context above and below, as it will on such cameras."""
+    h, w = gray.shape
+    hs = min(h, int(round(w / ratio)))
+    y0 = int(round(horizon * h - at * hs))
+    y0 = min(max(0, y0), h - hs)
+    b = boxes - np.float32([0, y0, 0, y0])
+    vis = b.copy()
+    vis[:, [1, 3]] = vis[:, [1, 3]].clip(0, hs)
+    area = (b[:, 3] - b[:, 1]).clip(1)
+    keep = (vis[:, 3] - vis[:, 1]).clip(0) > 0.4 * area
+    return np.ascontiguousarray(gray[y0:y0 + hs]), vis[keep].reshape(-1, 4)
+
+
 def load(split):
     frames = tusimple_frames(DATA, split)
     out = []
@@ -405,6 +423,9 @@ def main(argv=None):
     ap.add_argument("--pretrain-gti", type=int, default=0, metavar="EPOCHS",
                     help="first train the backbone on GTI TRAIN crops for this many epochs")
     ap.add_argument("--export-only", metavar="PT", help="quantise a saved cnn_float.pt, no training")
+    ap.add_argument("--strip", type=float, default=0.0, metavar="P",
+                    help="a batch is made of wide-aspect strips of its frames (width / height 2.5..3.5, "
+                         "as KITTI's) with probability P")
     ap.add_argument("--level0", nargs=2, type=int, metavar=("TOP", "BOTTOM"),
                     help="also run on level 0 (full resolution, vehicles 6..40 px wide), rows TOP..BOTTOM "
                          "permille of the frame height")
@@ -437,8 +458,12 @@ def main(argv=None):
             loss = 0.0
             lv_imgs = {k: [] for k in LEVELS}
             lv_t = {k: [] for k in LEVELS}
+            # one strip height per batch: the level images of a batch are stacked
+            ratio = rng.uniform(2.5, 3.5) if a.strip and rng.random() < a.strip else None
             for j in perm[bi:bi + a.batch]:
                 g, b = augment(train[j][1], train[j][2], rng)
+                if ratio is not None:
+                    g, b = strip(g, b, ratio, rng.uniform(0.35, 0.6))
                 lv = levels_of(g)
                 lv0_y0 = band_rows(g.shape[0])[0] if 0 in LEVELS else 0
                 for k in LEVELS:
