@@ -32,7 +32,7 @@
  * of found hoods, not a detection figure: README "The hood found in the frame".
  *
  * Cost: one pass over band rows x sampled columns, 2 max_jump + 1 compares and six
- * pixel reads per cell (about 0.25 M operations at 1280x720). Memory: vt_hood_state,
+ * pixel reads per cell (1.77 M instructions at 1280x720 with the defaults, callgrind). Memory: vt_hood_state,
  * 16 bytes per row of VT_MAX_HEIGHT (17 KB at the default capacity); no frame buffer. */
 #ifndef VEHTRACK_HOOD_H
 #define VEHTRACK_HOOD_H
