@@ -370,11 +370,16 @@ class Detector:
                 hood = round(self.full.camera.hood_frac * 65536) / 65536   # as C holds it (Q16)
                 first = max(1, int(np.floor(h * hood + 0.5)))
             elif pipe.cfg.auto_hood:   # as the pipeline cuts its own roads at a found hood
-                first = _native.hood_find(gray, pipe._ccfg.hood)["row"]
+                if self.engine == "reference":
+                    from .config import to_reference  # noqa: PLC0415
+                    from .reference.hood import find as ref_find  # noqa: PLC0415
+                    first = ref_find(gray, to_reference(pipe.cfg).hood)["row"]
+                else:
+                    first = _native.hood_find(gray, pipe._ccfg.hood)["row"]
             if first >= 0:
                 from .reference.pipeline import road_above_hood  # noqa: PLC0415
                 from .pipeline import NO_ROAD  # noqa: PLC0415
-                given = road_above_hood(given, first, h) or NO_ROAD
+                given = road_above_hood(given, first) or NO_ROAD
         res = pipe.step_gray(gray, road=given)
         lanes = []
         for ln in (res.lanes.lanes if res.lanes is not None else []):

@@ -248,3 +248,24 @@ def test_cli_hood_finder_flag(tmp_path):
         boxes[name] = json.loads(out.read_text())[0]["boxes"]
     assert boxes["on"] and all(b[3] < 666 for b in boxes["on"])
     assert any(b[3] >= 666 for b in boxes["off"])
+
+
+def test_detector_cuts_its_own_trapezoid_c_equals_oracle():
+    """Detector with the ego-lane detector beside the windows (no whole-road shadow source, so
+    the hypotheses are the ego detector's) and road "fixed": the Detector
+    gives the pipeline its own trapezoid, cut at the hood it finds (the C finder on the C
+    engine, the twin on the reference one): the same hypotheses and boxes, none from the
+    hood rows; without the finder the trapezoid reaches the hood's edge (not vacuous)."""
+    g = _gray(TEST4, (640, 360))
+    row = rhood.find(g)["row"]
+    out = {}
+    for eng in ("c", "reference"):
+        d = Detector(eng, model=str(fullroad.DEFAULT_WINDOW_MODEL), sources=("ego", "windows"),
+                     road="fixed")
+        out[eng] = d.detect(g)
+    a, b = out["c"], out["reference"]
+    assert np.array_equal(a.hypotheses, b.hypotheses) and np.array_equal(a.boxes, b.boxes)
+    assert len(a.hypotheses) and (a.hypotheses[:, 0] <= row - 2).all()
+    off = Detector("c", model=str(fullroad.DEFAULT_WINDOW_MODEL), sources=("ego", "windows"),
+                   road="fixed", auto_hood=False).detect(g)
+    assert (off.hypotheses[:, 0] > row - 2).any()

@@ -79,12 +79,11 @@ class RoadCameraRef:
                          hood_y=max(1, int(np.floor(h * self.hood + 0.5))))
 
 
-def road_above_hood(road: RoadArea, first: int, h: int) -> RoadArea | None:
+def road_above_hood(road: RoadArea, first: int) -> RoadArea | None:
     """The road without the hood's rows (vt_pipeline_cfg.road_above_hood, auto_hood): it
     ends two rows above the hood's first row `first` (a known hood: round(h hood), half up,
     at least 1; a found one: its top row), as the shadow scan's Sobel at the last road row
-    reads the row below; None when nothing is left. h: the frame's height (unused: the
-    rows are the frame's)."""
+    reads the row below; None when nothing is left."""
     if first - 2 < road.y_top:
         return None
     return replace(road, y_bottom=first - 2) if road.y_bottom > first - 2 else road
@@ -623,7 +622,7 @@ class Pipeline:
         else:
             first = -1
         if road is not None and first >= 0 and (source == "lanes" or given is None):
-            road = road_above_hood(road, first, h)
+            road = road_above_hood(road, first)
             source = source if road is not None else "none"
         self._hood_row = hood_row
         if road is not None:
