@@ -63,7 +63,7 @@ vt_status vt_hood_find(vt_hood_state *st, const vt_hood_cfg *cfg, const vt_image
     y0 = (int32_t)(((int64_t)img->h * cfg->band_top_permille) / 1000);
     y0 = y0 < 1 ? 1 : y0;
     y1 = img->h - 2;
-    x0 = cfg->col_step / 2 < 1 ? 1 : cfg->col_step / 2;
+    x0 = cfg->col_step / 2; /* >= 1: col_step >= 2 */
     n_cols = x0 + 1 < img->w ? (img->w - 2 - x0) / cfg->col_step + 1 : 0;
     res->n_cols = n_cols;
     if (y1 < y0 || n_cols == 0) {

@@ -371,9 +371,9 @@ class Detector:
                 first = max(1, int(np.floor(h * hood + 0.5)))
             elif pipe.cfg.auto_hood:   # as the pipeline cuts its own roads at a found hood
                 if self.engine == "reference":
-                    from .config import to_reference  # noqa: PLC0415
-                    from .reference.hood import find as ref_find  # noqa: PLC0415
-                    first = ref_find(gray, to_reference(pipe.cfg).hood)["row"]
+                    from dataclasses import asdict  # noqa: PLC0415
+                    from .reference import hood as rhood  # noqa: PLC0415
+                    first = rhood.find(gray, rhood.HoodConfig(**asdict(pipe.cfg.hood)))["row"]
                 else:
                     first = _native.hood_find(gray, pipe._ccfg.hood)["row"]
             if first >= 0:

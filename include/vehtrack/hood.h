@@ -8,7 +8,7 @@
  *
  * Rule (twin: pyvehtrack/reference/hood.py, equal result for result):
  *   band      rows y0 = max(1, floor(h * band_top_permille / 1000)) .. y1 = h - 2
- *   columns   x = max(1, col_step / 2), + col_step, ... while x + 1 < w
+ *   columns   x = col_step / 2 (>= 1), + col_step, ... while x + 1 < w
  *   strength  d(y, x) = |s(y + 1, x) - s(y - 1, x)|, s(y, x) = I(y, x-1) + I(y, x) +
  *             I(y, x+1): three times a vertical gray step, 0..765, either polarity
  *             (a hood may be brighter or darker than the road)

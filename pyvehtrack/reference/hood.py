@@ -38,9 +38,8 @@ def band(h: int, cfg: HoodConfig) -> tuple[int, int]:
 
 
 def columns(w: int, cfg: HoodConfig) -> np.ndarray:
-    """The sampled columns: col_step // 2, + col_step, ... while x + 1 < w (x >= 1)."""
-    first = max(1, cfg.col_step // 2)
-    return np.arange(first, w - 1, cfg.col_step)
+    """The sampled columns: col_step // 2 (>= 1: col_step >= 2), + col_step, ... while x + 1 < w."""
+    return np.arange(cfg.col_step // 2, w - 1, cfg.col_step)
 
 
 def find(gray: np.ndarray, cfg: HoodConfig = HoodConfig()) -> dict:

@@ -615,7 +615,7 @@ class Pipeline:
                 road, source = given, "fixed"
         hood_row = -1   # vt_frame_out.hood_row: the hood found (auto_hood), else -1
         if c.road_above_hood:
-            first = max(1, int(np.floor(h * c.road_camera.hood + 0.5)))
+            first = c.road_camera.for_frame(h, w, None).hood_y
         elif c.auto_hood:
             hood_row = rhood.find(gray, c.hood)["row"]
             first = hood_row
