@@ -1,5 +1,5 @@
-"""The shipped CNN detector with a full-resolution band (pyvehtrack/models/cnn_gray_l0.npz,
-tools/train_cnn.py --level0 380 640): it loads with the settings it was validated with (levels
+"""The shipped CNN detectors with a full-resolution band (pyvehtrack/models/cnn_gray_l0.npz,
+tools/train_cnn.py --level0 380 640; cnn_gray_l0_big.npz, the same with --channels 16 32 48 64 64 64): it loads with the settings it was validated with (levels
 0-4, level 0 on rows 380..640 permille of the frame, the ego-lane detector beside it and the
 second stage on the ego boxes; C = twin on real frames: tests/test_cnn_shipped.py), and it
 boxes real vehicles on frames from other cameras than its training set's.
@@ -16,17 +16,20 @@ import csv
 from pathlib import Path
 
 import cv2
+import pytest
 
 from pyvehtrack import Detector, cnn, fullroad
 from pyvehtrack.eval.boxes import iou
 
 DATA = Path(__file__).parent / "data"
-MODEL = Path(fullroad.__file__).parent / "models" / "cnn_gray_l0.npz"
+MODELS = Path(fullroad.__file__).parent / "models"
+FILES = pytest.mark.parametrize("name", ["cnn_gray_l0.npz", "cnn_gray_l0_big.npz"])
 UDACITY_CARS = [[408, 206, 471, 246], [527, 204, 635, 252]]   # tests/test_fullroad.py's CARS
 
 
-def test_shipped_l0_model_loads_with_its_settings():
-    m = fullroad.load_model(MODEL)
+@FILES
+def test_shipped_l0_model_loads_with_its_settings(name):
+    m = fullroad.load_model(MODELS / name)
     assert isinstance(m, cnn.CnnModel)
     c = m.cfg
     assert (c.first_level, c.n_levels, c.l0_top_permille, c.l0_bottom_permille) == (0, 5, 380, 640)
@@ -34,10 +37,11 @@ def test_shipped_l0_model_loads_with_its_settings():
     assert m.out_stride == 8
 
 
-def test_shipped_l0_model_boxes_the_kitti_lead_car():
+@FILES
+def test_shipped_l0_model_boxes_the_kitti_lead_car(name):
     """Detector(model=cnn_gray_l0.npz) boxes the lead car at IoU >= 0.5 on at least 5 of the 6
     KITTI frames (another camera: 1242x375 halved, no hood)."""
-    det = Detector(model=MODEL)
+    det = Detector(model=MODELS / name)
     hits = 0
     for row in csv.DictReader((DATA / "kitti_lead_boxes_621x188.csv").open()):
         f = int(row["frame"])
@@ -47,9 +51,10 @@ def test_shipped_l0_model_boxes_the_kitti_lead_car():
     assert hits >= 5
 
 
-def test_shipped_l0_model_boxes_both_udacity_cars():
+@FILES
+def test_shipped_l0_model_boxes_both_udacity_cars(name):
     """Udacity test1 (another camera): the dark car ahead-right and the white car in the right
     lane are both boxed at IoU >= 0.5."""
-    det = Detector(model=MODEL)
+    det = Detector(model=MODELS / name)
     boxes = det.detect(cv2.imread(str(DATA / "udacity_test1_640x360.jpg"))).boxes
     assert all(max([iou(b, car) for b in boxes] or [0.0]) >= 0.5 for car in UDACITY_CARS), boxes

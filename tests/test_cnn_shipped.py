@@ -34,11 +34,12 @@ def test_shipped_model_loads_with_its_settings():
     assert m.out_stride == 8
 
 
-@pytest.mark.parametrize("model", ["cnn_gray.npz", "cnn_gray_l0.npz"])
+@pytest.mark.parametrize("model", ["cnn_gray.npz", "cnn_gray_l0.npz", "cnn_gray_l0_big.npz"])
 @pytest.mark.parametrize("name", ["udacity_test1_640x360.jpg", "kitti_lead_30_gray_621x188.png",
                                   "tusimple_vehicles_4065_gray_640x360.png"])
 def test_shipped_model_c_equals_twin(name, model):
-    """Both shipped CNN files (cnn_gray_l0.npz with level 0's row band) at their own settings."""
+    """Every shipped CNN file (cnn_gray_l0*.npz with level 0's row band; _big with 64-channel
+    layers, VT_CNN_MAX_CH) at its own settings."""
     m = cnn.CnnModel.load(MODEL.parent / model)
     g = cv2.imread(str(DATA / name), cv2.IMREAD_GRAYSCALE)
     got, n = cnn.detect_frame(m, g, m.cfg)

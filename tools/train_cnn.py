@@ -43,7 +43,8 @@ L0_BAND = None
 def band_rows(h):
     """Rows y0 .. y1 - 1 of level 0: vt_cnn_cfg's rounding, as the twin computes it."""
     return ref_band_rows(h, *L0_BAND)
-CH = (16, 24, 32, 32, 32, 32)
+DEFAULT_CH = (16, 24, 32, 32, 32, 32)
+CH = DEFAULT_CH   # --channels
 
 
 def levels_of(gray):
@@ -426,11 +427,17 @@ def main(argv=None):
     ap.add_argument("--strip", type=float, default=0.0, metavar="P",
                     help="a batch is made of wide-aspect strips of its frames (width / height 2.5..3.5, "
                          "as KITTI's) with probability P")
+    ap.add_argument("--channels", nargs=6, type=int, metavar="C", default=list(DEFAULT_CH),
+                    help=f"output channels of the six 3x3 layers (default {' '.join(map(str, DEFAULT_CH))}; "
+                         f"each 1..64, the C core's VT_CNN_MAX_CH)")
     ap.add_argument("--level0", nargs=2, type=int, metavar=("TOP", "BOTTOM"),
                     help="also run on level 0 (full resolution, vehicles 6..40 px wide), rows TOP..BOTTOM "
                          "permille of the frame height")
     a = ap.parse_args(argv)
-    global LEVELS, L0_BAND
+    global LEVELS, L0_BAND, CH
+    if not all(1 <= c <= 64 for c in a.channels):
+        ap.error("--channels: each 1..64 (VT_CNN_MAX_CH)")
+    CH = tuple(a.channels)
     if a.level0:
         if not 0 <= a.level0[0] < a.level0[1] <= 1000:
             ap.error("--level0: 0 <= TOP < BOTTOM <= 1000")
