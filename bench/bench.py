@@ -600,6 +600,12 @@ def _cnn_l0_detect(ctx: Ctx) -> Stage:
     return _cnn_alone("cnn_l0_detect", "cnn_gray_l0.npz", ctx.frame)
 
 
+@register("cnn_l0big_detect", sizes=((1280, 720),), driver=False)
+def _cnn_l0big_detect(ctx: Ctx) -> Stage:
+    """cnn_gray_l0_big.npz alone (_cnn_alone): the band network with 64-channel layers."""
+    return _cnn_alone("cnn_l0big_detect", "cnn_gray_l0_big.npz", ctx.frame)
+
+
 @register("detect_cnn", sizes=((1280, 720),), driver=False)
 def _detect_cnn(ctx: Ctx) -> Stage:
     """One detection frame with cnn_gray.npz (_cnn_frame)."""
@@ -610,6 +616,12 @@ def _detect_cnn(ctx: Ctx) -> Stage:
 def _detect_cnn_l0(ctx: Ctx) -> Stage:
     """One detection frame with cnn_gray_l0.npz (_cnn_frame)."""
     return _cnn_frame("detect_cnn_l0", "cnn_gray_l0.npz", ctx.frame)
+
+
+@register("detect_cnn_l0big", sizes=((1280, 720),), driver=False)
+def _detect_cnn_l0big(ctx: Ctx) -> Stage:
+    """One detection frame with cnn_gray_l0_big.npz (_cnn_frame)."""
+    return _cnn_frame("detect_cnn_l0big", "cnn_gray_l0_big.npz", ctx.frame)
 
 
 @register("fullroad_mlp_wide", sizes=((1280, 720),), driver=False)

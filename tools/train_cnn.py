@@ -1,7 +1,8 @@
 """Train the small fully convolutional vehicle detector (CenterNet-style heat map + box
 sides at stride 8, one network shared by three pyramid levels) on tusimple-vehicles-dev.
 
-    python tools/train_cnn.py --out /tmp/cnn [--epochs 60] [--split fit]
+    python tools/train_cnn.py --out /tmp/cnn [--epochs 60] [--split fit] [--level0 TOP BOTTOM]
+                              [--channels C1 .. C6] [--strip P] [--seed N]
 
 Float training in PyTorch (a tool dependency only: the C core and the shipped model file
 need no torch). Writes OUT/cnn_float.pt and OUT/cnn.npz and prints the 'val' scores of the float model and
