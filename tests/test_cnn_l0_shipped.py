@@ -1,8 +1,9 @@
 """The shipped CNN detectors with a full-resolution band (pyvehtrack/models/cnn_gray_l0.npz,
-tools/train_cnn.py --level0 380 640; cnn_gray_l0_big.npz, the same with --channels 16 32 48 64 64 64): it loads with the settings it was validated with (levels
-0-4, level 0 on rows 380..640 permille of the frame, the ego-lane detector beside it and the
-second stage on the ego boxes; C = twin on real frames: tests/test_cnn_shipped.py), and it
-boxes real vehicles on frames from other cameras than its training set's.
+tools/train_cnn.py --level0 380 640; cnn_gray_l0_big.npz, the same with --channels 16 32 48
+64 64 64): each loads with the settings it was validated with (levels 0-4, level 0 on rows
+380..640 permille of the frame, the ego-lane detector beside it and the second stage on the
+ego boxes; C = twin on real frames: tests/test_cnn_shipped.py), and each boxes real vehicles
+on frames from other cameras than its training set's.
 
 Tolerances: the detection checks are floors on frames nothing was tuned on (KITTI, Udacity;
 the model learnt on tusimple-vehicles-dev TRAIN frames only): a box counts at IoU >= 0.5 with
@@ -39,7 +40,7 @@ def test_shipped_l0_model_loads_with_its_settings(name):
 
 @FILES
 def test_shipped_l0_model_boxes_the_kitti_lead_car(name):
-    """Detector(model=cnn_gray_l0.npz) boxes the lead car at IoU >= 0.5 on at least 5 of the 6
+    """Detector(model=each band file) boxes the lead car at IoU >= 0.5 on at least 5 of the 6
     KITTI frames (another camera: 1242x375 halved, no hood)."""
     det = Detector(model=MODELS / name)
     hits = 0

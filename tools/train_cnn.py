@@ -24,6 +24,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from pyvehtrack import eval_boxes as eb  # noqa: E402
+from pyvehtrack.cnn import MAX_CH as CNN_MAX_CH  # noqa: E402
 from pyvehtrack.datasets import tusimple_frames  # noqa: E402
 from pyvehtrack.image import pyr_down  # noqa: E402
 from pyvehtrack.reference.cnn import band_rows as ref_band_rows  # noqa: E402
@@ -430,14 +431,14 @@ def main(argv=None):
                          "as KITTI's) with probability P")
     ap.add_argument("--channels", nargs=6, type=int, metavar="C", default=list(DEFAULT_CH),
                     help=f"output channels of the six 3x3 layers (default {' '.join(map(str, DEFAULT_CH))}; "
-                         f"each 1..64, the C core's VT_CNN_MAX_CH)")
+                         f"each 1..{CNN_MAX_CH}, the C core's VT_CNN_MAX_CH)")
     ap.add_argument("--level0", nargs=2, type=int, metavar=("TOP", "BOTTOM"),
                     help="also run on level 0 (full resolution, vehicles 6..40 px wide), rows TOP..BOTTOM "
                          "permille of the frame height")
     a = ap.parse_args(argv)
     global LEVELS, L0_BAND, CH
-    if not all(1 <= c <= 64 for c in a.channels):
-        ap.error("--channels: each 1..64 (VT_CNN_MAX_CH)")
+    if not all(1 <= c <= CNN_MAX_CH for c in a.channels):
+        ap.error(f"--channels: each 1..{CNN_MAX_CH} (VT_CNN_MAX_CH)")
     CH = tuple(a.channels)
     if a.level0:
         if not 0 <= a.level0[0] < a.level0[1] <= 1000:
