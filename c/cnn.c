@@ -138,6 +138,7 @@ static void vt__cnn_layer(const vt_cnn_layer *L, const uint8_t *in, int32_t iw, 
     int32_t half = k / 2, ox, oy, ky, kx, co, t, ci;
     size_t wtaps = (size_t)k * (size_t)k * (size_t)cin;
     size_t ioff[9], woff[9];
+    int32_t tlen[9];
     for (oy = 0; oy < oh; ++oy) {
         for (ox = 0; ox < ow; ++ox) {
             size_t o = ((size_t)oy * (size_t)ow + (size_t)ox) * (size_t)cout;
@@ -147,6 +148,15 @@ static void vt__cnn_layer(const vt_cnn_layer *L, const uint8_t *in, int32_t iw, 
                 if (iy < 0 || iy >= ih) {
                     continue;
                 }
+                if (d == 1 && ox * st - half >= 0 && ox * st + half < iw) {
+                    /* the row's k taps side by side: one run of k cin bytes in both
+                     * the input and the weights */
+                    ioff[nt] = (size_t)iy * rs + (size_t)(ox * st - half) * (size_t)cin;
+                    woff[nt] = (size_t)(ky * k) * (size_t)cin;
+                    tlen[nt] = k * cin;
+                    ++nt;
+                    continue;
+                }
                 for (kx = 0; kx < k; ++kx) {
                     int32_t ix = ox * st + (kx - half) * d;
                     if (ix < 0 || ix >= iw) {
@@ -154,6 +164,7 @@ static void vt__cnn_layer(const vt_cnn_layer *L, const uint8_t *in, int32_t iw, 
                     }
                     ioff[nt] = (size_t)iy * rs + (size_t)ix * (size_t)cin;
                     woff[nt] = (size_t)(ky * k + kx) * (size_t)cin;
+                    tlen[nt] = cin;
                     ++nt;
                 }
             }
@@ -165,7 +176,7 @@ static void vt__cnn_layer(const vt_cnn_layer *L, const uint8_t *in, int32_t iw, 
                     const int8_t *p0 = w0 + woff[t], *p1 = w1 + woff[t], *p2 = w2 + woff[t],
                                  *p3 = w3 + woff[t];
                     const uint8_t *ap = in + ioff[t];
-                    for (ci = 0; ci < cin; ++ci) {
+                    for (ci = 0; ci < tlen[t]; ++ci) {
                         int32_t a = ap[ci];
                         a0 += (int32_t)p0[ci] * a;
                         a1 += (int32_t)p1[ci] * a;
@@ -184,7 +195,7 @@ static void vt__cnn_layer(const vt_cnn_layer *L, const uint8_t *in, int32_t iw, 
                 for (t = 0; t < nt; ++t) {
                     const int8_t *wp = wc + woff[t];
                     const uint8_t *ap = in + ioff[t];
-                    for (ci = 0; ci < cin; ++ci) {
+                    for (ci = 0; ci < tlen[t]; ++ci) {
                         acc += (int32_t)wp[ci] * (int32_t)ap[ci];
                     }
                 }

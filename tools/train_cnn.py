@@ -2,7 +2,7 @@
 sides at stride 8, one network shared by three pyramid levels) on tusimple-vehicles-dev.
 
     python tools/train_cnn.py --out /tmp/cnn [--epochs 60] [--split fit] [--level0 TOP BOTTOM]
-                              [--channels C1 .. C6] [--strip P] [--seed N]
+                              [--channels C1 .. C6 [C7]] [--strip P] [--seed N]
 
 Float training in PyTorch (a tool dependency only: the C core and the shipped model file
 need no torch). Writes OUT/cnn_float.pt and OUT/cnn.npz and prints the 'val' scores of the float model and
@@ -69,6 +69,10 @@ def build_net():
     c = CH
     layers = (cbr(1, c[0], 2) + cbr(c[0], c[1], 2) + cbr(c[1], c[2], 2) + cbr(c[2], c[3], 1)
               + cbr(c[3], c[4], 1, 2) + cbr(c[4], c[5], 1, 2))
+    if len(c) == 7:
+        # a seventh 3x3 layer (dilation 2) at stride 8: the C core takes VT_CNN_MAX_LAYERS = 8
+        # layers, the head included, so this is the deepest network it runs
+        layers += cbr(c[5], c[6], 1, 2)
     head = nn.Conv2d(c[-1], 5, 1)
     nn.init.constant_(head.bias[:1], -4.0)   # a rare-object prior: the first steps do not drown in negatives
     return nn.Sequential(*layers, head)
@@ -429,14 +433,16 @@ def main(argv=None):
     ap.add_argument("--strip", type=float, default=0.0, metavar="P",
                     help="a batch is made of wide-aspect strips of its frames (width / height 2.5..3.5, "
                          "as KITTI's) with probability P")
-    ap.add_argument("--channels", nargs=6, type=int, metavar="C", default=list(DEFAULT_CH),
-                    help=f"output channels of the six 3x3 layers (default {' '.join(map(str, DEFAULT_CH))}; "
-                         f"each 1..{CNN_MAX_CH}, the C core's VT_CNN_MAX_CH)")
+    ap.add_argument("--channels", nargs="+", type=int, metavar="C", default=list(DEFAULT_CH),
+                    help=f"output channels of the six (or seven: a 7th dilated layer) 3x3 layers (default "
+                         f"{' '.join(map(str, DEFAULT_CH))}; each 1..{CNN_MAX_CH}, the C core's VT_CNN_MAX_CH)")
     ap.add_argument("--level0", nargs=2, type=int, metavar=("TOP", "BOTTOM"),
                     help="also run on level 0 (full resolution, vehicles 6..40 px wide), rows TOP..BOTTOM "
                          "permille of the frame height")
     a = ap.parse_args(argv)
     global LEVELS, L0_BAND, CH
+    if len(a.channels) not in (6, 7):
+        ap.error(f"--channels: 6 or 7 values, got {len(a.channels)}")
     if not all(1 <= c <= CNN_MAX_CH for c in a.channels):
         ap.error(f"--channels: each 1..{CNN_MAX_CH} (VT_CNN_MAX_CH)")
     CH = tuple(a.channels)
