@@ -204,6 +204,32 @@ static void vt__cnn_dot4(const int8_t *w0, size_t wtaps, const uint8_t *in, cons
     acc[3] = a3;
 }
 
+#if VT_CNN_SSE2
+/* vt__cnn_dot4 for a single-channel input whose nine taps are all in the frame (the
+ * first layer away from the borders): taps 0..7 of the four channels in one pmaddwd
+ * each, the four sums gathered by two transposing adds, tap 8 by hand. px[9]: the
+ * taps' input bytes in weight order. */
+static void vt__cnn_dot4_k9(const int8_t *w0, const int32_t *px, int32_t *acc)
+{
+    const __m128i zero = _mm_setzero_si128();
+    const __m128i x = _mm_setr_epi16((short)px[0], (short)px[1], (short)px[2], (short)px[3],
+                                     (short)px[4], (short)px[5], (short)px[6], (short)px[7]);
+    __m128i m[4], s01, s23;
+    int32_t j;
+    for (j = 0; j < 4; ++j) {
+        __m128i w = _mm_loadl_epi64((const __m128i *)(const void *)(w0 + 9 * j));
+        m[j] = _mm_madd_epi16(x, _mm_unpacklo_epi8(w, _mm_cmpgt_epi8(zero, w)));
+    }
+    s01 = _mm_add_epi32(_mm_unpacklo_epi32(m[0], m[1]), _mm_unpackhi_epi32(m[0], m[1]));
+    s23 = _mm_add_epi32(_mm_unpacklo_epi32(m[2], m[3]), _mm_unpackhi_epi32(m[2], m[3]));
+    _mm_storeu_si128((__m128i *)(void *)acc,
+                     _mm_add_epi32(_mm_unpacklo_epi64(s01, s23), _mm_unpackhi_epi64(s01, s23)));
+    for (j = 0; j < 4; ++j) {
+        acc[j] += (int32_t)w0[9 * j + 8] * px[8];
+    }
+}
+#endif
+
 /* One layer (arguments checked): input iw x ih x cin at in, row stride rs bytes
  * (pixel stride cin); output ow x oh x cout to out_u8 (relu) or out_s8 (last).
  * Loop order: output pixel -> its in-bounds taps (found once per pixel, so the
@@ -220,6 +246,9 @@ static void vt__cnn_layer(const vt_cnn_layer *L, const uint8_t *in, int32_t iw, 
     size_t wtaps = (size_t)k * (size_t)k * (size_t)cin;
     size_t ioff[9], woff[9];
     int32_t tlen[9];
+#if VT_CNN_SSE2
+    int32_t px[9], k9;
+#endif
     for (oy = 0; oy < oh; ++oy) {
         for (ox = 0; ox < ow; ++ox) {
             size_t o = ((size_t)oy * (size_t)ow + (size_t)ox) * (size_t)cout;
@@ -249,9 +278,29 @@ static void vt__cnn_layer(const vt_cnn_layer *L, const uint8_t *in, int32_t iw, 
                     ++nt;
                 }
             }
+#if VT_CNN_SSE2
+            /* a single-channel input with all nine taps in the frame: the first layer
+             * away from the borders (d = 1: three merged rows; d = 2: nine taps) */
+            k9 = cin == 1 && k == 3 && ((nt == 3 && tlen[0] == 3) || nt == 9);
+            if (k9) {
+                int32_t n = 0;
+                for (t = 0; t < nt; ++t) {
+                    for (ci = 0; ci < tlen[t]; ++ci) {
+                        px[n++] = in[ioff[t] + (size_t)ci];
+                    }
+                }
+            }
+#endif
             for (co = 0; co + 4 <= cout; co += 4) {
                 int32_t acc[4];
-                vt__cnn_dot4(L->w + (size_t)co * wtaps, wtaps, in, ioff, woff, tlen, nt, acc);
+#if VT_CNN_SSE2
+                if (k9) {
+                    vt__cnn_dot4_k9(L->w + (size_t)co * wtaps, px, acc);
+                } else
+#endif
+                {
+                    vt__cnn_dot4(L->w + (size_t)co * wtaps, wtaps, in, ioff, woff, tlen, nt, acc);
+                }
                 vt__cnn_store(L, L->bias[co] + acc[0], co, o, out_u8, out_s8);
                 vt__cnn_store(L, L->bias[co + 1] + acc[1], co + 1, o, out_u8, out_s8);
                 vt__cnn_store(L, L->bias[co + 2] + acc[2], co + 2, o, out_u8, out_s8);
