@@ -38,7 +38,11 @@
  * 64-bit host) plus the caller's arrays. Work per frame: the sum over layers of
  * out_w out_h cout k^2 cin multiply-adds (about 10^8 for a stride-8 detector of
  * 32 channels on a 640x256 frame) and one int64 multiply per output value; the
- * decode is two passes over the grid with 1 KB of stack. Work buffer
+ * decode is two passes over the grid with 1 KB of stack. The sums are taken four
+ * output channels at a time (each input byte loaded once for four), a 3x3 layer of
+ * dilation 1 reads each kernel row as one run of 3 cin bytes, and on x86 (SSE2,
+ * unless built with -DVT_NO_SIMD) eight int16-widened products per pmaddwd; the
+ * order of integer sums does not change them, so every build gives the same bits. Work buffer
  * (vt_cnn_work_bytes): the largest even-indexed plus the largest odd-indexed
  * layer output (the last layer writes the caller's out). */
 #ifndef VEHTRACK_CNN_H
