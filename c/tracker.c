@@ -110,7 +110,8 @@ vt_status vt_tracker_cfg_check(const vt_tracker_cfg *c)
         c->tmatch_max > VT_TRACK_MAX_FRAMES_CFG || c->part_permille < 0 ||
         c->part_permille > 1000 || c->min_width < 0 || c->min_width > VT_MAX_WIDTH ||
         c->scale_tol_permille < 0 || c->scale_tol_permille > 1000 ||
-        (c->snap_bottom != 0 && c->snap_bottom != 1)) {
+        (c->snap_bottom != 0 && c->snap_bottom != 1) || c->birth_search < 0 ||
+        c->birth_search > VT_TRACK_MAX_BIRTH_SEARCH) {
         return VT_E_ARG;
     }
     return VT_OK;
@@ -337,10 +338,37 @@ static vt_box vt__snap(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_image
     return out;
 }
 
+/* birth_search (tracker.h): the ROI search repeated on the birth frame from the
+ * (snapped) detection `d` until it stops moving, at most birth_search times. */
+static vt_box vt__birth_search(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_image_u8 *img,
+                               const vt_box *d)
+{
+    vt_box out = *d, roi, meas;
+    int32_t it, found, m, gate, gate_b;
+    for (it = 0; it < cfg->birth_search; ++it) {
+        found = 0;
+        vt__search_roi(cfg, &out, &roi, &m, &gate, &gate_b);
+        if (vt_track_search(&tr->ws, NULL, &cfg->search, img, &roi, &meas, &found) != VT_OK || !found ||
+            vt__abs_i32(meas.left - out.left) > gate || vt__abs_i32(meas.right - out.right) > gate ||
+            vt__abs_i32(meas.bottom - out.bottom) > gate_b || meas.right <= meas.left ||
+            meas.bottom <= out.top) {
+            break;
+        }
+        if (meas.left == out.left && meas.right == out.right && meas.bottom == out.bottom) {
+            break;
+        }
+        out.left = meas.left;
+        out.right = meas.right;
+        out.bottom = meas.bottom;
+    }
+    return out;
+}
+
 static void vt__start(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *cfg,
                       const vt_image_u8 *img, const vt_box *d_in)
 {
-    const vt_box snapped = vt__snap(tr, cfg, img, d_in), *d = &snapped;
+    const vt_box snapped = vt__snap(tr, cfg, img, d_in);
+    const vt_box born = vt__birth_search(tr, cfg, img, &snapped), *d = &born;
     int32_t w = d->right - d->left + 1, h = d->bottom - d->top + 1;
     memset(t, 0, sizeof(*t));
     if (vt_kf_init_bottom_edge(&t->kf, &cfg->model, vt_q16_from_int(d->left),

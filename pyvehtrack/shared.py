@@ -388,6 +388,9 @@ class TrackerCfg:
     scale_tol_permille: int = 200
     # a detection's bottom snapped down to the row the ROI search finds under it (0: off)
     snap_bottom: int = 1
+    # a new track starts on the box the ROI search settles on in its birth frame, at most
+    # this many searches (0: off; tracker.h's birth_search)
+    birth_search: int = 2
 
 
 accept_renamed(TrackerCfg, TRACKER_RENAMED)  # the percent names of before issue 10

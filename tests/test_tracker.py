@@ -185,7 +185,7 @@ def test_python_defaults_equal_c_defaults():
               "confirm_hits", "max_coast",
               "match_iou_permille", "keep_ncc", "init_max_change", "tmatch_radius",
               "tmatch_ncc_permille", "tmatch_max", "part_permille", "min_width", "scale_tol_permille",
-              "snap_bottom"):
+              "snap_bottom", "birth_search"):
         assert getattr(c, f) == getattr(p, f), f
 
 

@@ -3,7 +3,8 @@ thesis sec. 2.4.2: the verification step gives the box). A classifier box ending
 the wheels (the Udacity clip's white car under the flat window) starts its track on the
 shadow edge the next frames' search measures; a box already on or below the edge, or
 above it by more than the bottom gate, is taken as given. c/tracker.c against
-pyvehtrack/reference/tracker.py, by hand and on random scenes, and the bad values."""
+pyvehtrack/reference/tracker.py, by hand and on random scenes, and the bad values. The
+birth search (tests/test_tracker_birth.py) is off here, so the snap is measured alone."""
 from __future__ import annotations
 
 import numpy as np
@@ -50,8 +51,8 @@ def test_a_box_ending_above_the_shadow_moves_down_to_it(engine):
     found = _found(frames[0], car)
     for up in range(1, gate_b + 1):
         det = (car[0], car[1], car[2], car[3] - up)
-        on = first_box(engine, rtrk.TrackerCfg(), frames, det)
-        off = first_box(engine, rtrk.TrackerCfg(snap_bottom=0), frames, det)
+        on = first_box(engine, rtrk.TrackerCfg(birth_search=0), frames, det)
+        off = first_box(engine, rtrk.TrackerCfg(snap_bottom=0, birth_search=0), frames, det)
         assert off[3] == det[3], (up, off)
         assert det[3] < on[3] <= det[3] + gate_b and abs(on[3] - found[3]) <= 2, (up, on, found)
         assert (on[0], on[2]) == (det[0], det[2]), (up, on)     # the sides stay
@@ -65,8 +66,8 @@ def test_a_box_on_or_below_the_edge_or_beyond_the_gate_is_kept(engine):
     found = _found(frames[0], car)
     for shift in (0, 2, 5, -(gate_b + 4), -(gate_b + 8)):   # on, below (never up); far above
         det = (car[0], car[1], car[2], found[3] + shift)
-        on = first_box(engine, rtrk.TrackerCfg(), frames, det)
-        off = first_box(engine, rtrk.TrackerCfg(snap_bottom=0), frames, det)
+        on = first_box(engine, rtrk.TrackerCfg(birth_search=0), frames, det)
+        off = first_box(engine, rtrk.TrackerCfg(snap_bottom=0, birth_search=0), frames, det)
         assert on == off and on[3] == det[3], (shift, on, off)
 
 
@@ -84,8 +85,8 @@ def test_the_snapped_track_is_measured_on_the_next_frames(engine):
     det = (car[0], car[1], car[2], found[3] - 8)
     horizon = found[3] - 30
     cfg = dict(scale_tol_permille=100)
-    on = run(engine, rtrk.TrackerCfg(**cfg), frames, {0: [det]}, horizon=horizon)
-    off = run(engine, rtrk.TrackerCfg(snap_bottom=0, **cfg), frames, {0: [det]}, horizon=horizon)
+    on = run(engine, rtrk.TrackerCfg(birth_search=0, **cfg), frames, {0: [det]}, horizon=horizon)
+    off = run(engine, rtrk.TrackerCfg(snap_bottom=0, birth_search=0, **cfg), frames, {0: [det]}, horizon=horizon)
     assert [s for _, s, _ in on[5]] == ["confirmed"] and abs(on[5][0][2][3] - found[3]) <= 1, on[5]
     assert all(s != "confirmed" for f in off for _, s, _ in f), off
 
@@ -109,7 +110,7 @@ def test_c_matches_reference_with_snapped_detections(seed, every, n, snap, horiz
         frames.append(img)
         if t % every == 0:
             dets_at[t] = [(l, tp, r, bt + int(rng.integers(-12, 5))) for l, tp, r, bt in boxes]
-    assert_engines_agree(rtrk.TrackerCfg(snap_bottom=snap), frames, dets_at, horizon)
+    assert_engines_agree(rtrk.TrackerCfg(snap_bottom=snap, birth_search=0), frames, dets_at, horizon)
 
 
 def test_bad_values():

@@ -130,7 +130,24 @@ typedef struct {
      * split the Udacity clip's white car into two tracks.
      * 0: off (detections taken as given), 1: on. */
     int32_t snap_bottom;
+    /* A new track starts where the ROI search measures (thesis sec. 3.6.1), not
+     * where the detector drew: after the bottom snap, the search runs on the birth
+     * frame from the detection's box, as a track with that box would search its
+     * next frame (same ROI, gates and rules, no side memory), and its box (left,
+     * right, bottom; the detection's top) becomes the start, again from that box,
+     * until the search stops moving it, finds nothing, leaves a gate or gives an
+     * empty box, at most birth_search times. A classifier box of a 3/4 view covers
+     * side and rear, the search the rear face; started on the detection, the
+     * filter took the next frames' narrower measurements for motion, the box drifted,
+     * and the scale check dropped the track (the Udacity clip's white car with
+     * cnn_gray_l0_big.npz, the black car with cnn_gray_l0.npz: a second id at
+     * the next detection run). On the birth frame there is no motion to confuse.
+     * 0: off, 1 .. VT_TRACK_MAX_BIRTH_SEARCH. */
+    int32_t birth_search;
 } vt_tracker_cfg;
+
+/* Largest birth_search: the search settles in one or two steps on real frames. */
+#define VT_TRACK_MAX_BIRTH_SEARCH 8
 
 #define VT_MEAS_ROI_SEARCH 0
 #define VT_MEAS_EDGE_CURVES 1
@@ -157,6 +174,7 @@ typedef struct {
         .min_width = 4,                                                     \
         .scale_tol_permille = 200,                                          \
         .snap_bottom = 1,                                                   \
+        .birth_search = 2,                                                  \
     }
 
 /* One track. Public so that callers can inspect and save it; change it only
@@ -218,7 +236,8 @@ typedef struct {
  * (Q14), 0 <= init_max_change <= VT_MAX_WIDTH, 0 <= tmatch_radius <= 64,
  * tmatch_ncc_permille in -1000..1000, 0 <= tmatch_max <= VT_TRACK_MAX_FRAMES_CFG,
  * part_permille in 0..1000, 0 <= min_width <= VT_MAX_WIDTH, scale_tol_permille in
- * 0..1000, snap_bottom 0 or 1. VT_E_ARG otherwise and for NULL.
+ * 0..1000, snap_bottom 0 or 1, birth_search in 0..VT_TRACK_MAX_BIRTH_SEARCH.
+ * VT_E_ARG otherwise and for NULL.
  * vt_tracker_step checks the same before touching the tracker. */
 vt_status vt_tracker_cfg_check(const vt_tracker_cfg *cfg);
 

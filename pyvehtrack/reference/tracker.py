@@ -32,7 +32,11 @@ predicted box fails the same test.
 Bottom snap (snap_bottom, thesis sec. 2.4.2's verification gives the box): a detection
 that starts, re-anchors or updates a track first has its bottom moved down to the row
 the ROI search finds under it (sides within the side gate, at most the bottom gate
-down), so a classifier box ending above the wheels and the next frames' search agree."""
+down), so a classifier box ending above the wheels and the next frames' search agree.
+Birth search (birth_search): a new track starts on the box the ROI search settles on in
+its birth frame (repeated from the snapped detection until it stops moving, at most
+birth_search times), so a 3/4 view's box over side and rear starts on the rear face the
+later frames measure instead of drifting toward it."""
 from __future__ import annotations
 
 import math
@@ -264,6 +268,22 @@ class Tracker:
             return (l, top, r, meas[3])
         return d
 
+    def _birth_search(self, img, d, grads):
+        """birth_search: the ROI search repeated on the birth frame from the (snapped)
+        detection until it stops moving the box (left, right, bottom; the top stays)."""
+        c = self.cfg
+        l, top, r, b = d
+        for _ in range(c.birth_search):
+            roi, _, gate, gate_b = self._search_roi((l, top, r, b))
+            meas = track_search(img, c.search, roi, None, grads)
+            if meas is None or abs(meas[0] - l) > gate or abs(meas[2] - r) > gate or \
+                    abs(meas[3] - b) > gate_b or meas[2] <= meas[0] or meas[3] <= top:
+                break
+            if (meas[0], meas[2], meas[3]) == (l, r, b):
+                break
+            l, r, b = meas[0], meas[2], meas[3]
+        return (l, top, r, b)
+
     def _reanchor(self, t: Track, img, d, measured: bool) -> None:
         """A part-track restarts on the whole detection, keeping id, hits and state."""
         c = self.cfg
@@ -413,7 +433,7 @@ class Tracker:
                 if free is None:
                     self.dropped_full += 1
                     continue
-                self._start(self.tracks[free], img, self._snap(img, d, grads))
+                self._start(self.tracks[free], img, self._birth_search(img, self._snap(img, d, grads), grads))
         h, w = img.shape
         for t in self.tracks:
             if t.state == FREE:
