@@ -54,12 +54,13 @@ def test_a_box_wider_than_the_car_starts_on_the_car(engine):
     assert all([i for i, _, _ in f] == [1] for f in on), on
     assert all(s == "confirmed" for f in on[2:] for _, s, _ in f), on
     assert all(abs(f[0][2][0] - car[0]) <= 2 and abs(f[0][2][2] - car[2]) <= 2 for f in on), on
-    # off: the measurements are refused, the track is never confirmed; it is the scale
-    # check that refuses them (without it the same track is confirmed)
+    # off: the measurements are refused, the track is never confirmed. Without the scale
+    # check they are taken, and the filter reads the 23 px jump of the left side as motion:
+    # the box of a car that stands still slides right, about 5 px a frame, beyond the gate
     assert all(s != "confirmed" for f in off for _, s, _ in f), off
     unchecked = run(engine, rtrk.TrackerCfg(birth_search=0, scale_tol_permille=0), frames, {0: [det]},
                     horizon=HORIZON)
-    assert unchecked[-1][0][1] == "confirmed", unchecked
+    assert unchecked[-1][0][2][0] > car[0] + 20 and unchecked[-1][0][1] == "coasting", unchecked
 
 
 @pytest.mark.parametrize("engine", ["c", "reference"])
