@@ -617,21 +617,21 @@ def test_road_too_short_is_a_clear_error():
 
 
 def test_cli_default_is_the_shipped_whole_road_model(tmp_path, capsys):
-    """`detect` without --model runs pyvehtrack/models/acf_gray_rescore.npz with its settings on
-    the C engine and window_mlp_hog32.npz on the reference one (no float twin of the ACF stage);
-    boxes carry a score; --model none is the thesis's ego-lane detector alone (no score);
-    --sources without a classifier contradicts --model none."""
-    from pyvehtrack.fullroad import DEFAULT_RESCORE_MODEL, DEFAULT_WINDOW_MODEL, default_model_path
-    assert default_model_path("c") == DEFAULT_RESCORE_MODEL
+    """`detect` without --model runs pyvehtrack/models/cnn_gray_l0_big.npz with its settings on
+    the C engine and window_mlp_hog32.npz on the reference one (the CNN's bit-exact NumPy twin
+    is too slow for a default); boxes carry a score; --model none is the thesis's ego-lane
+    detector alone (no score); --sources without a classifier contradicts --model none."""
+    from pyvehtrack.fullroad import DEFAULT_CNN_MODEL, DEFAULT_WINDOW_MODEL, default_model_path
+    assert default_model_path("c") == DEFAULT_CNN_MODEL
     assert default_model_path("reference") == DEFAULT_WINDOW_MODEL
     frame = str(Path(__file__).parent / "data" / "udacity_test1_640x360.jpg")
     boxes = {}
-    for extra in ([], ["--engine", "reference"], ["--model", "none"], ["--model", str(DEFAULT_RESCORE_MODEL)],
+    for extra in ([], ["--engine", "reference"], ["--model", "none"], ["--model", str(DEFAULT_CNN_MODEL)],
                   ["--engine", "reference", "--model", str(DEFAULT_WINDOW_MODEL)]):
         js = tmp_path / "d.json"
         assert cli_main(["detect", frame, "--json", str(js), "--no-progress", *extra]) == 0
         boxes[" ".join(Path(x).name for x in extra)] = json.loads(js.read_text())[0]["boxes"]
-    assert boxes[""] == boxes["--model acf_gray_rescore.npz"]
+    assert boxes[""] == boxes["--model cnn_gray_l0_big.npz"]
     assert boxes["--engine reference"] == boxes["--engine reference --model window_mlp_hog32.npz"]
     # the black car in the right lane (x 415-470, y 205-250 of this 640x360 frame) is boxed by both
     for k in ("", "--engine reference"):
