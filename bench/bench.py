@@ -529,25 +529,38 @@ def _acf_detect(ctx: Ctx) -> Stage:
                  note=f"C: vt_acf_detect_n, {1 + len(m.more)} windows (acf_gray.npz)")
 
 
-@register("detect_default", sizes=((1280, 720),), driver=False)
-def _detect_default(ctx: Ctx) -> Stage:
-    """One detection frame as `pyvehtrack detect` runs it without --model on the C engine
-    (fullroad.default_model_path: acf_gray_rescore.npz and its settings): the lane stage,
-    the ego-lane detector, the ACF windows, the second stage, the box regressor and the
-    rescorer, one vt_pipeline_step; no reference column (no float twin of the ACF stage)."""
-    from pyvehtrack.fullroad import default_model_path
+def _detect_model(name: str, path: Path, img: np.ndarray) -> Stage:
+    """One detection frame with the model file at `path` and the settings it carries, as
+    `pyvehtrack detect --model` runs it on the C engine: one vt_pipeline_step."""
     from pyvehtrack.pipeline import Pipeline
-    img = ctx.frame
-    path = default_model_path("c")
     pipe = Pipeline("c", model=str(path), detect_every=1, track=False)
     last = {}
 
     def c():
         last["boxes"] = pipe.step_gray(img).box_array
 
-    return Stage("detect_default", c, None, pixels=img.size, calls=1,
+    return Stage(name, c, None, pixels=img.size, calls=1,
                  digest=lambda: digest(np.asarray(last["boxes"])[:, :4]) if len(last.get("boxes", [])) else 0,
                  note=f"C: vt_pipeline_step, detection frame, {path.name} and its settings")
+
+
+@register("detect_default", sizes=((1280, 720),), driver=False)
+def _detect_default(ctx: Ctx) -> Stage:
+    """One detection frame as `pyvehtrack detect` runs it without --model on the C engine
+    (fullroad.default_model_path: cnn_gray_l0_big.npz and its settings since 2026-11-29): the
+    lane stage, the ego-lane detector, the CNN on its levels, the second stage on the ego
+    boxes, one vt_pipeline_step; no reference column (the CNN-alone stages have it)."""
+    from pyvehtrack.fullroad import default_model_path
+    return _detect_model("detect_default", default_model_path("c"), ctx.frame)
+
+
+@register("detect_acf_rescore", sizes=((1280, 720),), driver=False)
+def _detect_acf_rescore(ctx: Ctx) -> Stage:
+    """One detection frame with acf_gray_rescore.npz (the C engine's default before
+    2026-11-29): the lane stage, the ego-lane detector, the ACF windows, the second stage,
+    the box regressor and the rescorer; no reference column (no float twin of the ACF stage)."""
+    from pyvehtrack.fullroad import DEFAULT_RESCORE_MODEL
+    return _detect_model("detect_acf_rescore", DEFAULT_RESCORE_MODEL, ctx.frame)
 
 
 def _cnn_alone(name: str, fname: str, img: np.ndarray) -> Stage:

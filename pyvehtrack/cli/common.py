@@ -41,10 +41,10 @@ def add_model_arg(p) -> None:
     """--model / --sources of `detect` and `track` (the full-road detector)."""
     p.add_argument("--model", metavar="MODEL.npz", default=None,
                    help="classifier model for detection over the whole road, run with the settings it "
-                        "carries (default: the shipped pyvehtrack/models/acf_gray_rescore.npz on the C "
-                        "engine: five ACF windows on one pyramid beside the ego-lane detector, boxes checked "
-                        "by a second stage and rescored by trees learnt on them; window_mlp_hog32.npz with "
-                        "--engine reference); 'none': the thesis's "
+                        "carries (default: the shipped pyvehtrack/models/cnn_gray_l0_big.npz on the C "
+                        "engine: a small CNN on a pyramid and on a full-resolution band for far vehicles, "
+                        "beside the ego-lane detector; window_mlp_hog32.npz with --engine reference; "
+                        "acf_gray_rescore.npz, the default before); 'none': the thesis's "
                         "ego-lane detector alone")
     p.add_argument("--sources", nargs="+", choices=("shadow", "windows", "ego"), default=None,
                    help="full-road hypothesis sources (default with --model: the model's, else shadow; "

@@ -44,7 +44,7 @@ def register(sub) -> None:
                         "own, else 10 as KITTI)")
     p.add_argument("--model", metavar="MODEL.npz", default=None,
                    help="whole-road classifier model, as `track --model` (default: the shipped "
-                        "pyvehtrack/models/acf_gray_rescore.npz, window_mlp_hog32.npz with --engine reference); "
+                        "pyvehtrack/models/cnn_gray_l0_big.npz, window_mlp_hog32.npz with --engine reference); "
                         "'none': the ego-lane detector alone")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)

@@ -39,7 +39,7 @@ def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "
     fps: frame rate (the range stage's time step, the truth TTC's); None: a video's own
     frame rate, else 10 (KITTI's).
     model: the whole-road classifier .npz, "default" (fullroad.default_model_path(engine):
-    acf_gray_rescore.npz on the C engine, window_mlp_hog32.npz on the reference one, as `pyvehtrack
+    cnn_gray_l0_big.npz on the C engine, window_mlp_hog32.npz on the reference one, as `pyvehtrack
     track` without --model) or None (the thesis's ego-lane detector alone).
     Returns the page path. ValueError / TypeError naming the argument for bad input."""
     from tqdm import tqdm
