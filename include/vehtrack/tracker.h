@@ -127,7 +127,8 @@ typedef struct {
      * car, 66 px wide) the search's row above a box's bottom was a bumper line the
      * next frames' search did not find again, and the track was lost. Not the
      * sides: on a 3/4 view the search measures the rear only, and snapping to it
-     * split the Udacity clip's white car into two tracks.
+     * on every detection a track took split the Udacity clip's white car into two
+     * tracks (birth_search moves them, on births only).
      * 0: off (detections taken as given), 1: on. */
     int32_t snap_bottom;
     /* A new track starts where the ROI search measures (thesis sec. 3.6.1), not
