@@ -1098,13 +1098,16 @@ def run_callgrind(valgrind: str, driver: Path, pgm: Path, stages: list[Stage],
 def run_callgrind_python(valgrind: str, name: str, size: tuple[int, int], quick: bool,
                          out_file: Path) -> dict:
     """Instructions of one C run of a stage bench/callgrind_main.c has no entry for: this
-    script under callgrind with collection on only inside the library's functions
-    (--toggle-collect=vt_*: the C and what it calls, not Python, NumPy or cffi), the
-    stage built, then its C callable run once (--cg-one). Setup inside vt_* during the
-    stage's construction (model checks, config defaults) is counted too: a few
-    thousand instructions."""
+    script under callgrind with collection on only inside cffi's wrappers of the library's
+    functions (--toggle-collect=_cffi_f_vt_*: the C and what it calls, plus the wrapper's
+    argument unpacking, not Python or NumPy), the stage built, then its C callable run once
+    (--cg-one). The wrappers never nest, so each call is counted whole; a pattern on the
+    library's own names (vt_*) toggled collection off again inside every nested vt_ call
+    and undercounted stages such as a whole vt_pipeline_step. Setup calls during the
+    stage's construction (model checks, config defaults) are counted too: a few thousand
+    instructions."""
     cmd = [valgrind, "--tool=callgrind", "-q", f"--callgrind-out-file={out_file}", "--dump-instr=no",
-           "--toggle-collect=vt_*", sys.executable, str(Path(__file__).resolve()), "--cg-one", name,
+           "--toggle-collect=_cffi_f_vt_*", sys.executable, str(Path(__file__).resolve()), "--cg-one", name,
            "--cg-size", f"{size[0]}x{size[1]}"] + (["--quick"] if quick else [])
     res = subprocess.run(cmd, capture_output=True, text=True, env=tool_env())
     if res.returncode != 0:
@@ -1257,7 +1260,7 @@ def main(argv: list[str] | None = None) -> int:
                     help="seconds of timing per stage and variant before stopping at min reps")
     ap.add_argument("--python-callgrind", choices=("auto", "on", "off"), default="auto",
                     help="the callgrind columns of stages without a callgrind_main.c entry: this script "
-                         "under callgrind, collecting inside vt_* only (auto: on unless --quick)")
+                         "under callgrind, collecting inside the cffi calls only (auto: on unless --quick)")
     ap.add_argument("--cg-one", help=argparse.SUPPRESS)
     ap.add_argument("--cg-size", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
@@ -1339,7 +1342,7 @@ def main(argv: list[str] | None = None) -> int:
                     note.append(f"{n_calls:,} cffi calls: {n_calls * min(overhead.values()):,.0f}"
                                 f"–{n_calls * max(overhead.values()):,.0f} µs of binding")
             if args.driver is not None and not (spec.driver and st.name in in_driver):
-                note.append("Ir: Python under callgrind, inside vt_* only" if g else "no callgrind_main.c entry")
+                note.append("Ir: Python under callgrind, inside the cffi calls only" if g else "no callgrind_main.c entry")
             if g and g["status"] not in (None, 0):
                 note.append(f"driver status {g['status']}")
             match = None
