@@ -190,7 +190,8 @@ def test_digest_fold():
 
 def test_python_callgrind_counts_a_driverless_stage(tmp_path):
     """A stage without a callgrind_main.c entry gets its instruction count from this
-    script under callgrind, collecting inside vt_* only (--python-callgrind on)."""
+    script under callgrind, collecting inside cffi's wrappers of the library's functions
+    (--python-callgrind on)."""
     driver = _build_driver(tmp_path)
     if driver is None:
         pytest.skip("needs a C compiler and valgrind")
