@@ -15,18 +15,8 @@ from pyvehtrack import _native
 from pyvehtrack._native import lib
 from pyvehtrack.reference import tracker as rtrk
 
-from test_tracker import draw_car
 from test_tracker_scale import assert_cfg_field_refused, assert_engines_agree, run
-
-
-def static_car(n, l=120, by=150, w=60, seed=0):
-    rng = np.random.default_rng(seed)
-    frames, box = [], None
-    for _ in range(n):
-        img = np.full((240, 320), 110, np.uint8) + rng.integers(0, 8, (240, 320), dtype=np.uint8)
-        box = draw_car(img, l, by, w)
-        frames.append(img)
-    return frames, box
+from test_tracker_snap import moving_cars, one_car
 
 
 # The car is drawn 60 px wide; the search marks its sides on the Sobel columns just outside
@@ -42,7 +32,7 @@ HORIZON = 40
 
 @pytest.mark.parametrize("engine", ["c", "reference"])
 def test_a_box_wider_than_the_car_starts_on_the_car(engine):
-    frames, car = static_car(8)
+    frames, car = one_car(n=8)
     det = (car[0] - WIDE, car[1], car[2], car[3])
     on = run(engine, rtrk.TrackerCfg(), frames, {0: [det]}, horizon=HORIZON)
     off = run(engine, rtrk.TrackerCfg(birth_search=0), frames, {0: [det]}, horizon=HORIZON)
@@ -67,7 +57,7 @@ def test_a_box_wider_than_the_car_starts_on_the_car(engine):
 def test_a_box_on_the_car_moves_at_most_to_the_search_columns(engine):
     # the search marks a side on the edge column next to the drawn body (a 3x3 Sobel
     # responds on both), so a box on the car moves by at most 1 px and then stays
-    frames, car = static_car(1)
+    frames, car = one_car()
     on = run(engine, rtrk.TrackerCfg(), frames, {0: [car]}, horizon=None)[0][0][2]
     again = run(engine, rtrk.TrackerCfg(), frames, {0: [on]}, horizon=None)[0][0][2]
     assert all(abs(a - b) <= 1 for a, b in zip(on, car)), (on, car)
@@ -86,7 +76,7 @@ def test_nothing_to_measure_keeps_the_detection(engine):
 @pytest.mark.parametrize("engine", ["c", "reference"])
 def test_one_search_step_is_one_step(engine):
     # birth_search = 1 takes the first search's box; more steps only where it still moves
-    frames, car = static_car(1)
+    frames, car = one_car()
     det = (car[0] - WIDE, car[1], car[2], car[3])
     one = run(engine, rtrk.TrackerCfg(birth_search=1), frames, {0: [det]}, horizon=None)[0][0][2]
     many = run(engine, rtrk.TrackerCfg(birth_search=int(lib.VT_TRACK_MAX_BIRTH_SEARCH)), frames, {0: [det]},
@@ -103,17 +93,7 @@ def test_one_search_step_is_one_step(engine):
 @given(seed=st.integers(0, 2**31), every=st.integers(3, 12), n=st.integers(1, 2),
        steps=st.sampled_from([0, 1, 2, 8]), horizon=st.sampled_from([None, 40, 90]))
 def test_c_matches_reference_with_birth_search(seed, every, n, steps, horizon):
-    rng = np.random.default_rng(seed)
-    cars = [(20 + 140 * k + int(rng.integers(0, 30)), int(rng.integers(120, 190)), int(rng.integers(30, 70)),
-             float(rng.uniform(-2, 2)), float(rng.uniform(0, 2)), float(rng.uniform(-0.3, 0.8))) for k in range(n)]
-    frames, dets_at = [], {}
-    for t in range(24):
-        img = np.full((240, 320), 110, np.uint8) + rng.integers(0, 8, (240, 320), dtype=np.uint8)
-        boxes = [draw_car(img, int(l + dl * t), int(b + db * t), int(w + dw * t)) for l, b, w, dl, db, dw in cars]
-        frames.append(img)
-        if t % every == 0:
-            dets_at[t] = [(l + int(rng.integers(-15, 16)), tp, r + int(rng.integers(-15, 16)),
-                           bt + int(rng.integers(-8, 5))) for l, tp, r, bt in boxes]
+    frames, dets_at = moving_cars(seed, every, n, side=(-15, 15), bottom=(-8, 4))
     assert_engines_agree(rtrk.TrackerCfg(birth_search=steps), frames, dets_at, horizon)
 
 

@@ -100,6 +100,14 @@ def test_the_snapped_track_is_measured_on_the_next_frames(engine):
 @given(seed=st.integers(0, 2**31), every=st.integers(3, 12), n=st.integers(1, 2),
        snap=st.sampled_from([0, 1]), horizon=st.sampled_from([None, 40, 90]))
 def test_c_matches_reference_with_snapped_detections(seed, every, n, snap, horizon):
+    frames, dets_at = moving_cars(seed, every, n, bottom=(-12, 4))
+    assert_engines_agree(rtrk.TrackerCfg(snap_bottom=snap, birth_search=0), frames, dets_at, horizon)
+
+
+def moving_cars(seed, every, n, side=None, bottom=(0, 0)):
+    """24 frames of n drawn cars moving at random speeds, and every `every`th frame their
+    boxes as detections, the bottom moved by bottom[0]..bottom[1] px and (with `side`) each
+    side by side[0]..side[1] px. Returns (frames, {frame: detections})."""
     rng = np.random.default_rng(seed)
     cars = [(20 + 140 * k + int(rng.integers(0, 30)), int(rng.integers(120, 190)), int(rng.integers(30, 70)),
              float(rng.uniform(-2, 2)), float(rng.uniform(0, 2)), float(rng.uniform(-0.3, 0.8))) for k in range(n)]
@@ -109,8 +117,12 @@ def test_c_matches_reference_with_snapped_detections(seed, every, n, snap, horiz
         boxes = [draw_car(img, int(l + dl * t), int(b + db * t), int(w + dw * t)) for l, b, w, dl, db, dw in cars]
         frames.append(img)
         if t % every == 0:
-            dets_at[t] = [(l, tp, r, bt + int(rng.integers(-12, 5))) for l, tp, r, bt in boxes]
-    assert_engines_agree(rtrk.TrackerCfg(snap_bottom=snap, birth_search=0), frames, dets_at, horizon)
+            dets_at[t] = []
+            for l, tp, r, bt in boxes:
+                if side is not None:
+                    l, r = l + int(rng.integers(side[0], side[1] + 1)), r + int(rng.integers(side[0], side[1] + 1))
+                dets_at[t].append((l, tp, r, bt + int(rng.integers(bottom[0], bottom[1] + 1))))
+    return frames, dets_at
 
 
 def test_bad_values():
