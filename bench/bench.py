@@ -529,11 +529,13 @@ def _acf_detect(ctx: Ctx) -> Stage:
                  note=f"C: vt_acf_detect_n, {1 + len(m.more)} windows (acf_gray.npz)")
 
 
-def _detect_model(name: str, path: Path, img: np.ndarray) -> Stage:
-    """One detection frame with the model file at `path` and the settings it carries, as
-    `pyvehtrack detect --model` runs it on the C engine: one vt_pipeline_step."""
+def _detect_model(name: str, path: Path, img: np.ndarray, sources=None, what: str = "and its settings") -> Stage:
+    """One detection frame with the model file at `path` and the settings it carries (or the
+    given pipeline `sources`), as `pyvehtrack detect --model` runs it on the C engine: one
+    vt_pipeline_step."""
     from pyvehtrack.pipeline import Pipeline
-    pipe = Pipeline("c", model=str(path), detect_every=1, track=False)
+    kw = {} if sources is None else {"sources": sources}
+    pipe = Pipeline("c", model=str(path), detect_every=1, track=False, **kw)
     last = {}
 
     def c():
@@ -541,7 +543,7 @@ def _detect_model(name: str, path: Path, img: np.ndarray) -> Stage:
 
     return Stage(name, c, None, pixels=img.size, calls=1,
                  digest=lambda: digest(np.asarray(last["boxes"])[:, :4]) if len(last.get("boxes", [])) else 0,
-                 note=f"C: vt_pipeline_step, detection frame, {path.name} and its settings")
+                 note=f"C: vt_pipeline_step, detection frame, {path.name} {what}")
 
 
 @register("detect_default", sizes=((1280, 720),), driver=False)
@@ -588,17 +590,8 @@ def _cnn_frame(name: str, fname: str, img: np.ndarray) -> Stage:
     the C engine: the lane stage, the ego-lane detector, the CNN over its levels, the NMS
     against the ego boxes, one vt_pipeline_step; no reference column (the CNN-alone stage has
     it)."""
-    from pyvehtrack.pipeline import Pipeline
-    path = ROOT / "pyvehtrack" / "models" / fname
-    pipe = Pipeline("c", model=str(path), detect_every=1, track=False, sources=("ego", "classifier"))
-    last = {}
-
-    def c():
-        last["boxes"] = pipe.step_gray(img).box_array
-
-    return Stage(name, c, None, pixels=img.size, calls=1,
-                 digest=lambda: digest(np.asarray(last["boxes"])[:, :4]) if len(last.get("boxes", [])) else 0,
-                 note=f"C: vt_pipeline_step, detection frame, {path.name} with the ego-lane detector")
+    return _detect_model(name, ROOT / "pyvehtrack" / "models" / fname, img, sources=("ego", "classifier"),
+                         what="with the ego-lane detector")
 
 
 @register("cnn_detect", sizes=((1280, 720),), driver=False)

@@ -12,7 +12,7 @@
 
 /* SSE2 (every x86-64) does the dot products 8 int16 pairs at a time (pmaddwd); every
  * other target, and builds with -DVT_NO_SIMD, take the portable loop. Both are exact:
- * integer sums, their order free (vt__cnn_layer's bound). */
+ * integer sums in any order (vt__cnn_layer's bound). */
 #if defined(__SSE2__) && !defined(VT_NO_SIMD)
 #define VT_CNN_SSE2 1
 #include <emmintrin.h>
