@@ -665,13 +665,16 @@ static void vt__further(const vt_lane_cand *c, int32_t n, const uint8_t *ok, int
 }
 
 /* Picks the four slots from the candidates; found[slot] = candidate pointer or NULL;
- * extra[0..*n_extra) the further lines (only with a vanishing point). */
+ * extra[0..*n_extra) the further lines (only with a vanishing point); *pair_y the row
+ * where the confirming pair meets (floor), -1 without one. */
 static void vt__select(const vt_lane_state *st, const vt_lane_cfg *cfg, const vt__geom *g,
                        const vt_lane_cand *found[VT_LANE_SLOTS],
-                       const vt_lane_cand *extra[2 * VT_LANE_MAX_PEAKS], int32_t *n_extra)
+                       const vt_lane_cand *extra[2 * VT_LANE_MAX_PEAKS], int32_t *n_extra,
+                       int32_t *pair_y)
 {
     const vt_lane_cand *L = st->cand[0], *R = st->cand[1];
     int32_t nl = st->n_cand[0], nr = st->n_cand[1], i, j, best = -1, le, lo, re, ro, vmin;
+    int32_t best_row = -1;
     int64_t best_d = 0, best_xv = 0;
     uint8_t okl[VT_LANE_MAX_PEAKS], okr[VT_LANE_MAX_PEAKS];
     for (i = 0; i < nl; ++i) {
@@ -700,6 +703,8 @@ static void vt__select(const vt_lane_state *st, const vt_lane_cfg *cfg, const vt
                 best = L[i].votes + R[j].votes;
                 best_d = d;
                 best_xv = xv;
+                /* yv passed the range check: d < H * 2^16, so the row fits */
+                best_row = (int32_t)(g->H - 1 - (d >> 16));
             }
         }
     }
@@ -724,6 +729,7 @@ static void vt__select(const vt_lane_state *st, const vt_lane_cfg *cfg, const vt
     found[VT_LANE_RIGHT] = re >= 0 ? &R[re] : NULL;
     found[VT_LANE_RIGHT_MOST] = ro >= 0 ? &R[ro] : NULL;
     *n_extra = 0;
+    *pair_y = best_row;
     if (best >= 0) {
         vt__further(L, nl, okl, 0, le, lo, extra, n_extra);
         vt__further(R, nr, okr, 1, re, ro, extra, n_extra);
@@ -732,8 +738,9 @@ static void vt__select(const vt_lane_state *st, const vt_lane_cfg *cfg, const vt
 
 /* ------------------------------------------------------------------ extension */
 
+/* y_cap: without vp_known, the line ends no higher than this row (-1: no cap). */
 static void vt__extend(vt_lane_state *st, const vt_lane_cfg *cfg, const vt__geom *g,
-                       vt_lane_line *ln, int32_t vp_known, int32_t y_v)
+                       vt_lane_line *ln, int32_t vp_known, int32_t y_v, int32_t y_cap)
 {
     int32_t n = 2, y0, y1, misses = 0, target, top;
     int32_t last_i = -1, last_py = 0, last_top = 0;
@@ -742,6 +749,7 @@ static void vt__extend(vt_lane_state *st, const vt_lane_cfg *cfg, const vt__geom
     int64_t win_t = (int64_t)cfg->win_top * VT__Q16;
     int32_t den = g->H - 1 - y_v > 1 ? g->H - 1 - y_v : 1;
     target = vp_known ? y_v + g->H * cfg->top_margin_permille / 1000 : y_v + cfg->vp_margin;
+    target = !vp_known && y_cap > target ? y_cap : target;
     /* A vanishing point inside the band (a low horizon) ends the line within it. */
     y1 = target > g->band_top ? target : g->band_top;
     y1 = y1 > g->H - 1 ? g->H - 1 : y1;
@@ -1014,7 +1022,7 @@ vt_status vt_lane_detect(vt_lane_state *st, const vt_lane_cfg *cfg, const vt_ima
 {
     vt__geom g;
     vt_status s;
-    int32_t nt, i, n_marks, dropped, vp_known = 0, y_v, prev_ok;
+    int32_t nt, i, n_marks, dropped, vp_known = 0, y_v, prev_ok, pair_y, y_cap = -1;
     const vt_lane_cand *found[VT_LANE_SLOTS];
     const vt_lane_cand *extra[2 * VT_LANE_MAX_PEAKS];
     int32_t n_extra = 0;
@@ -1059,7 +1067,7 @@ vt_status vt_lane_detect(vt_lane_state *st, const vt_lane_cfg *cfg, const vt_ima
         (void)vt__layout(st, cfg, &g, i, &nt);
         vt__candidates(st, cfg, &g, i, nt);
     }
-    vt__select(st, cfg, &g, found, extra, &n_extra);
+    vt__select(st, cfg, &g, found, extra, &n_extra, &pair_y);
 
     prev_ok = st->prev_valid == 1 && st->prev_shift == g.s && st->prev_w == g.W &&
               st->prev_h == g.H;
@@ -1096,9 +1104,15 @@ vt_status vt_lane_detect(vt_lane_state *st, const vt_lane_cfg *cfg, const vt_ima
             }
         }
     }
+    /* No ego vanishing point, but a pair confirmed the selection (one of its lines not
+     * an ego line, or an ego line missing): no line runs on past that pair's
+     * vanishing row (Udacity test1: a lone right line climbed into the trees). */
+    if (!vp_known && pair_y >= g.roi_top && pair_y <= g.vp_low) {
+        y_cap = pair_y + g.H * cfg->top_margin_permille / 1000;
+    }
     for (i = 0; i < VT_LANE_SLOTS; ++i) {
         if (lines[i].state != VT_LANE_NONE) {
-            vt__extend(st, cfg, &g, &lines[i], vp_known, y_v);
+            vt__extend(st, cfg, &g, &lines[i], vp_known, y_v, y_cap);
         }
     }
 
@@ -1112,6 +1126,7 @@ vt_status vt_lane_detect(vt_lane_state *st, const vt_lane_cfg *cfg, const vt_ima
     res->vp_y = y_v;
     res->n_marks = n_marks;
     res->rows_dropped = dropped;
+    res->pair_vp_y = pair_y;
     for (i = 0; i < VT_LANE_SLOTS; ++i) {
         res->lines[i] = lines[i];
         st->prev[i] = lines[i];
@@ -1144,7 +1159,7 @@ vt_status vt_lane_detect(vt_lane_state *st, const vt_lane_cfg *cfg, const vt_ima
             vt__line_from_cand(dst, extra[i - VT_LANE_SLOTS]);
             dst->xb = (vt_q16)vt__clamp64(dst->xb, -VT__X_MAX, VT__X_MAX);
             dst->slope = (vt_q16)vt__clamp64(dst->slope, -VT__SLOPE_MAX, VT__SLOPE_MAX);
-            vt__extend(st, cfg, &g, dst, vp_known, y_v);
+            vt__extend(st, cfg, &g, dst, vp_known, y_v, y_cap);
             res->lines_all_slot[j] = -1;
         }
         res->n_lines_all = n + 1;

@@ -34,10 +34,15 @@ the vanishing point of the ego pair; a one-bin difference in an ego line moves t
 point a little, and an outer line at the tolerance is then kept by one engine only
 (about 1 scene in 200 here). Their presence is not compared; when both engines report
 them they are held to the rules above. The ego lines' presence must agree.
+  * Without an ego vanishing point the lines end below the crossing row of the pair
+    that confirmed the selection (pair_vp_y): a floor as vp_y, so within one row; when
+    the two engines' rows differ the extensions aim at different rows and only the
+    band is compared, as for (b).
 """
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import cv2
@@ -126,6 +131,16 @@ def _near_tie(frame, slot, line):
     return False
 
 
+def _same_cap(ra, rb, where):
+    """Without an ego vanishing point the lines end below the confirming pair's
+    crossing row (pair_vp_y, a floor: one row apart at most between C's Q16 and the
+    oracle's float lines, as vp_y). True when both engines aim their extensions at the
+    same row; else only the band is compared."""
+    if ra.pair_vp_y >= 0 and rb.pair_vp_y >= 0:
+        assert abs(ra.pair_vp_y - rb.pair_vp_y) <= 1, where
+    return bool(ra.vp_known) or ra.pair_vp_y == rb.pair_vp_y
+
+
 def compare_frames(a, b, where=""):
     """C LaneResult a against oracle LaneResult b, with the tolerances of the module doc."""
     ra, rb = a.raw, b.raw
@@ -141,6 +156,7 @@ def compare_frames(a, b, where=""):
         y = ra.vp_y if ra.vp_known else rb.vp_y
         vp_low = ra.h * rl.DEFAULT.vp_low_permille // 1000
         assert min(abs(y - ra.roi_top), abs(y - vp_low)) <= 1, where
+    ext = ext and _same_cap(ra, rb, where)
     same_slots = True
     strict = {}   # slot -> (first working row compared, x tolerance there in working px)
     for k in range(4):
@@ -592,3 +608,29 @@ def test_road_area_shape():
     assert len(res.road) == 2 * len(rows)
     r = res.raw
     assert r.vp_known == 1 and r.roi_top <= r.vp_y <= r.h * rl.DEFAULT.vp_low_permille // 1000
+
+
+def test_lone_line_stops_at_the_pairs_vanishing_row():
+    """Udacity test1 (grayscale): the yellow left line is as bright as the concrete, so
+    the right ego line is alone; the pair that confirmed it (with the barrier's edge)
+    meets at the horizon. The lines must end there, not climb on into the trees (the
+    right line reached input row 278 of 720 before, 130 rows above the horizon)."""
+    img = cv2.imread(str(DATA / "udacity_test1_640x360.jpg"), cv2.IMREAD_GRAYSCALE)
+    a, b = LaneDetector("c").detect(img), LaneDetector("reference").detect(img)
+    compare_frames(a, b, "udacity test1")
+    for res in (a, b):
+        r = res.raw
+        assert not r.vp_known and r.pair_vp_y >= 0
+        h = r.h if hasattr(r, "h") else r.H     # vt_lane_result / LaneFrame
+        cap = r.pair_vp_y + h * rl.DEFAULT.top_margin_permille // 1000
+        assert res.lane("right") is not None and res.lane("left") is None
+        n = 1 << res.work_shift
+        for ln in res.lanes:
+            # points sit at working-row centres: working row y is input row (y + 0.5) * n - 0.5
+            assert ln.points[:, 1].min() >= (cap + 0.5) * n - 0.5 - 1e-6, ln.side
+    # Without the cap the oracle's right line runs on above the horizon: the scene tests it.
+    rb = b.raw
+    free = replace(rb.lines[rl.RIGHT], verts=[])
+    marks = rl.all_marks(rl.working_image(img, rb.shift), rl.DEFAULT)
+    rl.extend(free, marks, rb.W, rb.H, False, rb.vp_y, rl.DEFAULT)
+    assert free.y_top < rb.pair_vp_y - 20

@@ -34,6 +34,7 @@ from pyvehtrack import VtError
 from pyvehtrack import _native as N
 from pyvehtrack.lane import FURTHER, LaneDetector
 from pyvehtrack.reference import lane as rl
+from test_lane import _same_cap
 
 ffi, lib = N.ffi, N.lib
 DATA = Path(__file__).parent / "data"
@@ -87,7 +88,7 @@ def _compare_line(la, lb, ra, rb, where):
     assert abs(la.xb / 65536 - lb.xb) * across <= tol, where
     tol = 0.25 if ra.vp_y == rb.vp_y and same_bin else 1.0
     vc = [(int(la.vy[i]), la.vx[i] / 65536.0) for i in range(la.n_verts)]
-    ext = ra.vp_known == rb.vp_known
+    ext = ra.vp_known == rb.vp_known and _same_cap(ra, rb, where)
     first = max(la.y_top, lb.y_top, lb.sure_y, -1 if ext else max(la.vy[1], lb.verts[1][0]))
     for y in range(first, ra.h):
         d = abs(rl.polyline_x(vc, y) - rl.polyline_x(lb.verts, y)) * across

@@ -215,6 +215,12 @@ typedef struct {
     int32_t lines_all_dropped; /* further lines left out for VT_LANE_MAX_LINES */
     int32_t lines_all_slot[VT_LANE_MAX_LINES];
     vt_lane_line lines_all[VT_LANE_MAX_LINES];
+    /* The row where the strongest plausible left/right candidate pair meets (the pair
+     * that confirmed the selection; floor of its crossing), -1 if no pair did. Without
+     * vp_known (an ego line missing or not in the pair) every line still ends
+     * H*top_margin_permille/1000 rows below it: a lone line does not run on past the
+     * horizon into texture (trees) above it. */
+    int32_t pair_vp_y;
 } vt_lane_result;
 
 /* A Hough candidate (internal, in the state for its size). */

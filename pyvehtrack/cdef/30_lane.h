@@ -96,6 +96,7 @@ typedef struct {
     int32_t lines_all_dropped;
     int32_t lines_all_slot[...];
     vt_lane_line lines_all[...];
+    int32_t pair_vp_y;
 } vt_lane_result;
 
 typedef struct { ...; } vt_lane_state;

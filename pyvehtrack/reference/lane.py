@@ -284,7 +284,8 @@ def select_half(kept: list[LaneLine], H: int, half: int, cfg: LaneConfig):
 
 
 def select_lines(kl: list[LaneLine], kr: list[LaneLine], W: int, H: int, cfg: LaneConfig):
-    """[left-most, left, right, right-most] (None where absent)."""
+    """([left-most, left, right, right-most] (None where absent), further lines, the row
+    where the confirming pair meets (floor; -1 without one))."""
     roi_top, band_top = row_limits(H, cfg)
     cx = W // 2
     best = None
@@ -299,14 +300,14 @@ def select_lines(kl: list[LaneLine], kr: list[LaneLine], W: int, H: int, cfg: La
                     abs(xv - cx) <= W * cfg.vp_x_permille / 1000.0 and
                     W * cfg.lane_w_min_permille / 1000.0 <= wb <= W * cfg.lane_w_max_permille / 1000.0):
                 if best is None or a.votes + b.votes > best[0]:
-                    best = (a.votes + b.votes, xv, yv)
+                    best = (a.votes + b.votes, xv, yv, (H - 1) - math.floor((H - 1) - yv))
     if best is None:
         # Nothing confirms a line's geometry (night, faded markings): demand more votes.
         vmin = max(cfg.vote_min, (H - band_top) * cfg.vote_min_permille // 1000, 1)
         kl = [ln for ln in kl if ln.votes * 1000 >= vmin * cfg.solo_vote_permille]
         kr = [ln for ln in kr if ln.votes * 1000 >= vmin * cfg.solo_vote_permille]
     if best is not None:
-        _, xv, yv = best
+        _, xv, yv, _ = best
         tol = max(W * cfg.vp_tol_permille / 1000.0, cfg.vp_tol_min)
         # distance from the vanishing point across the line (not along the row, where a
         # flat line's x swings with one theta bin)
@@ -319,8 +320,8 @@ def select_lines(kl: list[LaneLine], kr: list[LaneLine], W: int, H: int, cfg: La
         if ln is not None:
             ln.side = i
     if best is None:
-        return out, []
-    return out, further(kl, 0, le, lo) + further(kr, 1, re, ro)
+        return out, [], -1
+    return out, further(kl, 0, le, lo) + further(kr, 1, re, ro), best[3]
 
 
 def further(kept: list[LaneLine], half: int, ego, outer) -> list[LaneLine]:
@@ -383,11 +384,11 @@ SLOPE_MAX = 16.0  # |dx/dy| of an extension segment is clamped to this (px/row)
 
 
 def extend(line: LaneLine, marks, W: int, H: int, vp_known: bool, y_v: int,
-           cfg: LaneConfig, max_verts: int = 24) -> None:
+           cfg: LaneConfig, max_verts: int = 24, y_cap: int = -1) -> None:
     """Vertices from the bottom row up (see the module doc, step 6); at most max_verts
-    (C: VT_LANE_MAX_VERTS)."""
+    (C: VT_LANE_MAX_VERTS). Without vp_known the line ends no higher than y_cap."""
     _, band_top = row_limits(H, cfg)
-    target = y_v + H * cfg.top_margin_permille // 1000 if vp_known else y_v + cfg.vp_margin
+    target = y_v + H * cfg.top_margin_permille // 1000 if vp_known else max(y_v + cfg.vp_margin, y_cap)
     # A vanishing point inside the band (a low horizon) ends the line within it.
     y1 = min(max(band_top, target), H - 1)
     verts = [(H - 1, line.xb), (y1, line.x_at(y1, H))]
@@ -464,6 +465,7 @@ class LaneFrame:
     lines_all: list = field(default_factory=list)  # every line, left to right by xb
     lines_all_slot: list = field(default_factory=list)  # its slot, -1 for a further line
     lines_all_dropped: int = 0       # further lines left out for max_lines
+    pair_vp_y: int = -1              # row where the confirming pair meets (C: pair_vp_y)
 
 
 def polyline_x(verts, yw: float) -> float:
@@ -580,12 +582,17 @@ class LaneDetector:
         marks = all_marks(work, cfg)
         kl, accl, b0l = candidates(marks, W, H, 0, cfg)
         kr, accr, b0r = candidates(marks, W, H, 1, cfg)
-        found, extra = select_lines(kl, kr, W, H, cfg)
+        found, extra, pair_y = select_lines(kl, kr, W, H, cfg)
         lines = [self._track(i, found[i], W, H) for i in range(4)]
         known, y_v = vanishing_row(lines[LEFT], lines[RIGHT], W, H, cfg)
+        # No ego vanishing point, but a pair confirmed the selection: no line runs on
+        # past that pair's vanishing row (a lone line climbing into trees).
+        y_cap = -1
+        if not known and roi_top <= pair_y <= H * cfg.vp_low_permille // 1000:
+            y_cap = pair_y + H * cfg.top_margin_permille // 1000
         for ln in lines:
             if ln is not None:
-                extend(ln, marks, W, H, known, y_v, cfg, self.max_verts)
+                extend(ln, marks, W, H, known, y_v, cfg, self.max_verts, y_cap)
         self.prev = lines
         road = road_area(lines, w, h, s, self.max_height)
         # Every line: slots first, then the further lines while there is room; sorted
@@ -595,12 +602,12 @@ class LaneDetector:
         for ln in extra[:max(room, 0)]:
             ln = replace(ln, side=-1)
             ln.xb = min(max(ln.xb, -16384.0), 16384.0)
-            extend(ln, marks, W, H, known, y_v, cfg, self.max_verts)
+            extend(ln, marks, W, H, known, y_v, cfg, self.max_verts, y_cap)
             all_.append((ln, -1))
         all_.sort(key=lambda t: t[0].xb)
         fr = LaneFrame(s, W, H, roi_top, band_top, known, y_v, lines, road,
                        ((accl, b0l), (accr, b0r)), [t[0] for t in all_], [t[1] for t in all_],
-                       max(0, len(extra) - max(room, 0)))
+                       max(0, len(extra) - max(room, 0)), pair_y)
         return fr
 
     def road_all(self, frame: LaneFrame, frame_w: int, frame_h: int) -> dict:
