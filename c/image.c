@@ -307,11 +307,40 @@ static int vt__norm_shift(uint64_t v)
     return k;
 }
 
+vt_status vt__ncc_from_sums(uint64_t n, uint64_t sa, uint64_t sb, uint64_t saa, uint64_t sbb,
+                            uint64_t sab, vt_q14 *ncc)
+{
+    uint64_t da, db, p;
+    int64_t va, vb, cov, q;
+    int32_t ka, kb;
+    vt_status s;
+    /* n <= 2^16 and each sum of products < 2^32: all below 2^48, exact. */
+    va = (int64_t)(n * saa) - (int64_t)(sa * sa);
+    vb = (int64_t)(n * sbb) - (int64_t)(sb * sb);
+    cov = (int64_t)(n * sab) - (int64_t)(sa * sb);
+    if (va <= 0 || vb <= 0) {
+        return VT_E_SINGULAR;
+    }
+    /* sqrt(va) = da / 2^ka with da in [2^30, 2^31): ~30 significant bits. */
+    ka = vt__norm_shift((uint64_t)va);
+    kb = vt__norm_shift((uint64_t)vb);
+    da = vt_isqrt_u64((uint64_t)va << (2 * ka));
+    db = vt_isqrt_u64((uint64_t)vb << (2 * kb));
+    p = (da * db) >> 14; /* sqrt(va*vb) * 2^(ka+kb) / 2^14, >= 2^46 */
+    /* |cov| * 2^(ka+kb) <= sqrt(va*vb) * 2^(ka+kb) < 2^62 by Cauchy-Schwarz. */
+    s = vt_div_round_s64(cov * ((int64_t)1 << (ka + kb)), (int64_t)p, &q);
+    if (s != VT_OK) {
+        return s;
+    }
+    /* The floored square roots can push |q| a hair past 1.0. */
+    *ncc = (vt_q14)(q > VT_Q14_ONE ? VT_Q14_ONE : (q < -VT_Q14_ONE ? -VT_Q14_ONE : q));
+    return VT_OK;
+}
+
 vt_status vt_ncc_u8(const vt_image_u8 *a, const vt_image_u8 *b, vt_q14 *ncc)
 {
-    uint64_t sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0, n, da, db, p;
-    int64_t va, vb, cov, q;
-    int32_t x, y, ka, kb;
+    uint64_t sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0;
+    int32_t x, y;
     vt_status s;
     if (ncc == NULL) {
         return VT_E_ARG;
@@ -335,28 +364,7 @@ vt_status vt_ncc_u8(const vt_image_u8 *a, const vt_image_u8 *b, vt_q14 *ncc)
             sab += u * v;
         }
     }
-    n = (uint64_t)a->w * (uint64_t)a->h;
-    /* n <= 2^16 and each sum of products < 2^32: all below 2^48, exact. */
-    va = (int64_t)(n * saa) - (int64_t)(sa * sa);
-    vb = (int64_t)(n * sbb) - (int64_t)(sb * sb);
-    cov = (int64_t)(n * sab) - (int64_t)(sa * sb);
-    if (va <= 0 || vb <= 0) {
-        return VT_E_SINGULAR;
-    }
-    /* sqrt(va) = da / 2^ka with da in [2^30, 2^31): ~30 significant bits. */
-    ka = vt__norm_shift((uint64_t)va);
-    kb = vt__norm_shift((uint64_t)vb);
-    da = vt_isqrt_u64((uint64_t)va << (2 * ka));
-    db = vt_isqrt_u64((uint64_t)vb << (2 * kb));
-    p = (da * db) >> 14; /* sqrt(va*vb) * 2^(ka+kb) / 2^14, >= 2^46 */
-    /* |cov| * 2^(ka+kb) <= sqrt(va*vb) * 2^(ka+kb) < 2^62 by Cauchy-Schwarz. */
-    s = vt_div_round_s64(cov * ((int64_t)1 << (ka + kb)), (int64_t)p, &q);
-    if (s != VT_OK) {
-        return s;
-    }
-    /* The floored square roots can push |q| a hair past 1.0. */
-    *ncc = (vt_q14)(q > VT_Q14_ONE ? VT_Q14_ONE : (q < -VT_Q14_ONE ? -VT_Q14_ONE : q));
-    return VT_OK;
+    return vt__ncc_from_sums((uint64_t)a->w * (uint64_t)a->h, sa, sb, saa, sbb, sab, ncc);
 }
 
 vt_status vt_sad_u8(const vt_image_u8 *a, const vt_image_u8 *b, uint32_t *sad)

@@ -122,4 +122,10 @@ void vt__cand_add(vt_scored_box *cand, int32_t *n, int32_t cap, int32_t *n_dropp
 int vt__shadow_suppresses(const vt_shadow_cfg *cfg, int32_t k_row, int32_t k_xs, int32_t k_xe,
                           int32_t c_row, int32_t c_xs, int32_t c_xe);
 
+/* image.c: vt_ncc_u8's result from its sums over n pixels (a: sa, saa; b: sb, sbb; both:
+ * sab; n <= VT_MAX_PATCH_PIXELS), so a caller correlating one patch with many (the
+ * tracker's template match) sums the fixed one once. VT_E_SINGULAR for a flat patch. */
+vt_status vt__ncc_from_sums(uint64_t n, uint64_t sa, uint64_t sb, uint64_t saa, uint64_t sbb,
+                            uint64_t sab, vt_q14 *ncc);
+
 #endif /* VEHTRACK_INTERNAL_H */

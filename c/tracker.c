@@ -40,21 +40,41 @@ static void vt__box_from_state(vt_track *t)
     t->vy = t->kf.x[4];
 }
 
+/* Offsets of a T x T nearest-pixel resample of n px (a box side), sampling each cell's
+ * centre: off[i] = floor((2i + 1) n / 2T); n >= 1. */
+static void vt__sample_offsets(int32_t n, int32_t *off)
+{
+    int32_t i;
+    for (i = 0; i < VT_TRACK_TEMPLATE; ++i) {
+        off[i] = (int32_t)(((int64_t)(2 * i + 1) * n) / (2 * VT_TRACK_TEMPLATE));
+    }
+}
+
+/* The T x T samples at (left + xo[j], top + yo[i]), each clamped into the image. */
+static void vt__sample_at(const vt_image_u8 *img, int32_t left, int32_t top, const int32_t *xo,
+                          const int32_t *yo, uint8_t *dst)
+{
+    int32_t i, j, xi[VT_TRACK_TEMPLATE];
+    for (j = 0; j < VT_TRACK_TEMPLATE; ++j) {
+        xi[j] = vt__clamp_i32(left + xo[j], 0, img->w - 1);
+    }
+    for (i = 0; i < VT_TRACK_TEMPLATE; ++i) {
+        const uint8_t *row = img->px + (size_t)vt__clamp_i32(top + yo[i], 0, img->h - 1) *
+                                           (size_t)img->stride;
+        for (j = 0; j < VT_TRACK_TEMPLATE; ++j) {
+            dst[i * VT_TRACK_TEMPLATE + j] = row[xi[j]];
+        }
+    }
+}
+
 /* Nearest-pixel resample of `box` (clamped into the image) to T x T, sampling
  * each cell's centre: y = top + floor((2i + 1) h / 2T). */
 static void vt__sample(const vt_image_u8 *img, const vt_box *box, uint8_t *dst)
 {
-    int32_t i, j, w = box->right - box->left + 1, h = box->bottom - box->top + 1;
-    for (i = 0; i < VT_TRACK_TEMPLATE; ++i) {
-        int32_t y = box->top + (int32_t)(((int64_t)(2 * i + 1) * h) / (2 * VT_TRACK_TEMPLATE));
-        const uint8_t *row;
-        y = vt__clamp_i32(y, 0, img->h - 1);
-        row = img->px + (size_t)y * (size_t)img->stride;
-        for (j = 0; j < VT_TRACK_TEMPLATE; ++j) {
-            int32_t x = box->left + (int32_t)(((int64_t)(2 * j + 1) * w) / (2 * VT_TRACK_TEMPLATE));
-            dst[i * VT_TRACK_TEMPLATE + j] = row[vt__clamp_i32(x, 0, img->w - 1)];
-        }
-    }
+    int32_t xo[VT_TRACK_TEMPLATE], yo[VT_TRACK_TEMPLATE];
+    vt__sample_offsets(box->right - box->left + 1, xo);
+    vt__sample_offsets(box->bottom - box->top + 1, yo);
+    vt__sample_at(img, box->left, box->top, xo, yo, dst);
 }
 
 /* The template and the box it was taken from (the template measurement keeps
@@ -419,27 +439,43 @@ static int vt__mostly_inside(const vt_box *inner, const vt_box *outer, int32_t p
 static int vt__tmatch(const vt_track *t, const vt_tracker_cfg *cfg, const vt_image_u8 *img,
                       vt_box *meas)
 {
+    int32_t dx, dy, i, r = cfg->tmatch_radius, have = 0;
+    int32_t xo[VT_TRACK_TEMPLATE], yo[VT_TRACK_TEMPLATE];
     uint8_t now[VT_TRACK_TEMPLATE * VT_TRACK_TEMPLATE];
-    vt_image_u8 a, b;
-    int32_t dx, dy, r = cfg->tmatch_radius, have = 0;
+    uint32_t sa = 0, saa = 0;
+    const uint64_t n = (uint64_t)VT_TRACK_TEMPLATE * VT_TRACK_TEMPLATE;
     /* Both boxes pass vt__box_ok or come from the bounded filter: no overflow. */
     int32_t ox = (int32_t)(vt__floor_shr64((int64_t)t->box.left + t->box.right, 1) -
                            vt__floor_shr64((int64_t)t->tmpl_box.left + t->tmpl_box.right, 1));
     int32_t oy = t->box.bottom - t->tmpl_box.bottom;
     vt_q14 best = 0;
-    a.px = t->tmpl;
-    b.px = now;
-    a.w = b.w = a.h = b.h = a.stride = b.stride = VT_TRACK_TEMPLATE;
+    /* Every candidate has the template box's size: one set of sample offsets, and the
+     * template's own sums once (vt_ncc_u8's arithmetic, the same bits). */
+    vt__sample_offsets(t->tmpl_box.right - t->tmpl_box.left + 1, xo);
+    vt__sample_offsets(t->tmpl_box.bottom - t->tmpl_box.top + 1, yo);
+    for (i = 0; i < VT_TRACK_TEMPLATE * VT_TRACK_TEMPLATE; ++i) {
+        uint32_t u = t->tmpl[i];
+        sa += u;
+        saa += u * u;
+    }
     for (dy = -r; dy <= r; ++dy) {
         for (dx = -r; dx <= r; ++dx) {
             vt_box sh;
             vt_q14 q = 0;
+            /* 256 pixels: sums below 256 * 255^2 < 2^24 */
+            uint32_t sb = 0, sbb = 0, sab = 0;
             sh.left = t->tmpl_box.left + ox + dx;
             sh.right = t->tmpl_box.right + ox + dx;
             sh.top = t->tmpl_box.top + oy + dy;
             sh.bottom = t->tmpl_box.bottom + oy + dy;
-            vt__sample(img, &sh, now);
-            if (vt_ncc_u8(&a, &b, &q) != VT_OK) {
+            vt__sample_at(img, sh.left, sh.top, xo, yo, now);
+            for (i = 0; i < VT_TRACK_TEMPLATE * VT_TRACK_TEMPLATE; ++i) {
+                uint32_t v = now[i];
+                sb += v;
+                sbb += v * v;
+                sab += (uint32_t)t->tmpl[i] * v;
+            }
+            if (vt__ncc_from_sums(n, sa, sb, saa, sbb, sab, &q) != VT_OK) {
                 continue;
             }
             if (!have || q > best) {
