@@ -25,6 +25,10 @@ score_offset adds on top), "nms_iou_permille", "nms_contain_permille",
 WindowConfig.veh_w_min_m / veh_w_max_m) and "verify_min" (float: a second stage, the
 built-in HOG 64x64 MLP on each box, keeps boxes it scores >= this; vt_fulldet_verify).
 Explicit arguments win.
+Optionally `tracker_json`, the tracker settings chosen with the model: a JSON object of
+TrackerCfg's integer fields (e.g. {"birth_search": 0}); a Pipeline or Tracker given the
+model and no tracker configuration runs with them (model_tracker_settings); in a CNN
+file (every key cnn_*) the key is `cnn_tracker_json`.
 Optionally a box regressor (tools/train_box_regressor.py; BoxRegressor, vt_box_regressor):
 refine_win_w, refine_win_h, refine_w_q (int16, 4 x dim: left, top, right, bottom),
 refine_w_shift (4), refine_b_q16 (4), refine_margin_permille and refine_sources (bits, 1
@@ -135,6 +139,7 @@ class SvmModel:
     settings: dict = field(default_factory=dict)
     wide: "MlpModel | None" = None   # the wide pass's window model (wide_* keys of the file)
     refine: "BoxRegressor | None" = None   # box regression (refine_* keys of the file)
+    tracker: dict = field(default_factory=dict)   # tracker settings chosen with it (tracker_json)
 
     def score_float(self, desc_q15: np.ndarray) -> float:
         """The model's decision value (real units) for a Q15 descriptor, in float."""
@@ -162,6 +167,7 @@ class MlpModel:
     settings: dict = field(default_factory=dict)
     wide: "MlpModel | None" = None   # the wide pass's window model (wide_* keys of the file)
     refine: "BoxRegressor | None" = None   # box regression (refine_* keys of the file)
+    tracker: dict = field(default_factory=dict)   # tracker settings chosen with it (tracker_json)
 
 
 @dataclass
@@ -328,6 +334,47 @@ def _settings(z, p) -> dict:
     return d
 
 
+def _tracker_settings(z, p) -> dict:
+    """The optional `tracker_json` of a model file: the tracker settings chosen with the
+    model (a JSON object of TrackerCfg's integer fields, e.g. {"birth_search": 0}). A
+    Pipeline or Tracker built with the model and no tracker configuration of its own runs
+    with them; their ranges are checked there (vt_tracker_cfg_check)."""
+    if "tracker_json" not in z.files:
+        return {}
+    import json  # noqa: PLC0415
+    from dataclasses import fields as _fields  # noqa: PLC0415
+
+    from .shared import TrackerCfg  # noqa: PLC0415
+    try:
+        d = json.loads(str(z["tracker_json"]))
+    except ValueError as e:
+        raise ValueError(f"model: {p}: tracker_json is not JSON ({e})") from None
+    if not isinstance(d, dict):
+        raise ValueError(f"model: {p}: tracker_json must be a JSON object")
+    known = [f.name for f in _fields(TrackerCfg) if f.type in ("int", int)]
+    for k, v in d.items():
+        if k not in known:
+            raise ValueError(f"model: {p}: tracker_json has an unknown key {k!r} (known: {', '.join(known)})")
+        if isinstance(v, bool) or not isinstance(v, int):
+            raise ValueError(f"model: {p}: tracker_json {k} must be an integer, got {v!r}")
+    return d
+
+
+def model_tracker_settings(model) -> dict:
+    """The tracker settings a model (a loaded model, or an .npz path or a model object
+    loaded from one) carries ({} if none)."""
+    if model is None:
+        return {}
+    if hasattr(model, "tracker"):
+        return dict(model.tracker or {})
+    p = os.fspath(model) if isinstance(model, (str, os.PathLike)) else getattr(model, "path", None)
+    if not isinstance(p, str) or not os.path.isfile(p):
+        return {}
+    with np.load(p, allow_pickle=False) as z:
+        key = "cnn_tracker_json" if "cnn_tracker_json" in z.files else "tracker_json"
+        return _tracker_settings(_Keys(tracker_json=z[key]) if key in z.files else _Keys(), p)
+
+
 class _Keys(dict):
     """A mapping read like an opened .npz (its .files), for keys renamed on the way."""
     @property
@@ -351,6 +398,8 @@ def load_model(path) -> SvmModel | MlpModel:
         m.settings = _settings(_Keys(detector_json=z["cnn_detector_json"]) if "cnn_detector_json" in z.files
                                else _Keys(), p)
         m.wide = m.refine = m.rescore = None
+        m.tracker = _tracker_settings(_Keys(tracker_json=z["cnn_tracker_json"]) if "cnn_tracker_json" in z.files
+                                      else _Keys(), p)
         return m
     if "kind" in z.files and str(z["kind"]) == "acf":
         # the ACF first stage (acf.h); the whole-road settings, wide pass and box
@@ -359,6 +408,7 @@ def load_model(path) -> SvmModel | MlpModel:
         m = AcfModel.load(p)
         m.settings, m.wide, m.refine = _settings(z, p), _wide_model(z, p), _refine_model(z, p)
         m.rescore = _rescore_model(z, p)
+        m.tracker = _tracker_settings(z, p)
         return m
     mlp = "model_type" in z.files and str(z["model_type"]) == "mlp"
     need = ("kind", "win_w", "win_h") + (("w1_q", "w1_shift", "b1_q16", "w2_q", "w2_shift", "b2_q16") if mlp
@@ -380,14 +430,15 @@ def load_model(path) -> SvmModel | MlpModel:
         if any(not np.issubdtype(a.dtype, np.integer) for a in arrs) or arrs[0].ndim != 2:
             raise ValueError(f"model: {p}: w1_q (2-D), b1_q16 and w2_q must be integer arrays")
         m = MlpModel(kind, int(z["win_w"]), int(z["win_h"]), arrs[0], int(z["w1_shift"]), arrs[1], arrs[2],
-                     int(z["w2_shift"]), int(z["b2_q16"]), thr, p, scan, settings, wide, refine)
+                     int(z["w2_shift"]), int(z["b2_q16"]), thr, p, scan, settings, wide, refine,
+                     _tracker_settings(z, p))
         _c_model(m)   # validates shapes, shifts and window against the C core
         return m
     w = np.asarray(z["w_q"])
     if w.ndim != 1 or not np.issubdtype(w.dtype, np.integer) or (np.abs(w.astype(np.int64)) > 32767).any():
         raise ValueError(f"model: {p}: w_q must be a 1-D array of int16 values")
     m = SvmModel(kind, int(z["win_w"]), int(z["win_h"]), w.astype(np.int16), int(z["w_shift"]),
-                 int(z["bias_q16"]), thr, p, scan, settings, wide, refine)
+                 int(z["bias_q16"]), thr, p, scan, settings, wide, refine, _tracker_settings(z, p))
     _c_model(m)   # validates window, dim and shift against the C core
     return m
 

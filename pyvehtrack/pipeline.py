@@ -217,6 +217,8 @@ class Pipeline:
         self.cfg = _config.from_kwargs(cfg, **config)
         self._ccfg = _config.to_c(self.cfg)  # checks the whole config once, for both engines
         self._setup_classifier(model, road_camera, fullroad, cnn_cfg)
+        if cfg is None and "tracker" not in config:
+            self._model_tracker()
         self._setup_flow(flow)
         self._setup_vehicle_model(vehicle_model)
         self._setup_ttc_points(ttc_points, fps)
@@ -303,6 +305,22 @@ class Pipeline:
             self._cscorer = _callback_scorer(self._score_fn)
         elif isinstance(_m, _fr.MlpModel):
             self._cscorer = _fr.c_scorer(_m)
+
+    def _model_tracker(self) -> None:
+        """The tracker settings the model file carries (tracker_json), over the default
+        tracker configuration; only when the caller gave none (cfg= or tracker=)."""
+        from dataclasses import replace  # noqa: PLC0415
+
+        from . import fullroad as _fr  # noqa: PLC0415
+        own = _fr.model_tracker_settings(self.model)
+        if not own:
+            return
+        name = getattr(self.model, "path", "model")
+        t = replace(self.cfg.tracker, **own)
+        _config._tracker_to_c(self._ccfg.tracker, t)
+        _native.check("vt_tracker_cfg_check", lib.vt_tracker_cfg_check(ffi.addressof(self._ccfg, "tracker")),
+                      f"model {name}: tracker_json {own} is out of the tracker's ranges")
+        self.cfg = replace(self.cfg, tracker=t)
 
     def _setup_cnn(self, model, road_camera, fullroad, cnn_cfg) -> None:
         """The CNN detector in place of the windows (vt_pipeline_set_cnn): the model, its

@@ -143,6 +143,16 @@ class Tracker:
                             f"got {type(detector).__name__}")
         self.engine = engine
         self.cfg = cfg if cfg is not None else TrackerCfg()
+        if cfg is None:   # the tracker settings the detector's model file carries (tracker_json)
+            from .fullroad import model_tracker_settings  # noqa: PLC0415
+            model = getattr(getattr(detector, "full", None), "model", None)
+            own = model_tracker_settings(model)
+            if own:
+                self.cfg = replace(self.cfg, **own)
+                try:
+                    check_cfg(self.cfg)
+                except ValueError as e:
+                    raise ValueError(f"model {getattr(model, 'path', '')}: tracker_json: {e}") from None
         if measurement is not None and isinstance(self.cfg, TrackerCfg):  # else check_cfg names it
             self.cfg = replace(self.cfg, measurement=MEASUREMENTS[measurement])
         check_cfg(self.cfg)             # both engines: errors now, naming the field
