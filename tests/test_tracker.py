@@ -169,6 +169,46 @@ def test_track_search_exact(seed, l, t, w, h, prev, polarity, bottom_permille, s
                                               sides_r.max_change_left, sides_r.max_change_right)
 
 
+@settings(max_examples=150)
+@given(seed=st.integers(0, 2**31), w=st.integers(4, 90), h=st.integers(2, 40), l=st.integers(-3, 90),
+       t=st.integers(-3, 40), rw=st.integers(0, 95), rh=st.integers(0, 45), polarity=st.sampled_from([0, 1]),
+       h_thresh=st.sampled_from([1, 40, 300, 1020, 1021, 5000]), v_thresh=st.sampled_from([1, 40, 300, 1020, 1021, 5000]))
+def test_track_search_projections_exact(seed, w, h, l, t, rw, rh, polarity, h_thresh, v_thresh):
+    """The workspace's projections, against NumPy's Sobel counts: every row of the ROI
+    (s * d/dy >= h_thresh, s = +1 for a dark-above edge), and, once a bottom row was
+    chosen (found), every column over the rows down to it (|d/dx| >= v_thresh); edge
+    replicated. Exact: the SSE2 inner loops take 8 columns at a time and the rest go
+    the portable way, so widths 4..90 cover full blocks, tails and the border columns;
+    thresholds past the Sobel range (1020) too."""
+    rng = np.random.default_rng(seed)
+    img = rng.integers(0, 256, (h, w), dtype=np.uint8)
+    img[:, rng.integers(0, w):] //= 3      # some structure beside the noise
+    p = np.pad(img.astype(np.int32), 1, mode="edge")
+    gy = (p[2:, :-2] + 2 * p[2:, 1:-1] + p[2:, 2:]) - (p[:-2, :-2] + 2 * p[:-2, 1:-1] + p[:-2, 2:])
+    gx = (p[:-2, 2:] + 2 * p[1:-1, 2:] + p[2:, 2:]) - (p[:-2, :-2] + 2 * p[1:-1, :-2] + p[2:, :-2])
+    cfg = rts.SearchCfg(polarity=polarity, h_thresh=h_thresh, v_thresh=v_thresh, min_h_permille=0,
+                        min_v_permille=0, bottom_permille=1000, side_mode=1)
+    c_cfg = ffi.new("vt_track_search_cfg *", [cfg.polarity, cfg.h_thresh, cfg.v_thresh, cfg.min_h_permille,
+                                               cfg.min_v_permille, cfg.bottom_permille, cfg.side_mode])
+    c_roi = ffi.new("vt_box *", [l, t, l + rw - 1, t + rh - 1])
+    ws = ffi.new("vt_track_search_ws *")
+    meas, found = ffi.new("vt_box *"), ffi.new("int32_t *")
+    assert lib.vt_track_search(ws, ffi.NULL, c_cfg, _native.view(img, "img"), c_roi, meas, found) == lib.VT_OK
+    x0, x1 = min(max(l, 0), w), min(max(l + rw - 1, -1), w - 1) + 1
+    y0, y1 = min(max(t, 0), h), min(max(t + rh - 1, -1), h - 1) + 1
+    if x1 - x0 < 4 or y1 - y0 < 2:
+        return   # too small: nothing computed
+    s = 1 if polarity == lib.VT_EDGE_DARK_ABOVE else -1
+    want_h = (s * gy[y0:y1, x0:x1] >= h_thresh).sum(axis=1)
+    got_h = np.frombuffer(ffi.buffer(ws.hproj), np.int32)[y0:y1]
+    assert (got_h == want_h).all()
+    if found[0]:
+        ybest = meas.bottom
+        want_v = (np.abs(gx[y0:ybest + 1, x0:x1]) >= v_thresh).sum(axis=0)
+        got_v = np.frombuffer(ffi.buffer(ws.vproj), np.int32)[x0:x1]
+        assert (got_v == want_v).all()
+
+
 def test_python_defaults_equal_c_defaults():
     """No drift between VT_TRACKER_CFG_DEFAULT and rtrk.TrackerCfg(). The C model
     defaults are written as fractions of VT_Q16_ONE in integer arithmetic (truncated,

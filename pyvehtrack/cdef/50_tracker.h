@@ -17,7 +17,10 @@ typedef struct {
 #define VT_SIDES_LARGEST ...
 #define VT_TRACK_MAX_FRAMES_CFG ...
 #define VT_TRACK_MAX_BIRTH_SEARCH ...
-typedef struct { ...; } vt_track_search_ws;
+typedef struct {
+    int32_t hproj[...];
+    int32_t vproj[...];
+} vt_track_search_ws;
 typedef struct {
     int32_t have_prev;
     int32_t prev_left;
