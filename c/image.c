@@ -93,7 +93,17 @@ static void vt__sobel_x_row(const uint8_t *pm, const uint8_t *p0, const uint8_t 
 {
     int32_t x;
     o[0] = vt__sx(pm, p0, pp, 0, w > 1 ? 1 : 0);
-    for (x = 1; x < w - 1; ++x) {
+    x = 1;
+#if VT__SSE2
+    /* 8 outputs at a time (responses within +-1020: int16 lanes); columns x-1 .. x+8 */
+    for (; x + 8 <= w - 1; x += 8) {
+        __m128i g = _mm_add_epi16(_mm_add_epi16(_mm_sub_epi16(vt__ld8(pm + x + 1), vt__ld8(pm + x - 1)),
+                                                _mm_sub_epi16(vt__ld8(pp + x + 1), vt__ld8(pp + x - 1))),
+                                  _mm_slli_epi16(_mm_sub_epi16(vt__ld8(p0 + x + 1), vt__ld8(p0 + x - 1)), 1));
+        _mm_storeu_si128((__m128i *)(void *)(o + x), g);
+    }
+#endif
+    for (; x < w - 1; ++x) {
         o[x] = (int16_t)((pm[x + 1] - pm[x - 1]) + 2 * (p0[x + 1] - p0[x - 1]) + (pp[x + 1] - pp[x - 1]));
     }
     if (w > 1) {
@@ -106,7 +116,17 @@ static void vt__sobel_y_row(const uint8_t *pm, const uint8_t *pp, int32_t w, int
 {
     int32_t x;
     o[0] = vt__sy(pm, pp, 0, 0, w > 1 ? 1 : 0);
-    for (x = 1; x < w - 1; ++x) {
+    x = 1;
+#if VT__SSE2
+    for (; x + 8 <= w - 1; x += 8) {
+        __m128i g = _mm_sub_epi16(_mm_add_epi16(_mm_add_epi16(vt__ld8(pp + x - 1), vt__ld8(pp + x + 1)),
+                                                _mm_slli_epi16(vt__ld8(pp + x), 1)),
+                                  _mm_add_epi16(_mm_add_epi16(vt__ld8(pm + x - 1), vt__ld8(pm + x + 1)),
+                                                _mm_slli_epi16(vt__ld8(pm + x), 1)));
+        _mm_storeu_si128((__m128i *)(void *)(o + x), g);
+    }
+#endif
+    for (; x < w - 1; ++x) {
         o[x] = (int16_t)((pp[x - 1] + 2 * pp[x] + pp[x + 1]) - (pm[x - 1] + 2 * pm[x] + pm[x + 1]));
     }
     if (w > 1) {
@@ -180,7 +200,17 @@ static void vt__pyr_rect(const vt_image_u8 *src, vt_image_u8_mut *dst, int32_t x
         for (i = 0; i < 5; ++i) {
             r[i] = src->px + (size_t)vt__reflect101(2 * oy + i - 2, h) * (size_t)src->stride;
         }
-        for (x = cl; x < ch; ++x) {
+        x = cl;
+#if VT__SSE2
+        for (; x + 8 <= ch; x += 8) { /* <= 16 * 255: uint16 lanes */
+            __m128i v = _mm_add_epi16(_mm_add_epi16(vt__ld8(r[0] + x), vt__ld8(r[4] + x)),
+                                      _mm_slli_epi16(_mm_add_epi16(vt__ld8(r[1] + x), vt__ld8(r[3] + x)), 2));
+            __m128i c2 = vt__ld8(r[2] + x);
+            v = _mm_add_epi16(v, _mm_add_epi16(_mm_slli_epi16(c2, 2), _mm_slli_epi16(c2, 1)));
+            _mm_storeu_si128((__m128i *)(void *)(col + x), v);
+        }
+#endif
+        for (; x < ch; ++x) {
             col[x] = (uint16_t)(r[0][x] + 4 * r[1][x] + 6 * r[2][x] + 4 * r[3][x] + r[4][x]);
         }
         {

@@ -128,4 +128,19 @@ int vt__shadow_suppresses(const vt_shadow_cfg *cfg, int32_t k_row, int32_t k_xs,
 vt_status vt__ncc_from_sums(uint64_t n, uint64_t sa, uint64_t sb, uint64_t saa, uint64_t sbb,
                             uint64_t sab, vt_q14 *ncc);
 
+/* SSE2 (every x86-64) inner loops beside the portable ones (image.c's Sobel rows,
+ * track_search.c's projections); other targets and builds with -DVT_NO_SIMD take the
+ * portable loops, with the same results. */
+#if defined(__SSE2__) && !defined(VT_NO_SIMD)
+#define VT__SSE2 1
+#include <emmintrin.h>
+/* 8 bytes at p widened to int16 lanes. */
+static inline __m128i vt__ld8(const uint8_t *p)
+{
+    return _mm_unpacklo_epi8(_mm_loadl_epi64((const __m128i *)(const void *)p), _mm_setzero_si128());
+}
+#else
+#define VT__SSE2 0
+#endif
+
 #endif /* VEHTRACK_INTERNAL_H */

@@ -5,24 +5,10 @@
 #include "vehtrack/track_search.h"
 #include "internal.h"
 
-/* SSE2 (every x86-64) takes the two projections' inner rows 8 columns at a time; every
- * other target, and builds with -DVT_NO_SIMD, the portable loops. Both are exact: a
- * Sobel response is within +-1020 (4 x 255), an int16 lane, and a column count or a
- * row's per-lane count stays far below 2^15. */
-#if defined(__SSE2__) && !defined(VT_NO_SIMD)
-#define VT_TS_SSE2 1
-#include <emmintrin.h>
-#else
-#define VT_TS_SSE2 0
-#endif
-
-#if VT_TS_SSE2
-/* 8 bytes at p widened to int16 lanes. */
-static __m128i vt__ld8(const uint8_t *p)
-{
-    return _mm_unpacklo_epi8(_mm_loadl_epi64((const __m128i *)(const void *)p), _mm_setzero_si128());
-}
-
+/* The two projections' inner rows take 8 columns at a time in SSE2 (VT__SSE2,
+ * internal.h). Exact: a Sobel response is within +-1020 (4 x 255), an int16 lane, and a
+ * column count or a row's per-lane count stays far below 2^15. */
+#if VT__SSE2
 /* thr - 1 for an int16 "> " compare standing for ">= thr": thresholds past the Sobel
  * range (|g| <= 1020) give the same answers when clamped to 1021. */
 static __m128i vt__thr16(int32_t thr)
@@ -45,7 +31,7 @@ static int32_t vt__count_h(const vt_image_u8 *img, int32_t y, int32_t l, int32_t
         n += s * ((pp[0] + 2 * pp[0] + pp[xr]) - (pm[0] + 2 * pm[0] + pm[xr])) >= thr;
     }
     x = lo;
-#if VT_TS_SSE2
+#if VT__SSE2
     {
         /* columns x-1 .. x+8 read: x + 8 <= hi <= w - 1 */
         const __m128i t16 = vt__thr16(thr);
@@ -185,7 +171,7 @@ vt_status vt_track_search(vt_track_search_ws *ws, vt_track_sides *sides,
             ws->vproj[x] += vt__vedge(pm, p0, pp, 0, img->w > 1 ? 1 : 0, cfg->v_thresh);
         }
         x = lo;
-#if VT_TS_SSE2
+#if VT__SSE2
         {
             const __m128i t16 = vt__thr16(cfg->v_thresh);
             for (; x + 8 <= hi; x += 8) {

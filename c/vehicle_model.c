@@ -256,6 +256,28 @@ static int32_t vt__lerp(int32_t a, int32_t b, int32_t k)
     return a + (b - a) * k / (VT__S - 1);
 }
 
+/* row[x] = min(row[x], next[x] + 1) for x < w: the sweeps' step from the row above
+ * (below), which does not depend on the row's own left (right) neighbour, so it runs
+ * first and in SSE2 where there is one (a saturating + 1: 255 + 1 never lowers a
+ * distance <= 255, as before). */
+static void vt__min_next(uint8_t *row, const uint8_t *next, int32_t w)
+{
+    int32_t x = 0;
+#if VT__SSE2
+    const __m128i one = _mm_set1_epi8(1);
+    for (; x + 16 <= w; x += 16) {
+        __m128i n = _mm_adds_epu8(_mm_loadu_si128((const __m128i *)(const void *)(next + x)), one);
+        __m128i *r = (__m128i *)(void *)(row + x);
+        _mm_storeu_si128(r, _mm_min_epu8(_mm_loadu_si128(r), n));
+    }
+#endif
+    for (; x < w; x++) {
+        if (next[x] + 1 < row[x]) {
+            row[x] = (uint8_t)(next[x] + 1);
+        }
+    }
+}
+
 vt_status vt_model_prepare(vt_model_ws *ws, const vt_model_cfg *cfg,
                            const vt_image_u8 *frame, const vt_model_search *search, int32_t level)
 {
@@ -325,12 +347,32 @@ vt_status vt_model_prepare(vt_model_ws *ws, const vt_model_cfg *cfg,
         const int16_t *rx = ws->gx + (size_t)y * (size_t)src.w;
         const int16_t *ry = ws->gy + (size_t)y * (size_t)src.w;
         int32_t left = 255;
-        for (x = 0; x < src.w; x++) {
-            int32_t e = vt__abs_i32(rx[x]) + vt__abs_i32(ry[x]);
-            int32_t d = e > cfg->edge_thresh ? 0 : 255;
-            if (up != NULL && up[x] + 1 < d) {
-                d = up[x] + 1;
+        /* The edge test first (0 on an edge, else 255), vectorisable; then the sweep. */
+        x = 0;
+#if VT__SSE2
+        {
+            /* |gx| + |gy| <= 2040 and edge_thresh in 0..2040 (the cfg check): int16 lanes */
+            const __m128i thr = _mm_set1_epi16((int16_t)cfg->edge_thresh);
+            const __m128i zero = _mm_setzero_si128();
+            for (; x + 8 <= src.w; x += 8) {
+                __m128i a = _mm_loadu_si128((const __m128i *)(const void *)(rx + x));
+                __m128i b = _mm_loadu_si128((const __m128i *)(const void *)(ry + x));
+                __m128i e = _mm_add_epi16(_mm_max_epi16(a, _mm_sub_epi16(zero, a)),
+                                          _mm_max_epi16(b, _mm_sub_epi16(zero, b)));
+                /* not an edge: 0xFFFF lanes, packed to 255 */
+                __m128i far = _mm_cmpgt_epi16(_mm_add_epi16(thr, _mm_set1_epi16(1)), e);
+                _mm_storel_epi64((__m128i *)(void *)(row + x), _mm_packus_epi16(_mm_srli_epi16(far, 8), zero));
             }
+        }
+#endif
+        for (; x < src.w; x++) {
+            row[x] = (uint8_t)(vt__abs_i32(rx[x]) + vt__abs_i32(ry[x]) > cfg->edge_thresh ? 0 : 255);
+        }
+        if (up != NULL) {
+            vt__min_next(row, up, src.w);
+        }
+        for (x = 0; x < src.w; x++) {
+            int32_t d = row[x];
             if (left + 1 < d) {
                 d = left + 1;
             }
@@ -340,13 +382,12 @@ vt_status vt_model_prepare(vt_model_ws *ws, const vt_model_cfg *cfg,
     }
     for (y = src.h - 1; y >= 0; y--) {
         uint8_t *row = ws->dist + (size_t)y * (size_t)src.w;
-        const uint8_t *down = y + 1 < src.h ? row + src.w : NULL;
         int32_t right = 255;
+        if (y + 1 < src.h) {
+            vt__min_next(row, row + src.w, src.w);
+        }
         for (x = src.w - 1; x >= 0; x--) {
             int32_t d = row[x];
-            if (down != NULL && down[x] + 1 < d) {
-                d = down[x] + 1;
-            }
             if (right + 1 < d) {
                 d = right + 1;
             }
