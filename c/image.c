@@ -337,34 +337,43 @@ static int vt__norm_shift(uint64_t v)
     return k;
 }
 
-vt_status vt__ncc_from_sums(uint64_t n, uint64_t sa, uint64_t sb, uint64_t saa, uint64_t sbb,
-                            uint64_t sab, vt_q14 *ncc)
+int vt__ncc_norm_of(uint64_t n, uint64_t s, uint64_t ss, vt__ncc_norm *out)
 {
-    uint64_t da, db, p;
-    int64_t va, vb, cov, q;
-    int32_t ka, kb;
-    vt_status s;
-    /* n <= 2^16 and each sum of products < 2^32: all below 2^48, exact. */
-    va = (int64_t)(n * saa) - (int64_t)(sa * sa);
-    vb = (int64_t)(n * sbb) - (int64_t)(sb * sb);
-    cov = (int64_t)(n * sab) - (int64_t)(sa * sb);
-    if (va <= 0 || vb <= 0) {
-        return VT_E_SINGULAR;
+    /* n <= 2^16 and each sum of products < 2^32: below 2^48, exact. */
+    int64_t v = (int64_t)(n * ss) - (int64_t)(s * s);
+    if (v <= 0) {
+        return 0;
     }
-    /* sqrt(va) = da / 2^ka with da in [2^30, 2^31): ~30 significant bits. */
-    ka = vt__norm_shift((uint64_t)va);
-    kb = vt__norm_shift((uint64_t)vb);
-    da = vt_isqrt_u64((uint64_t)va << (2 * ka));
-    db = vt_isqrt_u64((uint64_t)vb << (2 * kb));
-    p = (da * db) >> 14; /* sqrt(va*vb) * 2^(ka+kb) / 2^14, >= 2^46 */
+    /* sqrt(v) = root / 2^k with root in [2^30, 2^31): ~30 significant bits. */
+    out->k = vt__norm_shift((uint64_t)v);
+    out->root = vt_isqrt_u64((uint64_t)v << (2 * out->k));
+    return 1;
+}
+
+vt_status vt__ncc_from_norms(uint64_t n, uint64_t sa, uint64_t sb, uint64_t sab, const vt__ncc_norm *a,
+                             const vt__ncc_norm *b, vt_q14 *ncc)
+{
+    int64_t cov = (int64_t)(n * sab) - (int64_t)(sa * sb), q;
+    uint64_t p = (a->root * b->root) >> 14; /* sqrt(va*vb) * 2^(ka+kb) / 2^14, >= 2^46 */
     /* |cov| * 2^(ka+kb) <= sqrt(va*vb) * 2^(ka+kb) < 2^62 by Cauchy-Schwarz. */
-    s = vt_div_round_s64(cov * ((int64_t)1 << (ka + kb)), (int64_t)p, &q);
+    vt_status s = vt_div_round_s64(cov * ((int64_t)1 << (a->k + b->k)), (int64_t)p, &q);
     if (s != VT_OK) {
         return s;
     }
     /* The floored square roots can push |q| a hair past 1.0. */
     *ncc = (vt_q14)(q > VT_Q14_ONE ? VT_Q14_ONE : (q < -VT_Q14_ONE ? -VT_Q14_ONE : q));
     return VT_OK;
+}
+
+/* Both patches normalised, then correlated; VT_E_SINGULAR for a flat one. */
+static vt_status vt__ncc_from_sums(uint64_t n, uint64_t sa, uint64_t sb, uint64_t saa, uint64_t sbb,
+                                   uint64_t sab, vt_q14 *ncc)
+{
+    vt__ncc_norm na, nb;
+    if (!vt__ncc_norm_of(n, sa, saa, &na) || !vt__ncc_norm_of(n, sb, sbb, &nb)) {
+        return VT_E_SINGULAR;
+    }
+    return vt__ncc_from_norms(n, sa, sb, sab, &na, &nb, ncc);
 }
 
 vt_status vt_ncc_u8(const vt_image_u8 *a, const vt_image_u8 *b, vt_q14 *ncc)

@@ -122,11 +122,18 @@ void vt__cand_add(vt_scored_box *cand, int32_t *n, int32_t cap, int32_t *n_dropp
 int vt__shadow_suppresses(const vt_shadow_cfg *cfg, int32_t k_row, int32_t k_xs, int32_t k_xe,
                           int32_t c_row, int32_t c_xs, int32_t c_xe);
 
-/* image.c: vt_ncc_u8's result from its sums over n pixels (a: sa, saa; b: sb, sbb; both:
- * sab; n <= VT_MAX_PATCH_PIXELS), so a caller correlating one patch with many (the
- * tracker's template match) sums the fixed one once. VT_E_SINGULAR for a flat patch. */
-vt_status vt__ncc_from_sums(uint64_t n, uint64_t sa, uint64_t sb, uint64_t saa, uint64_t sbb,
-                            uint64_t sab, vt_q14 *ncc);
+/* image.c: vt_ncc_u8's arithmetic in two halves, so a caller correlating one patch with
+ * many (the tracker's template match) normalises the fixed one once. vt__ncc_norm_of:
+ * one patch's v = n*ss - s*s over n <= VT_MAX_PATCH_PIXELS pixels, sqrt(v) = root / 2^k
+ * with root in [2^30, 2^31); 0 for a flat patch (v <= 0). vt__ncc_from_norms: the Q14
+ * correlation from the sums and both norms, as vt_ncc_u8 returns it. */
+typedef struct {
+    uint64_t root;
+    int32_t k;
+} vt__ncc_norm;
+int vt__ncc_norm_of(uint64_t n, uint64_t s, uint64_t ss, vt__ncc_norm *out);
+vt_status vt__ncc_from_norms(uint64_t n, uint64_t sa, uint64_t sb, uint64_t sab, const vt__ncc_norm *a,
+                             const vt__ncc_norm *b, vt_q14 *ncc);
 
 /* SSE2 (every x86-64) inner loops beside the portable ones (image.c's Sobel rows,
  * track_search.c's projections); other targets and builds with -DVT_NO_SIMD take the

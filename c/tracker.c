@@ -443,6 +443,7 @@ static int vt__tmatch(const vt_track *t, const vt_tracker_cfg *cfg, const vt_ima
     int32_t xo[VT_TRACK_TEMPLATE], yo[VT_TRACK_TEMPLATE];
     uint8_t now[VT_TRACK_TEMPLATE * VT_TRACK_TEMPLATE];
     uint32_t sa = 0, saa = 0;
+    vt__ncc_norm na, nb;
     const uint64_t n = (uint64_t)VT_TRACK_TEMPLATE * VT_TRACK_TEMPLATE;
     /* Both boxes pass vt__box_ok or come from the bounded filter: no overflow. */
     int32_t ox = (int32_t)(vt__floor_shr64((int64_t)t->box.left + t->box.right, 1) -
@@ -457,6 +458,9 @@ static int vt__tmatch(const vt_track *t, const vt_tracker_cfg *cfg, const vt_ima
         uint32_t u = t->tmpl[i];
         sa += u;
         saa += u * u;
+    }
+    if (!vt__ncc_norm_of(n, sa, saa, &na)) {
+        return 0;   /* a flat template correlates with nothing (vt_ncc_u8: singular) */
     }
     for (dy = -r; dy <= r; ++dy) {
         for (dx = -r; dx <= r; ++dx) {
@@ -475,8 +479,8 @@ static int vt__tmatch(const vt_track *t, const vt_tracker_cfg *cfg, const vt_ima
                 sbb += v * v;
                 sab += (uint32_t)t->tmpl[i] * v;
             }
-            if (vt__ncc_from_sums(n, sa, sb, saa, sbb, sab, &q) != VT_OK) {
-                continue;
+            if (!vt__ncc_norm_of(n, sb, sbb, &nb) || vt__ncc_from_norms(n, sa, sb, sab, &na, &nb, &q) != VT_OK) {
+                continue;   /* a flat patch is no candidate */
             }
             if (!have || q > best) {
                 have = 1;
