@@ -296,16 +296,25 @@ _PERMILLE = _FULLDET_PERMILLE + ("wide_box_height_permille", "wide_nms_iou_permi
                                  "wide_alt_height_a_permille", "wide_alt_height_b_permille")   # 0: unused
 
 
-def _settings(z, p) -> dict:
-    if "detector_json" not in z.files:
-        return {}
+def _json_object(z, key: str, p) -> dict | None:
+    """The JSON object a model file holds under key (None without the key); ValueError
+    naming the file and key otherwise."""
+    if key not in z.files:
+        return None
     import json  # noqa: PLC0415
     try:
-        d = json.loads(str(z["detector_json"]))
+        d = json.loads(str(z[key]))
     except ValueError as e:
-        raise ValueError(f"model: {p}: detector_json is not JSON ({e})") from None
+        raise ValueError(f"model: {p}: {key} is not JSON ({e})") from None
     if not isinstance(d, dict):
-        raise ValueError(f"model: {p}: detector_json must be a JSON object")
+        raise ValueError(f"model: {p}: {key} must be a JSON object")
+    return d
+
+
+def _settings(z, p) -> dict:
+    d = _json_object(z, "detector_json", p)
+    if d is None:
+        return {}
     d = take_renamed(f"model {p}: detector_json", d, FULLDET_RENAMED, stacklevel=5)
     for k, v in d.items():
         if k in _PERMILLE:
@@ -339,18 +348,12 @@ def _tracker_settings(z, p) -> dict:
     model (a JSON object of TrackerCfg's integer fields, e.g. {"birth_search": 0}). A
     Pipeline or Tracker built with the model and no tracker configuration of its own runs
     with them; their ranges are checked there (vt_tracker_cfg_check)."""
-    if "tracker_json" not in z.files:
+    d = _json_object(z, "tracker_json", p)
+    if d is None:
         return {}
-    import json  # noqa: PLC0415
     from dataclasses import fields as _fields  # noqa: PLC0415
 
     from .shared import TrackerCfg  # noqa: PLC0415
-    try:
-        d = json.loads(str(z["tracker_json"]))
-    except ValueError as e:
-        raise ValueError(f"model: {p}: tracker_json is not JSON ({e})") from None
-    if not isinstance(d, dict):
-        raise ValueError(f"model: {p}: tracker_json must be a JSON object")
     known = [f.name for f in _fields(TrackerCfg) if f.type in ("int", int)]
     for k, v in d.items():
         if k not in known:
