@@ -95,12 +95,9 @@ static void vt__sobel_x_row(const uint8_t *pm, const uint8_t *p0, const uint8_t 
     o[0] = vt__sx(pm, p0, pp, 0, w > 1 ? 1 : 0);
     x = 1;
 #if VT__SSE2
-    /* 8 outputs at a time (responses within +-1020: int16 lanes); columns x-1 .. x+8 */
+    /* 8 outputs at a time (int16 lanes); x + 8 <= w - 1 keeps column x + 8 inside */
     for (; x + 8 <= w - 1; x += 8) {
-        __m128i g = _mm_add_epi16(_mm_add_epi16(_mm_sub_epi16(vt__ld8(pm + x + 1), vt__ld8(pm + x - 1)),
-                                                _mm_sub_epi16(vt__ld8(pp + x + 1), vt__ld8(pp + x - 1))),
-                                  _mm_slli_epi16(_mm_sub_epi16(vt__ld8(p0 + x + 1), vt__ld8(p0 + x - 1)), 1));
-        _mm_storeu_si128((__m128i *)(void *)(o + x), g);
+        _mm_storeu_si128((__m128i *)(void *)(o + x), vt__sobel_x8(pm, p0, pp, x));
     }
 #endif
     for (; x < w - 1; ++x) {
@@ -119,11 +116,7 @@ static void vt__sobel_y_row(const uint8_t *pm, const uint8_t *pp, int32_t w, int
     x = 1;
 #if VT__SSE2
     for (; x + 8 <= w - 1; x += 8) {
-        __m128i g = _mm_sub_epi16(_mm_add_epi16(_mm_add_epi16(vt__ld8(pp + x - 1), vt__ld8(pp + x + 1)),
-                                                _mm_slli_epi16(vt__ld8(pp + x), 1)),
-                                  _mm_add_epi16(_mm_add_epi16(vt__ld8(pm + x - 1), vt__ld8(pm + x + 1)),
-                                                _mm_slli_epi16(vt__ld8(pm + x), 1)));
-        _mm_storeu_si128((__m128i *)(void *)(o + x), g);
+        _mm_storeu_si128((__m128i *)(void *)(o + x), vt__sobel_y8(pm, pp, x));
     }
 #endif
     for (; x < w - 1; ++x) {

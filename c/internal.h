@@ -146,6 +146,21 @@ static inline __m128i vt__ld8(const uint8_t *p)
 {
     return _mm_unpacklo_epi8(_mm_loadl_epi64((const __m128i *)(const void *)p), _mm_setzero_si128());
 }
+/* Sobel d/dx and d/dy at the 8 columns x .. x+7 of rows pm, p0, pp (columns x-1 .. x+8
+ * read); each response is within +-1020, an int16 lane. */
+static inline __m128i vt__sobel_x8(const uint8_t *pm, const uint8_t *p0, const uint8_t *pp, int32_t x)
+{
+    return _mm_add_epi16(_mm_add_epi16(_mm_sub_epi16(vt__ld8(pm + x + 1), vt__ld8(pm + x - 1)),
+                                       _mm_sub_epi16(vt__ld8(pp + x + 1), vt__ld8(pp + x - 1))),
+                         _mm_slli_epi16(_mm_sub_epi16(vt__ld8(p0 + x + 1), vt__ld8(p0 + x - 1)), 1));
+}
+static inline __m128i vt__sobel_y8(const uint8_t *pm, const uint8_t *pp, int32_t x)
+{
+    return _mm_sub_epi16(_mm_add_epi16(_mm_add_epi16(vt__ld8(pp + x - 1), vt__ld8(pp + x + 1)),
+                                       _mm_slli_epi16(vt__ld8(pp + x), 1)),
+                         _mm_add_epi16(_mm_add_epi16(vt__ld8(pm + x - 1), vt__ld8(pm + x + 1)),
+                                       _mm_slli_epi16(vt__ld8(pm + x), 1)));
+}
 #else
 #define VT__SSE2 0
 #endif

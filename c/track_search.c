@@ -9,12 +9,11 @@
  * internal.h). Exact: a Sobel response is within +-1020 (4 x 255), an int16 lane, and a
  * column count or a row's per-lane count stays far below 2^15. */
 #if VT__SSE2
-/* thr - 1 for an int16 "> " compare standing for ">= thr": thresholds past the Sobel
- * range (|g| <= 1020) give the same answers when clamped to 1021. */
+/* thr - 1 for an int16 "> " compare standing for ">= thr" (thr >= 1, the cfg check):
+ * thresholds past the Sobel range (|g| <= 1020) give the same answers clamped to 1021. */
 static __m128i vt__thr16(int32_t thr)
 {
-    int32_t t = thr > 1021 ? 1021 : (thr < -1021 ? -1021 : thr);
-    return _mm_set1_epi16((int16_t)(t - 1));
+    return _mm_set1_epi16((int16_t)((thr > 1021 ? 1021 : thr) - 1));
 }
 #endif
 
@@ -39,10 +38,7 @@ static int32_t vt__count_h(const vt_image_u8 *img, int32_t y, int32_t l, int32_t
         int16_t lane[8];
         int32_t k;
         for (; x + 8 <= hi; x += 8) {
-            __m128i g = _mm_sub_epi16(_mm_add_epi16(_mm_add_epi16(vt__ld8(pp + x - 1), vt__ld8(pp + x + 1)),
-                                                    _mm_slli_epi16(vt__ld8(pp + x), 1)),
-                                      _mm_add_epi16(_mm_add_epi16(vt__ld8(pm + x - 1), vt__ld8(pm + x + 1)),
-                                                    _mm_slli_epi16(vt__ld8(pm + x), 1)));
+            __m128i g = vt__sobel_y8(pm, pp, x);
             if (s < 0) {
                 g = _mm_sub_epi16(_mm_setzero_si128(), g);
             }
@@ -175,10 +171,7 @@ vt_status vt_track_search(vt_track_search_ws *ws, vt_track_sides *sides,
         {
             const __m128i t16 = vt__thr16(cfg->v_thresh);
             for (; x + 8 <= hi; x += 8) {
-                __m128i g = _mm_add_epi16(
-                    _mm_add_epi16(_mm_sub_epi16(vt__ld8(pm + x + 1), vt__ld8(pm + x - 1)),
-                                  _mm_sub_epi16(vt__ld8(pp + x + 1), vt__ld8(pp + x - 1))),
-                    _mm_slli_epi16(_mm_sub_epi16(vt__ld8(p0 + x + 1), vt__ld8(p0 + x - 1)), 1));
+                __m128i g = vt__sobel_x8(pm, p0, pp, x);
                 __m128i e = _mm_cmpgt_epi16(_mm_max_epi16(g, _mm_sub_epi16(_mm_setzero_si128(), g)), t16);
                 __m128i *vp = (__m128i *)(void *)(ws->vproj + x);
                 /* true lanes are -1: widened to int32 -1 and subtracted */
