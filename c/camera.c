@@ -143,6 +143,7 @@ vt_status vt_pitch_init(vt_pitch_state *st, const vt_camera_cfg *cam)
     st->tan_pitch = cam->tan_pitch;
     st->flag = VT_PITCH_NOMINAL;
     st->outliers = 0;
+    st->run_tan = 0;
     st->measured = 0;
     return VT_OK;
 }
@@ -166,7 +167,16 @@ vt_status vt_pitch_update(vt_pitch_state *st, const vt_camera_cfg *cam, int32_t 
         return VT_OK;
     }
     if (m - st->tan_pitch > cam->pitch_max_step || st->tan_pitch - m > cam->pitch_max_step) {
-        st->outliers += 1;
+        /* Only a run of outliers that agree with one another is a lasting change: the
+         * run restarts at any outlier farther than pitch_max_step from its first one, so
+         * scattered wrong rows (a lane pair on a curve, on the barrier) never take over. */
+        if (st->outliers > 0 && m - st->run_tan <= cam->pitch_max_step &&
+            st->run_tan - m <= cam->pitch_max_step) {
+            st->outliers += 1;
+        } else {
+            st->outliers = 1;
+            st->run_tan = (vt_q16)m;
+        }
         if (st->outliers < cam->pitch_reacquire) {
             st->flag = VT_PITCH_REJECTED;
             return VT_OK;

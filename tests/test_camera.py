@@ -125,7 +125,8 @@ def test_pitch_matches_oracle(alpha, vps, reacq):
             m = (p.cy - vq / Q) / p.fy
             # decisions within 16 LSB of a threshold may go either way: stop comparing there
             near = min(abs(m - p.tan_pitch_min), abs(m - p.tan_pitch_max),
-                       abs(abs(m - ref.tan_pitch) - p.pitch_max_step))
+                       abs(abs(m - ref.tan_pitch) - p.pitch_max_step),
+                       abs(abs(m - ref.run_tan) - p.pitch_max_step) if ref.outliers else 1.0)
             if near < 16 * LSB:
                 return
             _native.pitch_update(c, st_c, 1, vq)
@@ -186,6 +187,31 @@ def test_pitch_rejects_implausible_and_holds():
         if k < p.pitch_reacquire - 1:
             assert s.flag == lib.VT_PITCH_REJECTED and s.tan_pitch == good
     assert s.flag == lib.VT_PITCH_MEASURED and abs(s.tan_pitch / Q - 0.045) < 2 * LSB
+
+
+def test_pitch_scattered_outliers_never_take_over():
+    """Wrong vanishing rows that disagree with one another (the KITTI frames 31-43 with some
+    lane sets: rows -46, 78, 142, 97, ... against a true 172) are outliers however long they
+    last; the same rows repeated are a lasting change and are followed after pitch_reacquire."""
+    p, c = cam_params(tp=0.0, pitch_max_step=0.02, tan_pitch_min=-0.08, tan_pitch_max=0.08)
+    s = _native.pitch_new(c)
+    ref = rc.PitchEstimator(p)
+    # alternating 0.03 and 0.06: each an outlier of the estimate 0 and 0.03 from the other
+    seq = [0.03, 0.06] * (3 * p.pitch_reacquire)
+    for t in seq:
+        vq = round((p.cy - t * p.fy) * Q)
+        _native.pitch_update(c, s, 1, vq)
+        ref.update(vq / Q)
+        assert s.flag == ref.flag == lib.VT_PITCH_REJECTED
+        assert s.tan_pitch == 0 and ref.tan_pitch == 0
+    # a run within pitch_max_step of its first outlier (0.05 .. 0.065) is followed
+    for k, t in enumerate([0.05, 0.065, 0.055, 0.06, 0.05, 0.06][:p.pitch_reacquire]):
+        vq = round((p.cy - t * p.fy) * Q)
+        _native.pitch_update(c, s, 1, vq)
+        ref.update(vq / Q)
+        assert s.flag == ref.flag
+    assert s.flag == lib.VT_PITCH_MEASURED and abs(s.tan_pitch / Q - ref.tan_pitch) < 2 * LSB
+    assert ref.tan_pitch > 0.04
 
 
 def _rcfg(**kw):

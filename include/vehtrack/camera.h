@@ -18,7 +18,7 @@
  *     machine (vt_fcw_step). It is updated from vt_tracker_step's outputs.
  *
  * Cost: sizeof(vt_range_state) = 8 + VT_MAX_TRACKS * sizeof(vt_range_track) (2,472 bytes
- * each on x86-64, 2,360 of it the vt_kf): 39,560 bytes at the defaults; vt_pitch_state 16
+ * each on x86-64, 2,360 of it the vt_kf): 39,560 bytes at the defaults; vt_pitch_state 20
  * bytes, vt_camera_cfg 68, vt_range_cfg 88 (both const, may live in flash).
  * Work per track and frame: one 3-state Kalman predict + update (about 150 multiplies),
  * 3 divisions for the distances, 2 for the TTCs. No frame access.
@@ -72,7 +72,9 @@ typedef struct vt_camera_cfg {
                                  permille, 0..1000: tan_pitch += (m - tan_pitch) a / 1000,
                                  the step rounded half away from zero (Q16 LSB)     */
     int32_t pitch_reacquire;  /* after this many consecutive outliers inside the
-                                 limits, jump to the measurement (1..1000)           */
+                                 limits that agree with one another (each within
+                                 pitch_max_step of the first), jump to the
+                                 measurement (1..1000)                               */
     vt_q16 delta_px;          /* row error +-delta of eq. 3-6, px, (0, 64]           */
     vt_q16 bottom_offset;     /* added to a box's bottom row to get the road contact
                                  row, px, [-8, 8] (0.5: the lower edge of the row)   */
@@ -166,6 +168,7 @@ typedef struct vt_pitch_state {
     vt_q16 tan_pitch;      /* the estimate to use this frame                         */
     int32_t flag;          /* vt_pitch_flag of the last update                       */
     int32_t outliers;      /* consecutive outliers within the limits                 */
+    vt_q16 run_tan;        /* tan(pitch) of the run's first outlier (Q16)            */
     int32_t measured;      /* frames whose vanishing row was accepted, saturating    */
 } vt_pitch_state;
 
@@ -177,8 +180,10 @@ vt_status vt_pitch_init(vt_pitch_state *st, const vt_camera_cfg *cam);
  * division) is:
  *   - outside [tan_pitch_min, tan_pitch_max]: REJECTED, estimate kept;
  *   - farther than pitch_max_step from the estimate (the nominal pitch at first): an
- *     outlier: REJECTED, kept, unless it is the pitch_reacquire-th outlier in a row,
- *     then the estimate jumps to m (MEASURED) -- a lasting change (a load) is followed;
+ *     outlier: REJECTED, kept, unless it is the pitch_reacquire-th outlier of a run
+ *     that agrees with itself (each within pitch_max_step of the run's first outlier,
+ *     run_tan; a disagreeing outlier starts a new run), then the estimate jumps to m
+ *     (MEASURED) -- a lasting change (a load) is followed, scattered wrong rows are not;
  *   - else MEASURED: est += (m - est) * pitch_alpha_permille / 1000, the step rounded
  *     half away from zero.
  * VT_E_ARG for NULL, a bad camera, or vp_valid not 0/1 (state unchanged). */

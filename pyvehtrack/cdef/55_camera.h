@@ -61,6 +61,7 @@ typedef struct vt_pitch_state {
     vt_q16 tan_pitch;
     int32_t flag;
     int32_t outliers;
+    vt_q16 run_tan;
     int32_t measured;
 } vt_pitch_state;
 

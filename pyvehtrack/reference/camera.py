@@ -83,6 +83,7 @@ class PitchEstimator:
         self.tan_pitch = cam.tan_pitch
         self.flag = PITCH_NOMINAL
         self.outliers = 0
+        self.run_tan = 0.0
         self.measured = 0
 
     def update(self, vp_row: float | None) -> float:
@@ -95,7 +96,12 @@ class PitchEstimator:
             self.flag = PITCH_REJECTED
             return self.tan_pitch
         if abs(m - self.tan_pitch) > c.pitch_max_step:
-            self.outliers += 1
+            # only outliers that agree with the run's first one count (vt_pitch_update)
+            if self.outliers > 0 and abs(m - self.run_tan) <= c.pitch_max_step:
+                self.outliers += 1
+            else:
+                self.outliers = 1
+                self.run_tan = m
             if self.outliers < c.pitch_reacquire:
                 self.flag = PITCH_REJECTED
                 return self.tan_pitch
