@@ -78,9 +78,10 @@ def build_net():
     return nn.Sequential(*layers, head)
 
 
-def targets(boxes, h, w, band):
+def targets(boxes, h, w, band, noreg=None):
     """Heat (1), ltrb log-distance (4), regression weight (1), loss mask (1) on the stride-8
-    grid of a level image h x w; boxes (N, 4) exclusive level pixels."""
+    grid of a level image h x w; boxes (N, 4) exclusive level pixels; `noreg` (N,) True: a
+    heat target only (a pasted crop, whose square is not the vehicle's exact box)."""
     gh, gw = (h + STRIDE - 1) // STRIDE, (w + STRIDE - 1) // STRIDE
     heat = np.zeros((gh, gw), np.float32)
     reg = np.zeros((4, gh, gw), np.float32)
@@ -114,15 +115,17 @@ def targets(boxes, h, w, band):
         cxs, cys = xs[xx], ys[yy]
         d = np.stack([cxs - x0, cys - y0, x1 - cxs, y1 - cys])
         reg[:, yy, xx] = np.log(np.maximum(d, 1.0) / STRIDE)
-        rw[yy, xx] = g[yy, xx]
+        rw[yy, xx] = 0.0 if noreg is not None and noreg[i] else g[yy, xx]
     mask = np.maximum(mask, (heat > 0).astype(np.float32))
     return heat, reg, rw, mask
 
 
-def augment(gray, boxes, rng):
+def augment(gray, boxes, rng, flags=None):
     """Scale jitter (crop / pad back to the frame size), flip, light, JPEG; boxes (N, 4)
-    exclusive full-frame pixels."""
+    exclusive full-frame pixels. With `flags` (N,) the flags of the boxes kept are returned too."""
     h, w = gray.shape
+    if flags is None:
+        flags = np.zeros(len(boxes), bool)
     s = math.exp(rng.uniform(math.log(0.7), math.log(1.45)))
     img = cv2.resize(gray, (int(round(w * s)), int(round(h * s))), interpolation=cv2.INTER_AREA if s < 1 else cv2.INTER_LINEAR)
     b = boxes * s
@@ -142,6 +145,7 @@ def augment(gray, boxes, rng):
     varea = (vis[:, 2] - vis[:, 0]).clip(0) * (vis[:, 3] - vis[:, 1]).clip(0)
     keep = varea > 0.4 * np.maximum(area, 1)
     b = vis[keep]
+    flags = flags[keep]
     if rng.random() < 0.5:
         out = out[:, ::-1].copy()
         b = np.stack([w - b[:, 2], b[:, 1], w - b[:, 0], b[:, 3]], 1) if len(b) else b
@@ -152,7 +156,60 @@ def augment(gray, boxes, rng):
     if rng.random() < 0.5:
         q = int(rng.integers(20, 90))
         out = cv2.imdecode(cv2.imencode(".jpg", out, [cv2.IMWRITE_JPEG_QUALITY, q])[1], cv2.IMREAD_GRAYSCALE)
-    return np.ascontiguousarray(out), b.astype(np.float32).reshape(-1, 4)
+    return np.ascontiguousarray(out), b.astype(np.float32).reshape(-1, 4), flags
+
+
+def load_paste_crops():
+    """Gray vehicle crops of the GTI folders' TRAIN blocks (gti_split; KITTI_extracted left
+    out, so the KITTI frames stay unseen), for --paste."""
+    from pyvehtrack.datasets import gti_sorted, gti_split
+    gti = DATA.parent / "gti-vehicles" / "vehicles"
+    crops = []
+    for folder in sorted(gti.iterdir()):
+        if not folder.name.startswith("GTI"):
+            continue
+        for i, f in enumerate(gti_sorted(folder)):
+            if gti_split(i) == "train":
+                crops.append(cv2.imread(str(f), cv2.IMREAD_GRAYSCALE))
+    return crops
+
+
+def paste(gray, boxes, crops, places, rng, n_max=3):
+    """Copy-paste: 1..n_max vehicle crops laid on the frame, each where a labelled vehicle of
+    another training frame stood (`places`: its box, so the size fits the row), shifted
+    sideways by up to a quarter of its width, 12..80 px wide, not over a vehicle already there; the crop's border
+    feathered over a tenth of its width so no square edge marks it. Returns the frame, the
+    boxes with the pasted ones appended, and a flag per box (True: pasted)."""
+    h, w = gray.shape
+    out = gray.astype(np.float32)
+    bx = [b for b in boxes]
+    flags = [False] * len(boxes)
+    for _ in range(int(rng.integers(1, n_max + 1))):
+        x0, y0, x1, y1 = places[int(rng.integers(len(places)))]
+        bw = int(round(x1 - x0))
+        if not 12 <= bw <= 80:       # a 64 px crop blown up further is a blur
+            continue
+        x0 = x0 + rng.uniform(-0.25, 0.25) * bw
+        x0, y1 = int(round(min(max(0, x0), w - bw))), int(round(min(y1, h)))
+        y0 = y1 - bw
+        if y0 < 0:
+            continue
+        nb = np.float32([x0, y0, x0 + bw, y1])
+        if any(max(0, min(nb[2], o[2]) - max(nb[0], o[0])) * max(0, min(nb[3], o[3]) - max(nb[1], o[1]))
+               > 0.1 * bw * bw for o in bx):
+            continue
+        c = cv2.resize(crops[int(rng.integers(len(crops)))], (bw, bw), interpolation=cv2.INTER_AREA
+                       if bw < 64 else cv2.INTER_LINEAR).astype(np.float32)
+        if rng.random() < 0.5:
+            c = c[:, ::-1]
+        f = max(1.0, bw / 10)
+        r = np.minimum(np.arange(bw) + 0.5, bw - 0.5 - np.arange(bw)) / f
+        a = np.clip(np.minimum(r[None, :], r[:, None]), 0, 1)
+        out[y0:y1, x0:x0 + bw] = a * c + (1 - a) * out[y0:y1, x0:x0 + bw]
+        bx.append(nb)
+        flags.append(True)
+    return (np.clip(out + 0.5, 0, 255).astype(np.uint8), np.float32(bx).reshape(-1, 4),
+            np.array(flags, bool))
 
 
 def strip(gray, boxes, ratio, at, horizon=330 / 720):
@@ -436,6 +493,9 @@ def main(argv=None):
     ap.add_argument("--channels", nargs="+", type=int, metavar="C", default=list(DEFAULT_CH),
                     help=f"output channels of the six (or seven: a 7th dilated layer) 3x3 layers (default "
                          f"{' '.join(map(str, DEFAULT_CH))}; each 1..{CNN_MAX_CH}, the C core's VT_CNN_MAX_CH)")
+    ap.add_argument("--paste", type=float, default=0.0, metavar="P",
+                    help="with probability P a training frame gets 1..3 GTI TRAIN vehicle crops pasted "
+                         "where labelled vehicles of other frames stood (copy-paste; heat targets only)")
     ap.add_argument("--level0", nargs=2, type=int, metavar=("TOP", "BOTTOM"),
                     help="also run on level 0 (full resolution, vehicles 6..40 px wide), rows TOP..BOTTOM "
                          "permille of the frame height")
@@ -462,6 +522,12 @@ def main(argv=None):
         return export(net, train, val, out)
     if a.pretrain_gti:
         pretrain_gti(net, a.pretrain_gti, rng, lambda m: print(m, flush=True))
+    if a.paste:
+        if a.strip:
+            ap.error("--paste and --strip are not combined")
+        crops = load_paste_crops()
+        places = [bx for _, _, b in train for bx in b if bx[2] - bx[0] >= 12]
+        print(f"paste: {len(crops)} GTI TRAIN vehicle crops, {len(places)} places", flush=True)
     opt = torch.optim.AdamW(net.parameters(), lr=a.lr, weight_decay=1e-4)
     steps = a.epochs * math.ceil(len(train) / a.batch)
     sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=a.lr, total_steps=steps, pct_start=0.1)
@@ -476,9 +542,13 @@ def main(argv=None):
             # one strip height per batch: the level images of a batch are stacked
             ratio = rng.uniform(2.5, 3.5) if a.strip and rng.random() < a.strip else None
             for j in perm[bi:bi + a.batch]:
-                g, b = augment(train[j][1], train[j][2], rng)
+                g, b, fl = train[j][1], train[j][2], None
+                if a.paste and rng.random() < a.paste:
+                    g, b, fl = paste(g, b, crops, places, rng)
+                g, b, fl = augment(g, b, rng, fl)
                 if ratio is not None:
                     g, b = strip(g, b, ratio, rng.uniform(0.35, 0.6))
+                    fl = None   # strips and pastes are not combined
                 lv = levels_of(g)
                 lv0_y0 = band_rows(g.shape[0])[0] if 0 in LEVELS else 0
                 for k in LEVELS:
@@ -486,7 +556,7 @@ def main(argv=None):
                     lv_imgs[k].append(lv[k].astype(np.float32) / 255.0)
                     # level 0 is the row band: its boxes move up by the band's first row
                     bk = b - np.float32([0, lv0_y0, 0, lv0_y0]) if k == 0 else b
-                    lv_t[k].append(targets(bk / f, *lv[k].shape, BANDS[k]))
+                    lv_t[k].append(targets(bk / f, *lv[k].shape, BANDS[k], fl))
             for k in LEVELS:
                 x = torch.from_numpy(np.stack(lv_imgs[k]))[:, None]
                 heat, reg, rw, mask = (torch.from_numpy(np.stack([t[i] for t in lv_t[k]])) for i in range(4))
