@@ -3,6 +3,8 @@
 
     python tools/eval_tusimple_boxes.py --split test|train [--model M.npz] [--sources shadow windows]
                                         [--offset F] [--limit N] [--out pred.json] [--draw DIR]
+                                        [--mp4 | --jpeg Q | --h264 [CRF]] [--light dusk|overcast]
+                                        [--scale F] [--gray]
 
 The split is pyvehtrack.datasets.tusimple_split (TEST: (NNNN // 10) % 5 == 0, 102 frames).
 Tune on --split train only (choices on --split val, the TRAIN frames the
@@ -14,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import re
 import sys
 import time
@@ -27,6 +30,7 @@ sys.path.insert(0, str(_ROOT))
 from pyvehtrack import eval_boxes as eb  # noqa: E402
 from pyvehtrack.datasets import tusimple_frames  # noqa: E402
 from pyvehtrack.detector import Detector  # noqa: E402
+from pyvehtrack.eval import conditions as cd  # noqa: E402
 from pyvehtrack.eval import kitti_lead  # noqa: E402
 from pyvehtrack.shared import FULLDET_RENAMED, take_renamed  # noqa: E402
 
@@ -72,6 +76,16 @@ def main(argv=None) -> int:
                          "eval_kitti_lead.py --mp4 does: a compression set to tune on that is not KITTI")
     ap.add_argument("--jpeg", type=int, default=None, metavar="Q",
                     help="detect on every frame after a JPEG round trip of quality Q (1..100)")
+    ap.add_argument("--h264", type=int, nargs="?", const=23, default=None, metavar="CRF",
+                    help="detect on the frames after one H.264 MP4 round trip (libx264, constant rate factor "
+                         "CRF, default 23 = x264's default quality; needs imageio-ffmpeg)")
+    ap.add_argument("--light", choices=("dusk", "overcast"), default=None,
+                    help="detect on the frames relit (pyvehtrack.eval.conditions: dusk = 40%% light, gamma "
+                         "1.6, noise; overcast = half the contrast, +20 levels)")
+    ap.add_argument("--scale", type=float, default=None, metavar="F",
+                    help="detect on the frames resized by F (another camera resolution); boxes are mapped "
+                         "back by 1 / F for scoring")
+    ap.add_argument("--gray", action="store_true", help="detect on gray frames (default: the colour files)")
     ap.add_argument("--out", default=None, help="write the predictions (detect --json format)")
     ap.add_argument("--draw", default=None, help="folder for annotated frames (green: found, red: truth)")
     args = ap.parse_args(argv)
@@ -92,11 +106,27 @@ def main(argv=None) -> int:
             ap.error(f"--{k.replace('_', '-')}: expected 0..1000 (permille), got {v}")
     if args.jpeg is not None and not 1 <= args.jpeg <= 100:
         ap.error(f"--jpeg: expected a quality 1..100, got {args.jpeg}")
-    if args.mp4 and args.jpeg is not None:
-        ap.error("--jpeg and --mp4: choose one")
+    if sum((args.mp4, args.jpeg is not None, args.h264 is not None)) > 1:
+        ap.error("--jpeg, --mp4 and --h264: choose one")
+    if args.h264 is not None and not 0 <= args.h264 <= 51:
+        ap.error(f"--h264: expected a CRF 0..51, got {args.h264}")
+    if args.scale is not None and not (math.isfinite(args.scale) and 0.1 <= args.scale <= 4.0):
+        ap.error(f"--scale: expected 0.1..4.0, got {args.scale}")
     data = Path(args.data)
     frames = tusimple_frames(data, args.split, args.limit)
     images = ((i, cv2.imread(str(data / e["file_name"]))) for i, e in enumerate(frames))   # one at a time
+    # what a user's camera delivers, in the order it happens: the light, the sensor's size, gray
+    # or colour, then the codec
+    if args.light:
+        images = ((i, cd.light(x, args.light, seed=i)) for i, x in images)
+    if args.scale is not None:
+        images = ((i, cd.rescale(x, args.scale)) for i, x in images)
+    if args.gray:
+        images = ((i, cv2.cvtColor(x, cv2.COLOR_BGR2GRAY)) for i, x in images)
+    if args.h264 is not None:
+        images = cd.through_h264(list(images), args.h264)
+        if images is None:
+            raise SystemExit("--h264: the decoded video lost frames")
     if args.mp4:   # one video of every frame: they are all in memory for it
         images = kitti_lead.through_mp4(list(images))
         if images is None:
@@ -136,7 +166,12 @@ def main(argv=None) -> int:
     for (i, img), e in zip(images, frames):
         res = det.detect(img)
         scores = res.scores if res.scores is not None else [None] * len(res.boxes)
-        boxes = [[int(v) for v in b] + ([round(float(s), 4)] if s is not None else [])
+        f = 1.0 if args.scale is None else args.scale
+        # back to the labelled frame's pixels: inclusive [l, t, r, b] covers [l, r + 1)
+        boxes = [([int(v) for v in b] if f == 1.0 else
+                  [int(round(b[0] / f)), int(round(b[1] / f)), int(round((b[2] + 1) / f)) - 1,
+                   int(round((b[3] + 1) / f)) - 1])
+                 + ([round(float(s), 4)] if s is not None else [])
                  for b, s in zip(res.boxes, scores)]
         entry = {"frame": i, "file": e["file_name"], "boxes": boxes}
         if res.sources is not None:
@@ -144,6 +179,10 @@ def main(argv=None) -> int:
         preds.append(entry)
         if args.draw:
             Path(args.draw).mkdir(parents=True, exist_ok=True)
+            if f != 1.0:   # draw in the labelled frame's pixels
+                img = cv2.resize(img, None, fx=1 / f, fy=1 / f, interpolation=cv2.INTER_LINEAR)
+            if img.ndim == 2:
+                img = cv2.cvtColor(img, cv2.COLOR_GRAY2BGR)
             for b in e["bbox"]:
                 cv2.rectangle(img, (int(b["left"]), int(b["top"])), (int(b["right"]), int(b["bottom"])), (0, 0, 255), 1)
             for b in boxes:

@@ -20,7 +20,8 @@ lanes, else that trapezoid. Boxes are inclusive pixels, so a box covers [left, r
 
 Compression (what a dashcam does to the frames): --mp4 writes the frames as one MP4
 (OpenCV mp4v, default quality) and detects on the decoded frames; --jpeg Q encodes
-every frame as JPEG of quality Q (50: a little harder than mp4v's default, by PSNR).
+every frame as JPEG of quality Q (50: a little harder than mp4v's default, by PSNR); --h264 [CRF]
+writes one H.264 MP4 (libx264 through imageio-ffmpeg's ffmpeg, CRF 23 = x264's default).
 The found count is also printed for frames 0-38 (the tuning part of the codec
 tolerances, --vedge-reach / --vedge-hyst, and of --reduce-verified) and 39-77 (held out).
 
@@ -167,6 +168,9 @@ def main(argv=None, default_data: Path = DEFAULT_DATA) -> int:
                     help="encode the frames as one MP4 (OpenCV mp4v, default quality) and detect on the decoded frames")
     ap.add_argument("--jpeg", type=int, default=None, metavar="Q",
                     help="encode every frame as JPEG of quality Q (1..100) and detect on the decoded frames")
+    ap.add_argument("--h264", type=int, nargs="?", const=23, default=None, metavar="CRF",
+                    help="encode the frames as one H.264 MP4 (libx264, constant rate factor CRF, default 23 = "
+                         "x264's default quality; needs imageio-ffmpeg) and detect on the decoded frames")
     ap.add_argument("--vedge-reach", type=int, default=None, metavar="R",
                     help="verify's derivative baseline (VerifyConfig.vedge_reach; 0 = the thesis's Sobel)")
     ap.add_argument("--vedge-hyst", type=int, default=None, metavar="P",
@@ -191,9 +195,11 @@ def main(argv=None, default_data: Path = DEFAULT_DATA) -> int:
             print(f"eval_kitti_lead: cannot read {p}", file=sys.stderr)
             return 2
         frames.append((idx, img))
+    if sum((a.mp4, a.jpeg is not None, a.h264 is not None)) > 1:
+        ap.error("--jpeg, --mp4 and --h264: choose one")
+    if a.h264 is not None and not 0 <= a.h264 <= 51:
+        ap.error(f"--h264: expected a CRF 0..51, got {a.h264}")
     if a.jpeg is not None:
-        if a.mp4:
-            ap.error("--jpeg and --mp4: choose one")
         if not 1 <= a.jpeg <= 100:
             ap.error(f"--jpeg: quality must be in 1..100, got {a.jpeg}")
         frames = through_jpeg(frames, a.jpeg)
@@ -201,6 +207,12 @@ def main(argv=None, default_data: Path = DEFAULT_DATA) -> int:
         frames = through_mp4(frames)
         if frames is None:
             print("eval_kitti_lead: the MP4 lost frames", file=sys.stderr)
+            return 2
+    if a.h264 is not None:
+        from pyvehtrack.eval.conditions import through_h264
+        frames = through_h264(frames, a.h264)
+        if frames is None:
+            print("eval_kitti_lead: the H.264 MP4 lost frames", file=sys.stderr)
             return 2
     shadow, verify = ShadowConfig(), VerifyConfig()
     if a.fixed_threshold is not None:
@@ -217,7 +229,8 @@ def main(argv=None, default_data: Path = DEFAULT_DATA) -> int:
     sources = tuple(a.sources) if a.sources else None
     results = [evaluate(e, frames, gt, a.road, calib, cfg, a.iou, not a.no_progress, a.model, sources)
                for e in a.engines]
-    via = " (via MP4 mp4v)" if a.mp4 else f" (via JPEG {a.jpeg})" if a.jpeg is not None else ""
+    via = (" (via MP4 mp4v)" if a.mp4 else f" (via JPEG {a.jpeg})" if a.jpeg is not None
+           else f" (via H.264 CRF {a.h264})" if a.h264 is not None else "")
     print(f"\nKITTI lead vehicle, {len(frames)} frames{via}, IoU >= {a.iou}, "
           f"road {a.road}, model {a.model or '-'}, "
           f"{'fixed threshold ' + str(a.fixed_threshold) if a.fixed_threshold is not None else 'adaptive threshold'}, "
