@@ -544,7 +544,9 @@ static void vt__range_track_step(vt_range_track *t, const vt_range_cfg *cfg,
     if (in_path) {
         o->flags |= VT_RANGE_IN_PATH;
     }
-    (void)vt_fcw_step(&t->fcw, cfg, ttc_ok && in_path, o->ttc_dist, closing, cls, &o->fcw);
+    /* a warning rests on a distance measured this frame: the filter's extrapolation alone
+     * (a box cut by the frame's bottom and side, a vehicle being passed) does not count */
+    (void)vt_fcw_step(&t->fcw, cfg, ttc_ok && in_path && have, o->ttc_dist, closing, cls, &o->fcw);
 }
 
 vt_status vt_range_step(vt_range_state *st, const vt_range_cfg *cfg, const vt_camera_cfg *cam,

@@ -491,7 +491,8 @@ vt_status vt_cnn_cfg_check(const vt_cnn_cfg *cfg)
         cfg->nms_iou_permille < 0 || cfg->nms_iou_permille > 1000 ||
         cfg->nms_contain_permille < 0 || cfg->nms_contain_permille > 1000 ||
         cfg->l0_top_permille < 0 || cfg->l0_top_permille >= cfg->l0_bottom_permille ||
-        cfg->l0_bottom_permille > 1000) {
+        cfg->l0_bottom_permille > 1000 || cfg->stretch_tail_permille < 0 ||
+        cfg->stretch_tail_permille > 100) {
         return VT_E_ARG;
     }
     return VT_OK;
@@ -522,6 +523,7 @@ typedef struct {
     size_t lvl[2]; /* level images: odd levels, even levels >= 2     */
     size_t fwd;    /* vt_cnn_forward's work                          */
     size_t out;    /* the forward output (int8)                      */
+    size_t str;    /* the stretched frame (w h bytes), when stretched */
     size_t fwd_bytes;
     size_t out_bytes;
     size_t total;  /* bytes after the aligned start                  */
@@ -574,7 +576,9 @@ static vt_status vt__cnn_frame_layout(const vt_cnn_model *m, const vt_cnn_cfg *c
     pl->fwd = off;
     off += pl->fwd_bytes;
     pl->out = off;
-    pl->total = off + pl->out_bytes;
+    off += pl->out_bytes;
+    pl->str = off;
+    pl->total = off + (cfg->stretch_tail_permille > 0 ? (size_t)w * (size_t)h : 0);
     return VT_OK;
 }
 
@@ -603,6 +607,52 @@ static int32_t vt__cnn_thr(const vt_cnn_model *m, const vt_cnn_cfg *cfg)
 {
     int64_t t = (int64_t)m->heat_thr + cfg->thr_offset;
     return (int32_t)(t < -128 ? -128 : (t > 128 ? 128 : t));
+}
+
+/* The contrast stretch (cnn.h, vt_cnn_cfg.stretch_tail_permille) of img into dst (w x h,
+ * stride w). n <= 4096^2 fits the uint32 histogram; k < n / 2 (tail <= 100 permille), so
+ * both scans stop at a level. */
+static void vt__cnn_stretch(const uint8_t *img, int32_t w, int32_t h, int32_t stride, int32_t tail,
+                            uint8_t *dst)
+{
+    uint32_t hist[256];
+    uint8_t lut[256];
+    int64_t k = (int64_t)w * h * tail / 1000, c;
+    int32_t x, y, lo, hi, span;
+    for (x = 0; x < 256; ++x) {
+        hist[x] = 0;
+    }
+    for (y = 0; y < h; ++y) {
+        const uint8_t *row = img + (size_t)y * (size_t)stride;
+        for (x = 0; x < w; ++x) {
+            hist[row[x]] += 1;
+        }
+    }
+    for (lo = 0, c = 0; lo < 255; ++lo) {
+        c += hist[lo];
+        if (c > k) {
+            break;
+        }
+    }
+    for (hi = 255, c = 0; hi > 0; --hi) {
+        c += hist[hi];
+        if (c > k) {
+            break;
+        }
+    }
+    span = hi - lo < VT_CNN_STRETCH_MIN_SPAN ? VT_CNN_STRETCH_MIN_SPAN : hi - lo;
+    for (x = 0; x < 256; ++x) {
+        /* (x - lo) 510 + span <= 255 * 510 + 255: no overflow */
+        int32_t v = x <= lo ? 0 : ((x - lo) * 510 + span) / (2 * span);
+        lut[x] = (uint8_t)(v > 255 ? 255 : v);
+    }
+    for (y = 0; y < h; ++y) {
+        const uint8_t *row = img + (size_t)y * (size_t)stride;
+        uint8_t *out = dst + (size_t)y * (size_t)w;
+        for (x = 0; x < w; ++x) {
+            out[x] = lut[row[x]];
+        }
+    }
 }
 
 vt_status vt_cnn_detect_frame(const vt_cnn_model *m, const vt_cnn_cfg *cfg, const uint8_t *img,
@@ -646,6 +696,12 @@ vt_status vt_cnn_detect_frame(const vt_cnn_model *m, const vt_cnn_cfg *cfg, cons
     cb = (vt_cnn_box *)(void *)(base + pl.cbox);
     thr = vt__cnn_thr(m, cfg);
     last = cfg->first_level + cfg->n_levels - 1;
+    if (cfg->stretch_tail_permille > 0) {
+        /* everything below reads the stretched copy; the boxes are the same pixels */
+        vt__cnn_stretch(img, w, h, stride, cfg->stretch_tail_permille, base + pl.str);
+        img = base + pl.str;
+        stride = w;
+    }
     src.px = img;
     src.w = w;
     src.h = h;

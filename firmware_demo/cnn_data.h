@@ -1836,6 +1836,7 @@ static const vt_cnn_cfg fw_cnn_cfg = {
     .nms_contain_permille = 700,
     .l0_top_permille = 0,
     .l0_bottom_permille = 1000,
+    .stretch_tail_permille = 0,
 };
 
 static const vt_cnn_cfg fw_cnn_cfg_synth = {
@@ -1847,6 +1848,7 @@ static const vt_cnn_cfg fw_cnn_cfg_synth = {
     .nms_contain_permille = 700,
     .l0_top_permille = 0,
     .l0_bottom_permille = 1000,
+    .stretch_tail_permille = 0,
 };
 
 #endif /* FW_CNN_DATA_H */

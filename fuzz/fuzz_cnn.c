@@ -597,7 +597,48 @@ static int cfg_ok(const vt_cnn_cfg *c)
            c->cap_per_level >= 1 && c->cap_per_level <= VT_CNN_MAX_PEAKS &&
            (int64_t)c->n_levels * c->cap_per_level <= VT_MAX_NMS_BOXES && c->nms_iou_permille >= 0 &&
            c->nms_iou_permille <= 1000 && c->nms_contain_permille >= 0 && c->nms_contain_permille <= 1000 &&
-           c->l0_top_permille >= 0 && c->l0_top_permille < c->l0_bottom_permille && c->l0_bottom_permille <= 1000;
+           c->l0_top_permille >= 0 && c->l0_top_permille < c->l0_bottom_permille && c->l0_bottom_permille <= 1000 &&
+           c->stretch_tail_permille >= 0 && c->stretch_tail_permille <= 100;
+}
+
+static int cmp_u8(const void *a, const void *b)
+{
+    return (int)*(const uint8_t *)a - (int)*(const uint8_t *)b;
+}
+
+/* The header's contrast stretch, another way: lo and hi as order statistics of the
+ * sorted pixels (more than k pixels <= v <=> sorted[k] <= v), the table entry by entry
+ * in int64. Returns a malloc'd w x h copy (stride w). */
+static uint8_t *ref_stretch(const vt_image_u8 *img, int32_t tail)
+{
+    size_t n = (size_t)img->w * (size_t)img->h, i = 0, k = (size_t)((int64_t)n * tail / 1000);
+    uint8_t *s = (uint8_t *)malloc(n), *o = (uint8_t *)malloc(n);
+    int64_t lo, hi, span;
+    int32_t x, y;
+    if (s == NULL || o == NULL) {
+        abort();
+    }
+    for (y = 0; y < img->h; y++) {
+        for (x = 0; x < img->w; x++) {
+            s[i++] = img->px[(size_t)y * (size_t)img->stride + (size_t)x];
+        }
+    }
+    qsort(s, n, 1, cmp_u8);
+    lo = s[k];
+    hi = s[n - 1 - k];
+    FZ_ASSERT(lo <= hi);
+    span = hi - lo < VT_CNN_STRETCH_MIN_SPAN ? VT_CNN_STRETCH_MIN_SPAN : hi - lo;
+    for (y = 0; y < img->h; y++) {
+        for (x = 0; x < img->w; x++) {
+            int64_t v = img->px[(size_t)y * (size_t)img->stride + (size_t)x], q = 0;
+            if (v > lo) {
+                q = ((v - lo) * 510 + span) / (2 * span);
+            }
+            o[(size_t)y * (size_t)img->w + (size_t)x] = (uint8_t)(q > 255 ? 255 : q);
+        }
+    }
+    free(s);
+    return o;
 }
 
 /* The header's level-0 band of an h-row frame (cfg valid): rows *y0 .. *y1 - 1. */
@@ -635,7 +676,8 @@ static size_t frame_need(const vt_cnn_model *m, const vt_cnn_cfg *c, int32_t w, 
         }
     }
     return 7 + (size_t)c->n_levels * (size_t)c->cap_per_level * sizeof(vt_scored_box) +
-           (size_t)c->cap_per_level * sizeof(vt_cnn_box) + odd + even + fwd + out;
+           (size_t)c->cap_per_level * sizeof(vt_cnn_box) + odd + even + fwd + out +
+           (c->stretch_tail_permille > 0 ? (size_t)w * (size_t)h : 0);
 }
 
 static int32_t clampi(int32_t v, int32_t lo, int32_t hi)
@@ -653,10 +695,15 @@ static int32_t ref_detect(const vt_cnn_model *m, const vt_cnn_cfg *c, const vt_i
     int32_t thr = (int32_t)(t < -128 ? -128 : (t > 128 ? 128 : t));
     vt_scored_box *sb = (vt_scored_box *)malloc((size_t)c->n_levels * (size_t)c->cap_per_level * sizeof *sb);
     vt_cnn_box *cb = (vt_cnn_box *)malloc((size_t)c->cap_per_level * sizeof *cb);
-    uint8_t *lv[2] = {NULL, NULL};
+    uint8_t *lv[2] = {NULL, NULL}, *str = NULL;
     vt_image_u8 src = *img;
     if (sb == NULL || cb == NULL) {
         abort();
+    }
+    if (c->stretch_tail_permille > 0) {
+        str = ref_stretch(img, c->stretch_tail_permille);
+        src.px = str;
+        src.stride = img->w;
     }
     band(c, img->h, &y0, &y1);
     for (k = 0; k <= last; k++) {
@@ -719,6 +766,7 @@ static int32_t ref_detect(const vt_cnn_model *m, const vt_cnn_cfg *c, const vt_i
     free(cb);
     free(lv[0]);
     free(lv[1]);
+    free(str);
     return peaks;
 }
 
@@ -852,6 +900,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             cfg.l0_bottom_permille = fz_u8(&f) < 64 ? cfg.l0_top_permille + 1
                                                     : fz_range(&f, cfg.l0_top_permille + 1, 1000);
         }
+        /* the contrast stretch: off, or a tail of 0.1 .. 10% */
+        cfg.stretch_tail_permille = fz_u8(&f) < 128 ? 0 : fz_range(&f, 1, 100);
     }
     fz_mutate_i32s(&f, &cfg, sizeof cfg);
     ok_c = cfg_ok(&cfg);

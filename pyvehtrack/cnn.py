@@ -22,9 +22,10 @@ the strides.)
 
 Frame-level detection (detect_frame, C vt_cnn_detect_frame): the network on several Gaussian
 pyramid levels of a frame (CnnConfig: which levels, threshold offset, peaks per level, the NMS
-merging all levels' boxes, the row band of level 0 it runs on). The optional file key cnn_cfg
-holds those settings as int32 in CFG_KEYS order; a file written before the level-0 band (its
-first 6 entries only) loads with the band's defaults (the whole frame). is_cnn(path_or_npz)
+merging all levels' boxes, the row band of level 0 it runs on, the contrast stretch). The optional
+file key cnn_cfg holds those settings as int32 in CFG_KEYS order; a file written before the
+level-0 band (its first 6 entries only) or before the stretch (8) loads with the defaults of
+the rest (the whole frame, no stretch). is_cnn(path_or_npz)
 tells a CNN model file from the other detectors' (its keys start with cnn_).
 """
 from __future__ import annotations
@@ -141,11 +142,12 @@ class CnnModel:
         m = cls(layers, lut, thr, path, heat_scale_q16=scale)
         if "cnn_cfg" in zz:   # optional: the settings the model was validated with
             v = _int_array(zz, "cnn_cfg", np.int32)
-            if v.shape not in ((len(CFG_KEYS),), (CFG_KEYS_OLD,)):
+            if v.ndim != 1 or len(v) not in CFG_KEYS_LENGTHS:
                 raise ValueError(f"CNN model: cnn_cfg must have shape ({len(CFG_KEYS)},) (CFG_KEYS), or "
-                                 f"({CFG_KEYS_OLD},) in a file from before the level-0 band, got {v.shape}")
+                                 f"({CFG_KEYS_OLD},) / (8,) in a file from before the level-0 band / the "
+                                 f"contrast stretch, got {v.shape}")
             d = {k: int(x) for k, x in zip(CFG_KEYS, v)}
-            if len(d) < len(CFG_KEYS):   # an old file: the band's defaults (the whole frame)
+            if len(d) < len(CFG_KEYS):   # an old file: the defaults (whole-frame band, no stretch)
                 dc = CnnConfig().c()
                 d.update({k: int(getattr(dc, k)) for k in CFG_KEYS[len(d):]})
             m.cfg = CnnConfig(**d)
@@ -334,8 +336,10 @@ def decode(model: CnnModel, out: np.ndarray, thr=None, scale_shift: int = 0, cap
 # The file key cnn_cfg: int32 values of these CnnConfig fields, in this order. Files written
 # before the level-0 band hold the first CFG_KEYS_OLD only (the rest then take the defaults).
 CFG_KEYS = ("first_level", "n_levels", "thr_offset", "cap_per_level", "nms_iou_permille", "nms_contain_permille",
-            "l0_top_permille", "l0_bottom_permille")
+            "l0_top_permille", "l0_bottom_permille", "stretch_tail_permille")
 CFG_KEYS_OLD = 6
+# the lengths a file's cnn_cfg may have: before the level-0 band, before the contrast stretch, now
+CFG_KEYS_LENGTHS = (CFG_KEYS_OLD, 8, len(CFG_KEYS))
 
 
 @dataclass(frozen=True)
@@ -352,6 +356,7 @@ class CnnConfig:
     nms_contain_permille: int | None = None  # 0..1000
     l0_top_permille: int | None = None   # 0 <= top < bottom <= 1000; default 0
     l0_bottom_permille: int | None = None  # default 1000 (with top 0: the whole frame)
+    stretch_tail_permille: int | None = None  # 0 (default): off; 1..100: contrast stretch (cnn.h)
 
     def c(self):
         """The checked vt_cnn_cfg (a new cffi struct); ValueError / TypeError naming the field."""
@@ -387,6 +392,8 @@ class CnnConfig:
         if top >= bot:
             return (f"l0_top_permille = {top} must be below l0_bottom_permille = {bot} "
                     f"(level 0's band would be empty)")
+        if not 0 <= int(c.stretch_tail_permille) <= 100:
+            return f"stretch_tail_permille = {int(c.stretch_tail_permille)} is outside [0, 100]"
         return (f"n_levels x cap_per_level = {nl * int(c.cap_per_level)} exceeds VT_MAX_NMS_BOXES "
                 f"({int(lib.VT_MAX_NMS_BOXES)})")
 

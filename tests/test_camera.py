@@ -571,6 +571,27 @@ def test_fcw_only_in_the_ego_path(lateral, half, warns):
     assert all(bool(o["flags"] & lib.VT_RANGE_IN_PATH) == (warns or half == 0) for o in outs[1:])
 
 
+def test_fcw_needs_a_distance_this_frame():
+    """The approach of test_fcw_only_in_the_ego_path, but from frame 6 (24 m, TTC 2.4 s) the box
+    fills the frame, cut at its bottom and both sides (a passed truck leaving the view, KITTI
+    clip frame 15): no distance is measured, the filter's prediction alone keeps the TTC
+    falling under 2.1 s in the ego path, and that raises no warning; measured, it does."""
+    p, c = cam_params()
+    _rp, rcf = _rcfg(frame_dt=0.1, path_half_width=1.5)
+    boxes = approach(25, 30.0, 10.0, 0.1, p, 0.0, np.random.default_rng(0))
+    assert any(o["fcw"] & lib.VT_FCW_WARNING for o in _run_range(boxes, rcf, c))
+    cut = [b if k < 6 else [0, b[1], p.img_w - 1, p.img_h - 1] for k, b in enumerate(boxes)]
+    outs = _run_range(cut, rcf, c)
+    late = outs[6:]
+    assert not any(o["flags"] & lib.VT_RANGE_DIST_VALID for o in late)
+    # the condition the warning took before: a TTC under the stopped lead's 2.1 s, in the path
+    assert any(o["flags"] & lib.VT_RANGE_TTC_DIST_VALID and o["ttc_dist"] / Q < 2.1 and
+               o["flags"] & lib.VT_RANGE_IN_PATH for o in late)
+    assert not any(o["fcw"] & lib.VT_FCW_WARNING for o in outs)
+    ref = rc.RangeTracker(p, _rp)      # the oracle takes the same rule
+    assert not any(ref.step([(5, b)], 0.0, 0.0)[0].fcw & rc.FCW_WARNING for b in cut)
+
+
 @given(st.integers(-2**31, 2**31 - 1), st.integers(0, 2**31 - 1), st.floats(0.01, 200), st.floats(0, 10),
        st.integers(0, 2**31 - 1))
 @settings(max_examples=300)

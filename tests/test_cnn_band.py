@@ -347,19 +347,30 @@ def test_old_six_entry_cnn_cfg_loads_with_band_defaults(tmp_path):
     m, p = _saved(tmp_path, C.CnnConfig(first_level=0, n_levels=3, thr_offset=-30, cap_per_level=16,
                                         l0_top_permille=300, l0_bottom_permille=700))
     d = dict(np.load(p))
-    assert d["cnn_cfg"].tolist() == [0, 3, -30, 16, 500, 800, 300, 700]     # written in CFG_KEYS order
+    assert d["cnn_cfg"].tolist() == [0, 3, -30, 16, 500, 800, 300, 700, 0]  # written in CFG_KEYS order
     assert C.CnnModel.load(p).cfg == C.CnnConfig.from_c(m.cfg.c())           # and read back
     d["cnn_cfg"] = d["cnn_cfg"][:6]            # a file from before the band
     np.savez(p, **d)
     got = C.CnnModel.load(p)
     assert got.cfg == C.CnnConfig(first_level=0, n_levels=3, thr_offset=-30, cap_per_level=16, nms_iou_permille=500,
-                                  nms_contain_permille=800, l0_top_permille=0, l0_bottom_permille=1000)
+                                  nms_contain_permille=800, l0_top_permille=0, l0_bottom_permille=1000,
+                                  stretch_tail_permille=0)
     assert isinstance(fullroad.load_model(p), C.CnnModel)
-    for bad in ([0, 3, -30, 16, 500, 800, 0], [0, 3, -30, 16, 500], list(range(9)), [[0, 3, -30, 16, 500, 800]]):
+    d["cnn_cfg"] = np.array([0, 3, -30, 16, 500, 800, 300, 700], np.int32)   # from before the stretch
+    np.savez(p, **d)
+    assert C.CnnModel.load(p).cfg == C.CnnConfig(first_level=0, n_levels=3, thr_offset=-30, cap_per_level=16,
+                                                 nms_iou_permille=500, nms_contain_permille=800,
+                                                 l0_top_permille=300, l0_bottom_permille=700,
+                                                 stretch_tail_permille=0)
+    for bad in ([0, 3, -30, 16, 500, 800, 0], [0, 3, -30, 16, 500], list(range(10)), [[0, 3, -30, 16, 500, 800]]):
         d["cnn_cfg"] = np.array(bad, np.int32)
         np.savez(p, **d)
-        with pytest.raises(ValueError, match=r"cnn_cfg must have shape \(8,\)"):
+        with pytest.raises(ValueError, match=r"cnn_cfg must have shape \(9,\)"):
             C.CnnModel.load(p)
+    d["cnn_cfg"] = np.array([0, 3, -30, 16, 500, 800, 300, 700, 101], np.int32)   # stretch out of range
+    np.savez(p, **d)
+    with pytest.raises(ValueError, match="stretch_tail_permille"):
+        C.CnnModel.load(p)
     d["cnn_cfg"] = np.array([0, 3, -30, 16, 500, 800, 700, 300], np.int32)    # an empty band
     np.savez(p, **d)
     with pytest.raises(ValueError, match="l0_top_permille"):

@@ -31,7 +31,7 @@ from test_cnn import layer, random_model
 GUARD = 0xA5
 I32_MIN, I32_MAX = -(2 ** 31), 2 ** 31 - 1
 FIELDS = ("first_level", "n_levels", "thr_offset", "cap_per_level", "nms_iou_permille", "nms_contain_permille",
-          "l0_top_permille", "l0_bottom_permille")
+          "l0_top_permille", "l0_bottom_permille", "stretch_tail_permille")
 
 
 def c_cfg(**kw):
@@ -82,7 +82,8 @@ def frame_cfgs(draw):
                 thr_offset=draw(st.sampled_from([-300, -100, -40, -10, 0, 10, 200, I32_MIN, I32_MAX])),
                 cap_per_level=draw(st.sampled_from([1, 2, 5, 17, 64, int(lib.VT_CNN_MAX_PEAKS)])),
                 nms_iou_permille=draw(st.sampled_from([0, 200, 500, 999, 1000])),
-                nms_contain_permille=draw(st.sampled_from([0, 500, 800, 1000])))
+                nms_contain_permille=draw(st.sampled_from([0, 500, 800, 1000])),
+                stretch_tail_permille=draw(st.sampled_from([0, 0, 1, 5, 50, 100])))
 
 
 @given(st.lists(spec_layer, min_size=0, max_size=3), st.sampled_from([1, 3]), st.integers(8, 200),
@@ -204,6 +205,43 @@ def test_frame_work_bytes_layout():
     # level 0 runs on the caller's frame: no level image
     cfg0 = C.CnnConfig(first_level=0, n_levels=1, cap_per_level=3)
     assert C.frame_work_bytes(m, 21, 11, cfg0) == 3 * 24 + 3 * 20 + 11 * 6 * 5 + 7
+    # the contrast stretch adds the stretched frame, 21 x 11 bytes
+    assert C.frame_work_bytes(m, 21, 11, C.CnnConfig(first_level=1, n_levels=2, cap_per_level=3,
+                                                     stretch_tail_permille=5)) == 204 + 66 + 18 + 90 + 7 + 231
+
+
+def test_stretch_by_hand():
+    """cnn.h's rule on a frame whose histogram is known: 1000 pixels, 10 at level 3, 980 at 100..
+    (spread over 100..179), 10 at 250. Tail 10 permille: k = 10, lo = the least level with more
+    than 10 pixels at or below it = 100 (10 at 3, then the first of 100..179), hi = 179 likewise;
+    span 79; x = 140 -> floor((40 x 510 + 79) / 158) = 129; 3 -> 0; 250 -> 255 (clamped).
+    Tail 0: lo = 3, hi = 250, span 247. A flat frame: span 64, its level maps to 0."""
+    mid = np.repeat(np.arange(100, 180), [13] * 20 + [12] * 60)[:980]
+    img = np.concatenate([np.full(10, 3), mid, np.full(10, 250)]).astype(np.uint8).reshape(20, 50)
+    assert mid.size == 980 and mid.max() == 179
+    out = R.stretch(img, 10)
+    lut = {int(a): int(b) for a, b in zip(img.ravel(), out.ravel())}
+    assert lut[3] == 0 and lut[100] == 0 and lut[140] == (40 * 510 + 79) // 158 == 129 and lut[250] == 255
+    assert lut[179] == 255 and lut[178] == (78 * 510 + 79) // 158
+    out0 = R.stretch(img, 0)
+    assert {int(a): int(b) for a, b in zip(img.ravel(), out0.ravel())}[140] == (137 * 510 + 247) // 494
+    assert (R.stretch(np.full((4, 4), 77, np.uint8), 5) == 0).all()
+    # C takes the same rule: a 1x1 stride-1 head whose heat is (x + 1) >> 1 of the pixel it sees,
+    # so which cells peak above the threshold (heat 60: a seen level >= 119) is the stretch's doing
+    hd = layer(1, 1, 1, 0, 1, 5, [1, 0, 0, 0, 0], np.zeros(5), np.ones(5), np.ones(5))
+    m = C.CnnModel([hd], np.tile(np.arange(256), (4, 1)).astype(np.uint16), 60, heat_scale_q16=65536)
+    rng = np.random.default_rng(4)
+    img2 = np.clip(rng.normal(120, 12, (40, 64)), 0, 255).astype(np.uint8)   # low contrast
+    peaks = {}
+    for tail in (0, 5, 10):
+        cfg = dict(first_level=0, n_levels=1, thr_offset=0, cap_per_level=256, nms_iou_permille=500,
+                   nms_contain_permille=800, stretch_tail_permille=tail)
+        got, tot, intact = c_detect_guarded(m, img2, c_cfg(**cfg), 256, 3)
+        want, want_tot = R.detect_frame(m, img2, cfg)
+        np.testing.assert_array_equal(got, want[:256])
+        assert intact and tot == want_tot
+        peaks[tail] = tot
+    assert peaks[5] != peaks[0] and peaks[10] != peaks[0]   # the stretch changes what the head sees
 
 
 # ---------------------------------------------------------------- bad arguments
@@ -215,6 +253,7 @@ CFG_BOUNDS = [   # (field, lowest accepted, highest accepted) with the other fie
     ("nms_contain_permille", 0, 1000),
     ("l0_top_permille", 0, 999),       # bottom 1000: top 1000 is an empty band
     ("l0_bottom_permille", 1, 1000),   # top 0: bottom 0 is an empty band
+    ("stretch_tail_permille", 0, 100),
 ]
 
 
@@ -239,7 +278,7 @@ def test_cfg_field_bounds(field, lo, hi):
 
 def test_cfg_level_sum_and_defaults():
     d = C.CnnConfig().c()
-    assert [getattr(d, f) for f in FIELDS] == [1, 3, 0, 64, 500, 800, 0, 1000]
+    assert [getattr(d, f) for f in FIELDS] == [1, 3, 0, 64, 500, 800, 0, 1000, 0]
     assert lib.vt_cnn_cfg_check(ffi.NULL) == lib.VT_E_ARG
     assert lib.vt_cnn_cfg_default(ffi.NULL) == lib.VT_E_ARG
     assert lib.vt_cnn_cfg_check(c_cfg(first_level=2, n_levels=4)) == lib.VT_OK     # levels 2..5

@@ -34,6 +34,8 @@ def test_shipped_l0_model_loads_with_its_settings(name):
     assert isinstance(m, cnn.CnnModel)
     c = m.cfg
     assert (c.first_level, c.n_levels, c.l0_top_permille, c.l0_bottom_permille) == (0, 5, 380, 640)
+    # the default (big) file sees the frame's contrast stretched (README, "What users feed it")
+    assert c.stretch_tail_permille == (5 if name == "cnn_gray_l0_big.npz" else 0)
     assert m.settings == {"sources": ["windows", "ego"], "verify_min": 2.0}
     assert m.out_stride == 8
 

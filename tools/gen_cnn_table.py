@@ -49,7 +49,7 @@ TINY_HEAT_THR = 24
 # every vt_cnn_cfg field, by name: a field left out of a designated initializer would be 0,
 # and a zero l0_bottom_permille is refused
 CFG_FIELDS = ("first_level", "n_levels", "thr_offset", "cap_per_level", "nms_iou_permille",
-              "nms_contain_permille", "l0_top_permille", "l0_bottom_permille")
+              "nms_contain_permille", "l0_top_permille", "l0_bottom_permille", "stretch_tail_permille")
 BIAS_MAX = 1 << 30
 M32 = 0xFFFFFFFF
 

@@ -380,7 +380,8 @@ vt_status vt_range_init(vt_range_state *st);
  * into the ring; TTCs, lead class (from ego_speed, m/s, negative = unknown: stopped if
  * ego + rate < stopped_speed, else decelerating if accel < -decel_thresh, else slower) and
  * vt_fcw_step. A new id starts its filter at the measured distance (or waits for a
- * valid one). The FCW condition holds only for a track IN_PATH (cfg.path_half_width).
+ * valid one). The FCW condition holds only for a track IN_PATH (cfg.path_half_width)
+ * with a distance this frame (DIST_VALID: not the filter's prediction alone).
  * Writes one vt_range_out per non-free track, in input order, up to
  * out_cap; *n_out = their number. VT_E_CAPACITY if more than out_cap or
  * VT_MAX_TRACKS ids (out still filled as far as it goes), VT_E_ARG for NULL, bad

@@ -181,7 +181,23 @@ typedef struct {
                                  >= y0, so 1 <= y1 - y0 <= h. Used only when first_level is
                                  0 (checked always); 0 and 1000 = the whole frame        */
     int32_t l0_bottom_permille; /* see l0_top_permille                                 */
+    int32_t stretch_tail_permille; /* 0: off. 1..100: the network sees the frame's contrast
+                                 stretched (issue 8 item 5: overcast and dusk light). From
+                                 the histogram of the whole frame (w x h pixels, n), with
+                                 k = floor(n stretch_tail_permille / 1000) in int64:
+                                 lo = the least level with more than k pixels <= it,
+                                 hi = the greatest level with more than k pixels >= it
+                                 (lo <= hi, as 2k < n), span = max(hi - lo,
+                                 VT_CNN_STRETCH_MIN_SPAN); each pixel x becomes
+                                 0 if x <= lo, else min(255, floor(((x - lo) 510 + span) /
+                                 (2 span))) (x - lo scaled by 255 / span, rounded half
+                                 up). The pyramid and level 0's band are built from that
+                                 frame; the boxes are the same frame's pixels           */
 } vt_cnn_cfg;
+
+/* The contrast stretch's least span (levels): a gain of at most 255 / 64 (about 4), so a
+ * flat frame's noise is not blown up to the full range. */
+#define VT_CNN_STRETCH_MIN_SPAN 64
 
 /* Defaults: levels 1..3 (a vehicle 16..128 px wide at the frame is 8..64 px on one of
  * them, the shipped stride-8 head's range); the model's own threshold; 64 peaks per
@@ -191,12 +207,13 @@ typedef struct {
  * partly behind another overlap less (vt_nms' other callers, fulldet and ACF, use
  * 0.301 / 0.699 and 0.3 / 1.0 for sliding windows, whose neighbours overlap more);
  * level 0's band the whole frame. A struct filled field by field should start from
- * these (vt_cnn_cfg_default): zeroed band fields (0, 0) are refused, not a default. */
+ * these (vt_cnn_cfg_default): zeroed band fields (0, 0) are refused, not a default.
+ * No contrast stretch: the frame as it comes. */
 #define VT_CNN_CFG_DEFAULT                                                                \
     {                                                                                    \
         .first_level = 1, .n_levels = 3, .thr_offset = 0, .cap_per_level = 64,           \
         .nms_iou_permille = 500, .nms_contain_permille = 800, .l0_top_permille = 0,      \
-        .l0_bottom_permille = 1000,                                                      \
+        .l0_bottom_permille = 1000, .stretch_tail_permille = 0,                          \
     }
 
 /* Fill *cfg with VT_CNN_CFG_DEFAULT (VT_E_ARG for NULL). */
@@ -206,7 +223,8 @@ vt_status vt_cnn_cfg_default(vt_cnn_cfg *cfg);
 vt_status vt_cnn_cfg_check(const vt_cnn_cfg *cfg);
 
 /* *bytes = the work buffer vt_cnn_detect_frame needs for a w x h frame: up to 7 bytes
- * to align what follows for int32; the boxes of every run level (n_levels
+ * to align what follows for int32; with stretch_tail_permille > 0 the stretched frame
+ * (w h bytes); the boxes of every run level (n_levels
  * cap_per_level vt_scored_box) and one level's decode (cap_per_level vt_cnn_box);
  * two ping-pong level images (level 1, then level 2, each built from the one before:
  * odd levels in the first, even levels >= 2 in the second; only as many as the last
@@ -221,7 +239,8 @@ vt_status vt_cnn_frame_work_bytes(const vt_cnn_model *m, const vt_cnn_cfg *cfg, 
                                   int32_t h, size_t *bytes);
 
 /* Detection over pyramid levels first_level .. first_level + n_levels - 1 of the gray
- * frame img (w x h, row stride `stride` bytes): per level k, vt_cnn_forward on the
+ * frame img (w x h, row stride `stride` bytes; contrast-stretched first into the work
+ * buffer when cfg's stretch_tail_permille > 0): per level k, vt_cnn_forward on the
  * level image, vt_cnn_decode with thr (cfg's thr_offset above), scale_shift k and cap
  * cap_per_level. Level 0 (when first_level is 0) is only cfg's band: the forward pass
  * on the w x (y1 - y0) image at img + y0 stride (same stride), its decoded boxes moved
@@ -242,8 +261,9 @@ vt_status vt_cnn_frame_work_bytes(const vt_cnn_model *m, const vt_cnn_cfg *cfg, 
  * per level pixel), the forward passes (cnn.h's cost per level: the levels after the
  * first add at most a third of the first's whole-level cost; level 0's is its band's
  * share, (y1 - y0) / h, of it), the decodes, and the NMS's O(n^2) over
- * at most n_levels cap_per_level boxes; stack: vt_pyr_down's row (image.h) or
- * vt_cnn_decode's 1 KB. */
+ * at most n_levels cap_per_level boxes; with the stretch, one histogram and one table
+ * lookup per frame pixel; stack: vt_pyr_down's row (image.h), vt_cnn_decode's 1 KB or
+ * the stretch's 1 KB histogram. */
 vt_status vt_cnn_detect_frame(const vt_cnn_model *m, const vt_cnn_cfg *cfg, const uint8_t *img,
                               int32_t w, int32_t h, int32_t stride, uint8_t *work,
                               size_t work_bytes, vt_cnn_box *boxes, int32_t cap, int32_t *n,

@@ -47,6 +47,7 @@ typedef struct {
     int32_t nms_contain_permille;
     int32_t l0_top_permille;
     int32_t l0_bottom_permille;
+    int32_t stretch_tail_permille;
 } vt_cnn_cfg;
 
 vt_status vt_cnn_check_model(const vt_cnn_model *m);

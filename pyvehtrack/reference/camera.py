@@ -283,7 +283,8 @@ class RangeTracker:
                 else:
                     cls = LEAD_SLOWER
             in_path = self._in_path(box, d_f)
-            bits = fcw_step(p, s.fcw, ttc_d if in_path else None, closing, cls)
+            # vt_range_step: a warning rests on a distance measured this frame
+            bits = fcw_step(p, s.fcw, ttc_d if in_path and have else None, closing, cls)
             out.append(RangeOut(tid, d if have else None, sig, bd.dist_width,
                                 bd.width_agrees, d_f, rate if s.updates > 0 else None, ttc_d, ttc_s,
                                 closing, cls, bits, from_width, accel, in_path))

@@ -116,7 +116,26 @@ def decode(out: np.ndarray, out_stride: int, side_lut: np.ndarray, thr: int, sca
 
 # The level-0 band's fields a cfg may leave out (a dict or object written before they
 # existed): the whole frame, as VT_CNN_CFG_DEFAULT and an old 6-entry cnn_cfg file.
-_BAND_DEFAULTS = {"l0_top_permille": 0, "l0_bottom_permille": 1000}
+_BAND_DEFAULTS = {"l0_top_permille": 0, "l0_bottom_permille": 1000, "stretch_tail_permille": 0}
+
+# cnn.h's VT_CNN_STRETCH_MIN_SPAN
+STRETCH_MIN_SPAN = 64
+
+
+def stretch(img: np.ndarray, tail_permille: int) -> np.ndarray:
+    """vt_cnn_cfg.stretch_tail_permille's contrast stretch (cnn.h), in exact integers: the
+    least level lo with more than k = floor(n tail / 1000) pixels at or below it, the greatest hi
+    with more than k at or above it, span = max(hi - lo, 64); x -> 0 at or below lo, else
+    min(255, floor(((x - lo) 510 + span) / (2 span)))."""
+    g = np.asarray(img, np.uint8)
+    hist = np.bincount(g.ravel(), minlength=256).astype(np.int64)
+    k = g.size * int(tail_permille) // 1000
+    lo = int(np.argmax(np.cumsum(hist) > k))
+    hi = 255 - int(np.argmax(np.cumsum(hist[::-1]) > k))
+    span = max(hi - lo, STRETCH_MIN_SPAN)
+    d = np.arange(256, dtype=np.int64) - lo
+    lut = np.where(d <= 0, 0, np.minimum(255, (d * 510 + span) // (2 * span))).astype(np.uint8)
+    return lut[g]
 
 
 def _cfg_get(cfg, key):
@@ -138,8 +157,8 @@ def detect_frame(model, img: np.ndarray, cfg) -> tuple[np.ndarray, int]:
     """vt_cnn_detect_frame (cnn.h). model: an object with layers, out_stride, side_lut,
     heat_thr (e.g. pyvehtrack.cnn.CnnModel); cfg: every vt_cnn_cfg field as an attribute or a
     key (first_level, n_levels, thr_offset, cap_per_level, nms_iou_permille,
-    nms_contain_permille, l0_top_permille, l0_bottom_permille), none left to defaults but the
-    last two (absent: 0 and 1000, the whole frame). Returns ((N, 5) int64 [l, t, r, b, heat]
+    nms_contain_permille, l0_top_permille, l0_bottom_permille, stretch_tail_permille), none left
+    to defaults but the last three (absent: 0 and 1000, the whole frame; 0, no stretch). Returns ((N, 5) int64 [l, t, r, b, heat]
     in NMS order, the peaks over the levels before cap, clipping and NMS)."""
     from . import image as rimage     # noqa: PLC0415
     from . import windows as rw       # noqa: PLC0415
@@ -147,6 +166,9 @@ def detect_frame(model, img: np.ndarray, cfg) -> tuple[np.ndarray, int]:
     cap = _cfg_get(cfg, "cap_per_level")
     thr = min(max(int(model.heat_thr) + _cfg_get(cfg, "thr_offset"), -128), 128)
     g = np.asarray(img, np.uint8)
+    tail = _cfg_get(cfg, "stretch_tail_permille")
+    if tail > 0:
+        g = stretch(g, tail)
     h, w = g.shape
     y0, y1 = band_rows(h, _cfg_get(cfg, "l0_top_permille"), _cfg_get(cfg, "l0_bottom_permille"))
     level, rows, total = g, [], 0
