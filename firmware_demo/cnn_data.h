@@ -2,7 +2,8 @@
  * The CNN detector firmware_demo/main.c runs (run_cnn), from
  * pyvehtrack/models/cnn_gray.npz:
  * 7 layers, out_stride 8, heat_thr -12; its settings (vt_cnn_cfg:
- * fw_cnn_cfg for the 640x256 clip frame, fw_cnn_cfg_synth, the same from level 0, for the
+ * fw_cnn_cfg for the 640x256 clip frame, fw_cnn_cfg_synth, the same from level 0 with the
+ * contrast stretch, for the
  * synthetic 160x96 frame) and the work buffers vt_cnn_frame_work_bytes gives for them
  * (main.c checks). static const: in flash. */
 #ifndef FW_CNN_DATA_H
@@ -15,7 +16,7 @@
 #define FW_CNN_FRAME_H 96
 #define FW_CNN_CLIP_W 640
 #define FW_CNN_CLIP_H 256
-#define FW_CNN_WORK_SYNTH 97911
+#define FW_CNN_WORK_SYNTH 113271
 #define FW_CNN_WORK_CLIP 287111
 #define FW_CNN_WORK_BYTES 287111
 #define FW_CNN_MAX_BOXES 256 /* n_levels x cap_per_level: NMS keeps no more */
@@ -1848,7 +1849,7 @@ static const vt_cnn_cfg fw_cnn_cfg_synth = {
     .nms_contain_permille = 700,
     .l0_top_permille = 0,
     .l0_bottom_permille = 1000,
-    .stretch_tail_permille = 0,
+    .stretch_tail_permille = 5,
 };
 
 #endif /* FW_CNN_DATA_H */

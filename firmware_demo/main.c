@@ -820,7 +820,8 @@ static void run_handover(void)
  * synthetic FW_CNN_FRAME_W x FW_CNN_FRAME_H frame drawn here (cnn_make_frame; the
  * generator's cnn_frame() is the same recipe: a textured road ramp and three dark
  * textured "cars" with a bright window band and a black shadow row pair) with
- * fw_cnn_cfg_synth (the model's settings from level 0: the frame is small); then on
+ * fw_cnn_cfg_synth (the model's settings from level 0: the frame is small; with the
+ * contrast stretch, cnn.h's stretch_tail_permille, so that path runs here too); then on
  * the first clip frame in flash with the model's own settings fw_cnn_cfg.
  * `checksum cnn_input` is the synthetic frame's bytes; per run, `checksum cnn_NAME`
  * folds the model and cfg checks, vt_cnn_frame_work_bytes (and that it is the

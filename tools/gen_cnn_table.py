@@ -139,9 +139,10 @@ def tiny_model():
 
 
 def synth_cfg(cfg):
-    """The synthetic frame's settings: the model's, from pyramid level 0."""
+    """The synthetic frame's settings: the model's, from pyramid level 0, with the contrast
+    stretch of the default file (5 permille), so the image runs that path too."""
     from dataclasses import replace
-    return replace(cfg, first_level=0)
+    return replace(cfg, first_level=0, stretch_tail_permille=5)
 
 
 def load_model(path: Path | None = None, tiny: bool = False):
@@ -183,7 +184,8 @@ def render(m, cfg, src: str) -> str:
         " * The CNN detector firmware_demo/main.c runs (run_cnn), from\n"
         f" * {src}:\n"
         f" * {len(m.layers)} layers, out_stride {m.out_stride}, heat_thr {m.heat_thr}; its settings (vt_cnn_cfg:\n"
-        f" * fw_cnn_cfg for the {CLIP_W}x{CLIP_H} clip frame, fw_cnn_cfg_synth, the same from level 0, for the\n"
+        f" * fw_cnn_cfg for the {CLIP_W}x{CLIP_H} clip frame, fw_cnn_cfg_synth, the same from level 0 with the\n"
+        " * contrast stretch, for the\n"
         f" * synthetic {FRAME_W}x{FRAME_H} frame) and the work buffers vt_cnn_frame_work_bytes gives for them\n"
         " * (main.c checks). static const: in flash. */\n"
         "#ifndef FW_CNN_DATA_H\n#define FW_CNN_DATA_H\n\n#include <stdint.h>\n#include \"vehtrack/cnn.h\"\n\n"
