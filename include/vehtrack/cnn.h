@@ -263,7 +263,7 @@ vt_status vt_cnn_frame_work_bytes(const vt_cnn_model *m, const vt_cnn_cfg *cfg, 
  * share, (y1 - y0) / h, of it), the decodes, and the NMS's O(n^2) over
  * at most n_levels cap_per_level boxes; with the stretch, one histogram and one table
  * lookup per frame pixel; stack: vt_pyr_down's row (image.h), vt_cnn_decode's 1 KB or
- * the stretch's 1 KB histogram. */
+ * the stretch's 1.25 KB (histogram and table). */
 vt_status vt_cnn_detect_frame(const vt_cnn_model *m, const vt_cnn_cfg *cfg, const uint8_t *img,
                               int32_t w, int32_t h, int32_t stride, uint8_t *work,
                               size_t work_bytes, vt_cnn_box *boxes, int32_t cap, int32_t *n,
