@@ -159,19 +159,22 @@ def augment(gray, boxes, rng, flags=None):
     return np.ascontiguousarray(out), b.astype(np.float32).reshape(-1, 4), flags
 
 
-def load_paste_crops():
-    """Gray vehicle crops of the GTI folders' TRAIN blocks (gti_split; KITTI_extracted left
-    out, so the KITTI frames stay unseen), for --paste."""
+def gti_train_crops(kind: str, folder_prefix: str = "") -> list:
+    """Gray crops of gti-vehicles/KIND (vehicles or non-vehicles) in gti_split's TRAIN blocks,
+    folder by folder in name order; only the folders whose name starts with folder_prefix."""
     from pyvehtrack.datasets import gti_sorted, gti_split
-    gti = DATA.parent / "gti-vehicles" / "vehicles"
     crops = []
-    for folder in sorted(gti.iterdir()):
-        if not folder.name.startswith("GTI"):
-            continue
-        for i, f in enumerate(gti_sorted(folder)):
-            if gti_split(i) == "train":
-                crops.append(cv2.imread(str(f), cv2.IMREAD_GRAYSCALE))
+    for folder in sorted((DATA.parent / "gti-vehicles" / kind).iterdir()):
+        if folder.name.startswith(folder_prefix):
+            crops += [cv2.imread(str(f), cv2.IMREAD_GRAYSCALE)
+                      for i, f in enumerate(gti_sorted(folder)) if gti_split(i) == "train"]
     return crops
+
+
+def load_paste_crops():
+    """Gray vehicle crops of the GTI folders' TRAIN blocks (KITTI_extracted left out, so the
+    KITTI frames stay unseen), for --paste."""
+    return gti_train_crops("vehicles", "GTI")
 
 
 def paste(gray, boxes, crops, places, rng, n_max=3):
@@ -432,14 +435,7 @@ def pretrain_gti(net, epochs, rng, log=print):
     vehicle crop is shrunk to 24..64 px and laid on a random non-vehicle crop."""
     import torch
     import torch.nn as nn
-    from pyvehtrack.datasets import gti_sorted, gti_split
-    gti = DATA.parent / "gti-vehicles"
-    pos, neg = [], []
-    for kind, lst in (("vehicles", pos), ("non-vehicles", neg)):
-        for folder in sorted((gti / kind).iterdir()):
-            for i, f in enumerate(gti_sorted(folder)):
-                if gti_split(i) == "train":
-                    lst.append(cv2.imread(str(f), cv2.IMREAD_GRAYSCALE))
+    pos, neg = gti_train_crops("vehicles"), gti_train_crops("non-vehicles")
     log(f"GTI pretraining: {len(pos)} vehicle, {len(neg)} non-vehicle TRAIN crops")
     body = nn.Sequential(*list(net)[:-1])
     cls = nn.Linear(CH[-1], 1)
