@@ -3,6 +3,7 @@ sides at stride 8, one network shared by three pyramid levels) on tusimple-vehic
 
     python tools/train_cnn.py --out /tmp/cnn [--epochs 60] [--split fit] [--level0 TOP BOTTOM]
                               [--channels C1 .. C6 [C7]] [--strip P] [--seed N]
+                              [--stretch PERMILLE] [--low-light P]
 
 Float training in PyTorch (a tool dependency only: the C core and the shipped model file
 need no torch). Writes OUT/cnn_float.pt and OUT/cnn.npz and prints the 'val' scores of the float model and
@@ -28,6 +29,7 @@ from pyvehtrack.cnn import MAX_CH as CNN_MAX_CH  # noqa: E402
 from pyvehtrack.datasets import tusimple_frames  # noqa: E402
 from pyvehtrack.image import pyr_down  # noqa: E402
 from pyvehtrack.reference.cnn import band_rows as ref_band_rows  # noqa: E402
+from pyvehtrack.reference.cnn import stretch as ref_stretch  # noqa: E402
 
 DATA = ROOT.parent / "shared" / "data" / "tusimple-vehicles-dev"
 STRIDE = 8
@@ -40,6 +42,10 @@ LEVELS = (1, 2, 3, 4)
 # the rows TOP..BOTTOM permille of the frame height, where small (far) vehicles stand,
 # as vt_cnn_cfg's l0_top_permille / l0_bottom_permille do in C; None: no level 0.
 L0_BAND = None
+# --stretch T: the network learns, is calibrated and is evaluated on frames through the C
+# core's contrast stretch (vt_cnn_cfg.stretch_tail_permille = T, reference.cnn.stretch), the
+# frames it will see in the file's detector; 0 = none (files before it learnt unstretched frames).
+STRETCH = 0
 
 
 def band_rows(h):
@@ -120,9 +126,12 @@ def targets(boxes, h, w, band, noreg=None):
     return heat, reg, rw, mask
 
 
-def augment(gray, boxes, rng, flags=None):
+def augment(gray, boxes, rng, flags=None, low_light=0.0):
     """Scale jitter (crop / pad back to the frame size), flip, light, JPEG; boxes (N, 4)
-    exclusive full-frame pixels. With `flags` (N,) the flags of the boxes kept are returned too."""
+    exclusive full-frame pixels. With `flags` (N,) the flags of the boxes kept are returned too.
+    With probability `low_light` the light's gain is drawn from 0.3..0.6 instead of 0.6..1.3 and
+    the sensor's noise shows (Gaussian, sigma 1..4 grey levels, before the JPEG step): the frames
+    of dusk, whose noise the contrast stretch then amplifies as much as the light."""
     h, w = gray.shape
     if flags is None:
         flags = np.zeros(len(boxes), bool)
@@ -150,9 +159,15 @@ def augment(gray, boxes, rng, flags=None):
         out = out[:, ::-1].copy()
         b = np.stack([w - b[:, 2], b[:, 1], w - b[:, 0], b[:, 3]], 1) if len(b) else b
     g = rng.uniform(0.6, 1.6)
-    a, c = rng.uniform(0.6, 1.3), rng.uniform(-30, 30)
+    dark = low_light > 0 and rng.random() < low_light
+    a, c = rng.uniform(0.3, 0.6) if dark else rng.uniform(0.6, 1.3), rng.uniform(-30, 30)
+    if dark:
+        c = rng.uniform(0, 10)      # a dark frame is not lifted by an offset
     lut = np.clip(a * 255.0 * (np.arange(256) / 255.0) ** g + c, 0, 255).astype(np.uint8)
     out = lut[out]
+    if dark:
+        noise = rng.normal(0.0, rng.uniform(1.0, 4.0), out.shape)
+        out = np.clip(np.rint(out + noise), 0, 255).astype(np.uint8)
     if rng.random() < 0.5:
         q = int(rng.integers(20, 90))
         out = cv2.imdecode(cv2.imencode(".jpg", out, [cv2.IMWRITE_JPEG_QUALITY, q])[1], cv2.IMREAD_GRAYSCALE)
@@ -304,7 +319,7 @@ def evaluate(net, data, thr=0.3):
     preds = []
     with torch.no_grad():
         for i, (e, g, _) in enumerate(data):
-            lv = levels_of(g)
+            lv = levels_of(ref_stretch(g, STRETCH) if STRETCH else g)
             allb = []
             for k in LEVELS:
                 x = torch.from_numpy(lv[k].astype(np.float32) / 255.0)[None, None]
@@ -411,7 +426,9 @@ def cfg_row():
     """pyvehtrack.cnn.CFG_KEYS' values: the levels trained, the decoder cap, nms()'s limits
     (and level 0's row band when it runs)."""
     row = [LEVELS[0], len(LEVELS), 0, 64, 500, 700]
-    return row + list(L0_BAND) if L0_BAND is not None else row
+    if L0_BAND is None and not STRETCH:
+        return row
+    return row + (list(L0_BAND) if L0_BAND is not None else [0, 1000]) + ([STRETCH] if STRETCH else [])
 
 
 def evaluate_int(z, data):
@@ -469,7 +486,6 @@ def pretrain_gti(net, epochs, rng, log=print):
 
 
 def main(argv=None):
-    import torch
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", required=True)
     ap.add_argument("--epochs", type=int, default=60)
@@ -492,11 +508,21 @@ def main(argv=None):
     ap.add_argument("--paste", type=float, default=0.0, metavar="P",
                     help="with probability P a training frame gets 1..3 GTI TRAIN vehicle crops pasted "
                          "where labelled vehicles of other frames stood (copy-paste; heat targets only)")
+    ap.add_argument("--stretch", type=int, default=0, metavar="PERMILLE",
+                    help="learn, calibrate and evaluate on frames through the C core's contrast stretch with "
+                         "this tail (vt_cnn_cfg.stretch_tail_permille, 1..499; written to the file's cnn_cfg)")
+    ap.add_argument("--low-light", type=float, default=0.0, metavar="P",
+                    help="with probability P a training frame is dark (light gain 0.3..0.6) with sensor noise")
     ap.add_argument("--level0", nargs=2, type=int, metavar=("TOP", "BOTTOM"),
                     help="also run on level 0 (full resolution, vehicles 6..40 px wide), rows TOP..BOTTOM "
                          "permille of the frame height")
     a = ap.parse_args(argv)
-    global LEVELS, L0_BAND, CH
+    global LEVELS, L0_BAND, CH, STRETCH
+    if not 0 <= a.stretch <= 499:
+        ap.error(f"--stretch: expected 0..499 permille, got {a.stretch}")
+    if not 0.0 <= a.low_light <= 1.0:
+        ap.error(f"--low-light: expected a probability 0..1, got {a.low_light}")
+    STRETCH = a.stretch
     if len(a.channels) not in (6, 7):
         ap.error(f"--channels: 6 or 7 values, got {len(a.channels)}")
     if not all(1 <= c <= CNN_MAX_CH for c in a.channels):
@@ -506,6 +532,11 @@ def main(argv=None):
         if not 0 <= a.level0[0] < a.level0[1] <= 1000:
             ap.error("--level0: 0 <= TOP < BOTTOM <= 1000")
         L0_BAND, LEVELS = tuple(a.level0), (0,) + LEVELS
+    try:    # after the flags are checked: a wrong flag is named on a machine without torch too
+        import torch
+    except ImportError:
+        raise SystemExit("train_cnn.py needs PyTorch (the extra train-cnn; on this project's machines "
+                         "`pip install torch==2.13.0` takes the CPU wheel)") from None
     torch.manual_seed(a.seed)
     rng = np.random.default_rng(a.seed)
     out = Path(a.out)
@@ -541,7 +572,9 @@ def main(argv=None):
                 g, b, fl = train[j][1], train[j][2], None
                 if a.paste and rng.random() < a.paste:
                     g, b, fl = paste(g, b, crops, places, rng)
-                g, b, fl = augment(g, b, rng, fl)
+                g, b, fl = augment(g, b, rng, fl, a.low_light)
+                if STRETCH:
+                    g = ref_stretch(g, STRETCH)
                 if ratio is not None:
                     g, b = strip(g, b, ratio, rng.uniform(0.35, 0.6))
                     fl = None   # strips and pastes are not combined
@@ -580,7 +613,7 @@ def export(net, train, val, out, heat_p=0.3):
     """Quantise on 'fit' frames, compare the integer model with the float one on the eval
     frames, write OUT/cnn.npz."""
     net.eval()
-    calib = [levels_of(g)[k] for _, g, _ in train[::6] for k in LEVELS]
+    calib = [levels_of(ref_stretch(g, STRETCH) if STRETCH else g)[k] for _, g, _ in train[::6] for k in LEVELS]
     z = quantise(fold(net), calib, heat_p=heat_p)
     z["cnn_heat_scale_q16"] = np.int32(max(1, round(float(z["cnn_out_scale"][0]) * 65536)))
     s_f, _ = evaluate(net, val, heat_p)

@@ -1,0 +1,73 @@
+"""tools/train_cnn.py's frame preparation, the parts a model file depends on without torch:
+the contrast stretch a network learns through (--stretch, written to the file's cnn_cfg so the
+C core applies the same stretch) and the low-light augmentation (--low-light)."""
+import importlib.util
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pyvehtrack import cnn as C
+from pyvehtrack.reference import cnn as rc
+
+ROOT = Path(__file__).resolve().parent.parent
+TOOL = ROOT / "tools" / "train_cnn.py"
+
+
+@pytest.fixture()
+def tool():
+    spec = importlib.util.spec_from_file_location("train_cnn_under_test", TOOL)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)      # no torch at import: torch is imported inside the functions
+    return mod
+
+
+def test_cfg_row_carries_the_stretch_the_network_learnt_through(tool):
+    tool.L0_BAND, tool.STRETCH = None, 0
+    assert len(tool.cfg_row()) == C.CFG_KEYS_OLD                     # as files before the band
+    tool.STRETCH = 5
+    row = tool.cfg_row()
+    cfg = C.CnnConfig(*row)                                          # a row the loader takes
+    assert (cfg.l0_top_permille, cfg.l0_bottom_permille, cfg.stretch_tail_permille) == (0, 1000, 5)
+    tool.L0_BAND, tool.LEVELS = (380, 640), (0, 1, 2, 3, 4)
+    cfg = C.CnnConfig(*tool.cfg_row())
+    assert (cfg.first_level, cfg.n_levels, cfg.l0_top_permille, cfg.l0_bottom_permille,
+            cfg.stretch_tail_permille) == (0, 5, 380, 640, 5)
+
+
+def test_training_stretch_is_the_c_cores(tool):
+    # the tool's stretch is the NumPy twin, which equals vt_cnn's stretch bit for bit
+    # (tests/test_cnn_frame.py); here: the tool takes exactly that function
+    assert tool.ref_stretch is rc.stretch
+
+
+def test_low_light_frames_are_dark_and_noisy(tool):
+    # a flat 128 frame: the scale jitter pads with the frame's mean, so before the light it
+    # stays flat. Low light: gain <= 0.6, gamma >= 0.6, offset <= 10, so every pixel's level
+    # before the noise is <= 0.6 x 255 x (128 / 255)^0.6 + 10 = 111.2; the noise (mean 0,
+    # sigma <= 4, clipped at 0 only far below) and a JPEG step move the mean by well under 1.
+    img = np.full((72, 128), 128, np.uint8)
+    boxes = np.zeros((0, 4), np.float32)
+    stds = []
+    for seed in range(12):
+        out, _, _ = tool.augment(img, boxes, np.random.default_rng(seed), None, low_light=1.0)
+        assert out.dtype == np.uint8 and out.shape == img.shape
+        assert out.mean() < 112.2
+        stds.append(out.std())
+    assert max(stds) > 0.8                     # sigma >= 1 shows on some frame through the JPEG
+    # without it the gain is >= 0.6, gamma <= 1.6, offset >= -30: >= 255 x 0.6 x 0.502^1.6 - 30 = 20.8,
+    # and the same seeds give no noise on a flat frame but JPEG's (which keeps a flat block flat)
+    for seed in range(12):
+        out, _, _ = tool.augment(img, boxes, np.random.default_rng(seed), None, low_light=0.0)
+        assert out.std() == 0.0
+
+
+@pytest.mark.parametrize("args,msg", [(["--stretch", "500"], "--stretch"), (["--stretch", "-1"], "--stretch"),
+                                      (["--low-light", "1.5"], "--low-light")])
+def test_tool_rejects_bad_flags_without_torch_work(args, msg, tmp_path):
+    p = subprocess.run([sys.executable, str(TOOL), "--out", str(tmp_path / "m")] + args,
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 2 and msg in p.stderr
+    assert not (tmp_path / "m").exists()
