@@ -573,11 +573,11 @@ def main(argv=None):
                 if a.paste and rng.random() < a.paste:
                     g, b, fl = paste(g, b, crops, places, rng)
                 g, b, fl = augment(g, b, rng, fl, a.low_light)
-                if STRETCH:
-                    g = ref_stretch(g, STRETCH)
                 if ratio is not None:
                     g, b = strip(g, b, ratio, rng.uniform(0.35, 0.6))
                     fl = None   # strips and pastes are not combined
+                if STRETCH:     # of the frame the core is given: a strip is a wide camera's whole frame
+                    g = ref_stretch(g, STRETCH)
                 lv = levels_of(g)
                 lv0_y0 = band_rows(g.shape[0])[0] if 0 in LEVELS else 0
                 for k in LEVELS:
