@@ -52,7 +52,8 @@ def test_the_probes_first_line_is_the_c_detector(tmp_path):
 
     from pyvehtrack import cnn as C
     tool = _tool()
-    img = cv2.imread(str(ROOT / "bench" / "data" / "road_1280x720.png"), cv2.IMREAD_GRAYSCALE)
+    # 640x360: within the smallest build's maximum frame (make test's -DVT_MAX_WIDTH=700)
+    img = cv2.imread(str(ROOT / "tests" / "data" / "tusimple_vehicles_4065_gray_640x360.png"), cv2.IMREAD_GRAYSCALE)
     (tmp_path / "supp_img").mkdir()
     cv2.imwrite(str(tmp_path / "supp_img" / "0015.jpg"), img)          # (15 // 10) % 5 == 1: 'val'
     (tmp_path / "annotation.json").write_text(json.dumps([{"file_name": "supp_img/0015.jpg", "bbox": []}]))
