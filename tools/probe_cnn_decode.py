@@ -34,9 +34,7 @@ from pyvehtrack import cnn  # noqa: E402
 from pyvehtrack import eval_boxes as eb  # noqa: E402
 from pyvehtrack.datasets import tusimple_frames  # noqa: E402
 from pyvehtrack.eval import conditions as cd  # noqa: E402
-from pyvehtrack.image import pyr_down  # noqa: E402
 from pyvehtrack.reference import cnn as rc  # noqa: E402
-from pyvehtrack.reference import windows as rw  # noqa: E402
 
 DATA = ROOT.parent / "shared" / "data" / "tusimple-vehicles-dev"
 
@@ -51,16 +49,9 @@ def frames_of(model, cfg, data, split, light, limit):
         if light:
             x = cd.light(x, light, seed=i)     # the seed eval_tusimple_boxes.py --light uses
         g = cv2.cvtColor(x, cv2.COLOR_BGR2GRAY)
+        outs = [(k, dy, cnn.forward(model, np.ascontiguousarray(lv))) for k, dy, lv in rc.level_inputs(g, cfg)]
         if cfg.stretch_tail_permille:
             g = rc.stretch(g, cfg.stretch_tail_permille)
-        y0, y1 = rc.band_rows(g.shape[0], cfg.l0_top_permille, cfg.l0_bottom_permille)
-        level, outs = g, []
-        for k in range(cfg.first_level + cfg.n_levels):
-            if k > 0:
-                level = pyr_down(np.ascontiguousarray(level))
-            if k >= cfg.first_level:
-                src = np.ascontiguousarray(level[y0:y1]) if k == 0 else level
-                outs.append((k, y0 if k == 0 else 0, cnn.forward(model, src)))
         out.append((e, g, outs))
     return out
 
@@ -81,7 +72,7 @@ def frame_boxes(model, cfg, outs, w, h, offsets=None, vote=0, iou=None, contain=
     lut = np.asarray(model.side_lut, np.float64).reshape(4, 256)
     rows = list(extra)
     for k, dy, out in outs:
-        thr = model.heat_thr + cfg.thr_offset + (offsets[k] if offsets else 0)
+        thr = min(max(model.heat_thr + cfg.thr_offset + (offsets[k] if offsets else 0), -128), 128)
         if vote:
             heat = out[..., 0].astype(np.float64)
             cb = cell_boxes(out, model.out_stride, lut, k)
@@ -95,16 +86,9 @@ def frame_boxes(model, cfg, outs, w, h, offsets=None, vote=0, iou=None, contain=
         else:
             b, _ = rc.decode(out, model.out_stride, model.side_lut, thr, k, cfg.cap_per_level)
             rows += [(l, t + dy, r, bt + dy, sc) for l, t, r, bt, sc in b.tolist()]
-    rows = [(max(l, 0), max(t, 0), min(r, w - 1), min(b, h - 1), s) for l, t, r, b, s in rows]
-    rows = [r for r in rows if r[0] <= r[2] and r[1] <= r[3]]
-    order = sorted(range(len(rows)), key=lambda i: -rows[i][4])
-    iou = cfg.nms_iou_permille if iou is None else iou
-    contain = cfg.nms_contain_permille if contain is None else contain
-    kept = []
-    for i in order:
-        if not any(rw.suppresses(rows[j][:4], rows[i][:4], iou, contain) for j in kept):
-            kept.append(i)
-    return [[float(v) for v in rows[i]] for i in kept]
+    lim = {"nms_iou_permille": cfg.nms_iou_permille if iou is None else iou,
+           "nms_contain_permille": cfg.nms_contain_permille if contain is None else contain}
+    return rc.merge_levels(rows, w, h, lim).astype(np.float64).tolist()
 
 
 def score(frames, boxes_of):
@@ -120,8 +104,9 @@ def summary(s) -> str:
 
 
 def f1_32(s) -> float:
-    t = next(x for x in eb.format_scores(s).splitlines() if x.startswith(">=32px")).split()
-    r, p = float(t[2].rstrip("%")), float(t[4].rstrip("%")) if t[4] != "n/a" else 0.0
+    """F1 of the vehicles >= 32 px wide, in percent (0 where there is no box or no vehicle)."""
+    c = s.classes[">=32px"]
+    r, p = (0.0 if v != v else 100.0 * v for v in (c["recall"], c["precision"]))
     return 2 * r * p / (r + p) if r + p else 0.0
 
 

@@ -48,6 +48,12 @@ L0_BAND = None
 STRETCH = 0
 
 
+def seen(gray):
+    """The frame as the file's detector gives it to the network: through the stretch with
+    --stretch, else as it is."""
+    return ref_stretch(gray, STRETCH) if STRETCH else gray
+
+
 def band_rows(h):
     """Rows y0 .. y1 - 1 of level 0: vt_cnn_cfg's rounding, as the twin computes it."""
     return ref_band_rows(h, *L0_BAND)
@@ -319,7 +325,7 @@ def evaluate(net, data, thr=0.3):
     preds = []
     with torch.no_grad():
         for i, (e, g, _) in enumerate(data):
-            lv = levels_of(ref_stretch(g, STRETCH) if STRETCH else g)
+            lv = levels_of(seen(g))
             allb = []
             for k in LEVELS:
                 x = torch.from_numpy(lv[k].astype(np.float32) / 255.0)[None, None]
@@ -576,8 +582,7 @@ def main(argv=None):
                 if ratio is not None:
                     g, b = strip(g, b, ratio, rng.uniform(0.35, 0.6))
                     fl = None   # strips and pastes are not combined
-                if STRETCH:     # of the frame the core is given: a strip is a wide camera's whole frame
-                    g = ref_stretch(g, STRETCH)
+                g = seen(g)     # after the strip: a strip is a wide camera's whole frame
                 lv = levels_of(g)
                 lv0_y0 = band_rows(g.shape[0])[0] if 0 in LEVELS else 0
                 for k in LEVELS:
@@ -613,7 +618,7 @@ def export(net, train, val, out, heat_p=0.3):
     """Quantise on 'fit' frames, compare the integer model with the float one on the eval
     frames, write OUT/cnn.npz."""
     net.eval()
-    calib = [levels_of(ref_stretch(g, STRETCH) if STRETCH else g)[k] for _, g, _ in train[::6] for k in LEVELS]
+    calib = [levels_of(seen(g))[k] for _, g, _ in train[::6] for k in LEVELS]
     z = quantise(fold(net), calib, heat_p=heat_p)
     z["cnn_heat_scale_q16"] = np.int32(max(1, round(float(z["cnn_out_scale"][0]) * 65536)))
     s_f, _ = evaluate(net, val, heat_p)

@@ -153,6 +153,44 @@ def band_rows(h: int, top_permille: int, bottom_permille: int) -> tuple[int, int
     return (h * top_permille) // 1000, (h * bottom_permille + 999) // 1000
 
 
+def level_inputs(img: np.ndarray, cfg):
+    """The network's inputs of vt_cnn_detect_frame, in its order: (k, dy, image) per level k =
+    first_level .. first_level + n_levels - 1, built from the frame after the cfg's stretch
+    (level 0 is its row band, dy its first row; other levels whole, dy 0)."""
+    from . import image as rimage     # noqa: PLC0415
+    first, nl = _cfg_get(cfg, "first_level"), _cfg_get(cfg, "n_levels")
+    g = np.asarray(img, np.uint8)
+    tail = _cfg_get(cfg, "stretch_tail_permille")
+    if tail > 0:
+        g = stretch(g, tail)
+    y0, y1 = band_rows(g.shape[0], _cfg_get(cfg, "l0_top_permille"), _cfg_get(cfg, "l0_bottom_permille"))
+    level = g
+    for k in range(first + nl):
+        if k > 0:
+            level = rimage.pyr_down(level)     # from the whole frame: the band is level 0's only
+        if k >= first:
+            yield k, (y0 if k == 0 else 0), (level[y0:y1] if k == 0 else level)
+
+
+def merge_levels(rows, w: int, h: int, cfg) -> np.ndarray:
+    """vt_cnn_detect_frame's last step: rows (l, t, r, b, heat) in full-frame px, in level then
+    decode order, clipped to the w x h frame (empty ones dropped), then one NMS by heat
+    (stable: level, then decode order) with the cfg's limits. (N, 5) int64."""
+    from . import windows as rw       # noqa: PLC0415
+    clipped = []
+    for l, t, r, bt, sc in rows:
+        l, t, r, bt = max(l, 0), max(t, 0), min(r, w - 1), min(bt, h - 1)
+        if l <= r and t <= bt:
+            clipped.append((l, t, r, bt, sc))
+    order = sorted(range(len(clipped)), key=lambda i: -clipped[i][4])
+    iou, con = _cfg_get(cfg, "nms_iou_permille"), _cfg_get(cfg, "nms_contain_permille")
+    kept = []
+    for i in order:
+        if not any(rw.suppresses(clipped[j][:4], clipped[i][:4], iou, con) for j in kept):
+            kept.append(i)
+    return np.array([clipped[i] for i in kept], np.int64).reshape(-1, 5)
+
+
 def detect_frame(model, img: np.ndarray, cfg) -> tuple[np.ndarray, int]:
     """vt_cnn_detect_frame (cnn.h). model: an object with layers, out_stride, side_lut,
     heat_thr (e.g. pyvehtrack.cnn.CnnModel); cfg: every vt_cnn_cfg field as an attribute or a
@@ -160,35 +198,12 @@ def detect_frame(model, img: np.ndarray, cfg) -> tuple[np.ndarray, int]:
     nms_contain_permille, l0_top_permille, l0_bottom_permille, stretch_tail_permille), none left
     to defaults but the last three (absent: 0 and 1000, the whole frame; 0, no stretch). Returns ((N, 5) int64 [l, t, r, b, heat]
     in NMS order, the peaks over the levels before cap, clipping and NMS)."""
-    from . import image as rimage     # noqa: PLC0415
-    from . import windows as rw       # noqa: PLC0415
-    first, nl = _cfg_get(cfg, "first_level"), _cfg_get(cfg, "n_levels")
     cap = _cfg_get(cfg, "cap_per_level")
     thr = min(max(int(model.heat_thr) + _cfg_get(cfg, "thr_offset"), -128), 128)
-    g = np.asarray(img, np.uint8)
-    tail = _cfg_get(cfg, "stretch_tail_permille")
-    if tail > 0:
-        g = stretch(g, tail)
-    h, w = g.shape
-    y0, y1 = band_rows(h, _cfg_get(cfg, "l0_top_permille"), _cfg_get(cfg, "l0_bottom_permille"))
-    level, rows, total = g, [], 0
-    for k in range(first + nl):
-        if k > 0:
-            level = rimage.pyr_down(level)     # from the whole frame: the band is level 0's only
-        if k < first:
-            continue
-        dy = y0 if k == 0 else 0
-        out = forward(model.layers, level[y0:y1] if k == 0 else level)
-        b, n = decode(out, model.out_stride, model.side_lut, thr, k, cap)
+    h, w = np.asarray(img).shape[:2]
+    rows, total = [], 0
+    for k, dy, level in level_inputs(img, cfg):
+        b, n = decode(forward(model.layers, level), model.out_stride, model.side_lut, thr, k, cap)
         total += n
-        for l, t, r, bt, sc in b.tolist():
-            l, t, r, bt = max(l, 0), max(t + dy, 0), min(r, w - 1), min(bt + dy, h - 1)
-            if l <= r and t <= bt:
-                rows.append((l, t, r, bt, sc))
-    order = sorted(range(len(rows)), key=lambda i: -rows[i][4])     # stable: level, then decode order
-    iou, con = _cfg_get(cfg, "nms_iou_permille"), _cfg_get(cfg, "nms_contain_permille")
-    kept = []
-    for i in order:
-        if not any(rw.suppresses(rows[j][:4], rows[i][:4], iou, con) for j in kept):
-            kept.append(i)
-    return np.array([rows[i] for i in kept], np.int64).reshape(-1, 5), total
+        rows += [(l, t + dy, r, bt + dy, sc) for l, t, r, bt, sc in b.tolist()]
+    return merge_levels(rows, w, h, cfg), total
