@@ -394,9 +394,13 @@ static int vt__cnn_is_peak(const int8_t *out, int32_t gw, int32_t gh, int32_t x,
     return 1;
 }
 
-/* Q4 level px -> full-frame px: floor((v 2^ss + 8) / 16). */
+/* Q4 level px -> full-frame px: floor((v 2^ss + 8) / 16); ss = -1 (the upsampled
+ * band, half scale): floor((v + 16) / 32), the same rule with 2^-1. */
 static int32_t vt__cnn_px(int64_t v_q4, int32_t ss)
 {
+    if (ss < 0) {
+        return (int32_t)vt__floor_shr64(v_q4 + 16, 5);
+    }
     return (int32_t)vt__floor_shr64(v_q4 * ((int64_t)1 << ss) + 8, 4);
 }
 
@@ -414,13 +418,16 @@ static void vt__cnn_box(const vt_cnn_model *m, const int8_t *cell, int32_t x, in
     b->score = cell[0];
 }
 
+/* vt_cnn_decode after its checks; scale_shift -1..VT_CNN_MAX_LEVEL (-1: the upsampled
+ * band, only from vt_cnn_detect_frame). */
+static void vt__cnn_decode(const vt_cnn_model *m, const int8_t *out, int32_t gw, int32_t gh,
+                           int32_t thr, int32_t scale_shift, vt_cnn_box *boxes, int32_t cap,
+                           int32_t *n, int32_t *n_peaks);
+
 vt_status vt_cnn_decode(const vt_cnn_model *m, const int8_t *out, int32_t gw, int32_t gh,
                         int32_t thr, int32_t scale_shift, vt_cnn_box *boxes, int32_t cap,
                         int32_t *n, int32_t *n_peaks)
 {
-    /* pos[heat + 128]: first the peak count per heat, then the output slot of the
-     * next peak of that heat (a counting sort: heat descending, raster order kept) */
-    int32_t pos[256], x, y, v, run = 0;
     vt_status s;
     if (n != NULL) {
         *n = 0;
@@ -439,6 +446,17 @@ vt_status vt_cnn_decode(const vt_cnn_model *m, const int8_t *out, int32_t gw, in
     if (gw < 1 || gh < 1 || gw > VT_MAX_WIDTH || gh > VT_MAX_HEIGHT) {
         return VT_E_SIZE;
     }
+    vt__cnn_decode(m, out, gw, gh, thr, scale_shift, boxes, cap, n, n_peaks);
+    return VT_OK;
+}
+
+static void vt__cnn_decode(const vt_cnn_model *m, const int8_t *out, int32_t gw, int32_t gh,
+                           int32_t thr, int32_t scale_shift, vt_cnn_box *boxes, int32_t cap,
+                           int32_t *n, int32_t *n_peaks)
+{
+    /* pos[heat + 128]: first the peak count per heat, then the output slot of the
+     * next peak of that heat (a counting sort: heat descending, raster order kept) */
+    int32_t pos[256], x, y, v, run = 0;
     for (v = 0; v < 256; ++v) {
         pos[v] = 0;
     }
@@ -469,7 +487,6 @@ vt_status vt_cnn_decode(const vt_cnn_model *m, const int8_t *out, int32_t gw, in
     }
     *n_peaks = run;
     *n = run < cap ? run : cap;
-    return VT_OK;
 }
 
 
@@ -479,6 +496,13 @@ vt_status vt_cnn_cfg_default(vt_cnn_cfg *cfg)
 {
     static const vt_cnn_cfg def = VT_CNN_CFG_DEFAULT;
     return vt__cfg_copy(cfg, &def, sizeof def);
+}
+
+/* The upsampled band is off only with all four of its fields 0. */
+static int vt__cnn_up_on(const vt_cnn_cfg *cfg)
+{
+    return cfg->up_top_permille != 0 || cfg->up_bottom_permille != 0 ||
+           cfg->up_left_permille != 0 || cfg->up_right_permille != 0;
 }
 
 vt_status vt_cnn_cfg_check(const vt_cnn_cfg *cfg)
@@ -495,15 +519,23 @@ vt_status vt_cnn_cfg_check(const vt_cnn_cfg *cfg)
         cfg->stretch_tail_permille > 100) {
         return VT_E_ARG;
     }
+    if (vt__cnn_up_on(cfg)) {
+        if (cfg->up_top_permille < 0 || cfg->up_top_permille >= cfg->up_bottom_permille ||
+            cfg->up_bottom_permille > 1000 || cfg->up_left_permille < 0 ||
+            cfg->up_left_permille >= cfg->up_right_permille || cfg->up_right_permille > 1000 ||
+            (int64_t)(cfg->n_levels + 1) * cfg->cap_per_level > VT_MAX_NMS_BOXES) {
+            return VT_E_ARG;
+        }
+    }
     return VT_OK;
 }
 
-/* Level 0's band rows y0 .. y1 - 1 of an h-row frame (cfg checked, h >= 1): cnn.h's
+/* A band's rows y0 .. y1 - 1 of an h-row frame (0 <= top < bottom <= 1000, h >= 1): cnn.h's
  * floor / ceil in int64 (h <= 4096 and permille <= 1000, so exact and nonnegative). */
-static void vt__cnn_band(const vt_cnn_cfg *cfg, int32_t h, int32_t *y0, int32_t *y1)
+static void vt__cnn_band(int32_t h, int32_t top, int32_t bottom, int32_t *y0, int32_t *y1)
 {
-    *y0 = (int32_t)(((int64_t)h * cfg->l0_top_permille) / 1000);
-    *y1 = (int32_t)(((int64_t)h * cfg->l0_bottom_permille + 999) / 1000);
+    *y0 = (int32_t)(((int64_t)h * top) / 1000);
+    *y1 = (int32_t)(((int64_t)h * bottom + 999) / 1000);
 }
 
 /* Alignment of the work buffer's box regions (int32 structs): the first region starts
@@ -524,6 +556,11 @@ typedef struct {
     size_t fwd;    /* vt_cnn_forward's work                          */
     size_t out;    /* the forward output (int8)                      */
     size_t str;    /* the stretched frame (w h bytes), when stretched */
+    int32_t ux0;   /* the upsampled band's source rectangle, and its 2x size (0: off) */
+    int32_t uy0;
+    int32_t uw;
+    int32_t uh;
+    size_t up;     /* its 2x image (uw uh bytes)                    */
     size_t fwd_bytes;
     size_t out_bytes;
     size_t total;  /* bytes after the aligned start                  */
@@ -538,8 +575,16 @@ static vt_status vt__cnn_frame_layout(const vt_cnn_model *m, const vt_cnn_cfg *c
     size_t lvl_bytes[2] = {0, 0}, off;
     pl->lw[0] = w;
     pl->lh[0] = h;
-    vt__cnn_band(cfg, h, &pl->y0, &y1);
+    vt__cnn_band(h, cfg->l0_top_permille, cfg->l0_bottom_permille, &pl->y0, &y1);
     pl->bh = y1 - pl->y0;
+    pl->ux0 = pl->uy0 = pl->uw = pl->uh = 0;
+    if (vt__cnn_up_on(cfg)) {
+        int32_t e;
+        vt__cnn_band(w, cfg->up_left_permille, cfg->up_right_permille, &pl->ux0, &e);
+        pl->uw = 2 * (e - pl->ux0);
+        vt__cnn_band(h, cfg->up_top_permille, cfg->up_bottom_permille, &pl->uy0, &e);
+        pl->uh = 2 * (e - pl->uy0);
+    }
     for (k = 1; k <= VT_CNN_MAX_LEVEL; ++k) {
         pl->lw[k] = (pl->lw[k - 1] + 1) / 2;
         pl->lh[k] = (pl->lh[k - 1] + 1) / 2;
@@ -551,11 +596,14 @@ static vt_status vt__cnn_frame_layout(const vt_cnn_model *m, const vt_cnn_cfg *c
     }
     pl->fwd_bytes = 0;
     pl->out_bytes = 0;
-    for (k = cfg->first_level; k <= last; ++k) {
+    /* k = last + 1 stands for the upsampled band, when on */
+    for (k = cfg->first_level; k <= last + (pl->uw > 0 ? 1 : 0); ++k) {
         size_t sizes[VT_CNN_MAX_LAYERS], r0, r1, ob;
         int32_t gw, gh;
         /* level 0 runs on its band only: the same sizes vt_cnn_detect_frame passes */
-        vt_status s = vt__cnn_plan(m, pl->lw[k], k == 0 ? pl->bh : pl->lh[k], sizes, &gw, &gh);
+        vt_status s = k > last ? vt__cnn_plan(m, pl->uw, pl->uh, sizes, &gw, &gh)
+                               : vt__cnn_plan(m, pl->lw[k], k == 0 ? pl->bh : pl->lh[k], sizes,
+                                              &gw, &gh);
         if (s != VT_OK) {
             return s;
         }
@@ -566,7 +614,8 @@ static vt_status vt__cnn_frame_layout(const vt_cnn_model *m, const vt_cnn_cfg *c
     }
     /* structs first (aligned), then the byte regions */
     pl->sbox = 0;
-    off = (size_t)cfg->n_levels * (size_t)cfg->cap_per_level * sizeof(vt_scored_box);
+    off = (size_t)(cfg->n_levels + (pl->uw > 0 ? 1 : 0)) * (size_t)cfg->cap_per_level *
+          sizeof(vt_scored_box);
     pl->cbox = off;
     off += (size_t)cfg->cap_per_level * sizeof(vt_cnn_box);
     pl->lvl[0] = off;
@@ -578,7 +627,9 @@ static vt_status vt__cnn_frame_layout(const vt_cnn_model *m, const vt_cnn_cfg *c
     pl->out = off;
     off += pl->out_bytes;
     pl->str = off;
-    pl->total = off + (cfg->stretch_tail_permille > 0 ? (size_t)w * (size_t)h : 0);
+    off += cfg->stretch_tail_permille > 0 ? (size_t)w * (size_t)h : 0;
+    pl->up = off;
+    pl->total = off + (size_t)pl->uw * (size_t)pl->uh;
     return VT_OK;
 }
 
@@ -655,6 +706,31 @@ static void vt__cnn_stretch(const uint8_t *img, int32_t w, int32_t h, int32_t st
     }
 }
 
+/* The upsampled band's 2x image (cnn.h, vt_cnn_cfg): dst (uw x uh, stride uw) from the
+ * frame's rectangle at (x0, y0), neighbours clamped to the frame (w x h). Per axis the
+ * weights are 3 and 1, so out = (3 (3 a + b) + (3 c + d) + 8) >> 4 with a the nearest
+ * pixel: at most 16 x 255 + 8, no overflow, and >> 4 of a nonnegative value is the floor. */
+static void vt__cnn_upsample(const uint8_t *img, int32_t w, int32_t h, int32_t stride,
+                             int32_t x0, int32_t y0, int32_t uw, int32_t uh, uint8_t *dst)
+{
+    int32_t i, j;
+    for (i = 0; i < uh; ++i) {
+        int32_t cy = y0 + i / 2, ny = (i & 1) ? cy + 1 : cy - 1;
+        const uint8_t *ra, *rb;
+        uint8_t *o = dst + (size_t)i * (size_t)uw;
+        ny = ny < 0 ? 0 : (ny > h - 1 ? h - 1 : ny);
+        ra = img + (size_t)cy * (size_t)stride;
+        rb = img + (size_t)ny * (size_t)stride;
+        for (j = 0; j < uw; ++j) {
+            int32_t cx = x0 + j / 2, nx = (j & 1) ? cx + 1 : cx - 1;
+            int32_t v;
+            nx = nx < 0 ? 0 : (nx > w - 1 ? w - 1 : nx);
+            v = 3 * (3 * ra[cx] + ra[nx]) + (3 * rb[cx] + rb[nx]);
+            o[j] = (uint8_t)((v + 8) >> 4);
+        }
+    }
+}
+
 vt_status vt_cnn_detect_frame(const vt_cnn_model *m, const vt_cnn_cfg *cfg, const uint8_t *img,
                               int32_t w, int32_t h, int32_t stride, uint8_t *work,
                               size_t work_bytes, vt_cnn_box *boxes, int32_t cap, int32_t *n,
@@ -706,11 +782,22 @@ vt_status vt_cnn_detect_frame(const vt_cnn_model *m, const vt_cnn_cfg *cfg, cons
     src.w = w;
     src.h = h;
     src.stride = stride;
-    for (k = 0; k <= last; ++k) {
-        int32_t gw, gh, nd = 0, np = 0, dy = 0;
+    /* k = last + 1: the upsampled band, when on (after every level: the NMS order) */
+    for (k = 0; k <= last + (pl.uw > 0 ? 1 : 0); ++k) {
+        int32_t gw, gh, nd = 0, np = 0, dx = 0, dy = 0, ss = k;
         int8_t *out = (int8_t *)(void *)(base + pl.out);
         vt_image_u8 run;
-        if (k > 0) {
+        if (k > last) {
+            /* from the (stretched) frame, not from a level */
+            vt__cnn_upsample(img, w, h, stride, pl.ux0, pl.uy0, pl.uw, pl.uh, base + pl.up);
+            run.px = base + pl.up;
+            run.w = pl.uw;
+            run.h = pl.uh;
+            run.stride = pl.uw;
+            dx = pl.ux0;
+            dy = pl.uy0;
+            ss = -1;
+        } else if (k > 0) {
             /* level k from level k - 1: odd levels in the first image, even in the second */
             vt_image_u8_mut dst;
             dst.px = base + pl.lvl[(k & 1) ? 0 : 1];
@@ -729,7 +816,9 @@ vt_status vt_cnn_detect_frame(const vt_cnn_model *m, const vt_cnn_cfg *cfg, cons
         if (k < cfg->first_level) {
             continue;
         }
-        run = src;
+        if (k <= last) {
+            run = src;
+        }
         if (k == 0) {
             /* level 0: only the band's rows (a view into the caller's frame), its boxes
              * moved back down by y0; src stays the whole frame for the pyramid */
@@ -742,22 +831,21 @@ vt_status vt_cnn_detect_frame(const vt_cnn_model *m, const vt_cnn_cfg *cfg, cons
         if (s == VT_OK) {
             s = vt_cnn_out_size(m, run.w, run.h, &gw, &gh);
         }
-        if (s == VT_OK) {
-            s = vt_cnn_decode(m, out, gw, gh, thr, k, cb, cfg->cap_per_level, &nd, &np);
-        }
         if (s != VT_OK) {
             return s; /* not reached: every argument was checked above */
         }
+        vt__cnn_decode(m, out, gw, gh, thr, ss, cb, cfg->cap_per_level, &nd, &np);
         peaks += np;
         for (i = 0; i < nd; ++i) {
             /* clipped to the frame; empty after that (outside, or a zero side) dropped */
             vt_scored_box *o = &sb[total];
-            /* dy is nonzero at level 0 only, where |t|, |b| < 2^20 (a grid row < 4096
-             * at stride <= 128, a side < 4096 px) and dy < 4096: no overflow */
-            int32_t t = cb[i].t + dy, b = cb[i].b + dy;
-            o->box.left = cb[i].l < 0 ? 0 : cb[i].l;
+            /* dx, dy are nonzero at level 0 and the upsampled band only, where every
+             * value is under 2^20 in magnitude (a grid cell < 4096 at stride <= 128, a
+             * side < 4096 px) and dx, dy < 4096: no overflow */
+            int32_t l = cb[i].l + dx, t = cb[i].t + dy, r = cb[i].r + dx, b = cb[i].b + dy;
+            o->box.left = l < 0 ? 0 : l;
             o->box.top = t < 0 ? 0 : t;
-            o->box.right = cb[i].r > w - 1 ? w - 1 : cb[i].r;
+            o->box.right = r > w - 1 ? w - 1 : r;
             o->box.bottom = b > h - 1 ? h - 1 : b;
             if (o->box.left > o->box.right || o->box.top > o->box.bottom) {
                 continue;

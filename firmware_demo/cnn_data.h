@@ -19,7 +19,7 @@
 #define FW_CNN_WORK_SYNTH 113271
 #define FW_CNN_WORK_CLIP 287111
 #define FW_CNN_WORK_BYTES 287111
-#define FW_CNN_MAX_BOXES 256 /* n_levels x cap_per_level: NMS keeps no more */
+#define FW_CNN_MAX_BOXES 256 /* (n_levels [+ 1 with the upsampled band]) x cap_per_level: NMS keeps no more */
 
 static const int8_t fw_cnn_l0_w[144] = {
      -18,   27, -127,  -62,  -37,   21,   45,  119,   24,   36,  -22,   28, -127, -102,  -39,   17,   55,  106, -127,  -96,    9,   99,   -7,  106,
@@ -1838,6 +1838,10 @@ static const vt_cnn_cfg fw_cnn_cfg = {
     .l0_top_permille = 0,
     .l0_bottom_permille = 1000,
     .stretch_tail_permille = 0,
+    .up_top_permille = 0,
+    .up_bottom_permille = 0,
+    .up_left_permille = 0,
+    .up_right_permille = 0,
 };
 
 static const vt_cnn_cfg fw_cnn_cfg_synth = {
@@ -1850,6 +1854,10 @@ static const vt_cnn_cfg fw_cnn_cfg_synth = {
     .l0_top_permille = 0,
     .l0_bottom_permille = 1000,
     .stretch_tail_permille = 5,
+    .up_top_permille = 0,
+    .up_bottom_permille = 0,
+    .up_left_permille = 0,
+    .up_right_permille = 0,
 };
 
 #endif /* FW_CNN_DATA_H */

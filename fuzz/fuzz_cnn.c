@@ -349,6 +349,9 @@ static int is_peak(const int8_t *out, int32_t gw, int32_t gh, int32_t x, int32_t
 
 static int32_t to_px(int64_t v_q4, int32_t ss)
 {
+    if (ss < 0) { /* the upsampled band: v / 32 rounded half up, i.e. (v / 16) / 2 */
+        return (int32_t)floor_div_pow2(v_q4 + 16, 5);
+    }
     return (int32_t)floor_div_pow2(v_q4 * ((int64_t)1 << ss) + 8, 4);
 }
 
@@ -589,6 +592,18 @@ static void decode(fz *f, const model_t *mt, const int8_t *out, int32_t gw, int3
     check_guard((const uint8_t *)boxes, (size_t)n * sizeof(vt_cnn_box), alloc * sizeof(vt_cnn_box));
 }
 
+static int32_t clampi(int32_t v, int32_t lo, int32_t hi)
+{
+    return v < lo ? lo : (v > hi ? hi : v);
+}
+
+/* The upsampled band is on unless all four of its fields are 0. */
+static int up_on(const vt_cnn_cfg *c)
+{
+    return c->up_top_permille != 0 || c->up_bottom_permille != 0 || c->up_left_permille != 0 ||
+           c->up_right_permille != 0;
+}
+
 /* The header's rules for vt_cnn_cfg_check. */
 static int cfg_ok(const vt_cnn_cfg *c)
 {
@@ -598,7 +613,62 @@ static int cfg_ok(const vt_cnn_cfg *c)
            (int64_t)c->n_levels * c->cap_per_level <= VT_MAX_NMS_BOXES && c->nms_iou_permille >= 0 &&
            c->nms_iou_permille <= 1000 && c->nms_contain_permille >= 0 && c->nms_contain_permille <= 1000 &&
            c->l0_top_permille >= 0 && c->l0_top_permille < c->l0_bottom_permille && c->l0_bottom_permille <= 1000 &&
-           c->stretch_tail_permille >= 0 && c->stretch_tail_permille <= 100;
+           c->stretch_tail_permille >= 0 && c->stretch_tail_permille <= 100 &&
+           (!up_on(c) || (c->up_top_permille >= 0 && c->up_top_permille < c->up_bottom_permille &&
+                          c->up_bottom_permille <= 1000 && c->up_left_permille >= 0 &&
+                          c->up_left_permille < c->up_right_permille && c->up_right_permille <= 1000 &&
+                          (int64_t)(c->n_levels + 1) * c->cap_per_level <= VT_MAX_NMS_BOXES));
+}
+
+/* The header's upsampled band of a w x h frame (cfg valid, on): source rectangle
+ * (*x0, *y0), 2x size *uw x *uh. */
+static void up_rect(const vt_cnn_cfg *c, int32_t w, int32_t h, int32_t *x0, int32_t *y0, int32_t *uw, int32_t *uh)
+{
+    int32_t x1 = (int32_t)(((int64_t)w * c->up_right_permille + 999) / 1000);
+    int32_t y1 = (int32_t)(((int64_t)h * c->up_bottom_permille + 999) / 1000);
+    *x0 = (int32_t)((int64_t)w * c->up_left_permille / 1000);
+    *y0 = (int32_t)((int64_t)h * c->up_top_permille / 1000);
+    FZ_ASSERT(0 <= *x0 && *x0 < x1 && x1 <= w && 0 <= *y0 && *y0 < y1 && y1 <= h);
+    *uw = 2 * (x1 - *x0);
+    *uh = 2 * (y1 - *y0);
+}
+
+/* The 2x image fits the core's maximum (else VT_E_SIZE); true when the band is off. */
+static int up_fits(const vt_cnn_cfg *c, int32_t w, int32_t h)
+{
+    int32_t x0, y0, uw, uh;
+    if (!up_on(c)) {
+        return 1;
+    }
+    up_rect(c, w, h, &x0, &y0, &uw, &uh);
+    return uw <= VT_MAX_WIDTH && uh <= VT_MAX_HEIGHT;
+}
+
+/* The 2x image another way: output j samples source (2 j - 1) / 4 (quarter pixels),
+ * general bilinear between floor and floor + 1 with quarter weights, clamped to the frame;
+ * the 2-D weight over 16, rounded half up. Returns a malloc'd uw x uh image. */
+static uint8_t *ref_upsample(const vt_image_u8 *img, int32_t x0, int32_t y0, int32_t uw, int32_t uh)
+{
+    uint8_t *o = (uint8_t *)malloc((size_t)uw * (size_t)uh);
+    int32_t i, j, a, b;
+    if (o == NULL) {
+        abort();
+    }
+    for (i = 0; i < uh; i++) {
+        int64_t qy = 4 * (int64_t)y0 + 2 * i - 1, ly = floor_div_pow2(qy, 2), fy = qy - 4 * ly;
+        for (j = 0; j < uw; j++) {
+            int64_t qx = 4 * (int64_t)x0 + 2 * j - 1, lx = floor_div_pow2(qx, 2), fx = qx - 4 * lx, acc = 0;
+            for (a = 0; a < 2; a++) {
+                for (b = 0; b < 2; b++) {
+                    int32_t yy = clampi((int32_t)ly + a, 0, img->h - 1), xx = clampi((int32_t)lx + b, 0, img->w - 1);
+                    int64_t wy = a ? fy : 4 - fy, wx = b ? fx : 4 - fx;
+                    acc += wy * wx * img->px[(size_t)yy * (size_t)img->stride + (size_t)xx];
+                }
+            }
+            o[(size_t)i * (size_t)uw + (size_t)j] = (uint8_t)((acc + 8) / 16);
+        }
+    }
+    return o;
 }
 
 static int cmp_u8(const void *a, const void *b)
@@ -675,14 +745,21 @@ static size_t frame_need(const vt_cnn_model *m, const vt_cnn_cfg *c, int32_t w, 
             *macs += p.macs;
         }
     }
+    if (up_on(c)) {
+        int32_t x0, uy0, uw, uh;
+        plan_t p;
+        up_rect(c, w, h, &x0, &uy0, &uw, &uh);
+        p = plan(m, uw, uh);
+        fwd = p.r0 + p.r1 > fwd ? p.r0 + p.r1 : fwd;
+        out = p.out > out ? p.out : out;
+        *macs += p.macs;
+        return 7 + (size_t)(c->n_levels + 1) * (size_t)c->cap_per_level * sizeof(vt_scored_box) +
+               (size_t)c->cap_per_level * sizeof(vt_cnn_box) + odd + even + fwd + out +
+               (c->stretch_tail_permille > 0 ? (size_t)w * (size_t)h : 0) + (size_t)uw * (size_t)uh;
+    }
     return 7 + (size_t)c->n_levels * (size_t)c->cap_per_level * sizeof(vt_scored_box) +
            (size_t)c->cap_per_level * sizeof(vt_cnn_box) + odd + even + fwd + out +
            (c->stretch_tail_permille > 0 ? (size_t)w * (size_t)h : 0);
-}
-
-static int32_t clampi(int32_t v, int32_t lo, int32_t hi)
-{
-    return v < lo ? lo : (v > hi ? hi : v);
 }
 
 /* The detection composed from the public single-level pieces and the direct oracle;
@@ -693,7 +770,7 @@ static int32_t ref_detect(const vt_cnn_model *m, const vt_cnn_cfg *c, const vt_i
     int32_t k, i, total = 0, peaks = 0, kept = 0, last = c->first_level + c->n_levels - 1, y0, y1;
     int64_t t = (int64_t)m->heat_thr + c->thr_offset;
     int32_t thr = (int32_t)(t < -128 ? -128 : (t > 128 ? 128 : t));
-    vt_scored_box *sb = (vt_scored_box *)malloc((size_t)c->n_levels * (size_t)c->cap_per_level * sizeof *sb);
+    vt_scored_box *sb = (vt_scored_box *)malloc((size_t)(c->n_levels + 1) * (size_t)c->cap_per_level * sizeof *sb);
     vt_cnn_box *cb = (vt_cnn_box *)malloc((size_t)c->cap_per_level * sizeof *cb);
     uint8_t *lv[2] = {NULL, NULL}, *str = NULL;
     vt_image_u8 src = *img;
@@ -753,6 +830,43 @@ static int32_t ref_detect(const vt_cnn_model *m, const vt_cnn_cfg *c, const vt_i
             free(out);
         }
     }
+    if (up_on(c)) {
+        /* after every level: the 2x image of the (stretched) frame, decoded at half scale */
+        vt_image_u8 fr = *img;
+        int32_t x0, uy0, uw, uh, nd;
+        uint8_t *up;
+        int8_t *out;
+        plan_t p;
+        if (str != NULL) {
+            fr.px = str;
+            fr.stride = img->w;
+        }
+        up_rect(c, img->w, img->h, &x0, &uy0, &uw, &uh);
+        up = ref_upsample(&fr, x0, uy0, uw, uh);
+        p = plan(m, uw, uh);
+        out = (int8_t *)malloc(p.out);
+        if (out == NULL) {
+            abort();
+        }
+        ref_forward(m, up, uw, uh, uw, out);
+        nd = ref_decode(m, out, p.gw, p.gh, thr, -1, cb, c->cap_per_level);
+        peaks += nd;
+        nd = nd < c->cap_per_level ? nd : c->cap_per_level;
+        for (i = 0; i < nd; i++) {
+            vt_scored_box *o = &sb[total];
+            o->box.left = clampi(cb[i].l + x0, 0, INT32_MAX);
+            o->box.top = clampi(cb[i].t + uy0, 0, INT32_MAX);
+            o->box.right = clampi(cb[i].r + x0, INT32_MIN, img->w - 1);
+            o->box.bottom = clampi(cb[i].b + uy0, INT32_MIN, img->h - 1);
+            o->score = cb[i].score;
+            o->source = last + 1;
+            if (o->box.left <= o->box.right && o->box.top <= o->box.bottom) {
+                total++;
+            }
+        }
+        free(out);
+        free(up);
+    }
     FZ_ASSERT(vt_nms(sb, total, c->nms_iou_permille, c->nms_contain_permille, &kept) == VT_OK);
     *n = kept < cap ? kept : cap;
     for (i = 0; i < *n; i++) {
@@ -773,7 +887,7 @@ static int32_t ref_detect(const vt_cnn_model *m, const vt_cnn_cfg *c, const vt_i
 static void detect(fz *f, const model_t *mt, const vt_cnn_cfg *cfg, int ok_c, const vt_image_u8 *img)
 {
     uint8_t nulls = fz_nulls(f);
-    int valid = mt->ok && ok_c && dims_ok(img->w, img->h);
+    int valid = mt->ok && ok_c && dims_ok(img->w, img->h) && up_fits(cfg, img->w, img->h);
     size_t need = 0, work_bytes, wa, off, nbox;
     int64_t macs = 0;
     int32_t cap, n = 12345, np = 12345, rn = 0, rp, k;
@@ -786,7 +900,8 @@ static void detect(fz *f, const model_t *mt, const vt_cnn_cfg *cfg, int ok_c, co
         int32_t qw = fz_u8(f) < 230 ? img->w : fz_edge(f, VT_MAX_WIDTH);
         int32_t qh = fz_u8(f) < 230 ? img->h : fz_edge(f, VT_MAX_HEIGHT);
         uint8_t qn = fz_nulls(f);
-        want = (qn & 7) || !mt->ok || !ok_c ? VT_E_ARG : (dims_ok(qw, qh) ? VT_OK : VT_E_SIZE);
+        want = (qn & 7) || !mt->ok || !ok_c ? VT_E_ARG
+                                            : (dims_ok(qw, qh) && up_fits(cfg, qw, qh) ? VT_OK : VT_E_SIZE);
         s = vt_cnn_frame_work_bytes((qn & 1) ? NULL : &mt->m, (qn & 2) ? NULL : cfg, qw, qh, (qn & 4) ? NULL : &q);
         fz_status(s);
         FZ_ASSERT(s == want);
@@ -803,7 +918,7 @@ static void detect(fz *f, const model_t *mt, const vt_cnn_cfg *cfg, int ok_c, co
     wa = work_bytes <= need + 16 ? work_bytes : need;
     off = fz_u8(f) & 7;
     cap = fz_u8(f) < 200 ? fz_range(f, 1, 24) : fz_edge(f, 64);
-    nbox = valid ? (size_t)cfg->n_levels * (size_t)cfg->cap_per_level : 64;
+    nbox = valid ? (size_t)(cfg->n_levels + up_on(cfg)) * (size_t)cfg->cap_per_level : 64;
     nbox = cap >= 1 && (size_t)cap < nbox ? (size_t)cap : nbox; /* NMS keeps no more than it is given */
     if (wa + off > ALLOC_MAX) {
         return;
@@ -814,7 +929,7 @@ static void detect(fz *f, const model_t *mt, const vt_cnn_cfg *cfg, int ok_c, co
     memset(boxes, GUARD, nbox * sizeof(vt_cnn_box));
     if ((nulls & 127) || img->px == NULL || cap < 1 || !mt->ok || !ok_c) {
         want = VT_E_ARG;
-    } else if (!dims_ok(img->w, img->h) || img->stride < img->w) {
+    } else if (!dims_ok(img->w, img->h) || img->stride < img->w || !up_fits(cfg, img->w, img->h)) {
         want = VT_E_SIZE;
     } else if (work_bytes < need) {
         want = VT_E_CAPACITY;
@@ -902,6 +1017,15 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         }
         /* the contrast stretch: off, or a tail of 0.1 .. 10% */
         cfg.stretch_tail_permille = fz_u8(&f) < 128 ? 0 : fz_range(&f, 1, 100);
+        /* the upsampled band: off, a rectangle, or one a permille thin */
+        if (fz_u8(&f) >= 128) {
+            cfg.up_top_permille = fz_range(&f, 0, 999);
+            cfg.up_bottom_permille = fz_u8(&f) < 64 ? cfg.up_top_permille + 1
+                                                    : fz_range(&f, cfg.up_top_permille + 1, 1000);
+            cfg.up_left_permille = fz_range(&f, 0, 999);
+            cfg.up_right_permille = fz_u8(&f) < 64 ? cfg.up_left_permille + 1
+                                                   : fz_range(&f, cfg.up_left_permille + 1, 1000);
+        }
     }
     fz_mutate_i32s(&f, &cfg, sizeof cfg);
     ok_c = cfg_ok(&cfg);

@@ -24,8 +24,8 @@ Frame-level detection (detect_frame, C vt_cnn_detect_frame): the network on seve
 pyramid levels of a frame (CnnConfig: which levels, threshold offset, peaks per level, the NMS
 merging all levels' boxes, the row band of level 0 it runs on, the contrast stretch). The optional
 file key cnn_cfg holds those settings as int32 in CFG_KEYS order; a file written before the
-level-0 band (its first 6 entries only) or before the stretch (8) loads with the defaults of
-the rest (the whole frame, no stretch). is_cnn(path_or_npz)
+level-0 band (its first 6 entries only), before the stretch (8) or before the upsampled band (9)
+loads with the defaults of the rest (the whole frame, no stretch, no upsampled band). is_cnn(path_or_npz)
 tells a CNN model file from the other detectors' (its keys start with cnn_).
 """
 from __future__ import annotations
@@ -144,8 +144,8 @@ class CnnModel:
             v = _int_array(zz, "cnn_cfg", np.int32)
             if v.ndim != 1 or len(v) not in CFG_KEYS_LENGTHS:
                 raise ValueError(f"CNN model: cnn_cfg must have shape ({len(CFG_KEYS)},) (CFG_KEYS), or "
-                                 f"({CFG_KEYS_OLD},) / (8,) in a file from before the level-0 band / the "
-                                 f"contrast stretch, got {v.shape}")
+                                 f"({CFG_KEYS_OLD},) / (8,) / (9,) in a file from before the level-0 band / the "
+                                 f"contrast stretch / the upsampled band, got {v.shape}")
             d = {k: int(x) for k, x in zip(CFG_KEYS, v)}
             if len(d) < len(CFG_KEYS):   # an old file: the defaults (whole-frame band, no stretch)
                 dc = CnnConfig().c()
@@ -169,7 +169,9 @@ class CnnModel:
     def save(self, path) -> None:
         d = self.keys()
         if self.cfg is not None:
-            d["cnn_cfg"] = np.array([getattr(self.cfg.c(), k) for k in CFG_KEYS], np.int32)
+            v = [int(getattr(self.cfg.c(), k)) for k in CFG_KEYS]
+            # without the upsampled band, the 9 entries a reader from before it takes
+            d["cnn_cfg"] = np.array(v if any(v[9:]) else v[:9], np.int32)
         np.savez_compressed(path, **d)
 
     # ------------------------------------------------------------ the C struct
@@ -336,10 +338,12 @@ def decode(model: CnnModel, out: np.ndarray, thr=None, scale_shift: int = 0, cap
 # The file key cnn_cfg: int32 values of these CnnConfig fields, in this order. Files written
 # before the level-0 band hold the first CFG_KEYS_OLD only (the rest then take the defaults).
 CFG_KEYS = ("first_level", "n_levels", "thr_offset", "cap_per_level", "nms_iou_permille", "nms_contain_permille",
-            "l0_top_permille", "l0_bottom_permille", "stretch_tail_permille")
+            "l0_top_permille", "l0_bottom_permille", "stretch_tail_permille", "up_top_permille",
+            "up_bottom_permille", "up_left_permille", "up_right_permille")
 CFG_KEYS_OLD = 6
-# the lengths a file's cnn_cfg may have: before the level-0 band, before the contrast stretch, now
-CFG_KEYS_LENGTHS = (CFG_KEYS_OLD, 8, len(CFG_KEYS))
+# the lengths a file's cnn_cfg may have: before the level-0 band, before the contrast stretch,
+# before the upsampled band, now
+CFG_KEYS_LENGTHS = (CFG_KEYS_OLD, 8, 9, len(CFG_KEYS))
 
 
 @dataclass(frozen=True)
@@ -357,6 +361,12 @@ class CnnConfig:
     l0_top_permille: int | None = None   # 0 <= top < bottom <= 1000; default 0
     l0_bottom_permille: int | None = None  # default 1000 (with top 0: the whole frame)
     stretch_tail_permille: int | None = None  # 0 (default): off; 1..100: contrast stretch (cnn.h)
+    # the upsampled band (cnn.h): all four 0 (default): off; else 0 <= top < bottom <= 1000 and
+    # 0 <= left < right <= 1000, a rectangle of the frame the network also runs on at 2x
+    up_top_permille: int | None = None
+    up_bottom_permille: int | None = None
+    up_left_permille: int | None = None
+    up_right_permille: int | None = None
 
     def c(self):
         """The checked vt_cnn_cfg (a new cffi struct); ValueError / TypeError naming the field."""
@@ -394,6 +404,16 @@ class CnnConfig:
                     f"(level 0's band would be empty)")
         if not 0 <= int(c.stretch_tail_permille) <= 100:
             return f"stretch_tail_permille = {int(c.stretch_tail_permille)} is outside [0, 100]"
+        up = [int(getattr(c, f"up_{k}_permille")) for k in ("top", "bottom", "left", "right")]
+        if any(up):
+            for a, b in (("top", "bottom"), ("left", "right")):
+                lo, hi = int(getattr(c, f"up_{a}_permille")), int(getattr(c, f"up_{b}_permille"))
+                if not 0 <= lo < hi <= 1000:
+                    return (f"the upsampled band needs 0 <= up_{a}_permille < up_{b}_permille <= 1000, "
+                            f"got {lo} and {hi} (all four 0 turns it off)")
+            if (nl + 1) * int(c.cap_per_level) > int(lib.VT_MAX_NMS_BOXES):
+                return (f"(n_levels + 1) x cap_per_level = {(nl + 1) * int(c.cap_per_level)} (levels and the "
+                        f"upsampled band) exceeds VT_MAX_NMS_BOXES ({int(lib.VT_MAX_NMS_BOXES)})")
         return (f"n_levels x cap_per_level = {nl * int(c.cap_per_level)} exceeds VT_MAX_NMS_BOXES "
                 f"({int(lib.VT_MAX_NMS_BOXES)})")
 
@@ -440,7 +460,10 @@ def detect_frame(model: CnnModel, gray: np.ndarray, cfg: CnnConfig | None = None
     check("vt_cnn_frame_work_bytes", lib.vt_cnn_frame_work_bytes(m, c, v.w, v.h, b), f"gray {g.shape}")
     nb = int(b[0])
     work = np.empty(nb, np.uint8)
-    cap = int(c.n_levels) * int(c.cap_per_level)       # NMS keeps no more than it is given
+    # NMS keeps no more than it is given: every level's and the upsampled band's cap
+    up = any(int(getattr(c, k)) for k in ("up_top_permille", "up_bottom_permille", "up_left_permille",
+                                          "up_right_permille"))
+    cap = (int(c.n_levels) + up) * int(c.cap_per_level)
     boxes = ffi.new("vt_cnn_box[]", cap)
     n, tot = ffi.new("int32_t *"), ffi.new("int32_t *")
     check("vt_cnn_detect_frame",

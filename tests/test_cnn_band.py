@@ -41,6 +41,7 @@ from test_cnn_frame import GUARD, I32_MAX, I32_MIN, c_cfg, c_detect_guarded, che
 from test_pipeline_cnn import scene, tiny_model
 
 BAND = ("l0_top_permille", "l0_bottom_permille")
+NO_UP = dict(up_top_permille=0, up_bottom_permille=0, up_left_permille=0, up_right_permille=0)  # loaded as off
 SB, CB = 24, 20     # sizeof vt_scored_box, vt_cnn_box (test_cnn_frame checks them)
 
 
@@ -354,18 +355,18 @@ def test_old_six_entry_cnn_cfg_loads_with_band_defaults(tmp_path):
     got = C.CnnModel.load(p)
     assert got.cfg == C.CnnConfig(first_level=0, n_levels=3, thr_offset=-30, cap_per_level=16, nms_iou_permille=500,
                                   nms_contain_permille=800, l0_top_permille=0, l0_bottom_permille=1000,
-                                  stretch_tail_permille=0)
+                                  stretch_tail_permille=0, **NO_UP)
     assert isinstance(fullroad.load_model(p), C.CnnModel)
     d["cnn_cfg"] = np.array([0, 3, -30, 16, 500, 800, 300, 700], np.int32)   # from before the stretch
     np.savez(p, **d)
     assert C.CnnModel.load(p).cfg == C.CnnConfig(first_level=0, n_levels=3, thr_offset=-30, cap_per_level=16,
                                                  nms_iou_permille=500, nms_contain_permille=800,
                                                  l0_top_permille=300, l0_bottom_permille=700,
-                                                 stretch_tail_permille=0)
+                                                 stretch_tail_permille=0, **NO_UP)
     for bad in ([0, 3, -30, 16, 500, 800, 0], [0, 3, -30, 16, 500], list(range(10)), [[0, 3, -30, 16, 500, 800]]):
         d["cnn_cfg"] = np.array(bad, np.int32)
         np.savez(p, **d)
-        with pytest.raises(ValueError, match=r"cnn_cfg must have shape \(9,\)"):
+        with pytest.raises(ValueError, match=r"cnn_cfg must have shape \(13,\)"):
             C.CnnModel.load(p)
     d["cnn_cfg"] = np.array([0, 3, -30, 16, 500, 800, 300, 700, 101], np.int32)   # stretch out of range
     np.savez(p, **d)

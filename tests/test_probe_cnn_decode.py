@@ -14,6 +14,7 @@ MODEL = ROOT / "pyvehtrack" / "models" / "cnn_gray_l0_big.npz"
 @pytest.mark.parametrize("args,msg", [
     (["--probe", "levels", "--levels-offsets", "0", "4"], "one per level 0..4"),
     (["--probe", "upsample", "--band", "600", "500"], "--band"),
+    (["--probe", "upsample", "--cols", "0", "1001"], "--cols"),
     (["--probe", "none", "--stretch", "500"], "--stretch"),
     (["--probe", "none", "--limit", "-1"], "--limit"),
     (["--probe", "fast"], "invalid choice"),
@@ -42,7 +43,7 @@ def _tool():
 
 def test_the_probes_first_line_is_the_c_detector(tmp_path):
     """With no probe option, the offline decode of the dumped level outputs gives exactly
-    vt_cnn_detect_frame's boxes and heats (same levels, band, stretch, threshold, cap, NMS): the
+    vt_cnn_detect_frame's boxes and heats (same levels, band, stretch, upsampled band, threshold, cap, NMS): the
     'as shipped' line every probe is compared with is the detector itself."""
     import dataclasses
     import json
@@ -59,8 +60,8 @@ def test_the_probes_first_line_is_the_c_detector(tmp_path):
     (tmp_path / "annotation.json").write_text(json.dumps([{"file_name": "supp_img/0015.jpg", "bbox": []}]))
     model = C.CnnModel.load(MODEL)
     cfg = C.CnnConfig(*[int(v) for v in np.load(MODEL)["cnn_cfg"]])
-    for tail in (0, cfg.stretch_tail_permille):
-        c = dataclasses.replace(cfg, stretch_tail_permille=tail)
+    up = dict(up_top_permille=440, up_bottom_permille=540, up_left_permille=300, up_right_permille=700)
+    for c in (dataclasses.replace(cfg, stretch_tail_permille=0), cfg, dataclasses.replace(cfg, **up)):
         (e, g, outs), = tool.frames_of(model, c, tmp_path, "val", None, 0)
         gray = cv2.imread(str(tmp_path / "supp_img" / "0015.jpg"), cv2.IMREAD_GRAYSCALE)
         want, _ = C.detect_frame(model, gray, c)

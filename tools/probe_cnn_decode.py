@@ -5,7 +5,7 @@ file's level-0 band and contrast stretch) is computed once per frame and decoded
 
     python tools/probe_cnn_decode.py --model M.npz --probe none|vote|nms|levels|upsample
                                      [--split val] [--light dusk|overcast] [--limit N]
-                                     [--levels-offsets O0 O1 O2 O3 O4] [--band TOP BOTTOM]
+                                     [--levels-offsets O0 O1 O2 O3 O4] [--band TOP BOTTOM] [--cols LEFT RIGHT]
                                      [--stretch PERMILLE]
 
 Probes (the file as it is is always the first line; README, "The decoder and the thresholds, measured and not taken"):
@@ -13,8 +13,9 @@ Probes (the file as it is is always the first line; README, "The decoder and the
   vote      each peak's box as the heat-weighted mean of the boxes of its 3x3 / 5x5 cells
   nms       the NMS's IoU and containment limits (500 / 600 x 700 .. 1000 permille)
   levels    a heat-threshold offset per level: a coordinate search (or --levels-offsets, applied)
-  upsample  the same network also on a 2x bilinear upsampled row band (--band, permille of the
-            height; the NumPy twin's forward, as the band is wider than the core's maximum), boxes halved
+  upsample  the same network also on a 2x upsampled rectangle (--band rows, --cols columns, permille),
+            as vt_cnn_cfg's upsampled band (reference.cnn.upsample2x, decoded at half scale; the
+            NumPy twin's forward when the 2x image is wider than the core's maximum)
 Every figure is the network alone at the file's threshold, scored by eval_boxes on tusimple-vehicles-dev.
 Choose on --split val with a network trained on 'fit' only; never on test.
 """
@@ -39,8 +40,17 @@ from pyvehtrack.reference import cnn as rc  # noqa: E402
 DATA = ROOT.parent / "shared" / "data" / "tusimple-vehicles-dev"
 
 
+def fwd(model, img):
+    """The forward pass: the C core's, or the NumPy twin's (the same bits) for an image past
+    the core's maximum size (an upsampled band of the whole width)."""
+    h, w = img.shape
+    if w <= cnn.lib.VT_MAX_WIDTH and h <= cnn.lib.VT_MAX_HEIGHT:
+        return cnn.forward(model, np.ascontiguousarray(img))
+    return rc.forward(model.layers, img)
+
+
 def frames_of(model, cfg, data, split, light, limit):
-    """[(annotation, gray after the stretch, [(level, row offset, raw output)])]."""
+    """[(annotation, gray after the stretch, [(scale shift, column and row offset, raw output)])]."""
     out = []
     for i, e in enumerate(tusimple_frames(data, split, limit)):
         x = cv2.imread(str(data / e["file_name"]))
@@ -49,7 +59,7 @@ def frames_of(model, cfg, data, split, light, limit):
         if light:
             x = cd.light(x, light, seed=i)     # the seed eval_tusimple_boxes.py --light uses
         g = cv2.cvtColor(x, cv2.COLOR_BGR2GRAY)
-        outs = [(k, dy, cnn.forward(model, np.ascontiguousarray(lv))) for k, dy, lv in rc.level_inputs(g, cfg)]
+        outs = [(k, dx, dy, fwd(model, lv)) for k, dx, dy, lv in rc.level_inputs(g, cfg)]
         if cfg.stretch_tail_permille:
             g = rc.stretch(g, cfg.stretch_tail_permille)
         out.append((e, g, outs))
@@ -70,9 +80,9 @@ def frame_boxes(model, cfg, outs, w, h, offsets=None, vote=0, iou=None, contain=
     """The frame's boxes after NMS: decode per level (thr = file's + offsets[k]; vote > 0: the
     heat-weighted mean box of the (2 vote + 1)^2 cells around each peak), plus `extra` rows."""
     lut = np.asarray(model.side_lut, np.float64).reshape(4, 256)
-    rows = list(extra)
-    for k, dy, out in outs:
-        thr = min(max(model.heat_thr + cfg.thr_offset + (offsets[k] if offsets else 0), -128), 128)
+    rows = []
+    for k, dx, dy, out in outs:
+        thr = min(max(model.heat_thr + cfg.thr_offset + (offsets[k] if offsets and k >= 0 else 0), -128), 128)
         if vote:
             heat = out[..., 0].astype(np.float64)
             cb = cell_boxes(out, model.out_stride, lut, k)
@@ -81,11 +91,12 @@ def frame_boxes(model, cfg, outs, w, h, offsets=None, vote=0, iou=None, contain=
                 ys, xs = slice(max(y - vote, 0), min(y + vote + 1, gh)), slice(max(x - vote, 0), min(x + vote + 1, gw))
                 wgt = np.maximum(heat[ys, xs] - (thr - 8), 0)      # cells within 8 heat steps of the threshold
                 b = (cb[ys, xs] * wgt[..., None]).sum((0, 1)) / wgt.sum()
-                rows.append((np.floor(b[0] + .5), np.floor(b[1] + .5) + dy, np.floor(b[2] + .5) - 1,
+                rows.append((np.floor(b[0] + .5) + dx, np.floor(b[1] + .5) + dy, np.floor(b[2] + .5) - 1 + dx,
                              np.floor(b[3] + .5) - 1 + dy, heat[y, x]))
         else:
             b, _ = rc.decode(out, model.out_stride, model.side_lut, thr, k, cfg.cap_per_level)
-            rows += [(l, t + dy, r, bt + dy, sc) for l, t, r, bt, sc in b.tolist()]
+            rows += [(l + dx, t + dy, r + dx, bt + dy, sc) for l, t, r, bt, sc in b.tolist()]
+    rows += list(extra)      # after the levels, as vt_cnn_detect_frame's upsampled band
     lim = {"nms_iou_permille": cfg.nms_iou_permille if iou is None else iou,
            "nms_contain_permille": cfg.nms_contain_permille if contain is None else contain}
     return rc.merge_levels(rows, w, h, lim).astype(np.float64).tolist()
@@ -124,11 +135,14 @@ def main(argv=None) -> int:
                     help="the contrast stretch's tail (default: the file's; 5 to run a 'fit' stand-in as the default file)")
     ap.add_argument("--band", nargs=2, type=int, default=(400, 560), metavar=("TOP", "BOTTOM"),
                     help="with --probe upsample: the band's rows, permille of the height")
+    ap.add_argument("--cols", nargs=2, type=int, default=(0, 1000), metavar=("LEFT", "RIGHT"),
+                    help="with --probe upsample: the band's columns, permille of the width")
     a = ap.parse_args(argv)
     if a.limit < 0:
         ap.error("--limit: expected >= 0")
-    if not 0 <= a.band[0] < a.band[1] <= 1000:
-        ap.error("--band: 0 <= TOP < BOTTOM <= 1000")
+    for name, (lo, hi) in (("--band", a.band), ("--cols", a.cols)):
+        if not 0 <= lo < hi <= 1000:
+            ap.error(f"{name}: expected 0 <= {lo} < {hi} <= 1000")
     try:
         model = cnn.CnnModel.load(a.model)
     except (OSError, ValueError, KeyError) as e:
@@ -181,15 +195,15 @@ def main(argv=None) -> int:
                             best, offs = f, o
             run(f"searched offsets {offs}", offsets=offs)
     elif a.probe == "upsample":
-        top, bot = a.band
         ups = {}
         for e, g, _ in frames:
             h, w = g.shape
-            y0, y1 = h * top // 1000, h * bot // 1000
-            up = cv2.resize(g[y0:y1], (2 * w, 2 * (y1 - y0)), interpolation=cv2.INTER_LINEAR)
+            y0, y1 = rc.band_rows(h, *a.band)
+            x0, x1 = rc.band_rows(w, *a.cols)
+            up = rc.upsample2x(g, x0, y0, x1, y1)
             b, _ = rc.decode(rc.forward(model.layers, up), model.out_stride, model.side_lut,
-                             model.heat_thr + cfg.thr_offset, 0, cfg.cap_per_level)
-            ups[e["file_name"]] = [(l / 2, t / 2 + y0, r / 2, bt / 2 + y0, sc) for l, t, r, bt, sc in b.tolist()]
+                             model.heat_thr + cfg.thr_offset, -1, cfg.cap_per_level)
+            ups[e["file_name"]] = [(l + x0, t + y0, r + x0, bt + y0, sc) for l, t, r, bt, sc in b.tolist()]
         s = score(frames, lambda e, g, outs: frame_boxes(model, cfg, outs, g.shape[1], g.shape[0],
                                                          extra=ups[e["file_name"]]))
         print(f"{'+ upsampled band':28s} F1>=32 {f1_32(s):5.1f} | {summary(s)}")

@@ -168,7 +168,8 @@ typedef struct {
                                  + thr_offset (in int64, clamped to -128..128, which
                                  finds the same peaks as the exact sum)                */
     int32_t cap_per_level;    /* 1..VT_CNN_MAX_PEAKS: peaks decoded per level, highest
-                                 heat first; n_levels cap_per_level <= VT_MAX_NMS_BOXES */
+                                 heat first; n_levels cap_per_level <= VT_MAX_NMS_BOXES
+                                 ((n_levels + 1) cap_per_level with the upsampled band) */
     int32_t nms_iou_permille; /* 0..1000: vt_nms's IoU limit over all levels' boxes    */
     int32_t nms_contain_permille; /* 0..1000: vt_nms's containment limit               */
     int32_t l0_top_permille;  /* 0 <= l0_top_permille < l0_bottom_permille <= 1000: the
@@ -193,6 +194,25 @@ typedef struct {
                                  (2 span))) (x - lo scaled by 255 / span, rounded half
                                  up). The pyramid and level 0's band are built from that
                                  frame; the boxes are the same frame's pixels           */
+    /* The upsampled band (all four 0: off, the default): the network also runs on a
+     * rectangle of the frame (after the stretch) at twice its size, for the far
+     * vehicles near the vanishing point that are 7..20 px wide at the frame, below
+     * the shipped head's 16 px. When on: 0 <= top < bottom <= 1000 and 0 <= left <
+     * right <= 1000; rows y0 .. y1 - 1 as level 0's band (floor(h top / 1000),
+     * ceil(h bottom / 1000)), columns x0 .. x1 - 1 alike with w. The 2x image
+     * (2 (x1 - x0) x 2 (y1 - y0), which must fit VT_MAX_WIDTH x VT_MAX_HEIGHT, else
+     * VT_E_SIZE) has cv2.INTER_LINEAR's pixel centres: output column j samples
+     * source column c = x0 + floor(j / 2) with weight 3/4 and its neighbour (c - 1
+     * for even j, c + 1 for odd; clamped to the frame, not the band) with 1/4, rows
+     * alike, out = floor((sum of weights 9, 3, 3, 1 times the pixels + 8) / 16),
+     * exact. Its peaks decode at half scale: each Q4 value v becomes
+     * floor((v + 16) / 32) (the decode's rule with 2^-1), moved by (x0, y0); they
+     * join the levels' boxes after the last level, cap_per_level of them, so
+     * (n_levels + 1) cap_per_level <= VT_MAX_NMS_BOXES.                             */
+    int32_t up_top_permille;
+    int32_t up_bottom_permille;
+    int32_t up_left_permille;
+    int32_t up_right_permille;
 } vt_cnn_cfg;
 
 /* The contrast stretch's least span (levels): a gain of at most 255 / 64 (about 4), so a
@@ -208,12 +228,13 @@ typedef struct {
  * 0.301 / 0.699 and 0.3 / 1.0 for sliding windows, whose neighbours overlap more);
  * level 0's band the whole frame. A struct filled field by field should start from
  * these (vt_cnn_cfg_default): zeroed band fields (0, 0) are refused, not a default.
- * No contrast stretch: the frame as it comes. */
+ * No contrast stretch: the frame as it comes; no upsampled band. */
 #define VT_CNN_CFG_DEFAULT                                                                \
     {                                                                                    \
         .first_level = 1, .n_levels = 3, .thr_offset = 0, .cap_per_level = 64,           \
         .nms_iou_permille = 500, .nms_contain_permille = 800, .l0_top_permille = 0,      \
-        .l0_bottom_permille = 1000, .stretch_tail_permille = 0,                          \
+        .l0_bottom_permille = 1000, .stretch_tail_permille = 0, .up_top_permille = 0,     \
+        .up_bottom_permille = 0, .up_left_permille = 0, .up_right_permille = 0,           \
     }
 
 /* Fill *cfg with VT_CNN_CFG_DEFAULT (VT_E_ARG for NULL). */
@@ -230,7 +251,10 @@ vt_status vt_cnn_cfg_check(const vt_cnn_cfg *cfg);
  * odd levels in the first, even levels >= 2 in the second; only as many as the last
  * run level needs; level 0 is the caller's frame); the largest vt_cnn_work_bytes and
  * the largest forward output (gw gh 5 int8) over the run levels, level 0's for its
- * band (w x (y1 - y0), vt_cnn_cfg) when first_level is 0. Exact, so with a band it is
+ * band (w x (y1 - y0), vt_cnn_cfg) when first_level is 0; with the upsampled band on,
+ * its 2x image (4 (x1 - x0) (y1 - y0) bytes), cap_per_level more vt_scored_box, and its
+ * forward work and output in the largest above (VT_E_SIZE when the 2x image is past
+ * VT_MAX_WIDTH x VT_MAX_HEIGHT). Exact, so with a band it is
  * not monotone in h (the band's rounding can give a frame of h rows one band row more
  * than one of h + 1): size a buffer by the query for each frame size it serves. Errors: NULL m, cfg or bytes, an
  * invalid model or cfg -> VT_E_ARG; w, h outside 1 .. VT_MAX_WIDTH / VT_MAX_HEIGHT ->
@@ -248,9 +272,11 @@ vt_status vt_cnn_frame_work_bytes(const vt_cnn_model *m, const vt_cnn_cfg *cfg, 
  * levels >= 1 is built from the whole frame. Each box clipped to the frame (0..w - 1,
  * 0..h - 1; not to the band: a box may reach past the rows its peak came from) and
  * dropped when that leaves it empty (entirely outside, or zero width or height:
- * decode's r = l - 1 for zero sides); then vt_nms over all levels' boxes (cfg's limits; score = heat),
+ * decode's r = l - 1 for zero sides). With the upsampled band on, the network runs
+ * last on its 2x image (vt_cnn_cfg), decoded at half scale with cap_per_level, moved by
+ * (x0, y0), clipped alike. Then vt_nms over all levels' boxes (cfg's limits; score = heat),
  * so the output is in NMS order: heat descending, ties by level, then decode order
- * (heat descending, raster). The first min(cap, kept) go to boxes[0 ..] (score = the
+ * (heat descending, raster), the upsampled band's after every level's. The first min(cap, kept) go to boxes[0 ..] (score = the
  * heat, -128..127), *n = how many were written, *n_peaks = the peaks over all levels
  * before the cap, clipping and NMS (a truncation is never silent). Nothing is written
  * outside work[0 .. vt_cnn_frame_work_bytes) and boxes[0 .. *n). Errors: NULL m, cfg,
@@ -260,7 +286,8 @@ vt_status vt_cnn_frame_work_bytes(const vt_cnn_model *m, const vt_cnn_cfg *cfg, 
  * where not NULL and boxes is not written. Cost: the pyramid steps (25 multiply-adds
  * per level pixel), the forward passes (cnn.h's cost per level: the levels after the
  * first add at most a third of the first's whole-level cost; level 0's is its band's
- * share, (y1 - y0) / h, of it), the decodes, and the NMS's O(n^2) over
+ * share, (y1 - y0) / h, of it; the upsampled band's is a level-0 pass over 4 times its
+ * rectangle, plus 4 multiply-adds per 2x pixel to build it), the decodes, and the NMS's O(n^2) over
  * at most n_levels cap_per_level boxes; with the stretch, one histogram and one table
  * lookup per frame pixel; stack: vt_pyr_down's row (image.h), vt_cnn_decode's 1 KB or
  * the stretch's 1.25 KB (histogram and table). */

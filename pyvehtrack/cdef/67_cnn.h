@@ -48,6 +48,10 @@ typedef struct {
     int32_t l0_top_permille;
     int32_t l0_bottom_permille;
     int32_t stretch_tail_permille;
+    int32_t up_top_permille;
+    int32_t up_bottom_permille;
+    int32_t up_left_permille;
+    int32_t up_right_permille;
 } vt_cnn_cfg;
 
 vt_status vt_cnn_check_model(const vt_cnn_model *m);

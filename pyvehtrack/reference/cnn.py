@@ -96,7 +96,8 @@ def peaks(out: np.ndarray, thr: int) -> np.ndarray:
 
 def decode(out: np.ndarray, out_stride: int, side_lut: np.ndarray, thr: int, scale_shift: int = 0,
            cap: int | None = None) -> tuple[np.ndarray, int]:
-    """(boxes (N, 5) int64 [l, t, r, b, score], inclusive full-frame px; the number of peaks)."""
+    """(boxes (N, 5) int64 [l, t, r, b, score], inclusive full-frame px; the number of peaks).
+    scale_shift -1 is the upsampled band's (cnn.h): each Q4 value v becomes floor((v + 16) / 32)."""
     p = peaks(out, thr)
     total = len(p)
     if cap is not None:
@@ -109,14 +110,16 @@ def decode(out: np.ndarray, out_stride: int, side_lut: np.ndarray, thr: int, sca
         cx, cy = (int(x) * S + S // 2) * 16, (int(y) * S + S // 2) * 16
         q4 = (cx - lut[0, c[1] + 128], cy - lut[1, c[2] + 128], cx + lut[2, c[3] + 128],
               cy + lut[3, c[4] + 128])
-        px = [((int(v) << scale_shift) + 8) >> 4 for v in q4]
+        px = [((int(v) << scale_shift) + 8) >> 4 if scale_shift >= 0 else (int(v) + 16) >> 5 for v in q4]
         res[i] = (px[0], px[1], px[2] - 1, px[3] - 1, c[0])
     return res, total
 
 
 # The level-0 band's fields a cfg may leave out (a dict or object written before they
 # existed): the whole frame, as VT_CNN_CFG_DEFAULT and an old 6-entry cnn_cfg file.
-_BAND_DEFAULTS = {"l0_top_permille": 0, "l0_bottom_permille": 1000, "stretch_tail_permille": 0}
+_BAND_DEFAULTS = {"l0_top_permille": 0, "l0_bottom_permille": 1000, "stretch_tail_permille": 0,
+                  "up_top_permille": 0, "up_bottom_permille": 0, "up_left_permille": 0, "up_right_permille": 0}
+_UP_KEYS = ("up_top_permille", "up_bottom_permille", "up_left_permille", "up_right_permille")
 
 # cnn.h's VT_CNN_STRETCH_MIN_SPAN
 STRETCH_MIN_SPAN = 64
@@ -139,11 +142,10 @@ def stretch(img: np.ndarray, tail_permille: int) -> np.ndarray:
 
 
 def _cfg_get(cfg, key):
-    if key in _BAND_DEFAULTS:
-        has = key in cfg if isinstance(cfg, dict) else hasattr(cfg, key)
-        if not has:
-            return _BAND_DEFAULTS[key]
-    return int(cfg[key] if isinstance(cfg, dict) else getattr(cfg, key))
+    v = (cfg.get(key) if isinstance(cfg, dict) else getattr(cfg, key, None))
+    if v is None and key in _BAND_DEFAULTS:     # absent, or a CnnConfig's None: the core's default
+        return _BAND_DEFAULTS[key]
+    return int(v)
 
 
 def band_rows(h: int, top_permille: int, bottom_permille: int) -> tuple[int, int]:
@@ -153,10 +155,32 @@ def band_rows(h: int, top_permille: int, bottom_permille: int) -> tuple[int, int
     return (h * top_permille) // 1000, (h * bottom_permille + 999) // 1000
 
 
+def upsample2x(img: np.ndarray, x0: int, y0: int, x1: int, y1: int) -> np.ndarray:
+    """vt_cnn_cfg's upsampled band (cnn.h): the frame's columns x0 .. x1 - 1 and rows y0 .. y1 - 1
+    at twice the size, bilinear with the pixel centres of cv2.INTER_LINEAR (output j samples
+    x0 + j / 2 - 1/4): out j of source c = x0 + floor(j / 2) weighs c 3/4 and its neighbour
+    (c - 1 for even j, c + 1 for odd; clamped to the frame, not to the band) 1/4, per axis;
+    out = floor((sum of the 4 weights (1, 3, 3, 9) x pixel + 8) / 16), exact integers."""
+    g = np.asarray(img, np.uint8).astype(np.int32)
+    h, w = g.shape
+
+    def taps(a, b, n):
+        j = np.arange(2 * (b - a))
+        c = a + j // 2
+        return c, np.clip(np.where(j % 2 == 0, c - 1, c + 1), 0, n - 1)
+
+    cx, nx = taps(x0, x1, w)
+    cy, ny = taps(y0, y1, h)
+    rows = 3 * g[cy] + g[ny]                      # (2 (y1 - y0), w), weights 3 / 1 by row
+    out = 3 * rows[:, cx] + rows[:, nx]
+    return ((out + 8) >> 4).astype(np.uint8)
+
+
 def level_inputs(img: np.ndarray, cfg):
-    """The network's inputs of vt_cnn_detect_frame, in its order: (k, dy, image) per level k =
-    first_level .. first_level + n_levels - 1, built from the frame after the cfg's stretch
-    (level 0 is its row band, dy its first row; other levels whole, dy 0)."""
+    """The network's inputs of vt_cnn_detect_frame, in its order: (k, dx, dy, image) per level
+    k = first_level .. first_level + n_levels - 1, built from the frame after the cfg's stretch
+    (level 0 is its row band, dy its first row; other levels whole, dx = dy = 0); then, with the
+    upsampled band on, (-1, x0, y0, its 2x image): k is the decode's scale shift."""
     from . import image as rimage     # noqa: PLC0415
     first, nl = _cfg_get(cfg, "first_level"), _cfg_get(cfg, "n_levels")
     g = np.asarray(img, np.uint8)
@@ -169,7 +193,12 @@ def level_inputs(img: np.ndarray, cfg):
         if k > 0:
             level = rimage.pyr_down(level)     # from the whole frame: the band is level 0's only
         if k >= first:
-            yield k, (y0 if k == 0 else 0), (level[y0:y1] if k == 0 else level)
+            yield k, 0, (y0 if k == 0 else 0), (level[y0:y1] if k == 0 else level)
+    top, bot, left, right = (_cfg_get(cfg, k) for k in _UP_KEYS)
+    if top or bot or left or right:
+        uy0, uy1 = band_rows(g.shape[0], top, bot)
+        ux0, ux1 = band_rows(g.shape[1], left, right)
+        yield -1, ux0, uy0, upsample2x(g, ux0, uy0, ux1, uy1)
 
 
 def merge_levels(rows, w: int, h: int, cfg) -> np.ndarray:
@@ -195,15 +224,16 @@ def detect_frame(model, img: np.ndarray, cfg) -> tuple[np.ndarray, int]:
     """vt_cnn_detect_frame (cnn.h). model: an object with layers, out_stride, side_lut,
     heat_thr (e.g. pyvehtrack.cnn.CnnModel); cfg: every vt_cnn_cfg field as an attribute or a
     key (first_level, n_levels, thr_offset, cap_per_level, nms_iou_permille,
-    nms_contain_permille, l0_top_permille, l0_bottom_permille, stretch_tail_permille), none left
-    to defaults but the last three (absent: 0 and 1000, the whole frame; 0, no stretch). Returns ((N, 5) int64 [l, t, r, b, heat]
+    nms_contain_permille, l0_top_permille, l0_bottom_permille, stretch_tail_permille, up_*_permille),
+    none left to defaults but the band's, the stretch's and the upsampled band's (absent: 0 and 1000,
+    the whole frame; 0, no stretch; 0, no upsampled band). Returns ((N, 5) int64 [l, t, r, b, heat]
     in NMS order, the peaks over the levels before cap, clipping and NMS)."""
     cap = _cfg_get(cfg, "cap_per_level")
     thr = min(max(int(model.heat_thr) + _cfg_get(cfg, "thr_offset"), -128), 128)
     h, w = np.asarray(img).shape[:2]
     rows, total = [], 0
-    for k, dy, level in level_inputs(img, cfg):
+    for k, dx, dy, level in level_inputs(img, cfg):
         b, n = decode(forward(model.layers, level), model.out_stride, model.side_lut, thr, k, cap)
         total += n
-        rows += [(l, t + dy, r, bt + dy, sc) for l, t, r, bt, sc in b.tolist()]
+        rows += [(l + dx, t + dy, r + dx, bt + dy, sc) for l, t, r, bt, sc in b.tolist()]
     return merge_levels(rows, w, h, cfg), total
