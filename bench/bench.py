@@ -565,13 +565,17 @@ def _detect_acf_rescore(ctx: Ctx) -> Stage:
     return _detect_model("detect_acf_rescore", DEFAULT_RESCORE_MODEL, ctx.frame)
 
 
-def _cnn_alone(name: str, fname: str, img: np.ndarray) -> Stage:
+def _cnn_alone(name: str, fname: str, img: np.ndarray, **cfg_changes) -> Stage:
     """The CNN detector of pyvehtrack/models/<fname> alone (vt_cnn_detect_frame at the file's
-    cnn_cfg: the pyramid, the network on each level, the peak decoder, one NMS); the
-    reference column is its bit-exact NumPy twin (pyvehtrack.reference.cnn.detect_frame)."""
+    cnn_cfg, with cfg_changes: the pyramid, the network on each level, the peak decoder, one
+    NMS); the reference column is its bit-exact NumPy twin (pyvehtrack.reference.cnn.detect_frame)."""
+    import dataclasses
+
     from pyvehtrack import cnn
     from pyvehtrack.reference import cnn as rcnn
     m = cnn.CnnModel.load(ROOT / "pyvehtrack" / "models" / fname)
+    if cfg_changes:
+        m.cfg = dataclasses.replace(m.cfg, **cfg_changes)
     last = {}
 
     def c():
@@ -610,6 +614,14 @@ def _cnn_l0_detect(ctx: Ctx) -> Stage:
 def _cnn_l0big_detect(ctx: Ctx) -> Stage:
     """cnn_gray_l0_big.npz alone (_cnn_alone): the band network with 64-channel layers."""
     return _cnn_alone("cnn_l0big_detect", "cnn_gray_l0_big.npz", ctx.frame)
+
+
+@register("cnn_l0big_noup_detect", sizes=((1280, 720),), driver=False)
+def _cnn_l0big_noup_detect(ctx: Ctx) -> Stage:
+    """cnn_gray_l0_big.npz alone without its upsampled band (up_*_permille 0): the band's cost
+    is cnn_l0big_detect's time minus this one's, in the same run."""
+    return _cnn_alone("cnn_l0big_noup_detect", "cnn_gray_l0_big.npz", ctx.frame, up_top_permille=0,
+                      up_bottom_permille=0, up_left_permille=0, up_right_permille=0)
 
 
 @register("detect_cnn", sizes=((1280, 720),), driver=False)

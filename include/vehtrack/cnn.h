@@ -205,7 +205,8 @@ typedef struct {
      * source column c = x0 + floor(j / 2) with weight 3/4 and its neighbour (c - 1
      * for even j, c + 1 for odd; clamped to the frame, not the band) with 1/4, rows
      * alike, out = floor((sum of weights 9, 3, 3, 1 times the pixels + 8) / 16),
-     * exact. Its peaks decode at half scale: each Q4 value v becomes
+     * exact (OpenCV's 2x INTER_LINEAR_EXACT of the frame, cut to the rectangle: the
+     * same bits, tests/test_cnn_upband.py). Its peaks decode at half scale: each Q4 value v becomes
      * floor((v + 16) / 32) (the decode's rule with 2^-1), moved by (x0, y0); they
      * join the levels' boxes after the last level, cap_per_level of them, so
      * (n_levels + 1) cap_per_level <= VT_MAX_NMS_BOXES.                             */
