@@ -37,6 +37,27 @@ def test_cfg_row_carries_the_stretch_the_network_learnt_through(tool):
             cfg.stretch_tail_permille) == (0, 5, 380, 640, 5)
 
 
+def test_up_band_level_is_the_c_cores(tool):
+    """--up-band: the file's cnn_cfg carries the rectangle (13 entries, the loader's order), and the
+    level the network learns on is the 2x image vt_cnn_detect_frame runs (reference.cnn.level_inputs'
+    last item, the same pixels and offset), boxes moved by its corner and doubled for targets."""
+    tool.L0_BAND, tool.LEVELS, tool.STRETCH, tool.UP_BAND = (380, 640), (0, 1, 2, 3, 4, -1), 5, (450, 530, 350, 650)
+    row = tool.cfg_row()
+    assert len(row) == len(C.CFG_KEYS)
+    cfg = C.CnnConfig(*row)
+    cfg.c()                                                          # a row the core takes
+    assert (cfg.first_level, cfg.n_levels, cfg.stretch_tail_permille) == (0, 5, 5)
+    assert (cfg.up_top_permille, cfg.up_bottom_permille, cfg.up_left_permille, cfg.up_right_permille) == \
+        (450, 530, 350, 650)
+    g = np.random.default_rng(0).integers(0, 256, (90, 160)).astype(np.uint8)
+    lv = tool.levels_of(g)
+    # levels_of takes the frame after seen() (the stretch): compare with the detector's inputs unstretched
+    k, dx, dy, want = list(rc.level_inputs(g, dict(zip(C.CFG_KEYS, row[:8] + [0] + row[9:]))))[-1]
+    assert k == -1 and np.array_equal(lv[-1], want) and tool.level_offset(-1, 90, 160) == (dx, dy) == (56, 40)
+    tool.UP_BAND, tool.LEVELS = None, (0, 1, 2, 3, 4)
+    assert len(tool.cfg_row()) == 9 and -1 not in tool.levels_of(g)  # without it, the 9 entries of before
+
+
 def test_training_stretch_is_the_c_cores(tool):
     # the tool's stretch is the NumPy twin, which equals vt_cnn's stretch bit for bit
     # (tests/test_cnn_frame.py); here: the tool takes exactly that function
@@ -65,7 +86,10 @@ def test_low_light_frames_are_dark_and_noisy(tool):
 
 
 @pytest.mark.parametrize("args,msg", [(["--stretch", "500"], "--stretch"), (["--stretch", "-1"], "--stretch"),
-                                      (["--low-light", "1.5"], "--low-light")])
+                                      (["--stretch", "101"], "vt_cnn_cfg.stretch_tail_permille"),
+                                      (["--low-light", "1.5"], "--low-light"),
+                                      (["--up-band", "500", "400", "0", "1000"], "--up-band"),
+                                      (["--up-band", "0", "100", "700", "700"], "--up-band")])
 def test_tool_rejects_bad_flags_without_torch_work(args, msg, tmp_path):
     p = subprocess.run([sys.executable, str(TOOL), "--out", str(tmp_path / "m")] + args,
                        capture_output=True, text=True, timeout=120)

@@ -3,7 +3,7 @@ sides at stride 8, one network shared by three pyramid levels) on tusimple-vehic
 
     python tools/train_cnn.py --out /tmp/cnn [--epochs 60] [--split fit] [--level0 TOP BOTTOM]
                               [--channels C1 .. C6 [C7]] [--strip P] [--seed N]
-                              [--stretch PERMILLE] [--low-light P]
+                              [--stretch PERMILLE] [--low-light P] [--up-band TOP BOTTOM LEFT RIGHT]
 
 Float training in PyTorch (a tool dependency only: the C core and the shipped model file
 need no torch). Writes OUT/cnn_float.pt and OUT/cnn.npz and prints the 'val' scores of the float model and
@@ -30,13 +30,16 @@ from pyvehtrack.datasets import tusimple_frames  # noqa: E402
 from pyvehtrack.image import pyr_down  # noqa: E402
 from pyvehtrack.reference.cnn import band_rows as ref_band_rows  # noqa: E402
 from pyvehtrack.reference.cnn import stretch as ref_stretch  # noqa: E402
+from pyvehtrack.reference.cnn import upsample2x as ref_upsample2x  # noqa: E402
 
 DATA = ROOT.parent / "shared" / "data" / "tusimple-vehicles-dev"
 STRIDE = 8
 # Level k is the frame after k pyr_down steps (k = 1, 2, 3); a vehicle is a positive on a
 # level when its width there lies in that level's band (level pixels), "ignored" (no loss)
 # when it lies outside but is visible, so the bands overlap and NMS merges across levels.
-BANDS = {0: (6.0, 40.0), 1: (6.0, 56.0), 2: (22.0, 56.0), 3: (22.0, 56.0), 4: (22.0, 400.0)}
+BANDS = {0: (6.0, 40.0), 1: (6.0, 56.0), 2: (22.0, 56.0), 3: (22.0, 56.0), 4: (22.0, 400.0),
+         # the upsampled band (key -1, the decode's scale shift): 2x pixels, vehicles 4..24 px wide at the frame
+         -1: (8.0, 48.0)}
 LEVELS = (1, 2, 3, 4)
 # --level0 TOP BOTTOM: level 0 (full resolution, for vehicles 6..40 px wide) runs only on
 # the rows TOP..BOTTOM permille of the frame height, where small (far) vehicles stand,
@@ -46,6 +49,10 @@ L0_BAND = None
 # core's contrast stretch (vt_cnn_cfg.stretch_tail_permille = T, reference.cnn.stretch), the
 # frames it will see in the file's detector; 0 = none (files before it learnt unstretched frames).
 STRETCH = 0
+# --up-band TOP BOTTOM LEFT RIGHT: the network also learns (and is evaluated) on that rectangle of
+# the frame at 2x (vt_cnn_cfg's upsampled band, reference.cnn.upsample2x), level key -1, last;
+# None: no band.
+UP_BAND = None
 
 
 def seen(gray):
@@ -61,6 +68,22 @@ DEFAULT_CH = (16, 24, 32, 32, 32, 32)
 CH = DEFAULT_CH   # --channels
 
 
+def up_rect(h, w):
+    """The upsampled band's source rectangle (x0, y0, x1, y1): vt_cnn_cfg's rounding."""
+    y0, y1 = ref_band_rows(h, UP_BAND[0], UP_BAND[1])
+    x0, x1 = ref_band_rows(w, UP_BAND[2], UP_BAND[3])
+    return x0, y0, x1, y1
+
+
+def level_offset(k, h, w):
+    """(dx, dy): where level k's image starts in the frame (level 0's row band, the upsampled band)."""
+    if k == 0:
+        return 0, band_rows(h)[0]
+    if k == -1:
+        return up_rect(h, w)[:2]
+    return 0, 0
+
+
 def levels_of(gray):
     out, img = {}, gray
     if 0 in LEVELS:
@@ -70,6 +93,8 @@ def levels_of(gray):
         img = pyr_down(np.ascontiguousarray(img))
         if k in LEVELS:
             out[k] = img
+    if -1 in LEVELS:
+        out[-1] = ref_upsample2x(gray, *up_rect(*gray.shape))
     return out
 
 
@@ -107,9 +132,9 @@ def targets(boxes, h, w, band, noreg=None):
         bw, bh = x1 - x0, y1 - y0
         if bw < 2 or bh < 2:
             continue
-        # out of the level's band, or centred outside its image (level 0's row band):
-        # no positive here, and no negative either where it shows
-        if not (band[0] <= bw < band[1]) or not (0 <= (y0 + y1) / 2 < h):
+        # out of the level's band, or centred outside its image (level 0's row band, the
+        # upsampled band's rectangle): no positive here, and no negative either where it shows
+        if not (band[0] <= bw < band[1]) or not (0 <= (y0 + y1) / 2 < h) or not (0 <= (x0 + x1) / 2 < w):
             gx0, gx1 = int(max(0, x0 // STRIDE)), int(min(gw, math.ceil(x1 / STRIDE)))
             gy0, gy1 = int(max(0, y0 // STRIDE)), int(min(gh, math.ceil(y1 / STRIDE)))
             mask[gy0:gy1, gx0:gx1] = 0
@@ -304,7 +329,7 @@ def decode(out, k, thr=0.3, topk=60):
     ys, xs, sc = ys[o], xs[o], sc[o]
     cx, cy = (xs + 0.5) * STRIDE, (ys + 0.5) * STRIDE
     d = np.exp(out[1:5, ys, xs]) * STRIDE
-    f = 2 ** k
+    f = 2.0 ** k
     return np.stack([(cx - d[0]) * f, (cy - d[1]) * f, (cx + d[2]) * f, (cy + d[3]) * f, sc], 1)
 
 
@@ -330,8 +355,9 @@ def evaluate(net, data, thr=0.3):
             for k in LEVELS:
                 x = torch.from_numpy(lv[k].astype(np.float32) / 255.0)[None, None]
                 bk = decode(net(x)[0].numpy(), k, thr)
-                if k == 0:
-                    bk[:, [1, 3]] += band_rows(g.shape[0])[0]
+                dx, dy = level_offset(k, *g.shape)
+                bk[:, [0, 2]] += dx
+                bk[:, [1, 3]] += dy
                 allb.append(bk)
             b = nms(np.concatenate(allb))
             preds.append({"frame": i, "file": e["file_name"],
@@ -431,10 +457,14 @@ def quantise(layers, calib_imgs, pct=99.99, heat_p=0.3):
 def cfg_row():
     """pyvehtrack.cnn.CFG_KEYS' values: the levels trained, the decoder cap, nms()'s limits
     (and level 0's row band when it runs)."""
-    row = [LEVELS[0], len(LEVELS), 0, 64, 500, 700]
-    if L0_BAND is None and not STRETCH:
+    lv = [k for k in LEVELS if k >= 0]
+    row = [lv[0], len(lv), 0, 64, 500, 700]
+    if L0_BAND is None and not STRETCH and UP_BAND is None:
         return row
-    return row + (list(L0_BAND) if L0_BAND is not None else [0, 1000]) + ([STRETCH] if STRETCH else [])
+    row += (list(L0_BAND) if L0_BAND is not None else [0, 1000])
+    if UP_BAND is None:
+        return row + ([STRETCH] if STRETCH else [])
+    return row + [STRETCH] + list(UP_BAND)
 
 
 def evaluate_int(z, data):
@@ -522,10 +552,18 @@ def main(argv=None):
     ap.add_argument("--level0", nargs=2, type=int, metavar=("TOP", "BOTTOM"),
                     help="also run on level 0 (full resolution, vehicles 6..40 px wide), rows TOP..BOTTOM "
                          "permille of the frame height")
+    ap.add_argument("--up-band", nargs=4, type=int, metavar=("TOP", "BOTTOM", "LEFT", "RIGHT"),
+                    help="also learn on this rectangle (permille of the height / width) at 2x, vehicles 4..24 px "
+                         "wide at the frame (vt_cnn_cfg's upsampled band; written to the file's cnn_cfg)")
     a = ap.parse_args(argv)
-    global LEVELS, L0_BAND, CH, STRETCH
-    if not 0 <= a.stretch <= 499:
-        ap.error(f"--stretch: expected 0..499 permille, got {a.stretch}")
+    global LEVELS, L0_BAND, CH, STRETCH, UP_BAND
+    if not 0 <= a.stretch <= 100:
+        ap.error(f"--stretch: expected 0..100 permille (vt_cnn_cfg.stretch_tail_permille), got {a.stretch}")
+    if a.up_band:
+        t, b, lf, r = a.up_band
+        if not (0 <= t < b <= 1000 and 0 <= lf < r <= 1000):
+            ap.error("--up-band: expected 0 <= TOP < BOTTOM <= 1000 and 0 <= LEFT < RIGHT <= 1000")
+        UP_BAND = tuple(a.up_band)
     if not 0.0 <= a.low_light <= 1.0:
         ap.error(f"--low-light: expected a probability 0..1, got {a.low_light}")
     STRETCH = a.stretch
@@ -538,6 +576,8 @@ def main(argv=None):
         if not 0 <= a.level0[0] < a.level0[1] <= 1000:
             ap.error("--level0: 0 <= TOP < BOTTOM <= 1000")
         L0_BAND, LEVELS = tuple(a.level0), (0,) + LEVELS
+    if UP_BAND is not None:
+        LEVELS = LEVELS + (-1,)      # last, as vt_cnn_detect_frame runs it
     try:    # after the flags are checked: a wrong flag is named on a machine without torch too
         import torch
     except ImportError:
@@ -584,12 +624,12 @@ def main(argv=None):
                     fl = None   # strips and pastes are not combined
                 g = seen(g)     # after the strip: a strip is a wide camera's whole frame
                 lv = levels_of(g)
-                lv0_y0 = band_rows(g.shape[0])[0] if 0 in LEVELS else 0
                 for k in LEVELS:
-                    f = 2 ** k
+                    f = 2.0 ** k
                     lv_imgs[k].append(lv[k].astype(np.float32) / 255.0)
-                    # level 0 is the row band: its boxes move up by the band's first row
-                    bk = b - np.float32([0, lv0_y0, 0, lv0_y0]) if k == 0 else b
+                    # level 0 is the row band, -1 the upsampled band: boxes move by where they start
+                    dx, dy = level_offset(k, *g.shape)
+                    bk = b - np.float32([dx, dy, dx, dy])
                     lv_t[k].append(targets(bk / f, *lv[k].shape, BANDS[k], fl))
             for k in LEVELS:
                 x = torch.from_numpy(np.stack(lv_imgs[k]))[:, None]
