@@ -152,8 +152,8 @@ def main(argv=None) -> int:
         ap.error("--model: the file has no cnn_cfg")
     cfg = cnn.CnnConfig(*[int(v) for v in z["cnn_cfg"]])
     tail = a.stretch if a.stretch is not None else (cfg.stretch_tail_permille or 0)
-    if not 0 <= tail <= 499:
-        ap.error(f"--stretch: expected 0..499 permille, got {tail}")
+    if not 0 <= tail <= 100:
+        ap.error(f"--stretch: expected 0..100 permille (vt_cnn_cfg.stretch_tail_permille), got {tail}")
     cfg = dataclasses.replace(cfg, stretch_tail_permille=tail,     # a file of 6 entries: the whole frame
                               l0_top_permille=cfg.l0_top_permille or 0,
                               l0_bottom_permille=cfg.l0_bottom_permille or 1000)

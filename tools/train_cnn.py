@@ -546,7 +546,7 @@ def main(argv=None):
                          "where labelled vehicles of other frames stood (copy-paste; heat targets only)")
     ap.add_argument("--stretch", type=int, default=0, metavar="PERMILLE",
                     help="learn, calibrate and evaluate on frames through the C core's contrast stretch with "
-                         "this tail (vt_cnn_cfg.stretch_tail_permille, 1..499; written to the file's cnn_cfg)")
+                         "this tail (vt_cnn_cfg.stretch_tail_permille, 1..100; written to the file's cnn_cfg)")
     ap.add_argument("--low-light", type=float, default=0.0, metavar="P",
                     help="with probability P a training frame is dark (light gain 0.3..0.6) with sensor noise")
     ap.add_argument("--level0", nargs=2, type=int, metavar=("TOP", "BOTTOM"),
