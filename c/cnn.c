@@ -786,7 +786,7 @@ vt_status vt_cnn_detect_frame(const vt_cnn_model *m, const vt_cnn_cfg *cfg, cons
     for (k = 0; k <= last + (pl.uw > 0 ? 1 : 0); ++k) {
         int32_t gw, gh, nd = 0, np = 0, dx = 0, dy = 0, ss = k;
         int8_t *out = (int8_t *)(void *)(base + pl.out);
-        vt_image_u8 run;
+        vt_image_u8 run = src; /* set below on every path; initialised for -O1's flow analysis */
         if (k > last) {
             /* from the (stretched) frame, not from a level */
             vt__cnn_upsample(img, w, h, stride, pl.ux0, pl.uy0, pl.uw, pl.uh, base + pl.up);
