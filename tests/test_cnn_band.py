@@ -269,12 +269,10 @@ BAD = [(-1, 1000), (I32_MIN, 1000), (0, 1001), (0, I32_MAX), (500, 500), (600, 4
        (-5, -1), (1000, 1001)]
 
 
-@pytest.mark.parametrize("top,bot", BAD)
-@pytest.mark.parametrize("first", [0, 1])
-def test_bad_band_refused(top, bot, first):
-    m = const_model()
+def assert_c_refuses(m, cfg):
+    """The core refuses a bad vt_cnn_cfg everywhere it is taken (VT_E_ARG) and writes nothing:
+    not the size, not the counts, not the boxes. Returns the 16 x 16 frame it tried."""
     cm = m.c_model()[0]
-    cfg = c_cfg(first_level=first, n_levels=1, l0_top_permille=top, l0_bottom_permille=bot)
     assert lib.vt_cnn_cfg_check(cfg) == lib.VT_E_ARG
     nb = ffi.new("size_t *", 3)
     assert lib.vt_cnn_frame_work_bytes(cm, cfg, 16, 16, nb) == lib.VT_E_ARG and nb[0] == 3
@@ -286,6 +284,14 @@ def test_bad_band_refused(top, bot, first):
                                    ffi.cast("uint8_t *", work.ctypes.data), work.size, boxes, 1, n, t) == lib.VT_E_ARG
     assert (n[0], t[0]) == (0, 0)
     assert tuple([boxes[0].l, boxes[0].t, boxes[0].r, boxes[0].b, boxes[0].score]) == (9,) * 5
+    return img
+
+
+@pytest.mark.parametrize("top,bot", BAD)
+@pytest.mark.parametrize("first", [0, 1])
+def test_bad_band_refused(top, bot, first):
+    m = const_model()
+    img = assert_c_refuses(m, c_cfg(first_level=first, n_levels=1, l0_top_permille=top, l0_bottom_permille=bot))
     kw = dict(first_level=first, n_levels=1, l0_top_permille=top, l0_bottom_permille=bot)
     field = "l0_bottom_permille" if 0 <= top <= 999 and not 1 <= bot <= 1000 else "l0_top_permille"
     for thunk in (lambda: C.CnnConfig(**kw).c(), lambda: C.detect_frame(m, img, C.CnnConfig(**kw)),

@@ -31,6 +31,7 @@ from pyvehtrack import cnn as C
 from pyvehtrack._native import VtError, ffi, lib
 from pyvehtrack.reference import cnn as R
 from test_cnn import random_model
+from test_cnn_band import assert_c_refuses
 from test_cnn_frame import GUARD, c_cfg, check_c_equals_twin, const_model
 from test_pipeline_cnn import scene, tiny_model
 
@@ -171,19 +172,7 @@ BAD = [(0, 0, 0, 1), (0, 0, 1, 0), (500, 500, 0, 1000), (600, 400, 0, 1000), (-1
 
 @pytest.mark.parametrize("rect", BAD)
 def test_bad_rect_refused(rect):
-    m = const_model()
-    cm = m.c_model()[0]
-    cfg = c_cfg(first_level=1, n_levels=1, **_up(*rect))
-    assert lib.vt_cnn_cfg_check(cfg) == lib.VT_E_ARG
-    nb = ffi.new("size_t *", 3)
-    assert lib.vt_cnn_frame_work_bytes(cm, cfg, 16, 16, nb) == lib.VT_E_ARG and nb[0] == 3
-    img = np.zeros((16, 16), np.uint8)
-    work = np.zeros(1 << 16, np.uint8)
-    boxes = ffi.new("vt_cnn_box[1]", [(9,) * 5])
-    n, t = ffi.new("int32_t *", 7), ffi.new("int32_t *", 7)
-    assert lib.vt_cnn_detect_frame(cm, cfg, ffi.cast("uint8_t *", img.ctypes.data), 16, 16, 16,
-                                   ffi.cast("uint8_t *", work.ctypes.data), work.size, boxes, 1, n, t) == lib.VT_E_ARG
-    assert (n[0], t[0]) == (0, 0)
+    assert_c_refuses(const_model(), c_cfg(first_level=1, n_levels=1, **_up(*rect)))
     with pytest.raises(ValueError, match=r"CnnConfig: the upsampled band needs 0 <= up_(top|left)_permille"):
         C.CnnConfig(first_level=1, n_levels=1, **_up(*rect)).c()
 
