@@ -723,7 +723,7 @@ static void band(const vt_cnn_cfg *c, int32_t h, int32_t *y0, int32_t *y1)
 static size_t frame_need(const vt_cnn_model *m, const vt_cnn_cfg *c, int32_t w, int32_t h, int64_t *macs)
 {
     int32_t k, lw = w, lh = h, last = c->first_level + c->n_levels - 1, y0, y1;
-    size_t odd = 0, even = 0, fwd = 0, out = 0;
+    size_t odd = 0, even = 0, fwd = 0, out = 0, up = 0;
     *macs = 0;
     band(c, h, &y0, &y1);
     for (k = 0; k <= last; k++) {
@@ -753,13 +753,11 @@ static size_t frame_need(const vt_cnn_model *m, const vt_cnn_cfg *c, int32_t w, 
         fwd = p.r0 + p.r1 > fwd ? p.r0 + p.r1 : fwd;
         out = p.out > out ? p.out : out;
         *macs += p.macs;
-        return 7 + (size_t)(c->n_levels + 1) * (size_t)c->cap_per_level * sizeof(vt_scored_box) +
-               (size_t)c->cap_per_level * sizeof(vt_cnn_box) + odd + even + fwd + out +
-               (c->stretch_tail_permille > 0 ? (size_t)w * (size_t)h : 0) + (size_t)uw * (size_t)uh;
+        up = (size_t)uw * (size_t)uh;
     }
-    return 7 + (size_t)c->n_levels * (size_t)c->cap_per_level * sizeof(vt_scored_box) +
+    return 7 + (size_t)(c->n_levels + up_on(c)) * (size_t)c->cap_per_level * sizeof(vt_scored_box) +
            (size_t)c->cap_per_level * sizeof(vt_cnn_box) + odd + even + fwd + out +
-           (c->stretch_tail_permille > 0 ? (size_t)w * (size_t)h : 0);
+           (c->stretch_tail_permille > 0 ? (size_t)w * (size_t)h : 0) + up;
 }
 
 /* The detection composed from the public single-level pieces and the direct oracle;

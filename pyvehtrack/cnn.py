@@ -169,9 +169,10 @@ class CnnModel:
     def save(self, path) -> None:
         d = self.keys()
         if self.cfg is not None:
-            v = [int(getattr(self.cfg.c(), k)) for k in CFG_KEYS]
+            c = self.cfg.c()
+            v = [int(getattr(c, k)) for k in CFG_KEYS]
             # without the upsampled band, the 9 entries a reader from before it takes
-            d["cnn_cfg"] = np.array(v if any(v[9:]) else v[:9], np.int32)
+            d["cnn_cfg"] = np.array(v if up_band_on(c) else v[:len(CFG_KEYS) - len(UP_KEYS)], np.int32)
         np.savez_compressed(path, **d)
 
     # ------------------------------------------------------------ the C struct
@@ -341,6 +342,8 @@ CFG_KEYS = ("first_level", "n_levels", "thr_offset", "cap_per_level", "nms_iou_p
             "l0_top_permille", "l0_bottom_permille", "stretch_tail_permille", "up_top_permille",
             "up_bottom_permille", "up_left_permille", "up_right_permille")
 CFG_KEYS_OLD = 6
+# the upsampled band's fields (all 0: off)
+UP_KEYS = CFG_KEYS[9:]
 # the lengths a file's cnn_cfg may have: before the level-0 band, before the contrast stretch,
 # before the upsampled band, now
 CFG_KEYS_LENGTHS = (CFG_KEYS_OLD, 8, 9, len(CFG_KEYS))
@@ -404,8 +407,7 @@ class CnnConfig:
                     f"(level 0's band would be empty)")
         if not 0 <= int(c.stretch_tail_permille) <= 100:
             return f"stretch_tail_permille = {int(c.stretch_tail_permille)} is outside [0, 100]"
-        up = [int(getattr(c, f"up_{k}_permille")) for k in ("top", "bottom", "left", "right")]
-        if any(up):
+        if up_band_on(c):
             for a, b in (("top", "bottom"), ("left", "right")):
                 lo, hi = int(getattr(c, f"up_{a}_permille")), int(getattr(c, f"up_{b}_permille"))
                 if not 0 <= lo < hi <= 1000:
@@ -420,6 +422,12 @@ class CnnConfig:
     @classmethod
     def from_c(cls, c) -> "CnnConfig":
         return cls(**{f.name: int(getattr(c, f.name)) for f in fields(cls)})
+
+
+def up_band_on(c) -> bool:
+    """True when a vt_cnn_cfg (cffi) or CnnConfig runs the upsampled band: any of UP_KEYS nonzero
+    (cnn.h; a CnnConfig's None is the default, 0)."""
+    return any(int(getattr(c, k) or 0) for k in UP_KEYS)
 
 
 def _cfg(cfg) -> object:
@@ -461,9 +469,7 @@ def detect_frame(model: CnnModel, gray: np.ndarray, cfg: CnnConfig | None = None
     nb = int(b[0])
     work = np.empty(nb, np.uint8)
     # NMS keeps no more than it is given: every level's and the upsampled band's cap
-    up = any(int(getattr(c, k)) for k in ("up_top_permille", "up_bottom_permille", "up_left_permille",
-                                          "up_right_permille"))
-    cap = (int(c.n_levels) + up) * int(c.cap_per_level)
+    cap = (int(c.n_levels) + up_band_on(c)) * int(c.cap_per_level)
     boxes = ffi.new("vt_cnn_box[]", cap)
     n, tot = ffi.new("int32_t *"), ffi.new("int32_t *")
     check("vt_cnn_detect_frame",

@@ -198,8 +198,7 @@ def main(argv=None) -> int:
         ups = {}
         for e, g, _ in frames:
             h, w = g.shape
-            y0, y1 = rc.band_rows(h, *a.band)
-            x0, x1 = rc.band_rows(w, *a.cols)
+            x0, y0, x1, y1 = rc.up_rect(h, w, *a.band, *a.cols)
             up = rc.upsample2x(g, x0, y0, x1, y1)
             b, _ = rc.decode(rc.forward(model.layers, up), model.out_stride, model.side_lut,
                              model.heat_thr + cfg.thr_offset, -1, cfg.cap_per_level)

@@ -30,6 +30,7 @@ from pyvehtrack.datasets import tusimple_frames  # noqa: E402
 from pyvehtrack.image import pyr_down  # noqa: E402
 from pyvehtrack.reference.cnn import band_rows as ref_band_rows  # noqa: E402
 from pyvehtrack.reference.cnn import stretch as ref_stretch  # noqa: E402
+from pyvehtrack.reference.cnn import up_rect as ref_up_rect  # noqa: E402
 from pyvehtrack.reference.cnn import upsample2x as ref_upsample2x  # noqa: E402
 
 DATA = ROOT.parent / "shared" / "data" / "tusimple-vehicles-dev"
@@ -70,9 +71,7 @@ CH = DEFAULT_CH   # --channels
 
 def up_rect(h, w):
     """The upsampled band's source rectangle (x0, y0, x1, y1): vt_cnn_cfg's rounding."""
-    y0, y1 = ref_band_rows(h, UP_BAND[0], UP_BAND[1])
-    x0, x1 = ref_band_rows(w, UP_BAND[2], UP_BAND[3])
-    return x0, y0, x1, y1
+    return ref_up_rect(h, w, *UP_BAND)
 
 
 def level_offset(k, h, w):

@@ -176,6 +176,14 @@ def upsample2x(img: np.ndarray, x0: int, y0: int, x1: int, y1: int) -> np.ndarra
     return ((out + 8) >> 4).astype(np.uint8)
 
 
+def up_rect(h: int, w: int, top: int, bottom: int, left: int, right: int) -> tuple[int, int, int, int]:
+    """(x0, y0, x1, y1): the upsampled band's source rectangle of an h x w frame (cnn.h), rows and
+    columns with level 0's band rounding (band_rows)."""
+    y0, y1 = band_rows(h, top, bottom)
+    x0, x1 = band_rows(w, left, right)
+    return x0, y0, x1, y1
+
+
 def level_inputs(img: np.ndarray, cfg):
     """The network's inputs of vt_cnn_detect_frame, in its order: (k, dx, dy, image) per level
     k = first_level .. first_level + n_levels - 1, built from the frame after the cfg's stretch
@@ -194,11 +202,10 @@ def level_inputs(img: np.ndarray, cfg):
             level = rimage.pyr_down(level)     # from the whole frame: the band is level 0's only
         if k >= first:
             yield k, 0, (y0 if k == 0 else 0), (level[y0:y1] if k == 0 else level)
-    top, bot, left, right = (_cfg_get(cfg, k) for k in _UP_KEYS)
-    if top or bot or left or right:
-        uy0, uy1 = band_rows(g.shape[0], top, bot)
-        ux0, ux1 = band_rows(g.shape[1], left, right)
-        yield -1, ux0, uy0, upsample2x(g, ux0, uy0, ux1, uy1)
+    up = [_cfg_get(cfg, k) for k in _UP_KEYS]
+    if any(up):
+        r = up_rect(*g.shape, *up)
+        yield -1, r[0], r[1], upsample2x(g, *r)
 
 
 def merge_levels(rows, w: int, h: int, cfg) -> np.ndarray:
