@@ -530,6 +530,43 @@ vt_status vt_cnn_cfg_check(const vt_cnn_cfg *cfg)
     return VT_OK;
 }
 
+/* One band's rows moved d permille, its height kept, stopped at the frame's edges (cnn.h). */
+static void vt__cnn_band_move(int32_t *top, int32_t *bottom, int32_t d)
+{
+    int32_t span = *bottom - *top;
+    int32_t t = *top + d; /* |d| <= 2000 and 0 <= top <= 1000: no overflow */
+    if (t > 1000 - span) {
+        t = 1000 - span;
+    }
+    if (t < 0) {
+        t = 0;
+    }
+    *top = t;
+    *bottom = t + span;
+}
+
+vt_status vt_cnn_cfg_at_horizon(const vt_cnn_cfg *cfg, int32_t horizon_q16, vt_cnn_cfg *out)
+{
+    vt_cnn_cfg c;
+    int64_t num;
+    int32_t d;
+    if (out == NULL || vt_cnn_cfg_check(cfg) != VT_OK || horizon_q16 < -65536 ||
+        horizon_q16 > 65536) {
+        return VT_E_ARG;
+    }
+    c = *cfg;
+    /* floor division by 2^16 of a signed numerator (|num| < 2^28): an arithmetic shift
+     * is implementation-defined for negatives in C99, so shift a nonnegative value */
+    num = ((int64_t)horizon_q16 - VT_CNN_REF_HORIZON_Q16) * 1000 + 32768 + ((int64_t)1 << 30);
+    d = (int32_t)((num >> 16) - ((int64_t)1 << 14));
+    vt__cnn_band_move(&c.l0_top_permille, &c.l0_bottom_permille, d);
+    if (vt__cnn_up_on(&c)) {
+        vt__cnn_band_move(&c.up_top_permille, &c.up_bottom_permille, d);
+    }
+    *out = c;
+    return VT_OK;
+}
+
 /* A band's rows y0 .. y1 - 1 of an h-row frame (0 <= top < bottom <= 1000, h >= 1): cnn.h's
  * floor / ceil in int64 (h <= 4096 and permille <= 1000, so exact and nonnegative). */
 static void vt__cnn_band(int32_t h, int32_t top, int32_t bottom, int32_t *y0, int32_t *y1)

@@ -293,6 +293,7 @@ vt_status vt_pipeline_set_acf_n(vt_pipeline *p, int32_t n, const vt_acf_model *c
 vt_status vt_pipeline_set_cnn(vt_pipeline *p, const vt_cnn_model *m, const vt_cnn_cfg *cfg,
                               uint8_t *work, size_t work_bytes)
 {
+    vt_cnn_cfg placed;
     vt_status s;
     if (p == NULL || (m != NULL && (cfg == NULL || work == NULL))) {
         return VT_E_ARG;
@@ -305,13 +306,14 @@ vt_status vt_pipeline_set_cnn(vt_pipeline *p, const vt_cnn_model *m, const vt_cn
     }
     s = vt_cnn_check_model(m);
     if (s == VT_OK) {
-        s = vt_cnn_cfg_check(cfg);
+        /* checks cfg; the road camera was checked by vt_pipeline_init */
+        s = vt_cnn_cfg_at_horizon(cfg, p->cfg.road_camera.horizon_q16, &placed);
     }
     if (s != VT_OK) {
         return s;
     }
     p->cnn = m;
-    p->cnn_cfg = *cfg;
+    p->cnn_cfg = placed;
     p->cnn_work = work;
     p->cnn_work_bytes = work_bytes;
     return VT_OK;

@@ -6,6 +6,7 @@
  * array an exact-size heap block, so ASan sees a read past the model's own sizes), a
  * fuzzed view (1..~40 px mostly, degenerate sizes, stride < w, px NULL), and a
  * vt_cnn_cfg mutated from its default (level 0's row band drawn too). Then:
+ *   vt_cnn_cfg_at_horizon: the header's shift and push written another way, out untouched on error;
  *   vt_cnn_check_model / vt_cnn_cfg_check / vt_cnn_cfg_default: the status a mirror of
  *     the header's ranges gives;
  *   vt_cnn_out_size / vt_cnn_work_bytes / vt_cnn_frame_work_bytes (NULLs, any w, h):
@@ -966,6 +967,55 @@ static void detect(fz *f, const model_t *mt, const vt_cnn_cfg *cfg, int ok_c, co
     }
 }
 
+/* vt_cnn_cfg_at_horizon against the header's rule written another way: d by a division of the
+ * magnitude (C99 truncates toward zero), each band moved and then pushed back inside. */
+static void at_horizon(fz *f, const vt_cnn_cfg *cfg, int ok_c)
+{
+    uint8_t nulls = fz_nulls(f);
+    uint8_t k = fz_u8(f);
+    /* mostly any valid horizon; sometimes an exact half permille (ref + 4096 (2j + 1):
+     * (hz - ref) 1000 / 65536 = 62.5 (2j + 1)), where the rounding shows; or near an edge */
+    int32_t hz = k < 180 ? fz_range(f, -65536, 65536)
+                         : (k < 220 ? VT_CNN_REF_HORIZON_Q16 + 4096 * (2 * fz_range(f, -12, 7) + 1)
+                                    : fz_near(f, fz_edge(f, 65536), -2, 2));
+    vt_cnn_cfg out, want = *cfg;
+    vt_status s;
+    int ok = ok_c && !(nulls & 3) && hz >= -65536 && hz <= 65536;
+    memset(&out, 0x5a, sizeof out);
+    s = vt_cnn_cfg_at_horizon((nulls & 1) ? NULL : cfg, hz, (nulls & 2) ? NULL : &out);
+    fz_status(s);
+    FZ_ASSERT(s == (ok ? VT_OK : VT_E_ARG));
+    if (!ok) {
+        vt_cnn_cfg untouched;
+        memset(&untouched, 0x5a, sizeof untouched);
+        FZ_ASSERT(memcmp(&out, &untouched, sizeof out) == 0);
+        return;
+    }
+    {
+        int64_t num = ((int64_t)hz - VT_CNN_REF_HORIZON_Q16) * 1000 + 32768;
+        int32_t d = (int32_t)(num >= 0 ? num / 65536 : -((-num + 65535) / 65536));
+        int32_t *tb[2][2];
+        int k, nb = up_on(cfg) ? 2 : 1;
+        tb[0][0] = &want.l0_top_permille;
+        tb[0][1] = &want.l0_bottom_permille;
+        tb[1][0] = &want.up_top_permille;
+        tb[1][1] = &want.up_bottom_permille;
+        for (k = 0; k < nb; k++) {
+            int32_t span = *tb[k][1] - *tb[k][0];
+            int32_t t = *tb[k][0] + d;
+            if (t + span > 1000) {
+                t = 1000 - span;
+            }
+            if (t < 0) {
+                t = 0;
+            }
+            *tb[k][0] = t;
+            *tb[k][1] = t + span;
+        }
+    }
+    FZ_ASSERT(memcmp(&out, &want, sizeof out) == 0 && cfg_ok(&out));
+}
+
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
@@ -1039,6 +1089,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     }
     if (!(op & 8)) {
         detect(&f, &mt, &cfg, ok_c, &img);
+    }
+    if (op & 16) {
+        at_horizon(&f, &cfg, ok_c);
     }
     fz_close(&f);
     blk_free();

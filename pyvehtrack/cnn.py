@@ -430,6 +430,19 @@ def up_band_on(c) -> bool:
     return any(int(getattr(c, k) or 0) for k in UP_KEYS)
 
 
+def at_horizon(cfg: "CnnConfig | None", horizon_q16: int) -> CnnConfig:
+    """cfg's bands placed for a camera whose horizon lies at horizon_q16 (Q16 share of the frame
+    height, -65536..65536; e.g. fullroad.Camera's horizon_frac x 65536), by
+    vt_cnn_cfg_at_horizon (cnn.h): they move by the horizon's distance from the default road
+    camera's (VT_CNN_REF_HORIZON_Q16, 330 / 720), keeping their heights. The pipeline does this
+    itself with its road camera; this is for a caller of detect_frame with another camera."""
+    c = _cfg(cfg)
+    hz = _check.integer(horizon_q16, "horizon_q16 (Q16 share of the height)", -65536, 65536)
+    out = ffi.new("vt_cnn_cfg *")
+    check("vt_cnn_cfg_at_horizon", lib.vt_cnn_cfg_at_horizon(c, hz, out))
+    return CnnConfig.from_c(out)
+
+
 def _cfg(cfg) -> object:
     if cfg is None:
         cfg = CnnConfig()

@@ -355,7 +355,10 @@ class Pipeline:
         more; one per Pipeline serves every run."""
         m, ccfg = self._cnn
         nb = ffi.new("size_t *")
-        _native.check("vt_cnn_frame_work_bytes", lib.vt_cnn_frame_work_bytes(m.c_model()[0], ccfg, w, h, nb),
+        placed = ffi.new("vt_cnn_cfg *")   # the cfg vt_pipeline_set_cnn keeps: sized for its rows
+        _native.check("vt_cnn_cfg_at_horizon",
+                      lib.vt_cnn_cfg_at_horizon(ccfg, self._ccfg.road_camera.horizon_q16, placed))
+        _native.check("vt_cnn_frame_work_bytes", lib.vt_cnn_frame_work_bytes(m.c_model()[0], placed, w, h, nb),
                       f"frame {w}x{h}")
         grown = self._cnn_work is None or self._cnn_work.size < nb[0]
         if grown:
@@ -599,7 +602,8 @@ class Pipeline:
             if self.whole_road:
                 rcfg = _whole_road_reference(rcfg, self._ccfg)
                 if self._cnn is not None:
-                    cnn = _cnn_reference(*self._cnn, int(lib.VT_MAX_BOXES))
+                    cnn = _cnn_reference(*self._cnn, int(lib.VT_MAX_BOXES),
+                                         int(self._ccfg.road_camera.horizon_q16))
                 else:
                     score = self._ref_score()
                 if self._ccfg.verify:
@@ -785,13 +789,14 @@ def _score(source, v):
     return v
 
 
-def _cnn_reference(model, ccfg, max_boxes: int):
+def _cnn_reference(model, ccfg, max_boxes: int, horizon_q16: int):
     """The reference engine's CNN detector: the twin of vt_cnn_detect_frame as the pipeline
-    runs it (c/pipeline.c's vt__detect_cnn): gray -> (N, 6) [l, t, r, b, heat x
-    heat_scale_q16, 2 (windows)] for the first max_boxes boxes in NMS order."""
+    runs it (c/pipeline.c's vt__detect_cnn, the bands placed at the road camera's horizon as
+    vt_pipeline_set_cnn does): gray -> (N, 6) [l, t, r, b, heat x heat_scale_q16, 2 (windows)]
+    for the first max_boxes boxes in NMS order."""
     from .cnn import CnnConfig  # noqa: PLC0415
     from .reference import cnn as rcnn  # noqa: PLC0415  (the reference engine only)
-    cfg = CnnConfig.from_c(ccfg)
+    cfg = rcnn.at_horizon(CnnConfig.from_c(ccfg), horizon_q16)
 
     def detect(gray):
         b, _n = rcnn.detect_frame(model, gray, cfg)

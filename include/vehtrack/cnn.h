@@ -244,6 +244,27 @@ vt_status vt_cnn_cfg_default(vt_cnn_cfg *cfg);
 /* VT_OK if every field of cfg is in its range above; VT_E_ARG otherwise (NULL too). */
 vt_status vt_cnn_cfg_check(const vt_cnn_cfg *cfg);
 
+/* The horizon (Q16 share of the frame height) the shipped models' rows were chosen for:
+ * the default road camera's, 330 / 720 of the height (pipeline.h's VT_ROAD_CAMERA_DEFAULT,
+ * TuSimple's camera). */
+#define VT_CNN_REF_HORIZON_Q16 30037
+
+/* *out = cfg with its rows moved to a camera whose horizon lies at horizon_q16 (Q16 share of
+ * the height, -65536..65536, as vt_road_camera's): both level 0's band (l0_top/bottom) and,
+ * when on, the upsampled band (up_top/bottom) move down by
+ *   d = floor(((horizon_q16 - VT_CNN_REF_HORIZON_Q16) 1000 + 32768) / 65536) permille
+ * (rounded half up; floor of a negative numerator toward minus infinity), each keeping its
+ * height in permille: top' = min(max(top + d, 0), 1000 - (bottom - top)), bottom' = top' +
+ * (bottom - top), so a band pushed past an edge of the frame stops there. Why: the bands look
+ * closely at the rows where far vehicles are, a few rows about the horizon; their permille
+ * were chosen for one camera, and a camera file's horizon says where those rows are on
+ * another (the lanes' one-frame vanishing row is not used: on TuSimple the bottoms of
+ * vehicles under 32 px wide scatter 17.6 rows about it against 10.3 about a fixed row).
+ * Columns, levels and the rest are copied; horizon_q16 = VT_CNN_REF_HORIZON_Q16 gives *out =
+ * *cfg. out may be cfg. Errors: NULL cfg or out, an invalid cfg (vt_cnn_cfg_check) or
+ * horizon_q16 outside -65536..65536 -> VT_E_ARG, *out not written. */
+vt_status vt_cnn_cfg_at_horizon(const vt_cnn_cfg *cfg, int32_t horizon_q16, vt_cnn_cfg *out);
+
 /* *bytes = the work buffer vt_cnn_detect_frame needs for a w x h frame: up to 7 bytes
  * to align what follows for int32; with stretch_tail_permille > 0 the stretched frame
  * (w h bytes); the boxes of every run level (n_levels

@@ -509,8 +509,12 @@ vt_status vt_pipeline_set_acf_n(vt_pipeline *p, int32_t n, const vt_acf_model *c
  * boxes (VT_SRC_EGO) are merged beside them as for the ACF stage. As the ACF stage, it
  * needs the whole-road detector's workspace (vt_pipeline_set_cls_ws after this, which
  * then needs no scorer: the merge and the result live there). m and work are kept by
- * pointer (they must outlive the run; m may live in flash), cfg is copied. work_bytes
- * is checked at each detection step against vt_cnn_frame_work_bytes for that frame
+ * pointer (they must outlive the run; m may live in flash), cfg is copied with its rows
+ * placed at the pipeline's road camera (vt_cnn_cfg_at_horizon(cfg,
+ * cfg.road_camera.horizon_q16): the bands move with a camera whose horizon is not the
+ * default's; the lanes' vanishing row does not move them). work_bytes
+ * is checked at each detection step against vt_cnn_frame_work_bytes for that frame and
+ * the placed cfg
  * (VT_E_CAPACITY from the step when short), so one buffer sized for the largest frame
  * serves every size (with a level-0 band, first_level 0, size it by the query for each
  * frame size: the band's rounding can make a shorter frame need one band row more,

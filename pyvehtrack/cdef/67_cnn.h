@@ -7,6 +7,7 @@
 #define VT_CNN_MAX_LEVEL ...
 #define VT_CNN_MAX_RUN_LEVELS ...
 #define VT_CNN_MAX_PEAKS ...
+#define VT_CNN_REF_HORIZON_Q16 ...
 
 typedef struct {
     uint8_t ksize;
@@ -65,6 +66,7 @@ vt_status vt_cnn_decode(const vt_cnn_model *m, const int8_t *out, int32_t gw, in
                         int32_t *n, int32_t *n_peaks);
 vt_status vt_cnn_cfg_default(vt_cnn_cfg *cfg);
 vt_status vt_cnn_cfg_check(const vt_cnn_cfg *cfg);
+vt_status vt_cnn_cfg_at_horizon(const vt_cnn_cfg *cfg, int32_t horizon_q16, vt_cnn_cfg *out);
 vt_status vt_cnn_frame_work_bytes(const vt_cnn_model *m, const vt_cnn_cfg *cfg, int32_t w,
                                   int32_t h, size_t *bytes);
 vt_status vt_cnn_detect_frame(const vt_cnn_model *m, const vt_cnn_cfg *cfg, const uint8_t *img,

@@ -155,6 +155,29 @@ def band_rows(h: int, top_permille: int, bottom_permille: int) -> tuple[int, int
     return (h * top_permille) // 1000, (h * bottom_permille + 999) // 1000
 
 
+# cnn.h's VT_CNN_REF_HORIZON_Q16: the default road camera's horizon, 330 / 720 of the height
+REF_HORIZON_Q16 = 30037
+
+
+def at_horizon(cfg, horizon_q16: int) -> dict:
+    """vt_cnn_cfg_at_horizon (cnn.h) on a cfg (dict or object with CnnConfig's fields): the
+    fields as a dict with level 0's band and, when on, the upsampled band moved by
+    d = round_half_up((horizon_q16 - REF_HORIZON_Q16) 1000 / 65536) permille, each keeping its
+    height and stopped at the frame's edges. Python's // floors, as the C's shifted division."""
+    keys = ("first_level", "n_levels", "thr_offset", "cap_per_level", "nms_iou_permille",
+            "nms_contain_permille") + tuple(_BAND_DEFAULTS)
+    out = {k: _cfg_get(cfg, k) for k in keys}
+    d = ((int(horizon_q16) - REF_HORIZON_Q16) * 1000 + 32768) // 65536
+    pairs = [("l0_top_permille", "l0_bottom_permille")]
+    if any(out[k] for k in _UP_KEYS):
+        pairs.append(("up_top_permille", "up_bottom_permille"))
+    for top, bottom in pairs:
+        span = out[bottom] - out[top]
+        out[top] = max(0, min(out[top] + d, 1000 - span))
+        out[bottom] = out[top] + span
+    return out
+
+
 def upsample2x(img: np.ndarray, x0: int, y0: int, x1: int, y1: int) -> np.ndarray:
     """vt_cnn_cfg's upsampled band (cnn.h): the frame's columns x0 .. x1 - 1 and rows y0 .. y1 - 1
     at twice the size, bilinear with the pixel centres of cv2.INTER_LINEAR (output j samples
