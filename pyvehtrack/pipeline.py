@@ -41,7 +41,8 @@ vt_pipeline_set_cls_ws.
 With a CNN detector (Pipeline(model=cnn_model) with a pyvehtrack.cnn.CnnModel, or the path
 of an .npz whose keys are cnn_*; cnn_cfg=pyvehtrack.cnn.CnnConfig(...) sets its levels,
 threshold offset, cap and NMS) the detection frames run vt_cnn_detect_frame over the pyramid
-levels in place of the windows (vt_pipeline_set_cnn): its boxes are source "classifier",
+levels in place of the windows (vt_pipeline_set_cnn, which places the cfg's row bands at
+road_camera's horizon: pyvehtrack.cnn.at_horizon): its boxes are source "classifier",
 score = heat x the model's heat_scale_q16 (a logit, as pyvehtrack.cnn.detect_frame's heat
 times heat_scale_q16 / 65536); no second stage, re-ranking, box regression, wide pass or
 shadow hypotheses on them (the network is its own verification); "ego" boxes beside them
