@@ -20,7 +20,7 @@ from pyvehtrack import cnn as C
 from pyvehtrack._native import ffi, lib
 from pyvehtrack.fullroad import Camera
 from pyvehtrack.reference import cnn as R
-from test_pipeline_cnn import _got, scene, tiny_model
+from test_pipeline_cnn import _c_pipeline, _got, scene, tiny_model
 
 SHIPPED = C.CnnConfig(first_level=0, n_levels=5, thr_offset=2, cap_per_level=64, nms_iou_permille=500,
                       nms_contain_permille=700, l0_top_permille=380, l0_bottom_permille=640,
@@ -174,15 +174,7 @@ def test_set_cnn_keeps_the_placed_cfg_and_sizes_the_work_by_it():
     m = tiny_model()
     cm = m.c_model()[0]
     gray = scene()
-    p = ffi.new("vt_pipeline *")
-    pc = ffi.new("vt_pipeline_cfg *")
-    assert lib.vt_pipeline_cfg_default(pc) == lib.VT_OK
-    pc.sources = lib.VT_SRC_CLASSIFIER
-    pc.road_policy = lib.VT_ROAD_FIXED
-    pc.track = 0
-    pc.detect_every = 1
-    pc.road_camera.horizon_q16 = 39322
-    assert lib.vt_pipeline_init(p, pc, ffi.NULL, ffi.NULL) == lib.VT_OK
+    p = _c_pipeline(39322)
     placed = C.at_horizon(BAND_CFG, 39322)
     need = C.frame_work_bytes(m, gray.shape[1], gray.shape[0], placed)
     work = np.zeros(need, np.uint8)

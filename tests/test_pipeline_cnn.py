@@ -135,7 +135,9 @@ def test_pipeline_cnn_python_bad_inputs(tmp_path):
 
 
 # ---------------------------------------------------------------- the C entry point
-def _c_pipeline():
+def _c_pipeline(horizon_q16=None):
+    """A C pipeline for the CNN source alone (fixed road, no tracker); horizon_q16: its road
+    camera's horizon (default: the default camera's)."""
     p = ffi.new("vt_pipeline *")
     pc = ffi.new("vt_pipeline_cfg *")
     assert lib.vt_pipeline_cfg_default(pc) == lib.VT_OK
@@ -143,6 +145,8 @@ def _c_pipeline():
     pc.road_policy = lib.VT_ROAD_FIXED
     pc.track = 0
     pc.detect_every = 1
+    if horizon_q16 is not None:
+        pc.road_camera.horizon_q16 = horizon_q16
     assert lib.vt_pipeline_init(p, pc, ffi.NULL, ffi.NULL) == lib.VT_OK
     return p
 
