@@ -534,7 +534,7 @@ vt_status vt_cnn_cfg_check(const vt_cnn_cfg *cfg)
 static void vt__cnn_band_move(int32_t *top, int32_t *bottom, int32_t d)
 {
     int32_t span = *bottom - *top;
-    int32_t t = *top + d; /* |d| <= 2000 and 0 <= top <= 1000: no overflow */
+    int32_t t = *top + d; /* |d| <= 1459 and 0 <= top <= 1000: no overflow */
     if (t > 1000 - span) {
         t = 1000 - span;
     }

@@ -349,6 +349,11 @@ class Pipeline:
         self._ccfg.road_camera = _fr.road_camera_to_c(cam)[0]
         self._ccfg.road_above_hood = int(cam.hood_known)
         _native.pipeline_cfg_check(self._ccfg)
+        # the cfg vt_pipeline_set_cnn keeps (its bands at the road camera's horizon): the work
+        # buffer is sized for its rows
+        self._cnn_placed = ffi.new("vt_cnn_cfg *")
+        _native.check("vt_cnn_cfg_at_horizon",
+                      lib.vt_cnn_cfg_at_horizon(ccfg, self._ccfg.road_camera.horizon_q16, self._cnn_placed))
 
     def _cnn_attach(self, w: int, h: int) -> None:
         """vt_pipeline_set_cnn with a work buffer of at least vt_cnn_frame_work_bytes for a w x h
@@ -356,10 +361,8 @@ class Pipeline:
         more; one per Pipeline serves every run."""
         m, ccfg = self._cnn
         nb = ffi.new("size_t *")
-        placed = ffi.new("vt_cnn_cfg *")   # the cfg vt_pipeline_set_cnn keeps: sized for its rows
-        _native.check("vt_cnn_cfg_at_horizon",
-                      lib.vt_cnn_cfg_at_horizon(ccfg, self._ccfg.road_camera.horizon_q16, placed))
-        _native.check("vt_cnn_frame_work_bytes", lib.vt_cnn_frame_work_bytes(m.c_model()[0], placed, w, h, nb),
+        _native.check("vt_cnn_frame_work_bytes",
+                      lib.vt_cnn_frame_work_bytes(m.c_model()[0], self._cnn_placed, w, h, nb),
                       f"frame {w}x{h}")
         grown = self._cnn_work is None or self._cnn_work.size < nb[0]
         if grown:
