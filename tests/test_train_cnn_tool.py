@@ -1,6 +1,8 @@
 """tools/train_cnn.py's frame preparation, the parts a model file depends on without torch:
 the contrast stretch a network learns through (--stretch, written to the file's cnn_cfg so the
-C core applies the same stretch) and the low-light augmentation (--low-light)."""
+C core applies the same stretch) and the low-light augmentation (--low-light); and, where torch
+and the training frames are at hand, that a run taken up with --resume ends where one never
+stopped does."""
 import importlib.util
 import subprocess
 import sys
@@ -95,3 +97,54 @@ def test_tool_rejects_bad_flags_without_torch_work(args, msg, tmp_path):
                        capture_output=True, text=True, timeout=120)
     assert p.returncode == 2 and msg in p.stderr
     assert not (tmp_path / "m").exists()
+
+
+def _run_tool(args, timeout=600):
+    return subprocess.run([sys.executable, str(TOOL)] + args, capture_output=True, text=True, timeout=timeout)
+
+
+_DATA = ROOT.parent / "shared" / "data" / "tusimple-vehicles-dev"
+
+
+@pytest.mark.skipif(not _DATA.is_dir(), reason="needs ../shared/data/tusimple-vehicles-dev (a training tool's data)")
+def test_resume_ends_with_the_weights_of_a_run_never_stopped(tmp_path):
+    """A run stopped after epoch 1 and taken up with --resume ends bit for bit where a run of
+    both epochs ends: the checkpoint holds every state the loop reads (weights and BatchNorm
+    statistics, AdamW's moments, the one-cycle schedule, numpy's and torch's generators)."""
+    torch = pytest.importorskip("torch")
+    base = ["--epochs", "2", "--limit", "3", "--batch", "2", "--channels", "4", "4", "4", "4", "4", "4",
+            "--stretch", "5", "--seed", "3"]
+    whole, part = tmp_path / "whole", tmp_path / "part"
+    p = _run_tool(["--out", str(whole)] + base)
+    assert p.returncode == 0, p.stderr
+    # the same run stopped after its first epoch: its checkpoint is epoch 1's (the 1-epoch run's
+    # schedule is another, so epoch 1 is made by the 2-epoch run with the loop cut short)
+    p = _run_tool(["--out", str(part)] + base + ["--stop-after", "1"])
+    assert p.returncode == 0, p.stderr
+    assert torch.load(part / "checkpoint.pt", weights_only=False)["epoch"] == 1
+    assert not (part / "cnn.npz").exists()
+    p = _run_tool(["--out", str(part)] + base + ["--resume"])
+    assert p.returncode == 0, p.stderr
+    assert "resumed after epoch 1" in p.stdout
+    a, b = torch.load(whole / "cnn_float.pt"), torch.load(part / "cnn_float.pt")
+    assert a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
+    za, zb = np.load(whole / "cnn.npz"), np.load(part / "cnn.npz")
+    assert sorted(za.files) == sorted(zb.files) and all(np.array_equal(za[k], zb[k]) for k in za.files)
+    # another run's flags: refused, nothing written
+    p = _run_tool(["--out", str(part)] + base[:-1] + ["4", "--resume"])
+    assert p.returncode != 0 and "flags differ: seed" in p.stderr
+
+
+@pytest.mark.parametrize("args,msg", [(["--limit", "-1"], "--limit"), (["--stop-after", "0"], "--stop-after")])
+def test_resume_flags_rejected(args, msg, tmp_path):
+    p = _run_tool(["--out", str(tmp_path / "m")] + args, timeout=120)
+    assert p.returncode == 2 and msg in p.stderr
+    assert not (tmp_path / "m").exists()
+
+
+def test_resume_without_a_checkpoint_is_a_clear_error(tmp_path):
+    pytest.importorskip("torch")
+    if not _DATA.is_dir():
+        pytest.skip("needs ../shared/data/tusimple-vehicles-dev")
+    p = _run_tool(["--out", str(tmp_path / "m"), "--resume", "--limit", "1"], timeout=300)
+    assert p.returncode != 0 and "no " in p.stderr and "checkpoint.pt" in p.stderr

@@ -4,10 +4,15 @@ sides at stride 8, one network shared by three pyramid levels) on tusimple-vehic
     python tools/train_cnn.py --out /tmp/cnn [--epochs 60] [--split fit] [--level0 TOP BOTTOM]
                               [--channels C1 .. C6 [C7]] [--strip P] [--seed N]
                               [--stretch PERMILLE] [--low-light P] [--up-band TOP BOTTOM LEFT RIGHT]
+                              [--resume] [--stop-after E] [--limit N]
 
 Float training in PyTorch (a tool dependency only: the C core and the shipped model file
 need no torch). Writes OUT/cnn_float.pt and OUT/cnn.npz and prints the 'val' scores of the float model and
 of the quantised one run by the C core.
+
+After every epoch OUT/checkpoint.pt holds the network, the optimiser, the schedule and both random
+generators, so a run stopped part-way (a session's end) goes on with the same command plus --resume and
+ends with the same weights as a run never stopped (tests/test_train_cnn_tool.py checks it bit for bit).
 """
 from __future__ import annotations
 
@@ -554,7 +559,17 @@ def main(argv=None):
     ap.add_argument("--up-band", nargs=4, type=int, metavar=("TOP", "BOTTOM", "LEFT", "RIGHT"),
                     help="also learn on this rectangle (permille of the height / width) at 2x, vehicles 4..24 px "
                          "wide at the frame (vt_cnn_cfg's upsampled band; written to the file's cnn_cfg)")
+    ap.add_argument("--resume", action="store_true",
+                    help="go on from OUT/checkpoint.pt (written after every epoch) with the same flags")
+    ap.add_argument("--limit", type=int, default=0, metavar="N",
+                    help="only the first N frames of each split (a quick check of the tool, not a model)")
+    ap.add_argument("--stop-after", type=int, metavar="E",
+                    help="stop after epoch E, leaving the checkpoint for --resume (a run cut short on purpose)")
     a = ap.parse_args(argv)
+    if a.limit < 0:
+        ap.error(f"--limit: expected N >= 0 (0: every frame), got {a.limit}")
+    if a.stop_after is not None and a.stop_after < 1:
+        ap.error(f"--stop-after: expected an epoch >= 1, got {a.stop_after}")
     global LEVELS, L0_BAND, CH, STRETCH, UP_BAND
     if not 0 <= a.stretch <= 100:
         ap.error(f"--stretch: expected 0..100 permille (vt_cnn_cfg.stretch_tail_permille), got {a.stretch}")
@@ -587,12 +602,14 @@ def main(argv=None):
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
     train, val = load(a.split), load(a.eval_split)
+    if a.limit:
+        train, val = train[:a.limit], val[:a.limit]
     print(f"{len(train)} {a.split} frames, {len(val)} {a.eval_split} frames", flush=True)
     net = build_net()
     if a.export_only:
         net.load_state_dict(torch.load(a.export_only))
         return export(net, train, val, out)
-    if a.pretrain_gti:
+    if a.pretrain_gti and not a.resume:     # resuming: the checkpoint's weights are after it
         pretrain_gti(net, a.pretrain_gti, rng, lambda m: print(m, flush=True))
     if a.paste:
         if a.strip:
@@ -603,8 +620,25 @@ def main(argv=None):
     opt = torch.optim.AdamW(net.parameters(), lr=a.lr, weight_decay=1e-4)
     steps = a.epochs * math.ceil(len(train) / a.batch)
     sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=a.lr, total_steps=steps, pct_start=0.1)
-    t0 = time.time()
-    for ep in range(a.epochs):
+    # the flags that shape the run: a checkpoint is taken up only by the same run
+    run_key = {k: v for k, v in sorted(vars(a).items()) if k not in ("out", "resume", "stop_after")}
+    ckpt, start, t_before = out / "checkpoint.pt", 0, 0.0
+    if a.resume:
+        if not ckpt.exists():
+            raise SystemExit(f"--resume: no {ckpt} (a run writes it after its first epoch)")
+        st = torch.load(ckpt, weights_only=False)
+        if st["run"] != run_key:
+            diff = sorted(k for k in set(st["run"]) | set(run_key) if st["run"].get(k) != run_key.get(k))
+            raise SystemExit(f"--resume: {ckpt} is of another run (flags differ: {', '.join(diff)})")
+        net.load_state_dict(st["net"])
+        opt.load_state_dict(st["opt"])
+        sched.load_state_dict(st["sched"])
+        rng.bit_generator.state = st["rng"]
+        torch.set_rng_state(st["torch_rng"])
+        start, t_before = st["epoch"], st["seconds"]
+        print(f"resumed after epoch {start} ({t_before:.0f} s before)", flush=True)
+    t0 = time.time() - t_before
+    for ep in range(start, a.epochs):
         perm = rng.permutation(len(train))
         tot = 0.0
         for bi in range(0, len(perm), a.batch):
@@ -649,6 +683,14 @@ def main(argv=None):
             s, _ = evaluate(net, val)
             msg += "  " + eb.format_scores(s).replace("\n", " | ")
         print(msg, flush=True)
+        # written whole, then renamed: a run killed while writing keeps the previous epoch's
+        torch.save({"run": run_key, "epoch": ep + 1, "seconds": time.time() - t0, "net": net.state_dict(),
+                    "opt": opt.state_dict(), "sched": sched.state_dict(), "rng": rng.bit_generator.state,
+                    "torch_rng": torch.get_rng_state()}, out / "checkpoint.tmp")
+        (out / "checkpoint.tmp").replace(ckpt)
+        if a.stop_after and ep + 1 == a.stop_after and ep + 1 < a.epochs:
+            print(f"stopped after epoch {ep + 1}: go on with --resume", flush=True)
+            return 0
     torch.save(net.state_dict(), out / "cnn_float.pt")
     return export(net, train, val, out)
 
