@@ -237,7 +237,7 @@ static void vt__cnn_dot4_k9(const int8_t *w0, const int32_t *px, int32_t *acc)
  * (each input byte loaded once for four multiply-adds) -> a dot product over cin,
  * which is contiguous in both the [cout][ky][kx][cin] weights and the HWC input.
  * The order of the integer sums does not change them: |bias| <= 2^30 and at most
- * 9 x 64 products of at most 127 x 255 keep every partial sum inside int32. */
+ * 9 x VT_CNN_MAX_CH (128) products of at most 128 x 255 keep every partial sum inside int32. */
 static void vt__cnn_layer(const vt_cnn_layer *L, const uint8_t *in, int32_t iw, int32_t ih,
                           size_t rs, int32_t ow, int32_t oh, uint8_t *out_u8, int8_t *out_s8)
 {

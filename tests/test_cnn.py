@@ -13,7 +13,7 @@ difference is a bug:
     (outputs drawn from a few values), cap truncation with the total peak count;
   * a hand-computed 1x1 layer on a 2x2 image: rounding of exact halves both signs, both
     clamps; its decode worked out by hand;
-  * the accumulator at cnn.h's extremes (|bias| = 2^30, 9 x 64 taps of 255 x -128 / 127);
+  * the accumulator at cnn.h's extremes (|bias| = 2^30, 9 x VT_CNN_MAX_CH taps of 255 x -128 / 127);
   * bad arguments: each documented status from C, clear exceptions from Python.
 """
 from __future__ import annotations
@@ -139,11 +139,14 @@ def test_outputs_are_not_degenerate():
 
 @pytest.mark.parametrize("sign", [-1, 1])
 def test_accumulator_extremes_exact(sign):
-    """cnn.h's bound: |bias| = 2^30 plus 9 x 64 taps of 255 x (-128 or 127) stays in int32, and
-    the requantisation with mult = 2^31 - 1, shift 62 stays in int64: C == twin exactly."""
-    l0 = layer(1, 1, 1, 1, 1, 64, np.full(64, 127), np.full(64, 2 ** 30), np.ones(64), np.ones(64))
+    """cnn.h's bound: |bias| = 2^30 plus 9 x VT_CNN_MAX_CH (128) taps of 255 x (-128 or 127)
+    stays in int32 (2^30 + 1152 x 255 x 128 = 1,111,342,304 < 2^31), and the requantisation
+    with mult = 2^31 - 1, shift 62 stays in int64: C == twin exactly."""
+    n = C.MAX_CH
+    assert n == 128      # the bound in cnn.h's comment is for this cap
+    l0 = layer(1, 1, 1, 1, 1, n, np.full(n, 127), np.full(n, 2 ** 30), np.ones(n), np.ones(n))
     wv = -128 if sign < 0 else 127
-    l1 = layer(3, 1, 1, 0, 64, 5, np.full(5 * 9 * 64, wv), np.full(5, sign * 2 ** 30),
+    l1 = layer(3, 1, 1, 0, n, 5, np.full(5 * 9 * n, wv), np.full(5, sign * 2 ** 30),
                np.full(5, I32_MAX), [62, 40, 33, 31, 1])
     m = C.CnnModel([l0, l1], np.zeros((4, 256), np.uint16))
     img = np.full((5, 6), 255, np.uint8)
@@ -152,8 +155,8 @@ def test_accumulator_extremes_exact(sign):
     np.testing.assert_array_equal(got, want)
     assert intact
     acc = R.accumulate(R.conv_layer(img[:, :, None], l0), l1)
-    assert acc[2, 2, 0] == sign * (2 ** 30 + 576 * 255 * abs(wv)) and abs(acc).max() < 2 ** 31
-    assert want[2, 2, 0] == (sign * (2 ** 30 + 576 * 255 * abs(wv)) * I32_MAX + 2 ** 61) >> 62
+    assert acc[2, 2, 0] == sign * (2 ** 30 + 9 * n * 255 * abs(wv)) and abs(acc).max() < 2 ** 31
+    assert want[2, 2, 0] == (sign * (2 ** 30 + 9 * n * 255 * abs(wv)) * I32_MAX + 2 ** 61) >> 62
 
 
 # ---------------------------------------------------------------- the hand-computed case
@@ -312,7 +315,8 @@ def _mut_rows():
         ("dilation 2 on 1x1", L(2, dilation=2)), ("relu 0 before the last", L(0, relu=0)),
         ("relu 2", L(0, relu=2)), ("last relu 1", L(2, relu=1)), ("cin 0", L(0, cin=0)),
         ("layer 0 cin 2", L(0, cin=2)), ("cin != previous cout", L(1, cin=3)), ("cout 0", L(1, cout=0)),
-        ("cout 65", L(0, cout=65)), ("last cout 4", L(2, cout=4)), ("cin 65", L(1, cin=65)),
+        ("cout MAX_CH + 1", L(0, cout=C.MAX_CH + 1)), ("last cout 4", L(2, cout=4)),
+        ("cin MAX_CH + 1", L(1, cin=C.MAX_CH + 1)),
         ("w NULL", L(1, w=ffi.NULL)), ("bias NULL", L(0, bias=ffi.NULL)), ("mult NULL", L(2, mult=ffi.NULL)),
         ("shift NULL", L(1, shift=ffi.NULL)), ("side_lut NULL", M(side_lut=ffi.NULL)),
         ("out_stride 2", M(out_stride=2)), ("out_stride 0", M(out_stride=0)),
@@ -367,6 +371,35 @@ def test_good_model_passes_every_function():
     assert _call_all(boundary) == [lib.VT_OK] * 7
     boundary.heat_scale_q16 = 1
     assert _call_all(boundary) == [lib.VT_OK] * 7
+
+
+def test_channel_cap_alone():
+    """VT_CNN_MAX_CH channels (128) in a consistent model: accepted and C == twin (the forward
+    with its own work buffer; _call_all's is sized for small models); one more, still
+    consistent (cin = the previous cout): refused by every function and by the Python model,
+    so nothing but the cap refuses it."""
+    m = simple_model([(3, 2, 1, C.MAX_CH), (3, 1, 2, 5)], seed=5)
+    assert lib.vt_cnn_check_model(m.c_model()[0]) == lib.VT_OK
+    img = np.random.default_rng(5).integers(0, 256, (11, 13)).astype(np.uint8)
+    got, intact = c_forward_guarded(m, img, 3)
+    np.testing.assert_array_equal(got, R.forward(m.layers, img))
+    assert intact
+    cm = ffi.new("vt_cnn_model *", m.c_model()[0][0])
+    keep = []
+    for i, (cin, cout) in enumerate([(1, C.MAX_CH + 1), (C.MAX_CH + 1, 5)]):
+        w = np.zeros(cout * 9 * cin, np.int8)
+        keep += [ffi.new("int8_t[]", w.tolist()), ffi.new("int32_t[]", [0] * cout),
+                 ffi.new("int32_t[]", [1] * cout), ffi.new("uint8_t[]", [1] * cout)]
+        cm.layer[i].cin, cm.layer[i].cout = cin, cout
+        cm.layer[i].w, cm.layer[i].bias, cm.layer[i].mult, cm.layer[i].shift = keep[-4:]
+    assert _call_all(cm) == [lib.VT_E_ARG] * 7
+    bad = [dict(L) for L in m.layers]
+    bad[0] = layer(3, 2, 1, 1, 1, C.MAX_CH + 1, np.zeros((C.MAX_CH + 1) * 9), np.zeros(C.MAX_CH + 1),
+                   np.ones(C.MAX_CH + 1), np.ones(C.MAX_CH + 1))
+    bad[1] = layer(3, 1, 2, 0, C.MAX_CH + 1, 5, np.zeros(5 * 9 * (C.MAX_CH + 1)), np.zeros(5), np.ones(5),
+                   np.ones(5))
+    with pytest.raises(ValueError, match="outside"):
+        C.CnnModel(bad, np.zeros((4, 256), np.uint16))
 
 
 @pytest.mark.parametrize("name,mut", _mut_rows(), ids=[r[0] for r in _mut_rows()])
@@ -524,7 +557,7 @@ def _keys_with(**over):
     (dict(cnn_l0_meta=np.array([3, 2, 1, 1, 1], np.int32)), ValueError, "cnn_l0_meta"),
     (dict(cnn_l0_meta=np.array([3, 2, 1, 0, 1, 6], np.int32)), VtError, "relu"),
     (dict(cnn_l0_meta=np.array([3, 3, 1, 1, 1, 6], np.int32)), VtError, "stride"),
-    (dict(cnn_l0_meta=np.array([3, 2, 1, 1, 1, 99], np.int32)), ValueError, "cout"),
+    (dict(cnn_l0_meta=np.array([3, 2, 1, 1, 1, 200], np.int32)), ValueError, "cout"),
     (dict(cnn_l2_meta=np.array([1, 1, 2, 0, 7, 5], np.int32)), VtError, "dilation"),
     (dict(cnn_side_lut=None), ValueError, "cnn_side_lut"),
     (dict(cnn_side_lut=np.zeros((4, 255), np.uint16)), ValueError, "cnn_side_lut"),

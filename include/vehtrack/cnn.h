@@ -15,8 +15,8 @@
  *   are (ox s + (kx - 1) d, oy s + (ky - 1) d) for 3x3, (ox s, oy s) for 1x1; a tap
  *   outside the input reads 0.
  *   acc = bias[co] + sum over taps and ci of w[co][ky][kx][ci] a[ci] in int32:
- *   |w| <= 128, a <= 255, at most 9 x 64 taps: |sum| <= 18,800,640 < 2^25, and
- *   |bias| <= 2^30 (checked), so |acc| < 2^30 + 2^25 < 2^31: no overflow.
+ *   |w| <= 128, a <= 255, at most 9 x 128 taps (VT_CNN_MAX_CH): |sum| <= 37,601,280
+ *   < 2^26, and |bias| <= 2^30 (checked), so |acc| < 2^30 + 2^26 < 2^31: no overflow.
  *   Requantise: q = floor((acc mult[co] + 2^(shift[co] - 1)) / 2^shift[co]) in
  *   int64 (|acc mult| < 2^62, so no overflow), i.e. acc mult / 2^shift rounded
  *   half up (toward +inf); mult 1 .. 2^31 - 1, shift 1 .. 62.
@@ -55,7 +55,10 @@
 #include "vehtrack/windows.h" /* VT_MAX_NMS_BOXES: the frame-level merge is vt_nms */
 
 #define VT_CNN_MAX_LAYERS 8
-#define VT_CNN_MAX_CH 64
+/* Channels of a layer: a check only (no buffer is sized by it; the caller's work
+ * buffer follows the model). 64 until 2026-11-29; 128 keeps the accumulator bound
+ * above inside int32 with room to spare. */
+#define VT_CNN_MAX_CH 128
 /* Channels of the last layer: heat, left, top, right, bottom. */
 #define VT_CNN_OUT_CH 5
 /* Largest |bias| (accumulator units): keeps acc inside int32 (above). */
