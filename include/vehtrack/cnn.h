@@ -57,7 +57,9 @@
 #define VT_CNN_MAX_LAYERS 8
 /* Channels of a layer: a check only (no buffer is sized by it; the caller's work
  * buffer follows the model). 64 until 2026-11-29; 128 keeps the accumulator bound
- * above inside int32 with room to spare. */
+ * above inside int32 with room to spare, and the work sizes inside a 32-bit size_t:
+ * a layer's output is at most w h 128 <= 2^29 bytes (w h <= 2^22, config.h, the
+ * upsampled band included), the two ping-pong regions <= 2^30. */
 #define VT_CNN_MAX_CH 128
 /* Channels of the last layer: heat, left, top, right, bottom. */
 #define VT_CNN_OUT_CH 5
