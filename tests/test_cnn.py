@@ -393,11 +393,10 @@ def test_channel_cap_alone():
         cm.layer[i].cin, cm.layer[i].cout = cin, cout
         cm.layer[i].w, cm.layer[i].bias, cm.layer[i].mult, cm.layer[i].shift = keep[-4:]
     assert _call_all(cm) == [lib.VT_E_ARG] * 7
-    bad = [dict(L) for L in m.layers]
-    bad[0] = layer(3, 2, 1, 1, 1, C.MAX_CH + 1, np.zeros((C.MAX_CH + 1) * 9), np.zeros(C.MAX_CH + 1),
-                   np.ones(C.MAX_CH + 1), np.ones(C.MAX_CH + 1))
-    bad[1] = layer(3, 1, 2, 0, C.MAX_CH + 1, 5, np.zeros(5 * 9 * (C.MAX_CH + 1)), np.zeros(5), np.ones(5),
-                   np.ones(5))
+    bad = [layer(3, 2, 1, 1, 1, C.MAX_CH + 1, np.zeros((C.MAX_CH + 1) * 9), np.zeros(C.MAX_CH + 1),
+                 np.ones(C.MAX_CH + 1), np.ones(C.MAX_CH + 1)),
+           layer(3, 1, 2, 0, C.MAX_CH + 1, 5, np.zeros(5 * 9 * (C.MAX_CH + 1)), np.zeros(5), np.ones(5),
+                 np.ones(5))]
     with pytest.raises(ValueError, match="outside"):
         C.CnnModel(bad, np.zeros((4, 256), np.uint16))
 
