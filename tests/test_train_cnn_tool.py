@@ -154,3 +154,16 @@ def test_resume_without_a_checkpoint_is_a_clear_error(tmp_path):
     pytest.importorskip("torch")
     p = _run_tool(["--out", str(tmp_path / "m"), "--resume", "--limit", "1"], timeout=300)
     assert p.returncode != 0 and "no " in p.stderr and "checkpoint.pt" in p.stderr
+
+
+def test_training_frames_are_gray_as_the_command_line_makes_them(tool):
+    """The tool's frames equal what detect/track hand the core (colour decode, then to_gray); on this
+    JPEG libjpeg's own gray decode differs on some pixels, so a tool reading IMREAD_GRAYSCALE fails here."""
+    import cv2
+    from pyvehtrack.frames import to_gray
+    p = ROOT / "tests" / "data" / "udacity_test4.jpg"
+    want = to_gray(cv2.imread(str(p)))
+    assert not np.array_equal(cv2.imread(str(p), cv2.IMREAD_GRAYSCALE), want)    # the check can fail
+    assert np.array_equal(tool.read_gray(p), want)
+    with pytest.raises(FileNotFoundError, match="cannot read"):
+        tool.read_gray(ROOT / "tests" / "data" / "no_such_frame.jpg")

@@ -216,7 +216,7 @@ def gti_train_crops(kind: str, folder_prefix: str = "") -> list:
     crops = []
     for folder in sorted((DATA.parent / "gti-vehicles" / kind).iterdir()):
         if folder.name.startswith(folder_prefix):
-            crops += [cv2.imread(str(f), cv2.IMREAD_GRAYSCALE)
+            crops += [read_gray(f)
                       for i, f in enumerate(gti_sorted(folder)) if gti_split(i) == "train"]
     return crops
 
@@ -283,11 +283,22 @@ def strip(gray, boxes, ratio, at, horizon=330 / 720):
     return np.ascontiguousarray(gray[y0:y0 + hs]), vis[keep].reshape(-1, 4)
 
 
+def read_gray(path) -> np.ndarray:
+    """A training image as the command line sees it: decoded in colour, then pyvehtrack.frames.to_gray
+    (BGR -> gray). IMREAD_GRAYSCALE would let libjpeg decode luma directly, which differs by a few
+    levels on about 0.5% of a TuSimple frame's pixels: enough to move a box between training and use."""
+    from pyvehtrack.frames import to_gray
+    img = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    if img is None:
+        raise FileNotFoundError(f"cannot read image {path}")
+    return to_gray(img)
+
+
 def load(split):
     frames = tusimple_frames(DATA, split)
     out = []
     for e in frames:
-        g = cv2.imread(str(DATA / e["file_name"]), cv2.IMREAD_GRAYSCALE)
+        g = read_gray(DATA / e["file_name"])
         bx = np.array([[d["left"], d["top"], d["right"] + 1, d["bottom"] + 1] for d in e["bbox"]],
                       np.float32).reshape(-1, 4)
         out.append((e, g, bx))
