@@ -20,6 +20,7 @@ import argparse
 import json
 import math
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -59,6 +60,9 @@ STRETCH = 0
 # the frame at 2x (vt_cnn_cfg's upsampled band, reference.cnn.upsample2x), level key -1, last;
 # None: no band.
 UP_BAND = None
+# Flags added after checkpoints were first written, with their defaults: at the default they are
+# left out of a checkpoint's run key, so an older run still resumes.
+LATER_FLAGS = {"codec": 0.0}
 
 
 def seen(gray):
@@ -161,12 +165,41 @@ def targets(boxes, h, w, band, noreg=None):
     return heat, reg, rw, mask
 
 
-def augment(gray, boxes, rng, flags=None, low_light=0.0):
+def video_codec(gray, rng, tmpdir):
+    """The frame as a dashcam clip shows it: written with OpenCV's mp4v (MPEG-4 part 2) at its
+    default quality, as the second frame of a two-frame clip whose first is the frame seen a step
+    earlier (zoomed out 0-4% about a point near the centre and shifted up to 6 / 3 px: the car
+    moved), so it is decoded as a predicted frame with its motion-compensation blocks, not as a
+    still. The pixels stay where they were, so the boxes do not change."""
+    h, w = gray.shape
+    s = 1.0 / rng.uniform(1.0, 1.04)
+    cx, cy = w * rng.uniform(0.4, 0.6), h * rng.uniform(0.4, 0.6)
+    m = cv2.getRotationMatrix2D((cx, cy), 0.0, s)
+    m[:, 2] += (rng.uniform(-6, 6), rng.uniform(-3, 3))
+    prev = cv2.warpAffine(gray, m, (w, h), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    path = str(Path(tmpdir) / "codec.avi")
+    vw = cv2.VideoWriter(path, cv2.VideoWriter_fourcc(*"mp4v"), 10, (w, h), isColor=False)
+    if not vw.isOpened():
+        raise RuntimeError("--codec: OpenCV cannot write mp4v video here (cv2.VideoWriter did not open)")
+    vw.write(prev)
+    vw.write(gray)
+    vw.release()
+    cap = cv2.VideoCapture(path)
+    frames = [cap.read() for _ in range(2)]
+    cap.release()
+    if not all(ok for ok, _ in frames):
+        raise RuntimeError("--codec: OpenCV wrote an mp4v clip it cannot read back")
+    return np.ascontiguousarray(cv2.cvtColor(frames[1][1], cv2.COLOR_BGR2GRAY))
+
+
+def augment(gray, boxes, rng, flags=None, low_light=0.0, codec=0.0, tmpdir=None):
     """Scale jitter (crop / pad back to the frame size), flip, light, JPEG; boxes (N, 4)
     exclusive full-frame pixels. With `flags` (N,) the flags of the boxes kept are returned too.
     With probability `low_light` the light's gain is drawn from 0.3..0.6 instead of 0.6..1.3 and
     the sensor's noise shows (Gaussian, sigma 1..4 grey levels, before the JPEG step): the frames
-    of dusk, whose noise the contrast stretch then amplifies as much as the light."""
+    of dusk, whose noise the contrast stretch then amplifies as much as the light. With
+    probability `codec` the last step is video_codec (in `tmpdir`) instead of the JPEG step; with
+    codec 0 no draw is made for it, so the other recipes' random streams stay as they were."""
     h, w = gray.shape
     if flags is None:
         flags = np.zeros(len(boxes), bool)
@@ -203,7 +236,9 @@ def augment(gray, boxes, rng, flags=None, low_light=0.0):
     if dark:
         noise = rng.normal(0.0, rng.uniform(1.0, 4.0), out.shape)
         out = np.clip(np.rint(out + noise), 0, 255).astype(np.uint8)
-    if rng.random() < 0.5:
+    if codec > 0 and rng.random() < codec:
+        out = video_codec(np.ascontiguousarray(out), rng, tmpdir)
+    elif rng.random() < 0.5:
         q = int(rng.integers(20, 90))
         out = cv2.imdecode(cv2.imencode(".jpg", out, [cv2.IMWRITE_JPEG_QUALITY, q])[1], cv2.IMREAD_GRAYSCALE)
     return np.ascontiguousarray(out), b.astype(np.float32).reshape(-1, 4), flags
@@ -564,6 +599,9 @@ def main(argv=None):
                          "this tail (vt_cnn_cfg.stretch_tail_permille, 1..100; written to the file's cnn_cfg)")
     ap.add_argument("--low-light", type=float, default=0.0, metavar="P",
                     help="with probability P a training frame is dark (light gain 0.3..0.6) with sensor noise")
+    ap.add_argument("--codec", type=float, default=0.0, metavar="P",
+                    help="with probability P a training frame goes through OpenCV's mp4v as a dashcam clip's "
+                         "predicted frame, instead of the JPEG step")
     ap.add_argument("--level0", nargs=2, type=int, metavar=("TOP", "BOTTOM"),
                     help="also run on level 0 (full resolution, vehicles 6..40 px wide), rows TOP..BOTTOM "
                          "permille of the frame height")
@@ -591,6 +629,8 @@ def main(argv=None):
         UP_BAND = tuple(a.up_band)
     if not 0.0 <= a.low_light <= 1.0:
         ap.error(f"--low-light: expected a probability 0..1, got {a.low_light}")
+    if not 0.0 <= a.codec <= 1.0:
+        ap.error(f"--codec: expected a probability 0..1, got {a.codec}")
     STRETCH = a.stretch
     if len(a.channels) not in (6, 7):
         ap.error(f"--channels: 6 or 7 values, got {len(a.channels)}")
@@ -612,6 +652,8 @@ def main(argv=None):
     rng = np.random.default_rng(a.seed)
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
+    codec_dir = tempfile.TemporaryDirectory(prefix="train_cnn_codec_") if a.codec else None
+    tmpdir = codec_dir.name if codec_dir else None
     train, val = load(a.split), load(a.eval_split)
     if a.limit:
         train, val = train[:a.limit], val[:a.limit]
@@ -632,7 +674,9 @@ def main(argv=None):
     steps = a.epochs * math.ceil(len(train) / a.batch)
     sched = torch.optim.lr_scheduler.OneCycleLR(opt, max_lr=a.lr, total_steps=steps, pct_start=0.1)
     # the flags that shape the run: a checkpoint is taken up only by the same run
-    run_key = {k: v for k, v in sorted(vars(a).items()) if k not in ("out", "resume", "stop_after")}
+    # (a flag added later is in the key only when set, so checkpoints written before it still resume)
+    run_key = {k: v for k, v in sorted(vars(a).items()) if k not in ("out", "resume", "stop_after")
+               and not (k in LATER_FLAGS and v == LATER_FLAGS[k])}
     ckpt, start, t_before = out / "checkpoint.pt", 0, 0.0
     if a.resume:
         if not ckpt.exists():
@@ -662,7 +706,7 @@ def main(argv=None):
                 g, b, fl = train[j][1], train[j][2], None
                 if a.paste and rng.random() < a.paste:
                     g, b, fl = paste(g, b, crops, places, rng)
-                g, b, fl = augment(g, b, rng, fl, a.low_light)
+                g, b, fl = augment(g, b, rng, fl, a.low_light, a.codec, tmpdir)
                 if ratio is not None:
                     g, b = strip(g, b, ratio, rng.uniform(0.35, 0.6))
                     fl = None   # strips and pastes are not combined
