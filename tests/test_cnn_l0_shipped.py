@@ -24,7 +24,9 @@ from pyvehtrack.eval.boxes import iou
 
 DATA = Path(__file__).parent / "data"
 MODELS = Path(fullroad.__file__).parent / "models"
-FILES = pytest.mark.parametrize("name", ["cnn_gray_l0.npz", "cnn_gray_l0_big.npz"])
+FILES = pytest.mark.parametrize("name", ["cnn_gray_l0.npz", "cnn_gray_l0_big.npz", "cnn_gray_l0_e240.npz"])
+# the files that carry the stretch and the upsampled band (the default and its 240-epoch twin)
+BAND_FILES = ("cnn_gray_l0_big.npz", "cnn_gray_l0_e240.npz")
 UDACITY_CARS = [[408, 206, 471, 246], [527, 204, 635, 252]]   # tests/test_fullroad.py's CARS
 
 
@@ -35,10 +37,10 @@ def test_shipped_l0_model_loads_with_its_settings(name):
     c = m.cfg
     assert (c.first_level, c.n_levels, c.l0_top_permille, c.l0_bottom_permille) == (0, 5, 380, 640)
     # the default (big) file sees the frame's contrast stretched (README, "What users feed it")
-    assert c.stretch_tail_permille == (5 if name == "cnn_gray_l0_big.npz" else 0)
+    assert c.stretch_tail_permille == (5 if name in BAND_FILES else 0)
     # the default also runs on a 2x band by the vanishing point (README, "Far specks: an upsampled band")
     up = (c.up_top_permille, c.up_bottom_permille, c.up_left_permille, c.up_right_permille)
-    assert up == ((450, 530, 350, 650) if name == "cnn_gray_l0_big.npz" else (0, 0, 0, 0))
+    assert up == ((450, 530, 350, 650) if name in BAND_FILES else (0, 0, 0, 0))
     assert m.settings == {"sources": ["windows", "ego"], "verify_min": 2.0}
     assert m.out_stride == 8
 

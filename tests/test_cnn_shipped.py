@@ -34,7 +34,8 @@ def test_shipped_model_loads_with_its_settings():
     assert m.out_stride == 8
 
 
-@pytest.mark.parametrize("model", ["cnn_gray.npz", "cnn_gray_l0.npz", "cnn_gray_l0_big.npz"])
+@pytest.mark.parametrize("model", ["cnn_gray.npz", "cnn_gray_l0.npz", "cnn_gray_l0_big.npz",
+                                   "cnn_gray_l0_e240.npz"])
 @pytest.mark.parametrize("name", ["udacity_test1_640x360.jpg", "kitti_lead_30_gray_621x188.png",
                                   "tusimple_vehicles_4065_gray_640x360.png"])
 def test_shipped_model_c_equals_twin(name, model):
