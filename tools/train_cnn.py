@@ -165,6 +165,16 @@ def targets(boxes, h, w, band, noreg=None):
     return heat, reg, rw, mask
 
 
+def step_back(gray, rng):
+    """The frame a step earlier: zoomed out 0-4% about a point near the centre, shifted up to 6 / 3 px."""
+    h, w = gray.shape
+    s = 1.0 / rng.uniform(1.0, 1.04)
+    cx, cy = w * rng.uniform(0.4, 0.6), h * rng.uniform(0.4, 0.6)
+    m = cv2.getRotationMatrix2D((cx, cy), 0.0, s)
+    m[:, 2] += (rng.uniform(-6, 6), rng.uniform(-3, 3))
+    return cv2.warpAffine(gray, m, (w, h), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+
+
 def video_codec(gray, rng, tmpdir):
     """The frame as a dashcam clip shows it: written with OpenCV's mp4v (MPEG-4 part 2) at its
     default quality, as the second frame of a two-frame clip whose first is the frame seen a step
@@ -172,11 +182,7 @@ def video_codec(gray, rng, tmpdir):
     moved), so it is decoded as a predicted frame with its motion-compensation blocks, not as a
     still. The pixels stay where they were, so the boxes do not change."""
     h, w = gray.shape
-    s = 1.0 / rng.uniform(1.0, 1.04)
-    cx, cy = w * rng.uniform(0.4, 0.6), h * rng.uniform(0.4, 0.6)
-    m = cv2.getRotationMatrix2D((cx, cy), 0.0, s)
-    m[:, 2] += (rng.uniform(-6, 6), rng.uniform(-3, 3))
-    prev = cv2.warpAffine(gray, m, (w, h), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    prev = step_back(gray, rng)
     path = str(Path(tmpdir) / "codec.avi")
     vw = cv2.VideoWriter(path, cv2.VideoWriter_fourcc(*"mp4v"), 10, (w, h), isColor=False)
     if not vw.isOpened():
