@@ -624,6 +624,26 @@ def _cnn_l0big_noup_detect(ctx: Ctx) -> Stage:
                       up_bottom_permille=0, up_left_permille=0, up_right_permille=0)
 
 
+# A CNN file outside pyvehtrack/models (a training run's cnn.npz), benched beside the shipped
+# ones: `--cnn-file PATH` (or VT_BENCH_CNN_FILE=PATH). An environment variable, not only a flag,
+# because the callgrind column re-runs this script in a subprocess, which must register it too.
+CNN_FILE_ENV = "VT_BENCH_CNN_FILE"
+
+
+def _cnn_file_detect(ctx: Ctx) -> Stage:
+    """The file named by VT_BENCH_CNN_FILE alone (_cnn_alone), at its own cnn_cfg."""
+    return _cnn_alone("cnn_file_detect", os.path.abspath(os.environ[CNN_FILE_ENV]), ctx.frame)
+
+
+def _register_cnn_file() -> None:
+    if not any(s.name == "cnn_file_detect" for s in REGISTRY):
+        register("cnn_file_detect", sizes=((1280, 720),), driver=False)(_cnn_file_detect)
+
+
+if os.environ.get(CNN_FILE_ENV):
+    _register_cnn_file()
+
+
 @register("detect_cnn", sizes=((1280, 720),), driver=False)
 def _detect_cnn(ctx: Ctx) -> Stage:
     """One detection frame with cnn_gray.npz (_cnn_frame)."""
@@ -1268,7 +1288,14 @@ def main(argv: list[str] | None = None) -> int:
                          "under callgrind, collecting inside the cffi calls only (auto: on unless --quick)")
     ap.add_argument("--cg-one", help=argparse.SUPPRESS)
     ap.add_argument("--cg-size", help=argparse.SUPPRESS)
+    ap.add_argument("--cnn-file", type=Path,
+                    help="also bench this CNN .npz alone (stage cnn_file_detect; same as VT_BENCH_CNN_FILE)")
     args = ap.parse_args(argv)
+    if args.cnn_file is not None:
+        if not args.cnn_file.is_file():
+            ap.error(f"--cnn-file {args.cnn_file}: no such file")
+        os.environ[CNN_FILE_ENV] = str(args.cnn_file.resolve())
+        _register_cnn_file()
     if args.cg_one:
         return _cg_one(args.cg_one, args.cg_size, args.quick)
 

@@ -223,3 +223,28 @@ def test_python_callgrind_counts_a_driverless_stage(tmp_path):
     (step,) = [f for f in prof.functions() if f == "vt_tracker_step" or f.startswith("vt_tracker_step ")]
     assert prof.inclusive(step) > 3 * prof.self_of(step)
     assert abs(row["ir"] - inclusive) <= 0.01 * inclusive, (row["ir"], inclusive)
+
+
+def test_cnn_file_stage_is_counted_in_the_callgrind_subprocess(tmp_path):
+    """`--cnn-file` benches a CNN file from outside pyvehtrack/models (a training run's
+    output) as stage cnn_file_detect; its callgrind column comes from a re-run of bench.py
+    in a subprocess, which must register the stage too (through VT_BENCH_CNN_FILE): a
+    non-empty instruction count shows it did. A missing file is refused by name."""
+    driver = _build_driver(tmp_path)
+    if driver is None:
+        pytest.skip("needs a C compiler and valgrind")
+    env = {k: v for k, v in os.environ.items() if k != "VT_BENCH_CNN_FILE"}
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT)] + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else []))
+    model = ROOT / "pyvehtrack" / "models" / "cnn_gray_l0_e240.npz"
+    res = subprocess.run([sys.executable, str(ROOT / "bench" / "bench.py"), "--quick", "--stages",
+                          "cnn_file_detect", "--cnn-file", str(model), "--python-callgrind", "on",
+                          "--driver", str(driver), "--workdir", str(tmp_path), "--out", str(tmp_path / "results")],
+                         env=env, capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr
+    (row,) = json.loads((tmp_path / "results.json").read_text())["rows"]
+    assert row["stage"] == "cnn_file_detect" and row["ir"] > 10_000, row
+    assert str(model) in row["note"]
+    bad = subprocess.run([sys.executable, str(ROOT / "bench" / "bench.py"), "--quick", "--stages",
+                          "cnn_file_detect", "--cnn-file", str(tmp_path / "missing.npz")],
+                         env=env, capture_output=True, text=True, timeout=60)
+    assert bad.returncode == 2 and "missing.npz: no such file" in bad.stderr
