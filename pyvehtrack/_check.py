@@ -79,3 +79,15 @@ def covariance(m: np.ndarray, name: str, lsb: float) -> None:
     if lo < -(n * lsb + 1e-12 * scale):
         raise ValueError(f"{name}: a covariance must be positive semi-definite "
                          f"(smallest eigenvalue {lo:g})")
+
+
+def npz_file(path, name: str) -> None:
+    """ValueError unless the file at `path` begins as a zip archive (what every .npz is).
+    Without it NumPy's np.load on, say, a text or JPEG file falls through to its pickle
+    branch and says "contains pickled (object) data ... allow_pickle", which is not the
+    user's problem: they gave the wrong file."""
+    with open(path, "rb") as f:
+        head = f.read(4)
+    if head[:2] != b"PK":
+        raise ValueError(f"{name}: {path} is not a .npz file (an .npz is a zip archive; this file begins "
+                         f"{head!r})")

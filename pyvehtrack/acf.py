@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ._check import npz_file
 from ._native import SCORED_BOX_DTYPE, _defaults, camera_min, check, ffi, lib, view
 
 NCH = 8
@@ -134,6 +135,7 @@ class AcfModel:
         p = Path(path)
         if not p.is_file():
             raise FileNotFoundError(f"ACF model {p} does not exist")
+        npz_file(p, "ACF model")
         z = np.load(p, allow_pickle=False)
         kind = str(z["kind"]) if "kind" in z.files else ""
         if kind != "acf":

@@ -108,6 +108,7 @@ class CnnModel:
             p = Path(path_or_npz)
             if not p.is_file():
                 raise FileNotFoundError(f"CNN model {p} does not exist")
+            _check.npz_file(p, "CNN model")
             with np.load(p, allow_pickle=False) as z:
                 return cls._from_keys(z, str(p))
         return cls._from_keys(path_or_npz, "")

@@ -46,7 +46,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import _native
+from . import _check, _native
 from ._native import ffi, lib
 from .shared import Camera as FrameCamera
 from .shared import FULLDET_RENAMED, FullDetConfig, RoadArea, WideConfig, take_renamed
@@ -390,6 +390,7 @@ def load_model(path) -> SvmModel | MlpModel:
     p = os.fspath(path)
     if not os.path.isfile(p):
         raise ValueError(f"model: no such file: {p}")
+    _check.npz_file(p, "model")
     try:
         z = np.load(p, allow_pickle=False)
     except Exception as e:  # noqa: BLE001  (any unreadable file is the same user error)

@@ -16,12 +16,14 @@ with the largest power-of-two scale that fits (vt_svm_model).
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import cv2
 import numpy as np
 
+from . import _check
 from .datasets import GTI_BLOCK, GTI_TEST_EVERY, _last_number, gti_sorted, gti_split, tusimple_split
 
 KINDS = {"hog": 1, "gist": 2}
@@ -275,6 +277,8 @@ def save_model(path, d: dict) -> None:
 
 
 def load_model(path) -> dict:
+    if os.path.isfile(path):
+        _check.npz_file(path, "--model")
     try:
         z = np.load(path, allow_pickle=False)
     except (OSError, ValueError) as e:

@@ -14,6 +14,7 @@ import json
 import subprocess
 import sys
 
+import cv2
 import numpy as np
 import pytest
 
@@ -67,6 +68,26 @@ def test_bad_cnn_cfg_in_file_is_refused(tmp_path):
     np.savez(p, **d)
     with pytest.raises(ValueError, match="cnn_cfg"):
         fullroad.load_model(p)
+
+
+@pytest.mark.parametrize("content", [b"# a README, not a model\n", b"\xff\xd8\xff\xe0 a JPEG", b""])
+def test_a_file_that_is_not_an_npz_is_named_so(tmp_path, content):
+    """A text, JPEG or empty file given as a model: every loader says it is not an .npz (a zip
+    archive), not NumPy's advice about pickled data, and `detect` / `classify` pass that on."""
+    from pyvehtrack import acf
+    p = tmp_path / "wrong.npz"
+    p.write_bytes(content)
+    for load in (fullroad.load_model, C.CnnModel.load, acf.AcfModel.load):
+        with pytest.raises(ValueError, match="is not a .npz file") as e:
+            load(p)
+        assert "pickle" not in str(e.value)
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    cv2.imwrite(str(frames / "f.png"), scene(seed=1))
+    for cmd in ("detect", "classify"):
+        res = subprocess.run([sys.executable, "-m", "pyvehtrack", cmd, str(frames), "--model", str(p),
+                              "--json", str(tmp_path / "o.json")], capture_output=True, text=True, timeout=120)
+        assert res.returncode == 2 and "is not a .npz file" in res.stderr and "Traceback" not in res.stderr, cmd
 
 
 def test_cli_detect_with_a_cnn_model(tmp_path):
