@@ -69,6 +69,9 @@ def test_model_file_errors(tmp_path):
         fullroad.load_model(tmp_path / "nope.npz")
     bad = tmp_path / "bad.npz"
     bad.write_bytes(b"not a zip")
+    with pytest.raises(ValueError, match="is not a .npz file"):
+        fullroad.load_model(bad)
+    bad.write_bytes(b"PK\x03\x04 a zip cut short")
     with pytest.raises(ValueError, match="not a readable .npz"):
         fullroad.load_model(bad)
     np.savez(tmp_path / "miss.npz", kind="hog", win_w=32)
