@@ -159,6 +159,7 @@ class Tracker:
         self.detector = detector
         self.frame_index = 0
         self.last_was_detection = False  # whether the last step() had detections
+        self.last_result = None   # the last step()'s pipeline FrameResult (its detector boxes, road, ...)
         over = {}
         own = getattr(detector, "pipeline_overrides", None)
         self._own = callable(own) and getattr(detector, "engine", None) == engine and own() is not None
@@ -201,6 +202,7 @@ class Tracker:
         self.frame_index += 1
         res = self.pipeline.step(gray, road=road, detections=dets)
         self.last_was_detection = res.detection_frame
+        self.last_result = res
         return [Track(t.id, t.state, t.box, t.velocity,
                       t.source if t.source in ("shadow", "classifier", "flow", "model", "ego") else "shadow",
                       t.ttc_points)

@@ -49,7 +49,7 @@ def test_records_follow_the_track_json_schema(clip_report):
         assert set(t) == TRACK_KEYS
         assert t["state"] in ("tentative", "confirmed", "coasting")
         assert len(t["box"]) == 4 and t["box"][0] < t["box"][2] and t["box"][1] < t["box"][3]
-        assert t["source"] == "shadow"          # detections handed to the Tracker from outside
+        assert t["source"] in ("shadow", "classifier", "ego")   # the pipeline's names, as `track` writes them
         # the default whole-road model also tracks the parked van and the cars on the right,
         # which close fast as the ego car passes them: outside the ego path, none warns
         assert t["warning"] is False
@@ -62,10 +62,43 @@ def test_records_follow_the_track_json_schema(clip_report):
     assert sum(t["ttc_s"] is not None for t in lead) >= 10
 
 
+def test_report_tracks_are_the_track_commands(clip_report, tmp_path):
+    """The page shows the tracks `pyvehtrack track` writes for the same input: the report's
+    tracker owns the same detector (the default model, the camera file's geometry), so its
+    records without the tentative tracks (which `track --json` leaves out) are `track
+    --json`'s, id for id, box for box, state and source. Tolerance: exact (the same C
+    pipeline on the same frames). Distances are not compared: the report's geometry stage
+    takes its pitch from its own lane run, `track`'s from the range stage's."""
+    _, recs = clip_report
+    out = tmp_path / "t.json"
+    assert main(["track", str(CLIP), "--camera", str(CAMERA), "--out", str(tmp_path / "t.mp4"),
+                 "--json", str(out), "--no-progress"]) == 0
+
+    def key(rs):
+        return [(r["frame"], sorted((t["id"], tuple(t["box"]), t["state"], t["source"]) for t in r["tracks"]
+                                    if t["state"] != "tentative")) for r in rs]
+    want = key(json.loads(out.read_text()))
+    assert sum(len(k[1]) for k in want) >= 20, "too few tracks to compare"
+    assert key(recs) == want
+
+
+def test_every_track_once_section(clip_report):
+    """One tile per track id, captioned with its frames, in the page's "Every track, once"."""
+    page, recs = clip_report
+    html = page.read_text()
+    assert "<h2>Every track, once</h2>" in html
+    ids = sorted({t["id"] for r in recs for t in r["tracks"]})
+    tiles = re.findall(r'<img src="data:image/jpeg;base64,[^"]+" alt="track (\d+)">', html)
+    assert sorted(int(i) for i in tiles) == ids
+    for i in ids:
+        frames = [r["frame"] for r in recs if any(t["id"] == i for t in r["tracks"])]
+        assert f"#{i}: frames {frames[0]}-{frames[-1]} ({len(frames)})" in html
+
+
 def test_page_is_self_contained_and_has_every_section(clip_report):
     page, _ = clip_report
     html = page.read_text()
-    for head in ("Summary", "Contact sheet", "Track timeline", "Distance and time to collision",
+    for head in ("Summary", "Contact sheet", "Every track, once", "Track timeline", "Distance and time to collision",
                  "Lane width and pitch", "Run time per frame and stage"):
         assert f"<h2>{head}</h2>" in html
     assert not re.search(r"""(src|href)\s*=\s*["']?\s*(https?:)?//""", html, re.I)
@@ -86,7 +119,9 @@ def test_pipeline_fills_lane_width_vanishing_row_pitch_and_timings():
     infos = [pipe.step(f)[1] for f in frames]
     assert any("height_m" in n for n in pipe.notes)
     for i in infos:
-        assert set(i.timing_ms) >= {"lanes", "track"} and all(v >= 0 for v in i.timing_ms.values())
+        # one pipeline call detects and tracks: timed as "detect" on a detection frame, else "track"
+        assert "lanes" in i.timing_ms and len({"detect", "track"} & set(i.timing_ms)) == 1
+        assert all(v >= 0 for v in i.timing_ms.values())
         assert "geometry" not in i.timing_ms
         assert i.lane_width_px is not None and 300 < i.lane_width_px < 640
         assert i.vanishing_row is not None and 0 < i.vanishing_row < 120    # near the crop's horizon
@@ -276,3 +311,30 @@ def test_render_with_estimates_warnings_and_labels():
     assert "<td>TTC MAE</td><td>0.50 s</td>" in page
     assert "<td>MOTA</td><td>83.3%</td>" in page   # frames 0-1 tentative (not scored): 2 misses of 12
     assert "No frame in this recording." in page            # no thumbnails given
+
+
+def test_track_tiles_keep_the_cut_nearest_the_middle_and_survive_odd_boxes():
+    """TrackTiles cuts a track's tile on its 1st, 2nd, 4th, 8th, ... frame and picks the cut
+    nearest the middle of its life: a track seen on 10 frames shows its 4th (|4 - 5.5| = 1.5
+    against 2.5 for the 8th). Each frame here is one grey level (its index x 20), so the tile's
+    pixels say which frame it came from. A box wholly outside the frame gives an empty tile,
+    one partly outside is cut clipped, gray and colour frames both give BGR tiles."""
+    from pyvehtrack.report.render import TRACK_TILE, TrackTiles, track_tile
+    tiles = TrackTiles()
+    for k in range(10):
+        frame = np.full((120, 160), 20 * k, np.uint8)
+        tracks = [{"id": 7, "box": [60, 40, 90, 70]}] + ([{"id": 9, "box": [10, 10, 30, 30]}] if k < 3 else [])
+        tiles.add(frame, {"tracks": tracks})
+    got = tiles.pick()
+    assert set(got) == {7, 9}
+    assert got[7].shape == (TRACK_TILE[1], TRACK_TILE[0], 3)
+    assert int(np.median(got[7])) == 20 * 3          # its 4th frame (index 3)
+    assert int(np.median(got[9])) == 20 * 1          # seen 3 times: cuts 1, 2; middle 2 -> the 2nd
+    gray = np.full((50, 60), 100, np.uint8)
+    assert not track_tile(gray, [200, 200, 220, 220]).any()
+    part = track_tile(gray, [50, 40, 80, 70])
+    assert part.shape == (TRACK_TILE[1], TRACK_TILE[0], 3) and part.any()
+    colour = np.zeros((50, 60, 3), np.uint8)
+    colour[..., 1] = 200
+    c = track_tile(colour, [10, 10, 20, 20])
+    assert c.shape == (TRACK_TILE[1], TRACK_TILE[0], 3) and int(np.median(c[..., 1])) == 200

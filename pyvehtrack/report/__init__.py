@@ -12,7 +12,7 @@ from pathlib import Path
 
 from .records import (FrameInfo, PythonPipeline, Truth, companion_files, load_truth, read_camera,  # noqa: F401
                       read_records, recording_frames, track_record, write_records)
-from .render import MAX_THUMBS, annotate, pick_thumbs, render_html, thumbnail, write_page
+from .render import MAX_THUMBS, TrackTiles, annotate, pick_thumbs, render_html, thumbnail, write_page
 
 
 def _video_fps(path) -> float:
@@ -73,11 +73,13 @@ def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "
     want = set(pick_thumbs(total)) if total is not None else None
     stride, kept = 1, {}
     records, infos = [], []
+    tiles = TrackTiles()
     with tqdm(total=total, unit="frame", disable=not progress, file=sys.stderr, desc="report") as bar:
         for k, (file, frame) in enumerate(frames):
             rec, info = pipe.step(frame, file)
             records.append(rec)
             infos.append(info)
+            tiles.add(frame, rec)
             if want is not None:
                 if k in want:
                     kept[k] = thumbnail(annotate(frame, rec, info))
@@ -99,7 +101,7 @@ def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "
         meta["found by name"] = "; ".join(auto)
     page = render_html(records, infos, sorted(kept.items()), title="pyvehtrack report: " + "/".join(Path(inputs).parts[-3:]),
                        meta=meta, truth=tr, stage_notes=pipe.notes,
-                       pitch_source=pipe.pitch_source)
+                       pitch_source=pipe.pitch_source, track_tiles=tiles.pick())
     out_dir.mkdir(parents=True, exist_ok=True)
     if records_json:
         write_records(out_dir / "tracks.json", records)

@@ -79,19 +79,6 @@ def track_record(frame: int, tracks, *, geometry=None) -> dict:
     return {"frame": int(frame), "tracks": out}
 
 
-class _CachedLanes:
-    """Hands the Detector the lane result already computed (and timed) for this frame, so
-    the lane stage runs once per frame; any other image is detected afresh."""
-
-    def __init__(self, lane_detector):
-        self.inner, self.shape, self.result = lane_detector, None, None
-
-    def detect(self, gray):
-        if self.result is not None and tuple(gray.shape[:2]) == self.shape:
-            return self.result
-        return self.inner.detect(gray)
-
-
 def read_camera(path) -> dict:
     """A camera JSON as a dict (ValueError naming the file when it is not a JSON object).
     Keys the report itself uses, when present: fy (or f / focal_px) and cy (pixels)."""
@@ -188,20 +175,20 @@ class PythonPipeline:
             raise ValueError(f"fps must be a number > 0, got {fps!r}")
         self.engine = engine
         self.lanes = LaneDetector(engine=engine)
-        self._cache = _CachedLanes(self.lanes)
         stage = camera_stage()
         file_cam = None
         if camera is not None and stage is not None and (geometry is None or model is not None):
             file_cam = stage[0].from_dict(camera)   # CameraFileError (a ValueError) names the key
-        if model is None:
-            self.detector = Detector(engine=engine, road="auto", lane_detector=self._cache)
-        else:
-            # whole-road detection with the model's settings, placed by the camera file's
-            # geometry when it has one (as `track --camera --model`); its own lane stage
-            # (the ego-lane detector inside it needs the pipeline's), so lanes run twice
-            self.detector = Detector(engine=engine, road="auto", model=str(model),
-                                     camera=file_cam.road_camera() if file_cam is not None else None)
-        self.tracker = Tracker(engine=engine, detect_every=int(detect_every), detector=None)
+        # The detector and tracker exactly as `pyvehtrack track` makes them (cli.common.make_detector,
+        # Tracker(detector=...)): the tracker owns the detector, so the model's sources, scores and
+        # tracker settings (birth search, ...) apply and the page shows the tracks `track` writes.
+        # Whole-road detection is placed by the camera file's geometry when it has one (as `track
+        # --camera --model`). The pipeline runs its own lane stage, so lanes run twice (the page's
+        # lane plots come from self.lanes).
+        self.detector = Detector(engine=engine, road="auto", model=None if model is None else str(model),
+                                 camera=file_cam.road_camera() if file_cam is not None and model is not None
+                                 else None)
+        self.tracker = Tracker(engine=engine, detect_every=int(detect_every), detector=self.detector)
         self.detect_every = int(detect_every)
         self.camera = camera
         self.fps = float(fps)
@@ -235,18 +222,17 @@ class PythonPipeline:
         except ValueError:              # a frame below the lane stage's minimum size
             lr = None
         t1 = time.perf_counter()
-        self._cache.shape, self._cache.result = tuple(gray.shape), lr
         info.timing_ms["lanes"] = (t1 - t0) * 1e3
         dets = None
-        if self.k % self.detect_every == 0:
-            t1 = time.perf_counter()
-            res = self.detector.detect(gray)
-            info.timing_ms["detect"] = (time.perf_counter() - t1) * 1e3
-            dets = np.asarray(res.boxes, np.int64).reshape(-1, 4)
-            info.road = res.road_polygon if len(res.road_polygon) >= 3 else None
         t2 = time.perf_counter()
-        tracks = self.tracker.step(gray, detections=dets) if dets is not None else self.tracker.step(gray)
-        info.timing_ms["track"] = (time.perf_counter() - t2) * 1e3
+        tracks = self.tracker.step(frame)
+        res = self.tracker.last_result
+        # one pipeline call detects and tracks: on a detection frame its time is the
+        # "detect" stage's (the detector dominates it), else the "track" stage's
+        info.timing_ms["detect" if res.detection_frame else "track"] = (time.perf_counter() - t2) * 1e3
+        if res.detection_frame:
+            dets = np.asarray([b.box for b in res.boxes], np.int64).reshape(-1, 4)
+            info.road = np.asarray(res.road) if len(res.road) >= 3 else None
         info.detections = dets
         if lr is not None:
             info.lanes = [(ln.side, np.asarray(ln.points).astype(np.int64)) for ln in lr.lanes

@@ -27,6 +27,9 @@ SOURCE_COLOURS = {"shadow": ((60, 200, 40), "#28c83c"), "classifier": ((255, 160
 DETECTOR_BOX = ((200, 0, 220), "#dc00c8")
 STAGE_COLOURS = {"lanes": "#4c72b0", "detect": "#dd8452", "track": "#55a868", "geometry": "#8172b3"}
 MAX_THUMBS = 12
+# "Every track, once": one cut-out per track id, the longest MAX_TRACK_TILES when there are more.
+MAX_TRACK_TILES = 48
+TRACK_TILE = (200, 150)   # w, h of a tile
 
 
 # ====================================================================== helpers
@@ -174,6 +177,74 @@ def thumbnail(img, width: int = 400):
     if w <= width:
         return img
     return cv2.resize(img, (width, max(1, round(h * width / w))), interpolation=cv2.INTER_AREA)
+
+
+class TrackTiles:
+    """One cut-out per track id for the page's "Every track, once" section, kept while the
+    frames stream by (the recording is not held): a track's tile is cut on its 1st, 2nd, 4th,
+    8th, ... frame, and the page shows the one nearest the middle of its life. So the memory
+    is log2(frames) small tiles per id, and the tile shows the track where it had settled,
+    not on its first, least certain frame."""
+
+    def __init__(self):
+        self.count: dict[int, int] = {}
+        self.cuts: dict[int, list] = {}
+
+    def add(self, frame, record: dict) -> None:
+        for t in record["tracks"]:
+            tid = int(t["id"])
+            n = self.count.get(tid, 0) + 1
+            self.count[tid] = n
+            if n & (n - 1) == 0:
+                self.cuts.setdefault(tid, []).append((n, track_tile(frame, t["box"])))
+
+    def pick(self) -> dict:
+        """id -> the tile cut nearest the middle of the track's frames."""
+        return {tid: min(cuts, key=lambda c: abs(c[0] - (self.count[tid] + 1) / 2))[1]
+                for tid, cuts in self.cuts.items()}
+
+
+def track_tile(frame, box) -> np.ndarray:
+    """The box with a margin of its own size on each side (clipped to the frame), the box
+    drawn in red, resized to TRACK_TILE (BGR)."""
+    import cv2
+    img = cv2.cvtColor(frame, cv2.COLOR_GRAY2BGR) if frame.ndim == 2 else frame[:, :, :3]
+    fh, fw = img.shape[:2]
+    l, t, r, b = (int(round(float(v))) for v in box)
+    m = max(r - l, b - t, 4)
+    x0, y0, x1, y1 = max(0, l - m), max(0, t - m), min(fw, r + m), min(fh, b + m)
+    if x1 <= x0 or y1 <= y0:            # a box wholly outside the frame: an empty tile
+        return np.zeros((TRACK_TILE[1], TRACK_TILE[0], 3), np.uint8)
+    cut = np.ascontiguousarray(img[y0:y1, x0:x1])
+    sx, sy = TRACK_TILE[0] / (x1 - x0), TRACK_TILE[1] / (y1 - y0)
+    cut = cv2.resize(cut, TRACK_TILE, interpolation=cv2.INTER_AREA if sx < 1 else cv2.INTER_LINEAR)
+    cv2.rectangle(cut, (int((l - x0) * sx), int((t - y0) * sy)), (int((r - x0) * sx), int((b - y0) * sy)),
+                  (0, 0, 255), 1)
+    return cut
+
+
+def track_gallery(records, tiles: dict) -> str:
+    """The "Every track, once" section's HTML: a tile per id (caption: id, frames, states, source)."""
+    life: dict[int, dict] = {}
+    for r in records:
+        for t in r["tracks"]:
+            d = life.setdefault(int(t["id"]), {"first": r["frame"], "n": 0, "states": set(), "sources": set()})
+            d["last"] = r["frame"]
+            d["n"] += 1
+            d["states"].add(t["state"])
+            d["sources"].add(t.get("source") or "other")
+    ids = sorted((i for i in life if i in tiles), key=lambda i: (-life[i]["n"], i))
+    shown = sorted(ids[:MAX_TRACK_TILES])
+    figs = "".join(
+        f'<figure><img src="{_jpeg_data_uri(tiles[i])}" alt="track {i}"><figcaption>'
+        f'#{i}: frames {life[i]["first"]}-{life[i]["last"]} ({life[i]["n"]}), '
+        f'{"confirmed" if "confirmed" in life[i]["states"] else "never confirmed"}, '
+        f'{html.escape("/".join(sorted(life[i]["sources"])))}</figcaption></figure>' for i in shown)
+    head = ("Each track id once, cut out at the middle of its life with its box in red: a quick way to see that "
+            "every track is on a vehicle.")
+    if len(ids) > len(shown):
+        head += f" The {len(shown)} longest of {len(ids)} tracks are shown."
+    return _note(head) + f'<div class="tracks">{figs}</div>'
 
 
 # ====================================================================== plots
@@ -494,6 +565,8 @@ td,th{border:1px solid #ddd;padding:3px 10px;text-align:left}th{background:#f3f3
 td:first-child{white-space:nowrap}
 .sheet{display:grid;grid-template-columns:repeat(3,1fr);gap:8px}.sheet figure{margin:0}
 .sheet img{width:100%;display:block;border:1px solid #ccc}.sheet figcaption{font-size:12px;color:#555}
+.tracks{display:grid;grid-template-columns:repeat(auto-fill,minmax(200px,1fr));gap:6px}.tracks figure{margin:0}
+.tracks img{width:200px;display:block;border:1px solid #ccc}.tracks figcaption{font-size:11px;color:#555}
 img.plot{max-width:100%;display:block}.legend span{display:inline-block;margin-right:16px;font-size:13px}
 .sw{display:inline-block;width:12px;height:12px;margin-right:5px;vertical-align:-1px;border:1px solid #999}
 .cols{display:flex;gap:28px;flex-wrap:wrap;align-items:flex-start}.cols>div{flex:1 1 400px}
@@ -506,8 +579,9 @@ def _swatch(col: str, label: str) -> str:
 
 
 def render_html(records, infos, thumbs, *, title: str, meta: dict, truth: Truth | None = None,
-                extra_notes=(), stage_notes=(), pitch_source: str = "") -> str:
-    """The page as a string. thumbs: [(frame, BGR annotated image)]; meta: label -> value."""
+                extra_notes=(), stage_notes=(), pitch_source: str = "", track_tiles: dict | None = None) -> str:
+    """The page as a string. thumbs: [(frame, BGR annotated image)]; meta: label -> value;
+    track_tiles: track id -> BGR tile (TrackTiles.pick), the "Every track, once" section."""
     truth = truth or Truth()
     lead = lead_ids(records, truth)
     parts = [f"<h1>{html.escape(title)}</h1>"]
@@ -561,6 +635,8 @@ def render_html(records, infos, thumbs, *, title: str, meta: dict, truth: Truth 
         parts.append(f'<div class="sheet">{figs}</div>')
     else:
         parts.append(_note("No frame in this recording."))
+    parts.append("<h2>Every track, once</h2>")
+    parts.append(track_gallery(records, track_tiles) if track_tiles else _note("No track in this recording."))
 
     # ---- plots
     for head, (uri, nts) in (("Track timeline", _one(plot_timeline(records))),
