@@ -46,14 +46,17 @@ def load(data: Path):
 
 
 def run(engine: str, files, boxes, detect_every: int, progress: bool, measurement: str = "roi",
-        cfg=None, lane_detector=None) -> dict:
+        cfg=None, lane_detector=None, model=None) -> dict:
     """files: image paths or (index, BGR image) pairs; cfg: the Detector's DetectConfig (None: default);
-    lane_detector: the Detector's lane stage (None: the default pyvehtrack.lane.LaneDetector)."""
+    lane_detector: the Detector's lane stage (None: the default pyvehtrack.lane.LaneDetector);
+    model: a whole-road model .npz run with its settings, as `pyvehtrack track --model` (None: the
+    ego-lane detector alone, this evaluation's detector since the thesis)."""
     from ..detector import Detector
     from ..tracker import Tracker
     from .tracking import evaluate_kitti
 
-    det = Detector(engine=engine, cfg=cfg, lane_detector=lane_detector)
+    det = Detector(engine=engine, cfg=cfg, lane_detector=lane_detector,
+                   model=None if model is None else str(model))
     trk = Tracker(engine=engine, detect_every=detect_every, detector=det, measurement=measurement)
     per_frame = []
     for f in tqdm(files, desc=f"track ({engine}, {measurement})", unit="frame", disable=not progress, file=sys.stderr):
@@ -92,11 +95,18 @@ def main(argv=None, default_data: Path = DEFAULT_DATA) -> int:
                     help="track the frames written as one MP4 (OpenCV mp4v, default quality) and decoded")
     ap.add_argument("--reduce-verified", type=int, choices=(0, 1), default=None, metavar="0|1",
                     help="ShadowConfig.reduce_verified (default: the config's)")
+    ap.add_argument("--model", type=Path, metavar="MODEL.npz",
+                    help="track with this whole-road model and its settings, as `pyvehtrack track --model` "
+                         "(pyvehtrack/models/cnn_gray_l0_big.npz is the command line's default); without it "
+                         "the ego-lane detector alone, as `--model none`")
     ap.add_argument("--json", type=Path)
     ap.add_argument("--no-progress", action="store_true")
     a = ap.parse_args(argv)
     if not (a.data / "derived_lidar_lead_box.csv").is_file():
         print(f"error: {a.data} does not hold derived_lidar_lead_box.csv", file=sys.stderr)
+        return 2
+    if a.model is not None and not a.model.is_file():
+        print(f"error: --model {a.model}: no such file", file=sys.stderr)
         return 2
     files, boxes = load(a.data)
     cfg = None
@@ -112,7 +122,8 @@ def main(argv=None, default_data: Path = DEFAULT_DATA) -> int:
             return 2
     engines = ("c", "reference") if a.engine == "both" else (a.engine,)
     measurements = ("roi", "edges") if a.measurement == "both" else (a.measurement,)
-    res = [run(e, files, boxes, a.detect_every, not a.no_progress, m, cfg) for e in engines for m in measurements]
+    res = [run(e, files, boxes, a.detect_every, not a.no_progress, m, cfg, model=a.model)
+           for e in engines for m in measurements]
     print(f"{'engine':<16}{'lead id':>8}{'id share':>10}{'IoU>=0.6':>10}{'mean IoU':>10}"
           f"{'HOTA':>8}{'MOTA':>8}{'IDF1':>8}{'IDSW':>6}{'trk/frm':>8}")
     for r in res:
