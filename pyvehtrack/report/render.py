@@ -41,12 +41,18 @@ def _png_data_uri(fig) -> str:
     return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
 
 
-def _jpeg_data_uri(img, quality: int = 82) -> str:
+def _jpeg_bytes(img, quality: int = 82) -> bytes:
     import cv2
     ok, enc = cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_QUALITY, quality])
     if not ok:
         raise RuntimeError("cannot encode a contact-sheet frame as JPEG")
-    return "data:image/jpeg;base64," + base64.b64encode(enc.tobytes()).decode("ascii")
+    return enc.tobytes()
+
+
+def _jpeg_data_uri(img, quality: int = 82) -> str:
+    """img: a BGR image, or JPEG bytes already encoded."""
+    data = img if isinstance(img, bytes) else _jpeg_bytes(img, quality)
+    return "data:image/jpeg;base64," + base64.b64encode(data).decode("ascii")
 
 
 def _fig(h_in: float = 3.2, w_in: float = 11.0, nrows: int = 1, sharex: bool = True):
@@ -182,9 +188,11 @@ def thumbnail(img, width: int = 400):
 class TrackTiles:
     """One cut-out per track id for the page's "Every track, once" section, kept while the
     frames stream by (the recording is not held): a track's tile is cut on its 1st, 2nd, 4th,
-    8th, ... frame, and the page shows the one nearest the middle of its life. So the memory
-    is log2(frames) small tiles per id, and the tile shows the track where it had settled,
-    not on its first, least certain frame."""
+    8th, ... frame, and the page shows the one nearest the middle of its life, where the track
+    had settled rather than on its first, least certain frame. The middle only moves on, so a
+    cut with a later one at or before the middle can never be picked again and is dropped:
+    at most two cuts per id are held, each as JPEG bytes (a few KB), so an hour's recording
+    with thousands of ids stays within tens of MB."""
 
     def __init__(self):
         self.count: dict[int, int] = {}
@@ -195,13 +203,18 @@ class TrackTiles:
             tid = int(t["id"])
             n = self.count.get(tid, 0) + 1
             self.count[tid] = n
+            cuts = self.cuts.setdefault(tid, [])
             if n & (n - 1) == 0:
-                self.cuts.setdefault(tid, []).append((n, track_tile(frame, t["box"])))
+                cuts.append((n, _jpeg_bytes(track_tile(frame, t["box"]))))
+            mid = (n + 1) / 2
+            last = max((c for c, _ in cuts if c <= mid), default=None)
+            if last is not None:
+                cuts[:] = [x for x in cuts if x[0] >= last]
 
     def pick(self) -> dict:
-        """id -> the tile cut nearest the middle of the track's frames."""
+        """id -> the JPEG bytes of the tile cut nearest the middle of the track's frames."""
         return {tid: min(cuts, key=lambda c: abs(c[0] - (self.count[tid] + 1) / 2))[1]
-                for tid, cuts in self.cuts.items()}
+                for tid, cuts in self.cuts.items() if cuts}
 
 
 def track_tile(frame, box) -> np.ndarray:
@@ -224,7 +237,8 @@ def track_tile(frame, box) -> np.ndarray:
 
 
 def track_gallery(records, tiles: dict) -> str:
-    """The "Every track, once" section's HTML: a tile per id (caption: id, frames, states, source)."""
+    """The "Every track, once" section's HTML: a tile per id (JPEG bytes or a BGR image; caption:
+    id, frames, states, source)."""
     life: dict[int, dict] = {}
     for r in records:
         for t in r["tracks"]:
@@ -581,7 +595,7 @@ def _swatch(col: str, label: str) -> str:
 def render_html(records, infos, thumbs, *, title: str, meta: dict, truth: Truth | None = None,
                 extra_notes=(), stage_notes=(), pitch_source: str = "", track_tiles: dict | None = None) -> str:
     """The page as a string. thumbs: [(frame, BGR annotated image)]; meta: label -> value;
-    track_tiles: track id -> BGR tile (TrackTiles.pick), the "Every track, once" section."""
+    track_tiles: track id -> tile (TrackTiles.pick), the "Every track, once" section."""
     truth = truth or Truth()
     lead = lead_ids(records, truth)
     parts = [f"<h1>{html.escape(title)}</h1>"]
