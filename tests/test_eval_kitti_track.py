@@ -15,6 +15,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from pyvehtrack._native import lib
 from pyvehtrack.cli import main
 from pyvehtrack.eval import kitti_track
 from pyvehtrack.fullroad import default_model_path
@@ -49,4 +50,5 @@ def test_model_run_is_the_track_commands(tmp_path):
     assert got["lead_id"] == lead
     assert got["id_share"] == float((ious >= 0.5).mean()) and got["iou06_share"] == float((ious >= 0.6).mean())
     assert got["tracks_per_frame"] == float(np.mean([len(r["tracks"]) for r in recs]))
-    assert got["tracks_per_frame"] > ego["tracks_per_frame"]   # the model also tracks the other cars
+    if int(lib.VT_MAX_TRACKS) >= 2:   # the smallest build holds one track: the lead car's
+        assert got["tracks_per_frame"] > ego["tracks_per_frame"]   # the model also tracks the other cars
