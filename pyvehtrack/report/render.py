@@ -49,10 +49,12 @@ def _jpeg_bytes(img, quality: int = 82) -> bytes:
     return enc.tobytes()
 
 
-def _jpeg_data_uri(img, quality: int = 82) -> str:
-    """img: a BGR image, or JPEG bytes already encoded."""
-    data = img if isinstance(img, bytes) else _jpeg_bytes(img, quality)
+def _jpeg_bytes_uri(data: bytes) -> str:
     return "data:image/jpeg;base64," + base64.b64encode(data).decode("ascii")
+
+
+def _jpeg_data_uri(img, quality: int = 82) -> str:
+    return _jpeg_bytes_uri(_jpeg_bytes(img, quality))
 
 
 def _fig(h_in: float = 3.2, w_in: float = 11.0, nrows: int = 1, sharex: bool = True):
@@ -237,7 +239,7 @@ def track_tile(frame, box) -> np.ndarray:
 
 
 def track_gallery(records, tiles: dict) -> str:
-    """The "Every track, once" section's HTML: a tile per id (JPEG bytes or a BGR image; caption:
+    """The "Every track, once" section's HTML: a tile per id (JPEG bytes, TrackTiles.pick; caption:
     id, frames, states, source)."""
     life: dict[int, dict] = {}
     for r in records:
@@ -250,7 +252,7 @@ def track_gallery(records, tiles: dict) -> str:
     ids = sorted((i for i in life if i in tiles), key=lambda i: (-life[i]["n"], i))
     shown = sorted(ids[:MAX_TRACK_TILES])
     figs = "".join(
-        f'<figure><img src="{_jpeg_data_uri(tiles[i])}" alt="track {i}"><figcaption>'
+        f'<figure><img src="{_jpeg_bytes_uri(tiles[i])}" alt="track {i}"><figcaption>'
         f'#{i}: frames {life[i]["first"]}-{life[i]["last"]} ({life[i]["n"]}), '
         f'{"confirmed" if "confirmed" in life[i]["states"] else "never confirmed"}, '
         f'{html.escape("/".join(sorted(life[i]["sources"])))}</figcaption></figure>' for i in shown)
