@@ -131,7 +131,8 @@ vt_status vt_tracker_cfg_check(const vt_tracker_cfg *c)
         c->part_permille > 1000 || c->min_width < 0 || c->min_width > VT_MAX_WIDTH ||
         c->scale_tol_permille < 0 || c->scale_tol_permille > 1000 ||
         (c->snap_bottom != 0 && c->snap_bottom != 1) || c->birth_search < 0 ||
-        c->birth_search > VT_TRACK_MAX_BIRTH_SEARCH) {
+        c->birth_search > VT_TRACK_MAX_BIRTH_SEARCH || c->search_max_aspect_permille < 0 ||
+        c->search_max_aspect_permille > VT_TRACK_MAX_ASPECT_PERMILLE) {
         return VT_E_ARG;
     }
     return VT_OK;
@@ -339,6 +340,16 @@ static void vt__search_roi(const vt_tracker_cfg *cfg, const vt_box *box, vt_box 
     roi->bottom = box->bottom + vt__max_i32(*m, *gate_b);
 }
 
+/* search_max_aspect_permille (tracker.h): a box flatter than a rear view, which
+ * the ROI search does not measure. Checked boxes (|v| <= 4 * VT_MAX_*) keep both
+ * products far inside int64. */
+static int vt__flat(const vt_tracker_cfg *cfg, const vt_box *b)
+{
+    return cfg->search_max_aspect_permille > 0 && cfg->measurement == VT_MEAS_ROI_SEARCH &&
+           ((int64_t)b->right - b->left + 1) * 1000 >
+               (int64_t)cfg->search_max_aspect_permille * ((int64_t)b->bottom - b->top + 1);
+}
+
 /* snap_bottom (tracker.h): `d` with its bottom moved down to the row the ROI
  * search finds under it, searched as a track with the box `d` would search its next frame. */
 static vt_box vt__snap(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_image_u8 *img,
@@ -346,7 +357,7 @@ static vt_box vt__snap(vt_tracker *tr, const vt_tracker_cfg *cfg, const vt_image
 {
     vt_box out = *d, roi, meas;
     int32_t found = 0, m, gate, gate_b;
-    if (!cfg->snap_bottom) {
+    if (!cfg->snap_bottom || vt__flat(cfg, d)) {
         return out;
     }
     vt__search_roi(cfg, d, &roi, &m, &gate, &gate_b);
@@ -365,6 +376,9 @@ static vt_box vt__birth_search(vt_tracker *tr, const vt_tracker_cfg *cfg, const 
 {
     vt_box out = *d, roi, meas;
     int32_t it, found, m, gate, gate_b;
+    if (vt__flat(cfg, d)) {
+        return out;
+    }
     for (it = 0; it < cfg->birth_search; ++it) {
         found = 0;
         vt__search_roi(cfg, &out, &roi, &m, &gate, &gate_b);
@@ -536,7 +550,7 @@ static int vt__predict_measure(vt_tracker *tr, vt_track *t, const vt_tracker_cfg
 {
     vt_box roi, meas;
     vt_track_sides sides;
-    int32_t found = 0, m, gate, gate_b;
+    int32_t found = 0, m, gate, gate_b, flat;
     vt_status s;
     t->age = vt__inc_sat(t->age);
     if (vt_kf_predict(&t->kf) != VT_OK) {
@@ -546,9 +560,12 @@ static int vt__predict_measure(vt_tracker *tr, vt_track *t, const vt_tracker_cfg
     vt__box_from_state(t);
     vt__search_roi(cfg, &t->box, &roi, &m, &gate, &gate_b);
     sides = t->sides;
+    flat = 0;
     if (cfg->measurement == VT_MEAS_EDGE_CURVES) {
         vt__edge_measure(tr, t, cfg, img, m, &meas, &found);
         s = VT_OK;
+    } else if ((flat = vt__flat(cfg, &t->box)) != 0) {
+        s = VT_OK; /* not a rear view: only the template below measures it */
     } else {
         s = vt_track_search(&tr->ws, &sides, &cfg->search, img, &roi, &meas, &found);
     }
@@ -568,9 +585,9 @@ static int vt__predict_measure(vt_tracker *tr, vt_track *t, const vt_tracker_cfg
     /* A tentative track's template keeps its filter on the vehicle; no hit (only
      * real measurements confirm) and no miss (the lifecycle waits for a detection).
      * Confirmed tracks coast as in the thesis (tracker.h says why), but for those the
-     * measurement never took (tm_only). */
+     * measurement never took (tm_only) or does not measure (flat). */
     if (cfg->tmatch_radius > 0 &&
-        (t->state == VT_TRACK_TENTATIVE || (t->state == VT_TRACK_CONFIRMED && t->tm_only)) &&
+        (t->state == VT_TRACK_TENTATIVE || (t->state == VT_TRACK_CONFIRMED && (t->tm_only || flat))) &&
         t->tm_frames < INT32_MAX &&
         vt__tmatch(t, cfg, img, &meas) && vt__scale_ok(tr, t, cfg, meas.left, meas.bottom, meas.right) &&
         vt__update(t, meas.left, meas.bottom, meas.right) == VT_OK) {

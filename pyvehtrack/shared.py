@@ -391,6 +391,10 @@ class TrackerCfg:
     # a new track starts on the box the ROI search settles on in its birth frame, at most
     # this many searches (0: off; tracker.h's birth_search)
     birth_search: int = 2
+    # the ROI search measures rear views only: a box with w * 1000 > this * h is not searched
+    # (no snap, birth search or measurement); its template carries it and detections confirm
+    # it (0: off; tracker.h's search_max_aspect_permille)
+    search_max_aspect_permille: int = 2500
 
 
 accept_renamed(TrackerCfg, TRACKER_RENAMED)  # the percent names of before issue 10

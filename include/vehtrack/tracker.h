@@ -145,7 +145,25 @@ typedef struct {
      * the next detection run). On the birth frame there is no motion to confuse.
      * 0: off, 1 .. VT_TRACK_MAX_BIRTH_SEARCH. */
     int32_t birth_search;
+    /* The ROI search measures a rear view (thesis sec. 2.4.2: the shadow under the
+     * vehicle and its two vertical sides). A box w px wide and h = bottom - top + 1
+     * high with w * 1000 > search_max_aspect_permille * h cannot be one: a car's
+     * rear, ground to roof, is 1.4-2.0 m wide and 1.2-1.7 m high (at most 1.7:1),
+     * trucks and buses are taller; the rest up to 2.5:1 is a detector's box error
+     * and the side of a 3/4 view. Flatter boxes are side views (crossing or parked
+     * cars) and roofs seen over a barrier: on the Udacity clip such a track (28 x 9
+     * px, a car's roof over the median barrier) was confirmed by the search on the
+     * barrier's rail and followed the rail after the car had gone. For such a box
+     * the search is not run (no bottom snap, no birth search, no per-frame
+     * measurement): its template carries it between detections (as a track only
+     * detections confirmed, tm_only) and only detections confirm it.
+     * VT_MEAS_ROI_SEARCH only (edge curves follow any shape). 0: off. */
+    int32_t search_max_aspect_permille;
 } vt_tracker_cfg;
+
+/* Largest search_max_aspect_permille (100:1): keeps w * 1000 and the bound times
+ * a height inside int64 for any checked box. */
+#define VT_TRACK_MAX_ASPECT_PERMILLE 100000
 
 /* Largest birth_search: the search settles in one or two steps on real frames. */
 #define VT_TRACK_MAX_BIRTH_SEARCH 8
@@ -176,6 +194,7 @@ typedef struct {
         .scale_tol_permille = 200,                                          \
         .snap_bottom = 1,                                                   \
         .birth_search = 2,                                                  \
+        .search_max_aspect_permille = 2500,                                 \
     }
 
 /* One track. Public so that callers can inspect and save it; change it only
@@ -237,8 +256,8 @@ typedef struct {
  * (Q14), 0 <= init_max_change <= VT_MAX_WIDTH, 0 <= tmatch_radius <= 64,
  * tmatch_ncc_permille in -1000..1000, 0 <= tmatch_max <= VT_TRACK_MAX_FRAMES_CFG,
  * part_permille in 0..1000, 0 <= min_width <= VT_MAX_WIDTH, scale_tol_permille in
- * 0..1000, snap_bottom 0 or 1, birth_search in 0..VT_TRACK_MAX_BIRTH_SEARCH.
- * VT_E_ARG otherwise and for NULL.
+ * 0..1000, snap_bottom 0 or 1, birth_search in 0..VT_TRACK_MAX_BIRTH_SEARCH,
+ * search_max_aspect_permille in 0..VT_TRACK_MAX_ASPECT_PERMILLE. VT_E_ARG otherwise and for NULL.
  * vt_tracker_step checks the same before touching the tracker. */
 vt_status vt_tracker_cfg_check(const vt_tracker_cfg *cfg);
 

@@ -36,7 +36,11 @@ down), so a classifier box ending above the wheels and the next frames' search a
 Birth search (birth_search): a new track starts on the box the ROI search settles on in
 its birth frame (repeated from the snapped detection until it stops moving, at most
 birth_search times), so a 3/4 view's box over side and rear starts on the rear face the
-later frames measure instead of drifting toward it."""
+later frames measure instead of drifting toward it.
+Rear views only (search_max_aspect_permille): the ROI search measures a vehicle's rear
+(shadow and two sides); a box wider than search_max_aspect_permille / 1000 times its
+height (a side view, a roof over a barrier) is not searched (no snap, no birth search,
+no per-frame measurement): its template carries it and only detections confirm it."""
 from __future__ import annotations
 
 import math
@@ -254,11 +258,17 @@ class Tracker:
         gate_b = max(4, (w * c.gate_bottom_permille) // 1000)
         return (l - m, b - w // 2, r + m, b + max(m, gate_b)), m, max(8, (w * c.gate_permille) // 1000), gate_b
 
+    def _flat(self, box) -> bool:
+        """c/tracker.c's vt__flat: a box flatter than a rear view (not searched)."""
+        c = self.cfg
+        return c.search_max_aspect_permille > 0 and c.measurement == MEAS_ROI_SEARCH and \
+            (box[2] - box[0] + 1) * 1000 > c.search_max_aspect_permille * (box[3] - box[1] + 1)
+
     def _snap(self, img, d, grads):
         """snap_bottom: the detection with its bottom moved down to the row the ROI
         search finds under it, searched as a track with the box `d` would search its next frame."""
         c = self.cfg
-        if not c.snap_bottom:
+        if not c.snap_bottom or self._flat(d):
             return d
         l, top, r, b = d
         roi, _, gate, gate_b = self._search_roi(d)
@@ -273,7 +283,7 @@ class Tracker:
         detection until it stops moving the box (left, right, bottom; the top stays)."""
         c = self.cfg
         l, top, r, b = d
-        for _ in range(c.birth_search):
+        for _ in range(0 if self._flat(d) else c.birth_search):
             roi, _, gate, gate_b = self._search_roi((l, top, r, b))
             meas = track_search(img, c.search, roi, None, grads)
             if meas is None or abs(meas[0] - l) > gate or abs(meas[2] - r) > gate or \
@@ -341,8 +351,11 @@ class Tracker:
             l, top, r, b = t.box
             roi, m, gate, gate_b = self._search_roi(t.box)
             sides = Sides(**vars(t.sides))
+            flat = False
             if c.measurement == MEAS_EDGE_CURVES:
                 meas = self._edge_measure(t, img, m)
+            elif flat := self._flat(t.box):
+                meas = None      # not a rear view: only the template measures it
             else:
                 meas = track_search(img, c.search, roi, sides, grads)
             if meas is not None and abs(meas[0] - l) <= gate and abs(meas[2] - r) <= gate \
@@ -354,7 +367,7 @@ class Tracker:
                 self._hit(t, img)
                 if c.measurement == MEAS_EDGE_CURVES:
                     self._edge_refresh(t, img)
-            elif c.tmatch_radius > 0 and (t.state == TENTATIVE or (t.state == CONFIRMED and t.tm_only)) \
+            elif c.tmatch_radius > 0 and (t.state == TENTATIVE or (t.state == CONFIRMED and (t.tm_only or flat))) \
                     and (tm := self._tmatch(t, img)) is not None and self._scale_ok(t, tm):
                 self._update(t, tm[0], tm[3], tm[2])
                 t.tm_frames += 1
