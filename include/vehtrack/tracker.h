@@ -151,7 +151,7 @@ typedef struct {
      * rear, ground to roof, is 1.4-2.0 m wide and 1.2-1.7 m high (at most 1.7:1),
      * trucks and buses are taller; the rest up to 2.5:1 is a detector's box error
      * and the side of a 3/4 view. Flatter boxes are side views (crossing or parked
-     * cars) and roofs seen over a barrier: on the Udacity clip such a track (28 x 9
+     * cars) and roofs seen over a barrier: on the Udacity clip such a track (29 x 10
      * px, a car's roof over the median barrier) was confirmed by the search on the
      * barrier's rail and followed the rail after the car had gone. For such a box
      * the search is not run (no bottom snap, no birth search, no per-frame
