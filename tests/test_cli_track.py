@@ -46,6 +46,33 @@ def test_track_writes_kitti_tracks_and_video(tracked):
     assert n == 8
 
 
+@pytest.mark.parametrize("all_states", [False, True])
+def test_video_draws_the_tracks_the_files_hold(all_states, tmp_path, monkeypatch):
+    # The first frames of the clip hold tentative tracks (the detection of frame 0 confirms
+    # on frame 2). The video draws what --tracks and --json hold: without --all-states no
+    # tentative track, with it the tentative ones too.
+    import json
+    from pyvehtrack.cli import track as cli_track
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    for p in sorted(CLIP.glob("*.png"))[:4]:
+        shutil.copy(p, frames / p.name)
+    drawn = []
+    real = cli_track.draw_tracks
+
+    def spy(frame, tracks, *a, **k):
+        drawn.append([(t.id, t.state) for t in tracks])
+        return real(frame, tracks, *a, **k)
+    monkeypatch.setattr(cli_track, "draw_tracks", spy)
+    js = tmp_path / "t.json"
+    args = ["track", str(frames), "--out", str(tmp_path / "a.mp4"), "--json", str(js), "--no-progress"]
+    assert cli_main(args + (["--all-states"] if all_states else [])) == 0
+    records = json.loads(js.read_text())
+    assert [[(t["id"], t["state"]) for t in r["tracks"]] for r in records] == drawn
+    states = {s for f in drawn for _, s in f}
+    assert ("tentative" in states) == all_states, drawn
+
+
 def test_eval_scores_tracks_against_themselves(tracked, capsys):
     _, _, tracks, d = tracked
     js = d / "eval.json"

@@ -135,7 +135,8 @@ def register(sub) -> None:
                    help="also run the overtaking flow stage (sources 'flow'): overtaking cars from the "
                         "side, and the reverse hand-over of cars the ego car overtakes (state 'handover')")
     p.add_argument("--all-states", action="store_true",
-                   help="also write tentative tracks to --tracks (default: confirmed and coasting)")
+                   help="also write tentative tracks to --tracks and --json and draw them in --out "
+                        "(default: confirmed, coasting and handover tracks)")
     p.add_argument("--skip-bad-frames", action="store_true",
                    help="skip (and count) frames that cannot be decoded instead of stopping with exit 2")
     p.add_argument("--camera", metavar="CAMERA.json",
@@ -241,13 +242,14 @@ def run(args) -> int:
                                 [(t.id, cam.undistort_box(t.box)) for t in tracks], args.ego_speed)}
                     except (VtError, ValueError, TypeError) as e:
                         raise CliError(f"{file}: {e}") from None
-                    for t in tracks:
-                        if args.all_states or t.state != "tentative":
-                            lines.append(kitti_line(i, t, _location(cam, t, ranges.get(t.id))))
-                            ids.add(t.id)
-                    records.append({"frame": i, "tracks": [track_record(t, ranges.get(t.id), t.ttc_points) for t in tracks
-                                                           if args.all_states or t.state != "tentative"]})
-                    img = draw_tracks(frame, tracks, i, trk.last_was_detection, ranges)
+                    # every output shows the same tracks: tentative ones only with --all-states
+                    shown = [t for t in tracks if args.all_states or t.state != "tentative"]
+                    for t in shown:
+                        lines.append(kitti_line(i, t, _location(cam, t, ranges.get(t.id))))
+                        ids.add(t.id)
+                    records.append({"frame": i, "tracks": [track_record(t, ranges.get(t.id), t.ttc_points)
+                                                           for t in shown]})
+                    img = draw_tracks(frame, shown, i, trk.last_was_detection, ranges)
                     if kind == "image":
                         path = out.with_name(f"{out.stem}_{i:05d}{out.suffix}")
                         if not cv2.imwrite(str(outs.reserve("--out", path)), img):
