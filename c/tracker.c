@@ -560,11 +560,11 @@ static int vt__predict_measure(vt_tracker *tr, vt_track *t, const vt_tracker_cfg
     vt__box_from_state(t);
     vt__search_roi(cfg, &t->box, &roi, &m, &gate, &gate_b);
     sides = t->sides;
-    flat = 0;
+    flat = vt__flat(cfg, &t->box); /* 0 with edge curves */
     if (cfg->measurement == VT_MEAS_EDGE_CURVES) {
         vt__edge_measure(tr, t, cfg, img, m, &meas, &found);
         s = VT_OK;
-    } else if ((flat = vt__flat(cfg, &t->box)) != 0) {
+    } else if (flat) {
         s = VT_OK; /* not a rear view: only the template below measures it */
     } else {
         s = vt_track_search(&tr->ws, &sides, &cfg->search, img, &roi, &meas, &found);

@@ -351,10 +351,10 @@ class Tracker:
             l, top, r, b = t.box
             roi, m, gate, gate_b = self._search_roi(t.box)
             sides = Sides(**vars(t.sides))
-            flat = False
+            flat = self._flat(t.box)     # False with edge curves
             if c.measurement == MEAS_EDGE_CURVES:
                 meas = self._edge_measure(t, img, m)
-            elif flat := self._flat(t.box):
+            elif flat:
                 meas = None      # not a rear view: only the template measures it
             else:
                 meas = track_search(img, c.search, roi, sides, grads)
