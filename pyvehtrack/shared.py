@@ -257,12 +257,12 @@ class LaneConfig:
     work_height_max: int = 240        # ... and H <= this
     roi_top_permille: int = 250       # rows above H*this/1000 are never looked at
     hough_top_permille: int = 500     # Hough votes from rows >= H*this/1000
-    grad_min: int = 12                # [-1 0 1] threshold floor
+    grad_min: int = 14                # [-1 0 1] threshold floor
     noise_gain_q4: int = 48           # row threshold >= mean|g| * this / 16
     mark_w_top_permille: int = 6      # widest marking at row 0 / row H-1, per mille of W
     mark_w_bottom_permille: int = 40
     mark_wmin_top_permille: int = 0   # narrowest marking at row 0 / row H-1 (>= 1 px)
-    mark_wmin_bottom_permille: int = 8
+    mark_wmin_bottom_permille: int = 4
     marks_per_row_max: int = 24       # a row with more centres is texture: dropped
     marks_max: int = 4096             # centres kept per frame (bottom rows first)
     theta_min_qdeg: int = 4 * QDEG    # left half theta range; right half mirrored
@@ -297,7 +297,7 @@ class LaneConfig:
     win_bottom_permille: int = 20     # segment window: W*this/1000 px at the bottom row,
     win_top: int = 2                  # ... this many px at the vanishing row
     vp_margin: int = 2                # without a VP: never above roi_top + this
-    top_margin_permille: int = 37     # with a VP: lanes end H*this/1000 rows below it
+    top_margin_permille: int = 25     # with a VP: lanes end H*this/1000 rows below it
     track_alpha_permille: int = 500   # smoothing gain toward the new line, permille
     track_hold: int = 5               # frames a hidden marking's line is kept
     track_gate_permille: int = 31     # farther than W*this/1000 px: replace, not smooth

@@ -309,15 +309,19 @@ def _night_cases():
     return labs
 
 
-# Known gap (strict xfail: it fails the suite the day it passes): with the shipped lane
-# defaults (kept for the KITTI lead car, see c/lane.c) one case reports a wrong right
-# line; the night rule was chosen with the cross-validated set, where all four pass.
+# Known gap (strict xfail: it fails the suite the day it passes): one case reports a right
+# line that follows the marking but lies 15-16 px (threshold 14.8) off its label at the three
+# rows nearest the vanishing point, on frame 0601_...3287. With the lane defaults before
+# 2026-11-30 (tuned on all 100 frames) that case was seed 2 at 20% and seed 6 passed; with the
+# cross-validated defaults since (tools/tune_lanes.py --tune B --kitti-guard --range-guard)
+# seed 2 passes (no line) and seed 6 at 20% fails.
 @pytest.mark.parametrize("seed,dark", [
-    (2, 0.1), (3, 0.1), (3, 0.2),
-    # seeds 4-9 added later and run once when added: every case passed
-    *[(s, d) for s in range(4, 10) for d in (0.1, 0.2)],
-    pytest.param(2, 0.2, marks=pytest.mark.xfail(
-        strict=True, reason="seed 2 at 20%: a wrong right line on frame 0601_...3287 with the shipped defaults"))])
+    (2, 0.1), (3, 0.1), (3, 0.2), (2, 0.2),
+    # seeds 4-9 added later and run once when added: every case passed (with the defaults then)
+    *[(s, d) for s in range(4, 10) for d in (0.1, 0.2) if (s, d) != (6, 0.2)],
+    pytest.param(6, 0.2, marks=pytest.mark.xfail(
+        strict=True, reason="seed 6 at 20%: the right line 15-16 px off its label near the vanishing point "
+                            "on frame 0601_...3287 with the shipped defaults"))])
 def test_night_reports_visible_markings_or_none(dark, seed):
     # Issue 8: at night, with only the headlights' reach visible, the stage reports the
     # markings that are visible or none, never a wrong line. Every row of a reported ego

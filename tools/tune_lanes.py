@@ -86,9 +86,39 @@ def main():
                     help="search only these fields, starting from the current defaults")
     ap.add_argument("--kitti-guard", action="store_true",
                     help="reject candidates that lower KITTI lead-car tracking on frames 0-38")
+    ap.add_argument("--range-guard", action="store_true",
+                    help="also reject candidates that raise the KITTI lead car's distance P95 or fused-TTC "
+                         "median on frames 0-38 (tools/eval_kitti_range.py, offset refitted on 0-38)")
     ap.add_argument("--kitti", type=Path, default=ROOT.parent / "shared" / "data" / "kitti-raw-sfnd-ttc")
     args = ap.parse_args()
     guard = None
+    rguard = None
+    if args.range_guard:
+        import tempfile  # noqa: PLC0415
+        sys.path.insert(0, str(ROOT / "tools"))
+        import eval_kitti_range as ekr  # noqa: PLC0415
+
+        def krange(c):
+            """(distance P95, fused TTC median) on KITTI frames 0-38 with lane config c."""
+            d = default_config()
+            kv = [f"{k}={getattr(c, k)}" for k in GRID if getattr(c, k) != getattr(d, k)]
+            with tempfile.TemporaryDirectory() as t:
+                out = Path(t) / "r.json"
+                argv = ["--data", str(args.kitti), "--json", str(out)] + (["--lane-set", *kv] if kv else [])
+                with open("/dev/null", "w") as null:
+                    old, sys.stdout = sys.stdout, null
+                    try:
+                        rc = ekr.main(argv)
+                    finally:
+                        sys.stdout = old
+                if rc != 0:
+                    raise SystemExit(f"tune_lanes: eval_kitti_range failed ({rc})")
+                s = json.loads(out.read_text())["summaries"]["offset"]["first_half"]
+            return (s["distance_filtered_rel"].get("p95", float("inf")),
+                    s["ttc_fused_rel"].get("median", float("inf")))
+        rguard = krange(default_config())
+        print(f"KITTI frames 0-38 at the defaults: distance P95 {100 * rguard[0]:.1f}%, fused TTC median "
+              f"{100 * rguard[1]:.1f}% (the ceilings)", flush=True)
     if args.kitti_guard:
         from pyvehtrack.eval import kitti_track as kt  # noqa: PLC0415
         from pyvehtrack.lane import LaneDetector as LD  # noqa: PLC0415
@@ -124,6 +154,12 @@ def main():
                         if k < guard - 1e-9:
                             print(f"round {r}: {name}={v} -> tune {s} rejected: KITTI 0-38 {100 * k:.1f}%",
                                   flush=True)
+                            continue
+                    if rguard is not None:
+                        k = krange(c2)
+                        if k[0] > rguard[0] + 1e-9 or k[1] > rguard[1] + 1e-9:
+                            print(f"round {r}: {name}={v} -> tune {s} rejected: KITTI 0-38 distance P95 "
+                                  f"{100 * k[0]:.1f}%, fused TTC {100 * k[1]:.1f}%", flush=True)
                             continue
                     cfg, best, changed = c2, s, True
                     print(f"round {r}: {name}={v} -> tune {s}", flush=True)

@@ -126,12 +126,12 @@ typedef struct {
         .work_height_max = 240,         \
         .roi_top_permille = 250,        \
         .hough_top_permille = 500,      \
-        .grad_min = 12,                 \
+        .grad_min = 14,                 \
         .noise_gain_q4 = 48,            \
         .mark_w_top_permille = 6,       \
         .mark_w_bottom_permille = 40,   \
         .mark_wmin_top_permille = 0,    \
-        .mark_wmin_bottom_permille = 8, \
+        .mark_wmin_bottom_permille = 4, \
         .marks_per_row_max = 24,        \
         .marks_max = 4096,              \
         .theta_min_qdeg = 16,           \
@@ -166,7 +166,7 @@ typedef struct {
         .win_bottom_permille = 20,      \
         .win_top = 2,                   \
         .vp_margin = 2,                 \
-        .top_margin_permille = 37,      \
+        .top_margin_permille = 25,      \
         .track_alpha_permille = 500,    \
         .track_hold = 5,                \
         .track_gate_permille = 31,      \
