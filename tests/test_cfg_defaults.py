@@ -62,6 +62,12 @@ VALUE_CHANGED: dict[str, tuple[int, int]] = {
     # (detection every 10th frame), where a detection or keep_ncc decides (issue 8)
     "vt_tracker_cfg.max_coast": (6, 9),
     "vt_pipeline_cfg.tracker.max_coast": (6, 9),
+    # lane.h: chosen by cross-validation on tusimple-lane-test100 half B with the KITTI
+    # tracking, distance and TTC guards on frames 0-38 (tools/tune_lanes.py --tune B
+    # --kitti-guard --range-guard): 89.36% ego accuracy on half A, not used (2026-11-30)
+    **{f"{cfg}.{field}": v for cfg in ("vt_lane_cfg", "vt_pipeline_cfg.lane")
+       for field, v in (("grad_min", (12, 14)), ("mark_wmin_bottom_permille", (8, 4)),
+                        ("top_margin_permille", (37, 25)))},
 }
 
 
