@@ -845,6 +845,20 @@ def _track_frame_edges(ctx: Ctx) -> Stage:
     """track_frame with the edge-curve measurement (GIST paper sec. III.B) in place of
     the ROI search: edge map + chamfer transform of each track's crop, 5 scales x 17 x 17
     displacements, then a fresh template."""
+    return _edge_stage(ctx, "track_frame_edges", "MEAS_EDGE_CURVES",
+                       "2 tracks, edge-curve measurement; oracle copies its tracker each run")
+
+
+@register("track_frame_roi_edges", driver=False)
+def _track_frame_roi_edges(ctx: Ctx) -> Stage:
+    """track_frame with measurement roi+edges: the ROI search, and the edge curves where it
+    fails on a track it measured before; on this frame the searches of the birth frame's
+    tentative tracks run, and every measured track refreshes its curves."""
+    return _edge_stage(ctx, "track_frame_roi_edges", "MEAS_ROI_EDGES",
+                       "2 tracks, roi+edges; oracle copies its tracker each run")
+
+
+def _edge_stage(ctx: Ctx, name: str, meas: str, note: str) -> Stage:
     import copy
 
     from pyvehtrack import _native
@@ -854,7 +868,7 @@ def _track_frame_edges(ctx: Ctx) -> Stage:
     h, w = img.shape
     dets = np.array([[370 * w // 640, 270 * h // 480, 456 * w // 640, 328 * h // 480],
                      [528 * w // 640, 268 * h // 480, 639 * w // 640, 336 * h // 480]])
-    pcfg = rtrk.TrackerCfg(measurement=rtrk.MEAS_EDGE_CURVES)
+    pcfg = rtrk.TrackerCfg(measurement=getattr(rtrk, meas))
     ccfg = cfg_to_c(pcfg)
     tr = _native.tracker_new()
     ws = _native.edge_ws_new()          # caller-owned: the tracker keeps only a pointer
@@ -879,8 +893,7 @@ def _track_frame_edges(ctx: Ctx) -> Stage:
     def reference():
         return copy.deepcopy(ref).step(img, False)
 
-    return Stage("track_frame_edges", c, reference, pixels=img.size, calls=1,
-                 note="2 tracks, edge-curve measurement; oracle copies its tracker each run")
+    return Stage(name, c, reference, pixels=img.size, calls=1, note=note)
 
 
 # ---------------------------------------------------------------- the whole system (issue 10)

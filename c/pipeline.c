@@ -1271,7 +1271,7 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
         return VT_E_ARG;
     }
     /* Checked here, not left to the tracker stage, so that nothing changes. */
-    if (p->cfg.track && p->cfg.tracker.measurement == VT_MEAS_EDGE_CURVES &&
+    if (p->cfg.track && p->cfg.tracker.measurement != VT_MEAS_ROI_SEARCH &&
         p->tracker.edge_ws == NULL) {
         return VT_E_ARG;
     }

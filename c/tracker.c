@@ -121,7 +121,8 @@ vt_status vt_tracker_cfg_check(const vt_tracker_cfg *c)
         c->init_max_change < 0 || c->init_max_change > VT_MAX_WIDTH) {
         return VT_E_ARG;
     }
-    if ((c->measurement != VT_MEAS_ROI_SEARCH && c->measurement != VT_MEAS_EDGE_CURVES) ||
+    if ((c->measurement != VT_MEAS_ROI_SEARCH && c->measurement != VT_MEAS_EDGE_CURVES &&
+         c->measurement != VT_MEAS_ROI_EDGES) ||
         vt_edge_cfg_check(&c->edge) != VT_OK) {
         return VT_E_ARG;
     }
@@ -345,7 +346,7 @@ static void vt__search_roi(const vt_tracker_cfg *cfg, const vt_box *box, vt_box 
  * products far inside int64. */
 static int vt__flat(const vt_tracker_cfg *cfg, const vt_box *b)
 {
-    return cfg->search_max_aspect_permille > 0 && cfg->measurement == VT_MEAS_ROI_SEARCH &&
+    return cfg->search_max_aspect_permille > 0 && cfg->measurement != VT_MEAS_EDGE_CURVES &&
            ((int64_t)b->right - b->left + 1) * 1000 >
                (int64_t)cfg->search_max_aspect_permille * ((int64_t)b->bottom - b->top + 1);
 }
@@ -424,7 +425,7 @@ static void vt__start(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *cfg,
     t->sides.max_change_right = cfg->init_max_change;
     vt__box_from_state(t);
     vt__set_tmpl(t, img);
-    if (cfg->measurement == VT_MEAS_EDGE_CURVES) {
+    if (cfg->measurement != VT_MEAS_ROI_SEARCH) {
         vt__edge_refresh(tr, t, cfg, img);
     }
 }
@@ -537,7 +538,7 @@ static vt_status vt__step_args(const vt_tracker *tr, const vt_tracker_cfg *cfg, 
     if (s != VT_OK) {
         return s;
     }
-    if (cfg->measurement == VT_MEAS_EDGE_CURVES && tr->edge_ws == NULL) {
+    if (cfg->measurement != VT_MEAS_ROI_SEARCH && tr->edge_ws == NULL) {
         return VT_E_ARG; /* the edge measurement needs its workspace (vt_tracker_set_edge_ws) */
     }
     return VT_OK;
@@ -550,7 +551,7 @@ static int vt__predict_measure(vt_tracker *tr, vt_track *t, const vt_tracker_cfg
 {
     vt_box roi, meas;
     vt_track_sides sides;
-    int32_t found = 0, m, gate, gate_b, flat;
+    int32_t found = 0, m, gate, gate_b, flat, ok;
     vt_status s;
     t->age = vt__inc_sat(t->age);
     if (vt_kf_predict(&t->kf) != VT_OK) {
@@ -569,15 +570,26 @@ static int vt__predict_measure(vt_tracker *tr, vt_track *t, const vt_tracker_cfg
     } else {
         s = vt_track_search(&tr->ws, &sides, &cfg->search, img, &roi, &meas, &found);
     }
-    if (s == VT_OK && found && vt__abs_i32(meas.left - t->box.left) <= gate &&
-        vt__abs_i32(meas.right - t->box.right) <= gate &&
-        vt__abs_i32(meas.bottom - t->box.bottom) <= gate_b &&
-        vt__scale_ok(tr, t, cfg, meas.left, meas.bottom, meas.right) &&
-        vt__update(t, meas.left, meas.bottom, meas.right) == VT_OK) {
+    ok = s == VT_OK && found && vt__abs_i32(meas.left - t->box.left) <= gate &&
+         vt__abs_i32(meas.right - t->box.right) <= gate &&
+         vt__abs_i32(meas.bottom - t->box.bottom) <= gate_b &&
+         vt__scale_ok(tr, t, cfg, meas.left, meas.bottom, meas.right);
+    if (!ok && cfg->measurement == VT_MEAS_ROI_EDGES && !flat && !t->tm_only &&
+        (t->state == VT_TRACK_CONFIRMED || t->state == VT_TRACK_COASTING)) {
+        /* the search failed on a rear view it measured before: its edge curves */
+        found = 0;
+        vt__edge_measure(tr, t, cfg, img, m, &meas, &found);
+        sides = t->sides; /* the failed search's side memory is not kept */
+        ok = found && vt__abs_i32(meas.left - t->box.left) <= gate &&
+             vt__abs_i32(meas.right - t->box.right) <= gate &&
+             vt__abs_i32(meas.bottom - t->box.bottom) <= gate_b &&
+             vt__scale_ok(tr, t, cfg, meas.left, meas.bottom, meas.right);
+    }
+    if (ok && vt__update(t, meas.left, meas.bottom, meas.right) == VT_OK) {
         t->sides = sides;
         t->tm_only = 0;
         vt__hit(t, cfg, img);
-        if (cfg->measurement == VT_MEAS_EDGE_CURVES) {
+        if (cfg->measurement != VT_MEAS_ROI_SEARCH) {
             vt__edge_refresh(tr, t, cfg, img);
         }
         return 1;
@@ -614,7 +626,7 @@ static void vt__after_reset(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *c
     } else {
         vt__set_tmpl(t, img);
     }
-    if (cfg->measurement == VT_MEAS_EDGE_CURVES) {
+    if (cfg->measurement != VT_MEAS_ROI_SEARCH) {
         vt__edge_refresh(tr, t, cfg, img);
     }
 }

@@ -450,7 +450,7 @@ def lane_line_x(line, y_q16: int) -> int:
 
 # ================================================================ edge_track.h
 # (thin 1:1 wrappers; the tracker selects this measurement with
-# vt_tracker_cfg.measurement = VT_MEAS_EDGE_CURVES)
+# vt_tracker_cfg.measurement = VT_MEAS_EDGE_CURVES, or VT_MEAS_ROI_EDGES as the fallback)
 def edge_cfg_default():
     return _defaults("vt_edge_cfg")
 

@@ -56,7 +56,8 @@ EdgeConfig = _int_config("EdgeConfig", "vt_edge_cfg",
                          "MEASUREMENTS['edges'].",
                          _native.tracker_cfg_default().edge)
 # TrackerConfig.measurement: the C values (VT_MEAS_*) by name.
-MEASUREMENTS = {"roi": int(lib.VT_MEAS_ROI_SEARCH), "edges": int(lib.VT_MEAS_EDGE_CURVES)}
+MEASUREMENTS = {"roi": int(lib.VT_MEAS_ROI_SEARCH), "edges": int(lib.VT_MEAS_EDGE_CURVES),
+                "roi+edges": int(lib.VT_MEAS_ROI_EDGES)}
 
 
 def _tracker_defaults() -> dict:

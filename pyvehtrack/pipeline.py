@@ -579,7 +579,7 @@ class Pipeline:
             # The edge-curve measurement's workspace (sizeof(vt_edge_ws), 320 KB at the
             # default VT_EDGE_MAX_PIXELS) exists only when that measurement runs; it is
             # scratch, so one per Pipeline serves every run (init detaches it).
-            if self._ccfg.track and self._ccfg.tracker.measurement == lib.VT_MEAS_EDGE_CURVES:
+            if self._ccfg.track and self._ccfg.tracker.measurement != lib.VT_MEAS_ROI_SEARCH:
                 if getattr(self, "_edge_ws", None) is None:
                     self._edge_ws = _native.edge_ws_new()
                 _native.pipeline_set_edge_ws(self._p, self._edge_ws)

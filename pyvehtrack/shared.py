@@ -316,7 +316,7 @@ def lane_config_from(obj) -> LaneConfig:
 # ---------------------------------------------------------------- tracker (vt_tracker_cfg, tracker.h)
 # The oracle's tracker configuration (reference.tracker.TrackerCfg and its parts re-export these);
 # pyvehtrack.config.TrackerConfig is the friendly layer's integer twin.
-MEAS_ROI_SEARCH, MEAS_EDGE_CURVES = 0, 1    # vt_tracker_cfg.measurement
+MEAS_ROI_SEARCH, MEAS_EDGE_CURVES, MEAS_ROI_EDGES = 0, 1, 2    # vt_tracker_cfg.measurement
 TWO_THRESHOLD, LARGEST = 0, 1               # vt_search_cfg.side_mode
 
 

@@ -21,10 +21,10 @@ import numpy as np
 from . import _check, _native
 from .frames import to_gray
 from .kalman import ModelConfig
-from .shared import MEAS_EDGE_CURVES, MEAS_ROI_SEARCH, TrackBase, TrackerCfg
+from .shared import MEAS_EDGE_CURVES, MEAS_ROI_EDGES, MEAS_ROI_SEARCH, TrackBase, TrackerCfg
 
 STATES = {1: "tentative", 2: "confirmed", 3: "coasting"}
-MEASUREMENTS = {"roi": MEAS_ROI_SEARCH, "edges": MEAS_EDGE_CURVES}
+MEASUREMENTS = {"roi": MEAS_ROI_SEARCH, "edges": MEAS_EDGE_CURVES, "roi+edges": MEAS_ROI_EDGES}
 
 
 @dataclass(frozen=True)
@@ -105,8 +105,9 @@ class Tracker:
 
     detector: an object with .detect(gray) -> result with .boxes (N, 4), used every
     `detect_every` frames when step() is not given detections. measurement: "roi" (thesis
-    ROI search) or "edges" (edge curves matched by chamfer distance, GIST paper); when given
-    it overrides cfg.measurement (the edge measurement's workspace, 320 KB at the default
+    ROI search), "edges" (edge curves matched by chamfer distance, GIST paper) or "roi+edges"
+    (the ROI search, the edge curves where it fails on a confirmed track it measured before);
+    when given it overrides cfg.measurement (the edge workspace, 320 KB at the default
     VT_EDGE_MAX_PIXELS, is allocated only then). Frames larger than the core's compile-time
     maximum are downscaled by the pipeline's one rule (boxes are scaled back to input
     pixels), never clipped.

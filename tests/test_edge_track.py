@@ -383,7 +383,7 @@ def test_edge_workspace_is_caller_owned_and_required():
     assert config.TrackerConfig().edge == config.EdgeConfig() and \
         [getattr(config.EdgeConfig(), f) for f in E_FIELDS] == [getattr(red.EdgeCfg(), f) for f in E_FIELDS]
     with pytest.raises(_native.VtError):
-        config.to_c(config.PipelineConfig(tracker=config.TrackerConfig(measurement=2)))
+        config.to_c(config.PipelineConfig(tracker=config.TrackerConfig(measurement=3)))
 
     # Python allocates the workspace only for the edge measurement.
     assert Pipeline(sources=()).__dict__.get("_edge_ws") is None

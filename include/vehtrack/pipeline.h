@@ -525,7 +525,7 @@ vt_status vt_pipeline_set_cnn(vt_pipeline *p, const vt_cnn_model *m, const vt_cn
                               uint8_t *work, size_t work_bytes);
 
 /* Attach the caller's workspace for the tracker's edge-curve measurement
- * (cfg.tracker.measurement == VT_MEAS_EDGE_CURVES; vehtrack/edge_track.h), as
+ * (cfg.tracker.measurement VT_MEAS_EDGE_CURVES or VT_MEAS_ROI_EDGES; vehtrack/edge_track.h), as
  * vt_tracker_set_edge_ws: call after vt_pipeline_init (which detaches it); ws NULL
  * detaches. The pipeline keeps the pointer (*ws must outlive the run; it is scratch,
  * rewritten every step). A pipeline tracking with the edge measurement and no

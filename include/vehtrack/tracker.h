@@ -15,7 +15,7 @@
  * track's own state, small, and keeps a track copyable). The edge measurement's
  * crop workspace (vt_edge_ws, 327,704 bytes at VT_EDGE_MAX_PIXELS = 65536) is
  * NOT in vt_tracker: the caller owns it and attaches it with
- * vt_tracker_set_edge_ws only when it uses VT_MEAS_EDGE_CURVES, so the ROI
+ * vt_tracker_set_edge_ws only when it uses VT_MEAS_EDGE_CURVES or VT_MEAS_ROI_EDGES, so the ROI
  * search pays nothing for it. Work per frame and track: one predict +
  * update (about 1 100 multiplies) and two Sobel responses per ROI pixel (2.3
  * instructions per frame pixel for two tracks at 640x480, `make bench`); nothing
@@ -68,8 +68,15 @@ typedef struct {
     vt_q14 keep_ncc;             /* correlation that keeps an undetected track      */
     int32_t init_max_change;     /* px: the two-threshold rule's starting allowance */
     /* The per-frame measurement: VT_MEAS_ROI_SEARCH (thesis sec. 3.6.1, the
-     * default) or VT_MEAS_EDGE_CURVES (GIST paper sec. III.B: the track's edge
-     * curves matched by chamfer distance, vehtrack/edge_track.h, with `edge`). */
+     * default), VT_MEAS_EDGE_CURVES (GIST paper sec. III.B: the track's edge
+     * curves matched by chamfer distance, vehtrack/edge_track.h, with `edge`) or
+     * VT_MEAS_ROI_EDGES (both papers: the ROI search, and where it fails on a
+     * confirmed or coasting track it has measured before (not tm_only, not flat),
+     * the edge curves, kept fresh on every measured frame; the same gates and scale
+     * check; a fallback measurement counts as the frame's measurement. A compressed
+     * frame softens the shadow row and sides the search needs, while the curves
+     * still match; the search never measured a part-track or a tentative track,
+     * and the curves do not carry those). */
     int32_t measurement;
     vt_edge_cfg edge;
     /* Template tracking (GIST paper sec. III.B tracks by matching), for
@@ -170,6 +177,7 @@ typedef struct {
 
 #define VT_MEAS_ROI_SEARCH 0
 #define VT_MEAS_EDGE_CURVES 1
+#define VT_MEAS_ROI_EDGES 2
 
 #define VT_TRACKER_CFG_DEFAULT                                              \
     {                                                                       \

@@ -128,9 +128,11 @@ def register(sub) -> None:
     p.add_argument("--road", choices=("auto", "lanes", "fixed"), default="auto",
                    help="road area for the detector: lanes, a fixed trapezoid, or lanes with fallback")
     add_model_arg(p)
-    p.add_argument("--measurement", choices=("roi", "edges"), default="roi",
-                   help="per-frame measurement of a track: the thesis's ROI search (roi, default) or "
-                        "the GIST paper's edge curves matched by chamfer distance (edges)")
+    p.add_argument("--measurement", choices=("roi", "edges", "roi+edges"), default="roi",
+                   help="per-frame measurement of a track: the thesis's ROI search (roi, default), "
+                        "the GIST paper's edge curves matched by chamfer distance (edges), or the ROI "
+                        "search with the edge curves where it fails on a rear view it measured before "
+                        "(roi+edges: compressed video, e.g. dashcam MP4)")
     p.add_argument("--flow", action="store_true",
                    help="also run the overtaking flow stage (sources 'flow'): overtaking cars from the "
                         "side, and the reverse hand-over of cars the ego car overtakes (state 'handover')")

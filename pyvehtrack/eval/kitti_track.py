@@ -2,7 +2,7 @@
 and score it against the lidar-derived lead-car box (derived_lidar_lead_box.csv).
 
     python tools/eval_kitti_track.py [--data DIR] [--engine c|reference|both]
-                                     [--measurement roi|edges|both] [--json OUT]
+                                     [--measurement roi|edges|roi+edges|both|all] [--json OUT]
                                      [--mp4] [--reduce-verified 0|1]
 
 Figures (the tracking issue's targets: one id through >= 95% of the frames, IoU >= 0.6
@@ -89,8 +89,9 @@ def main(argv=None, default_data: Path = DEFAULT_DATA) -> int:
     ap.add_argument("--data", type=Path, default=default_data)
     ap.add_argument("--engine", choices=("c", "reference", "both"), default="both")
     ap.add_argument("--detect-every", type=int, default=10)
-    ap.add_argument("--measurement", choices=("roi", "edges", "both"), default="roi",
-                    help="the tracker's per-frame measurement (both: one row each)")
+    ap.add_argument("--measurement", choices=("roi", "edges", "roi+edges", "both", "all"), default="roi",
+                    help="the tracker's per-frame measurement (both: roi and edges, all: the three, "
+                         "one row each)")
     ap.add_argument("--mp4", action="store_true",
                     help="track the frames written as one MP4 (OpenCV mp4v, default quality) and decoded")
     ap.add_argument("--reduce-verified", type=int, choices=(0, 1), default=None, metavar="0|1",
@@ -121,13 +122,14 @@ def main(argv=None, default_data: Path = DEFAULT_DATA) -> int:
             print("error: the MP4 lost frames", file=sys.stderr)
             return 2
     engines = ("c", "reference") if a.engine == "both" else (a.engine,)
-    measurements = ("roi", "edges") if a.measurement == "both" else (a.measurement,)
+    measurements = {"both": ("roi", "edges"), "all": ("roi", "edges", "roi+edges")}.get(a.measurement,
+                                                                                        (a.measurement,))
     res = [run(e, files, boxes, a.detect_every, not a.no_progress, m, cfg, model=a.model)
            for e in engines for m in measurements]
-    print(f"{'engine':<16}{'lead id':>8}{'id share':>10}{'IoU>=0.6':>10}{'mean IoU':>10}"
+    print(f"{'engine':<20}{'lead id':>8}{'id share':>10}{'IoU>=0.6':>10}{'mean IoU':>10}"
           f"{'HOTA':>8}{'MOTA':>8}{'IDF1':>8}{'IDSW':>6}{'trk/frm':>8}")
     for r in res:
-        print(f"{r['engine']:<16}{str(r['lead_id']):>8}{r['id_share']:>10.1%}{r['iou06_share']:>10.1%}"
+        print(f"{r['engine']:<20}{str(r['lead_id']):>8}{r['id_share']:>10.1%}{r['iou06_share']:>10.1%}"
               f"{r['mean_iou_lead']:>10.3f}{r['HOTA']:>8.3f}{r['MOTA']:>8.3f}{r['IDF1']:>8.3f}"
               f"{r['IDSW']:>6}{r['tracks_per_frame']:>8.2f}")
     if a.json:

@@ -1,7 +1,7 @@
 """Tracker vs the SORT baseline on the synthetic set, scored with TrackEval (HOTA, MOTA, IDF1).
 
     python tools/eval_synth_track.py [--n 5] [--seed 0] [--size 640x480] [--frames N] [--json OUT]
-                                     [--measurement roi|edges|both]
+                                     [--measurement roi|edges|roi+edges|both|all]
 
 Both trackers are fed the same detections, from two sources:
   - "gt-noisy": GT boxes with 2 px noise per edge and 10% dropped (pyvehtrack.synth.gt_detections),
@@ -13,7 +13,9 @@ Rows per source:
   - ours/10:     the tracker given detections only every 10th frame (the thesis's design), ROI search
                  in between -- the detections of the other 9 frames are not used;
   - ours/10 edges: the same with the edge-curve measurement (GIST paper) in place of the ROI
-                 search (rows present with --measurement edges|both).
+                 search (rows present with --measurement edges|both|all).
+  - ours/10 roi+edges: the ROI search with the edge curves where it fails on a confirmed
+                 track it measured before (rows present with --measurement roi+edges|all).
 """
 from __future__ import annotations
 
@@ -48,7 +50,8 @@ def main(argv=None) -> int:
     ap.add_argument("--size", default="640x480")
     ap.add_argument("--frames", type=int, default=None, help="frames per sequence (default: the scenario's)")
     ap.add_argument("--preproc", choices=("kitti", "none"), default="kitti")
-    ap.add_argument("--measurement", choices=("roi", "edges", "both"), default="roi")
+    ap.add_argument("--measurement", choices=("roi", "edges", "roi+edges", "both", "all"), default="roi",
+                    help="both: roi and edges; all: the three")
     ap.add_argument("--json", type=Path)
     a = ap.parse_args(argv)
     w, h = (int(v) for v in a.size.lower().split("x"))
@@ -63,12 +66,15 @@ def main(argv=None) -> int:
         }
         for src, dets in sources.items():
             runs = []
-            if a.measurement in ("roi", "both"):
+            if a.measurement in ("roi", "both", "all"):
                 runs += [("SORT", lambda: run_sort(dets)), ("ours/1", lambda: run_ours(seq, dets, 1)),
                          ("ours/10", lambda: run_ours(seq, dets, 10))]
-            if a.measurement in ("edges", "both"):
+            if a.measurement in ("edges", "both", "all"):
                 runs += [("ours/1 edges", lambda: run_ours(seq, dets, 1, measurement="edges")),
                          ("ours/10 edges", lambda: run_ours(seq, dets, 10, measurement="edges"))]
+            if a.measurement in ("roi+edges", "all"):
+                runs += [("ours/1 roi+edges", lambda: run_ours(seq, dets, 1, measurement="roi+edges")),
+                         ("ours/10 roi+edges", lambda: run_ours(seq, dets, 10, measurement="roi+edges"))]
             for name, fn in runs:
                 rows.setdefault(f"{src:9} {name}", []).append((seq, fn(), seq.n_frames))
     results = {k: ev.evaluate_many(v, preproc=a.preproc) for k, v in rows.items()}

@@ -10,6 +10,9 @@ detection matches survives only if its 16x16 template still correlates with the
 same box in the new frame; unmatched detections that overlap no track start
 tentative tracks in the first free slot.
 
+With measurement=MEAS_ROI_EDGES the ROI search runs, and where it fails on a confirmed
+or coasting track it measured before (not tm_only, not flat), the edge curves below
+measure it (kept fresh on every measured frame).
 With measurement=MEAS_EDGE_CURVES the ROI search is replaced by the GIST paper's
 (sec. III.B): the track's edge curves at its last good frame are matched to the new
 frame's curves by chamfer distance (reference/edge_track.py), and the template
@@ -53,7 +56,7 @@ from . import edge_track as redge
 from . import image as rimg
 from .kalman import bottom_edge_filter
 from .track_search import SearchCfg, Sides, track_search
-from ..shared import MEAS_EDGE_CURVES, MEAS_ROI_SEARCH, ModelCfg, TrackerCfg  # noqa: F401  (shared plain types)
+from ..shared import MEAS_EDGE_CURVES, MEAS_ROI_EDGES, MEAS_ROI_SEARCH, ModelCfg, TrackerCfg  # noqa: F401  (shared plain types)
 
 FREE, TENTATIVE, CONFIRMED, COASTING = 0, 1, 2, 3
 TEMPLATE = 16
@@ -261,7 +264,7 @@ class Tracker:
     def _flat(self, box) -> bool:
         """c/tracker.c's vt__flat: a box flatter than a rear view (not searched)."""
         c = self.cfg
-        return c.search_max_aspect_permille > 0 and c.measurement == MEAS_ROI_SEARCH and \
+        return c.search_max_aspect_permille > 0 and c.measurement != MEAS_EDGE_CURVES and \
             (box[2] - box[0] + 1) * 1000 > c.search_max_aspect_permille * (box[3] - box[1] + 1)
 
     def _snap(self, img, d, grads):
@@ -308,7 +311,7 @@ class Tracker:
             self._hit(t, img)
         else:
             self._set_tmpl(t, img)
-        if c.measurement == MEAS_EDGE_CURVES:
+        if c.measurement != MEAS_ROI_SEARCH:
             self._edge_refresh(t, img)
 
     def _update(self, t: Track, left, bottom, right):
@@ -330,7 +333,7 @@ class Tracker:
         t.sides = Sides(True, l, r, c.init_max_change, c.init_max_change)
         t.box_from_state()
         self._set_tmpl(t, img)
-        if c.measurement == MEAS_EDGE_CURVES:
+        if c.measurement != MEAS_ROI_SEARCH:
             self._edge_refresh(t, img)
 
     def step(self, img: np.ndarray, detection_frame: bool = False, dets=()):
@@ -358,14 +361,22 @@ class Tracker:
                 meas = None      # not a rear view: only the template measures it
             else:
                 meas = track_search(img, c.search, roi, sides, grads)
-            if meas is not None and abs(meas[0] - l) <= gate and abs(meas[2] - r) <= gate \
-                    and abs(meas[3] - b) <= gate_b and self._scale_ok(t, meas):
+            ok = meas is not None and abs(meas[0] - l) <= gate and abs(meas[2] - r) <= gate \
+                and abs(meas[3] - b) <= gate_b and self._scale_ok(t, meas)
+            if not ok and c.measurement == MEAS_ROI_EDGES and not flat and not t.tm_only \
+                    and t.state in (CONFIRMED, COASTING):
+                # the search failed on a rear view it measured before: its edge curves
+                meas = self._edge_measure(t, img, m)
+                sides = Sides(**vars(t.sides))   # the failed search's side memory is not kept
+                ok = meas is not None and abs(meas[0] - l) <= gate and abs(meas[2] - r) <= gate \
+                    and abs(meas[3] - b) <= gate_b and self._scale_ok(t, meas)
+            if ok:
                 self._update(t, meas[0], meas[3], meas[2])
                 t.sides = sides
                 t.tm_only = False
                 measured[i] = True
                 self._hit(t, img)
-                if c.measurement == MEAS_EDGE_CURVES:
+                if c.measurement != MEAS_ROI_SEARCH:
                     self._edge_refresh(t, img)
             elif c.tmatch_radius > 0 and (t.state == TENTATIVE or (t.state == CONFIRMED and (t.tm_only or flat))) \
                     and (tm := self._tmatch(t, img)) is not None and self._scale_ok(t, tm):
@@ -407,7 +418,7 @@ class Tracker:
                     self._hit(t, img)
                 else:
                     self._set_tmpl(t, img)
-                if c.measurement == MEAS_EDGE_CURVES:
+                if c.measurement != MEAS_ROI_SEARCH:
                     self._edge_refresh(t, img)
             if c.part_permille > 0:
                 # a part-track takes the first unmatched larger detection holding it
