@@ -108,7 +108,8 @@ def test_workspace_config_and_flags(tmp_path, capsys):
     tr = _native.tracker_new()
     assert lib.vt_tracker_step(tr, tc, v, 1, det, 1, out, lib.VT_MAX_TRACKS, n) == lib.VT_E_ARG
     assert tr.frame == 0
-    _native.tracker_set_edge_ws(tr, _native.edge_ws_new())
+    ws = _native.edge_ws_new()              # kept alive: the tracker holds only a pointer
+    _native.tracker_set_edge_ws(tr, ws)
     assert lib.vt_tracker_step(tr, tc, v, 1, det, 1, out, lib.VT_MAX_TRACKS, n) == lib.VT_OK
     assert n[0] == 1 and tr.tracks[0].edges.n > 0          # curves kept from the start
     tc.measurement = 3
