@@ -99,19 +99,17 @@ def test_workspace_config_and_flags(tmp_path, capsys):
     Python layer allocates it); measurement 3 does not exist; the CLI takes the flag."""
     img = np.full((48, 64), 90, np.uint8)
     img[20:30, 20:40] = 200
-    v = _native.view(img, "img")
-    n = ffi.new("int32_t *")
-    out = ffi.new("vt_track_out[]", int(lib.VT_MAX_TRACKS))
-    det = ffi.new("vt_box *", [18, 18, 41, 31])
+    box = [18, 18, 41, 31]
     tc = _native.tracker_cfg_default()
     tc.measurement = lib.VT_MEAS_ROI_EDGES
     tr = _native.tracker_new()
-    assert lib.vt_tracker_step(tr, tc, v, 1, det, 1, out, lib.VT_MAX_TRACKS, n) == lib.VT_E_ARG
+    with pytest.raises(_native.VtError):                  # no workspace attached
+        _native.tracker_step(tr, tc, img, True, [box])
     assert tr.frame == 0
     ws = _native.edge_ws_new()              # kept alive: the tracker holds only a pointer
     _native.tracker_set_edge_ws(tr, ws)
-    assert lib.vt_tracker_step(tr, tc, v, 1, det, 1, out, lib.VT_MAX_TRACKS, n) == lib.VT_OK
-    assert n[0] == 1 and tr.tracks[0].edges.n > 0          # curves kept from the start
+    _native.tracker_step(tr, tc, img, True, [box])
+    assert tr.frame == 1 and tr.tracks[0].edges.n > 0    # curves kept from the start
     tc.measurement = 3
     assert lib.vt_tracker_cfg_check(tc) == lib.VT_E_ARG
     pc = _native.pipeline_cfg_default()
@@ -119,7 +117,8 @@ def test_workspace_config_and_flags(tmp_path, capsys):
     pc.sources = 0
     p = _native.pipeline_new(pc)
     fo = ffi.new("vt_frame_out *")
-    assert lib.vt_pipeline_step_dets(p, v, det, 1, fo) == lib.VT_E_ARG and p.frame == 0
+    det = ffi.new("vt_box *", box)
+    assert lib.vt_pipeline_step_dets(p, _native.view(img, "img"), det, 1, fo) == lib.VT_E_ARG and p.frame == 0
     trk = Tracker("c", measurement="roi+edges")
     assert trk._tr.edge_ws != ffi.NULL
     assert trk.cfg.measurement == rtrk.MEAS_ROI_EDGES == config.MEASUREMENTS["roi+edges"]
