@@ -56,7 +56,8 @@ from . import edge_track as redge
 from . import image as rimg
 from .kalman import bottom_edge_filter
 from .track_search import SearchCfg, Sides, track_search
-from ..shared import MEAS_EDGE_CURVES, MEAS_ROI_EDGES, MEAS_ROI_SEARCH, ModelCfg, TrackerCfg  # noqa: F401  (shared plain types)
+from ..shared import (  # noqa: F401  (shared plain types)
+    MEAS_EDGE_CURVES, MEAS_ROI_EDGES, MEAS_ROI_SEARCH, ModelCfg, TrackerCfg)
 
 FREE, TENTATIVE, CONFIRMED, COASTING = 0, 1, 2, 3
 TEMPLATE = 16
