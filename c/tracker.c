@@ -544,6 +544,17 @@ static vt_status vt__step_args(const vt_tracker *tr, const vt_tracker_cfg *cfg, 
     return VT_OK;
 }
 
+/* A frame's measurement is taken when found, within the side and bottom gates of
+ * the predicted box and on the road's scale (vt__scale_ok). */
+static int vt__meas_ok(const vt_tracker *tr, const vt_track *t, const vt_tracker_cfg *cfg, int32_t found,
+                       const vt_box *meas, int32_t gate, int32_t gate_b)
+{
+    return found && vt__abs_i32(meas->left - t->box.left) <= gate &&
+           vt__abs_i32(meas->right - t->box.right) <= gate &&
+           vt__abs_i32(meas->bottom - t->box.bottom) <= gate_b &&
+           vt__scale_ok(tr, t, cfg, meas->left, meas->bottom, meas->right);
+}
+
 /* Phase 1, one live track: predict, search the ROI, update or coast. Returns 1
  * if the track was measured. */
 static int vt__predict_measure(vt_tracker *tr, vt_track *t, const vt_tracker_cfg *cfg,
@@ -570,20 +581,14 @@ static int vt__predict_measure(vt_tracker *tr, vt_track *t, const vt_tracker_cfg
     } else {
         s = vt_track_search(&tr->ws, &sides, &cfg->search, img, &roi, &meas, &found);
     }
-    ok = s == VT_OK && found && vt__abs_i32(meas.left - t->box.left) <= gate &&
-         vt__abs_i32(meas.right - t->box.right) <= gate &&
-         vt__abs_i32(meas.bottom - t->box.bottom) <= gate_b &&
-         vt__scale_ok(tr, t, cfg, meas.left, meas.bottom, meas.right);
+    ok = s == VT_OK && vt__meas_ok(tr, t, cfg, found, &meas, gate, gate_b);
     if (!ok && cfg->measurement == VT_MEAS_ROI_EDGES && !flat && !t->tm_only &&
         (t->state == VT_TRACK_CONFIRMED || t->state == VT_TRACK_COASTING)) {
         /* the search failed on a rear view it measured before: its edge curves */
         found = 0;
         vt__edge_measure(tr, t, cfg, img, m, &meas, &found);
         sides = t->sides; /* the failed search's side memory is not kept */
-        ok = found && vt__abs_i32(meas.left - t->box.left) <= gate &&
-             vt__abs_i32(meas.right - t->box.right) <= gate &&
-             vt__abs_i32(meas.bottom - t->box.bottom) <= gate_b &&
-             vt__scale_ok(tr, t, cfg, meas.left, meas.bottom, meas.right);
+        ok = vt__meas_ok(tr, t, cfg, found, &meas, gate, gate_b);
     }
     if (ok && vt__update(t, meas.left, meas.bottom, meas.right) == VT_OK) {
         t->sides = sides;

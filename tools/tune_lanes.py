@@ -112,6 +112,8 @@ def main():
     guard = None
     rguard = None
     if args.range_guard:
+        import contextlib  # noqa: PLC0415
+        import io  # noqa: PLC0415
         import tempfile  # noqa: PLC0415
         sys.path.insert(0, str(ROOT / "tools"))
         import eval_kitti_range as ekr  # noqa: PLC0415
@@ -123,12 +125,8 @@ def main():
             with tempfile.TemporaryDirectory() as t:
                 out = Path(t) / "r.json"
                 argv = ["--data", str(args.kitti), "--json", str(out)] + (["--lane-set", *kv] if kv else [])
-                with open("/dev/null", "w") as null:
-                    old, sys.stdout = sys.stdout, null
-                    try:
-                        rc = ekr.main(argv)
-                    finally:
-                        sys.stdout = old
+                with contextlib.redirect_stdout(io.StringIO()):
+                    rc = ekr.main(argv)
                 if rc != 0:
                     raise SystemExit(f"tune_lanes: eval_kitti_range failed ({rc})")
                 s = json.loads(out.read_text())["summaries"]["offset"]["first_half"]

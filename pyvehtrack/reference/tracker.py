@@ -362,15 +362,16 @@ class Tracker:
                 meas = None      # not a rear view: only the template measures it
             else:
                 meas = track_search(img, c.search, roi, sides, grads)
-            ok = meas is not None and abs(meas[0] - l) <= gate and abs(meas[2] - r) <= gate \
-                and abs(meas[3] - b) <= gate_b and self._scale_ok(t, meas)
+            def taken(meas):   # found, within the gates of the predicted box, on the road's scale
+                return meas is not None and abs(meas[0] - l) <= gate and abs(meas[2] - r) <= gate \
+                    and abs(meas[3] - b) <= gate_b and self._scale_ok(t, meas)
+            ok = taken(meas)
             if not ok and c.measurement == MEAS_ROI_EDGES and not flat and not t.tm_only \
                     and t.state in (CONFIRMED, COASTING):
                 # the search failed on a rear view it measured before: its edge curves
                 meas = self._edge_measure(t, img, m)
                 sides = Sides(**vars(t.sides))   # the failed search's side memory is not kept
-                ok = meas is not None and abs(meas[0] - l) <= gate and abs(meas[2] - r) <= gate \
-                    and abs(meas[3] - b) <= gate_b and self._scale_ok(t, meas)
+                ok = taken(meas)
             if ok:
                 self._update(t, meas[0], meas[3], meas[2])
                 t.sides = sides
