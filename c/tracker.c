@@ -236,7 +236,7 @@ vt_status vt_tracker_cfg_default(vt_tracker_cfg *cfg)
 }
 
 /* A successful measurement: lifecycle and template. */
-static void vt__hit(vt_track *t, const vt_tracker_cfg *cfg, const vt_image_u8 *img)
+static void vt__hit_keep_tmpl(vt_track *t, const vt_tracker_cfg *cfg)
 {
     t->hits = vt__inc_sat(t->hits);
     t->misses = 0;
@@ -246,6 +246,11 @@ static void vt__hit(vt_track *t, const vt_tracker_cfg *cfg, const vt_image_u8 *i
     } else if (t->state == VT_TRACK_COASTING) {
         t->state = VT_TRACK_CONFIRMED;
     }
+}
+
+static void vt__hit(vt_track *t, const vt_tracker_cfg *cfg, const vt_image_u8 *img)
+{
+    vt__hit_keep_tmpl(t, cfg);
     vt__set_tmpl(t, img);
 }
 
@@ -562,7 +567,7 @@ static int vt__predict_measure(vt_tracker *tr, vt_track *t, const vt_tracker_cfg
 {
     vt_box roi, meas;
     vt_track_sides sides;
-    int32_t found = 0, m, gate, gate_b, flat, ok;
+    int32_t found = 0, m, gate, gate_b, flat, ok, by_edges = 0;
     vt_status s;
     t->age = vt__inc_sat(t->age);
     if (vt_kf_predict(&t->kf) != VT_OK) {
@@ -589,11 +594,20 @@ static int vt__predict_measure(vt_tracker *tr, vt_track *t, const vt_tracker_cfg
         vt__edge_measure(tr, t, cfg, img, m, &meas, &found);
         sides = t->sides; /* the failed search's side memory is not kept */
         ok = vt__meas_ok(tr, t, cfg, found, &meas, gate, gate_b);
+        by_edges = ok;
     }
     if (ok && vt__update(t, meas.left, meas.bottom, meas.right) == VT_OK) {
         t->sides = sides;
         t->tm_only = 0;
-        vt__hit(t, cfg, img);
+        if (by_edges) {
+            /* the template stays the rear the search or a detection last saw: the
+             * correlation check of the next detection frame then asks whether that
+             * vehicle is still in the box, not whatever edges the curves followed
+             * (an occluder's side, while the vehicle is hidden behind it) */
+            vt__hit_keep_tmpl(t, cfg);
+        } else {
+            vt__hit(t, cfg, img);
+        }
         if (cfg->measurement != VT_MEAS_ROI_SEARCH) {
             vt__edge_refresh(tr, t, cfg, img);
         }

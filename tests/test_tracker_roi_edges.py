@@ -78,6 +78,58 @@ def test_roi_edges_is_roi_while_the_search_measures():
         assert [(t.id, t.state, t.box) for t in both[k]] == [(t.id, t.state, t.box) for t in roi[k]], k
 
 
+def covered(rng, n, l0, b0, w, vx, shadow_until, cover_from):
+    """scene(), with a van's plain rear drawn exactly over the car from frame cover_from on
+    (a nearer vehicle hiding it): the same outline, so its edge curves still match there."""
+    frames, boxes = scene(rng, n, l0, b0, w, vx, shadow_until)
+    for k in range(cover_from, n):
+        l, t, r, b = boxes[k]
+        frames[k][t:b - 2, l:r + 1] = 150
+        frames[k][t + w // 4:t + w // 4 + 3, l + 2:r - 1] = 90
+    return frames, boxes
+
+
+def steps(engine, frames, boxes, det_frames):
+    """The tracker given the car's box on frame 0 and no box on the other detection frames."""
+    tr = Tracker(engine, measurement="roi+edges")
+    return [tr.step(f, detections=([boxes[0]] if k == 0 else []) if k in det_frames else None)
+            for k, f in enumerate(frames)]
+
+
+@pytest.mark.parametrize("engine", ["c", "reference"])
+def test_curves_keep_the_template_the_search_took(engine):
+    """The curves measure the track, but its template stays the rear the ROI search (or a
+    detection) last saw, so the thesis's correlation check on the next detection frame asks
+    whether that vehicle is still in the box. Shadow to frame 5, the curves from frame 6: the
+    car itself is kept through detection frame 10, which has no box for it; with a van over it
+    from frame 7 (the curves still follow the outline) the track ends on frame 10. Before
+    2026-11-30 the curves refreshed the template, and a track stayed on an occluder this way
+    (106 false frames on the synthetic seeds 100-104)."""
+    frames, boxes = scene(np.random.default_rng(3), 14, 60, 110, 60, 1.0, 6)
+    car = steps(engine, frames, boxes, (0, 10))
+    assert all([(t.id, t.state) for t in car[k]] == [(1, "confirmed")] for k in range(2, 14))
+    frames, boxes = covered(np.random.default_rng(3), 14, 60, 110, 60, 1.0, 6, 7)
+    van = steps(engine, frames, boxes, (0, 10))
+    assert all([(t.id, t.state) for t in van[k]] == [(1, "confirmed")] for k in range(2, 10))
+    assert all(van[k] == [] for k in range(10, 14))
+
+
+def test_curves_do_not_retake_the_template_in_c():
+    """The C track's 16x16 template after frames carried by the curves is the one taken on the
+    last frame the search measured (frame 5: its tmpl_box, the box it was sampled from, is
+    frame 5's); while the search measures, it is retaken every frame (the car moves 1 px a
+    frame, so each frame's box differs)."""
+    frames, boxes = scene(np.random.default_rng(3), 10, 60, 110, 60, 1.0, 6)
+    tr = Tracker("c", measurement="roi+edges")
+    taken = []
+    for k, f in enumerate(frames):
+        tr.step(f, detections=[boxes[0]] if k == 0 else None)
+        b = tr._tr.tracks[0].tmpl_box
+        taken.append((b.left, b.top, b.right, b.bottom, bytes(ffi.buffer(tr._tr.tracks[0].tmpl))))
+    assert len({taken[k][:4] for k in range(1, 6)}) == 5          # retaken on each searched frame
+    assert all(taken[k] == taken[5] for k in range(6, 10))
+
+
 # Tolerance as tests/test_edge_track.py's C-vs-oracle test: the fixed-point filter follows
 # filterpy to ~1e-3 px, so a rounded corner differs by 1 px only near a .5 boundary; the rest
 # is integer logic on both sides. Same ids and states, boxes within IoU >= 0.9.

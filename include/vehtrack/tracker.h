@@ -73,7 +73,10 @@ typedef struct {
      * VT_MEAS_ROI_EDGES (both papers: the ROI search, and where it fails on a
      * confirmed or coasting track it has measured before (not tm_only, not flat),
      * the edge curves, kept fresh on every measured frame; the same gates and scale
-     * check; a fallback measurement counts as the frame's measurement. A compressed
+     * check; a fallback measurement counts as the frame's measurement, but the
+     * track's template stays the one the search or a detection last took, so the
+     * correlation check of the next detection frame (keep_ncc) asks for that
+     * vehicle and not for the occluder whose side the curves may follow. A compressed
      * frame softens the shadow row and sides the search needs, while the curves
      * still match; the search never measured a part-track or a tentative track,
      * and the curves do not carry those). */

@@ -19,10 +19,9 @@ from pathlib import Path
 __all__ = ["CliError", "add_command", "IMAGE_EXTS", "VIDEO_EXTS", "VIDEO_OUT_EXTS", "output_kind", "frame_sources",
            "FrameReader", "read_image", "progress", "count_frames", "video_fps", "VideoOut", "Outputs"]
 
-# The one list of file types. VIDEO_OUT_EXTS: the containers cv2.VideoWriter writes here
-# (.avi with MJPG, the others with mp4v).
-IMAGE_EXTS = frozenset({".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm", ".ppm", ".webp"})
-VIDEO_EXTS = frozenset({".mp4", ".avi", ".mov", ".mkv", ".webm", ".m4v", ".mpg", ".mpeg"})
+# The one list of file types (pyvehtrack.frames, where the coding rule reads them too).
+# VIDEO_OUT_EXTS: the containers cv2.VideoWriter writes here (.avi with MJPG, the others with mp4v).
+from ..frames import IMAGE_EXTS, VIDEO_EXTS  # noqa: E402
 VIDEO_OUT_EXTS = frozenset({".mp4", ".avi", ".mov", ".mkv"})
 
 

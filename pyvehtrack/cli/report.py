@@ -1,7 +1,8 @@
 """`pyvehtrack report`: run a recording once and write a self-contained HTML page.
 
     pyvehtrack report INPUT --out REPORT_DIR [--camera CAMERA.json] [--truth TRUTH ...]
-                      [--engine c|reference] [--detect-every N] [--fps F] [--no-progress]
+                      [--engine c|reference] [--detect-every N] [--fps F]
+                      [--measurement auto|roi|edges|roi+edges] [--no-progress]
 """
 from __future__ import annotations
 
@@ -46,6 +47,9 @@ def register(sub) -> None:
                    help="whole-road classifier model, as `track --model` (default: the shipped "
                         "pyvehtrack/models/cnn_gray_l0_big.npz, window_mlp_hog32.npz with --engine reference); "
                         "'none': the ego-lane detector alone")
+    p.add_argument("--measurement", choices=("auto", "roi", "edges", "roi+edges"), default="auto",
+                   help="the tracker's per-frame measurement, as `track --measurement` (default auto: "
+                        "roi+edges for a lossy video or JPEG frames, roi otherwise)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
@@ -70,7 +74,7 @@ def run(args) -> int:
         page = make_report(args.input, out, truth=args.truth or (auto or ()), camera=args.camera or auto,
                            engine=args.engine,
                            detect_every=args.detect_every, progress=not args.no_progress, fps=args.fps,
-                           model=model)
+                           model=model, measurement=args.measurement)
     except (ValueError, TypeError, VtError) as e:
         raise CliError(str(e)) from None
     print(f"report: {page}")

@@ -2,6 +2,7 @@
 
     pyvehtrack track INPUT... --out annotated.mp4 [--tracks tracks.txt] [--engine c|reference]
                      [--detect-every N] [--road auto|lanes|fixed] [--all-states]
+                     [--measurement auto|roi|edges|roi+edges]
                      [--camera CAMERA.json [--fps F] [--ego-speed V]] [--json TRACKS.json]
                      [--skip-bad-frames] [--no-progress]
 
@@ -128,11 +129,14 @@ def register(sub) -> None:
     p.add_argument("--road", choices=("auto", "lanes", "fixed"), default="auto",
                    help="road area for the detector: lanes, a fixed trapezoid, or lanes with fallback")
     add_model_arg(p)
-    p.add_argument("--measurement", choices=("roi", "edges", "roi+edges"), default="roi",
-                   help="per-frame measurement of a track: the thesis's ROI search (roi, default), "
-                        "the GIST paper's edge curves matched by chamfer distance (edges), or the ROI "
-                        "search with the edge curves where it fails on a rear view it measured before "
-                        "(roi+edges: compressed video, e.g. dashcam MP4)")
+    p.add_argument("--measurement", choices=("auto", "roi", "edges", "roi+edges"), default="auto",
+                   help="per-frame measurement of a track: the thesis's ROI search (roi), the GIST "
+                        "paper's edge curves matched by chamfer distance (edges), or the ROI search "
+                        "with the edge curves where it fails on a rear view it measured before "
+                        "(roi+edges: for lossy-coded frames, e.g. dashcam MP4); auto (default): "
+                        "roi+edges when the input is a lossy video (H.264, MPEG-4, ...) or JPEG/WebP "
+                        "frames, roi for PNG/BMP/TIFF frames or lossless video (until 2026-11-30 the "
+                        "default was roi)")
     p.add_argument("--flow", action="store_true",
                    help="also run the overtaking flow stage (sources 'flow'): overtaking cars from the "
                         "side, and the reverse hand-over of cars the ego car overtakes (state 'handover')")
@@ -201,6 +205,13 @@ def run(args) -> int:
           or args.bottom_height != 0.0 or args.path_half_width != 1.5):
         raise CliError("--fps, --ego-speed, --rear-offset, --bottom-height and --path-half-width need --camera")
     det = make_detector(args, cam)
+    measurement = getattr(args, "measurement", "roi")
+    if measurement == "auto":
+        from ..frames import auto_measurement  # noqa: PLC0415
+        measurement, why = auto_measurement(path for _kind, path in sources)
+        measurement_note = f"; measurement {measurement} ({why})"
+    else:
+        measurement_note = ""
     try:
         # with a camera the pipeline also runs the block-scale TTC ("ttc_points_s") at the
         # range stage's frame rate
@@ -209,7 +220,7 @@ def run(args) -> int:
             from .common import video_fps
             fps = args.fps if args.fps is not None else video_fps(sources)
         trk = Tracker(engine=args.engine, detect_every=args.detect_every, detector=det,
-                      measurement=getattr(args, "measurement", "roi"), ttc_points=cam is not None,
+                      measurement=measurement, ttc_points=cam is not None,
                       fps=fps, flow=bool(getattr(args, "flow", False)))
     except (RuntimeError, ValueError, TypeError) as e:
         raise CliError(str(e)) from None
@@ -273,7 +284,8 @@ def run(args) -> int:
         outs.commit()
     print(f"{n} frame(s), {len(ids)} track(s), {len(lines)} track-frame(s); annotated: {out}"
           + (f"; tracks: {args.tracks}" if args.tracks else "")
-          + (f"; {len(reader.skipped)} bad frame(s) skipped" if reader.skipped else ""))
+          + (f"; {len(reader.skipped)} bad frame(s) skipped" if reader.skipped else "")
+          + measurement_note)
     return 0
 
 

@@ -2,8 +2,8 @@
 and score it against the lidar-derived lead-car box (derived_lidar_lead_box.csv).
 
     python tools/eval_kitti_track.py [--data DIR] [--engine c|reference|both]
-                                     [--measurement roi|edges|roi+edges|both|all] [--json OUT]
-                                     [--mp4] [--reduce-verified 0|1]
+                                     [--measurement auto|roi|edges|roi+edges|both|all] [--json OUT]
+                                     [--mp4 | --h264] [--reduce-verified 0|1]
 
 Figures (the tracking issue's targets: one id through >= 95% of the frames, IoU >= 0.6
 in >= 90%):
@@ -89,11 +89,14 @@ def main(argv=None, default_data: Path = DEFAULT_DATA) -> int:
     ap.add_argument("--data", type=Path, default=default_data)
     ap.add_argument("--engine", choices=("c", "reference", "both"), default="both")
     ap.add_argument("--detect-every", type=int, default=10)
-    ap.add_argument("--measurement", choices=("roi", "edges", "roi+edges", "both", "all"), default="roi",
+    ap.add_argument("--measurement", choices=("auto", "roi", "edges", "roi+edges", "both", "all"), default="auto",
                     help="the tracker's per-frame measurement (both: roi and edges, all: the three, "
-                         "one row each)")
+                         "one row each; auto, the default: as `pyvehtrack track`, roi on the PNG frames, "
+                         "roi+edges with --mp4 or --h264; roi until 2026-11-30)")
     ap.add_argument("--mp4", action="store_true",
                     help="track the frames written as one MP4 (OpenCV mp4v, default quality) and decoded")
+    ap.add_argument("--h264", action="store_true",
+                    help="the same through H.264 (libx264, CRF 23: pyvehtrack.eval.conditions.through_h264)")
     ap.add_argument("--reduce-verified", type=int, choices=(0, 1), default=None, metavar="0|1",
                     help="ShadowConfig.reduce_verified (default: the config's)")
     ap.add_argument("--model", type=Path, metavar="MODEL.npz",
@@ -115,15 +118,22 @@ def main(argv=None, default_data: Path = DEFAULT_DATA) -> int:
         from ..detector import DetectConfig  # noqa: PLC0415
         from ..shared import ShadowConfig  # noqa: PLC0415
         cfg = DetectConfig(shadow=ShadowConfig(reduce_verified=a.reduce_verified))
-    if a.mp4:
+    if a.mp4 and a.h264:
+        print("error: --mp4 and --h264: one codec at a time", file=sys.stderr)
+        return 2
+    if a.mp4 or a.h264:
+        from .conditions import through_h264  # noqa: PLC0415
         from .kitti_lead import through_mp4  # noqa: PLC0415
-        files = through_mp4([(k, cv2.imread(str(f))) for k, f in enumerate(files)])
+        frames = [(k, cv2.imread(str(f))) for k, f in enumerate(files)]
+        files = through_mp4(frames) if a.mp4 else through_h264(frames)
         if files is None:
             print("error: the MP4 lost frames", file=sys.stderr)
             return 2
     engines = ("c", "reference") if a.engine == "both" else (a.engine,)
-    measurements = {"both": ("roi", "edges"), "all": ("roi", "edges", "roi+edges")}.get(a.measurement,
-                                                                                        (a.measurement,))
+    # auto: the command line's rule (pyvehtrack.frames.auto_measurement) for the frames tracked here
+    auto = ("roi+edges",) if a.mp4 or a.h264 else ("roi",)
+    measurements = {"both": ("roi", "edges"), "all": ("roi", "edges", "roi+edges"),
+                    "auto": auto}.get(a.measurement, (a.measurement,))
     res = [run(e, files, boxes, a.detect_every, not a.no_progress, m, cfg, model=a.model)
            for e in engines for m in measurements]
     print(f"{'engine':<20}{'lead id':>8}{'id share':>10}{'IoU>=0.6':>10}{'mean IoU':>10}"

@@ -2,6 +2,7 @@
 
     python tools/eval_synth_track.py [--n 5] [--seed 0] [--size 640x480] [--frames N] [--json OUT]
                                      [--measurement roi|edges|roi+edges|both|all]
+                                     [--codec none|mp4v|h264]
 
 Both trackers are fed the same detections, from two sources:
   - "gt-noisy": GT boxes with 2 px noise per edge and 10% dropped (pyvehtrack.synth.gt_detections),
@@ -16,6 +17,10 @@ Rows per source:
                  search (rows present with --measurement edges|both|all).
   - ours/10 roi+edges: the ROI search with the edge curves where it fails on a confirmed
                  track it measured before (rows present with --measurement roi+edges|all).
+--codec: every sequence is first written as one video and decoded again (mp4v: OpenCV's MPEG-4
+part 2 at default quality; h264: libx264 CRF 23, pyvehtrack.eval.conditions.through_h264), as a
+dashcam recording would deliver it; the detector and the trackers see the decoded frames, the GT
+is the scene's.
 """
 from __future__ import annotations
 
@@ -30,6 +35,34 @@ from tqdm import tqdm
 from . import synth
 from . import tracking as ev
 from .sort import run_sort
+
+
+class _Coded:
+    """A sequence whose frames went through a codec: the decoded frames, everything else the scene's."""
+
+    def __init__(self, seq, frames):
+        self._seq, self.frames = seq, frames
+
+    def __getattr__(self, name):
+        return getattr(self._seq, name)
+
+
+def through_codec(seq, codec: str):
+    """seq with its frames encoded by `codec` ('mp4v' or 'h264') and decoded again (gray in, gray out)."""
+    import cv2  # noqa: PLC0415
+    frames = list(enumerate(seq.frames))
+    if codec == "mp4v":
+        from .kitti_lead import through_mp4  # noqa: PLC0415
+        coded = through_mp4([(t, cv2.cvtColor(f, cv2.COLOR_GRAY2BGR)) for t, f in frames])
+        coded = None if coded is None else [(t, cv2.cvtColor(f, cv2.COLOR_BGR2GRAY)) for t, f in coded]
+    elif codec == "h264":
+        from .conditions import through_h264  # noqa: PLC0415
+        coded = through_h264(frames, fps=seq.fps)
+    else:
+        raise ValueError(f"codec {codec!r}: expected mp4v or h264")
+    if coded is None or len(coded) != seq.n_frames:
+        raise RuntimeError(f"{seq.name}: the {codec} video lost frames")
+    return _Coded(seq, [np.ascontiguousarray(f) for _, f in coded])
 
 
 def run_ours(seq, dets, every: int, engine: str = "c", measurement: str = "roi"):
@@ -52,6 +85,8 @@ def main(argv=None) -> int:
     ap.add_argument("--preproc", choices=("kitti", "none"), default="kitti")
     ap.add_argument("--measurement", choices=("roi", "edges", "roi+edges", "both", "all"), default="roi",
                     help="both: roi and edges; all: the three")
+    ap.add_argument("--codec", choices=("none", "mp4v", "h264"), default="none",
+                    help="run on the frames written as one video and decoded (default none)")
     ap.add_argument("--json", type=Path)
     a = ap.parse_args(argv)
     w, h = (int(v) for v in a.size.lower().split("x"))
@@ -59,6 +94,8 @@ def main(argv=None) -> int:
     from ..detector import Detector
     rows: dict[str, list] = {}
     for seq in tqdm(seqs, desc="sequences", unit="seq", file=sys.stderr):
+        if a.codec != "none":
+            seq = through_codec(seq, a.codec)
         det = Detector(engine="c")
         sources = {
             "gt-noisy": synth.gt_detections(seq, sigma=2.0, p_drop=0.10, seed=a.seed),

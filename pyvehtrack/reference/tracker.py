@@ -12,7 +12,8 @@ tentative tracks in the first free slot.
 
 With measurement=MEAS_ROI_EDGES the ROI search runs, and where it fails on a confirmed
 or coasting track it measured before (not tm_only, not flat), the edge curves below
-measure it (kept fresh on every measured frame).
+measure it (kept fresh on every measured frame); the template stays the one the search or a
+detection last took, so the correlation check of the next detection frame asks for that vehicle.
 With measurement=MEAS_EDGE_CURVES the ROI search is replaced by the GIST paper's
 (sec. III.B): the track's edge curves at its last good frame are matched to the new
 frame's curves by chamfer distance (reference/edge_track.py), and the template
@@ -173,7 +174,7 @@ class Tracker:
                 return
         raise ValueError(f"drop: no live track with id {tid}")
 
-    def _hit(self, t: Track, img):
+    def _hit(self, t: Track, img, keep_tmpl: bool = False):
         t.hits += 1
         t.misses = 0
         t.tm_frames = 0
@@ -181,7 +182,8 @@ class Tracker:
             t.state = CONFIRMED
         elif t.state == COASTING:
             t.state = CONFIRMED
-        self._set_tmpl(t, img)
+        if not keep_tmpl:
+            self._set_tmpl(t, img)
 
     def _margin(self, box) -> int:
         w = box[2] - box[0] + 1
@@ -366,18 +368,21 @@ class Tracker:
                 return meas is not None and abs(meas[0] - l) <= gate and abs(meas[2] - r) <= gate \
                     and abs(meas[3] - b) <= gate_b and self._scale_ok(t, meas)
             ok = taken(meas)
+            by_edges = False
             if not ok and c.measurement == MEAS_ROI_EDGES and not flat and not t.tm_only \
                     and t.state in (CONFIRMED, COASTING):
                 # the search failed on a rear view it measured before: its edge curves
                 meas = self._edge_measure(t, img, m)
                 sides = Sides(**vars(t.sides))   # the failed search's side memory is not kept
-                ok = taken(meas)
+                ok = by_edges = taken(meas)
             if ok:
                 self._update(t, meas[0], meas[3], meas[2])
                 t.sides = sides
                 t.tm_only = False
                 measured[i] = True
-                self._hit(t, img)
+                # after the curves, the template stays the rear last seen by the search or a
+                # detection (the next detection frame's correlation check asks for that vehicle)
+                self._hit(t, img, keep_tmpl=by_edges)
                 if c.measurement != MEAS_ROI_SEARCH:
                     self._edge_refresh(t, img)
             elif c.tmatch_radius > 0 and (t.state == TENTATIVE or (t.state == CONFIRMED and (t.tm_only or flat))) \

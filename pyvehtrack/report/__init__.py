@@ -31,7 +31,7 @@ def _video_fps(path) -> float:
 
 def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "c", detect_every: int = 10,
                 progress: bool = True, records_json: bool = True, fps: float | None = None,
-                model="default") -> Path:
+                model="default", measurement: str = "auto") -> Path:
     """Run the pipeline over one recording (a video, a folder of frames or an image) and
     write out_dir/index.html (and out_dir/tracks.json, the records, when records_json).
     truth: truth file paths (see records.load_truth), or "auto": the files the naming rule
@@ -41,6 +41,8 @@ def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "
     model: the whole-road classifier .npz, "default" (fullroad.default_model_path(engine):
     cnn_gray_l0_big.npz on the C engine, window_mlp_hog32.npz on the reference one, as `pyvehtrack
     track` without --model) or None (the thesis's ego-lane detector alone).
+    measurement: the tracker's per-frame measurement ("roi", "edges", "roi+edges"), or "auto"
+    (as `pyvehtrack track`: pyvehtrack.frames.auto_measurement, roi+edges for lossy-coded input).
     Returns the page path. ValueError / TypeError naming the argument for bad input."""
     from tqdm import tqdm
 
@@ -69,7 +71,12 @@ def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "
         model = default_model_path(engine)
     if model is not None and not Path(model).is_file():
         raise ValueError(f"model {model}: no such file")
-    pipe = PythonPipeline(engine=engine, detect_every=detect_every, camera=cam, fps=fps, model=model)
+    why = "given"
+    if isinstance(measurement, str) and measurement == "auto":
+        from ..frames import auto_measurement
+        measurement, why = auto_measurement(inputs)
+    pipe = PythonPipeline(engine=engine, detect_every=detect_every, camera=cam, fps=fps, model=model,
+                          measurement=measurement)
     want = set(pick_thumbs(total)) if total is not None else None
     stride, kept = 1, {}
     records, infos = [], []
@@ -95,6 +102,7 @@ def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "
     h, w = (frame.shape[:2] if records else (0, 0))
     meta = {"input": str(inputs), "frames": f"{len(records)} ({w}x{h}, {fps:g} Hz)", "engine": engine,
             "detect every": f"{detect_every} frames (lanes and tracking every frame)",
+            "tracking measurement": f"{measurement} ({why})",
             "camera": (str(camera) if isinstance(camera, (str, Path)) else "given") if cam else "none",
             "truth": ", ".join(str(t) for t in truth) if truth else "none"}
     if auto:

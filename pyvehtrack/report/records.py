@@ -160,10 +160,11 @@ class PythonPipeline:
     bit) and the pitch, as `pyvehtrack track --camera --json` does; without it, those
     stay null and the pitch is atan((cy - vanishing row) / fy) when the camera has fy, cy.
     `notes` collects what the page should say about missing stages. model: a whole-road
-    classifier .npz (pyvehtrack.Detector(model=...)), or None for the ego-lane detector."""
+    classifier .npz (pyvehtrack.Detector(model=...)), or None for the ego-lane detector.
+    measurement: the tracker's ("roi", "edges" or "roi+edges"; Tracker(measurement=...))."""
 
     def __init__(self, engine: str = "c", detect_every: int = 10, camera: dict | None = None,
-                 fps: float = 10.0, geometry=None, model=None):
+                 fps: float = 10.0, geometry=None, model=None, measurement: str = "roi"):
         from ..detector import Detector
         from ..lane import LaneDetector
         from ..tracker import Tracker
@@ -188,7 +189,8 @@ class PythonPipeline:
         self.detector = Detector(engine=engine, road="auto", model=None if model is None else str(model),
                                  camera=file_cam.road_camera() if file_cam is not None and model is not None
                                  else None)
-        self.tracker = Tracker(engine=engine, detect_every=int(detect_every), detector=self.detector)
+        self.tracker = Tracker(engine=engine, detect_every=int(detect_every), detector=self.detector,
+                               measurement=measurement)
         self.detect_every = int(detect_every)
         self.camera = camera
         self.fps = float(fps)
