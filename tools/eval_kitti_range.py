@@ -5,6 +5,7 @@ against the lidar (derived_lidar_lead_distance.csv).
     PYTHONPATH=. python3 tools/eval_kitti_range.py [--data DIR] [--engine c|reference]
                                                    [--json OUT.json] [--png OUT.png]
                                                    [--model offset|height]
+                                                   [--codec none|mp4v|h264] [--measurement auto|roi|roi+edges]
 
 Pipeline (all pyvehtrack, nothing fitted on this sequence): Detector + Tracker (detection
 every 10th frame, the tracker's defaults), LaneDetector for the vanishing row of the ego
@@ -125,20 +126,28 @@ def stats(rel: np.ndarray) -> dict:
             "mean": float(np.mean(rel))}
 
 
-def collect(data: Path, engine: str, lane_cfg=None):
+def collect(data: Path, engine: str, lane_cfg=None, codec: str = "none", measurement: str = "roi"):
     """Detector + tracker + lanes over the sequence: per frame the tracks, the vanishing row
-    and the lead track's id (by IoU with the lidar box)."""
+    and the lead track's id (by IoU with the lidar box). codec: "mp4v" or "h264" runs on the
+    frames written as one video and decoded (pyvehtrack.eval.kitti_lead.through_mp4,
+    conditions.through_h264); measurement: the tracker's (Tracker(measurement=...))."""
     files = sorted((data / "image_02" / "data").glob("*.png"))
     lbox = {int(r["frame"]): [float(r[k]) for k in ("left", "top", "right", "bottom")]
             for r in csv.DictReader(open(data / "derived_lidar_lead_box.csv"))}
-    first = cv2.imread(str(files[0]), cv2.IMREAD_COLOR)
-    h, w = first.shape[:2]
+    images = [(i, cv2.imread(str(p), cv2.IMREAD_COLOR)) for i, p in enumerate(files)]
+    if codec != "none":
+        from pyvehtrack.eval.conditions import through_h264  # noqa: PLC0415
+        from pyvehtrack.eval.kitti_lead import through_mp4  # noqa: PLC0415
+        images = through_mp4(images) if codec == "mp4v" else through_h264(images)
+        if images is None:
+            raise RuntimeError(f"the {codec} video lost frames")
+    h, w = images[0][1].shape[:2]
     det = Detector(engine=engine, lane_detector=LaneDetector(engine=engine, cfg=lane_cfg))
-    trk = Tracker(engine=engine, detect_every=10, detector=det, ttc_points=True, fps=FPS)
+    trk = Tracker(engine=engine, detect_every=10, detector=det, ttc_points=True, fps=FPS,
+                  measurement=measurement)
     lanes = LaneDetector(engine=engine, cfg=lane_cfg)
     frames = []
-    for i, p in enumerate(files):
-        img = cv2.imread(str(p), cv2.IMREAD_COLOR)
+    for i, img in images:
         vp = lane_vanishing_row(lanes.detect(img))
         tracks = trk.step(img)
         best, best_iou = None, 0.5
@@ -342,7 +351,9 @@ def fuse_weight_table(rows, grid=range(0, 1001, 50)) -> dict:
         e = [abs(f - tl[i]) / tl[i] for i, r in enumerate(rows[:n // 2])
              if np.isfinite(tl[i]) and (f := fuse_ttc(r["ttc_points_s"], r["ttc_dist_s"], w)) is not None]
         med.append(float(np.median(e)) if e else float("nan"))
-    return {"grid": list(grid), "first_half_median": med, "chosen": list(grid)[int(np.nanargmin(med))]}
+    # no fused TTC on frames 0-38 at all (e.g. the lead car lost there through a codec): nothing chosen
+    chosen = None if np.all(np.isnan(med)) else list(grid)[int(np.nanargmin(med))]
+    return {"grid": list(grid), "first_half_median": med, "chosen": chosen}
 
 
 def main(argv=None) -> int:
@@ -364,7 +375,14 @@ def main(argv=None) -> int:
     ap.add_argument("--lane-set", nargs="+", default=[], metavar="FIELD=VALUE",
                     help="lane-stage fields other than the defaults (pyvehtrack.lane.LaneConfig), for the "
                          "detector's road area and the vanishing row alike")
+    ap.add_argument("--codec", choices=("none", "mp4v", "h264"), default="none",
+                    help="run on the frames written as one video and decoded: OpenCV mp4v at default "
+                         "quality, or libx264 CRF 23 (default none: the PNG frames)")
+    ap.add_argument("--measurement", choices=("auto", "roi", "roi+edges"), default="auto",
+                    help="the tracker's per-frame measurement; auto (default): as `pyvehtrack track`, "
+                         "roi+edges with --codec mp4v|h264, roi on the PNG frames")
     a = ap.parse_args(argv)
+    measurement = a.measurement if a.measurement != "auto" else ("roi" if a.codec == "none" else "roi+edges")
     lane_cfg = None
     if a.lane_set:
         from dataclasses import replace  # noqa: PLC0415
@@ -378,7 +396,8 @@ def main(argv=None) -> int:
     if not (a.data / "derived_lidar_lead_distance.csv").is_file():
         print(f"eval_kitti_range: {a.data}: not the kitti-raw-sfnd-ttc folder", file=sys.stderr)
         return 2
-    frames, size = collect(a.data, a.engine, lane_cfg)
+    frames, size = collect(a.data, a.engine, lane_cfg, codec=a.codec, measurement=measurement)
+    print(f"[{a.engine}] frames: {'PNG' if a.codec == 'none' else a.codec}; measurement {measurement}")
     points = points_ttc(a.engine, frames)
     points_old = points_ttc(a.engine, frames, **EARLIER_POINTS)
     tuning = {}
