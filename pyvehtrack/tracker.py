@@ -11,7 +11,10 @@ nearest pixel, NaN/inf/non-numbers refused); then detection frames are the frame
 where you pass them.
 
 `Tracker(measurement="edges")` measures each track by matching its edge curves
-(GIST paper sec. III.B) instead of the thesis's ROI search ("roi", the default)."""
+(GIST paper sec. III.B) instead of the thesis's ROI search ("roi", the default).
+For frames read from a recording, `Tracker(measurement=auto_measurement(path)[0])`
+(pyvehtrack.frames) makes the command line's choice: "roi+edges" for a lossy-coded video or
+JPEG frames, "roi" for lossless ones."""
 from __future__ import annotations
 
 from dataclasses import dataclass, fields, replace
