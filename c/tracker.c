@@ -590,7 +590,6 @@ static int vt__predict_measure(vt_tracker *tr, vt_track *t, const vt_tracker_cfg
     if (!ok && cfg->measurement == VT_MEAS_ROI_EDGES && !flat && !t->tm_only &&
         (t->state == VT_TRACK_CONFIRMED || t->state == VT_TRACK_COASTING)) {
         /* the search failed on a rear view it measured before: its edge curves */
-        found = 0;
         vt__edge_measure(tr, t, cfg, img, m, &meas, &found);
         sides = t->sides; /* the failed search's side memory is not kept */
         ok = vt__meas_ok(tr, t, cfg, found, &meas, gate, gate_b);

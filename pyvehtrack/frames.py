@@ -96,6 +96,11 @@ def lossy_coding(path) -> str | None:
     return f"{ext} frames" if ext in LOSSY_IMAGE_EXTS else None
 
 
+def measurement_for(lossy: bool) -> str:
+    """The measurement "auto" takes for frames that went through a lossy codec or did not."""
+    return "roi+edges" if lossy else "roi"
+
+
 def auto_measurement(paths) -> tuple[str, str]:
     """(measurement, why) for the recording made of `paths` (files or folders): "roi+edges"
     when any of them is lossy-coded (lossy_coding), else "roi"."""
@@ -104,5 +109,5 @@ def auto_measurement(paths) -> tuple[str, str]:
     for q in paths:
         why = lossy_coding(q)
         if why is not None:
-            return "roi+edges", f"lossy input: {why}"
-    return "roi", "lossless input"
+            return measurement_for(lossy=True), f"lossy input: {why}"
+    return measurement_for(lossy=False), "lossless input"

@@ -129,16 +129,15 @@ def stats(rel: np.ndarray) -> dict:
 def collect(data: Path, engine: str, lane_cfg=None, codec: str = "none", measurement: str = "roi"):
     """Detector + tracker + lanes over the sequence: per frame the tracks, the vanishing row
     and the lead track's id (by IoU with the lidar box). codec: "mp4v" or "h264" runs on the
-    frames written as one video and decoded (pyvehtrack.eval.kitti_lead.through_mp4,
-    conditions.through_h264); measurement: the tracker's (Tracker(measurement=...))."""
+    frames written as one video and decoded (pyvehtrack.eval.conditions.through_codec);
+    measurement: the tracker's (Tracker(measurement=...))."""
     files = sorted((data / "image_02" / "data").glob("*.png"))
     lbox = {int(r["frame"]): [float(r[k]) for k in ("left", "top", "right", "bottom")]
             for r in csv.DictReader(open(data / "derived_lidar_lead_box.csv"))}
     images = [(i, cv2.imread(str(p), cv2.IMREAD_COLOR)) for i, p in enumerate(files)]
     if codec != "none":
-        from pyvehtrack.eval.conditions import through_h264  # noqa: PLC0415
-        from pyvehtrack.eval.kitti_lead import through_mp4  # noqa: PLC0415
-        images = through_mp4(images) if codec == "mp4v" else through_h264(images)
+        from pyvehtrack.eval.conditions import through_codec  # noqa: PLC0415
+        images = through_codec(images, codec)
         if images is None:
             raise RuntimeError(f"the {codec} video lost frames")
     h, w = images[0][1].shape[:2]
@@ -382,7 +381,8 @@ def main(argv=None) -> int:
                     help="the tracker's per-frame measurement; auto (default): as `pyvehtrack track`, "
                          "roi+edges with --codec mp4v|h264, roi on the PNG frames")
     a = ap.parse_args(argv)
-    measurement = a.measurement if a.measurement != "auto" else ("roi" if a.codec == "none" else "roi+edges")
+    from pyvehtrack.frames import measurement_for  # noqa: PLC0415  (the command line's rule)
+    measurement = a.measurement if a.measurement != "auto" else measurement_for(lossy=a.codec != "none")
     lane_cfg = None
     if a.lane_set:
         from dataclasses import replace  # noqa: PLC0415

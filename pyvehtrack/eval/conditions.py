@@ -16,7 +16,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-__all__ = ["LIGHTS", "dusk", "overcast", "light", "through_h264", "rescale"]
+__all__ = ["LIGHTS", "CODECS", "dusk", "overcast", "light", "through_h264", "through_codec", "rescale"]
+
+CODECS = ("mp4v", "h264")
 
 LIGHTS = ("dusk", "overcast")
 
@@ -106,3 +108,20 @@ def through_h264(frames, crf: int = 23, fps: float = 10.0):
             out.append((idx, cv2.cvtColor(img, cv2.COLOR_BGR2GRAY) if gray else img))
         cap.release()
     return out
+
+
+def through_codec(frames, codec: str, fps: float = 10.0):
+    """The frames [(index, image)] through one video of `codec` and decoded again, gray or colour
+    as they came, or None when the video lost frames: "mp4v" (OpenCV's MPEG-4 part 2 at default
+    quality, pyvehtrack.eval.kitti_lead.through_mp4) or "h264" (through_h264 at CRF 23)."""
+    frames = list(frames)
+    if codec == "h264":
+        return through_h264(frames, fps=fps)
+    if codec != "mp4v":
+        raise ValueError(f"through_codec: codec {codec!r}: expected one of {CODECS}")
+    from .kitti_lead import through_mp4  # noqa: PLC0415  (kitti_lead imports this module's users)
+    gray = bool(frames) and frames[0][1].ndim == 2   # OpenCV's writer takes colour frames only
+    coded = through_mp4([(i, cv2.cvtColor(f, cv2.COLOR_GRAY2BGR)) for i, f in frames] if gray else frames)
+    if coded is None or not gray:
+        return coded
+    return [(i, cv2.cvtColor(f, cv2.COLOR_BGR2GRAY)) for i, f in coded]

@@ -122,16 +122,15 @@ def main(argv=None, default_data: Path = DEFAULT_DATA) -> int:
         print("error: --mp4 and --h264: one codec at a time", file=sys.stderr)
         return 2
     if a.mp4 or a.h264:
-        from .conditions import through_h264  # noqa: PLC0415
-        from .kitti_lead import through_mp4  # noqa: PLC0415
-        frames = [(k, cv2.imread(str(f))) for k, f in enumerate(files)]
-        files = through_mp4(frames) if a.mp4 else through_h264(frames)
+        from .conditions import through_codec  # noqa: PLC0415
+        files = through_codec([(k, cv2.imread(str(f))) for k, f in enumerate(files)], "mp4v" if a.mp4 else "h264")
         if files is None:
             print("error: the MP4 lost frames", file=sys.stderr)
             return 2
     engines = ("c", "reference") if a.engine == "both" else (a.engine,)
-    # auto: the command line's rule (pyvehtrack.frames.auto_measurement) for the frames tracked here
-    auto = ("roi+edges",) if a.mp4 or a.h264 else ("roi",)
+    # auto: the command line's rule (pyvehtrack.frames) for the frames tracked here
+    from ..frames import measurement_for  # noqa: PLC0415
+    auto = (measurement_for(lossy=a.mp4 or a.h264),)
     measurements = {"both": ("roi", "edges"), "all": ("roi", "edges", "roi+edges"),
                     "auto": auto}.get(a.measurement, (a.measurement,))
     res = [run(e, files, boxes, a.detect_every, not a.no_progress, m, cfg, model=a.model)

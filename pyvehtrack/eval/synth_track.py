@@ -49,17 +49,8 @@ class _Coded:
 
 def through_codec(seq, codec: str):
     """seq with its frames encoded by `codec` ('mp4v' or 'h264') and decoded again (gray in, gray out)."""
-    import cv2  # noqa: PLC0415
-    frames = list(enumerate(seq.frames))
-    if codec == "mp4v":
-        from .kitti_lead import through_mp4  # noqa: PLC0415
-        coded = through_mp4([(t, cv2.cvtColor(f, cv2.COLOR_GRAY2BGR)) for t, f in frames])
-        coded = None if coded is None else [(t, cv2.cvtColor(f, cv2.COLOR_BGR2GRAY)) for t, f in coded]
-    elif codec == "h264":
-        from .conditions import through_h264  # noqa: PLC0415
-        coded = through_h264(frames, fps=seq.fps)
-    else:
-        raise ValueError(f"codec {codec!r}: expected mp4v or h264")
+    from .conditions import through_codec as coded_frames  # noqa: PLC0415
+    coded = coded_frames(enumerate(seq.frames), codec, fps=seq.fps)
     if coded is None or len(coded) != seq.n_frames:
         raise RuntimeError(f"{seq.name}: the {codec} video lost frames")
     return _Coded(seq, [np.ascontiguousarray(f) for _, f in coded])
