@@ -193,6 +193,8 @@ def process_recording(rec: str, out_dir: str, opts: dict, fp: str) -> dict:
             argv += ["--json", str(out / "tracks.json")]
         if comp["camera"] and _track_parser_has("--camera"):
             argv += ["--camera", comp["camera"]]
+            if opts.get("rear_offset"):
+                argv += ["--rear-offset", repr(opts["rear_offset"])]
         code, so, se = _run_cli(argv)
         if code != 0:
             msg = [ln for ln in se.strip().splitlines() if ln.strip() and not ln.startswith("[")]
@@ -214,7 +216,8 @@ def process_recording(rec: str, out_dir: str, opts: dict, fp: str) -> dict:
         if opts.get("reports"):
             from .report import make_report
             make_report(src, out / "report", truth=comp["truth"], camera=comp["camera"], engine=opts["engine"],
-                        detect_every=opts["detect_every"], progress=False)
+                        detect_every=opts["detect_every"], progress=False,
+                        rear_offset=opts.get("rear_offset", 0.0) if comp["camera"] else 0.0)
         row["status"] = "ok"
     except TrackFailed as e:
         row["error"] = f"track: {e}"
@@ -261,8 +264,10 @@ def _is_recording(p: Path) -> bool:
 
 def run_batch(recordings, out, *, scheduler: str | None = None, workers: int = 2, reports: bool = False,
               engine: str = "c", detect_every: int = 10, retry_failed: bool = False,
-              skip_bad_frames: bool = False, progress: bool = True) -> BatchSummary:
+              skip_bad_frames: bool = False, progress: bool = True, rear_offset: float = 0.0) -> BatchSummary:
     """Run every recording (see the module doc); returns the table rows and figures.
+    rear_offset (m, 0..5): `track --rear-offset` (and the report's), for the recordings that
+    have a camera file; the others run without it.
     ValueError / TypeError naming the argument for bad arguments; a bad recording is a
     failed row, never an exception."""
     from tqdm import tqdm
@@ -278,12 +283,18 @@ def run_batch(recordings, out, *, scheduler: str | None = None, workers: int = 2
         raise ValueError(f"engine must be 'c' or 'reference', got {engine!r}")
     if isinstance(detect_every, bool) or not isinstance(detect_every, int) or detect_every < 1:
         raise ValueError(f"detect_every must be an integer >= 1, got {detect_every!r}")
+    if (isinstance(rear_offset, bool) or not isinstance(rear_offset, (int, float))
+            or not math.isfinite(rear_offset) or not 0 <= rear_offset <= 5):
+        raise ValueError(f"rear_offset must be a number in [0, 5] m, got {rear_offset!r}")
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise ValueError(f"out {out}: exists and is not a folder")
     out.mkdir(parents=True, exist_ok=True)
     opts = {"engine": engine, "detect_every": detect_every, "reports": bool(reports),
             "skip_bad_frames": bool(skip_bad_frames)}
+    if rear_offset:
+        # only when given, so the fingerprints of runs without it stay what they were
+        opts["rear_offset"] = float(rear_offset)
     t_start = time.perf_counter()
     rows: dict = {}
     todo = []

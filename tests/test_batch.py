@@ -150,3 +150,24 @@ def test_bad_arguments(tmp_path):
     assert s.submitted == 0 and s.rows[0]["status"] == "failed" and "no such file" in s.rows[0]["error"]
     assert main(["batch", "x", "--out", str(tmp_path / "o"), "--workers", "0"]) == 2
     assert main(["batch", "x", "--out", str(tmp_path / "o"), "--scheduler", "nowhere"]) == 2
+
+
+def test_rear_offset_reaches_track_and_report(cluster, tmp_path):
+    """--rear-offset goes to `track` (and the report) for a recording with a camera file: the
+    batch's tracks.json is `track --camera --rear-offset`'s, byte for byte (the same command),
+    and the page names the offset. Bad values are refused before any work."""
+    import shutil
+    data = Path(__file__).parent / "data"
+    rec = tmp_path / "kitti"
+    shutil.copytree(data / "kitti_clip", rec)
+    shutil.copy(data / "kitti_clip.camera.json", rec / "camera.json")
+    s = run_batch([str(rec)], tmp_path / "out", scheduler=cluster, reports=True, progress=False, rear_offset=1.8)
+    assert s.rows[0]["status"] == "ok", s.rows[0]
+    assert main(["track", str(rec), "--camera", str(rec / "camera.json"), "--rear-offset", "1.8",
+                 "--out", str(tmp_path / "t.mp4"), "--json", str(tmp_path / "t.json"), "--no-progress"]) == 0
+    assert (tmp_path / "out" / "kitti" / "tracks.json").read_text() == (tmp_path / "t.json").read_text()
+    assert "rear offset 1.8 m" in (tmp_path / "out" / "kitti" / "report" / "index.html").read_text()
+    for bad in (-1, 6, float("nan"), "1.8", True):
+        with pytest.raises(ValueError, match="rear_offset"):
+            run_batch([str(rec)], tmp_path / "o2", rear_offset=bad)
+    assert main(["batch", str(rec), "--out", str(tmp_path / "o3"), "--rear-offset", "9"]) == 2

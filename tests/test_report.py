@@ -10,6 +10,7 @@ import os
 import re
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import cv2
@@ -23,7 +24,8 @@ from pyvehtrack.report.records import LIDAR_BEHIND_CAMERA_M, Truth, ego_vanishin
 DATA = Path(__file__).parent / "data"
 CLIP = DATA / "kitti_clip"
 CAMERA = DATA / "kitti_clip.camera.json"
-TRACK_KEYS = {"id", "box", "state", "velocity_px", "distance_m", "ttc_s", "warning", "source"}
+TRACK_KEYS = {"id", "box", "state", "velocity_px", "distance_m", "ttc_s", "warning", "source", "ttc_points_s",
+              "ttc_fused_s"}
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 # Chromium's own background services (update checks, time, accounts) show up in its net
 # log whatever the page holds; everything else would be the page's.
@@ -75,11 +77,61 @@ def test_report_tracks_are_the_track_commands(clip_report, tmp_path):
                  "--json", str(out), "--no-progress"]) == 0
 
     def key(rs):
-        return [(r["frame"], sorted((t["id"], tuple(t["box"]), t["state"], t["source"]) for t in r["tracks"]
-                                    if t["state"] != "tentative")) for r in rs]
+        # the block-scale TTC too: the same pipeline stage after the same tracker (no pitch in it)
+        return [(r["frame"], sorted((t["id"], tuple(t["box"]), t["state"], t["source"], t["ttc_points_s"])
+                                    for t in r["tracks"] if t["state"] != "tentative")) for r in rs]
     want = key(json.loads(out.read_text()))
     assert sum(len(k[1]) for k in want) >= 20, "too few tracks to compare"
     assert key(recs) == want
+
+
+def test_fused_ttc_is_the_pipelines_rule(clip_report):
+    """With a camera the report runs the block-scale TTC as `track --camera` does, and its fused
+    TTC is camera.fuse_ttc of the two it records. Tolerance 0.001 s: both inputs are recorded
+    rounded to 1 ms (each off by <= 0.0005 s) and the fusion is a weighted mean (weights summing
+    to 1), so fusing the rounded inputs moves the result by <= 0.0005 s, plus the rounding of
+    the recorded fused value itself (<= 0.0005 s)."""
+    from pyvehtrack.camera import fuse_ttc
+    _, recs = clip_report
+    tracks = [t for r in recs for t in r["tracks"]]
+    both = [t for t in tracks if t["ttc_points_s"] is not None and t["ttc_s"] is not None]
+    assert len(both) >= 5, "the lead car has both TTCs on some frames"
+    for t in tracks:
+        want = fuse_ttc(t["ttc_points_s"], t["ttc_s"])
+        if want is None:
+            assert t["ttc_fused_s"] is None
+        else:
+            assert abs(t["ttc_fused_s"] - want) <= 0.001
+    # and the page draws and scores it
+    assert any(t["ttc_fused_s"] != t["ttc_s"] for t in both)
+
+
+def test_range_options_reach_the_range_stage(tmp_path):
+    """--rear-offset / --bottom-height / --path-half-width of `report` are `track`'s: they reach
+    the RangeEstimator, the page names them, and bad values are one-line errors before the run."""
+    pipe = PythonPipeline(camera=json.loads(CAMERA.read_text()),
+                          range_params={"rear_offset": 1.8, "bottom_height": 0.37, "path_half_width": 1.0})
+    pipe.step(cv2.imread(str(CLIP / "000000.png")))
+    assert pipe._rng.params.rear_offset == pytest.approx(1.8, abs=2 ** -16)     # Q16 in the core
+    assert pipe._rng.params.path_half_width == pytest.approx(1.0, abs=2 ** -16)
+    assert pipe._rng.bottom_height == 0.37
+    frames = tmp_path / "one"
+    frames.mkdir()
+    shutil.copy(CLIP / "000000.png", frames / "000000.png")
+    page = make_report(frames, tmp_path / "r", camera=CAMERA, truth=(), progress=False, rear_offset=1.8)
+    assert "rear offset 1.8 m, bottom height 0 m, ego path +-1.5 m" in page.read_text()
+    for bad, msg in ((["--rear-offset", "6"], "rear_offset 6.0: must be in [0, 5] m"),
+                     (["--rear-offset", "nan"], "rear_offset must be finite"),
+                     (["--bottom-height", "1.65"], "bottom_height 1.65: must be in [0, height_m = 1.65) m"),
+                     (["--path-half-width", "-1"], "path_half_width -1.0: must be in [0, 10] m")):
+        r = subprocess.run([sys.executable, "-m", "pyvehtrack", "report", str(frames), "--out",
+                            str(tmp_path / "bad"), "--camera", str(CAMERA), "--no-progress"] + bad,
+                           capture_output=True, text=True, timeout=300)
+        assert r.returncode != 0 and msg in r.stderr and "Traceback" not in r.stderr, r.stderr
+    with pytest.raises(ValueError, match="need a camera"):
+        make_report(frames, tmp_path / "r2", camera=None, truth=(), progress=False, rear_offset=1.8)
+    with pytest.raises(TypeError, match="rear_offset must be a number"):
+        make_report(frames, tmp_path / "r3", camera=CAMERA, truth=(), progress=False, rear_offset="1.8")
 
 
 def test_every_track_once_section(clip_report):
@@ -106,7 +158,8 @@ def test_page_is_self_contained_and_has_every_section(clip_report):
     assert len(re.findall(r'src="data:image/(png|jpeg);base64,', html)) >= 12 + 4
     # the truth gave lead-car figures and distance / TTC errors
     assert "lead id kept (IoU &gt;= 0.5)" in html
-    assert "<td>distance MAE</td>" in html and "<td>TTC MAE</td>" in html
+    assert "<td>distance MAE</td>" in html and "<td>distance/rate TTC MAE</td>" in html
+    assert "<td>fused TTC MAE</td>" in html
     # the lead-car id is kept on 18 of the 20 frames (frames 0-1 are tentative: 3 hits to confirm)
     assert re.search(r"<td>lead id kept \(IoU &gt;= 0.5\)</td><td>(9\d\.\d|100\.0)% of 20", html)
 
@@ -185,7 +238,8 @@ def test_track_record_nulls_and_matches():
     r = track_record(7, [t])
     assert r == {"frame": 7, "tracks": [{"id": 3, "box": [10, 20, 50, 60], "state": "confirmed",
                                          "velocity_px": [0.5, -0.25], "distance_m": None, "ttc_s": None,
-                                         "warning": None, "source": "shadow"}]}
+                                         "warning": None, "source": "shadow", "ttc_points_s": None,
+                                         "ttc_fused_s": None}]}
     from pyvehtrack.report.records import _matched_ids
     assert _matched_ids([t], np.array([[11, 21, 50, 60]])) == {3}
     assert _matched_ids([t], np.array([[60, 21, 90, 60]])) == set() and _matched_ids([t], None) == set()
@@ -308,7 +362,8 @@ def test_render_with_estimates_warnings_and_labels():
     assert "No forward-collision warning" not in page
     assert "<td>warnings (frames with a warning)</td><td>4</td>" in page
     assert "<td>distance MAE</td><td>1.00 m</td>" in page and "<td>distance bias</td><td>+1.00 m</td>" in page
-    assert "<td>TTC MAE</td><td>0.50 s</td>" in page
+    assert "<td>distance/rate TTC MAE</td><td>0.50 s</td>" in page
+    assert "fused TTC" not in page           # these records carry no fused TTC
     assert "<td>MOTA</td><td>83.3%</td>" in page   # frames 0-1 tentative (not scored): 2 misses of 12
     assert "No frame in this recording." in page            # no thumbnails given
 

@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Make docs/report_screenshot.png: `pyvehtrack report` on the shipped KITTI clip (its camera
-and range truth found by name, plus the lead-car boxes), rendered by headless chromium with
+and range truth found by name, plus the lead-car boxes; KITTI's --rear-offset 1.8, as the
+README's main job), rendered by headless chromium with
 the network cut, trimmed, scaled to 60% and reduced to 256 colours (< 300 KB).
 
     PYTHONPATH=. python3 tools/report_screenshot.py [--out docs/report_screenshot.png]"""
@@ -36,7 +37,7 @@ def main() -> int:
         os.chdir(ROOT)                  # relative paths on the page
         rel = clip.relative_to(ROOT)
         if cli(["report", str(rel), "--out", str(tmp / "r"), "--truth", str(rel / "lead_boxes.csv"),
-                "--truth", str(rel / "truth_lidar_range.csv"), "--no-progress"]) != 0:
+                "--truth", str(rel / "truth_lidar_range.csv"), "--rear-offset", "1.8", "--no-progress"]) != 0:
             raise SystemExit("report failed")
         env = {k: v for k, v in os.environ.items() if k not in ("LD_PRELOAD", "ASAN_OPTIONS")}
         shot = tmp / "full.png"

@@ -36,6 +36,9 @@ def register(sub) -> None:
                    help="run the detector every N frames (thesis: 10)")
     p.add_argument("--skip-bad-frames", action="store_true",
                    help="passed to track: skip frames that cannot be decoded instead of failing the recording")
+    p.add_argument("--rear-offset", type=float, default=0.0, metavar="M",
+                   help="passed to track and report for the recordings with a camera file: m from the road "
+                        "contact the box's bottom shows to the vehicle's rear (default 0; about 1.8 on KITTI)")
     p.add_argument("--retry-failed", action="store_true", help="rerun recordings that failed before")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
@@ -54,7 +57,8 @@ def run(args) -> int:
     try:
         s = run_batch(args.recordings, out, scheduler=args.scheduler, workers=args.workers,
                       reports=args.reports, engine=args.engine, detect_every=args.detect_every,
-                      retry_failed=args.retry_failed, skip_bad_frames=args.skip_bad_frames, progress=not args.no_progress)
+                      retry_failed=args.retry_failed, skip_bad_frames=args.skip_bad_frames, progress=not args.no_progress,
+                      rear_offset=args.rear_offset)
     except (ValueError, TypeError) as e:
         raise CliError(str(e)) from None
     a = s.aggregate

@@ -2,7 +2,8 @@
 
     pyvehtrack report INPUT --out REPORT_DIR [--camera CAMERA.json] [--truth TRUTH ...]
                       [--engine c|reference] [--detect-every N] [--fps F]
-                      [--measurement auto|roi|edges|roi+edges] [--no-progress]
+                      [--measurement auto|roi|edges|roi+edges] [--rear-offset M]
+                      [--bottom-height M] [--path-half-width M] [--no-progress]
 """
 from __future__ import annotations
 
@@ -50,6 +51,15 @@ def register(sub) -> None:
     p.add_argument("--measurement", choices=("auto", "roi", "edges", "roi+edges"), default="auto",
                    help="the tracker's per-frame measurement, as `track --measurement` (default auto: "
                         "roi+edges for a lossy video or JPEG frames, roi otherwise)")
+    p.add_argument("--rear-offset", type=float, default=0.0, metavar="M",
+                   help="as `track --rear-offset` (needs a camera): m from the road contact the box's "
+                        "bottom shows to the vehicle's rear (default 0; about 1.8 on KITTI, see the README)")
+    p.add_argument("--bottom-height", type=float, default=0.0, metavar="M",
+                   help="as `track --bottom-height` (needs a camera): height above the road of what the "
+                        "box's bottom edge shows, m (default 0: the road contact)")
+    p.add_argument("--path-half-width", type=float, default=1.5, metavar="M",
+                   help="as `track --path-half-width` (needs a camera): the warning's ego path, +-M m "
+                        "(default 1.5)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
@@ -74,7 +84,8 @@ def run(args) -> int:
         page = make_report(args.input, out, truth=args.truth or (auto or ()), camera=args.camera or auto,
                            engine=args.engine,
                            detect_every=args.detect_every, progress=not args.no_progress, fps=args.fps,
-                           model=model, measurement=args.measurement)
+                           model=model, measurement=args.measurement, rear_offset=args.rear_offset,
+                           bottom_height=args.bottom_height, path_half_width=args.path_half_width)
     except (ValueError, TypeError, VtError) as e:
         raise CliError(str(e)) from None
     print(f"report: {page}")

@@ -7,6 +7,7 @@ records.py: the per-frame records (the `track --json` schema) and the Python ada
 the existing stages; render.py: the plots and the page."""
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 
@@ -29,9 +30,34 @@ def _video_fps(path) -> float:
     return 10.0
 
 
+def range_settings(rear_offset, bottom_height, path_half_width, cam) -> dict:
+    """The range stage's settings checked as `pyvehtrack track` checks them: rear_offset in
+    [0, 5] m, bottom_height in [0, the camera's height_m) m, path_half_width in [0, 10] m;
+    other than 0 / 0 / 1.5 only with a camera. ValueError / TypeError naming the argument."""
+    vals = {"rear_offset": rear_offset, "bottom_height": bottom_height, "path_half_width": path_half_width}
+    for k, v in vals.items():
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise TypeError(f"{k} must be a number, got {type(v).__name__}")
+        if not math.isfinite(v):
+            raise ValueError(f"{k} must be finite, got {v!r}")
+    if cam is None:
+        if (rear_offset, bottom_height, path_half_width) != (0, 0, 1.5):
+            raise ValueError("rear_offset, bottom_height and path_half_width need a camera")
+        return {k: float(v) for k, v in vals.items()}
+    height = cam.get("height_m") if isinstance(cam, dict) else None
+    if not 0 <= rear_offset <= 5:
+        raise ValueError(f"rear_offset {rear_offset}: must be in [0, 5] m")
+    if not 0 <= path_half_width <= 10:
+        raise ValueError(f"path_half_width {path_half_width}: must be in [0, 10] m")
+    if bottom_height != 0 and not (isinstance(height, (int, float)) and 0 <= bottom_height < height):
+        raise ValueError(f"bottom_height {bottom_height}: must be in [0, height_m = {height}) m")
+    return {k: float(v) for k, v in vals.items()}
+
+
 def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "c", detect_every: int = 10,
                 progress: bool = True, records_json: bool = True, fps: float | None = None,
-                model="default", measurement: str = "auto") -> Path:
+                model="default", measurement: str = "auto", rear_offset: float = 0.0,
+                bottom_height: float = 0.0, path_half_width: float = 1.5) -> Path:
     """Run the pipeline over one recording (a video, a folder of frames or an image) and
     write out_dir/index.html (and out_dir/tracks.json, the records, when records_json).
     truth: truth file paths (see records.load_truth), or "auto": the files the naming rule
@@ -43,6 +69,9 @@ def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "
     track` without --model) or None (the thesis's ego-lane detector alone).
     measurement: the tracker's per-frame measurement ("roi", "edges", "roi+edges"), or "auto"
     (as `pyvehtrack track`: pyvehtrack.frames.auto_measurement, roi+edges for lossy-coded input).
+    rear_offset, bottom_height, path_half_width (m): the range stage's corrections and the
+    warning's ego path, as `pyvehtrack track --rear-offset / --bottom-height / --path-half-width`
+    (camera.RangeEstimator); anything but their defaults needs a camera.
     Returns the page path. ValueError / TypeError naming the argument for bad input."""
     from tqdm import tqdm
 
@@ -64,6 +93,7 @@ def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "
     cam = read_camera(camera) if isinstance(camera, (str, Path)) else camera
     if cam is not None and not isinstance(cam, dict):
         raise TypeError(f"camera: expected a path or a dict, got {type(cam).__name__}")
+    rng = range_settings(rear_offset, bottom_height, path_half_width, cam)
     tr = load_truth(list(truth or ()), dt=1.0 / fps)
     total, frames = recording_frames(inputs)
     if isinstance(model, str) and model == "default":
@@ -76,7 +106,7 @@ def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "
         from ..frames import auto_measurement
         measurement, why = auto_measurement(inputs)
     pipe = PythonPipeline(engine=engine, detect_every=detect_every, camera=cam, fps=fps, model=model,
-                          measurement=measurement)
+                          measurement=measurement, range_params=rng)
     want = set(pick_thumbs(total)) if total is not None else None
     stride, kept = 1, {}
     records, infos = [], []
@@ -105,6 +135,9 @@ def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "
             "tracking measurement": f"{measurement} ({why})",
             "camera": (str(camera) if isinstance(camera, (str, Path)) else "given") if cam else "none",
             "truth": ", ".join(str(t) for t in truth) if truth else "none"}
+    if cam:
+        meta["range"] = (f"rear offset {rng['rear_offset']:g} m, bottom height {rng['bottom_height']:g} m, "
+                         f"ego path +-{rng['path_half_width']:g} m")
     if auto:
         meta["found by name"] = "; ".join(auto)
     page = render_html(records, infos, sorted(kept.items()), title="pyvehtrack report: " + "/".join(Path(inputs).parts[-3:]),

@@ -67,7 +67,8 @@ def track_record(frame: int, tracks, *, geometry=None) -> dict:
     source: the detector the track's box came from, as the pipeline names them ("shadow",
     "classifier", "flow", "model"); the Tracker's tracks all start from the shadow
     detector today. geometry: an optional callable(track) -> dict with distance_m /
-    ttc_s / warning (the camera stage); without it those fields are null (unknown)."""
+    ttc_s / warning / ttc_points_s / ttc_fused_s (the camera stage and the block-scale TTC);
+    without it those fields are null (unknown)."""
     out = []
     for t in tracks:
         src = getattr(t, "source", None) or "shadow"
@@ -75,7 +76,8 @@ def track_record(frame: int, tracks, *, geometry=None) -> dict:
         out.append({"id": int(t.id), "box": [int(v) for v in t.box], "state": t.state,
                     "velocity_px": [round(float(t.velocity[0]), 3), round(float(t.velocity[1]), 3)],
                     "distance_m": g.get("distance_m"), "ttc_s": g.get("ttc_s"),
-                    "warning": g.get("warning"), "source": src})
+                    "warning": g.get("warning"), "source": src,
+                    "ttc_points_s": g.get("ttc_points_s"), "ttc_fused_s": g.get("ttc_fused_s")})
     return {"frame": int(frame), "tracks": out}
 
 
@@ -161,10 +163,13 @@ class PythonPipeline:
     stay null and the pitch is atan((cy - vanishing row) / fy) when the camera has fy, cy.
     `notes` collects what the page should say about missing stages. model: a whole-road
     classifier .npz (pyvehtrack.Detector(model=...)), or None for the ego-lane detector.
-    measurement: the tracker's ("roi", "edges" or "roi+edges"; Tracker(measurement=...))."""
+    measurement: the tracker's ("roi", "edges" or "roi+edges"; Tracker(measurement=...)).
+    range_params: keyword arguments of the RangeEstimator (rear_offset, bottom_height,
+    path_half_width; report.range_settings checks them), None: its defaults."""
 
     def __init__(self, engine: str = "c", detect_every: int = 10, camera: dict | None = None,
-                 fps: float = 10.0, geometry=None, model=None, measurement: str = "roi"):
+                 fps: float = 10.0, geometry=None, model=None, measurement: str = "roi",
+                 range_params: dict | None = None):
         from ..detector import Detector
         from ..lane import LaneDetector
         from ..tracker import Tracker
@@ -189,11 +194,15 @@ class PythonPipeline:
         self.detector = Detector(engine=engine, road="auto", model=None if model is None else str(model),
                                  camera=file_cam.road_camera() if file_cam is not None and model is not None
                                  else None)
+        # with a camera, as `track --camera`: the pipeline's block-scale TTC too, whose fusion with
+        # the distance/rate TTC is what `track` draws (ttc_fused_s)
         self.tracker = Tracker(engine=engine, detect_every=int(detect_every), detector=self.detector,
-                               measurement=measurement)
+                               measurement=measurement, ttc_points=file_cam is not None,
+                               fps=float(fps) if file_cam is not None else None)
         self.detect_every = int(detect_every)
         self.camera = camera
         self.fps = float(fps)
+        self.range_params = dict(range_params or {})
         self.geometry = geometry
         self.notes: list = []
         self._cam = None            # the geometry stage's Camera, when usable
@@ -252,20 +261,27 @@ class PythonPipeline:
             t3 = time.perf_counter()
             if self._rng is None:
                 self._rng = camera_stage()[1](self._cam, (gray.shape[1], gray.shape[0]), self.fps,
-                                              engine=self.engine)
+                                              engine=self.engine, **self.range_params)
             self._rng.update_pitch(vp_stage)
             outs = {o.id: o for o in self._rng.step([(t.id, self._cam.undistort_box(t.box)) for t in tracks])}
+            from ..camera import fuse_ttc  # noqa: PLC0415  (the geometry stage is there)
             info.timing_ms["geometry"] = (time.perf_counter() - t3) * 1e3
             info.pitch_deg = float(self._rng.pitch_deg)
 
             def geometry(t, outs=outs):
                 o = outs.get(t.id)
+                p = getattr(t, "ttc_points", None)
                 if o is None:
-                    return {}
-                # as `track --json` writes them: the filtered distance, the TTC from it and its rate
+                    return {} if p is None else {"ttc_points_s": round(float(p), 3),
+                                                 "ttc_fused_s": round(float(p), 3)}
+                # as `track --json` writes them: the filtered distance, the TTC from it and its
+                # rate, the block-scale TTC and the two fused (camera.fuse_ttc, the pipeline's rule)
+                fused = fuse_ttc(p, o.ttc_dist)
                 return {"distance_m": None if o.dist_filt is None else round(float(o.dist_filt), 3),
                         "ttc_s": None if o.ttc_dist is None else round(float(o.ttc_dist), 3),
-                        "warning": bool(o.warning)}
+                        "warning": bool(o.warning),
+                        "ttc_points_s": None if p is None else round(float(p), 3),
+                        "ttc_fused_s": None if fused is None else round(float(fused), 3)}
         else:
             f, cy = _cam_f_cy(self.camera)
             if f and cy is not None and info.vanishing_row is not None:

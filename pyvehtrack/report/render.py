@@ -328,8 +328,13 @@ def _axis_limit(ax, series: dict, ymax: float, unit: str) -> None:
 
 def plot_range_ttc(records, truth: Truth, lead_of_frame: dict, stage_notes=()):
     """Distance and TTC over time per track (estimates), with the truth overlaid on the
-    lead car's track and the warning intervals shaded. Returns (uri or None, notes)."""
-    dist, ttc = _series(records, "distance_m"), _series(records, "ttc_s")
+    lead car's track and the warning intervals shaded. The TTC drawn is the fused one
+    (ttc_fused_s: what `track` draws) where the records have it, with the distance/rate TTC
+    (ttc_s: what the warning follows) dotted beside it; else the distance/rate TTC alone.
+    Returns (uri or None, notes)."""
+    dist, rate = _series(records, "distance_m"), _series(records, "ttc_s")
+    fused = _series(records, "ttc_fused_s")
+    ttc = fused or rate
     t_ttc = truth.ttc() if truth.ranges else {}
     notes = []
     if not dist and not ttc:
@@ -346,6 +351,8 @@ def plot_range_ttc(records, truth: Truth, lead_of_frame: dict, stage_notes=()):
             a1.plot(*_gapped(*dist[tid]), "-", color=c, lw=1.6, label=f"#{tid}")
         if tid in ttc:
             a2.plot(*_gapped(*ttc[tid]), "-", color=c, lw=1.6, label=f"#{tid}")
+        if fused and tid in rate:
+            a2.plot(*_gapped(*rate[tid]), ":", color=c, lw=1.0)
     if truth.ranges:
         f = sorted(truth.ranges)
         a1.plot(*_gapped(f, [truth.ranges[k] for k in f]), "--", color="black", lw=1.3,
@@ -371,6 +378,9 @@ def plot_range_ttc(records, truth: Truth, lead_of_frame: dict, stage_notes=()):
     warned = _shade_warnings(a1, records) | _shade_warnings(a2, records)
     a1.set_ylabel("distance (m)")
     a2.set_ylabel("TTC (s)")
+    if fused:
+        a2.text(0.01, 0.97, "solid: fused TTC (as `track` draws it); dotted: distance/rate TTC (the warning's)",
+                transform=a2.transAxes, ha="left", va="top", fontsize=8, color="#555")
     a2.set_xlabel("frame")
     if not dist:
         a1.text(0.5, 0.92, "no distance estimate (see the note above)", transform=a1.transAxes,
@@ -564,10 +574,19 @@ def range_figures(records, truth: Truth, lead: dict):
     if tp:
         d = np.array(tp)
         e = np.abs(d[:, 1] - d[:, 0])
-        rows += [("TTC: frames compared", len(d)), ("TTC MAE", f"{np.mean(e):.2f} s"),
-                 ("TTC median |rel. error|", f"{np.median(e / d[:, 0]):.1%}")]
+        rows += [("distance/rate TTC: frames compared", len(d)), ("distance/rate TTC MAE", f"{np.mean(e):.2f} s"),
+                 ("distance/rate TTC median |rel. error|", f"{np.median(e / d[:, 0]):.1%}")]
     elif pairs:
         notes.append("No TTC estimate on the lead car's track: no TTC error.")
+    fp = [(tt[k], est[k]["ttc_fused_s"]) for k in sorted(est) if tt.get(k) is not None and 0 < tt[k] < 60
+          and est[k].get("ttc_fused_s") is not None]
+    if fp:
+        # the fused TTC `track` draws (distance/rate with the block scale); the rows above are
+        # the distance/rate TTC alone, the one the warning follows
+        d = np.array(fp)
+        e = np.abs(d[:, 1] - d[:, 0])
+        rows += [("fused TTC: frames compared", len(d)), ("fused TTC MAE", f"{np.mean(e):.2f} s"),
+                 ("fused TTC median |rel. error|", f"{np.median(e / d[:, 0]):.1%}")]
     return rows, notes
 
 
