@@ -49,7 +49,9 @@ def range_settings(rear_offset, bottom_height, path_half_width, cam) -> dict:
         raise ValueError(f"rear_offset {rear_offset}: must be in [0, 5] m")
     if not 0 <= path_half_width <= 10:
         raise ValueError(f"path_half_width {path_half_width}: must be in [0, 10] m")
-    if bottom_height != 0 and not (isinstance(height, (int, float)) and 0 <= bottom_height < height):
+    if bottom_height != 0 and not isinstance(height, (int, float)):
+        raise ValueError("bottom_height needs the camera file's height_m")
+    if bottom_height != 0 and not 0 <= bottom_height < height:
         raise ValueError(f"bottom_height {bottom_height}: must be in [0, height_m = {height}) m")
     return {k: float(v) for k, v in vals.items()}
 
