@@ -569,24 +569,24 @@ def range_figures(records, truth: Truth, lead: dict):
     else:
         notes.append("Range truth given but no distance estimate on the lead car's track: no distance error.")
     tt = truth.ttc()
-    tp = [(tt[k], est[k]["ttc_s"]) for k in sorted(est) if tt.get(k) is not None and 0 < tt[k] < 60
-          and est[k].get("ttc_s") is not None]
-    if tp:
+
+    def ttc_rows(key, label):
+        """The TTC errors of one estimate against the lidar TTC (0-60 s) on the lead's frames."""
+        tp = [(tt[k], est[k][key]) for k in sorted(est) if tt.get(k) is not None and 0 < tt[k] < 60
+              and est[k].get(key) is not None]
+        if not tp:
+            return []
         d = np.array(tp)
         e = np.abs(d[:, 1] - d[:, 0])
-        rows += [("distance/rate TTC: frames compared", len(d)), ("distance/rate TTC MAE", f"{np.mean(e):.2f} s"),
-                 ("distance/rate TTC median |rel. error|", f"{np.median(e / d[:, 0]):.1%}")]
-    elif pairs:
+        return [(f"{label}: frames compared", len(d)), (f"{label} MAE", f"{np.mean(e):.2f} s"),
+                (f"{label} median |rel. error|", f"{np.median(e / d[:, 0]):.1%}")]
+
+    # the distance/rate TTC (the one the warning follows), then the fused one `track` draws
+    # (distance/rate with the block scale) when the records have it
+    rate = ttc_rows("ttc_s", "distance/rate TTC")
+    if not rate and pairs:
         notes.append("No TTC estimate on the lead car's track: no TTC error.")
-    fp = [(tt[k], est[k]["ttc_fused_s"]) for k in sorted(est) if tt.get(k) is not None and 0 < tt[k] < 60
-          and est[k].get("ttc_fused_s") is not None]
-    if fp:
-        # the fused TTC `track` draws (distance/rate with the block scale); the rows above are
-        # the distance/rate TTC alone, the one the warning follows
-        d = np.array(fp)
-        e = np.abs(d[:, 1] - d[:, 0])
-        rows += [("fused TTC: frames compared", len(d)), ("fused TTC MAE", f"{np.mean(e):.2f} s"),
-                 ("fused TTC median |rel. error|", f"{np.median(e / d[:, 0]):.1%}")]
+    rows += rate + ttc_rows("ttc_fused_s", "fused TTC")
     return rows, notes
 
 
