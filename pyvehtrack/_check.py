@@ -91,3 +91,32 @@ def npz_file(path, name: str) -> None:
     if head[:2] != b"PK":
         raise ValueError(f"{name}: {path} is not a .npz file (an .npz is a zip archive; this file begins "
                          f"{head!r})")
+
+
+def range_options(rear_offset, bottom_height, path_half_width, *, camera: bool, height_m=None,
+                  spell=lambda k: k) -> dict:
+    """The range stage's command-line corrections (camera.RangeEstimator's rear_offset,
+    bottom_height, path_half_width; `track`, `report`) checked once for both: numbers, finite,
+    rear_offset in [0, 5] m, path_half_width in [0, 10] m, bottom_height in [0, height_m) m;
+    anything but 0 / 0 / 1.5 needs a camera (camera=False). spell(name) is how the caller's
+    user writes the argument ("--rear-offset" on the command line). Returns them as floats."""
+    vals = {"rear_offset": rear_offset, "bottom_height": bottom_height, "path_half_width": path_half_width}
+    for k, v in vals.items():
+        if isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Real):
+            raise TypeError(f"{spell(k)} must be a number, got {type(v).__name__}")
+        if not math.isfinite(v):
+            raise ValueError(f"{spell(k)} must be finite, got {v!r}")
+    if not camera:
+        if (rear_offset, bottom_height, path_half_width) != (0, 0, 1.5):
+            raise ValueError(", ".join(spell(k) for k in ("rear_offset", "bottom_height")) +
+                             f" and {spell('path_half_width')} need a camera")
+        return {k: float(v) for k, v in vals.items()}
+    if not 0 <= rear_offset <= 5:
+        raise ValueError(f"{spell('rear_offset')} {rear_offset}: must be in [0, 5] m")
+    if not 0 <= path_half_width <= 10:
+        raise ValueError(f"{spell('path_half_width')} {path_half_width}: must be in [0, 10] m")
+    if bottom_height != 0 and not isinstance(height_m, numbers.Real):
+        raise ValueError(f"{spell('bottom_height')} needs the camera file's height_m")
+    if bottom_height != 0 and not 0 <= bottom_height < height_m:
+        raise ValueError(f"{spell('bottom_height')} {bottom_height}: must be in [0, height_m = {height_m}) m")
+    return {k: float(v) for k, v in vals.items()}

@@ -194,13 +194,12 @@ def run(args) -> int:
             raise CliError(f"--fps {args.fps}: must be >= 1")
         if args.ego_speed is not None and not (math.isfinite(args.ego_speed) and args.ego_speed >= 0):
             raise CliError(f"--ego-speed {args.ego_speed}: must be >= 0 m/s")
-        if not (math.isfinite(args.rear_offset) and 0 <= args.rear_offset <= 5):
-            raise CliError(f"--rear-offset {args.rear_offset}: must be in [0, 5] m")
-        if not (math.isfinite(args.path_half_width) and 0 <= args.path_half_width <= 10):
-            raise CliError(f"--path-half-width {args.path_half_width}: must be in [0, 10] m")
-        if not (math.isfinite(args.bottom_height) and 0 <= args.bottom_height < cam.height_m):
-            raise CliError(f"--bottom-height {args.bottom_height}: must be in [0, height_m = "
-                           f"{cam.height_m}) m")
+        from .._check import range_options  # noqa: PLC0415
+        try:
+            range_options(args.rear_offset, args.bottom_height, args.path_half_width, camera=True,
+                          height_m=cam.height_m, spell=lambda k: "--" + k.replace("_", "-"))
+        except (ValueError, TypeError) as e:
+            raise CliError(str(e)) from None
     elif (args.fps is not None or args.ego_speed is not None or args.rear_offset != 0.0
           or args.bottom_height != 0.0 or args.path_half_width != 1.5):
         raise CliError("--fps, --ego-speed, --rear-offset, --bottom-height and --path-half-width need --camera")

@@ -7,10 +7,10 @@ records.py: the per-frame records (the `track --json` schema) and the Python ada
 the existing stages; render.py: the plots and the page."""
 from __future__ import annotations
 
-import math
 import sys
 from pathlib import Path
 
+from .._check import range_options
 from .records import (FrameInfo, PythonPipeline, Truth, companion_files, load_truth, read_camera,  # noqa: F401
                       read_records, recording_frames, track_record, write_records)
 from .render import MAX_THUMBS, TrackTiles, annotate, pick_thumbs, render_html, thumbnail, write_page
@@ -28,32 +28,6 @@ def _video_fps(path) -> float:
         if fps and 0 < fps < 1000:
             return float(fps)
     return 10.0
-
-
-def range_settings(rear_offset, bottom_height, path_half_width, cam) -> dict:
-    """The range stage's settings checked as `pyvehtrack track` checks them: rear_offset in
-    [0, 5] m, bottom_height in [0, the camera's height_m) m, path_half_width in [0, 10] m;
-    other than 0 / 0 / 1.5 only with a camera. ValueError / TypeError naming the argument."""
-    vals = {"rear_offset": rear_offset, "bottom_height": bottom_height, "path_half_width": path_half_width}
-    for k, v in vals.items():
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise TypeError(f"{k} must be a number, got {type(v).__name__}")
-        if not math.isfinite(v):
-            raise ValueError(f"{k} must be finite, got {v!r}")
-    if cam is None:
-        if (rear_offset, bottom_height, path_half_width) != (0, 0, 1.5):
-            raise ValueError("rear_offset, bottom_height and path_half_width need a camera")
-        return {k: float(v) for k, v in vals.items()}
-    height = cam.get("height_m") if isinstance(cam, dict) else None
-    if not 0 <= rear_offset <= 5:
-        raise ValueError(f"rear_offset {rear_offset}: must be in [0, 5] m")
-    if not 0 <= path_half_width <= 10:
-        raise ValueError(f"path_half_width {path_half_width}: must be in [0, 10] m")
-    if bottom_height != 0 and not isinstance(height, (int, float)):
-        raise ValueError("bottom_height needs the camera file's height_m")
-    if bottom_height != 0 and not 0 <= bottom_height < height:
-        raise ValueError(f"bottom_height {bottom_height}: must be in [0, height_m = {height}) m")
-    return {k: float(v) for k, v in vals.items()}
 
 
 def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "c", detect_every: int = 10,
@@ -95,7 +69,8 @@ def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "
     cam = read_camera(camera) if isinstance(camera, (str, Path)) else camera
     if cam is not None and not isinstance(cam, dict):
         raise TypeError(f"camera: expected a path or a dict, got {type(cam).__name__}")
-    rng = range_settings(rear_offset, bottom_height, path_half_width, cam)
+    rng = range_options(rear_offset, bottom_height, path_half_width, camera=cam is not None,
+                        height_m=cam.get("height_m") if isinstance(cam, dict) else None)
     tr = load_truth(list(truth or ()), dt=1.0 / fps)
     total, frames = recording_frames(inputs)
     if isinstance(model, str) and model == "default":

@@ -81,6 +81,11 @@ def track_record(frame: int, tracks, *, geometry=None) -> dict:
     return {"frame": int(frame), "tracks": out}
 
 
+def _ms(v):
+    """A record's number rounded to 3 decimals (ms, mm), None kept."""
+    return None if v is None else round(float(v), 3)
+
+
 def read_camera(path) -> dict:
     """A camera JSON as a dict (ValueError naming the file when it is not a JSON object).
     Keys the report itself uses, when present: fy (or f / focal_px) and cy (pixels)."""
@@ -165,7 +170,7 @@ class PythonPipeline:
     classifier .npz (pyvehtrack.Detector(model=...)), or None for the ego-lane detector.
     measurement: the tracker's ("roi", "edges" or "roi+edges"; Tracker(measurement=...)).
     range_params: keyword arguments of the RangeEstimator (rear_offset, bottom_height,
-    path_half_width; report.range_settings checks them), None: its defaults."""
+    path_half_width; _check.range_options checks them), None: its defaults."""
 
     def __init__(self, engine: str = "c", detect_every: int = 10, camera: dict | None = None,
                  fps: float = 10.0, geometry=None, model=None, measurement: str = "roi",
@@ -213,7 +218,8 @@ class PythonPipeline:
             if cam.height_m is None:
                 self.notes.append("The camera file has no height_m: the geometry stage cannot give distances.")
             else:
-                self._cam = cam
+                from ..camera import fuse_ttc  # noqa: PLC0415  (the geometry stage is there)
+                self._cam, self._fuse = cam, fuse_ttc
                 self.pitch_source = ("the geometry stage's pitch (vt_pitch: the lanes' vanishing row, "
                                      "filtered and gated around the camera's nominal pitch)")
         elif camera is None:
@@ -264,24 +270,18 @@ class PythonPipeline:
                                               engine=self.engine, **self.range_params)
             self._rng.update_pitch(vp_stage)
             outs = {o.id: o for o in self._rng.step([(t.id, self._cam.undistort_box(t.box)) for t in tracks])}
-            from ..camera import fuse_ttc  # noqa: PLC0415  (the geometry stage is there)
             info.timing_ms["geometry"] = (time.perf_counter() - t3) * 1e3
             info.pitch_deg = float(self._rng.pitch_deg)
 
             def geometry(t, outs=outs):
-                o = outs.get(t.id)
-                p = getattr(t, "ttc_points", None)
-                if o is None:
-                    return {} if p is None else {"ttc_points_s": round(float(p), 3),
-                                                 "ttc_fused_s": round(float(p), 3)}
                 # as `track --json` writes them: the filtered distance, the TTC from it and its
                 # rate, the block-scale TTC and the two fused (camera.fuse_ttc, the pipeline's rule)
-                fused = fuse_ttc(p, o.ttc_dist)
-                return {"distance_m": None if o.dist_filt is None else round(float(o.dist_filt), 3),
-                        "ttc_s": None if o.ttc_dist is None else round(float(o.ttc_dist), 3),
-                        "warning": bool(o.warning),
-                        "ttc_points_s": None if p is None else round(float(p), 3),
-                        "ttc_fused_s": None if fused is None else round(float(fused), 3)}
+                o = outs.get(t.id)
+                p = getattr(t, "ttc_points", None)
+                g = {"ttc_points_s": _ms(p), "ttc_fused_s": _ms(self._fuse(p, None if o is None else o.ttc_dist))}
+                if o is not None:
+                    g.update(distance_m=_ms(o.dist_filt), ttc_s=_ms(o.ttc_dist), warning=bool(o.warning))
+                return g
         else:
             f, cy = _cam_f_cy(self.camera)
             if f and cy is not None and info.vanishing_row is not None:
