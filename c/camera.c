@@ -54,7 +54,8 @@ vt_status vt_camera_cfg_check(const vt_camera_cfg *c)
         !VT__IN(c->pitch_max_step, 1, one) || !VT__IN(c->pitch_alpha_permille, 0, 1000) ||
         !VT__IN(c->pitch_reacquire, 1, 1000) || !VT__IN((int64_t)c->delta_px, 1, 64 * one) ||
         !VT__IN((int64_t)c->bottom_offset, -8 * one, 8 * one) ||
-        !VT__IN((int64_t)c->vehicle_width, 1, 10 * one) || !VT__IN(c->width_tol_permille, 10, 10000)) {
+        !VT__IN((int64_t)c->vehicle_width, 1, 10 * one) || !VT__IN(c->width_tol_permille, 10, 10000) ||
+        !VT__IN((int64_t)c->lateral, -5 * one, 5 * one)) {
         return VT_E_ARG;
     }
     return VT_OK;
@@ -400,25 +401,28 @@ static vt_q16 vt__ring(const vt_q16 *ring, int32_t head, int32_t back)
 }
 
 /* The box in the ego corridor at distance d (Q16 m): the lateral offsets of its
- * column edges, X = (u - cx) d / fx, against +-half, i.e. (left - cx) d < half fx and
- * (right + 1 - cx) d > -half fx, in Q16 px x Q16 m. Boxes may lie anywhere in int32, so
- * the products are not formed: for integers a and d > 0, a d < L <=> a <= (L - 1) / d
- * (floor), with L = half fx < 10 * 2^16 * 2^31 and a < 2^48. Not in the path without a
- * distance (d <= 0); always in it when the check is off. */
+ * column edges, X = (u - cx) d / fx, against the corridor c - half < X < c + half
+ * centred on the car, c = -cam->lateral; i.e. (left - cx) d < (c + half) fx and
+ * (right + 1 - cx) d > (c - half) fx, in Q16 px x Q16 m. Boxes may lie anywhere in
+ * int32, so the products are not formed: for integers a, L and d > 0,
+ * a d < L <=> a <= floor((L - 1) / d) and a d > L <=> a >= floor(L / d) + 1, with
+ * |L| <= 15 * 2^16 * 2^30 and |a| < 2^48. Not in the path without a distance
+ * (d <= 0); always in it when the check is off. */
 static int32_t vt__range_in_path(const vt_range_cfg *cfg, const vt_camera_cfg *cam,
                                  const vt_box *b, vt_q16 d)
 {
-    int64_t k, a, c;
+    int64_t lr, ll, a, c;
     if (cfg->path_half_width == 0) {
         return 1;
     }
     if (d <= 0) {
         return 0;
     }
-    k = ((int64_t)cfg->path_half_width * cam->fx - 1) / d;
+    lr = ((int64_t)cfg->path_half_width - cam->lateral) * cam->fx;
+    ll = (-(int64_t)cfg->path_half_width - cam->lateral) * cam->fx;
     a = (int64_t)b->left * VT_Q16_ONE - cam->cx;
     c = ((int64_t)b->right + 1) * VT_Q16_ONE - cam->cx;
-    return a <= k && c >= -k;
+    return a <= vt__floor_div64(lr - 1, d) && c >= vt__floor_div64(ll, d) + 1;
 }
 
 static void vt__range_track_step(vt_range_track *t, const vt_range_cfg *cfg,

@@ -51,6 +51,13 @@ static inline int32_t vt__clamp_i32(int32_t v, int32_t lo, int32_t hi)
     return v < lo ? lo : (v > hi ? hi : v);
 }
 
+/* floor(n / d) for d > 0 (n may be negative; C99 division truncates toward zero). */
+static inline int64_t vt__floor_div64(int64_t n, int64_t d)
+{
+    int64_t q = n / d;
+    return (n % d != 0 && n < 0) ? q - 1 : q;
+}
+
 /* The smoothing blend of every tracked quantity (the camera's pitch, the lane
  * tracker's lines): prev + alpha (cur - prev), alpha = a / 1000 (a in 0..1000,
  * checked by the caller's config check). The step (cur - prev) * a / 1000 is

@@ -428,13 +428,6 @@ vt_status vt_pipeline_work_size(int32_t w, int32_t h, int32_t max_w, int32_t max
 
 static int64_t vt__inter(const vt_box *a, const vt_box *b);
 
-/* floor(n / d) for d > 0 (n may be negative). */
-static int64_t vt__floor_div64(int64_t n, int64_t d)
-{
-    int64_t q = n / d;
-    return (n % d != 0 && n < 0) ? q - 1 : q;
-}
-
 /* Everything is kept in thousandths of a pixel (K = 1000) so the permille
  * fractions are exact: VX = vp_x * (w - 1), VY = vp_y * (h - 1), SPAN = the
  * bottom row's distance below VY. t = (y K - VY) / SPAN clamped to [0, 1], then

@@ -6,7 +6,9 @@ The camera file (JSON) is what every command takes (`--camera CAMERA.json`):
      "pitch_deg": 0.0,                       optional, positive = looking down
      "dist": [k1, k2, p1, p2, k3],           optional, OpenCV order
      "image_size": [1242, 375],              optional, written by `pyvehtrack calibrate`
-     "hood_row": 668}                        optional (needs image_size): the hood's highest row
+     "hood_row": 668,                        optional (needs image_size): the hood's highest row
+     "lateral_m": 0.0}                       optional: the camera's mounting offset right of the
+                                             car's centre line (the warning's ego corridor)
 
 in pixels of the input frame. `height_m` (the camera's height above the road) cannot
 come from a chessboard: `pyvehtrack calibrate` takes it as --height-m or leaves it
@@ -35,6 +37,10 @@ Q16 = 1 << 16
 PITCH_LIMIT_DEG = 3.0   # braking and load move a car's pitch by a degree or two, not more
 __all__ = ["Camera", "CameraFileError", "RangeEstimator", "camera_params", "lane_vanishing_row",
            "params_to_c", "range_to_c", "params_from_c", "range_from_c", "q16", "fuse_ttc"]
+
+
+# The camera file's keys, in the order of Camera's fields.
+_FILE_KEYS = ("fx", "fy", "cx", "cy", "height_m", "pitch_deg", "dist", "image_size", "hood_row", "lateral_m")
 
 
 class CameraFileError(ValueError):
@@ -79,7 +85,8 @@ class Camera:
     pixels refer to and the first row of the ego car's hood in that image (hood_row, the
     hood's highest row; image_size's height when no hood is in view): with it the
     ego-lane detector's road ends above the hood, whose edge against the road looks
-    like a vehicle's shadow."""
+    like a vehicle's shadow. lateral_m: the camera's mounting offset right of the car's
+    centre line, metres; the collision warning's ego corridor is centred on the car."""
     fx: float
     fy: float
     cx: float
@@ -89,10 +96,11 @@ class Camera:
     dist: tuple | None = None
     image_size: tuple | None = None
     hood_row: int | None = None
+    lateral_m: float | None = None
 
     def __post_init__(self):
         v = Camera.from_dict(self.to_dict())  # one validation path for files and code
-        for f in ("fx", "fy", "cx", "cy", "height_m", "pitch_deg", "dist", "image_size", "hood_row"):
+        for f in _FILE_KEYS:
             object.__setattr__(self, f, getattr(v, f))
 
     # -- file I/O ---------------------------------------------------------------------
@@ -106,13 +114,15 @@ class Camera:
             d["image_size"] = list(self.image_size)
         if self.hood_row is not None:
             d["hood_row"] = self.hood_row
+        if self.lateral_m is not None:
+            d["lateral_m"] = self.lateral_m
         return d
 
     @staticmethod
     def from_dict(d) -> "Camera":
         if not isinstance(d, dict):
             raise CameraFileError(f"camera: expected a JSON object, got {type(d).__name__}")
-        known = {"fx", "fy", "cx", "cy", "height_m", "pitch_deg", "dist", "image_size", "hood_row"}
+        known = set(_FILE_KEYS)
         unknown = sorted(set(d) - known)
         if unknown:
             raise CameraFileError(f"camera: unknown key(s) {unknown} (known: {sorted(known)})")
@@ -122,6 +132,8 @@ class Camera:
         cy = _num(d, "cy", required=True, lo=-32768.0, hi=32767.0)
         h = _num(d, "height_m", required=False, lo=1e-3, hi=100.0)
         pitch = _num(d, "pitch_deg", required=False, lo=-45.0, hi=45.0)
+        # vt_camera_cfg.lateral's range: a camera more than 5 m off the car is a mistake
+        lateral = _num(d, "lateral_m", required=False, lo=-5.0, hi=5.0)
         dist = d.get("dist")
         if dist is not None:
             if not isinstance(dist, (list, tuple)) or len(dist) not in (4, 5, 8, 12, 14) or not all(
@@ -146,10 +158,10 @@ class Camera:
             if isinstance(hood, bool) or not isinstance(hood, int) or not lo <= hood <= size[1]:
                 raise CameraFileError(f"camera: 'hood_row' must be a whole row {lo}..{size[1]} (the image "
                                       f"height: no hood in view), got {hood!r}")
-        return Camera.__new__(Camera)._init(fx, fy, cx, cy, h, pitch, dist, size, hood)
+        return Camera.__new__(Camera)._init(fx, fy, cx, cy, h, pitch, dist, size, hood, lateral)
 
     def _init(self, *vals) -> "Camera":
-        for f, v in zip(("fx", "fy", "cx", "cy", "height_m", "pitch_deg", "dist", "image_size", "hood_row"), vals):
+        for f, v in zip(_FILE_KEYS, vals, strict=True):
             object.__setattr__(self, f, v)
         return self
 
@@ -219,7 +231,8 @@ class Camera:
         p = CameraParams(int(img_w), int(img_h), self.fx, self.fy, self.cx, self.cy, self.height_m,
                               tan_pitch=math.tan(math.radians(pitch)),
                               tan_pitch_min=math.tan(math.radians(pitch - PITCH_LIMIT_DEG)),
-                              tan_pitch_max=math.tan(math.radians(pitch + PITCH_LIMIT_DEG)))
+                              tan_pitch_max=math.tan(math.radians(pitch + PITCH_LIMIT_DEG)),
+                              lateral=self.lateral_m or 0.0)
         # the names of before issue 10 (pitch_alpha_q8, width_tol_percent), converted when
         # exact, with a DeprecationWarning; dataclasses.replace would see old and new together
         from .shared import CAMERA_RENAMED, take_renamed  # noqa: PLC0415
@@ -259,7 +272,7 @@ def camera_params(cam: Camera, img_w: int, img_h: int, **kw) -> CameraParams:
 
 
 _CAM_Q16 = ("fx", "fy", "cx", "cy", "height", "tan_pitch", "tan_pitch_min", "tan_pitch_max",
-            "pitch_max_step", "delta_px", "bottom_offset", "vehicle_width")
+            "pitch_max_step", "delta_px", "bottom_offset", "vehicle_width", "lateral")
 _CAM_INT = ("img_w", "img_h", "pitch_alpha_permille", "pitch_reacquire", "width_tol_permille")
 _RNG_Q16 = ("frame_dt", "jerk_sigma", "init_sigma_rate", "init_sigma_accel", "sigma_min", "ttc_max",
             "ttc_stopped", "ttc_slower", "ttc_decel", "ttc_margin", "min_closing", "stopped_speed",

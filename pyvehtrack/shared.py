@@ -429,6 +429,7 @@ class CameraParams:
     bottom_offset: float = 0.5
     vehicle_width: float = 1.8
     width_tol_permille: int = 250   # the two distances agree within this permille
+    lateral: float = 0.0            # m, the camera right of the car's centre line (the FCW corridor's centre)
 
 
 @dataclass(frozen=True)

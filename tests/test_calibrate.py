@@ -20,8 +20,10 @@ DATA = Path(__file__).parent / "data" / "chessboard"
 
 def test_calibrate_three_pictures(tmp_path, capsys):
     out = tmp_path / "cam.json"
-    assert main(["calibrate", str(DATA), "--pattern", "9x6", "--height-m", "1.2", "--out", str(out)]) == 0
+    assert main(["calibrate", str(DATA), "--pattern", "9x6", "--height-m", "1.2", "--lateral-m", "0.35",
+                 "--out", str(out)]) == 0
     cam = Camera.load(out)
+    assert cam.lateral_m == 0.35 and cam.params(320, 180).lateral == pytest.approx(0.35, abs=2 ** -16)
     assert abs(cam.fx / 289.7 - 1) < 0.04 and abs(cam.fy / 288.5 - 1) < 0.04
     assert abs(cam.cx - 167.0) < 4 and abs(cam.cy - 96.6) < 4
     assert cam.height_m == 1.2 and cam.image_size == (320, 180) and len(cam.dist) == 5
@@ -43,6 +45,8 @@ def test_calibrate_without_height_says_so(tmp_path, capsys):
     (["--pattern", "9x6", "--square-mm", "-1"], "--square-mm"),
     (["--pattern", "9x6", "--height-m", "0"], "--height-m"),
     (["--pattern", "9x6", "--pitch-deg", "90"], "--pitch-deg"),
+    (["--pattern", "9x6", "--lateral-m", "-6"], "--lateral-m"),
+    (["--pattern", "9x6", "--lateral-m", "nan"], "--lateral-m"),
     (["--pattern", "12x12"], "found in 0 of 3"),          # no such board in the pictures
 ])
 def test_calibrate_user_errors(tmp_path, capsys, args, msg):

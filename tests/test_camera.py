@@ -407,6 +407,12 @@ def test_camera_file_roundtrip(tmp_path):
     back = Camera.load(f)
     assert back == cam and back.dist == (0.1, -0.2, 0.0, 0.0, 0.01)
     assert json.loads(f.read_text())["height_m"] == 1.3
+    # the mounting offset: written, read back, and carried into the C camera (Q16)
+    off = Camera(700.0, 701.0, 320.0, 240.0, height_m=1.3, image_size=(640, 480), lateral_m=-0.35)
+    off.save(f)
+    assert Camera.load(f) == off and json.loads(f.read_text())["lateral_m"] == -0.35
+    assert params_to_c(off.params(640, 480)).lateral == round(-0.35 * Q)
+    assert "lateral_m" not in json.loads((cam.save(f), f.read_text())[1])   # absent unless given
 
 
 @pytest.mark.parametrize("content, msg", [
@@ -420,6 +426,8 @@ def test_camera_file_roundtrip(tmp_path):
     ('{"fx": 500, "fy": 500, "cx": 1, "cy": 1, "dist": [1, 2]}', "'dist'"),
     ('{"fx": 500, "fy": 500, "cx": 1, "cy": 1, "foo": 1}', "unknown key"),
     ('{"fx": 500, "fy": 500, "cx": 1, "cy": 1, "image_size": [0, 5]}', "'image_size'"),
+    ('{"fx": 500, "fy": 500, "cx": 1, "cy": 1, "lateral_m": 5.5}', "'lateral_m'=5.5 is outside"),
+    ('{"fx": 500, "fy": 500, "cx": 1, "cy": 1, "lateral_m": "0.3"}', "'lateral_m' must be a number"),
 ])
 def test_camera_file_errors(tmp_path, content, msg):
     f = tmp_path / "c.json"
@@ -593,14 +601,15 @@ def test_fcw_needs_a_distance_this_frame():
 
 
 @given(st.integers(-2**31, 2**31 - 1), st.integers(0, 2**31 - 1), st.floats(0.01, 200), st.floats(0, 10),
-       st.integers(0, 2**31 - 1))
+       st.one_of(st.just(0.0), st.floats(-5, 5)))
 @settings(max_examples=300)
-def test_in_path_matches_oracle_for_any_box(left, width, d, half, seed):
-    """The corridor test against the float oracle's (u - cx) d / fx < half on one frame, on
-    the same Q16 values (cx, fx, half from the C config, d = C's dist_filt): C compares
-    integers exactly, the oracle in double, three roundings of 2^-53 each, so they may
-    differ only where |X| is within 1e-12 relative of the corridor's edge."""
-    p, c = cam_params()
+def test_in_path_matches_oracle_for_any_box(left, width, d, half, lateral):
+    """The corridor test against the float oracle's m - half < (u - cx) d / fx < m + half
+    (m = -lateral, the camera's mounting offset) on one frame, on the same Q16 values (cx,
+    fx, half, lateral from the C configs, d = C's dist_filt): C compares integers exactly,
+    the oracle in double, three roundings of 2^-53 each, so they may differ only where X
+    is within 1e-12 relative of one of the corridor's edges."""
+    p, c = cam_params(lateral=lateral)
     rp, rcf = _rcfg(path_half_width=half)
     right = min(left + width, 2**31 - 1)
     # a box whose bottom row gives distance d (eq. 1, pitch 0), its columns anywhere in int32
@@ -615,9 +624,10 @@ def test_in_path_matches_oracle_for_any_box(left, width, d, half, seed):
     want = ref._in_path(box, dq)
     got = bool(oc["flags"] & lib.VT_RANGE_IN_PATH)
     if got != want:
+        m, hw = -p.lateral, rp.path_half_width
         xl, xr = (left - p.cx) * dq / p.fx, (right + 1 - p.cx) * dq / p.fx
-        edge = min(abs(abs(xl) - rp.path_half_width), abs(abs(xr) - rp.path_half_width))
-        assert edge <= 1e-12 * max(abs(xl), abs(xr), 1), (box, dq, xl, xr, rp.path_half_width)
+        edge = min(abs(xl - (m + hw)), abs(xr - (m - hw)))
+        assert edge <= 1e-12 * max(abs(xl), abs(xr), 1), (box, dq, xl, xr, m, hw)
 
 
 def test_range_cfg_path_half_width_range():
@@ -643,3 +653,53 @@ def test_in_path_edge_is_strict(left, right, inside):
     assert o["dist_filt"] == 40 * 65536
     assert bool(o["flags"] & lib.VT_RANGE_IN_PATH) == inside
     assert rc.RangeTracker(p, rp)._in_path([left, 247, right, 257], 40.0) == inside
+
+
+@pytest.mark.parametrize("left, right, inside", [
+    (344, 500, False), (343, 500, True),    # X of the left edge = m + half = +1.5 m exactly / 1.4375 m
+    (100, 311, False), (100, 312, True),    # X of the right edge (right + 1) = m - half = -0.5 m exactly / -0.4375 m
+])
+def test_in_path_edge_with_mounting_offset(left, right, inside):
+    """The strict edges of the corridor centred on the car, not on the camera. The camera
+    mounted 0.5 m left of the car's centre line (lateral -0.5) puts the corridor's centre at
+    X = +0.5 m; with half 1.0 m its edges are X = +1.5 and -0.5 m. cx 320, fx 640, fy 700,
+    camera height 1 m, bottom row 257: d = 40 m exactly in Q16, X = (u - 320) / 16, so the
+    edges fall on whole columns u = 344 and 312, and every value is exact in Q16."""
+    p, c = cam_params(fx=640.0, fy=700.0, cx=320.0, height=1.0, lateral=-0.5)
+    rp, rcf = _rcfg(path_half_width=1.0)
+    o = _run_range([[left, 247, right, 257]], rcf, c)[0]
+    assert o["dist_filt"] == 40 * 65536
+    assert bool(o["flags"] & lib.VT_RANGE_IN_PATH) == inside
+    assert rc.RangeTracker(p, rp)._in_path([left, 247, right, 257], 40.0) == inside
+
+
+@pytest.mark.parametrize("lateral, warns", [(0.0, False), (-0.9, True), (0.9, False)])
+def test_fcw_corridor_follows_the_camera_mounting(lateral, warns):
+    """A stopped vehicle 1.8 m wide, its centre 3.0 m right of the camera's axis (X in
+    [2.1, 3.9] m), approached at 10 m/s from 30 m. The corridor (half 1.5 m) is centred on
+    the car, at X = -lateral: with the camera on the car's centre line it is [-1.5, 1.5] m
+    and nothing warns; a camera mounted 0.9 m left of the centre line (lateral -0.9) moves it
+    to [-0.6, 2.4] m, which the vehicle overlaps, and it warns; mounted 0.9 m right, the
+    corridor is [-2.4, 0.6] m and nothing warns. C and the oracle alike."""
+    p, c = cam_params(lateral=lateral)
+    _rp, rcf = _rcfg(frame_dt=0.1, path_half_width=1.5)
+    boxes = approach(25, 30.0, 10.0, 0.1, p, 0.0, np.random.default_rng(0))
+    shift = lambda b, z: [b[0] + round(p.fx * 3.0 / z), b[1], b[2] + round(p.fx * 3.0 / z), b[3]]  # noqa: E731
+    boxes = [shift(b, 30.0 - 10.0 * k * 0.1) for k, b in enumerate(boxes)]
+    outs = _run_range(boxes, rcf, c)
+    assert any(o["fcw"] & lib.VT_FCW_WARNING for o in outs) == warns
+    assert all(bool(o["flags"] & lib.VT_RANGE_IN_PATH) == warns for o in outs[1:])
+    ref = rc.RangeTracker(p, _rp)
+    assert any(ref.step([(5, b)], 0.0, 0.0)[0].fcw & rc.FCW_WARNING for b in boxes) == warns
+
+
+def test_camera_cfg_lateral_range():
+    _p, c = cam_params()
+    assert c.lateral == 0
+    for bad in (-5 * Q - 1, 5 * Q + 1):
+        c.lateral = int(bad)
+        with pytest.raises(VtError):
+            _native.camera_cfg_check(c)
+    for good in (-5 * Q, 5 * Q):
+        c.lateral = int(good)
+        _native.camera_cfg_check(c)

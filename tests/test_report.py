@@ -5,6 +5,7 @@ the browser's own network log (--log-net-log) must show no request made by the p
 control page with one http:// image proves that check can fail."""
 from __future__ import annotations
 
+import html
 import json
 import os
 import re
@@ -120,6 +121,12 @@ def test_range_options_reach_the_range_stage(tmp_path):
     shutil.copy(CLIP / "000000.png", frames / "000000.png")
     page = make_report(frames, tmp_path / "r", camera=CAMERA, truth=(), progress=False, rear_offset=1.8)
     assert "rear offset 1.8 m, bottom height 0 m, ego path +-1.5 m" in page.read_text()
+    # a camera mounted off the car's centre line: the page says where the corridor is
+    off = tmp_path / "cam_off.json"
+    off.write_text(json.dumps(dict(json.loads(CAMERA.read_text()), lateral_m=-0.4)))
+    page = make_report(frames, tmp_path / "r2", camera=off, truth=(), progress=False)
+    text = html.unescape(page.read_text())
+    assert "ego path +-1.5 m around the car's centre line (the camera 0.4 m left of it)" in text
     for bad, msg in ((["--rear-offset", "6"], "rear_offset 6.0: must be in [0, 5] m"),
                      (["--rear-offset", "nan"], "rear_offset must be finite"),
                      (["--bottom-height", "1.65"], "bottom_height 1.65: must be in [0, height_m = 1.65) m"),

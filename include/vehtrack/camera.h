@@ -80,6 +80,11 @@ typedef struct vt_camera_cfg {
                                  row, px, [-8, 8] (0.5: the lower edge of the row)   */
     vt_q16 vehicle_width;     /* assumed vehicle width for the cross-check, m, (0, 10] */
     int32_t width_tol_permille;/* the two distances agree within this permille, 10..10000 */
+    vt_q16 lateral;           /* the camera's mounting offset, m, right of the ego car's
+                                 centre line positive, [-5, 5]: the ego corridor of the
+                                 collision warning (vt_range_cfg.path_half_width) is
+                                 centred on the car, at X = -lateral in camera metres.
+                                 Distances stay in the camera's frame.               */
 } vt_camera_cfg;
 
 /* 1242 x 375 KITTI-like defaults (f = 721.5 px, 1.65 m, no pitch); a real camera
@@ -103,6 +108,7 @@ typedef struct vt_camera_cfg {
         .bottom_offset = VT_Q16_ONE / 2,          \
         .vehicle_width = 117965, /* 1.8 m */      \
         .width_tol_permille = 250,                \
+        .lateral = 0,                             \
     }
 
 /* VT_OK if every field is in range, else VT_E_ARG (VT_E_SIZE for img_w/img_h). */

@@ -36,6 +36,7 @@ typedef struct vt_camera_cfg {
     vt_q16 bottom_offset;
     vt_q16 vehicle_width;
     int32_t width_tol_permille;
+    vt_q16 lateral;
 } vt_camera_cfg;
 
 vt_status vt_camera_cfg_check(const vt_camera_cfg *cam);

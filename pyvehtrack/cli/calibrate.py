@@ -1,14 +1,15 @@
 """`pyvehtrack calibrate`: a camera file from chessboard pictures (OpenCV).
 
     pyvehtrack calibrate IMAGES... --pattern 9x6 [--square-mm S] [--height-m H]
-                         [--pitch-deg P] --out CAMERA.json
+                         [--pitch-deg P] [--lateral-m L] --out CAMERA.json
 
 Finds the inner corners of the chessboard (cv2.findChessboardCorners, refined with
 cornerSubPix) in every picture, then cv2.calibrateCamera gives fx, fy, cx, cy and the
 distortion coefficients (OpenCV order k1 k2 p1 p2 k3), in pixels of these pictures: take
 them with the camera and resolution that will film the road. The camera's height above
 the road cannot come from a chessboard: give it with --height-m, or add "height_m" to the
-file later (distances need it). --square-mm only scales the board's pose, which the camera
+file later (distances need it); nor can the camera's mounting offset right of the car's centre
+line, --lateral-m, which centres the collision warning's ego corridor on the car. --square-mm only scales the board's pose, which the camera
 file does not keep; it is accepted for the record."""
 from __future__ import annotations
 
@@ -36,6 +37,9 @@ def register(sub) -> None:
                    help="camera height above the road, m (not measurable from a chessboard)")
     p.add_argument("--pitch-deg", type=float, default=None, metavar="P",
                    help="nominal pitch, degrees, positive looking down (optional)")
+    p.add_argument("--lateral-m", type=float, default=None, metavar="L",
+                   help="the camera's mounting offset right of the car's centre line, m, -5..5 (optional; "
+                        "the warning's ego corridor is centred on the car)")
     p.add_argument("--out", required=True, metavar="CAMERA.json", help="the camera file to write")
     p.add_argument("--min-views", type=int, default=MIN_VIEWS, metavar="N",
                    help=f"views with the board found needed (default {MIN_VIEWS})")
@@ -67,6 +71,8 @@ def run(args) -> int:
         raise CliError(f"--height-m {args.height_m}: must be in (0, 100] metres")
     if args.pitch_deg is not None and not (math.isfinite(args.pitch_deg) and abs(args.pitch_deg) <= 45):
         raise CliError(f"--pitch-deg {args.pitch_deg}: must be within +-45 degrees")
+    if args.lateral_m is not None and not (math.isfinite(args.lateral_m) and abs(args.lateral_m) <= 5):
+        raise CliError(f"--lateral-m {args.lateral_m}: must be within +-5 metres")
     if args.min_views < 1:
         raise CliError(f"--min-views {args.min_views}: must be >= 1")
     sources = frame_sources(args.inputs)
@@ -109,7 +115,7 @@ def run(args) -> int:
         rms, k, dist, _r, _t = cv2.calibrateCamera(obj, img_pts, size, None, None)
         try:
             cam = Camera(fx=float(k[0, 0]), fy=float(k[1, 1]), cx=float(k[0, 2]), cy=float(k[1, 2]),
-                         height_m=args.height_m, pitch_deg=args.pitch_deg,
+                         height_m=args.height_m, pitch_deg=args.pitch_deg, lateral_m=args.lateral_m,
                          dist=[float(v) for v in np.ravel(dist)[:5]], image_size=size)
         except CameraFileError as e:
             raise CliError(f"calibration gave an unusable camera ({e}); use more, sharper views") from None

@@ -161,7 +161,8 @@ def register(sub) -> None:
                         "lower edge): eq. 1 then uses the camera height minus it")
     p.add_argument("--path-half-width", type=float, default=1.5, metavar="M",
                    help="the warning is for tracks in the ego path only: a box must overlap the "
-                        "straight corridor of +-M m around the camera axis at its distance "
+                        "straight corridor of +-M m around the car's centre line at its distance "
+                        "(the camera file's lateral_m says how far right of it the camera sits) "
                         "(default 1.5; 0: every closing track may warn)")
     p.add_argument("--json", metavar="TRACKS.json", help="write per-frame track records (JSON)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")

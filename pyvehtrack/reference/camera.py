@@ -208,15 +208,17 @@ class RangeTracker:
         return kf
 
     def _in_path(self, box, d) -> bool:
-        """The box at distance d overlaps the straight corridor |X| < path_half_width,
-        X = (u - cx) d / fx over its columns [left, right + 1)."""
+        """The box at distance d overlaps the straight corridor |X - m| < path_half_width
+        centred on the car (m = -lateral, the camera's mounting offset), X = (u - cx) d / fx
+        over its columns [left, right + 1)."""
         half = self.p.path_half_width
         if half == 0:
             return True
         if d is None or d <= 0:
             return False
         c = self.cam
-        return (box[0] - c.cx) * d / c.fx < half and (box[2] + 1 - c.cx) * d / c.fx > -half
+        m = -c.lateral
+        return (box[0] - c.cx) * d / c.fx < m + half and (box[2] + 1 - c.cx) * d / c.fx > m - half
 
     def step(self, tracks, tan_pitch: float, ego_speed: float | None = None) -> list[RangeOut]:
         """tracks: iterable of (id, [l, t, r, b]). ego_speed m/s or None (unknown)."""

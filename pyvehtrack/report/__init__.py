@@ -114,7 +114,9 @@ def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "
             "truth": ", ".join(str(t) for t in truth) if truth else "none"}
     if cam:
         meta["range"] = (f"rear offset {rng['rear_offset']:g} m, bottom height {rng['bottom_height']:g} m, "
-                         f"ego path +-{rng['path_half_width']:g} m")
+                         f"ego path +-{rng['path_half_width']:g} m"
+                         + (f" around the car's centre line (the camera {abs(lat):g} m "
+                            f"{'right' if lat > 0 else 'left'} of it)" if (lat := cam.get("lateral_m")) else ""))
     if auto:
         meta["found by name"] = "; ".join(auto)
     page = render_html(records, infos, sorted(kept.items()), title="pyvehtrack report: " + "/".join(Path(inputs).parts[-3:]),
