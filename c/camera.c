@@ -425,12 +425,31 @@ static int32_t vt__range_in_path(const vt_range_cfg *cfg, const vt_camera_cfg *c
     return a <= vt__floor_div64(lr - 1, d) && c >= vt__floor_div64(ll, d) + 1;
 }
 
+vt_status vt_ttc_fuse(vt_q16 points, vt_q16 dist, int32_t weight_permille, vt_q16 *fused)
+{
+    if (fused == NULL || !VT__IN(weight_permille, 0, 1000)) {
+        return VT_E_ARG;
+    }
+    if (points < 0) {
+        *fused = dist < 0 ? -1 : dist;
+    } else if (dist < 0) {
+        *fused = points;
+    } else {
+        *fused = (vt_q16)(((int64_t)points * (1000 - weight_permille) +
+                           (int64_t)dist * weight_permille + 500) / 1000);
+    }
+    return VT_OK;
+}
+
+/* One track's frame. pts: its block-scale TTC (negative: none), w the fusion weight
+ * (checked by the caller): the warning's TTC is vt_ttc_fuse of it and the
+ * distance/rate TTC, which is the latter alone without pts. */
 static void vt__range_track_step(vt_range_track *t, const vt_range_cfg *cfg,
                                  const vt_camera_cfg *cam, vt_q16 tp, vt_q16 ego_speed,
-                                 const vt_track_out *tr, vt_range_out *o)
+                                 const vt_track_out *tr, vt_q16 pts, int32_t w, vt_range_out *o)
 {
     vt_distance dist;
-    vt_q16 sig, z[1], ttc, w_now, w_old, d;
+    vt_q16 sig, z[1], ttc, w_now, w_old, d, fcw_ttc = -1;
     vt_q32 r[1];
     int64_t q, wpx = (int64_t)tr->box.right - tr->box.left + 1;
     int32_t closing, lag = cfg->scale_lag, ttc_ok, cls, have, side_ok, n, in_path;
@@ -550,19 +569,29 @@ static void vt__range_track_step(vt_range_track *t, const vt_range_cfg *cfg,
     }
     /* a warning rests on a distance measured this frame: the filter's extrapolation alone
      * (a box cut by the frame's bottom and side, a vehicle being passed) does not count */
-    (void)vt_fcw_step(&t->fcw, cfg, ttc_ok && in_path && have, o->ttc_dist, closing, cls, &o->fcw);
+    (void)vt_ttc_fuse(pts, ttc_ok ? o->ttc_dist : -1, w, &fcw_ttc);
+    (void)vt_fcw_step(&t->fcw, cfg, fcw_ttc >= 0 && in_path && have, fcw_ttc, closing, cls, &o->fcw);
 }
 
 vt_status vt_range_step(vt_range_state *st, const vt_range_cfg *cfg, const vt_camera_cfg *cam,
                         vt_q16 tp, vt_q16 ego_speed, const vt_track_out *tracks,
                         int32_t n_tracks, vt_range_out *out, int32_t out_cap, int32_t *n_out)
 {
+    return vt_range_step_fused(st, cfg, cam, tp, ego_speed, tracks, n_tracks, NULL, 0, out, out_cap,
+                               n_out);
+}
+
+vt_status vt_range_step_fused(vt_range_state *st, const vt_range_cfg *cfg, const vt_camera_cfg *cam,
+                              vt_q16 tp, vt_q16 ego_speed, const vt_track_out *tracks,
+                              int32_t n_tracks, const vt_q16 *ttc_points, int32_t fuse_permille,
+                              vt_range_out *out, int32_t out_cap, int32_t *n_out)
+{
     int32_t i, k, written = 0, full = 0;
     vt_range_track *slot;
     if (st == NULL || n_out == NULL || vt_range_cfg_check(cfg) != VT_OK ||
         vt_camera_cfg_check(cam) != VT_OK || !VT__IN(tp, -VT_Q16_ONE, VT_Q16_ONE) ||
         n_tracks < 0 || (n_tracks > 0 && tracks == NULL) || out_cap < 0 ||
-        (out_cap > 0 && out == NULL)) {
+        (out_cap > 0 && out == NULL) || !VT__IN(fuse_permille, 0, 1000)) {
         return VT_E_ARG;
     }
     /* Check every input before touching the state. */
@@ -604,7 +633,8 @@ vt_status vt_range_step(vt_range_state *st, const vt_range_cfg *cfg, const vt_ca
             full = 1;
             continue;
         }
-        vt__range_track_step(slot, cfg, cam, tp, ego_speed, &tracks[i], &tmp);
+        vt__range_track_step(slot, cfg, cam, tp, ego_speed, &tracks[i],
+                             ttc_points != NULL ? ttc_points[i] : -1, fuse_permille, &tmp);
         if (written < out_cap) {
             out[written++] = tmp;
         } else {

@@ -556,17 +556,25 @@ static void vt__track_sources(vt_pipeline *p, vt_frame_out *out)
 }
 
 /* vt_pipe_track.ttc_fused_q16 from the block-scale TTC pts and the distance/rate TTC
- * dist (VT_UNKNOWN: not known; both > 0 when known): the weighted mean, w permille on
- * dist, rounded half up; exact in int64. */
+ * dist (VT_UNKNOWN: not known): vt_ttc_fuse (camera.h), w permille on dist (checked by
+ * vt_pipeline_cfg_check), VT_UNKNOWN when neither is known. */
 static vt_q16 vt__ttc_fuse(vt_q16 pts, vt_q16 dist, int32_t w)
 {
-    if (pts == VT_UNKNOWN) {
-        return dist;
+    vt_q16 f = -1;
+    (void)vt_ttc_fuse(pts, dist, w, &f);
+    return f < 0 ? VT_UNKNOWN : f;
+}
+
+/* The block-scale TTC of the tracker's track i (VT_UNKNOWN: none this frame). */
+static vt_q16 vt__ttc_points_of(const vt_pipeline *p, int32_t id)
+{
+    int32_t k;
+    for (k = 0; k < p->n_ttc; ++k) {
+        if (p->ttc_out[k].id == id) {
+            return (p->ttc_out[k].flags & VT_TTC_VALID) ? p->ttc_out[k].ttc : VT_UNKNOWN;
+        }
     }
-    if (dist == VT_UNKNOWN) {
-        return pts;
-    }
-    return (vt_q16)(((int64_t)pts * (1000 - w) + (int64_t)dist * w + 500) / 1000);
+    return VT_UNKNOWN;
 }
 
 static void vt__out_tracks(const vt_pipeline *p, int32_t n, int32_t n_ranges, vt_frame_out *out)
@@ -585,15 +593,7 @@ static void vt__out_tracks(const vt_pipeline *p, int32_t n, int32_t n_ranges, vt
         o->ttc_ms = VT_UNKNOWN;
         o->warning = p->camera != NULL ? VT_FCW_NONE : VT_FCW_UNKNOWN;
         o->source = 0;
-        o->ttc_points_q16 = VT_UNKNOWN;
-        for (k = 0; k < p->n_ttc; ++k) {
-            if (p->ttc_out[k].id == t->id) {
-                if (p->ttc_out[k].flags & VT_TTC_VALID) {
-                    o->ttc_points_q16 = p->ttc_out[k].ttc;
-                }
-                break;
-            }
-        }
+        o->ttc_points_q16 = vt__ttc_points_of(p, t->id);
         for (k = 0; k < n_ranges; ++k) {
             const vt_range_out *r = &p->ranges[k];
             if (r->id != t->id) {
@@ -614,22 +614,27 @@ static void vt__out_tracks(const vt_pipeline *p, int32_t n, int32_t n_ranges, vt
     out->n_tracks = i;
 }
 
-/* The camera stage after the tracker: the pitch from this frame's lanes (when they
- * ran and both ego lines meet), then the range filters of the tracks. */
+/* The camera stage after the tracker and the block-scale TTC: the pitch from this
+ * frame's lanes (when they ran and both ego lines meet), then the range filters of the
+ * tracks, whose warning decides on the fused TTC where a track has a block-scale one. */
 static vt_status vt__geometry(vt_pipeline *p, const vt_image_u8 *frame, const vt_frame_out *out,
                               int32_t lanes_ok, int32_t n_tracks, int32_t *n_ranges)
 {
-    vt_q16 vp_row = 0;
-    int32_t vp_valid = 0;
+    vt_q16 vp_row = 0, pts[VT_MAX_TRACKS];
+    int32_t vp_valid = 0, i;
     vt_status s;
     *n_ranges = 0;
+    for (i = 0; i < n_tracks && i < VT_MAX_TRACKS; ++i) {
+        pts[i] = vt__ttc_points_of(p, p->tracks[i].id);
+    }
     if (lanes_ok && vt_lane_vanishing_row(&out->lanes, frame->h, &vp_row, &vp_valid) != VT_OK) {
         vp_valid = 0;
     }
     s = vt_pitch_update(&p->pitch, p->camera, vp_valid, vp_valid ? vp_row : 0);
     if (s == VT_OK) {
-        s = vt_range_step(&p->range, &p->cfg.range, p->camera, p->pitch.tan_pitch, p->ego_speed,
-                          p->tracks, n_tracks, p->ranges, VT_MAX_TRACKS, n_ranges);
+        s = vt_range_step_fused(&p->range, &p->cfg.range, p->camera, p->pitch.tan_pitch, p->ego_speed,
+                                p->tracks, n_tracks, pts, p->cfg.ttc_fuse_permille, p->ranges,
+                                VT_MAX_TRACKS, n_ranges);
     }
     return s;
 }
@@ -1409,23 +1414,23 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
         }
     }
     p->n_trk = n_tracks;
-    if (p->camera != NULL && p->cfg.track) {
-        vt_status sg = vt__geometry(p, frame, out, lanes_ok, n_tracks, &n_ranges);
-        if (sg != VT_OK && sg != VT_E_CAPACITY) {
-            n_ranges = 0;
-            s = sg;
-        }
-    }
     p->n_ttc = 0;
     if (p->ttc_st != NULL && p->cfg.track) {
-        /* Capacity (more live tracks than VT_TTC_TRACKS) leaves the rest unknown; the
-         * tracker's tracks always pass vt_ttc_step's checks, so any other error is a bug
-         * worth returning. */
+        /* Before the range stage, whose warning takes it. Capacity (more live tracks than
+         * VT_TTC_TRACKS) leaves the rest unknown; the tracker's tracks always pass
+         * vt_ttc_step's checks, so any other error is a bug worth returning. */
         vt_status st = vt_ttc_step(p->ttc_st, &p->cfg.ttc, frame, p->tracks, n_tracks,
                                    p->ttc_out, VT_MAX_TRACKS, &p->n_ttc);
         if (st != VT_OK && st != VT_E_CAPACITY) {
             p->n_ttc = 0;
             s = st;
+        }
+    }
+    if (p->camera != NULL && p->cfg.track) {
+        vt_status sg = vt__geometry(p, frame, out, lanes_ok, n_tracks, &n_ranges);
+        if (sg != VT_OK && sg != VT_E_CAPACITY) {
+            n_ranges = 0;
+            s = sg;
         }
     }
     vt__out_tracks(p, n_tracks, n_ranges, out);

@@ -596,16 +596,27 @@ def _track_array(tracks):
     return tr, (ffi.cast("vt_track_out *", tr.ctypes.data) if len(tr) else ffi.NULL), len(tr)
 
 
-def range_step(st, cfg, cam, tp: int, ego_speed: int, tracks: np.ndarray) -> np.ndarray:
-    """tracks: a TRACK_OUT_DTYPE array (as tracker_step returns). Returns RANGE_OUT_DTYPE."""
+def range_step(st, cfg, cam, tp: int, ego_speed: int, tracks: np.ndarray, ttc_points=None,
+               fuse_permille: int = 0) -> np.ndarray:
+    """tracks: a TRACK_OUT_DTYPE array (as tracker_step returns). ttc_points: None, or one
+    Q16 block-scale TTC per track (negative: none) for vt_range_step_fused. Returns
+    RANGE_OUT_DTYPE."""
     tr, ptr, n = _track_array(tracks)
     cap = max(n, 1)
     out = np.zeros(cap, RANGE_OUT_DTYPE)
     n_out = ffi.new("int32_t *")
-    check("vt_range_step", lib.vt_range_step(st, cfg, cam, tp, ego_speed, ptr, n,
-                                             ffi.cast("vt_range_out *", out.ctypes.data), cap,
-                                             n_out),
-          f"{n} track(s), tan_pitch={tp}, ego_speed={ego_speed} (Q16)")
+    if ttc_points is None:
+        pts = ffi.NULL
+    else:
+        arr = np.ascontiguousarray(ttc_points, np.int32)
+        if arr.shape != (n,):
+            raise ValueError(f"ttc_points: one per track ({n}), got shape {arr.shape}")
+        pts = ffi.new("vt_q16[]", [int(v) for v in arr]) if n else ffi.NULL
+    check("vt_range_step_fused", lib.vt_range_step_fused(st, cfg, cam, tp, ego_speed, ptr, n, pts,
+                                                         fuse_permille,
+                                                         ffi.cast("vt_range_out *", out.ctypes.data),
+                                                         cap, n_out),
+          f"{n} track(s), tan_pitch={tp}, ego_speed={ego_speed} (Q16), fuse_permille={fuse_permille}")
     return out[: int(n_out[0])].copy()
 # ================================================================ end camera.h
 # ================================================================ ttc_scale.h

@@ -407,8 +407,13 @@ class RangeEstimator:
                                 bool(d.flags & L.VT_DIST_BOTTOM_CLIPPED),
                                 bool(d.flags & L.VT_DIST_SIDE_CLIPPED))
 
-    def step(self, tracks, ego_speed: float | None = None) -> list[RangeOut]:
-        """tracks: pyvehtrack.tracker.Track objects (or (id, box) pairs), boxes in input px."""
+    def step(self, tracks, ego_speed: float | None = None, ttc_points: dict | None = None,
+             fuse_permille: int | None = None) -> list[RangeOut]:
+        """tracks: pyvehtrack.tracker.Track objects (or (id, box) pairs), boxes in input px.
+        ttc_points: {id: block-scale TTC in s, or None} (Track.ttc_points, ScaleTtc's ttc):
+        the warning then decides on the fused TTC (fuse_ttc; fuse_permille on the
+        distance/rate TTC, default vt_pipeline_cfg's 300), as the pipeline's does; without
+        it, on the distance/rate TTC."""
         pairs = []
         for t in tracks:
             tid, box = (t.id, t.box) if hasattr(t, "box") else t
@@ -418,14 +423,38 @@ class RangeEstimator:
             pairs.append((int(tid), box))
         if ego_speed is not None and (not math.isfinite(float(ego_speed)) or ego_speed < 0):
             raise ValueError(f"ego_speed must be >= 0 m/s or None, got {ego_speed}")
+        w = _fuse_weight(fuse_permille)
+        pts = None
+        if ttc_points is not None:
+            if not isinstance(ttc_points, dict):
+                raise TypeError(f"ttc_points must be a dict id -> seconds or None, got "
+                                f"{type(ttc_points).__name__}")
+            pts = {}
+            for tid, v in ttc_points.items():
+                if v is not None:
+                    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) \
+                            or not math.isfinite(float(v)) or v < 0:
+                        raise ValueError(f"ttc_points[{tid}] must be a TTC >= 0 s or None, got {v!r}")
+                    pts[int(tid)] = float(v)
         if self.engine == "reference":
-            return self._ref.step(pairs, self._pitch_ref.tan_pitch, ego_speed)
+            return self._ref.step(pairs, self._pitch_ref.tan_pitch, ego_speed, ttc_points=pts,
+                                  fuse_permille=w)
         arr = np.zeros(len(pairs), self._n.TRACK_OUT_DTYPE)
         for k, (tid, b) in enumerate(pairs):
             arr[k] = (tid, 2, b[0], b[1], b[2], b[3], 0, 0)
         ego = -Q16 if ego_speed is None else q16(ego_speed, "ego_speed")
-        rows = self._n.range_step(self._st, self._crng, self._ccam, int(self._pitch.tan_pitch), ego, arr)
+        qp = None if pts is None else [q16(pts[tid], f"ttc_points[{tid}]") if tid in pts else -1
+                                        for tid, _b in pairs]
+        rows = self._n.range_step(self._st, self._crng, self._ccam, int(self._pitch.tan_pitch), ego, arr,
+                                  qp, w)
         return [_range_out(r, self._n.lib) for r in rows]
+
+
+def _fuse_weight(weight_permille) -> int:
+    """The fusion weight on the distance/rate TTC: vt_pipeline_cfg's default, or checked."""
+    from . import _native  # noqa: PLC0415
+    return int(_native.pipeline_cfg_default().ttc_fuse_permille) if weight_permille is None else \
+        _check.integer(weight_permille, "weight_permille", lo=0, hi=1000)
 
 
 def fuse_ttc(points: float | None, dist: float | None, weight_permille: int | None = None):
@@ -434,14 +463,8 @@ def fuse_ttc(points: float | None, dist: float | None, weight_permille: int | No
     weight_permille (default: vt_pipeline_cfg's, 300) on `dist`; the known one if only one
     is; None if neither. The two err in opposite directions on KITTI (the block scale lags,
     the filtered distance's rate overshoots)."""
-    from . import _native  # noqa: PLC0415
-    w = int(_native.pipeline_cfg_default().ttc_fuse_permille) if weight_permille is None else \
-        _check.integer(weight_permille, "weight_permille", lo=0, hi=1000)
-    if points is None:
-        return dist
-    if dist is None:
-        return points
-    return (points * (1000 - w) + dist * w) / 1000
+    from .reference.camera import ttc_fuse  # noqa: PLC0415  (the one float rule)
+    return ttc_fuse(points, dist, _fuse_weight(weight_permille))
 
 
 def _range_out(r, lib) -> RangeOut:

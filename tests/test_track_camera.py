@@ -135,21 +135,25 @@ def test_detect_json_with_camera(tmp_path, capsys):
 def test_warning_only_for_tracks_in_the_ego_path(tmp_path, capsys):
     """With the shipped window model the KITTI clip's whole-road tracks include a parked van
     on the left (boxes 1.5-3.4 m left of the camera axis) and a car on the right (2-5 m),
-    which close at 0.8-2 s TTC as the ego car passes them. The warning asks for the ego path
-    (the default corridor +-1.5 m): none of them warns; with the check off
-    (--path-half-width 0) they do, as before the check existed."""
+    whose distance/rate TTC falls to 0.8-2 s as the ego car passes them. The warning asks
+    for the ego path (the default corridor +-1.5 m): on that TTC (--warn-ttc distance) none
+    of them warns, and with the check off (--path-half-width 0) they do, as before the check
+    existed. On the fused TTC (the default since 2026-11-30) none warns either way: their
+    block-scale TTC stays long, so the fused one never falls under the threshold."""
     model = str(DEFAULT_WINDOW_MODEL)
     frames = sorted(str(p) for p in CLIP.glob("0*.png"))
     warned = {}
     for half in ("1.5", "0"):
-        js = tmp_path / f"t{half}.json"
-        assert main(["track", *frames, "--camera", _camera(tmp_path), "--model", model,
-                     "--path-half-width", half, "--out", str(tmp_path / "a.png"), "--json", str(js),
-                     "--no-progress"]) == 0
-        warned[half] = {(r["frame"], t["id"]) for r in json.loads(js.read_text()) for t in r["tracks"]
-                        if t["warning"]}
-    assert warned["1.5"] == set()
-    assert len(warned["0"]) >= 5
+        for rule in ("distance", "fused"):
+            js = tmp_path / f"t{half}{rule}.json"
+            assert main(["track", *frames, "--camera", _camera(tmp_path), "--model", model,
+                         "--path-half-width", half, "--warn-ttc", rule, "--out", str(tmp_path / "a.png"),
+                         "--json", str(js), "--no-progress"]) == 0
+            warned[half, rule] = {(r["frame"], t["id"]) for r in json.loads(js.read_text())
+                                  for t in r["tracks"] if t["warning"]}
+    assert warned["1.5", "distance"] == set() and warned["1.5", "fused"] == set()
+    assert len(warned["0", "distance"]) >= 5
+    assert warned["0", "fused"] == set()
     assert main(["track", *frames[:2], "--camera", _camera(tmp_path), "--path-half-width", "-1",
                  "--out", str(tmp_path / "a.png")]) == 2
     assert "--path-half-width" in capsys.readouterr().err

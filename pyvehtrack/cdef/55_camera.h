@@ -149,3 +149,8 @@ vt_status vt_range_init(vt_range_state *st);
 vt_status vt_range_step(vt_range_state *st, const vt_range_cfg *cfg, const vt_camera_cfg *cam,
                         vt_q16 tp, vt_q16 ego_speed, const vt_track_out *tracks,
                         int32_t n_tracks, vt_range_out *out, int32_t out_cap, int32_t *n_out);
+vt_status vt_ttc_fuse(vt_q16 points, vt_q16 dist, int32_t weight_permille, vt_q16 *fused);
+vt_status vt_range_step_fused(vt_range_state *st, const vt_range_cfg *cfg, const vt_camera_cfg *cam,
+                              vt_q16 tp, vt_q16 ego_speed, const vt_track_out *tracks,
+                              int32_t n_tracks, const vt_q16 *ttc_points, int32_t fuse_permille,
+                              vt_range_out *out, int32_t out_cap, int32_t *n_out);

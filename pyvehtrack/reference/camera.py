@@ -141,6 +141,17 @@ class FcwState:
     warnings: int = 0
 
 
+def ttc_fuse(points, dist, w: int):
+    """The fused TTC (c/camera.c's vt_ttc_fuse) in float: the weighted mean of the
+    block-scale TTC `points` and the distance/rate TTC `dist` (s), w permille on dist;
+    the known one if only one is; None if neither."""
+    if points is None:
+        return dist
+    if dist is None:
+        return points
+    return (points * (1000 - w) + dist * w) / 1000
+
+
 def fcw_threshold(p: RangeParams, lead_class: int) -> float:
     thr = {LEAD_STOPPED: p.ttc_stopped, LEAD_SLOWER: p.ttc_slower, LEAD_DECEL: p.ttc_decel}.get(
         lead_class, max(p.ttc_stopped, p.ttc_slower, p.ttc_decel))
@@ -220,8 +231,12 @@ class RangeTracker:
         m = -c.lateral
         return (box[0] - c.cx) * d / c.fx < m + half and (box[2] + 1 - c.cx) * d / c.fx > m - half
 
-    def step(self, tracks, tan_pitch: float, ego_speed: float | None = None) -> list[RangeOut]:
-        """tracks: iterable of (id, [l, t, r, b]). ego_speed m/s or None (unknown)."""
+    def step(self, tracks, tan_pitch: float, ego_speed: float | None = None, *,
+             ttc_points: dict | None = None, fuse_permille: int = 0) -> list[RangeOut]:
+        """tracks: iterable of (id, [l, t, r, b]). ego_speed m/s or None (unknown).
+        ttc_points: id -> block-scale TTC (s) or None (vt_range_step_fused): the warning then
+        decides on ttc_fuse(it, the distance/rate TTC, fuse_permille)."""
+        ttc_points = ttc_points or {}
         p, lag = self.p, self.p.scale_lag
         tracks = list(tracks)
         ids = [int(i) for i, _ in tracks]
@@ -286,7 +301,8 @@ class RangeTracker:
                     cls = LEAD_SLOWER
             in_path = self._in_path(box, d_f)
             # vt_range_step: a warning rests on a distance measured this frame
-            bits = fcw_step(p, s.fcw, ttc_d if in_path and have else None, closing, cls)
+            ttc_w = ttc_fuse(ttc_points.get(tid), ttc_d, fuse_permille)
+            bits = fcw_step(p, s.fcw, ttc_w if in_path and have else None, closing, cls)
             out.append(RangeOut(tid, d if have else None, sig, bd.dist_width,
                                 bd.width_agrees, d_f, rate if s.updates > 0 else None, ttc_d, ttc_s,
                                 closing, cls, bits, from_width, accel, in_path))

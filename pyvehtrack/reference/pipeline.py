@@ -182,15 +182,8 @@ class RefFrame:
     track_ttc_fused: list = field(default_factory=list)  # per track: the fused TTC, s (None: unknown)
 
 
-def ttc_fuse(points, dist, w: int):
-    """The fused TTC (c/pipeline.c's vt__ttc_fuse) in float: the weighted mean of the
-    block-scale TTC `points` and the distance/rate TTC `dist` (s), w permille on dist;
-    the known one if only one is; None if neither."""
-    if points is None:
-        return dist
-    if dist is None:
-        return points
-    return (points * (1000 - w) + dist * w) / 1000
+# the fused TTC (c/pipeline.c's vt__ttc_fuse is camera.c's vt_ttc_fuse)
+ttc_fuse = rcam.ttc_fuse
 
 
 def _lane_fits(h: int, w: int, cfg: rlane.LaneConfig) -> bool:
@@ -392,9 +385,16 @@ class Pipeline:
             self._ho_history(rows)
             if c.handover and self.flow is not None:
                 rows = self._handover(rows, w, h, gray)
+        pts = {}
+        if self.ttc is not None and c.track:
+            # after the tracker, before the camera stage (whose warning takes it), on every
+            # live track in output order (c/pipeline.c: vt_ttc_step on p->tracks; tracks
+            # past its capacity: unknown)
+            pts = {o.id: o.ttc for o in self.ttc.step(gray, [(int(r[0]), tuple(int(v) for v in r[2]))
+                                                             for r in rows])}
         geo = {}
         if self.camera is not None and c.track:
-            geo = self._geometry(lanes if lanes_ok else None, rows)
+            geo = self._geometry(lanes if lanes_ok else None, rows, pts)
         tracks = [(i, s, tuple(int(v) for v in b), vx, vy) + geo.get(i, (None, None, None))
                   for i, s, b, vx, vy in rows]
         n_trk = len(tracks)
@@ -405,11 +405,6 @@ class Pipeline:
         if isinstance(box_source, str):
             box_source = [box_source] * len(boxes)
         tsrc = self._track_sources(tracks, boxes[:self.caps.max_boxes], box_source[:self.caps.max_boxes])
-        pts = {}
-        if self.ttc is not None and c.track:
-            # after the tracker and the camera stage, on every live track in output order
-            # (c/pipeline.c: vt_ttc_step on p->tracks; tracks past its capacity: unknown)
-            pts = {o.id: o.ttc for o in self.ttc.step(gray, [(int(t[0]), t[2]) for t in tracks[:n_trk]])}
         out = RefFrame(self.frame, det_frame, bool(run_lanes), lanes_ok, lanes, source, road,
                        np.asarray(hyp, np.int64).reshape(-1, 3), boxes, box_source,
                        tracks, stats, [None] * len(boxes) if scores is None else scores, tsrc,
@@ -734,9 +729,10 @@ class Pipeline:
         return road, source, np.asarray(hyp, np.int64).reshape(-1, 3), np.asarray(boxes, np.int64).reshape(-1, 4), \
             src, scores, stats
 
-    def _geometry(self, lane_frame, rows) -> dict:
+    def _geometry(self, lane_frame, rows, pts) -> dict:
         """The camera stage after the tracker (c/pipeline.c's vt__geometry): the pitch from
-        the two ego lines' vanishing row when the lanes ran, then the range filters.
+        the two ego lines' vanishing row when the lanes ran, then the range filters, whose
+        warning takes the fused TTC where pts (id -> block-scale TTC, s) has one.
         id -> (filtered distance m, TTC s, warning) with None where C says VT_UNKNOWN."""
         vp = None
         if lane_frame is not None:
@@ -746,7 +742,8 @@ class Pipeline:
                                     lane_frame.H, lane_frame.shift)
         self.pitch.update(vp)
         outs = self.ranges.step([(int(i), [int(v) for v in b]) for i, _s, b, _vx, _vy in rows],
-                                self.pitch.tan_pitch, self.ego_speed)
+                                self.pitch.tan_pitch, self.ego_speed,
+                                ttc_points=pts, fuse_permille=self.cfg.ttc_fuse_permille)
         return {r.id: (r.dist_filt, r.ttc_dist, r.warning) for r in outs}
 
 
