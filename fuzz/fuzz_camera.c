@@ -7,7 +7,9 @@
  * vanishing rows, the vanishing row of a lane result whose every field is
  * fuzzed, the range stage over a sequence of frames of fuzzed tracks (ids
  * repeating, appearing and leaving, duplicates, FREE slots, more than capacity),
- * the FCW state machine alone, and vt_kf_update_r with any R. */
+ * with or without block-scale TTCs of any value (vt_range_step_fused, any fusion
+ * weight), the FCW state machine alone with vt_ttc_fuse beside it, and
+ * vt_kf_update_r with any R. */
 #include "fuzz.h"
 #include "vehtrack/camera.h"
 #include "vehtrack/kalman.h"
@@ -101,6 +103,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     } else if (op == 3) { /* the range stage over frames */
         vt_track_out tr[VT_MAX_TRACKS + 3];
         vt_range_out out[VT_MAX_TRACKS + 3];
+        vt_q16 pts[VT_MAX_TRACKS + 3];
         fz_status(vt_range_init((nulls & 1) ? NULL : &g_range));
         fz_status(vt_range_init(&g_range));
         n_steps = 1 + (fz_u8(&f) & 31);
@@ -110,6 +113,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             int32_t n_out = -1;
             vt_q16 tp = q16(&f, -VT_Q16_ONE / 8, VT_Q16_ONE / 8);
             vt_q16 ego = q16(&f, 0, 40 * VT_Q16_ONE);
+            int32_t fused = fz_u8(&f) & 1;
+            int32_t w = fz_u8(&f) < 230 ? fz_range(&f, 0, 1000) : fz_edge(&f, 1000);
             if (n_tr > VT_MAX_TRACKS + 3) {
                 n_tr = VT_MAX_TRACKS + 3;
             }
@@ -119,10 +124,17 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                 tr[i].box = box(&f, 1242, 375);
                 tr[i].vx = fz_raw_i32(&f) >> (fz_u8(&f) & 31);
                 tr[i].vy = fz_raw_i32(&f) >> (fz_u8(&f) & 31);
+                pts[i] = fz_u8(&f) < 200 ? q16(&f, -VT_Q16_ONE, 20 * VT_Q16_ONE) : fz_raw_i32(&f);
             }
-            s = vt_range_step((nulls & 2) ? NULL : &g_range, (nulls & 4) ? NULL : &rc,
-                              (nulls & 8) ? NULL : &cam, tp, ego, (nulls & 16) ? NULL : tr, n_tr,
-                              (nulls & 32) ? NULL : out, cap, &n_out);
+            if (fused) {
+                s = vt_range_step_fused((nulls & 2) ? NULL : &g_range, (nulls & 4) ? NULL : &rc,
+                                        (nulls & 8) ? NULL : &cam, tp, ego, (nulls & 16) ? NULL : tr, n_tr,
+                                        (nulls & 1) ? NULL : pts, w, (nulls & 32) ? NULL : out, cap, &n_out);
+            } else {
+                s = vt_range_step((nulls & 2) ? NULL : &g_range, (nulls & 4) ? NULL : &rc,
+                                  (nulls & 8) ? NULL : &cam, tp, ego, (nulls & 16) ? NULL : tr, n_tr,
+                                  (nulls & 32) ? NULL : out, cap, &n_out);
+            }
             fz_status(s);
             if (s == VT_OK || s == VT_E_CAPACITY) {
                 FZ_ASSERT(n_out >= 0);
@@ -145,6 +157,17 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             int32_t closing = fz_u8(&f) < 230 ? (fz_u8(&f) & 1) : fz_edge(&f, 1);
             int32_t lead = fz_u8(&f) < 230 ? fz_range(&f, 0, 3) : fz_edge(&f, 3);
             vt_q16 ttc = q16(&f, -VT_Q16_ONE, 5 * VT_Q16_ONE);
+            vt_q16 pts = fz_u8(&f) < 200 ? q16(&f, -VT_Q16_ONE, 5 * VT_Q16_ONE) : fz_raw_i32(&f), fu = 7;
+            int32_t w = fz_u8(&f) < 230 ? fz_range(&f, 0, 1000) : fz_edge(&f, 1000);
+            s = vt_ttc_fuse(pts, ttc, w, (nulls & 8) ? NULL : &fu);
+            fz_status(s);
+            if (s == VT_OK) { /* the known one, or between the two */
+                FZ_ASSERT(pts < 0 ? fu == (ttc < 0 ? -1 : ttc)
+                                  : (ttc < 0 ? fu == pts
+                                             : fu >= (pts < ttc ? pts : ttc) && fu <= (pts < ttc ? ttc : pts)));
+            } else {
+                FZ_ASSERT(fu == 7);
+            }
             s = vt_fcw_step((nulls & 2) ? NULL : &st, (nulls & 1) ? NULL : &rc, ttc_valid, ttc, closing, lead,
                             (nulls & 4) ? NULL : &out);
             fz_status(s);
