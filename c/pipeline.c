@@ -116,7 +116,8 @@ vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg)
     }
     if (s == VT_OK && (cfg->ttc_fuse_permille < 0 || cfg->ttc_fuse_permille > 1000 ||
                        (cfg->road_above_hood != 0 && cfg->road_above_hood != 1) ||
-                       (cfg->auto_hood != 0 && cfg->auto_hood != 1))) {
+                       (cfg->auto_hood != 0 && cfg->auto_hood != 1) ||
+                       (cfg->fcw_fused != 0 && cfg->fcw_fused != 1))) {
         s = VT_E_ARG;
     }
     if (s == VT_OK) {
@@ -616,7 +617,8 @@ static void vt__out_tracks(const vt_pipeline *p, int32_t n, int32_t n_ranges, vt
 
 /* The camera stage after the tracker and the block-scale TTC: the pitch from this
  * frame's lanes (when they ran and both ego lines meet), then the range filters of the
- * tracks, whose warning decides on the fused TTC where a track has a block-scale one. */
+ * tracks, whose warning decides on the fused TTC where a track has a block-scale one
+ * when cfg.fcw_fused asks for it. */
 static vt_status vt__geometry(vt_pipeline *p, const vt_image_u8 *frame, const vt_frame_out *out,
                               int32_t lanes_ok, int32_t n_tracks, int32_t *n_ranges)
 {
@@ -633,7 +635,8 @@ static vt_status vt__geometry(vt_pipeline *p, const vt_image_u8 *frame, const vt
     s = vt_pitch_update(&p->pitch, p->camera, vp_valid, vp_valid ? vp_row : 0);
     if (s == VT_OK) {
         s = vt_range_step_fused(&p->range, &p->cfg.range, p->camera, p->pitch.tan_pitch, p->ego_speed,
-                                p->tracks, n_tracks, pts, p->cfg.ttc_fuse_permille, p->ranges,
+                                p->tracks, n_tracks, p->cfg.fcw_fused ? pts : NULL,
+                                p->cfg.ttc_fuse_permille, p->ranges,
                                 VT_MAX_TRACKS, n_ranges);
     }
     return s;

@@ -441,6 +441,11 @@ class Pipeline:
         if "fuse_permille" in params:   # the fused TTC's weight (vt_pipeline_cfg.ttc_fuse_permille)
             self._ccfg.ttc_fuse_permille = _check.integer(params.pop("fuse_permille"),
                                                           "ttc_points['fuse_permille']", lo=0, hi=1000)
+        if "fcw_fused" in params:       # the warning on the fused TTC (vt_pipeline_cfg.fcw_fused)
+            v = params.pop("fcw_fused")
+            if not isinstance(v, bool):
+                raise TypeError(f"ttc_points['fcw_fused'] must be True or False, got {v!r}")
+            self._ccfg.fcw_fused = int(v)
         if fps is not None:
             if "frame_dt" in params:
                 raise ValueError("ttc_points: give the frame period as fps= or as 'frame_dt', not both")
@@ -623,7 +628,8 @@ class Pipeline:
             if self._ttc_params is not None:
                 import dataclasses  # noqa: PLC0415
                 rcfg = dataclasses.replace(rcfg, ttc_points=self._ttc_params,
-                                           ttc_fuse_permille=int(self._ccfg.ttc_fuse_permille))
+                                           ttc_fuse_permille=int(self._ccfg.ttc_fuse_permille),
+                                           fcw_fused=bool(self._ccfg.fcw_fused))
                 caps = dataclasses.replace(caps, ttc_tracks=int(lib.VT_TTC_TRACKS),
                                            ttc_hist=int(lib.VT_TTC_HIST))
             wide = None

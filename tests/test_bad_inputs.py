@@ -97,6 +97,9 @@ PY_ROWS = [
     ("Pipeline fuse_permille=None", lambda: vt.Pipeline(ttc_points={"fuse_permille": None}), TypeError,
      "fuse_permille"),
     ("fuse_ttc weight -1", lambda: vt.camera.fuse_ttc(1.0, 2.0, -1), ValueError, "weight_permille"),
+    # the warning on the fused TTC (vt_pipeline_cfg.fcw_fused, a bool)
+    ("Pipeline fcw_fused=1", lambda: vt.Pipeline(ttc_points={"fcw_fused": 1}), TypeError, "fcw_fused"),
+    ("Pipeline fcw_fused='yes'", lambda: vt.Pipeline(ttc_points={"fcw_fused": "yes"}), TypeError, "fcw_fused"),
     ("Tracker detect_every=-3", lambda: Tracker(detect_every=-3), ValueError, "detect_every"),
     ("Tracker detect_every=2.0", lambda: Tracker(detect_every=2.0), OK, "2 (an integer value)"),
     ("KalmanFilter(2.5, 1)", lambda: KalmanFilter(2.5, 1), ValueError, "dim_x"),
@@ -343,6 +346,13 @@ def _tracker_step(tr=True, cfg=True, img=True, n_dets=0, dets=False, out=True, c
                                4 if cap is None else cap, n)
 
 
+def _pipe_cfg_check(**fields):
+    cfg = vt._native.pipeline_cfg_default()
+    for k, v in fields.items():
+        setattr(cfg, k, v)
+    return lib.vt_pipeline_cfg_check(cfg)
+
+
 C_ROWS = [
     ("vt_tracker_init(NULL)", lambda: lib.vt_tracker_init(ffi.NULL), "VT_E_ARG"),
     ("vt_tracker_step NULL tracker", lambda: _tracker_step(tr=False), "VT_E_ARG"),
@@ -352,6 +362,9 @@ C_ROWS = [
     ("vt_tracker_step n_dets=1, dets NULL", lambda: _tracker_step(n_dets=1), "VT_E_ARG"),
     ("vt_tracker_step n_dets=-1", lambda: _tracker_step(n_dets=-1, dets=True), "VT_E_SIZE"),
     ("vt_tracker_step cap=-1", lambda: _tracker_step(cap=-1), "VT_E_ARG"),
+    ("vt_ttc_fuse NULL out", lambda: lib.vt_ttc_fuse(65536, 65536, 300, ffi.NULL), "VT_E_ARG"),
+    ("vt_ttc_fuse weight 1001", lambda: lib.vt_ttc_fuse(65536, 65536, 1001, ffi.new("vt_q16 *")), "VT_E_ARG"),
+    ("vt_pipeline_cfg_check fcw_fused=2", lambda: _pipe_cfg_check(fcw_fused=2), "VT_E_ARG"),
     ("vt_kf_init(NULL)", lambda: lib.vt_kf_init(ffi.NULL, 2, 1), "VT_E_ARG"),
     ("vt_kf_init dim_x=0", lambda: lib.vt_kf_init(ffi.new("vt_kf *"), 0, 1), "VT_E_SIZE"),
     ("vt_kf_predict(NULL)", lambda: lib.vt_kf_predict(ffi.NULL), "VT_E_ARG"),

@@ -213,3 +213,30 @@ def test_estimator_takes_block_ttcs():
             o = r.step([(5, box)], 0.0, ttc_points={5: (30.0 - k) / 10.0 * 0.8})[0]
             warns[e].append(o.warning)
     assert warns["c"] == warns["reference"] and any(warns["c"])
+
+
+def test_pipeline_switch_c_and_oracle():
+    """vt_pipeline_cfg.fcw_fused through the whole pipeline, C against the float oracle
+    (reference.pipeline), on the rendered NHTSA scene of a stopped lead (seed 3, 30 fps,
+    ego speed known): the same warning on every frame with the switch off (the default)
+    and on. Off, the warning comes before the test's 2.1 s; on, it comes later on this
+    scene (the block-scale TTC of a 26-33 px box at 30 fps is noisy; README, "The warning
+    on the fused TTC"), which is why it is opt-in."""
+    from pyvehtrack.eval import synth_fcw as F
+    from pyvehtrack.pipeline import Pipeline
+    sc = F.make_fcw_scene("stopped", 3, fps=30)
+    cam = F.camera_file_of(sc.sequence.camera)
+    onset = {}
+    for fused in (False, True):
+        warns = {}
+        for eng in ("c", "reference"):
+            p = Pipeline(eng, camera=cam, fps=30, ego_speed=F.EGO_SPEED, detect_every=5,
+                         ttc_points={"fcw_fused": fused})
+            assert int(p._ccfg.fcw_fused) == fused
+            warns[eng] = [tuple((t.id, t.warning) for t in p.step(f).tracks) for f in sc.sequence.frames]
+        assert warns["c"] == warns["reference"], fused
+        onset[fused] = next(k for k, w in enumerate(warns["c"]) if any(b for _i, b in w))
+    assert sc.ttc[onset[False]] >= F.NHTSA_TTC["stopped"]
+    assert onset[True] != onset[False]
+    with pytest.raises(TypeError, match="fcw_fused"):
+        Pipeline("c", camera=cam, fps=30, ttc_points={"fcw_fused": 1})

@@ -8,9 +8,9 @@ detector/tracker.
     PYTHONPATH=. python3 tools/eval_synth_fcw.py [--seeds 10-14] [--mode images|boxes|both]
                                                  [--warn-ttc fused|distance] [--json OUT.json]
 
---warn-ttc: the TTC the warning decides on, as `pyvehtrack track --warn-ttc`: fused (the
-default since 2026-11-30: the block-scale and distance/rate TTCs in one) or distance (the
-distance/rate TTC alone, the rule before).
+--warn-ttc: the TTC the warning decides on, as `pyvehtrack track --warn-ttc`: distance (the
+default: the distance/rate TTC) or fused (opt-in since 2026-11-30: the block-scale and
+distance/rate TTCs in one).
 
 Per scene and seed: the true TTC at the warning's onset (must be >= the test's TTC: 2.1 s
 stopped, 2.0 s slower, 2.4 s decelerating; never a warning on "follow"), with the ego speed
@@ -39,7 +39,7 @@ from pyvehtrack.tracker import Tracker  # noqa: E402
 KINDS = ("stopped", "slower", "decel", "follow")
 
 
-def run(sc, seed, ego, mode, detect_every, warn_ttc="fused"):
+def run(sc, seed, ego, mode, detect_every, warn_ttc="distance"):
     cam = F.camera_file_of(sc.sequence.camera)
     w, h = sc.sequence.camera.width, sc.sequence.camera.height
     est = RangeEstimator(cam, (w, h), sc.fps)
@@ -101,7 +101,7 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", default="10-14", help="a-b or a,b,c (default 10-14; 0-2 were for tuning)")
     ap.add_argument("--mode", choices=("images", "boxes", "both"), default="both")
     ap.add_argument("--detect-every", type=int, default=5)
-    ap.add_argument("--warn-ttc", choices=("fused", "distance"), default="fused")
+    ap.add_argument("--warn-ttc", choices=("distance", "fused"), default="distance")
     ap.add_argument("--json", type=Path, default=Path("eval_synth_fcw.json"))
     a = ap.parse_args(argv)
     if "-" in a.seeds:

@@ -221,6 +221,13 @@ typedef struct {
                                 two rows above its top row, as road_above_hood does with
                                 a known one; vt_frame_out.hood_row says what was found */
     vt_hood_cfg hood;        /* the hood finder's settings (vehtrack/hood.h)             */
+    int32_t fcw_fused;       /* 0/1: the warning decides on the fused TTC where a track has
+                                a block-scale one (vt_range_step_fused; needs the block
+                                TTC's workspace attached), else (0, the default) on the
+                                distance/rate TTC. Opt-in: on the rendered NHTSA scenes it
+                                passes seeds 0-2 and 10-14 but warned 0.015 s late on a
+                                stopped lead of seed 3 through the pipeline (README,
+                                "The warning on the fused TTC")                          */
 } vt_pipeline_cfg;
 
 #define VT_PIPELINE_CFG_DEFAULT                                   \
@@ -252,6 +259,7 @@ typedef struct {
         .road_above_hood = 0,                                     \
         .auto_hood = 1,                                           \
         .hood = VT_HOOD_CFG_DEFAULT,                              \
+        .fcw_fused = 0,                                           \
     }
 
 /* The whole-road detector's scratch, owned by the caller and attached with

@@ -63,6 +63,7 @@ typedef struct {
     int32_t road_above_hood;
     int32_t auto_hood;
     vt_hood_cfg hood;
+    int32_t fcw_fused;
 } vt_pipeline_cfg;
 
 typedef struct {

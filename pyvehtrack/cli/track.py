@@ -98,7 +98,8 @@ def draw_tracks(frame, tracks, frame_index: int, detection_frame: bool, ranges=N
         rg = (ranges or {}).get(t.id)
         if rg is not None and rg.dist_filt is not None:
             # the fused TTC (distance/rate with the block scale, when the track has one): the
-            # best of the three on held-out KITTI frames, and the one the warning decides on
+            # best of the three on held-out KITTI frames; the warning decides on it with
+            # --warn-ttc fused, else on distance/rate
             from ..camera import fuse_ttc  # noqa: PLC0415
             ttc = fuse_ttc(getattr(t, "ttc_points", None), rg.ttc_dist)
             label += f" {rg.dist_filt:.1f}m" + (f" TTC {ttc:.1f}s" if ttc is not None else "")
@@ -164,10 +165,11 @@ def register(sub) -> None:
                         "straight corridor of +-M m around the car's centre line at its distance "
                         "(the camera file's lateral_m says how far right of it the camera sits) "
                         "(default 1.5; 0: every closing track may warn)")
-    p.add_argument("--warn-ttc", choices=("fused", "distance"), default="fused",
-                   help="the TTC the collision warning decides on: fused (default; the block-scale "
-                        "and the distance/rate TTCs in one, the TTC drawn and written as ttc_fused_s) "
-                        "or distance (the distance/rate TTC alone, ttc_s; the rule before 2026-11-30)")
+    p.add_argument("--warn-ttc", choices=("distance", "fused"), default="distance",
+                   help="the TTC the collision warning decides on: distance (default; the "
+                        "distance/rate TTC, ttc_s) or fused (the block-scale and distance/rate TTCs "
+                        "in one, the TTC drawn and written as ttc_fused_s; opt-in: it warned late once "
+                        "on the synthetic NHTSA scenes)")
     p.add_argument("--json", metavar="TRACKS.json", help="write per-frame track records (JSON)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
@@ -206,7 +208,7 @@ def run(args) -> int:
         except (ValueError, TypeError) as e:
             raise CliError(str(e)) from None
     elif (args.fps is not None or args.ego_speed is not None or args.rear_offset != 0.0
-          or args.bottom_height != 0.0 or args.path_half_width != 1.5 or args.warn_ttc != "fused"):
+          or args.bottom_height != 0.0 or args.path_half_width != 1.5 or args.warn_ttc != "distance"):
         raise CliError("--fps, --ego-speed, --rear-offset, --bottom-height, --path-half-width and --warn-ttc "
                        "need --camera")
     det = make_detector(args, cam)
@@ -256,8 +258,8 @@ def run(args) -> int:
                                                  f"{ranger.size[0]}x{ranger.size[1]}")
                             from ..camera import lane_vanishing_row
                             ranger.update_pitch(lane_vanishing_row(lanes.detect(frame)))
-                            # the warning decides on the fused TTC where a track has a
-                            # block-scale one (vt_range_step_fused), the TTC drawn
+                            # --warn-ttc fused: the warning decides on the fused TTC where a
+                            # track has a block-scale one (vt_range_step_fused), the TTC drawn
                             ranges = {r.id: r for r in ranger.step(
                                 [(t.id, cam.undistort_box(t.box)) for t in tracks], args.ego_speed,
                                 ttc_points=({t.id: t.ttc_points for t in tracks}

@@ -156,6 +156,7 @@ class PipelineRefConfig:
     handover_dy_permille: int = 10   # bottom row down by >= this permille of h over N frames
     handover_edge_permille: int = 20  # outer side within this permille of w of the border
     ttc_fuse_permille: int = 300  # the fused TTC: weight of the distance/rate TTC (permille)
+    fcw_fused: bool = False   # the warning decides on the fused TTC (vt_pipeline_cfg.fcw_fused)
     road_above_hood: bool = False  # the ego detector's road ends above road_camera's hood row
     auto_hood: bool = True    # else, above the hood found in the frame (reference.hood), if any
     hood: rhood.HoodConfig = field(default_factory=rhood.HoodConfig)
@@ -743,7 +744,8 @@ class Pipeline:
         self.pitch.update(vp)
         outs = self.ranges.step([(int(i), [int(v) for v in b]) for i, _s, b, _vx, _vy in rows],
                                 self.pitch.tan_pitch, self.ego_speed,
-                                ttc_points=pts, fuse_permille=self.cfg.ttc_fuse_permille)
+                                ttc_points=pts if self.cfg.fcw_fused else None,
+                                fuse_permille=self.cfg.ttc_fuse_permille)
         return {r.id: (r.dist_filt, r.ttc_dist, r.warning) for r in outs}
 
 

@@ -269,10 +269,7 @@ class PythonPipeline:
                 self._rng = camera_stage()[1](self._cam, (gray.shape[1], gray.shape[0]), self.fps,
                                               engine=self.engine, **self.range_params)
             self._rng.update_pitch(vp_stage)
-            # the warning decides on the fused TTC where a track has a block-scale one, as `track`'s
-            outs = {o.id: o for o in self._rng.step([(t.id, self._cam.undistort_box(t.box)) for t in tracks],
-                                                    ttc_points={t.id: getattr(t, "ttc_points", None)
-                                                                for t in tracks})}
+            outs = {o.id: o for o in self._rng.step([(t.id, self._cam.undistort_box(t.box)) for t in tracks])}
             info.timing_ms["geometry"] = (time.perf_counter() - t3) * 1e3
             info.pitch_deg = float(self._rng.pitch_deg)
 

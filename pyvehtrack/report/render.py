@@ -329,8 +329,9 @@ def _axis_limit(ax, series: dict, ymax: float, unit: str) -> None:
 def plot_range_ttc(records, truth: Truth, lead_of_frame: dict, stage_notes=()):
     """Distance and TTC over time per track (estimates), with the truth overlaid on the
     lead car's track and the warning intervals shaded. The TTC drawn is the fused one
-    (ttc_fused_s: what `track` draws and the warning decides on) where the records have it,
-    with the distance/rate TTC (ttc_s) dotted beside it; else the distance/rate TTC alone.
+    (ttc_fused_s: what `track` draws) where the records have it, with the distance/rate TTC
+    (ttc_s: what the warning follows by default) dotted beside it; else the distance/rate
+    TTC alone.
     Returns (uri or None, notes)."""
     dist, rate = _series(records, "distance_m"), _series(records, "ttc_s")
     fused = _series(records, "ttc_fused_s")
@@ -581,8 +582,8 @@ def range_figures(records, truth: Truth, lead: dict):
         return [(f"{label}: frames compared", len(d)), (f"{label} MAE", f"{np.mean(e):.2f} s"),
                 (f"{label} median |rel. error|", f"{np.median(e / d[:, 0]):.1%}")]
 
-    # the distance/rate TTC, then the fused one `track` draws and the warning decides on
-    # (distance/rate with the block scale) when the records have it
+    # the distance/rate TTC (the one the warning follows by default), then the fused one
+    # `track` draws (distance/rate with the block scale) when the records have it
     rate = ttc_rows("ttc_s", "distance/rate TTC")
     if not rate and pairs:
         notes.append("No TTC estimate on the lead car's track: no TTC error.")
