@@ -552,8 +552,14 @@ static void vt__range_track_step(vt_range_track *t, const vt_range_cfg *cfg,
     /* the lead's class for the NHTSA threshold: its speed is ego + rate, its
      * acceleration the range acceleration (the ego speed taken as constant, as in the
      * test) */
+    /* ... and only once the filter knows the rate to within the class boundary's own
+     * scale, sqrt(P_rate) <= stopped_speed (Q32 against a Q16 square, exact): a young
+     * track's rate is still on its way from 0, and a stopped lead read as "slower" got
+     * the lower threshold and warned late (synthetic NHTSA seed 10, 2026-11-30). Until
+     * then the class is unknown: the largest threshold, as without an ego speed. */
     cls = VT_LEAD_UNKNOWN;
-    if (ego_speed >= 0 && t->updates > 0) {
+    if (ego_speed >= 0 && t->updates > 0 &&
+        t->kf.P[1][1] <= (int64_t)cfg->stopped_speed * cfg->stopped_speed) {
         if ((int64_t)ego_speed + o->rate < cfg->stopped_speed) {
             cls = VT_LEAD_STOPPED;
         } else if (t->updates > lag && o->accel < -cfg->decel_thresh) {

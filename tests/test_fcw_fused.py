@@ -152,20 +152,21 @@ def test_c_warning_follows_its_rule_and_warns(bias, w):
 
 
 def test_fused_warning_on_a_clean_approach_c_and_oracle():
-    """A stopped car approached at 10 m/s from 30 m, 10 Hz, no noise, ego speed 0 (lead
-    stopped: 2.1 s + 0.7 s margin = 2.8 s). A block-scale TTC reading 20% long (a lagging
-    scale) delays the warning against the distance/rate TTC alone by the frames the fused
-    value takes to fall under 2.8 s; one reading 20% short brings it forward. C and the
-    whole float oracle (RangeTracker with ttc_points) warn on the same frames."""
+    """A stopped car approached at 10 m/s from 60 m, 10 Hz, no noise, ego speed 0 (lead
+    stopped once the rate is known: 2.1 s + 0.7 s margin = 2.8 s). A block-scale TTC
+    reading 20% long (a lagging scale) delays the warning against the distance/rate TTC
+    alone by the frames the fused value takes to fall under the threshold; one reading 20%
+    short brings it forward. C and the whole float oracle (RangeTracker with ttc_points)
+    warn on the same frames."""
     p, c = cam_params()
     rp, rcf = _rcfg()
-    boxes = approach(25, 30.0, 10.0, 0.1, p, 0.0, np.random.default_rng(0))
+    boxes = approach(52, 60.0, 10.0, 0.1, p, 0.0, np.random.default_rng(0))
     onsets = {}
     for bias in (None, 1.2, 0.8):
         st_c, ref = _native.range_new(), rc.RangeTracker(p, rp)
         on_c = on_r = None
         for k, box in enumerate(boxes):
-            z = 30.0 - k
+            z = 60.0 - k
             pts = None if bias is None else z / 10.0 * bias
             qp = None if pts is None else [int(round(pts * Q))]
             o = _native.range_step(st_c, rcf, c, 0, 0, _rows(1, [(5, box)]), qp, 300)[0]
@@ -218,10 +219,13 @@ def test_estimator_takes_block_ttcs():
 def test_pipeline_switch_c_and_oracle():
     """vt_pipeline_cfg.fcw_fused through the whole pipeline, C against the float oracle
     (reference.pipeline), on the rendered NHTSA scene of a stopped lead (seed 3, 30 fps,
-    ego speed known): the same warning on every frame with the switch off (the default)
-    and on. Off, the warning comes before the test's 2.1 s; on, it comes later on this
-    scene (the block-scale TTC of a 26-33 px box at 30 fps is noisy; README, "The warning
-    on the fused TTC"), which is why it is opt-in."""
+    ego speed known), switch off (the default) and on. Tolerance: the pipeline's TTC in C
+    is within 2.1% of the oracle's (tests/test_pipeline.py), and near the threshold (3.1 s,
+    the class unknown) the true TTC falls one frame (1/30 s) per frame, so a crossing may
+    move by up to 0.021 x 3.1 / (1/30) = 2 frames: the onsets agree within 2 frames and
+    both engines warn on every frame after the later one. The switch moves the onset (the
+    fused TTC is another number), and with it off the warning comes before the test's
+    2.1 s."""
     from pyvehtrack.eval import synth_fcw as F
     from pyvehtrack.pipeline import Pipeline
     sc = F.make_fcw_scene("stopped", 3, fps=30)
@@ -233,9 +237,12 @@ def test_pipeline_switch_c_and_oracle():
             p = Pipeline(eng, camera=cam, fps=30, ego_speed=F.EGO_SPEED, detect_every=5,
                          ttc_points={"fcw_fused": fused})
             assert int(p._ccfg.fcw_fused) == fused
-            warns[eng] = [tuple((t.id, t.warning) for t in p.step(f).tracks) for f in sc.sequence.frames]
-        assert warns["c"] == warns["reference"], fused
-        onset[fused] = next(k for k, w in enumerate(warns["c"]) if any(b for _i, b in w))
+            warns[eng] = [any(t.warning for t in p.step(f).tracks) for f in sc.sequence.frames]
+        on = {e: w.index(True) for e, w in warns.items()}
+        assert abs(on["c"] - on["reference"]) <= 2, (fused, on)
+        late = max(on.values())
+        assert all(warns["c"][late:]) and all(warns["reference"][late:]), fused
+        onset[fused] = on["c"]
     assert sc.ttc[onset[False]] >= F.NHTSA_TTC["stopped"]
     assert onset[True] != onset[False]
     with pytest.raises(TypeError, match="fcw_fused"):

@@ -5,8 +5,12 @@ vanishing row -> block-scale TTC (ScaleTtc, C) -> RangeEstimator (C) -> warning.
 same with the exact boxes (+-0.5 px noise) to separate the range stage from the
 detector/tracker.
 
-    PYTHONPATH=. python3 tools/eval_synth_fcw.py [--seeds 10-14] [--mode images|boxes|both]
+    PYTHONPATH=. python3 tools/eval_synth_fcw.py [--seeds 10-14] [--mode images|boxes|both|pipeline]
                                                  [--warn-ttc fused|distance] [--json OUT.json]
+
+--mode pipeline: the product's own path instead of the separate stages, pyvehtrack.Pipeline
+("c", camera, fps, ego_speed, detect_every; its lanes, tracker, block-scale TTC and range stage
+in one vt_pipeline_step), a warning on any track.
 
 --warn-ttc: the TTC the warning decides on, as `pyvehtrack track --warn-ttc`: distance (the
 default: the distance/rate TTC) or fused (opt-in since 2026-11-30: the block-scale and
@@ -34,12 +38,45 @@ from pyvehtrack.camera import RangeEstimator, ScaleTtc, fuse_ttc, lane_vanishing
 from pyvehtrack.detector import Detector  # noqa: E402
 from pyvehtrack.eval import synth_fcw as F  # noqa: E402
 from pyvehtrack.lane import LaneDetector  # noqa: E402
+from pyvehtrack.pipeline import Pipeline  # noqa: E402
 from pyvehtrack.tracker import Tracker  # noqa: E402
 
 KINDS = ("stopped", "slower", "decel", "follow")
 
 
+def run_pipeline(sc, ego, detect_every, warn_ttc="distance"):
+    """The scene through pyvehtrack.Pipeline (C): onset of a warning on any track, and the
+    TTC errors of the track nearest the truth's bottom centre."""
+    cam = F.camera_file_of(sc.sequence.camera)
+    pipe = Pipeline("c", camera=cam, fps=sc.fps, ego_speed=ego, detect_every=detect_every,
+                    ttc_points={"fcw_fused": warn_ttc == "fused"})
+    gt = sc.sequence.gt
+    onset, errs, tracked = None, {"dist": [], "points": [], "fused": []}, 0
+    for t, frame in enumerate(sc.sequence.frames):
+        tracks = pipe.step(frame).tracks
+        if onset is None and any(tr.warning for tr in tracks):
+            onset = t
+        g = gt[gt["frame"] == t]
+        truth = [float(g[k][0]) for k in ("left", "top", "right", "bottom")]
+        near = [tr for tr in tracks if abs((tr.box[0] + tr.box[2]) / 2 - (truth[0] + truth[2]) / 2)
+                < (truth[2] - truth[0]) / 2]
+        if near:
+            tracked += 1
+            lead = min(near, key=lambda tr: abs(tr.box[3] - truth[3]))
+            if np.isfinite(sc.ttc[t]) and sc.ttc[t] < 6:
+                for key, v in (("dist", lead.ttc), ("points", lead.ttc_points), ("fused", lead.ttc_fused)):
+                    if v is not None:
+                        errs[key].append(v / sc.ttc[t] - 1)
+    med = lambda e: float(np.median(np.abs(e))) if e else None  # noqa: E731
+    return {"onset_frame": onset, "onset_ttc": None if onset is None else round(float(sc.ttc[onset]), 3),
+            "test_ttc": sc.test_ttc, "frames": len(sc.z), "lead_tracked": tracked,
+            "ttc_dist_rel_median": med(errs["dist"]), "ttc_scale_rel_median": None,
+            "ttc_points_rel_median": med(errs["points"]), "ttc_fused_rel_median": med(errs["fused"])}
+
+
 def run(sc, seed, ego, mode, detect_every, warn_ttc="distance"):
+    if mode == "pipeline":
+        return run_pipeline(sc, ego, detect_every, warn_ttc)
     cam = F.camera_file_of(sc.sequence.camera)
     w, h = sc.sequence.camera.width, sc.sequence.camera.height
     est = RangeEstimator(cam, (w, h), sc.fps)
@@ -99,7 +136,7 @@ def verdict(r, kind) -> bool:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", default="10-14", help="a-b or a,b,c (default 10-14; 0-2 were for tuning)")
-    ap.add_argument("--mode", choices=("images", "boxes", "both"), default="both")
+    ap.add_argument("--mode", choices=("images", "boxes", "both", "pipeline"), default="both")
     ap.add_argument("--detect-every", type=int, default=5)
     ap.add_argument("--warn-ttc", choices=("distance", "fused"), default="distance")
     ap.add_argument("--json", type=Path, default=Path("eval_synth_fcw.json"))

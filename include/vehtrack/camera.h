@@ -383,8 +383,11 @@ vt_status vt_range_init(vt_range_state *st);
  * been learnt over width_min_frames and the box is not SIDE_CLIPPED, the distance is
  * fx width_m / w (FROM_WIDTH); the filter predicts one frame and, if there is a
  * distance, updates with R = max(sigma, sigma_min)^2; the width goes
- * into the ring; TTCs, lead class (from ego_speed, m/s, negative = unknown: stopped if
- * ego + rate < stopped_speed, else decelerating if accel < -decel_thresh, else slower) and
+ * into the ring; TTCs, lead class (from ego_speed, m/s, negative = unknown; unknown too
+ * while the filter's rate variance P[1][1] exceeds stopped_speed^2, a young track's rate
+ * not yet known to within the class boundary; then stopped if ego + rate < stopped_speed,
+ * else decelerating if accel < -decel_thresh, else slower; unknown takes the largest
+ * threshold) and
  * vt_fcw_step. A new id starts its filter at the measured distance (or waits for a
  * valid one). The FCW condition holds only for a track IN_PATH (cfg.path_half_width)
  * with a distance this frame (DIST_VALID: not the filter's prediction alone).

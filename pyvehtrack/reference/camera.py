@@ -292,7 +292,9 @@ class RangeTracker:
                     ttc_s = v if v <= p.ttc_max else None
             accel = float(s.kf.x[2, 0]) if s.updates > 0 else None
             cls = LEAD_UNKNOWN
-            if ego_speed is not None and ego_speed >= 0 and s.updates > 0:
+            # a class only once the rate is known to within stopped_speed (c/camera.c)
+            if ego_speed is not None and ego_speed >= 0 and s.updates > 0 and \
+                    float(s.kf.P[1, 1]) <= p.stopped_speed ** 2:
                 if ego_speed + rate < p.stopped_speed:
                     cls = LEAD_STOPPED
                 elif s.updates > lag and accel < -p.decel_thresh:
