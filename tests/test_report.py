@@ -107,6 +107,44 @@ def test_fused_ttc_is_the_pipelines_rule(clip_report):
     assert any(t["ttc_fused_s"] != t["ttc_s"] for t in both)
 
 
+def test_warning_options_reach_the_range_stage(tmp_path, monkeypatch):
+    """report --ego-speed / --warn-ttc are `track`'s: the ego speed and, with fused, each
+    track's block-scale TTC reach RangeEstimator.step (recorded by a wrapper that calls the
+    real one); the page names them; bad values and the options without a camera are
+    one-line errors before the run."""
+    from pyvehtrack import camera as vcam
+    seen = []
+    real = vcam.RangeEstimator.step
+
+    def spy(self, tracks, ego_speed=None, ttc_points=None, fuse_permille=None):
+        seen.append((ego_speed, ttc_points))
+        return real(self, tracks, ego_speed, ttc_points=ttc_points, fuse_permille=fuse_permille)
+
+    monkeypatch.setattr(vcam.RangeEstimator, "step", spy)
+    frames = tmp_path / "few"
+    frames.mkdir()
+    for f in sorted(CLIP.glob("0*.png"))[:8]:
+        shutil.copy(f, frames / f.name)
+    page = make_report(frames, tmp_path / "r", camera=CAMERA, truth=(), progress=False, ego_speed=12.5,
+                       warn_ttc="fused")
+    assert seen and all(e == 12.5 and isinstance(p, dict) for e, p in seen)
+    assert any(v is not None for _e, p in seen for v in p.values()), "a block-scale TTC on some frame"
+    assert "on the fused TTC, ego speed 12.5 m/s" in html.unescape(page.read_text())
+    seen.clear()
+    page = make_report(frames, tmp_path / "r2", camera=CAMERA, truth=(), progress=False)
+    assert seen and all(e is None and p is None for e, p in seen)
+    assert "on the distance/rate TTC, ego speed unknown" in html.unescape(page.read_text())
+    for bad, msg in ((["--ego-speed", "-1"], "ego_speed must be a number >= 0"),
+                     (["--ego-speed", "inf"], "ego_speed must be a number >= 0"),
+                     (["--warn-ttc", "both"], "invalid choice")):
+        r = subprocess.run([sys.executable, "-m", "pyvehtrack", "report", str(frames), "--out",
+                            str(tmp_path / "bad"), "--camera", str(CAMERA), "--no-progress"] + bad,
+                           capture_output=True, text=True, timeout=300)
+        assert r.returncode != 0 and msg in r.stderr and "Traceback" not in r.stderr, r.stderr
+    with pytest.raises(ValueError, match="need a camera"):
+        make_report(frames, tmp_path / "r3", camera=None, truth=(), progress=False, ego_speed=10.0)
+
+
 def test_range_options_reach_the_range_stage(tmp_path):
     """--rear-offset / --bottom-height / --path-half-width of `report` are `track`'s: they reach
     the RangeEstimator, the page names them, and bad values are one-line errors before the run."""

@@ -60,6 +60,11 @@ def register(sub) -> None:
     p.add_argument("--path-half-width", type=float, default=1.5, metavar="M",
                    help="as `track --path-half-width` (needs a camera): the warning's ego path, +-M m "
                         "(default 1.5)")
+    p.add_argument("--ego-speed", type=float, default=None, metavar="V",
+                   help="as `track --ego-speed` (needs a camera): the ego car's speed, m/s, for the "
+                        "warning's lead class (default: unknown, the largest threshold)")
+    p.add_argument("--warn-ttc", choices=("distance", "fused"), default="distance",
+                   help="as `track --warn-ttc` (needs a camera): the TTC the warning decides on")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
@@ -85,7 +90,8 @@ def run(args) -> int:
                            engine=args.engine,
                            detect_every=args.detect_every, progress=not args.no_progress, fps=args.fps,
                            model=model, measurement=args.measurement, rear_offset=args.rear_offset,
-                           bottom_height=args.bottom_height, path_half_width=args.path_half_width)
+                           bottom_height=args.bottom_height, path_half_width=args.path_half_width,
+                           ego_speed=args.ego_speed, warn_ttc=args.warn_ttc)
     except (ValueError, TypeError, VtError) as e:
         raise CliError(str(e)) from None
     print(f"report: {page}")

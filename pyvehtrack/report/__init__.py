@@ -7,6 +7,7 @@ records.py: the per-frame records (the `track --json` schema) and the Python ada
 the existing stages; render.py: the plots and the page."""
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 
@@ -33,7 +34,8 @@ def _video_fps(path) -> float:
 def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "c", detect_every: int = 10,
                 progress: bool = True, records_json: bool = True, fps: float | None = None,
                 model="default", measurement: str = "auto", rear_offset: float = 0.0,
-                bottom_height: float = 0.0, path_half_width: float = 1.5) -> Path:
+                bottom_height: float = 0.0, path_half_width: float = 1.5, ego_speed: float | None = None,
+                warn_ttc: str = "distance") -> Path:
     """Run the pipeline over one recording (a video, a folder of frames or an image) and
     write out_dir/index.html (and out_dir/tracks.json, the records, when records_json).
     truth: truth file paths (see records.load_truth), or "auto": the files the naming rule
@@ -48,6 +50,8 @@ def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "
     rear_offset, bottom_height, path_half_width (m): the range stage's corrections and the
     warning's ego path, as `pyvehtrack track --rear-offset / --bottom-height / --path-half-width`
     (camera.RangeEstimator); anything but their defaults needs a camera.
+    ego_speed (m/s, None: unknown) and warn_ttc ("distance" or "fused"): as `pyvehtrack track
+    --ego-speed / --warn-ttc`, the warning's lead class and the TTC it decides on; need a camera.
     Returns the page path. ValueError / TypeError naming the argument for bad input."""
     from tqdm import tqdm
 
@@ -71,6 +75,13 @@ def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "
         raise TypeError(f"camera: expected a path or a dict, got {type(cam).__name__}")
     rng = range_options(rear_offset, bottom_height, path_half_width, camera=cam is not None,
                         height_m=cam.get("height_m") if isinstance(cam, dict) else None)
+    if ego_speed is not None and (isinstance(ego_speed, bool) or not isinstance(ego_speed, (int, float))
+                                  or not math.isfinite(ego_speed) or ego_speed < 0):
+        raise ValueError(f"ego_speed must be a number >= 0 m/s or None, got {ego_speed!r}")
+    if warn_ttc not in ("distance", "fused"):
+        raise ValueError(f"warn_ttc must be 'distance' or 'fused', got {warn_ttc!r}")
+    if cam is None and (ego_speed is not None or warn_ttc != "distance"):
+        raise ValueError("ego_speed and warn_ttc need a camera")
     tr = load_truth(list(truth or ()), dt=1.0 / fps)
     total, frames = recording_frames(inputs)
     if isinstance(model, str) and model == "default":
@@ -83,7 +94,7 @@ def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "
         from ..frames import auto_measurement
         measurement, why = auto_measurement(inputs)
     pipe = PythonPipeline(engine=engine, detect_every=detect_every, camera=cam, fps=fps, model=model,
-                          measurement=measurement, range_params=rng)
+                          measurement=measurement, range_params=rng, ego_speed=ego_speed, warn_ttc=warn_ttc)
     want = set(pick_thumbs(total)) if total is not None else None
     stride, kept = 1, {}
     records, infos = [], []
@@ -117,6 +128,8 @@ def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "
                          f"ego path +-{rng['path_half_width']:g} m"
                          + (f" around the car's centre line (the camera {abs(lat):g} m "
                             f"{'right' if lat > 0 else 'left'} of it)" if (lat := cam.get("lateral_m")) else ""))
+        meta["warning"] = (f"on the {'fused' if warn_ttc == 'fused' else 'distance/rate'} TTC, ego speed "
+                           + (f"{ego_speed:g} m/s" if ego_speed is not None else "unknown (the largest threshold)"))
     if auto:
         meta["found by name"] = "; ".join(auto)
     page = render_html(records, infos, sorted(kept.items()), title="pyvehtrack report: " + "/".join(Path(inputs).parts[-3:]),

@@ -170,11 +170,14 @@ class PythonPipeline:
     classifier .npz (pyvehtrack.Detector(model=...)), or None for the ego-lane detector.
     measurement: the tracker's ("roi", "edges" or "roi+edges"; Tracker(measurement=...)).
     range_params: keyword arguments of the RangeEstimator (rear_offset, bottom_height,
-    path_half_width; _check.range_options checks them), None: its defaults."""
+    path_half_width; _check.range_options checks them), None: its defaults. ego_speed (m/s,
+    None: unknown) and warn_ttc ("distance" / "fused": the TTC the warning decides on), as
+    `track --ego-speed / --warn-ttc`."""
 
     def __init__(self, engine: str = "c", detect_every: int = 10, camera: dict | None = None,
                  fps: float = 10.0, geometry=None, model=None, measurement: str = "roi",
-                 range_params: dict | None = None):
+                 range_params: dict | None = None, ego_speed: float | None = None,
+                 warn_ttc: str = "distance"):
         from ..detector import Detector
         from ..lane import LaneDetector
         from ..tracker import Tracker
@@ -208,6 +211,9 @@ class PythonPipeline:
         self.camera = camera
         self.fps = float(fps)
         self.range_params = dict(range_params or {})
+        if warn_ttc not in ("distance", "fused"):
+            raise ValueError(f"warn_ttc must be 'distance' or 'fused', got {warn_ttc!r}")
+        self.ego_speed, self.warn_ttc = ego_speed, warn_ttc
         self.geometry = geometry
         self.notes: list = []
         self._cam = None            # the geometry stage's Camera, when usable
@@ -269,7 +275,10 @@ class PythonPipeline:
                 self._rng = camera_stage()[1](self._cam, (gray.shape[1], gray.shape[0]), self.fps,
                                               engine=self.engine, **self.range_params)
             self._rng.update_pitch(vp_stage)
-            outs = {o.id: o for o in self._rng.step([(t.id, self._cam.undistort_box(t.box)) for t in tracks])}
+            outs = {o.id: o for o in self._rng.step(
+                [(t.id, self._cam.undistort_box(t.box)) for t in tracks], self.ego_speed,
+                ttc_points=({t.id: getattr(t, "ttc_points", None) for t in tracks}
+                            if self.warn_ttc == "fused" else None))}
             info.timing_ms["geometry"] = (time.perf_counter() - t3) * 1e3
             info.pitch_deg = float(self._rng.pitch_deg)
 
