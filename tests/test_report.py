@@ -107,6 +107,16 @@ def test_fused_ttc_is_the_pipelines_rule(clip_report):
     assert any(t["ttc_fused_s"] != t["ttc_s"] for t in both)
 
 
+def _cli_errors(frames, tmp_path, cases):
+    """Each (extra args, message) of `report` on frames with the KITTI camera: a one-line
+    error naming the problem (exit != 0, no traceback)."""
+    for bad, msg in cases:
+        r = subprocess.run([sys.executable, "-m", "pyvehtrack", "report", str(frames), "--out",
+                            str(tmp_path / "bad"), "--camera", str(CAMERA), "--no-progress"] + bad,
+                           capture_output=True, text=True, timeout=300)
+        assert r.returncode != 0 and msg in r.stderr and "Traceback" not in r.stderr, r.stderr
+
+
 def test_warning_options_reach_the_range_stage(tmp_path, monkeypatch):
     """report --ego-speed / --warn-ttc are `track`'s: the ego speed and, with fused, each
     track's block-scale TTC reach RangeEstimator.step (recorded by a wrapper that calls the
@@ -134,13 +144,9 @@ def test_warning_options_reach_the_range_stage(tmp_path, monkeypatch):
     page = make_report(frames, tmp_path / "r2", camera=CAMERA, truth=(), progress=False)
     assert seen and all(e is None and p is None for e, p in seen)
     assert "on the distance/rate TTC, ego speed unknown" in html.unescape(page.read_text())
-    for bad, msg in ((["--ego-speed", "-1"], "ego_speed must be a number >= 0"),
-                     (["--ego-speed", "inf"], "ego_speed must be a number >= 0"),
-                     (["--warn-ttc", "both"], "invalid choice")):
-        r = subprocess.run([sys.executable, "-m", "pyvehtrack", "report", str(frames), "--out",
-                            str(tmp_path / "bad"), "--camera", str(CAMERA), "--no-progress"] + bad,
-                           capture_output=True, text=True, timeout=300)
-        assert r.returncode != 0 and msg in r.stderr and "Traceback" not in r.stderr, r.stderr
+    _cli_errors(frames, tmp_path, ((["--ego-speed", "-1"], "ego_speed must be a number >= 0"),
+                                   (["--ego-speed", "inf"], "ego_speed must be a number >= 0"),
+                                   (["--warn-ttc", "both"], "invalid choice")))
     with pytest.raises(ValueError, match="need a camera"):
         make_report(frames, tmp_path / "r3", camera=None, truth=(), progress=False, ego_speed=10.0)
 
@@ -165,14 +171,10 @@ def test_range_options_reach_the_range_stage(tmp_path):
     page = make_report(frames, tmp_path / "r2", camera=off, truth=(), progress=False)
     text = html.unescape(page.read_text())
     assert "ego path +-1.5 m around the car's centre line (the camera 0.4 m left of it)" in text
-    for bad, msg in ((["--rear-offset", "6"], "rear_offset 6.0: must be in [0, 5] m"),
-                     (["--rear-offset", "nan"], "rear_offset must be finite"),
-                     (["--bottom-height", "1.65"], "bottom_height 1.65: must be in [0, height_m = 1.65) m"),
-                     (["--path-half-width", "-1"], "path_half_width -1.0: must be in [0, 10] m")):
-        r = subprocess.run([sys.executable, "-m", "pyvehtrack", "report", str(frames), "--out",
-                            str(tmp_path / "bad"), "--camera", str(CAMERA), "--no-progress"] + bad,
-                           capture_output=True, text=True, timeout=300)
-        assert r.returncode != 0 and msg in r.stderr and "Traceback" not in r.stderr, r.stderr
+    _cli_errors(frames, tmp_path, ((["--rear-offset", "6"], "rear_offset 6.0: must be in [0, 5] m"),
+                                   (["--rear-offset", "nan"], "rear_offset must be finite"),
+                                   (["--bottom-height", "1.65"], "bottom_height 1.65: must be in [0, height_m = 1.65) m"),
+                                   (["--path-half-width", "-1"], "path_half_width -1.0: must be in [0, 10] m")))
     with pytest.raises(ValueError, match="need a camera"):
         make_report(frames, tmp_path / "r2", camera=None, truth=(), progress=False, rear_offset=1.8)
     with pytest.raises(TypeError, match="rear_offset must be a number"):
