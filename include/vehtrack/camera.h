@@ -401,10 +401,11 @@ vt_status vt_range_step(vt_range_state *st, const vt_range_cfg *cfg, const vt_ca
 
 /* The block-scale TTC P (vehtrack/ttc_scale.h) and the distance/rate TTC D in one, both
  * Q16 s, a negative value meaning "not known" (0 is a TTC: now): both known,
- * (P (1000 - w) + D w + 500) / 1000 with w = weight_permille on D (0..1000; floor, exact in
- * int64 as P, D < 2^31); one known, that one; neither, -1. The two err in opposite directions on KITTI (the block scale lags a
- * falling TTC, the filtered distance's rate overshoots). vt_pipe_track.ttc_fused_q16 and,
- * with the block-scale TTCs given, the warning's TTC (vt_range_step_fused).
+ * (P (1000 - w) + D w + 500) / 1000 with w = weight_permille on D (0..1000; floor, exact
+ * in int64 as P, D < 2^31); one known, that one; neither, -1. The two err in opposite
+ * directions on KITTI (the block scale lags a falling TTC, the filtered distance's rate
+ * overshoots). vt_pipe_track.ttc_fused_q16 and, with the block-scale TTCs given, the
+ * warning's TTC (vt_range_step_fused).
  * VT_E_ARG for NULL or w outside 0..1000 (*fused untouched). */
 vt_status vt_ttc_fuse(vt_q16 points, vt_q16 dist, int32_t weight_permille, vt_q16 *fused);
 
@@ -414,10 +415,10 @@ vt_status vt_ttc_fuse(vt_q16 points, vt_q16 dist, int32_t weight_permille, vt_q1
  * distance/rate TTC alone, behind the same gates (IN_PATH, a distance this frame,
  * CLOSING, the lead's class); every output field but fcw is vt_range_step's. The fused
  * TTC errs less (rendered NHTSA scenes: 5.2% median against 7.5%; held-out KITTI frames:
- * 13.3% against 29.6%) and its warning passed the NHTSA scenes (seeds 0-2, 10-14), but it
- * warned 0.015 s late on a small, far lead at 30 fps (seed 3 through the pipeline), so
- * the pipeline asks for it only with vt_pipeline_cfg.fcw_fused. vt_range_step is this
- * with ttc_points NULL.
+ * 13.3% against 29.6%) and its warning passes the rendered NHTSA scenes, but with less
+ * margin on a decelerating lead (0.03 s against 0.29 s through the pipeline on seeds
+ * 15-29; the block scale lags a falling TTC), so the pipeline asks for it only with
+ * vt_pipeline_cfg.fcw_fused. vt_range_step is this with ttc_points NULL.
  * VT_E_ARG as vt_range_step, and for fuse_permille outside 0..1000. */
 vt_status vt_range_step_fused(vt_range_state *st, const vt_range_cfg *cfg, const vt_camera_cfg *cam,
                               vt_q16 tp, vt_q16 ego_speed, const vt_track_out *tracks,

@@ -225,9 +225,10 @@ typedef struct {
                                 a block-scale one (vt_range_step_fused; needs the block
                                 TTC's workspace attached), else (0, the default) on the
                                 distance/rate TTC. Opt-in: on the rendered NHTSA scenes it
-                                passes seeds 0-2 and 10-14 but warned 0.015 s late on a
-                                stopped lead of seed 3 through the pipeline (README,
-                                "The warning on the fused TTC")                          */
+                                keeps 0.03 s of margin on a decelerating lead (0.29 s on
+                                the distance/rate TTC), and before the lead class waited
+                                for a known rate it warned late once (README, "The
+                                warning on the fused TTC")                               */
 } vt_pipeline_cfg;
 
 #define VT_PIPELINE_CFG_DEFAULT                                   \

@@ -8,9 +8,10 @@ cornerSubPix) in every picture, then cv2.calibrateCamera gives fx, fy, cx, cy an
 distortion coefficients (OpenCV order k1 k2 p1 p2 k3), in pixels of these pictures: take
 them with the camera and resolution that will film the road. The camera's height above
 the road cannot come from a chessboard: give it with --height-m, or add "height_m" to the
-file later (distances need it); nor can the camera's mounting offset right of the car's centre
-line, --lateral-m, which centres the collision warning's ego corridor on the car. --square-mm only scales the board's pose, which the camera
-file does not keep; it is accepted for the record."""
+file later (distances need it); nor can the camera's mounting offset right of the car's
+centre line, --lateral-m, which centres the collision warning's ego corridor on the car.
+--square-mm only scales the board's pose, which the camera file does not keep; it is
+accepted for the record."""
 from __future__ import annotations
 
 import re
