@@ -8,7 +8,7 @@
  * edge values; the block-scale TTC's state attached or not (vt_pipeline_set_ttc_ws),
  * its ttc_points_q16 VT_UNKNOWN or within (0, ttc_max]; a camera (the defaults) attached or
  * not, the fused TTC (ttc_fused_q16) VT_UNKNOWN or > 0, and without a camera the block-scale
- * one; in one input of four the built-in HOG SVM and the whole-road detector's workspace
+ * one; the warning on the fused TTC (cfg.fcw_fused) in half of the inputs; in one input of four the built-in HOG SVM and the whole-road detector's workspace
  * (vt_pipeline_set_cls_ws), with the ego-lane detector beside it (VT_SRC_EGO) in half of
  * those: ego boxes come first. fuzz.mk builds this harness only where the header exists. */
 #include "fuzz.h"
@@ -41,6 +41,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     }
     if (fz_u8(&f) & 1) { /* the flow source on (its hand-over policy is in the mutated tail) */
         cfg.sources |= VT_SRC_FLOW;
+    }
+    if (fz_u8(&f) & 1) { /* the warning on the fused TTC (vt_range_step_fused inside the step) */
+        cfg.fcw_fused = 1;
     }
     if ((fz_u8(&f) & 3) == 0) { /* the whole-road detector (a classifier), the ego one beside it or not */
         fz_status(vt_svm_default_model(VT_DESC_HOG, &model));
