@@ -442,3 +442,18 @@ def test_track_tiles_keep_the_cut_nearest_the_middle_and_survive_odd_boxes():
     colour[..., 1] = 200
     c = track_tile(colour, [10, 10, 20, 20])
     assert c.shape == (TRACK_TILE[1], TRACK_TILE[0], 3) and int(np.median(c[..., 1])) == 200
+
+
+def test_lead_without_box_truth_spans_the_centre_column():
+    """Without truth boxes the page takes as the lead car the nearest confirmed track with a
+    distance whose box spans the image's centre column (the KITTI clip: a parked truck at the
+    left kerb, 4 m away, is not the lead car at 7 m); a frame with no known width takes any
+    box, as before."""
+    from pyvehtrack.report.render import lead_ids
+    recs = [{"frame": 0, "tracks": [
+        {"id": 1, "state": "confirmed", "box": [255, 35, 407, 187], "distance_m": 7.2},
+        {"id": 6, "state": "confirmed", "box": [21, 60, 144, 253], "distance_m": 4.2},
+        {"id": 5, "state": "tentative", "box": [300, 60, 340, 100], "distance_m": 3.0}]}]
+    assert lead_ids(recs, Truth(), {0: 640}) == {0: 1}
+    assert lead_ids(recs, Truth()) == {0: 6}
+    assert lead_ids(recs, Truth(), {0: 1000}) == {}     # no confirmed box spans column 499.5

@@ -51,6 +51,7 @@ class FrameInfo:
     pitch_deg: float | None = None                   # from the camera stage (or vanishing row + camera)
     timing_ms: dict = field(default_factory=dict)    # stage -> milliseconds
     matched: set = field(default_factory=set)        # track ids a detector box confirmed this frame
+    width: int | None = None                         # the frame's width (input pixels)
 
 
 def _matched_ids(tracks, dets) -> set:
@@ -238,7 +239,7 @@ class PythonPipeline:
     def step(self, frame, file: str = ""):
         from ..frames import to_gray
         gray = to_gray(frame)
-        info = FrameInfo(frame=self.k, file=file)
+        info = FrameInfo(frame=self.k, file=file, width=int(gray.shape[1]))
         t0 = time.perf_counter()
         try:
             lr = self.lanes.detect(gray)

@@ -475,12 +475,14 @@ def runtime_table(infos):
 
 
 # ====================================================================== figures
-def lead_ids(records, truth: Truth) -> dict:
+def lead_ids(records, truth: Truth, widths: dict | None = None) -> dict:
     """frame -> the lead car's track id: the track overlapping the truth box most (IoU >=
     0.5) when truth boxes are given; else the confirmed/coasting track with a distance
-    whose box spans the image's centre column nearest to the camera. Missing = none."""
+    whose box spans the image's centre column (widths: frame -> width; a frame without
+    one: any box), nearest to the camera. Missing = none."""
     from ..reference.tracker import box_iou
     out = {}
+    widths = widths or {}
     for r in records:
         k, best = r["frame"], None
         if truth.boxes:
@@ -490,8 +492,10 @@ def lead_ids(records, truth: Truth) -> dict:
                 cands = [c for c in cands if c[0] >= 0.5]
                 best = max(cands)[1] if cands else None
         else:
+            mid = None if widths.get(r["frame"]) is None else (widths[r["frame"]] - 1) / 2
             cands = [(t["distance_m"], t["id"]) for t in r["tracks"]
-                     if t["state"] != "tentative" and t.get("distance_m") is not None]
+                     if t["state"] != "tentative" and t.get("distance_m") is not None
+                     and (mid is None or t["box"][0] <= mid <= t["box"][2])]
             best = min(cands)[1] if cands else None
         if best is not None:
             out[k] = best
@@ -619,7 +623,7 @@ def render_html(records, infos, thumbs, *, title: str, meta: dict, truth: Truth 
     """The page as a string. thumbs: [(frame, BGR annotated image)]; meta: label -> value;
     track_tiles: track id -> tile (TrackTiles.pick), the "Every track, once" section."""
     truth = truth or Truth()
-    lead = lead_ids(records, truth)
+    lead = lead_ids(records, truth, {i.frame: i.width for i in infos if i.width is not None})
     parts = [f"<h1>{html.escape(title)}</h1>"]
     parts.append("".join(f'<p class="meta"><b>{html.escape(k)}:</b> {html.escape(str(v))}</p>'
                          for k, v in meta.items()))
