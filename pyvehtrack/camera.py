@@ -412,8 +412,8 @@ class RangeEstimator:
         """tracks: pyvehtrack.tracker.Track objects (or (id, box) pairs), boxes in input px.
         ttc_points: {id: block-scale TTC in s, or None} (Track.ttc_points, ScaleTtc's ttc):
         the warning then decides on the fused TTC (fuse_ttc; fuse_permille on the
-        distance/rate TTC, default vt_pipeline_cfg's 300), as the pipeline's does; without
-        it, on the distance/rate TTC."""
+        distance/rate TTC, default vt_pipeline_cfg's 300), as the pipeline's does with
+        vt_pipeline_cfg.fcw_fused; without it, on the distance/rate TTC (the default)."""
         pairs = []
         for t in tracks:
             tid, box = (t.id, t.box) if hasattr(t, "box") else t
@@ -431,6 +431,8 @@ class RangeEstimator:
                                 f"{type(ttc_points).__name__}")
             pts = {}
             for tid, v in ttc_points.items():
+                if isinstance(tid, bool) or not isinstance(tid, (int, np.integer)):
+                    raise TypeError(f"ttc_points: keys are track ids (int), got {tid!r}")
                 if v is not None:
                     if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) \
                             or not math.isfinite(float(v)) or v < 0:

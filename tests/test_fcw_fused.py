@@ -205,6 +205,8 @@ def test_estimator_takes_block_ttcs():
             e.step([(5, boxes[0])], 0.0, ttc_points={5: -1.0})
         with pytest.raises(TypeError, match="ttc_points"):
             e.step([(5, boxes[0])], 0.0, ttc_points=[1.0])
+        with pytest.raises(TypeError, match="track ids"):
+            e.step([(5, boxes[0])], 0.0, ttc_points={"5": 1.0})
         with pytest.raises(ValueError, match="weight_permille"):
             e.step([(5, boxes[0])], 0.0, ttc_points={5: 1.0}, fuse_permille=2000)
     est = {e: RangeEstimator(cam, (640, 480), 10, engine=e) for e in ("c", "reference")}
