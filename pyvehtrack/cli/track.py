@@ -168,8 +168,8 @@ def register(sub) -> None:
     p.add_argument("--warn-ttc", choices=("distance", "fused"), default="distance",
                    help="the TTC the collision warning decides on: distance (default; the "
                         "distance/rate TTC, ttc_s) or fused (the block-scale and distance/rate TTCs "
-                        "in one, the TTC drawn and written as ttc_fused_s; opt-in: it warned late once "
-                        "on the synthetic NHTSA scenes)")
+                        "in one, the TTC drawn and written as ttc_fused_s; opt-in: on the synthetic "
+                        "NHTSA scenes it warns in time but with less margin on a braking lead)")
     p.add_argument("--json", metavar="TRACKS.json", help="write per-frame track records (JSON)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
