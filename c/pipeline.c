@@ -626,8 +626,8 @@ static vt_status vt__geometry(vt_pipeline *p, const vt_image_u8 *frame, const vt
     int32_t vp_valid = 0, i;
     vt_status s;
     *n_ranges = 0;
-    for (i = 0; i < n_tracks && i < VT_MAX_TRACKS; ++i) {
-        pts[i] = vt__ttc_points_of(p, p->tracks[i].id);
+    for (i = 0; p->cfg.fcw_fused && i < n_tracks && i < VT_MAX_TRACKS; ++i) {
+        pts[i] = vt__ttc_points_of(p, p->tracks[i].id); /* only the fused warning reads them */
     }
     if (lanes_ok && vt_lane_vanishing_row(&out->lanes, frame->h, &vp_row, &vp_valid) != VT_OK) {
         vp_valid = 0;

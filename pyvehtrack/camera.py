@@ -23,6 +23,7 @@ out, and a file without it is refused where a distance is needed.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import math
 from dataclasses import dataclass
@@ -452,10 +453,16 @@ class RangeEstimator:
         return [_range_out(r, self._n.lib) for r in rows]
 
 
+@functools.cache
+def _default_fuse_weight() -> int:
+    """vt_pipeline_cfg's ttc_fuse_permille, read from the core once (not per frame)."""
+    from . import _native  # noqa: PLC0415
+    return int(_native.pipeline_cfg_default().ttc_fuse_permille)
+
+
 def _fuse_weight(weight_permille) -> int:
     """The fusion weight on the distance/rate TTC: vt_pipeline_cfg's default, or checked."""
-    from . import _native  # noqa: PLC0415
-    return int(_native.pipeline_cfg_default().ttc_fuse_permille) if weight_permille is None else \
+    return _default_fuse_weight() if weight_permille is None else \
         _check.integer(weight_permille, "weight_permille", lo=0, hi=1000)
 
 

@@ -24,9 +24,10 @@ from hypothesis import strategies as st
 
 from pyvehtrack import _native
 from pyvehtrack._native import ffi, lib
-from pyvehtrack.camera import RangeEstimator, range_from_c, range_to_c
+from pyvehtrack.camera import RangeEstimator
 from pyvehtrack.reference import camera as rc
 
+from test_camera import _rcfg as _rcfg_dt
 from test_camera import approach, cam_params
 
 Q = 65536
@@ -68,6 +69,11 @@ def test_ttc_fuse_arguments():
     assert _fuse_c(-1, 0, 300) == (lib.VT_OK, 0)
 
 
+def _rcfg(**kw):
+    """tests/test_camera.py's range configuration at 10 Hz."""
+    return _rcfg_dt(frame_dt=0.1, **kw)
+
+
 def _rows(n_tracks, boxes_per_frame):
     arr = np.zeros(n_tracks, _native.TRACK_OUT_DTYPE)
     for k, (tid, b) in enumerate(boxes_per_frame):
@@ -101,12 +107,6 @@ def test_no_block_ttc_is_range_step(z0, v, noise, seed, ego, w):
         plain = _step_plain(a, rcf, c, ego, arr)
         assert _native.range_step(b, rcf, c, 0, ego, arr, None, w).tobytes() == plain
         assert _native.range_step(k, rcf, c, 0, ego, arr, [-1], w).tobytes() == plain
-
-
-def _rcfg(**kw):
-    p = rc.RangeParams(frame_dt=0.1, **kw)
-    cfg = range_to_c(p)
-    return range_from_c(cfg), cfg
 
 
 def _rule_run(z0, v, noise, seed, bias, w, ego, n=30):

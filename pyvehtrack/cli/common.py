@@ -36,6 +36,30 @@ class CliError(Exception):
     """A user-facing error: main() prints it as one line and exits with status 2."""
 
 
+def add_range_args(p) -> None:
+    """The range stage's and the warning's options of `track` and `report` (all need a
+    camera; pyvehtrack._check.range_options checks the first three)."""
+    p.add_argument("--ego-speed", type=float, default=None, metavar="M/S",
+                   help="own speed, m/s, if known: picks the NHTSA threshold of the lead's class")
+    p.add_argument("--rear-offset", type=float, default=0.0, metavar="M",
+                   help="m from the road contact the box's bottom shows to the vehicle's rear "
+                        "(default 0: eq. 1 as is; about 1.8 on KITTI, see the README)")
+    p.add_argument("--bottom-height", type=float, default=0.0, metavar="M",
+                   help="height above the road of what the box's bottom edge shows, m (default 0: "
+                        "the road contact; about 0.37 on KITTI, where the box ends at the bumper's "
+                        "lower edge): eq. 1 then uses the camera height minus it")
+    p.add_argument("--path-half-width", type=float, default=1.5, metavar="M",
+                   help="the warning is for tracks in the ego path only: a box must overlap the "
+                        "straight corridor of +-M m around the car's centre line at its distance "
+                        "(the camera file's lateral_m says how far right of it the camera sits) "
+                        "(default 1.5; 0: every closing track may warn)")
+    p.add_argument("--warn-ttc", choices=("distance", "fused"), default="distance",
+                   help="the TTC the collision warning decides on: distance (default; the "
+                        "distance/rate TTC, ttc_s) or fused (the block-scale and distance/rate TTCs "
+                        "in one, the TTC drawn and written as ttc_fused_s; opt-in: on the synthetic "
+                        "NHTSA scenes it warns in time but with less margin on a braking lead)")
+
+
 def add_model_arg(p) -> None:
     """--model / --sources of `detect` and `track` (the full-road detector)."""
     p.add_argument("--model", metavar="MODEL.npz", default=None,

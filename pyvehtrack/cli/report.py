@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .common import CliError, add_command, out_folder, resolve_model
+from .common import CliError, add_command, add_range_args, out_folder, resolve_model
 
 EXAMPLES = """examples:
   pyvehtrack report tests/data/kitti_clip --out r/
@@ -51,20 +51,7 @@ def register(sub) -> None:
     p.add_argument("--measurement", choices=("auto", "roi", "edges", "roi+edges"), default="auto",
                    help="the tracker's per-frame measurement, as `track --measurement` (default auto: "
                         "roi+edges for a lossy video or JPEG frames, roi otherwise)")
-    p.add_argument("--rear-offset", type=float, default=0.0, metavar="M",
-                   help="as `track --rear-offset` (needs a camera): m from the road contact the box's "
-                        "bottom shows to the vehicle's rear (default 0; about 1.8 on KITTI, see the README)")
-    p.add_argument("--bottom-height", type=float, default=0.0, metavar="M",
-                   help="as `track --bottom-height` (needs a camera): height above the road of what the "
-                        "box's bottom edge shows, m (default 0: the road contact)")
-    p.add_argument("--path-half-width", type=float, default=1.5, metavar="M",
-                   help="as `track --path-half-width` (needs a camera): the warning's ego path, +-M m "
-                        "(default 1.5)")
-    p.add_argument("--ego-speed", type=float, default=None, metavar="V",
-                   help="as `track --ego-speed` (needs a camera): the ego car's speed, m/s, for the "
-                        "warning's lead class (default: unknown, the largest threshold)")
-    p.add_argument("--warn-ttc", choices=("distance", "fused"), default="distance",
-                   help="as `track --warn-ttc` (needs a camera): the TTC the warning decides on")
+    add_range_args(p)           # as `track`'s (they need a camera)
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 

@@ -29,8 +29,8 @@ import colorsys
 from pathlib import Path
 
 from ..eval.kitti import track_line
-from .common import (CliError, add_command, add_model_arg, load_camera, make_detector, FrameReader, Outputs, VideoOut, count_frames, frame_sources,
-                     output_kind, progress)
+from .common import (CliError, add_command, add_model_arg, add_range_args, load_camera, make_detector,
+                     FrameReader, Outputs, VideoOut, count_frames, frame_sources, output_kind, progress)
 
 STATE_SCORE = {"confirmed": 1.0, "coasting": 0.5, "tentative": 0.25, "handover": 0.4}
 
@@ -151,25 +151,7 @@ def register(sub) -> None:
                         "--model its geometry (and image_size) also places the whole-road detector's windows")
     p.add_argument("--fps", type=float, default=None, metavar="F",
                    help="frame rate for TTC (default: the video's, 10 for frames)")
-    p.add_argument("--ego-speed", type=float, default=None, metavar="M/S",
-                   help="own speed, m/s, if known: picks the NHTSA threshold of the lead's class")
-    p.add_argument("--rear-offset", type=float, default=0.0, metavar="M",
-                   help="m from the road contact the box's bottom shows to the vehicle's rear "
-                        "(default 0: eq. 1 as is; about 1.8 on KITTI, see the README)")
-    p.add_argument("--bottom-height", type=float, default=0.0, metavar="M",
-                   help="height above the road of what the box's bottom edge shows, m (default 0: "
-                        "the road contact; about 0.37 on KITTI, where the box ends at the bumper's "
-                        "lower edge): eq. 1 then uses the camera height minus it")
-    p.add_argument("--path-half-width", type=float, default=1.5, metavar="M",
-                   help="the warning is for tracks in the ego path only: a box must overlap the "
-                        "straight corridor of +-M m around the car's centre line at its distance "
-                        "(the camera file's lateral_m says how far right of it the camera sits) "
-                        "(default 1.5; 0: every closing track may warn)")
-    p.add_argument("--warn-ttc", choices=("distance", "fused"), default="distance",
-                   help="the TTC the collision warning decides on: distance (default; the "
-                        "distance/rate TTC, ttc_s) or fused (the block-scale and distance/rate TTCs "
-                        "in one, the TTC drawn and written as ttc_fused_s; opt-in: on the synthetic "
-                        "NHTSA scenes it warns in time but with less margin on a braking lead)")
+    add_range_args(p)
     p.add_argument("--json", metavar="TRACKS.json", help="write per-frame track records (JSON)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
