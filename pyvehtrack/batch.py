@@ -32,6 +32,8 @@ every truth file found is used):
                      layout pyvehtrack.synth.write_kitti writes)
     video  DIR/S.ext DIR/S.truth*.txt|csv                         and  DIR/S.camera.json
 A truth file with track ids (KITTI labels, e.g. gt.txt) gives HOTA / MOTA / IDF1 in the table.
+`track`'s range and warning options (rear_offset, bottom_height, path_half_width, ego_speed,
+warn_ttc) go to the recordings that have a camera file, one value for all of them.
 """
 from __future__ import annotations
 
@@ -193,8 +195,9 @@ def process_recording(rec: str, out_dir: str, opts: dict, fp: str) -> dict:
             argv += ["--json", str(out / "tracks.json")]
         if comp["camera"] and _track_parser_has("--camera"):
             argv += ["--camera", comp["camera"]]
-            if opts.get("rear_offset"):
-                argv += ["--rear-offset", repr(opts["rear_offset"])]
+            for k, v in opts.items():
+                if k in RANGE_DEFAULTS:
+                    argv += ["--" + k.replace("_", "-"), v if isinstance(v, str) else repr(v)]
         code, so, se = _run_cli(argv)
         if code != 0:
             msg = [ln for ln in se.strip().splitlines() if ln.strip() and not ln.startswith("[")]
@@ -217,7 +220,7 @@ def process_recording(rec: str, out_dir: str, opts: dict, fp: str) -> dict:
             from .report import make_report
             make_report(src, out / "report", truth=comp["truth"], camera=comp["camera"], engine=opts["engine"],
                         detect_every=opts["detect_every"], progress=False,
-                        rear_offset=opts.get("rear_offset", 0.0) if comp["camera"] else 0.0)
+                        **({k: opts.get(k, d) for k, d in RANGE_DEFAULTS.items()} if comp["camera"] else {}))
         row["status"] = "ok"
     except TrackFailed as e:
         row["error"] = f"track: {e}"
@@ -246,6 +249,31 @@ def _has_ids(path) -> bool:
 
 
 # ====================================================================== the batch
+# track's (and make_report's) range and warning options and their defaults: a recording with
+# a camera file gets those given; the opts (and so the fingerprints) hold only the values
+# that differ from these, so runs without them keep the fingerprints they had.
+RANGE_DEFAULTS = {"rear_offset": 0.0, "bottom_height": 0.0, "path_half_width": 1.5, "ego_speed": None,
+                  "warn_ttc": "distance"}
+
+
+def _range_opts(rear_offset, bottom_height, path_half_width, ego_speed, warn_ttc) -> dict:
+    """The range and warning options checked (ValueError naming the argument), as the
+    non-default ones."""
+    def number(name, v, lo, hi, unit):
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not lo <= v <= hi:
+            raise ValueError(f"{name} must be a number in [{lo}, {hi:g}] {unit}, got {v!r}")
+        return float(v)
+
+    vals = {"rear_offset": number("rear_offset", rear_offset, 0, 5, "m"),
+            "bottom_height": number("bottom_height", bottom_height, 0, math.inf, "m"),
+            "path_half_width": number("path_half_width", path_half_width, 0, 10, "m"),
+            "ego_speed": None if ego_speed is None else number("ego_speed", ego_speed, 0, math.inf, "m/s"),
+            "warn_ttc": warn_ttc}
+    if warn_ttc not in ("distance", "fused"):
+        raise ValueError(f"warn_ttc must be 'distance' or 'fused', got {warn_ttc!r}")
+    return {k: v for k, v in vals.items() if v != RANGE_DEFAULTS[k]}
+
+
 @dataclass
 class BatchSummary:
     rows: list = field(default_factory=list)
@@ -264,10 +292,15 @@ def _is_recording(p: Path) -> bool:
 
 def run_batch(recordings, out, *, scheduler: str | None = None, workers: int = 2, reports: bool = False,
               engine: str = "c", detect_every: int = 10, retry_failed: bool = False,
-              skip_bad_frames: bool = False, progress: bool = True, rear_offset: float = 0.0) -> BatchSummary:
+              skip_bad_frames: bool = False, progress: bool = True, rear_offset: float = 0.0,
+              bottom_height: float = 0.0, path_half_width: float = 1.5, ego_speed: float | None = None,
+              warn_ttc: str = "distance") -> BatchSummary:
     """Run every recording (see the module doc); returns the table rows and figures.
-    rear_offset (m, 0..5): `track --rear-offset` (and the report's), for the recordings that
-    have a camera file; the others run without it.
+    rear_offset (m, 0..5), bottom_height (m, >= 0; below each camera file's height_m, which
+    `track` checks per recording), path_half_width (m, 0..10), ego_speed (m/s >= 0, None:
+    unknown) and warn_ttc ("distance" or "fused"): `track`'s options of the same names (and
+    the report's), for the recordings that have a camera file; the others run without them.
+    One ego speed serves every recording (a fleet driven at one speed, or a rough bound).
     ValueError / TypeError naming the argument for bad arguments; a bad recording is a
     failed row, never an exception."""
     from tqdm import tqdm
@@ -283,18 +316,14 @@ def run_batch(recordings, out, *, scheduler: str | None = None, workers: int = 2
         raise ValueError(f"engine must be 'c' or 'reference', got {engine!r}")
     if isinstance(detect_every, bool) or not isinstance(detect_every, int) or detect_every < 1:
         raise ValueError(f"detect_every must be an integer >= 1, got {detect_every!r}")
-    if (isinstance(rear_offset, bool) or not isinstance(rear_offset, (int, float))
-            or not math.isfinite(rear_offset) or not 0 <= rear_offset <= 5):
-        raise ValueError(f"rear_offset must be a number in [0, 5] m, got {rear_offset!r}")
+    range_opts = _range_opts(rear_offset, bottom_height, path_half_width, ego_speed, warn_ttc)
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise ValueError(f"out {out}: exists and is not a folder")
     out.mkdir(parents=True, exist_ok=True)
     opts = {"engine": engine, "detect_every": detect_every, "reports": bool(reports),
             "skip_bad_frames": bool(skip_bad_frames)}
-    if rear_offset:
-        # only when given, so the fingerprints of runs without it stay what they were
-        opts["rear_offset"] = float(rear_offset)
+    opts.update(range_opts)
     t_start = time.perf_counter()
     rows: dict = {}
     todo = []

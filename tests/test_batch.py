@@ -152,22 +152,42 @@ def test_bad_arguments(tmp_path):
     assert main(["batch", "x", "--out", str(tmp_path / "o"), "--scheduler", "nowhere"]) == 2
 
 
-def test_rear_offset_reaches_track_and_report(cluster, tmp_path):
-    """--rear-offset goes to `track` (and the report) for a recording with a camera file: the
-    batch's tracks.json is `track --camera --rear-offset`'s, byte for byte (the same command),
-    and the page names the offset. Bad values are refused before any work."""
+def test_range_options_reach_track_and_report(cluster, recordings, first_run, tmp_path):
+    """The range and warning options go to `track` (and the report) for a recording with a
+    camera file: the batch's tracks.json is `track --camera ...`'s with the same options, byte
+    for byte (the same command), and the page names them. A recording without a camera file
+    in the same batch runs without them (its outputs are the plain run's). Bad values are
+    refused before any work."""
     import shutil
     data = Path(__file__).parent / "data"
     rec = tmp_path / "kitti"
     shutil.copytree(data / "kitti_clip", rec)
     shutil.copy(data / "kitti_clip.camera.json", rec / "camera.json")
-    s = run_batch([str(rec)], tmp_path / "out", scheduler=cluster, reports=True, progress=False, rear_offset=1.8)
-    assert s.rows[0]["status"] == "ok", s.rows[0]
+    s = run_batch([str(rec), recordings[0]], tmp_path / "out", scheduler=cluster, reports=True, progress=False,
+                  rear_offset=1.8, ego_speed=10, warn_ttc="fused", path_half_width=1.2)
+    assert [r["status"] for r in s.rows] == ["ok", "ok"], s.rows
     assert main(["track", str(rec), "--camera", str(rec / "camera.json"), "--rear-offset", "1.8",
+                 "--ego-speed", "10", "--warn-ttc", "fused", "--path-half-width", "1.2",
                  "--out", str(tmp_path / "t.mp4"), "--json", str(tmp_path / "t.json"), "--no-progress"]) == 0
     assert (tmp_path / "out" / "kitti" / "tracks.json").read_text() == (tmp_path / "t.json").read_text()
-    assert "rear offset 1.8 m" in (tmp_path / "out" / "kitti" / "report" / "index.html").read_text()
-    for bad in (-1, 6, float("nan"), "1.8", True):
-        with pytest.raises(ValueError, match="rear_offset"):
-            run_batch([str(rec)], tmp_path / "o2", rear_offset=bad)
+    # and not the same as without the options (the fused TTC's warning rule and the offset are in it)
+    assert main(["track", str(rec), "--camera", str(rec / "camera.json"), "--out", str(tmp_path / "p.mp4"),
+                 "--json", str(tmp_path / "p.json"), "--no-progress"]) == 0
+    assert (tmp_path / "p.json").read_text() != (tmp_path / "t.json").read_text()
+    page = (tmp_path / "out" / "kitti" / "report" / "index.html").read_text()
+    assert "rear offset 1.8 m" in page and "on the fused TTC, ego speed 10 m/s" in page
+    name = Path(recordings[0]).name
+    plain_out, _ = first_run
+    assert (tmp_path / "out" / name / "tracks.json").read_text() == (plain_out / name / "tracks.json").read_text()
+    for kw, bads in (("rear_offset", (-1, 6, float("nan"), "1.8", True)),
+                     ("bottom_height", (-0.1, float("inf"), None)),
+                     ("path_half_width", (-1, 11, "1")),
+                     ("ego_speed", (-1, float("inf"), float("nan"), "10", True)),
+                     ("warn_ttc", ("ttc", None))):
+        for bad in bads:
+            with pytest.raises(ValueError, match=kw):
+                run_batch([str(rec)], tmp_path / "o2", **{kw: bad})
+    assert not (tmp_path / "o2").exists()
+    for flag, val in (("--ego-speed", "-1"), ("--warn-ttc", "x"), ("--path-half-width", "11")):
+        assert main(["batch", str(rec), "--out", str(tmp_path / "o4"), flag, val]) == 2, flag
     assert main(["batch", str(rec), "--out", str(tmp_path / "o3"), "--rear-offset", "9"]) == 2

@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 import sys
 import tempfile
 import time
@@ -62,7 +63,7 @@ STRETCH = 0
 UP_BAND = None
 # Flags added after checkpoints were first written, with their defaults: at the default they are
 # left out of a checkpoint's run key, so an older run still resumes.
-LATER_FLAGS = {"codec": 0.0}
+LATER_FLAGS = {"codec": 0.0, "train_part": None}
 
 
 def seen(gray):
@@ -333,6 +334,11 @@ def read_gray(path) -> np.ndarray:
     if img is None:
         raise FileNotFoundError(f"cannot read image {path}")
     return to_gray(img)
+
+
+def _frame_number(item) -> int:
+    """The file number NNNN of a loaded training frame (load()'s item)."""
+    return int(re.findall(r"\d+", Path(item[0]["file_name"]).stem)[-1])
 
 
 def load(split):
@@ -618,11 +624,17 @@ def main(argv=None):
                     help="go on from OUT/checkpoint.pt (written after every epoch) with the same flags")
     ap.add_argument("--limit", type=int, default=0, metavar="N",
                     help="only the first N frames of each split (a quick check of the tool, not a model)")
+    ap.add_argument("--train-part", nargs=2, type=int, metavar=("K", "N"),
+                    help="learn on part K of N of the training frames only: those whose file number NNNN has "
+                         "(NNNN // 100) %% N == K (blocks of 100 numbers, spread over the whole set; the eval "
+                         "split stays whole): a learning curve's smaller sets")
     ap.add_argument("--stop-after", type=int, metavar="E",
                     help="stop after epoch E, leaving the checkpoint for --resume (a run cut short on purpose)")
     a = ap.parse_args(argv)
     if a.limit < 0:
         ap.error(f"--limit: expected N >= 0 (0: every frame), got {a.limit}")
+    if a.train_part is not None and not 0 <= a.train_part[0] < a.train_part[1]:
+        ap.error(f"--train-part: expected 0 <= K < N, got {a.train_part[0]} {a.train_part[1]}")
     if a.stop_after is not None and a.stop_after < 1:
         ap.error(f"--stop-after: expected an epoch >= 1, got {a.stop_after}")
     global LEVELS, L0_BAND, CH, STRETCH, UP_BAND
@@ -663,6 +675,11 @@ def main(argv=None):
     train, val = load(a.split), load(a.eval_split)
     if a.limit:
         train, val = train[:a.limit], val[:a.limit]
+    if a.train_part is not None:
+        k, n = a.train_part
+        train = [t for t in train if (_frame_number(t) // 100) % n == k]
+        if not train:
+            raise SystemExit(f"--train-part {k} {n}: no {a.split} frame in that part")
     print(f"{len(train)} {a.split} frames, {len(val)} {a.eval_split} frames", flush=True)
     net = build_net()
     if a.export_only:

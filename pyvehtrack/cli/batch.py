@@ -2,18 +2,22 @@
 
     pyvehtrack batch RECORDINGS... --out RESULTS_DIR [--scheduler tcp://host:port] [--workers N]
                      [--reports] [--engine c|reference] [--detect-every N] [--retry-failed]
+                     [--ego-speed M/S] [--rear-offset M] [--bottom-height M] [--path-half-width M]
+                     [--warn-ttc distance|fused]
 
 The naming rule for truth and camera files and the output layout: pyvehtrack.batch."""
 from __future__ import annotations
 
-from .common import CliError, add_command, out_folder
+from .common import CliError, add_command, add_range_args, out_folder
 
 EXAMPLES = """examples:
   pyvehtrack batch recordings/* --out results/                 # LocalCluster, 2 workers
   pyvehtrack batch a.mp4 b/ c/ --out results/ --workers 4 --reports
   pyvehtrack batch recordings/* --out results/ --scheduler tcp://10.0.0.5:8786
 a recording's truth: REC/gt.txt, REC/truth*.{txt,csv} or REC.truth*.{txt,csv} beside it;
-its camera: REC/camera.json or REC.camera.json. Rerunning skips finished recordings."""
+its camera: REC/camera.json or REC.camera.json. Rerunning skips finished recordings.
+--ego-speed, --rear-offset, --bottom-height, --path-half-width and --warn-ttc go to track (and
+report) for the recordings with a camera file, one value for all; the others run without them."""
 
 
 def register(sub) -> None:
@@ -36,9 +40,7 @@ def register(sub) -> None:
                    help="run the detector every N frames (thesis: 10)")
     p.add_argument("--skip-bad-frames", action="store_true",
                    help="passed to track: skip frames that cannot be decoded instead of failing the recording")
-    p.add_argument("--rear-offset", type=float, default=0.0, metavar="M",
-                   help="passed to track and report for the recordings with a camera file: m from the road "
-                        "contact the box's bottom shows to the vehicle's rear (default 0; about 1.8 on KITTI)")
+    add_range_args(p)
     p.add_argument("--retry-failed", action="store_true", help="rerun recordings that failed before")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
@@ -58,7 +60,8 @@ def run(args) -> int:
         s = run_batch(args.recordings, out, scheduler=args.scheduler, workers=args.workers,
                       reports=args.reports, engine=args.engine, detect_every=args.detect_every,
                       retry_failed=args.retry_failed, skip_bad_frames=args.skip_bad_frames, progress=not args.no_progress,
-                      rear_offset=args.rear_offset)
+                      rear_offset=args.rear_offset, bottom_height=args.bottom_height,
+                      path_half_width=args.path_half_width, ego_speed=args.ego_speed, warn_ttc=args.warn_ttc)
     except (ValueError, TypeError) as e:
         raise CliError(str(e)) from None
     a = s.aggregate
