@@ -147,7 +147,9 @@ def test_resume_ends_with_the_weights_of_a_run_never_stopped(tmp_path):
     assert p.returncode != 0 and "flags differ: codec" in p.stderr
 
 
-@pytest.mark.parametrize("args,msg", [(["--limit", "-1"], "--limit"), (["--stop-after", "0"], "--stop-after")])
+@pytest.mark.parametrize("args,msg", [(["--limit", "-1"], "--limit"), (["--stop-after", "0"], "--stop-after"),
+                                      (["--train-part", "2", "2"], "--train-part"),
+                                      (["--train-part", "-1", "2"], "--train-part")])
 def test_resume_flags_rejected(args, msg, tmp_path):
     p = _run_tool(["--out", str(tmp_path / "m")] + args, timeout=120)
     assert p.returncode == 2 and msg in p.stderr
@@ -191,3 +193,15 @@ def test_codec_frame_is_the_clips_predicted_frame(tool, tmp_path):
     a = tool.augment(g, boxes, np.random.default_rng(7), None, codec=0.0)
     b = tool.augment(g, boxes, np.random.default_rng(7), None, codec=1.0, tmpdir=tmp_path)
     assert np.array_equal(a[1], b[1]) and not np.array_equal(a[0], b[0])
+
+
+def test_train_part_splits_by_blocks_of_100(tool):
+    """--train-part K N: the N parts are disjoint, cover the frames, and part K holds exactly the
+    file numbers with (NNNN // 100) % N == K (a learning curve's smaller sets)."""
+    items = [({"file_name": f"supp_img/{i:04d}.jpg"}, None, None) for i in range(5, 5066, 10)]
+    for n in (1, 2, 4):
+        parts = [tool.train_part(items, k, n) for k in range(n)]
+        assert sum(len(p) for p in parts) == len(items)
+        for k, p in enumerate(parts):
+            assert p and all((int(t[0]["file_name"][9:13]) // 100) % n == k for t in p)
+    assert tool.train_part(items, 0, 2) != tool.train_part(items, 1, 2)

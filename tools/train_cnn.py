@@ -341,6 +341,12 @@ def _frame_number(item) -> int:
     return int(re.findall(r"\d+", Path(item[0]["file_name"]).stem)[-1])
 
 
+def train_part(items, k: int, n: int) -> list:
+    """Part k of n of load()'s items (--train-part): file number NNNN with (NNNN // 100) % n == k,
+    so each part spreads over the whole set in blocks of 100 numbers."""
+    return [t for t in items if (_frame_number(t) // 100) % n == k]
+
+
 def load(split):
     frames = tusimple_frames(DATA, split)
     out = []
@@ -677,7 +683,7 @@ def main(argv=None):
         train, val = train[:a.limit], val[:a.limit]
     if a.train_part is not None:
         k, n = a.train_part
-        train = [t for t in train if (_frame_number(t) // 100) % n == k]
+        train = train_part(train, k, n)
         if not train:
             raise SystemExit(f"--train-part {k} {n}: no {a.split} frame in that part")
     print(f"{len(train)} {a.split} frames, {len(val)} {a.eval_split} frames", flush=True)
