@@ -117,7 +117,8 @@ vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg)
     if (s == VT_OK && (cfg->ttc_fuse_permille < 0 || cfg->ttc_fuse_permille > 1000 ||
                        (cfg->road_above_hood != 0 && cfg->road_above_hood != 1) ||
                        (cfg->auto_hood != 0 && cfg->auto_hood != 1) ||
-                       (cfg->fcw_fused != 0 && cfg->fcw_fused != 1))) {
+                       (cfg->fcw_fused != 0 && cfg->fcw_fused != 1) ||
+                       cfg->cnn_hood_min_width_mm < 0 || cfg->cnn_hood_min_width_mm > 10000)) {
         s = VT_E_ARG;
     }
     if (s == VT_OK) {
@@ -744,6 +745,26 @@ static vt_status vt__detect_cnn(const vt_pipeline *p, const vt_image_u8 *frame,
     return VT_OK;
 }
 
+/* Drop the CNN's boxes on the hood (vt_pipeline_cfg.cnn_hood_min_width_mm's rule), in
+ * place, the others keeping their order. */
+static void vt__cnn_hood_drop(vt_fulldet_result *res, const vt_camera_min *cam, int32_t frame_w,
+                              int32_t min_w_mm)
+{
+    int32_t i, n = 0;
+    const int32_t margin = frame_w / 64;
+    for (i = 0; i < res->n_boxes; ++i) {
+        const vt_box *b = &res->box[i].box;
+        const int drop = min_w_mm > 0 && b->bottom > cam->hood_y && b->left > margin &&
+                         b->right < frame_w - 1 - margin &&
+                         (int64_t)(b->right - b->left + 1) * cam->height_mm <
+                             (int64_t)min_w_mm * (b->bottom - cam->horizon_y);
+        if (!drop) {
+            res->box[n++] = res->box[i];
+        }
+    }
+    res->n_boxes = n;
+}
+
 /* The whole-road detector on a detection frame: its camera (the road camera of the
  * frame's size, the horizon the last lanes' vanishing row once known), the road (the
  * caller's when given, else the camera road), vt_fulldet, and its boxes into out and
@@ -820,6 +841,9 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
     }
     if (p->cnn != NULL) {
         s = vt__detect_cnn(p, frame, &ws->res);
+        if (s == VT_OK) {
+            vt__cnn_hood_drop(&ws->res, &cam, frame->w, p->cfg.cnn_hood_min_width_mm);
+        }
     } else if (p->acf != NULL) {
         const vt_acf_cfg *cfgs[VT_ACF_MAX_MODELS];
         for (i = 0; i < p->acf_n; ++i) {

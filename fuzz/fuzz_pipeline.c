@@ -10,9 +10,14 @@
  * not, the fused TTC (ttc_fused_q16) VT_UNKNOWN or > 0, and without a camera the block-scale
  * one; the warning on the fused TTC (cfg.fcw_fused) in half of the inputs; in one input of four the built-in HOG SVM and the whole-road detector's workspace
  * (vt_pipeline_set_cls_ws), with the ego-lane detector beside it (VT_SRC_EGO) in half of
- * those: ego boxes come first. fuzz.mk builds this harness only where the header exists. */
+ * those: ego boxes come first; in another one of four the CNN detector instead (the firmware's model,
+ * firmware_demo/cnn_data.h, from level 0 at a fuzzed threshold, its work buffer sometimes
+ * short), whose boxes pass the hood rule (cfg.cnn_hood_min_width_mm, in the mutated tail):
+ * every box kept is not one the rule drops. fuzz.mk builds this harness only where the
+ * header exists. */
 #include "fuzz.h"
 #include "vehtrack/pipeline.h"
+#include "../firmware_demo/cnn_data.h"
 
 static vt_pipeline g_p;
 static vt_frame_out g_out;
@@ -22,6 +27,21 @@ static vt_ttc_state g_ttc;
 static vt_flow_state g_flow;
 static vt_camera_cfg g_cam;
 static vt_pipe_cls_ws g_cls;
+static uint8_t g_cnn_work[1u << 20];
+
+#ifdef PIPE_FUZZ_STATS /* -DPIPE_FUZZ_STATS: how often the CNN path runs (a harness check) */
+#include <stdio.h>
+#include <stdlib.h>
+static long g_st[4];
+static void st_print(void)
+{
+    fprintf(stderr, "stats: cnn_inputs %ld cnn_detect_ok %ld cnn_boxes %ld below_hood_kept %ld\n", g_st[0], g_st[1],
+            g_st[2], g_st[3]);
+}
+#define STAT(i, c) (g_st[i] += (c))
+#else
+#define STAT(i, c) ((void)0)
+#endif
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
@@ -32,6 +52,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     int32_t k, n, i, ww = 0, wh = 0;
     vt_status s;
     const vt_svm_model *model = NULL;
+    int use_cnn = 0;
+    vt_cnn_cfg ccfg = fw_cnn_cfg_synth;
     fz_status(vt_pipeline_cfg_default(&cfg));
     if (fz_u8(&f) & 1) {
         /* the pipeline's own fields (after the three stage configurations) */
@@ -45,9 +67,14 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     if (fz_u8(&f) & 1) { /* the warning on the fused TTC (vt_range_step_fused inside the step) */
         cfg.fcw_fused = 1;
     }
-    if ((fz_u8(&f) & 3) == 0) { /* the whole-road detector (a classifier), the ego one beside it or not */
+    k = fz_u8(&f) & 3;
+    if (k == 0) { /* the whole-road detector (a classifier), the ego one beside it or not */
         fz_status(vt_svm_default_model(VT_DESC_HOG, &model));
         cfg.sources |= VT_SRC_CLASSIFIER | ((fz_u8(&f) & 1) ? VT_SRC_EGO : 0);
+    } else if (k == 1) { /* the CNN detector in its place */
+        use_cnn = 1;
+        cfg.sources |= VT_SRC_CLASSIFIER | ((fz_u8(&f) & 1) ? VT_SRC_EGO : 0);
+        ccfg.thr_offset = fz_range(&f, -40, 8); /* low: many boxes, some on the frame's last rows */
     }
     fz_status(vt_pipeline_cfg_check(fz_u8(&f) == 0xFF ? NULL : &cfg));
     fz_status(vt_camera_cfg_default(&g_cam));
@@ -55,6 +82,26 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     fz_status(s);
     if (s == VT_OK && model != NULL) {
         fz_status(vt_pipeline_set_cls_ws(&g_p, &g_cls, NULL));
+    }
+#ifdef PIPE_FUZZ_STATS
+    {
+        static int once;
+        if (!once) {
+            once = 1;
+            atexit(st_print);
+        }
+    }
+#endif
+    STAT(0, use_cnn);
+    if (s == VT_OK && use_cnn) {
+        /* a work buffer of the fuzzed size: short ones make the detection steps VT_E_CAPACITY */
+        size_t wb = (size_t)fz_range(&f, 0, (int32_t)sizeof g_cnn_work);
+        s = vt_pipeline_set_cnn(&g_p, &fw_cnn_model, &ccfg, g_cnn_work, fz_u8(&f) < 200 ? sizeof g_cnn_work : wb);
+        fz_status(s);
+        if (s == VT_OK) {
+            s = vt_pipeline_set_cls_ws(&g_p, &g_cls, NULL);
+            fz_status(s);
+        }
     }
     fz_status(vt_pipeline_work_size(fz_edge(&f, 1920), fz_edge(&f, 1080), fz_edge(&f, VT_MAX_WIDTH),
                                     fz_edge(&f, VT_MAX_HEIGHT), fz_u8(&f) == 0xFF ? NULL : &ww, &wh));
@@ -105,6 +152,24 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             FZ_ASSERT(g_out.n_boxes >= 0 && g_out.n_boxes <= VT_MAX_BOXES);
             for (i = 1; i < g_out.n_boxes; i++) { /* the ego boxes first */
                 FZ_ASSERT(g_out.boxes[i].source != VT_SRC_EGO || g_out.boxes[i - 1].source == VT_SRC_EGO);
+            }
+            STAT(1, use_cnn && g_out.detection_frame);
+            for (i = 0; use_cnn && g_out.detection_frame && i < g_out.n_boxes; i++) {
+                /* no CNN box left that the hood rule drops (horizon_y: the detector's camera) */
+                const vt_box *b = &g_out.boxes[i].box;
+                STAT(2, g_out.boxes[i].source == VT_SRC_CLASSIFIER);
+                const int32_t w = img.w, m = img.w / 64;
+                const int32_t hood = (int32_t)(((int64_t)img.h * g_p.cfg.road_camera.hood_q16 + 32768) >> 16);
+                const int64_t hz_num = (int64_t)img.h * g_p.cfg.road_camera.horizon_q16 + 32768;
+                const int32_t hz = g_p.horizon_known ? g_p.horizon_y
+                                                     : (int32_t)(hz_num >= 0 ? hz_num / 65536
+                                                                             : -((-hz_num + 65535) / 65536));
+                if (g_out.boxes[i].source == VT_SRC_CLASSIFIER && g_p.cfg.cnn_hood_min_width_mm > 0 &&
+                    b->bottom > (hood < 1 ? 1 : hood) && b->left > m && b->right < w - 1 - m) {
+                    STAT(3, 1);
+                    FZ_ASSERT((int64_t)(b->right - b->left + 1) * g_p.cfg.road_camera.height_mm >=
+                              (int64_t)g_p.cfg.cnn_hood_min_width_mm * (b->bottom - hz));
+                }
             }
             for (i = 0; i < g_out.n_tracks; i++) {
                 vt_q16 t = g_out.tracks[i].ttc_points_q16;

@@ -129,7 +129,8 @@ def _policy_defaults():
     c = _native.pipeline_cfg_default()
     road = next(k for k, v in ROAD_POLICIES.items() if getattr(lib, v) == c.road_policy)
     src = tuple(k for k, v in SOURCES.items() if c.sources & getattr(lib, v))
-    return int(c.detect_every), road, bool(c.lanes_every_frame), src, bool(c.track), bool(c.auto_hood)
+    return (int(c.detect_every), road, bool(c.lanes_every_frame), src, bool(c.track), bool(c.auto_hood),
+            int(c.cnn_hood_min_width_mm))
 
 
 _PD = _policy_defaults()
@@ -145,7 +146,10 @@ class PipelineConfig:
     and "ego" need a classifier, "flow" and "model" their settings: pyvehtrack.Pipeline;
     () for none: detections only from the caller); track: run the tracker (False: detection only);
     auto_hood: on detection frames look for the ego car's hood (hood: its settings) and end the
-    ego-lane detector's road above it, unless a camera file gives the hood row."""
+    ego-lane detector's road above it, unless a camera file gives the hood row;
+    cnn_hood_min_width_mm: the CNN detector's boxes below the hood row narrower than this many mm
+    at their row's flat-road distance, away from the frame's sides, are dropped (0: off;
+    vt_pipeline_cfg.cnn_hood_min_width_mm)."""
     lane: LaneConfig = field(default_factory=LaneConfig)
     shadow: ShadowConfig = field(default_factory=ShadowConfig)
     verify: VerifyConfig = field(default_factory=VerifyConfig)
@@ -158,6 +162,7 @@ class PipelineConfig:
     track: bool = _PD[4]
     auto_hood: bool = _PD[5]
     hood: HoodConfig = field(default_factory=HoodConfig)
+    cnn_hood_min_width_mm: int = _PD[6]
 
     def replace(self, **changes) -> "PipelineConfig":
         return dataclasses.replace(self, **changes)
@@ -270,6 +275,9 @@ def to_c(cfg: PipelineConfig):
         raise TypeError(f"auto_hood: expected a bool, got {type(cfg.auto_hood).__name__}")
     c.auto_hood = int(bool(cfg.auto_hood))
     _fill_ints(c.hood, cfg.hood, HoodConfig, "hood")
+    c.cnn_hood_min_width_mm = _int(cfg.cnn_hood_min_width_mm, "cnn_hood_min_width_mm")
+    if not 0 <= c.cnn_hood_min_width_mm <= 10000:
+        raise ValueError(f"cnn_hood_min_width_mm: {cfg.cnn_hood_min_width_mm} must be in 0..10000 (0: off)")
     _native.check("vt_hood_cfg_check", lib.vt_hood_cfg_check(ffi.addressof(c, "hood")), f"hood config {cfg.hood}")
     src = tuple(cfg.sources) if isinstance(cfg.sources, (tuple, list)) else None
     if src is None or any(s not in SOURCES for s in src):
@@ -311,7 +319,8 @@ def from_c(c) -> PipelineConfig:
                              fr.lane_bottom_permille / 1000, int(fr.top_margin)),
         detect_every=int(c.detect_every), road=road, lanes_every_frame=bool(c.lanes_every_frame),
         sources=tuple(k for k, v in SOURCES.items() if c.sources & getattr(lib, v)),
-        track=bool(c.track), auto_hood=bool(c.auto_hood), hood=ints(c.hood, HoodConfig))
+        track=bool(c.track), auto_hood=bool(c.auto_hood), hood=ints(c.hood, HoodConfig),
+        cnn_hood_min_width_mm=int(c.cnn_hood_min_width_mm))
 
 
 # ---------------------------------------------------------------- to the oracle
@@ -346,7 +355,7 @@ def to_reference(cfg: PipelineConfig, quantize: bool = True):
         verify=conv(q.verify, rverify.VerifyConfig), tracker=tracker, fixed_road=fr,
         detect_every=q.detect_every, road_policy=q.road, lanes_every_frame=q.lanes_every_frame,
         sources=q.sources, track=q.track, auto_hood=q.auto_hood,
-        hood=rhood.HoodConfig(**dataclasses.asdict(q.hood)))
+        hood=rhood.HoodConfig(**dataclasses.asdict(q.hood)), cnn_hood_min_width_mm=q.cnn_hood_min_width_mm)
 
 
 def reference_capacities():

@@ -25,7 +25,10 @@ rule). Then, for a size class "width >= S px":
 Lead vehicle: per frame, the ground-truth box whose bottom-centre is nearest the
 image's bottom-centre; recall = frames whose lead box is matched; precision = frames
 whose predicted lead (the prediction nearest the bottom-centre) overlaps the true lead
-at IoU >= 0.5 / frames with a prediction.
+at IoU >= 0.5 / frames with a prediction. The lead by size ("lead>=32px", "lead>=64px";
+the near leads a collision warning is about, where the plain lead row also counts far specks):
+recall over the frames whose true lead is at least S px wide, precision over the frames
+whose predicted lead is (right when it overlaps the true lead, of any width, at IoU >= 0.5).
 COCO AP50: pycocotools COCOeval (bbox, iouThrs = [0.5], all areas, maxDets 100);
 predictions without a score get score 1.0 (then AP50 is precision x recall on one
 operating point, as COCO interpolates it).
@@ -40,6 +43,7 @@ import numpy as np
 
 IOU_MIN = 0.5
 SIZE_CLASSES = (0, 32, 64)
+LEAD_SIZES = (32, 64)
 
 __all__ = ["FrameBoxes", "BoxScores", "load_gt", "load_pred", "pair_frames", "score",
            "format_scores", "box_iou_matrix", "lead_index", "errors", "error_sheet"]
@@ -59,10 +63,12 @@ class BoxScores:
     classes: dict = field(default_factory=dict)   # "all"/">=32px"/">=64px" -> dict
     lead: dict = field(default_factory=dict)
     ap50: float = float("nan")
+    lead_by_size: dict = field(default_factory=dict)   # "lead>=32px"/"lead>=64px" -> dict as lead
 
     def as_dict(self) -> dict:
         return {"frames": self.frames, "unscored_gt_frames": self.unscored_gt_frames,
-                "classes": self.classes, "lead": self.lead, "coco_ap50": self.ap50}
+                "classes": self.classes, "lead": self.lead, "coco_ap50": self.ap50,
+                "lead_by_size": self.lead_by_size}
 
 
 # ------------------------------------------------------------------------ loading
@@ -235,6 +241,7 @@ def score(gt: list[FrameBoxes], pred: list[FrameBoxes], image_size=(1280, 720)) 
     pairs, unscored = pair_frames(gt, pred)
     counts = {s: [0, 0, 0, 0] for s in SIZE_CLASSES}   # gt, gt matched, pred TP, pred FP
     lead = [0, 0, 0, 0]   # frames with a gt lead, matched; frames with a pred lead, correct
+    lead_s = {s: [0, 0, 0, 0] for s in LEAD_SIZES}   # the same, leads of width >= s
     for g, p in pairs:
         m = _match(g.boxes, p.boxes, p.scores)
         gw, pw = _widths(g.boxes), _widths(p.boxes)
@@ -250,11 +257,19 @@ def score(gt: list[FrameBoxes], pred: list[FrameBoxes], image_size=(1280, 720)) 
         if gl >= 0:
             lead[0] += 1
             lead[1] += int(matched_gt[gl])
+            for s in LEAD_SIZES:
+                if gw[gl] >= s:
+                    lead_s[s][0] += 1
+                    lead_s[s][1] += int(matched_gt[gl])
         pl = lead_index(p.boxes, w_img, h_img)
         if pl >= 0:
+            right = gl >= 0 and box_iou_matrix(p.boxes[pl], g.boxes[gl])[0, 0] >= IOU_MIN
             lead[2] += 1
-            if gl >= 0:
-                lead[3] += int(box_iou_matrix(p.boxes[pl], g.boxes[gl])[0, 0] >= IOU_MIN)
+            lead[3] += int(right)
+            for s in LEAD_SIZES:
+                if pw[pl] >= s:
+                    lead_s[s][2] += 1
+                    lead_s[s][3] += int(right)
 
     def ratio(a, b):
         return a / b if b else float("nan")
@@ -267,6 +282,9 @@ def score(gt: list[FrameBoxes], pred: list[FrameBoxes], image_size=(1280, 720)) 
                              "precision": ratio(tp, tp + fp)}
     out.lead = {"frames": lead[0], "recall": ratio(lead[1], lead[0]),
                 "pred_frames": lead[2], "precision": ratio(lead[3], lead[2])}
+    for s, (n, tp, npred, ok) in lead_s.items():
+        out.lead_by_size[f"lead>={s}px"] = {"frames": n, "recall": ratio(tp, n), "pred_frames": npred,
+                                            "precision": ratio(ok, npred)}
     out.ap50 = _coco_ap50(pairs) if pairs else float("nan")
     return out
 
@@ -280,9 +298,9 @@ def format_scores(s: BoxScores) -> str:
              f"{'vehicles':<12} {'gt':>6} {'recall':>7} {'pred':>6} {'precision':>9}   (IoU >= 0.5)"]
     for name, c in s.classes.items():
         lines.append(f"{name:<12} {c['gt']:>6} {pct(c['recall']):>7} {c['pred']:>6} {pct(c['precision']):>9}")
-    ld = s.lead
-    lines.append(f"{'lead':<12} {ld['frames']:>6} {pct(ld['recall']):>7} {ld['pred_frames']:>6} "
-                 f"{pct(ld['precision']):>9}")
+    for name, ld in [("lead", s.lead)] + list(s.lead_by_size.items()):
+        lines.append(f"{name:<12} {ld['frames']:>6} {pct(ld['recall']):>7} {ld['pred_frames']:>6} "
+                     f"{pct(ld['precision']):>9}")
     lines.append(f"COCO AP50 (pycocotools): {pct(s.ap50)}")
     return "\n".join(lines)
 

@@ -412,6 +412,7 @@ def test_pipeline_carries_the_band(engine):
             for r in b[:int(lib.VT_MAX_BOXES)]]
     bandless = C.detect_frame(m, gray, C.CnnConfig(first_level=0, n_levels=2, thr_offset=-30, cap_per_level=16))[0]
     assert len(want) >= 3 and not np.array_equal(b, bandless), "the band should change this scene's boxes"
-    pipe = Pipeline(engine, model=m, cnn_cfg=cfg, sources=("classifier",), road="fixed", detect_every=1, track=False)
+    pipe = Pipeline(engine, model=m, cnn_cfg=cfg, sources=("classifier",), road="fixed", detect_every=1, track=False,
+                    cnn_hood_min_width_mm=0)    # every box (the hood rule: test_pipeline_cnn)
     res = pipe.step(gray)
     assert [(x.box, x.source, x.score) for x in res.boxes] == want

@@ -223,6 +223,7 @@ def test_pipeline_carries_the_upsampled_band(engine):
     assert not np.array_equal(b, without), "the band should change this scene's boxes"
     want = [((int(r[0]), int(r[1]), int(r[2]), int(r[3])), "classifier", int(r[4]) * m.heat_scale_q16 / 65536)
             for r in b[:int(lib.VT_MAX_BOXES)]]
-    pipe = Pipeline(engine, model=m, cnn_cfg=cfg, sources=("classifier",), road="fixed", detect_every=1, track=False)
+    pipe = Pipeline(engine, model=m, cnn_cfg=cfg, sources=("classifier",), road="fixed", detect_every=1, track=False,
+                    cnn_hood_min_width_mm=0)    # every box (the hood rule: test_pipeline_cnn)
     res = pipe.step(gray)
     assert [(x.box, x.source, x.score) for x in res.boxes] == want

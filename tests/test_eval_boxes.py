@@ -50,6 +50,15 @@ def test_scores_by_hand():
     ld = s.lead
     assert (ld["frames"], ld["pred_frames"]) == (2, 2)
     assert ld["recall"] == pytest.approx(0.5) and ld["precision"] == pytest.approx(0.5)
+    # by the lead's width: both true leads are >= 32 px (40, 80), both predicted leads too
+    # (40, 80): as the plain row. >= 64 px: frame b's true lead (80, missed) and its
+    # predicted lead (80 px wide, IoU 0.4545: wrong); frame a's 40-px leads are left out.
+    l32, l64 = s.lead_by_size["lead>=32px"], s.lead_by_size["lead>=64px"]
+    assert (l32["frames"], l32["pred_frames"], l32["recall"], l32["precision"]) == (2, 2, 0.5, 0.5)
+    assert (l64["frames"], l64["pred_frames"], l64["recall"], l64["precision"]) == (1, 1, 0.0, 0.0)
+    text = eb.format_scores(s).splitlines()
+    assert [ln.split()[0] for ln in text[2:]] == ["all", ">=32px", ">=64px", "lead", "lead>=32px",
+                                                  "lead>=64px", "COCO"]
     # COCO AP50, by hand: detections by score 0.95 FP, 0.9 TP, 0.8 TP, 0.5 FP over 4 gt;
     # precision envelope up to recall 0.5 is 2/3; 101-point interpolation: recall points
     # 0..0.50 (51 of 101) at 2/3, the rest 0.

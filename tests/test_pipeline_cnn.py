@@ -60,7 +60,7 @@ def test_pipeline_boxes_are_detect_frame_boxes(engine):
     want = _expected(m, gray)
     assert len(want) >= 3, "the drawn model finds too little to compare"
     pipe = Pipeline(engine, model=m, cnn_cfg=CFG, sources=("classifier",), road="fixed", detect_every=1,
-                    track=False)
+                    track=False, cnn_hood_min_width_mm=0)     # the hood rule off: every box (next test)
     for _ in range(2):
         res = pipe.step(gray)
         assert res.detection_frame and res.road_source == "camera"
@@ -68,6 +68,53 @@ def test_pipeline_boxes_are_detect_frame_boxes(engine):
         assert len(res.hypotheses) == 0    # no shadow hypotheses beside the CNN
     if engine == "c":
         assert res.stats["n_cand"] == C.detect_frame(m, gray, CFG)[1] and res.stats["n_windows"] == 0
+
+
+@pytest.mark.parametrize("min_mm", [600, 300, 2000])
+def test_cnn_boxes_on_the_hood_are_dropped(min_mm):
+    """vt_pipeline_cfg.cnn_hood_min_width_mm: of detect_frame's boxes, exactly those whose
+    bottom b is below the hood row (b > hood_y), that are more than w // 64 px from both sides
+    and narrower than min_mm at the row's flat-road distance ((r - l + 1) height_mm <
+    min_mm (b - horizon_y)) are gone; the rest keep their order. The arithmetic is written
+    out here (integers, no tolerance), and C and the oracle agree."""
+    m = tiny_model()
+    gray = scene()
+    h, w = gray.shape
+    want_all = _expected(m, gray)
+    hood_y = max(1, (h * 60948 + 32768) // 65536)    # VT_ROAD_CAMERA_DEFAULT's hood_q16, half up
+    got = {}
+    for engine in ("c", "reference"):
+        pipe = Pipeline(engine, model=m, cnn_cfg=CFG, sources=("classifier",), road="fixed", detect_every=1,
+                        track=False, cnn_hood_min_width_mm=min_mm)
+        res = pipe.step(gray)
+        hy = res.stats["horizon_y"]
+        keep = [b for b in want_all
+                if not (b[0][3] > hood_y and b[0][0] > w // 64 and b[0][2] < w - 1 - w // 64
+                        and (b[0][2] - b[0][0] + 1) * 1800 < min_mm * (b[0][3] - hy))]
+        assert _got(res) == keep, engine
+        got[engine] = keep
+    assert got["c"] == got["reference"]
+    # not vacuous: the drawn scene has small boxes on its last rows, and a box the frame's
+    # side cuts down there stays
+    assert len(got["c"]) < len(want_all)
+    low = [b for b in want_all if b[0][3] > hood_y]
+    assert any(b in got["c"] for b in low) or min_mm == 2000
+
+
+def test_cnn_hood_rule_bad_values():
+    with pytest.raises(ValueError, match="cnn_hood_min_width_mm"):
+        Pipeline("c", cnn_hood_min_width_mm=-1)
+    with pytest.raises(ValueError, match="cnn_hood_min_width_mm"):
+        Pipeline("c", cnn_hood_min_width_mm=10001)
+    with pytest.raises(ValueError, match="cnn_hood_min_width_mm"):
+        Pipeline("c", cnn_hood_min_width_mm=0.5)
+    with pytest.raises(TypeError, match="cnn_hood_min_width_mm"):
+        Pipeline("c", cnn_hood_min_width_mm="600")
+    c = ffi.new("vt_pipeline_cfg *")
+    assert lib.vt_pipeline_cfg_default(c) == lib.VT_OK and c.cnn_hood_min_width_mm == 600
+    for bad in (-1, 10001):
+        c.cnn_hood_min_width_mm = bad
+        assert lib.vt_pipeline_cfg_check(c) == lib.VT_E_ARG
 
 
 def test_pipeline_from_a_cnn_file_and_second_stage_skipped(tmp_path):
@@ -106,7 +153,8 @@ def test_pipeline_tracks_cnn_boxes_and_grows_its_work():
     a larger frame after a smaller one grows the work buffer (re-attached), the boxes stay
     detect_frame's."""
     m = tiny_model(4)
-    pipe = Pipeline(model=m, cnn_cfg=CFG, sources=("classifier",), road="fixed", detect_every=1)
+    pipe = Pipeline(model=m, cnn_cfg=CFG, sources=("classifier",), road="fixed", detect_every=1,
+                    cnn_hood_min_width_mm=0)
     small, big = scene(160, 90, 4), scene(320, 180, 4)
     res = pipe.step(small)
     n0 = pipe._cnn_work.size
@@ -145,6 +193,7 @@ def _c_pipeline(horizon_q16=None):
     pc.road_policy = lib.VT_ROAD_FIXED
     pc.track = 0
     pc.detect_every = 1
+    pc.cnn_hood_min_width_mm = 0     # every box of detect_frame's (the hood rule: its own test)
     if horizon_q16 is not None:
         pc.road_camera.horizon_q16 = horizon_q16
     assert lib.vt_pipeline_init(p, pc, ffi.NULL, ffi.NULL) == lib.VT_OK

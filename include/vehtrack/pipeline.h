@@ -229,6 +229,19 @@ typedef struct {
                                 the distance/rate TTC), and before the lead class waited
                                 for a known rate it warned late once (README, "The
                                 warning on the fused TTC")                               */
+    int32_t cnn_hood_min_width_mm; /* 0..10000 (0: off). The CNN detector's boxes on the
+                                hood: a box whose bottom row b is below the road camera's
+                                hood row (b > hood_y), which is more than w / 64 px (w the
+                                frame width, integer division) from both sides of the frame,
+                                and for which width x height_mm < this x (b - horizon_y)
+                                (inclusive width; int64; horizon_y and hood_y as the
+                                whole-road detector's camera places them) is dropped: at
+                                that row's flat-road distance it is narrower than this many
+                                mm, narrower than any vehicle. A reflection on the ego car's
+                                hood or debris on the road, not a car; a near car down there
+                                is 0.7-2.3 m wide, and one the frame's side cuts is kept.
+                                The ACF stage and the windows keep b < hood_y outright.
+                                Default 600 (README, "No box on the hood")              */
 } vt_pipeline_cfg;
 
 #define VT_PIPELINE_CFG_DEFAULT                                   \
@@ -261,6 +274,7 @@ typedef struct {
         .auto_hood = 1,                                           \
         .hood = VT_HOOD_CFG_DEFAULT,                              \
         .fcw_fused = 0,                                           \
+        .cnn_hood_min_width_mm = 600,                             \
     }
 
 /* The whole-road detector's scratch, owned by the caller and attached with

@@ -64,6 +64,7 @@ typedef struct {
     int32_t auto_hood;
     vt_hood_cfg hood;
     int32_t fcw_fused;
+    int32_t cnn_hood_min_width_mm;
 } vt_pipeline_cfg;
 
 typedef struct {

@@ -160,6 +160,22 @@ class PipelineRefConfig:
     road_above_hood: bool = False  # the ego detector's road ends above road_camera's hood row
     auto_hood: bool = True    # else, above the hood found in the frame (reference.hood), if any
     hood: rhood.HoodConfig = field(default_factory=rhood.HoodConfig)
+    cnn_hood_min_width_mm: int = 600  # the CNN's boxes on the hood are dropped (cnn_hood_drop)
+
+
+def cnn_hood_drop(rows: np.ndarray, cam, w: int, min_w_mm: int) -> np.ndarray:
+    """vt_pipeline_cfg.cnn_hood_min_width_mm's rule: drop the boxes (rows l, t, r, b, ...,
+    inclusive) whose bottom b is below the hood row (b > cam.hood_y), more than w // 64 px
+    from both sides, and narrower than min_w_mm at that row's flat-road distance:
+    (r - l + 1) height_mm < min_w_mm (b - horizon_y). The others keep their order."""
+    rows = np.asarray(rows, np.int64)
+    if min_w_mm <= 0 or len(rows) == 0:
+        return rows
+    m = w // 64
+    l, r, b = rows[:, 0], rows[:, 2], rows[:, 3]
+    drop = ((b > cam.hood_y) & (l > m) & (r < w - 1 - m)
+            & ((r - l + 1) * int(round(cam.height_m * 1000)) < min_w_mm * (b - cam.horizon_y)))
+    return rows[~drop]
 
 
 @dataclass
@@ -669,8 +685,9 @@ class Pipeline:
         fc = replace(c.fulldet, shadow_source=SRC_SHADOW in c.sources,
                      window_source=SRC_CLASSIFIER in c.sources)
         if self.cnn is not None:
-            return self._merge_whole(gray, road, source, ego_hyp, ego_boxes, ego_scores, fc,
-                                     np.asarray(self.cnn(gray), np.int64).reshape(-1, 6), None, stats)
+            rows = cnn_hood_drop(np.asarray(self.cnn(gray), np.int64).reshape(-1, 6), cam, w,
+                                 c.cnn_hood_min_width_mm)
+            return self._merge_whole(gray, road, source, ego_hyp, ego_boxes, ego_scores, fc, rows, None, stats)
         arr, st = rfd.detect(gray, road, cam, fc, self.score, max_windows=self.caps.max_windows,
                              max_cand=self.caps.max_cand, max_boxes=self.caps.max_boxes,
                              max_hyp=self.caps.max_hypotheses,
