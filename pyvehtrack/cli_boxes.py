@@ -2,7 +2,7 @@
 style ground truth (pyvehtrack.eval_boxes does the scoring).
 
     pyvehtrack eval-boxes --gt annotation.json --pred found.json [--image-size 1280x720]
-                          [--json scores.json] [--sheet errors.png [--images DIR]]
+                          [--json scores.json] [--sheet errors.png] [--lead-sheet leads.png] [--images DIR]
 """
 from __future__ import annotations
 
@@ -31,6 +31,10 @@ def register_eval_boxes(sub) -> None:
     p.add_argument("--sheet", metavar="OUT.png",
                    help="a picture of what went wrong: the missed vehicles and the false boxes >= 32 px wide, "
                         "each cut from its frame (needs the frames: --images)")
+    p.add_argument("--lead-sheet", metavar="OUT.png",
+                   help="a picture of the frames whose near lead (>= 32 px wide, the lead>=32px row) was missed "
+                        "or whose predicted near lead is wrong: each whole frame with every labelled and found "
+                        "box, the two leads thick (needs the frames: --images)")
     p.add_argument("--images", metavar="DIR", default=None,
                    help="the folder the --gt file names are relative to (default: the --gt file's folder)")
     p.set_defaults(func=run_eval_boxes)
@@ -54,13 +58,14 @@ def run_eval_boxes(args) -> int:
             raise ValueError
     except ValueError:
         raise CliError(f"--image-size {args.image_size}: expected WxH with positive integers") from None
-    for flag, v in (("json", args.json), ("sheet", args.sheet)):
+    for flag, v in (("json", args.json), ("sheet", args.sheet), ("lead-sheet", args.lead_sheet)):
         if v and not Path(v).parent.exists():
             raise CliError(f"--{flag} {v}: folder {Path(v).parent} does not exist")
-    if args.sheet and Path(args.sheet).suffix.lower() not in (".png", ".jpg", ".jpeg"):
-        raise CliError(f"--sheet {args.sheet}: expected a .png or .jpg name")
-    if args.images and not args.sheet:
-        raise CliError("--images is read only with --sheet")
+    for flag, v in (("sheet", args.sheet), ("lead-sheet", args.lead_sheet)):
+        if v and Path(v).suffix.lower() not in (".png", ".jpg", ".jpeg"):
+            raise CliError(f"--{flag} {v}: expected a .png or .jpg name")
+    if args.images and not (args.sheet or args.lead_sheet):
+        raise CliError("--images is read only with --sheet or --lead-sheet")
     try:
         gt = eb.load_gt(_read_json(args.gt, "--gt"))
     except ValueError as e:
@@ -78,12 +83,14 @@ def run_eval_boxes(args) -> int:
         Path(args.json).write_text(json.dumps(s.as_dict(), indent=1) + "\n")
     if args.sheet:
         _write_sheet(args, gt, pred)
+    if args.lead_sheet:
+        _write_lead_sheet(args, gt, pred, (w, h))
     return 0
 
 
-def _write_sheet(args, gt, pred) -> None:
+def _frame_loader(args, flag: str):
+    """load(name) -> the frame under --images (default: the --gt file's folder); CliError naming flag."""
     import cv2  # noqa: PLC0415
-    from . import eval_boxes as eb
     root = Path(args.images) if args.images else Path(args.gt).parent
     if not root.is_dir():
         raise CliError(f"--images {root}: no such folder")
@@ -91,13 +98,32 @@ def _write_sheet(args, gt, pred) -> None:
     def load(name):
         img = cv2.imread(str(root / name), cv2.IMREAD_COLOR)
         if img is None:
-            raise CliError(f"--sheet: cannot read the frame {root / name} (--images names the folder the "
+            raise CliError(f"{flag}: cannot read the frame {root / name} (--images names the folder the "
                            "--gt file names are relative to)")
         return img
+    return load
 
+
+def _write_sheet(args, gt, pred) -> None:
+    import cv2  # noqa: PLC0415
+    from . import eval_boxes as eb
+    load = _frame_loader(args, "--sheet")
     errs = eb.errors(gt, pred)
     sheet = eb.error_sheet(errs, load)
     if not cv2.imwrite(str(args.sheet), sheet):
         raise CliError(f"--sheet {args.sheet}: could not be written")
     n_miss = sum(e["kind"] == "missed" for e in errs)
     print(f"sheet: {args.sheet} ({n_miss} missed, {len(errs) - n_miss} false, >= 32 px)")
+
+
+def _write_lead_sheet(args, gt, pred, size) -> None:
+    import cv2  # noqa: PLC0415
+    from . import eval_boxes as eb
+    load = _frame_loader(args, "--lead-sheet")
+    ent = eb.lead_errors(gt, pred, size)
+    if not cv2.imwrite(str(args.lead_sheet), eb.lead_sheet(ent, load)):
+        raise CliError(f"--lead-sheet {args.lead_sheet}: could not be written")
+    n_miss = sum("missed" in e["kinds"] for e in ent)
+    n_wrong = sum("wrong" in e["kinds"] for e in ent)
+    print(f"lead sheet: {args.lead_sheet} ({len(ent)} frames: near lead missed in {n_miss}, "
+          f"predicted near lead wrong in {n_wrong})")

@@ -46,7 +46,7 @@ SIZE_CLASSES = (0, 32, 64)
 LEAD_SIZES = (32, 64)
 
 __all__ = ["FrameBoxes", "BoxScores", "load_gt", "load_pred", "pair_frames", "score",
-           "format_scores", "box_iou_matrix", "lead_index", "errors", "error_sheet"]
+           "format_scores", "box_iou_matrix", "lead_index", "errors", "error_sheet", "lead_errors", "lead_sheet"]
 
 
 @dataclass
@@ -378,3 +378,80 @@ def error_sheet(errs: list[dict], load_image, tile=(160, 120), cols: int = 8, pe
                 for i in range(0, len(tiles), cols)]
         bands += [head] + rows
     return np.vstack(bands)
+
+
+def lead_errors(gt: list[FrameBoxes], pred: list[FrameBoxes], image_size=(1280, 720), min_w: float = 32) -> list[dict]:
+    """The frames behind score()'s "lead>=<min_w>px" row that went wrong, in frame order: the
+    true lead is at least min_w px wide and not matched ("missed" in `kinds`), and/or the
+    predicted lead is at least min_w px wide and does not overlap the true lead at IoU >= 0.5
+    ("wrong"). Each entry: file, kinds, gt_lead and pred_lead ([l, t, r, b] or None), the
+    IoU of the two (0 when either is missing), the predicted lead's score (or None), and the
+    frame's boxes (gt, pred) for drawing. The "missed" count is that row's frames minus its
+    matched ones, the "wrong" count its pred_frames minus its right ones."""
+    w_img, h_img = (float(v) for v in image_size)
+    pairs, _ = pair_frames(gt, pred)
+    out = []
+    for g, p in pairs:
+        m = _match(g.boxes, p.boxes, p.scores)
+        matched = np.zeros(len(g.boxes), bool)
+        matched[m[m >= 0]] = True
+        gl, pl = lead_index(g.boxes, w_img, h_img), lead_index(p.boxes, w_img, h_img)
+        iou = float(box_iou_matrix(p.boxes[pl], g.boxes[gl])[0, 0]) if gl >= 0 and pl >= 0 else 0.0
+        kinds = []
+        if gl >= 0 and _widths(g.boxes)[gl] >= min_w and not matched[gl]:
+            kinds.append("missed")
+        if pl >= 0 and _widths(p.boxes)[pl] >= min_w and not iou >= IOU_MIN:
+            kinds.append("wrong")
+        if kinds:
+            out.append({"file": g.file, "kinds": kinds, "iou": iou,
+                        "gt_lead": g.boxes[gl].tolist() if gl >= 0 else None,
+                        "pred_lead": p.boxes[pl].tolist() if pl >= 0 else None,
+                        "score": None if pl < 0 or p.scores is None else float(p.scores[pl]),
+                        "gt": g.boxes.tolist(), "pred": p.boxes.tolist()})
+    return out
+
+
+def lead_sheet(entries: list[dict], load_image, tile=(480, 270), cols: int = 3, most: int = 60) -> np.ndarray:
+    """A contact sheet (BGR uint8) of lead_errors() entries, whole frames scaled to `tile`, for
+    a person to look at where the lead went wrong and what else was there: every labelled box
+    thin green, the true lead thick green, every predicted box thin orange, the predicted lead
+    thick red; captioned with the file, what went wrong, the IoU of the two leads and the
+    predicted lead's score. load_image(file) returns the frame (gray or BGR) or raises."""
+    import cv2  # noqa: PLC0415  (drawing only)
+    tw, th = int(tile[0]), int(tile[1])
+    if tw < 80 or th < 60 or cols < 1 or most < 1:
+        raise ValueError(f"lead_sheet: tile {tile} (>= 80x60), cols {cols}, most {most} (>= 1)")
+    head = np.zeros((24, cols * tw, 3), np.uint8)
+    shown = f" (first {most} shown)" if len(entries) > most else ""
+    cv2.putText(head, f"frames with a missed or wrong near lead: {len(entries)}{shown}  "
+                "(green: labels, thick: the lead; orange: found, red: the found lead)", (6, 17),
+                cv2.FONT_HERSHEY_SIMPLEX, 0.5, (255, 255, 255), 1)
+    tiles = []
+    for e in entries[:most]:
+        img = load_image(e["file"])
+        img = cv2.cvtColor(img, cv2.COLOR_GRAY2BGR) if img.ndim == 2 else img.copy()
+        k = min(tw / img.shape[1], th / img.shape[0])
+
+        def rect(b, colour, thick):
+            l, t, r, bt = (int(round(v * k)) for v in b)
+            cv2.rectangle(small, (l, t), (r, bt), colour, thick)
+        small = cv2.resize(img, (max(1, int(img.shape[1] * k)), max(1, int(img.shape[0] * k))),
+                           interpolation=cv2.INTER_AREA)
+        for b in e["gt"]:
+            rect(b, (0, 160, 0), 1)
+        for b in e["pred"]:
+            rect(b, (0, 140, 255), 1)
+        if e["gt_lead"] is not None:
+            rect(e["gt_lead"], (0, 255, 0), 2)
+        if e["pred_lead"] is not None:
+            rect(e["pred_lead"], (0, 0, 255), 2)
+        t_img = np.zeros((th, tw, 3), np.uint8)
+        t_img[:small.shape[0], :small.shape[1]] = small
+        name = str(e["file"]).replace("\\", "/").rsplit("/", 1)[-1]
+        sc = "" if e["score"] is None else f" s {e['score']:.2f}"
+        cv2.putText(t_img, f"{name} {'+'.join(e['kinds'])} IoU {e['iou']:.2f}{sc}", (4, 14),
+                    cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 255, 255), 1)
+        tiles.append(t_img)
+    rows = [np.hstack(tiles[i:i + cols] + [np.zeros((th, tw, 3), np.uint8)] * (cols - len(tiles[i:i + cols])))
+            for i in range(0, len(tiles), cols)]
+    return np.vstack([head] + rows)

@@ -171,6 +171,56 @@ def test_cli_sheet(tmp_path, capsys):
     assert cli_main(["eval-boxes", "--gt", str(gt), "--pred", str(pred), "--sheet", str(sheet)]) == 2
     assert "cannot read the frame" in capsys.readouterr().err
     assert cli_main(["eval-boxes", "--gt", str(gt), "--pred", str(pred), "--images", str(tmp_path)]) == 2
-    assert "--images is read only with --sheet" in capsys.readouterr().err
+    assert "--images is read only with --sheet or --lead-sheet" in capsys.readouterr().err
     assert cli_main(["eval-boxes", "--gt", str(gt), "--pred", str(pred), "--sheet", str(tmp_path / "e.txt")]) == 2
     assert "--sheet" in capsys.readouterr().err
+
+
+def test_lead_errors_are_the_lead_rows_misses():
+    """lead_errors: the frames behind the lead>=S px rows that went wrong. In the fixture frame a
+    is right (its 40-px lead boxed exactly, and the predicted lead is that box); frame b's 80-px
+    lead is missed and its predicted lead (IoU 0.4545) is wrong: one entry, both kinds. The
+    counts equal the rows' (missed = frames - matched, wrong = pred_frames - right)."""
+    gt, pred = eb.load_gt(GT), eb.load_pred(PRED)
+    for s in (32, 64):
+        ent = eb.lead_errors(gt, pred, (100, 100), min_w=s)
+        assert [(e["file"], e["kinds"]) for e in ent] == [("supp_img/0002.jpg", ["missed", "wrong"])]
+        assert ent[0]["iou"] == pytest.approx(4000 / 8800) and ent[0]["score"] == 0.5
+        assert ent[0]["gt_lead"] == [10, 19, 89, 98] and ent[0]["pred_lead"] == [40, 19, 119, 98]
+        row = eb.score(gt, pred, (100, 100)).lead_by_size[f"lead>={s}px"]
+        assert sum("missed" in e["kinds"] for e in ent) == row["frames"] - round(row["recall"] * row["frames"])
+        assert sum("wrong" in e["kinds"] for e in ent) == row["pred_frames"] - round(
+            row["precision"] * row["pred_frames"])
+    # wider than every lead: nothing to show
+    assert eb.lead_errors(gt, pred, (100, 100), min_w=100) == []
+    # frame a's lead predicted 5 px off (IoU 1400/1800): still right; 25 px off (IoU 600/2600): missed and wrong
+    for dx, kinds in ((5, None), (25, ["missed", "wrong"])):
+        moved = [dict(PRED[0], boxes=[[30 + dx, 60, 69 + dx, 99, 0.9]])]
+        ent = eb.lead_errors(gt[:1], eb.load_pred(moved), (100, 100))
+        assert (ent[0]["kinds"] if ent else None) == kinds, dx
+
+
+def test_cli_lead_sheet(tmp_path, capsys):
+    """--lead-sheet: a header and one tile per frame with a missed or wrong near lead, the
+    whole frame with the boxes drawn (the true lead thick green, the predicted one thick red)."""
+    import cv2
+    (tmp_path / "supp_img").mkdir()
+    for f in ("0001.jpg", "0002.jpg"):
+        cv2.imwrite(str(tmp_path / "supp_img" / f), np.full((100, 100, 3), 128, np.uint8))
+    gt, pred, sheet = tmp_path / "gt.json", tmp_path / "pred.json", tmp_path / "leads.png"
+    gt.write_text(json.dumps(GT))
+    pred.write_text(json.dumps(PRED))
+    assert cli_main(["eval-boxes", "--gt", str(gt), "--pred", str(pred), "--image-size", "100x100",
+                     "--lead-sheet", str(sheet)]) == 0
+    assert "1 frames: near lead missed in 1, predicted near lead wrong in 1" in capsys.readouterr().out
+    img = cv2.imread(str(sheet))
+    assert img.shape == (24 + 270, 3 * 480, 3)
+    tile = img[24:, :480]
+    assert ((tile[:, :, 1] > 200) & (tile[:, :, 2] < 60) & (tile[:, :, 0] < 60)).any()   # green lead
+    assert ((tile[:, :, 2] > 200) & (tile[:, :, 1] < 60) & (tile[:, :, 0] < 60)).any()   # red lead
+    assert cli_main(["eval-boxes", "--gt", str(gt), "--pred", str(pred), "--lead-sheet",
+                     str(tmp_path / "l.txt")]) == 2
+    assert "--lead-sheet" in capsys.readouterr().err
+    (tmp_path / "supp_img" / "0002.jpg").unlink()
+    assert cli_main(["eval-boxes", "--gt", str(gt), "--pred", str(pred), "--lead-sheet", str(sheet)]) == 2
+    assert "--lead-sheet: cannot read the frame" in capsys.readouterr().err
