@@ -124,6 +124,10 @@ def test_cli_detect_model_scores(tmp_path, capsys):
     assert rc == 0 and (tmp_path / "a.png").is_file()
     entry = json.loads(js.read_text())[0]
     assert entry["boxes"] and all(len(b) == 5 and isinstance(b[4], float) for b in entry["boxes"])
+    # what found each box, as the Detector says (its result's sources), one per box
+    res = Detector(model=str(MODEL)).detect(cv2.imread(str(FRAME), cv2.IMREAD_GRAYSCALE))
+    assert entry["box_sources"] == [str(x) for x in res.sources] and len(entry["box_sources"]) == len(entry["boxes"])
+    assert set(entry["box_sources"]) <= {"ego", "windows", "shadow"}
     # eval-boxes reads it back (file names match by base name)
     gt = tmp_path / "gt.json"
     gt.write_text(json.dumps([{"file_name": FRAME.name, "bbox": [dict(zip(("left", "top", "right", "bottom"),

@@ -6,7 +6,10 @@
 At least one of --out and --json. The JSON is a list with one entry per frame:
 {"frame": input-order index, "file": its file, "lanes": [{"side": "left"|"right", "points":
 [[x, y], ...]}], "boxes": [[left, top, right, bottom], ...]} in input pixels (inclusive boxes).
-With --camera CAMERA.json each entry also has "distance_m": one flat-road distance per box
+In the full-road mode (a model) each entry also has "box_sources": one name per box, what found
+it ("ego": the thesis's ego-lane detector; "windows": the classifier / CNN over the whole road;
+"shadow": a whole-road shadow hypothesis). With --camera CAMERA.json each entry also has
+"distance_m": one flat-road distance per box
 (eq. 1 of the IVVI paper at the box's bottom row, pitch from the lanes' vanishing point;
 null when the bottom row is at or above the horizon or on the frame's last row).
 """
@@ -56,13 +59,17 @@ def detection_json(frame: int, file: str, res) -> dict:
     """One frame's entry of `detect --json`, input pixels, plain ints. Lanes are the two
     ego lines ("left", "right"); the outer lines the lane stage may find are drawn only.
     In the full-road mode a box carries its classifier score as a 5th element:
-    [left, top, right, bottom, score]."""
+    [left, top, right, bottom, score], and "box_sources" names what found each box."""
     scores = getattr(res, "scores", None)
-    return {"frame": frame, "file": file,
-            "lanes": [{"side": ln.side, "points": [[int(x), int(y)] for x, y in ln.points]}
-                      for ln in res.lanes if ln.side in ("left", "right")],
-            "boxes": [[int(v) for v in b] + ([] if scores is None else [round(float(scores[k]), 4)])
-                      for k, b in enumerate(res.boxes)]}
+    sources = getattr(res, "sources", None)
+    entry = {"frame": frame, "file": file,
+             "lanes": [{"side": ln.side, "points": [[int(x), int(y)] for x, y in ln.points]}
+                       for ln in res.lanes if ln.side in ("left", "right")],
+             "boxes": [[int(v) for v in b] + ([] if scores is None else [round(float(scores[k]), 4)])
+                       for k, b in enumerate(res.boxes)]}
+    if sources is not None:
+        entry["box_sources"] = [str(x) for x in sources]
+    return entry
 
 
 def register(sub) -> None:
