@@ -511,7 +511,13 @@ def _two_frames(tmp_path):
 def _check_schema(entries, files):
     assert isinstance(entries, list) and len(entries) == len(files)
     for i, e in enumerate(entries):
-        assert set(e) == {"frame", "file", "lanes", "boxes"}
+        # the four keys of the contract; from a classifier (the default model) also "box_sources",
+        # one name per box (added 2026-11-30, ninth session)
+        assert set(e) in ({"frame", "file", "lanes", "boxes"}, {"frame", "file", "lanes", "boxes", "box_sources"})
+        if "box_sources" in e:
+            assert len(e["box_sources"]) == len(e["boxes"])
+            assert set(e["box_sources"]) <= {"ego", "windows", "shadow"}
+            assert all(len(b) == 5 for b in e["boxes"])
         assert e["frame"] == i and e["file"] == files[i]
         for ln in e["lanes"]:
             assert set(ln) == {"side", "points"} and ln["side"] in ("left", "right")
