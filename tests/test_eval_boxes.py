@@ -148,16 +148,24 @@ def test_errors_are_the_class_s_misses_and_false_boxes():
     assert len(eb.errors(gt, pred, min_w=0)) == 4   # + nothing: the 20-px car is matched
 
 
-def test_cli_sheet(tmp_path, capsys):
-    """--sheet: a picture with a band per kind; the frames come from --images (default: the
-    --gt file's folder); a frame that cannot be read or --images without --sheet is a clear error."""
+def _fixture_files(tmp_path):
+    """The fixture's two frames (gray 128) under tmp_path/supp_img and its gt / pred JSON files."""
     import cv2
     (tmp_path / "supp_img").mkdir()
     for f in ("0001.jpg", "0002.jpg"):
         cv2.imwrite(str(tmp_path / "supp_img" / f), np.full((100, 100, 3), 128, np.uint8))
-    gt, pred, sheet = tmp_path / "gt.json", tmp_path / "pred.json", tmp_path / "errors.png"
+    gt, pred = tmp_path / "gt.json", tmp_path / "pred.json"
     gt.write_text(json.dumps(GT))
     pred.write_text(json.dumps(PRED))
+    return gt, pred
+
+
+def test_cli_sheet(tmp_path, capsys):
+    """--sheet: a picture with a band per kind; the frames come from --images (default: the
+    --gt file's folder); a frame that cannot be read or --images without --sheet is a clear error."""
+    import cv2
+    gt, pred = _fixture_files(tmp_path)
+    sheet = tmp_path / "errors.png"
     assert cli_main(["eval-boxes", "--gt", str(gt), "--pred", str(pred), "--image-size", "100x100",
                      "--sheet", str(sheet)]) == 0
     assert "2 missed, 2 false" in capsys.readouterr().out
@@ -204,12 +212,8 @@ def test_cli_lead_sheet(tmp_path, capsys):
     """--lead-sheet: a header and one tile per frame with a missed or wrong near lead, the
     whole frame with the boxes drawn (the true lead thick green, the predicted one thick red)."""
     import cv2
-    (tmp_path / "supp_img").mkdir()
-    for f in ("0001.jpg", "0002.jpg"):
-        cv2.imwrite(str(tmp_path / "supp_img" / f), np.full((100, 100, 3), 128, np.uint8))
-    gt, pred, sheet = tmp_path / "gt.json", tmp_path / "pred.json", tmp_path / "leads.png"
-    gt.write_text(json.dumps(GT))
-    pred.write_text(json.dumps(PRED))
+    gt, pred = _fixture_files(tmp_path)
+    sheet = tmp_path / "leads.png"
     assert cli_main(["eval-boxes", "--gt", str(gt), "--pred", str(pred), "--image-size", "100x100",
                      "--lead-sheet", str(sheet)]) == 0
     assert "1 frames: near lead missed in 1, predicted near lead wrong in 1" in capsys.readouterr().out
