@@ -93,6 +93,16 @@ def npz_file(path, name: str) -> None:
                          f"{head!r})")
 
 
+def warning_options(ego_speed, warn_ttc) -> None:
+    """The warning's options of `track`, `report` and `batch` checked (ValueError naming them):
+    ego_speed a number >= 0 m/s or None (unknown), warn_ttc "distance" or "fused"."""
+    if ego_speed is not None and (isinstance(ego_speed, bool) or not isinstance(ego_speed, (int, float))
+                                  or not math.isfinite(ego_speed) or ego_speed < 0):
+        raise ValueError(f"ego_speed must be a number >= 0 m/s or None, got {ego_speed!r}")
+    if warn_ttc not in ("distance", "fused"):
+        raise ValueError(f"warn_ttc must be 'distance' or 'fused', got {warn_ttc!r}")
+
+
 def range_options(rear_offset, bottom_height, path_half_width, *, camera: bool, height_m=None,
                   spell=lambda k: k) -> dict:
     """The range stage's command-line corrections (camera.RangeEstimator's rear_offset,

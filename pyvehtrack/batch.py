@@ -50,6 +50,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ._check import warning_options
 from .report.records import IMAGE_EXTS, VIDEO_EXTS, companion_files
 
 MARK_DONE, MARK_FAILED = "DONE", "FAILED"
@@ -264,13 +265,11 @@ def _range_opts(rear_offset, bottom_height, path_half_width, ego_speed, warn_ttc
             raise ValueError(f"{name} must be a number in [{lo}, {hi:g}] {unit}, got {v!r}")
         return float(v)
 
+    warning_options(ego_speed, warn_ttc)
     vals = {"rear_offset": number("rear_offset", rear_offset, 0, 5, "m"),
             "bottom_height": number("bottom_height", bottom_height, 0, math.inf, "m"),
             "path_half_width": number("path_half_width", path_half_width, 0, 10, "m"),
-            "ego_speed": None if ego_speed is None else number("ego_speed", ego_speed, 0, math.inf, "m/s"),
-            "warn_ttc": warn_ttc}
-    if warn_ttc not in ("distance", "fused"):
-        raise ValueError(f"warn_ttc must be 'distance' or 'fused', got {warn_ttc!r}")
+            "ego_speed": None if ego_speed is None else float(ego_speed), "warn_ttc": warn_ttc}
     return {k: v for k, v in vals.items() if v != RANGE_DEFAULTS[k]}
 
 

@@ -862,8 +862,7 @@ def _whole_road_reference(rcfg, c):
     rc = c.road_camera
     cam = rpipe.RoadCameraRef(rc.horizon_q16 / 65536, rc.hood_q16 / 65536, rc.height_mm / 1000,
                               rc.fx_per_w_q16 / 65536)
-    return dataclasses.replace(rcfg, fulldet=det, road_camera=cam, road_above_hood=bool(c.road_above_hood),
-                               cnn_hood_min_width_mm=int(c.cnn_hood_min_width_mm))
+    return dataclasses.replace(rcfg, fulldet=det, road_camera=cam, road_above_hood=bool(c.road_above_hood))
 
 
 def _rescale(res: FrameResult, sx: float, sy: float, h0: int, w0: int) -> FrameResult:

@@ -7,11 +7,10 @@ records.py: the per-frame records (the `track --json` schema) and the Python ada
 the existing stages; render.py: the plots and the page."""
 from __future__ import annotations
 
-import math
 import sys
 from pathlib import Path
 
-from .._check import range_options
+from .._check import range_options, warning_options
 from .records import (FrameInfo, PythonPipeline, Truth, companion_files, load_truth, read_camera,  # noqa: F401
                       read_records, recording_frames, track_record, write_records)
 from .render import MAX_THUMBS, TrackTiles, annotate, pick_thumbs, render_html, thumbnail, write_page
@@ -75,11 +74,7 @@ def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "
         raise TypeError(f"camera: expected a path or a dict, got {type(cam).__name__}")
     rng = range_options(rear_offset, bottom_height, path_half_width, camera=cam is not None,
                         height_m=cam.get("height_m") if isinstance(cam, dict) else None)
-    if ego_speed is not None and (isinstance(ego_speed, bool) or not isinstance(ego_speed, (int, float))
-                                  or not math.isfinite(ego_speed) or ego_speed < 0):
-        raise ValueError(f"ego_speed must be a number >= 0 m/s or None, got {ego_speed!r}")
-    if warn_ttc not in ("distance", "fused"):
-        raise ValueError(f"warn_ttc must be 'distance' or 'fused', got {warn_ttc!r}")
+    warning_options(ego_speed, warn_ttc)
     if cam is None and (ego_speed is not None or warn_ttc != "distance"):
         raise ValueError("ego_speed and warn_ttc need a camera")
     tr = load_truth(list(truth or ()), dt=1.0 / fps)
