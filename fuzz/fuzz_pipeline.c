@@ -13,8 +13,9 @@
  * those: ego boxes come first; in another one of four the CNN detector instead (the firmware's model,
  * firmware_demo/cnn_data.h, from level 0 at a fuzzed threshold, its work buffer sometimes
  * short), whose boxes pass the hood rule (cfg.cnn_hood_min_width_mm, in the mutated tail):
- * every box kept is not one the rule drops. fuzz.mk builds this harness only where the
- * header exists. */
+ * every box kept is not one the rule drops, and no ego box and CNN box kept name the same
+ * vehicle (the detector's NMS test between them fails, at any cfg.cnn_ego_iou_permille). fuzz.mk
+ * builds this harness only where the header exists. */
 #include "fuzz.h"
 #include "vehtrack/pipeline.h"
 #include "../firmware_demo/cnn_data.h"
@@ -32,16 +33,32 @@ static uint8_t g_cnn_work[1u << 20];
 #ifdef PIPE_FUZZ_STATS /* -DPIPE_FUZZ_STATS: how often the CNN path runs (a harness check) */
 #include <stdio.h>
 #include <stdlib.h>
-static long g_st[4];
+static long g_st[6];
 static void st_print(void)
 {
-    fprintf(stderr, "stats: cnn_inputs %ld cnn_detect_ok %ld cnn_boxes %ld below_hood_kept %ld\n", g_st[0], g_st[1],
-            g_st[2], g_st[3]);
+    fprintf(stderr, "stats: cnn_inputs %ld cnn_detect_ok %ld cnn_boxes %ld below_hood_kept %ld ego_beside_cnn %ld "
+            "ego_iou_on %ld\n", g_st[0], g_st[1], g_st[2], g_st[3], g_st[4], g_st[5]);
 }
 #define STAT(i, c) (g_st[i] += (c))
 #else
 #define STAT(i, c) ((void)0)
 #endif
+
+/* c/windows.c's NMS test (IoU or containment past its limit), written out again */
+static int same_vehicle(const vt_box *a, const vt_box *b, int32_t iou_pm, int32_t contain_pm)
+{
+    const int64_t iw = (int64_t)(a->right < b->right ? a->right : b->right) - (a->left > b->left ? a->left : b->left) + 1;
+    const int64_t ih = (int64_t)(a->bottom < b->bottom ? a->bottom : b->bottom) - (a->top > b->top ? a->top : b->top) + 1;
+    int64_t inter, aa, ab;
+    if (iw <= 0 || ih <= 0) {
+        return 0;
+    }
+    inter = iw * ih;
+    aa = ((int64_t)a->right - a->left + 1) * ((int64_t)a->bottom - a->top + 1);
+    ab = ((int64_t)b->right - b->left + 1) * ((int64_t)b->bottom - b->top + 1);
+    return inter * 1000 > (int64_t)iou_pm * (aa + ab - inter) ||
+           inter * 1000 > (int64_t)contain_pm * (aa < ab ? aa : ab);
+}
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
@@ -75,6 +92,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         use_cnn = 1;
         cfg.sources |= VT_SRC_CLASSIFIER | ((fz_u8(&f) & 1) ? VT_SRC_EGO : 0);
         ccfg.thr_offset = fz_range(&f, -40, 8); /* low: many boxes, some on the frame's last rows */
+        cfg.cnn_ego_iou_permille = fz_range(&f, 0, 1001);
     }
     fz_status(vt_pipeline_cfg_check(fz_u8(&f) == 0xFF ? NULL : &cfg));
     fz_status(vt_camera_cfg_default(&g_cam));
@@ -169,6 +187,21 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                     STAT(3, 1);
                     FZ_ASSERT((int64_t)(b->right - b->left + 1) * g_p.cfg.road_camera.height_mm >=
                               (int64_t)g_p.cfg.cnn_hood_min_width_mm * (b->bottom - hz));
+                }
+            }
+            for (i = 0; use_cnn && g_out.detection_frame && i < g_out.n_boxes; i++) {
+                int32_t j;
+                if (g_out.boxes[i].source != VT_SRC_EGO) {
+                    continue;
+                }
+                for (j = 0; j < g_out.n_boxes; j++) {
+                    if (g_out.boxes[j].source == VT_SRC_CLASSIFIER) {
+                        STAT(4, 1);
+                        STAT(5, g_p.cfg.cnn_ego_iou_permille > 0);
+                        FZ_ASSERT(!same_vehicle(&g_out.boxes[i].box, &g_out.boxes[j].box,
+                                                g_p.cfg.fulldet.nms_iou_permille,
+                                                g_p.cfg.fulldet.nms_contain_permille));
+                    }
                 }
             }
             for (i = 0; i < g_out.n_tracks; i++) {

@@ -130,7 +130,7 @@ def _policy_defaults():
     road = next(k for k, v in ROAD_POLICIES.items() if getattr(lib, v) == c.road_policy)
     src = tuple(k for k, v in SOURCES.items() if c.sources & getattr(lib, v))
     return (int(c.detect_every), road, bool(c.lanes_every_frame), src, bool(c.track), bool(c.auto_hood),
-            int(c.cnn_hood_min_width_mm))
+            int(c.cnn_hood_min_width_mm), int(c.cnn_ego_iou_permille))
 
 
 _PD = _policy_defaults()
@@ -149,7 +149,10 @@ class PipelineConfig:
     ego-lane detector's road above it, unless a camera file gives the hood row;
     cnn_hood_min_width_mm: the CNN detector's boxes below the hood row narrower than this many mm
     at their row's flat-road distance, away from the frame's sides, are dropped (0: off;
-    vt_pipeline_cfg.cnn_hood_min_width_mm)."""
+    vt_pipeline_cfg.cnn_hood_min_width_mm); cnn_ego_iou_permille (0..1001): with "ego" and a CNN
+    detector, an ego-lane box that NMS pairs with a CNN box at an IoU under this / 1000 goes and the
+    CNN's box stays (0: the ego box always names the vehicle; 1001: the CNN's box always;
+    vt_pipeline_cfg.cnn_ego_iou_permille)."""
     lane: LaneConfig = field(default_factory=LaneConfig)
     shadow: ShadowConfig = field(default_factory=ShadowConfig)
     verify: VerifyConfig = field(default_factory=VerifyConfig)
@@ -163,6 +166,7 @@ class PipelineConfig:
     auto_hood: bool = _PD[5]
     hood: HoodConfig = field(default_factory=HoodConfig)
     cnn_hood_min_width_mm: int = _PD[6]
+    cnn_ego_iou_permille: int = _PD[7]
 
     def replace(self, **changes) -> "PipelineConfig":
         return dataclasses.replace(self, **changes)
@@ -278,6 +282,10 @@ def to_c(cfg: PipelineConfig):
     c.cnn_hood_min_width_mm = _int(cfg.cnn_hood_min_width_mm, "cnn_hood_min_width_mm")
     if not 0 <= c.cnn_hood_min_width_mm <= 10000:
         raise ValueError(f"cnn_hood_min_width_mm: {cfg.cnn_hood_min_width_mm} must be in 0..10000 (0: off)")
+    c.cnn_ego_iou_permille = _int(cfg.cnn_ego_iou_permille, "cnn_ego_iou_permille")
+    if not 0 <= c.cnn_ego_iou_permille <= 1001:
+        raise ValueError(f"cnn_ego_iou_permille: {cfg.cnn_ego_iou_permille} must be in 0..1001 "
+                         "(0: the ego box always, 1001: the CNN's box always)")
     _native.check("vt_hood_cfg_check", lib.vt_hood_cfg_check(ffi.addressof(c, "hood")), f"hood config {cfg.hood}")
     src = tuple(cfg.sources) if isinstance(cfg.sources, (tuple, list)) else None
     if src is None or any(s not in SOURCES for s in src):
@@ -320,7 +328,7 @@ def from_c(c) -> PipelineConfig:
         detect_every=int(c.detect_every), road=road, lanes_every_frame=bool(c.lanes_every_frame),
         sources=tuple(k for k, v in SOURCES.items() if c.sources & getattr(lib, v)),
         track=bool(c.track), auto_hood=bool(c.auto_hood), hood=ints(c.hood, HoodConfig),
-        cnn_hood_min_width_mm=int(c.cnn_hood_min_width_mm))
+        cnn_hood_min_width_mm=int(c.cnn_hood_min_width_mm), cnn_ego_iou_permille=int(c.cnn_ego_iou_permille))
 
 
 # ---------------------------------------------------------------- to the oracle
@@ -355,7 +363,8 @@ def to_reference(cfg: PipelineConfig, quantize: bool = True):
         verify=conv(q.verify, rverify.VerifyConfig), tracker=tracker, fixed_road=fr,
         detect_every=q.detect_every, road_policy=q.road, lanes_every_frame=q.lanes_every_frame,
         sources=q.sources, track=q.track, auto_hood=q.auto_hood,
-        hood=rhood.HoodConfig(**dataclasses.asdict(q.hood)), cnn_hood_min_width_mm=q.cnn_hood_min_width_mm)
+        hood=rhood.HoodConfig(**dataclasses.asdict(q.hood)), cnn_hood_min_width_mm=q.cnn_hood_min_width_mm,
+        cnn_ego_iou_permille=q.cnn_ego_iou_permille)
 
 
 def reference_capacities():

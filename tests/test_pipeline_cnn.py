@@ -110,10 +110,21 @@ def test_cnn_hood_rule_bad_values():
         Pipeline("c", cnn_hood_min_width_mm=0.5)
     with pytest.raises(TypeError, match="cnn_hood_min_width_mm"):
         Pipeline("c", cnn_hood_min_width_mm="600")
+    with pytest.raises(ValueError, match="cnn_ego_iou_permille"):
+        Pipeline("c", cnn_ego_iou_permille=1002)
+    with pytest.raises(ValueError, match="cnn_ego_iou_permille"):
+        Pipeline("c", cnn_ego_iou_permille=-1)
+    with pytest.raises(TypeError, match="cnn_ego_iou_permille"):
+        Pipeline("c", cnn_ego_iou_permille="500")
     c = ffi.new("vt_pipeline_cfg *")
     assert lib.vt_pipeline_cfg_default(c) == lib.VT_OK and c.cnn_hood_min_width_mm == 600
     for bad in (-1, 10001):
         c.cnn_hood_min_width_mm = bad
+        assert lib.vt_pipeline_cfg_check(c) == lib.VT_E_ARG
+    c.cnn_hood_min_width_mm = 600
+    assert c.cnn_ego_iou_permille == 0 and lib.vt_pipeline_cfg_check(c) == lib.VT_OK
+    for bad in (-1, 1002):
+        c.cnn_ego_iou_permille = bad
         assert lib.vt_pipeline_cfg_check(c) == lib.VT_E_ARG
 
 
@@ -146,6 +157,45 @@ def test_pipeline_ego_boxes_beside_the_cnn():
     it = iter(want)
     assert all(any(g == w for w in it) for g in cls), "classifier boxes not a subsequence of detect_frame's"
     assert [b.source for b in res.boxes] == sorted((b.source for b in res.boxes), key=lambda s: s != "ego")
+
+
+@pytest.mark.parametrize("seed", [3, 10])
+@pytest.mark.parametrize("limit", [1001, 500, 150, 1])
+def test_pipeline_cnn_ego_iou(seed, limit):
+    """vt_pipeline_cfg.cnn_ego_iou_permille: an ego box that the detector's NMS test pairs with a
+    CNN box whose IoU with it is under limit / 1000 goes, and the CNN's boxes stay. Exact: the
+    ego boxes kept are the limit-0 run's (every ego box) minus those, in order; then every CNN box
+    of detect_frame that no kept ego box pairs with, in its order; C equals the reference. The
+    seeds are scenes where one of the two ego boxes pairs with a CNN box (asserted), at IoU 0.12
+    (seed 3) and 0.17 (seed 10): limit 150 drops the first and keeps the second."""
+    from pyvehtrack.reference import windows as rw
+    m = tiny_model(seed)
+    gray = scene(seed=seed)
+    want = _expected(m, gray)
+    got = {}
+    for engine in ("c", "reference"):
+        for lim in (0, limit):
+            pipe = Pipeline(engine, model=m, cnn_cfg=CFG, sources=("ego", "classifier"), road="fixed",
+                            detect_every=1, track=False, cnn_hood_min_width_mm=0, cnn_ego_iou_permille=lim)
+            got[engine, lim] = _got(pipe.step(gray))
+    assert got["c", limit] == got["reference", limit] and got["c", 0] == got["reference", 0]
+    fd = Pipeline("c", model=m, cnn_cfg=CFG)._ccfg.fulldet   # the limits the merge uses
+    iou, contain = int(fd.nms_iou_permille), int(fd.nms_contain_permille)
+
+    def pairs(e, w):
+        return rw.suppresses(e, w, iou, contain)
+
+    ego_all = [g[0] for g in got["c", 0] if g[1] == "ego"]
+    paired = [e for e in ego_all if any(pairs(e, w[0]) for w in want)]
+    assert len(paired) == 1 and len(ego_all) == 2
+    ego = [g[0] for g in got["c", limit] if g[1] == "ego"]
+    assert ego == [e for e in ego_all
+                   if not any(pairs(e, w[0]) and not rw.iou_at_least(e, w[0], limit) for w in want)]
+    if limit == 1001:   # the CNN's box always
+        assert ego == [e for e in ego_all if e not in paired]
+    cls = [g for g in got["c", limit] if g[1] == "classifier"]
+    assert cls == [w for w in want if not any(pairs(e, w[0]) for e in ego)][:MAX_BOXES - len(ego)]
+    assert [g[1] for g in got["c", limit]] == ["ego"] * len(ego) + ["classifier"] * len(cls)
 
 
 def test_pipeline_tracks_cnn_boxes_and_grows_its_work():

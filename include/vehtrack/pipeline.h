@@ -242,6 +242,19 @@ typedef struct {
                                 is 0.7-2.3 m wide, and one the frame's side cuts is kept.
                                 The ACF stage and the windows keep b < hood_y outright.
                                 Default 600 (README, "No box on the hood")              */
+    int32_t cnn_ego_iou_permille; /* 0..1001, with VT_SRC_EGO and a CNN detector attached:
+                                which of the two names a vehicle both found (an ego box and
+                                a CNN box the whole-road detector's NMS test pairs). An ego
+                                box whose IoU with each CNN box it pairs with is at least
+                                this / 1000 (inter x 1000 >= this x union, int64) stays,
+                                drops those CNN boxes and takes the highest of their scores:
+                                the two agree on the vehicle and the ego box's shadow bottom
+                                and vertical edges place it. An ego box that pairs with a
+                                CNN box it disagrees with goes, and every CNN box stays: a
+                                shadow-bottomed ego box no longer replaces the CNN's box of
+                                a far car. 0: every ego box stays (before 2026-11-30);
+                                1001: the CNN's box always. Default 0 (README, "Which box
+                                names a vehicle both detectors found")                  */
 } vt_pipeline_cfg;
 
 #define VT_PIPELINE_CFG_DEFAULT                                   \
@@ -275,6 +288,7 @@ typedef struct {
         .hood = VT_HOOD_CFG_DEFAULT,                              \
         .fcw_fused = 0,                                           \
         .cnn_hood_min_width_mm = 600,                             \
+        .cnn_ego_iou_permille = 0,                                \
     }
 
 /* The whole-road detector's scratch, owned by the caller and attached with

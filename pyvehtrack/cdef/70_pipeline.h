@@ -65,6 +65,7 @@ typedef struct {
     vt_hood_cfg hood;
     int32_t fcw_fused;
     int32_t cnn_hood_min_width_mm;
+    int32_t cnn_ego_iou_permille;
 } vt_pipeline_cfg;
 
 typedef struct {

@@ -161,6 +161,7 @@ class PipelineRefConfig:
     auto_hood: bool = True    # else, above the hood found in the frame (reference.hood), if any
     hood: rhood.HoodConfig = field(default_factory=rhood.HoodConfig)
     cnn_hood_min_width_mm: int = 600  # the CNN's boxes on the hood are dropped (cnn_hood_drop)
+    cnn_ego_iou_permille: int = 0  # an ego box NMS pairs with a CNN box at a lower IoU goes
 
 
 def cnn_hood_drop(rows: np.ndarray, cam, w: int, min_w_mm: int) -> np.ndarray:
@@ -655,7 +656,9 @@ class Pipeline:
         its boxes first (through the second stage too when it is on), then the whole-road
         boxes NMS would not suppress against one of them (the detector's IoU /
         containment limits); an ego box scores the highest of itself and the boxes it
-        suppresses (unscored and suppressing none: the detector's threshold); its
+        suppresses (unscored and suppressing none: the detector's threshold). With a CNN and
+        cfg.cnn_ego_iou_permille > 0, an ego box that NMS pairs with a CNN box at an IoU under
+        that limit is dropped first. Its
         hypotheses before the detector's shadow hypotheses (to the capacity)."""
         c = self.cfg
         h, w = gray.shape
@@ -687,6 +690,14 @@ class Pipeline:
         if self.cnn is not None:
             rows = cnn_hood_drop(np.asarray(self.cnn(gray), np.int64).reshape(-1, 6), cam, w,
                                  c.cnn_hood_min_width_mm)
+            if c.cnn_ego_iou_permille > 0 and len(ego_boxes):
+                # an ego box that NMS pairs with a CNN box it disagrees with goes
+                keep = [j for j, e in enumerate(ego_boxes)
+                        if not any(rw.suppresses(e, [int(v) for v in r[:4]], fc.nms_iou_permille,
+                                                 fc.nms_contain_permille) and
+                                   not rw.iou_at_least(e, r[:4], c.cnn_ego_iou_permille) for r in rows)]
+                ego_boxes = np.asarray(ego_boxes, np.int64).reshape(-1, 4)[keep]
+                ego_scores = [ego_scores[j] for j in keep]
             return self._merge_whole(gray, road, source, ego_hyp, ego_boxes, ego_scores, fc, rows, None, stats)
         arr, st = rfd.detect(gray, road, cam, fc, self.score, max_windows=self.caps.max_windows,
                              max_cand=self.caps.max_cand, max_boxes=self.caps.max_boxes,
