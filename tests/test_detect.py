@@ -646,6 +646,15 @@ def test_cli_default_is_the_shipped_whole_road_model(tmp_path, capsys):
     assert cli_main(["detect", frame, "--model", "none", "--sources", "windows", "--json", str(tmp_path / "e.json"),
                      "--no-progress"]) == 2
     assert "--model none" in capsys.readouterr().err
+    # --sources alone: the built-in classifier, said on stderr (a user narrowing the default's
+    # sources would otherwise not know the CNN is not running); with --model no warning
+    assert cli_main(["detect", frame, "--sources", "windows", "--json", str(tmp_path / "w.json"),
+                     "--no-progress"]) == 0
+    err = capsys.readouterr().err
+    assert "warning: --sources without --model" in err and str(DEFAULT_CNN_MODEL) in err
+    assert cli_main(["detect", frame, "--model", str(DEFAULT_CNN_MODEL), "--sources", "windows", "--json",
+                     str(tmp_path / "w.json"), "--no-progress"]) == 0
+    assert "warning" not in capsys.readouterr().err
 
 
 def test_collapsed_lane_pair_keeps_the_horizon(tmp_path):

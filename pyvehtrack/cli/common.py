@@ -110,6 +110,12 @@ def resolve_model(model, sources=None, engine="c"):
     from ..fullroad import default_model_path
     if model is None and not sources:
         model = str(default_model_path(engine))   # no choice made: the shipped whole-road model
+    elif model is None:
+        # documented, but easy to miss: a user narrowing the default's sources gets another detector
+        import warnings  # noqa: PLC0415
+        warnings.warn(f"--sources without --model: the whole-road detector runs with the built-in HOG SVM "
+                      f"classifier, not the default model; to narrow the default's own sources add --model "
+                      f"{default_model_path(engine)}", stacklevel=2)
     elif model == "none":
         if sources:
             raise CliError("--sources needs a classifier; --model none is the ego-lane detector alone")
