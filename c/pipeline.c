@@ -119,7 +119,7 @@ vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg)
                        (cfg->auto_hood != 0 && cfg->auto_hood != 1) ||
                        (cfg->fcw_fused != 0 && cfg->fcw_fused != 1) ||
                        cfg->cnn_hood_min_width_mm < 0 || cfg->cnn_hood_min_width_mm > 10000 ||
-                       cfg->cnn_ego_iou_permille < 0 || cfg->cnn_ego_iou_permille > 1001)) {
+                       cfg->cnn_ego_iou_permille < 0 || cfg->cnn_ego_iou_permille > 1000)) {
         s = VT_E_ARG;
     }
     if (s == VT_OK) {
@@ -777,8 +777,8 @@ static int32_t vt__iou_at_least(const vt_box *a, const vt_box *b, int32_t permil
  * through it first (dropped under verify_min, else scored by it); an ego box then takes
  * the highest score of itself and the boxes it suppresses (unscored: the detector's
  * threshold, window_score_min, if it suppresses none); the shadow hypotheses follow
- * the ego ones. With a CNN and cfg.cnn_ego_iou_permille > 0, an ego box that pairs with
- * a CNN box at an IoU under that limit is dropped first. */
+ * the ego ones. With a CNN and cfg.cnn_ego_iou_permille > 0, an ego box that a CNN box
+ * overlaps at IoU >= that limit is dropped first. */
 static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
                                   const vt_road_area *given, vt_frame_out *out, int32_t n0)
 {
@@ -910,14 +910,13 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
         out->n_hyp = n_hyp0 + i;
     }
     if (p->cnn != NULL && p->cfg.cnn_ego_iou_permille > 0 && n0 > 0) {
-        /* an ego box that disagrees with a CNN box NMS pairs it with goes (in order,
-         * compacted), so none left pairs with a CNN box it would wrongly drop below */
+        /* an ego box a CNN box overlaps at IoU >= the limit goes (in order, compacted);
+         * the loop below then keeps the CNN boxes no remaining ego box pairs with */
         int32_t kept = 0;
         for (j = 0; j < n0; ++j) {
             for (i = 0; i < ws->res.n_boxes; ++i) {
                 const vt_box *c = i < n_raw ? &raw[i] : &ws->res.box[i].box;
-                if (vt__box_suppress(&p->det.box[j], c, fc.nms_iou_permille, fc.nms_contain_permille) &&
-                    !vt__iou_at_least(&p->det.box[j], c, p->cfg.cnn_ego_iou_permille)) {
+                if (vt__iou_at_least(&p->det.box[j], c, p->cfg.cnn_ego_iou_permille)) {
                     break;
                 }
             }

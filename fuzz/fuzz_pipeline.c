@@ -92,7 +92,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         use_cnn = 1;
         cfg.sources |= VT_SRC_CLASSIFIER | ((fz_u8(&f) & 1) ? VT_SRC_EGO : 0);
         ccfg.thr_offset = fz_range(&f, -40, 8); /* low: many boxes, some on the frame's last rows */
-        cfg.cnn_ego_iou_permille = fz_range(&f, 0, 1001);
+        cfg.cnn_ego_iou_permille = fz_range(&f, 0, 1000);
     }
     fz_status(vt_pipeline_cfg_check(fz_u8(&f) == 0xFF ? NULL : &cfg));
     fz_status(vt_camera_cfg_default(&g_cam));

@@ -149,10 +149,9 @@ class PipelineConfig:
     ego-lane detector's road above it, unless a camera file gives the hood row;
     cnn_hood_min_width_mm: the CNN detector's boxes below the hood row narrower than this many mm
     at their row's flat-road distance, away from the frame's sides, are dropped (0: off;
-    vt_pipeline_cfg.cnn_hood_min_width_mm); cnn_ego_iou_permille (0..1001): with "ego" and a CNN
-    detector, an ego-lane box that NMS pairs with a CNN box at an IoU under this / 1000 goes and the
-    CNN's box stays (0: the ego box always names the vehicle; 1001: the CNN's box always;
-    vt_pipeline_cfg.cnn_ego_iou_permille)."""
+    vt_pipeline_cfg.cnn_hood_min_width_mm); cnn_ego_iou_permille (0..1000): with "ego" and a CNN
+    detector, an ego-lane box that a CNN box overlaps at IoU >= this / 1000 goes and the CNN's
+    boxes stay (0: off, the ego box always names the vehicle; vt_pipeline_cfg.cnn_ego_iou_permille)."""
     lane: LaneConfig = field(default_factory=LaneConfig)
     shadow: ShadowConfig = field(default_factory=ShadowConfig)
     verify: VerifyConfig = field(default_factory=VerifyConfig)
@@ -283,9 +282,8 @@ def to_c(cfg: PipelineConfig):
     if not 0 <= c.cnn_hood_min_width_mm <= 10000:
         raise ValueError(f"cnn_hood_min_width_mm: {cfg.cnn_hood_min_width_mm} must be in 0..10000 (0: off)")
     c.cnn_ego_iou_permille = _int(cfg.cnn_ego_iou_permille, "cnn_ego_iou_permille")
-    if not 0 <= c.cnn_ego_iou_permille <= 1001:
-        raise ValueError(f"cnn_ego_iou_permille: {cfg.cnn_ego_iou_permille} must be in 0..1001 "
-                         "(0: the ego box always, 1001: the CNN's box always)")
+    if not 0 <= c.cnn_ego_iou_permille <= 1000:
+        raise ValueError(f"cnn_ego_iou_permille: {cfg.cnn_ego_iou_permille} must be in 0..1000 (0: off)")
     _native.check("vt_hood_cfg_check", lib.vt_hood_cfg_check(ffi.addressof(c, "hood")), f"hood config {cfg.hood}")
     src = tuple(cfg.sources) if isinstance(cfg.sources, (tuple, list)) else None
     if src is None or any(s not in SOURCES for s in src):

@@ -111,7 +111,7 @@ def test_cnn_hood_rule_bad_values():
     with pytest.raises(TypeError, match="cnn_hood_min_width_mm"):
         Pipeline("c", cnn_hood_min_width_mm="600")
     with pytest.raises(ValueError, match="cnn_ego_iou_permille"):
-        Pipeline("c", cnn_ego_iou_permille=1002)
+        Pipeline("c", cnn_ego_iou_permille=1001)
     with pytest.raises(ValueError, match="cnn_ego_iou_permille"):
         Pipeline("c", cnn_ego_iou_permille=-1)
     with pytest.raises(TypeError, match="cnn_ego_iou_permille"):
@@ -123,7 +123,7 @@ def test_cnn_hood_rule_bad_values():
         assert lib.vt_pipeline_cfg_check(c) == lib.VT_E_ARG
     c.cnn_hood_min_width_mm = 600
     assert c.cnn_ego_iou_permille == 0 and lib.vt_pipeline_cfg_check(c) == lib.VT_OK
-    for bad in (-1, 1002):
+    for bad in (-1, 1001):
         c.cnn_ego_iou_permille = bad
         assert lib.vt_pipeline_cfg_check(c) == lib.VT_E_ARG
 
@@ -159,15 +159,16 @@ def test_pipeline_ego_boxes_beside_the_cnn():
     assert [b.source for b in res.boxes] == sorted((b.source for b in res.boxes), key=lambda s: s != "ego")
 
 
-@pytest.mark.parametrize("seed", [3, 10])
-@pytest.mark.parametrize("limit", [1001, 500, 150, 1])
-def test_pipeline_cnn_ego_iou(seed, limit):
-    """vt_pipeline_cfg.cnn_ego_iou_permille: an ego box that the detector's NMS test pairs with a
-    CNN box whose IoU with it is under limit / 1000 goes, and the CNN's boxes stay. Exact: the
-    ego boxes kept are the limit-0 run's (every ego box) minus those, in order; then every CNN box
-    of detect_frame that no kept ego box pairs with, in its order; C equals the reference. The
-    seeds are scenes where one of the two ego boxes pairs with a CNN box (asserted), at IoU 0.12
-    (seed 3) and 0.17 (seed 10): limit 150 drops the first and keeps the second."""
+@pytest.mark.parametrize("seed,pair_iou", [(3, 0.122), (10, 0.172)])
+@pytest.mark.parametrize("limit", [302, 150, 100, 1])
+def test_pipeline_cnn_ego_iou(seed, pair_iou, limit):
+    """vt_pipeline_cfg.cnn_ego_iou_permille: an ego box that some CNN box overlaps at IoU >= limit /
+    1000 goes, and the CNN's boxes stay. Exact: the ego boxes kept are the limit-0 run's (every ego
+    box) minus those, in order; then every CNN box of detect_frame that no kept ego box pairs with
+    (windows.suppresses, the detector's NMS limits), in its order; C equals the reference. The seeds
+    are scenes where one of the two ego boxes pairs with a CNN box, by containment only (IoU
+    pair_iou, under NMS's 0.301, asserted): limit 302 keeps it (a box only contained in an ego box
+    does not remove it), 150 keeps the first and drops the second, 100 and 1 drop both."""
     from pyvehtrack.reference import windows as rw
     m = tiny_model(seed)
     gray = scene(seed=seed)
@@ -188,11 +189,11 @@ def test_pipeline_cnn_ego_iou(seed, limit):
     ego_all = [g[0] for g in got["c", 0] if g[1] == "ego"]
     paired = [e for e in ego_all if any(pairs(e, w[0]) for w in want)]
     assert len(paired) == 1 and len(ego_all) == 2
+    inter, union, _, _ = rw._iou_parts(paired[0], next(w[0] for w in want if pairs(paired[0], w[0])))
+    assert inter / union == pytest.approx(pair_iou, abs=5e-4) and inter * 1000 <= iou * union
     ego = [g[0] for g in got["c", limit] if g[1] == "ego"]
-    assert ego == [e for e in ego_all
-                   if not any(pairs(e, w[0]) and not rw.iou_at_least(e, w[0], limit) for w in want)]
-    if limit == 1001:   # the CNN's box always
-        assert ego == [e for e in ego_all if e not in paired]
+    assert ego == [e for e in ego_all if not any(rw.iou_at_least(e, w[0], limit) for w in want)]
+    assert (paired[0] in ego) == (pair_iou * 1000 < limit)
     cls = [g for g in got["c", limit] if g[1] == "classifier"]
     assert cls == [w for w in want if not any(pairs(e, w[0]) for e in ego)][:MAX_BOXES - len(ego)]
     assert [g[1] for g in got["c", limit]] == ["ego"] * len(ego) + ["classifier"] * len(cls)

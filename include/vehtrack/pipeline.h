@@ -242,19 +242,18 @@ typedef struct {
                                 is 0.7-2.3 m wide, and one the frame's side cuts is kept.
                                 The ACF stage and the windows keep b < hood_y outright.
                                 Default 600 (README, "No box on the hood")              */
-    int32_t cnn_ego_iou_permille; /* 0..1001, with VT_SRC_EGO and a CNN detector attached:
-                                which of the two names a vehicle both found (an ego box and
-                                a CNN box the whole-road detector's NMS test pairs). An ego
-                                box whose IoU with each CNN box it pairs with is at least
-                                this / 1000 (inter x 1000 >= this x union, int64) stays,
-                                drops those CNN boxes and takes the highest of their scores:
-                                the two agree on the vehicle and the ego box's shadow bottom
-                                and vertical edges place it. An ego box that pairs with a
-                                CNN box it disagrees with goes, and every CNN box stays: a
-                                shadow-bottomed ego box no longer replaces the CNN's box of
-                                a far car. 0: every ego box stays (before 2026-11-30);
-                                1001: the CNN's box always. Default 0 (README, "Which box
-                                names a vehicle both detectors found")                  */
+    int32_t cnn_ego_iou_permille; /* 0..1000, with VT_SRC_EGO and a CNN detector attached:
+                                which of the two names a vehicle both found. 0: the ego
+                                box always (every earlier round): it drops each CNN box the
+                                whole-road detector's NMS test pairs with it and takes the
+                                highest of their scores. 1..1000: an ego box goes when some
+                                CNN box overlaps it at IoU >= this / 1000 (inter x 1000 >=
+                                this x union, int64), and the CNN's boxes stay; the CNN's
+                                box fits a rear view better than the ego detector's square
+                                one. A CNN box only contained in an ego box (a far car above
+                                a near car's roof) does not remove it and goes as before.
+                                Default 0 (README, "Which box names a vehicle both
+                                detectors found")                                       */
 } vt_pipeline_cfg;
 
 #define VT_PIPELINE_CFG_DEFAULT                                   \

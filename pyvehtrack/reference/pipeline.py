@@ -161,7 +161,7 @@ class PipelineRefConfig:
     auto_hood: bool = True    # else, above the hood found in the frame (reference.hood), if any
     hood: rhood.HoodConfig = field(default_factory=rhood.HoodConfig)
     cnn_hood_min_width_mm: int = 600  # the CNN's boxes on the hood are dropped (cnn_hood_drop)
-    cnn_ego_iou_permille: int = 0  # an ego box NMS pairs with a CNN box at a lower IoU goes
+    cnn_ego_iou_permille: int = 0  # an ego box a CNN box overlaps at IoU >= this / 1000 goes
 
 
 def cnn_hood_drop(rows: np.ndarray, cam, w: int, min_w_mm: int) -> np.ndarray:
@@ -657,8 +657,8 @@ class Pipeline:
         boxes NMS would not suppress against one of them (the detector's IoU /
         containment limits); an ego box scores the highest of itself and the boxes it
         suppresses (unscored and suppressing none: the detector's threshold). With a CNN and
-        cfg.cnn_ego_iou_permille > 0, an ego box that NMS pairs with a CNN box at an IoU under
-        that limit is dropped first. Its
+        cfg.cnn_ego_iou_permille > 0, an ego box that a CNN box overlaps at IoU >= that limit
+        is dropped first. Its
         hypotheses before the detector's shadow hypotheses (to the capacity)."""
         c = self.cfg
         h, w = gray.shape
@@ -691,11 +691,9 @@ class Pipeline:
             rows = cnn_hood_drop(np.asarray(self.cnn(gray), np.int64).reshape(-1, 6), cam, w,
                                  c.cnn_hood_min_width_mm)
             if c.cnn_ego_iou_permille > 0 and len(ego_boxes):
-                # an ego box that NMS pairs with a CNN box it disagrees with goes
+                # an ego box a CNN box overlaps at IoU >= the limit goes
                 keep = [j for j, e in enumerate(ego_boxes)
-                        if not any(rw.suppresses(e, [int(v) for v in r[:4]], fc.nms_iou_permille,
-                                                 fc.nms_contain_permille) and
-                                   not rw.iou_at_least(e, r[:4], c.cnn_ego_iou_permille) for r in rows)]
+                        if not any(rw.iou_at_least(e, r[:4], c.cnn_ego_iou_permille) for r in rows)]
                 ego_boxes = np.asarray(ego_boxes, np.int64).reshape(-1, 4)[keep]
                 ego_scores = [ego_scores[j] for j in keep]
             return self._merge_whole(gray, road, source, ego_hyp, ego_boxes, ego_scores, fc, rows, None, stats)
