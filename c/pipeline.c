@@ -767,6 +767,7 @@ static void vt__cnn_hood_drop(vt_fulldet_result *res, const vt_camera_min *cam, 
 }
 
 static int32_t vt__iou_at_least(const vt_box *a, const vt_box *b, int32_t permille);
+static int32_t vt__iou_more(const vt_box *e, const vt_box *a, const vt_box *b);
 
 /* The whole-road detector on a detection frame: its camera (the road camera of the
  * frame's size, the horizon the last lanes' vanishing row once known), the road (the
@@ -777,13 +778,15 @@ static int32_t vt__iou_at_least(const vt_box *a, const vt_box *b, int32_t permil
  * through it first (dropped under verify_min, else scored by it); an ego box then takes
  * the highest score of itself and the boxes it suppresses (unscored: the detector's
  * threshold, window_score_min, if it suppresses none); the shadow hypotheses follow
- * the ego ones. With a CNN and cfg.cnn_ego_iou_permille > 0, an ego box that a CNN box
- * overlaps at IoU >= that limit is dropped first. */
+ * the ego ones. With a CNN and cfg.cnn_ego_iou_permille > 0, an ego box is reported with
+ * the box of the CNN boxes it drops that overlaps it most, when that IoU is >= the limit;
+ * p->det (the tracker's input) keeps the ego box. */
 static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
                                   const vt_road_area *given, vt_frame_out *out, int32_t n0)
 {
     int32_t k, j, n_hyp0 = out->n_hyp; /* the ego hypotheses (0 without VT_SRC_EGO) */
-    int32_t n_raw;
+    int32_t n_raw, cnn_iou;
+    int32_t best[VT_MAX_BOXES]; /* per ego box: its dropped CNN box of the highest IoU, or -1 */
     vt_box raw[VT_MAX_BOXES]; /* the detector's boxes before box regression */
     vt_fulldet_cfg fc;
     vt_camera_min cam;
@@ -909,24 +912,10 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
         }
         out->n_hyp = n_hyp0 + i;
     }
-    if (p->cnn != NULL && p->cfg.cnn_ego_iou_permille > 0 && n0 > 0) {
-        /* an ego box a CNN box overlaps at IoU >= the limit goes (in order, compacted);
-         * the loop below then keeps the CNN boxes no remaining ego box pairs with */
-        int32_t kept = 0;
-        for (j = 0; j < n0; ++j) {
-            for (i = 0; i < ws->res.n_boxes; ++i) {
-                const vt_box *c = i < n_raw ? &raw[i] : &ws->res.box[i].box;
-                if (vt__iou_at_least(&p->det.box[j], c, p->cfg.cnn_ego_iou_permille)) {
-                    break;
-                }
-            }
-            if (i == ws->res.n_boxes) {
-                p->det.box[kept] = p->det.box[j];
-                out->boxes[kept] = out->boxes[j];
-                ++kept;
-            }
-        }
-        n0 = kept;
+    /* the CNN's boxes are all in raw (no box regression runs on them) */
+    cnn_iou = p->cnn != NULL && p->cfg.cnn_ego_iou_permille > 0 && n_raw == ws->res.n_boxes;
+    for (j = 0; j < n0; ++j) {
+        best[j] = -1;
     }
     k = n0;
     for (i = 0; i < ws->res.n_boxes; ++i) {
@@ -942,6 +931,9 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
             /* the ego box's score: the best the classifier gave the same vehicle */
             if (out->boxes[j].score == VT_UNKNOWN || out->boxes[j].score < ws->res.box[i].score) {
                 out->boxes[j].score = ws->res.box[i].score;
+            }
+            if (cnn_iou && (best[j] < 0 || vt__iou_more(&p->det.box[j], b, &raw[best[j]]))) {
+                best[j] = i; /* the dropped CNN box of the highest IoU with it, the first of equals */
             }
             continue;
         }
@@ -959,6 +951,11 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
     for (j = 0; j < n0; ++j) {
         if (out->boxes[j].score == VT_UNKNOWN) {
             out->boxes[j].score = fc.window_score_min;
+        }
+        /* reported with the CNN's box of the same car; the tracker keeps the ego box */
+        if (cnn_iou && best[j] >= 0 &&
+            vt__iou_at_least(&p->det.box[j], &raw[best[j]], p->cfg.cnn_ego_iou_permille)) {
+            out->boxes[j].box = ws->res.box[best[j]].box;
         }
     }
     p->det.n_boxes = k;
@@ -1213,6 +1210,17 @@ static int32_t vt__iou_at_least(const vt_box *a, const vt_box *b, int32_t permil
     int64_t ua = ((int64_t)a->right - a->left + 1) * ((int64_t)a->bottom - a->top + 1);
     int64_t ub = ((int64_t)b->right - b->left + 1) * ((int64_t)b->bottom - b->top + 1);
     return in * 1000 >= (int64_t)permille * (ua + ub - in);
+}
+
+/* IoU(e, a) > IoU(e, b), exactly: the two fractions compared as int64 cross products
+ * (areas <= w h <= 2^22, config.h, so every product stays under 2^45). */
+static int32_t vt__iou_more(const vt_box *e, const vt_box *a, const vt_box *b)
+{
+    int64_t ie = ((int64_t)e->right - e->left + 1) * ((int64_t)e->bottom - e->top + 1);
+    int64_t ia = vt__inter(e, a), ib = vt__inter(e, b);
+    int64_t ua = ie + ((int64_t)a->right - a->left + 1) * ((int64_t)a->bottom - a->top + 1) - ia;
+    int64_t ub = ie + ((int64_t)b->right - b->left + 1) * ((int64_t)b->bottom - b->top + 1) - ib;
+    return ia * ub > ib * ua;
 }
 
 /* The vehicle model for the tracks the previous step left coasting (see

@@ -150,8 +150,9 @@ class PipelineConfig:
     cnn_hood_min_width_mm: the CNN detector's boxes below the hood row narrower than this many mm
     at their row's flat-road distance, away from the frame's sides, are dropped (0: off;
     vt_pipeline_cfg.cnn_hood_min_width_mm); cnn_ego_iou_permille (0..1000): with "ego" and a CNN
-    detector, an ego-lane box that a CNN box overlaps at IoU >= this / 1000 goes and the CNN's
-    boxes stay (0: off, the ego box always names the vehicle; vt_pipeline_cfg.cnn_ego_iou_permille)."""
+    detector, an ego-lane box is reported with the CNN box it replaced that overlaps it most, when
+    that IoU is >= this / 1000; the tracker keeps the ego box (0: off;
+    vt_pipeline_cfg.cnn_ego_iou_permille)."""
     lane: LaneConfig = field(default_factory=LaneConfig)
     shadow: ShadowConfig = field(default_factory=ShadowConfig)
     verify: VerifyConfig = field(default_factory=VerifyConfig)

@@ -243,17 +243,19 @@ typedef struct {
                                 The ACF stage and the windows keep b < hood_y outright.
                                 Default 600 (README, "No box on the hood")              */
     int32_t cnn_ego_iou_permille; /* 0..1000, with VT_SRC_EGO and a CNN detector attached:
-                                which of the two names a vehicle both found. 0: the ego
-                                box always (every earlier round): it drops each CNN box the
-                                whole-road detector's NMS test pairs with it and takes the
-                                highest of their scores. 1..1000: an ego box goes when some
-                                CNN box overlaps it at IoU >= this / 1000 (inter x 1000 >=
-                                this x union, int64), and the CNN's boxes stay; the CNN's
-                                box fits a rear view better than the ego detector's square
-                                one. A CNN box only contained in an ego box (a far car above
-                                a near car's roof) does not remove it and goes as before.
-                                Default 0 (README, "Which box names a vehicle both
-                                detectors found")                                       */
+                                whose box is reported for a vehicle both found. The ego box
+                                drops each CNN box the whole-road detector's NMS test pairs
+                                with it and takes the highest of their scores, as always.
+                                0: it is reported as it is. 1..1000: it is reported with the
+                                box of the dropped CNN box that overlaps it most (the first
+                                of equals), when that IoU is >= this / 1000 (inter x 1000 >=
+                                this x union, int64); its source stays VT_SRC_EGO. The
+                                tracker's input keeps the ego box either way: its ROI search
+                                measures the shadow bottom and vertical edges the ego box
+                                came from, while the CNN's box fits a rear view better than
+                                the ego detector's square one. Default 302: the NMS's IoU
+                                limit, 0.301, as a >= test (README, "Whose box names a
+                                vehicle both detectors found")                          */
 } vt_pipeline_cfg;
 
 #define VT_PIPELINE_CFG_DEFAULT                                   \
@@ -287,7 +289,7 @@ typedef struct {
         .hood = VT_HOOD_CFG_DEFAULT,                              \
         .fcw_fused = 0,                                           \
         .cnn_hood_min_width_mm = 600,                             \
-        .cnn_ego_iou_permille = 0,                                \
+        .cnn_ego_iou_permille = 302,                              \
     }
 
 /* The whole-road detector's scratch, owned by the caller and attached with

@@ -23,6 +23,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
+from fractions import Fraction
+
 import numpy as np
 
 from . import camera as rcam
@@ -161,7 +163,7 @@ class PipelineRefConfig:
     auto_hood: bool = True    # else, above the hood found in the frame (reference.hood), if any
     hood: rhood.HoodConfig = field(default_factory=rhood.HoodConfig)
     cnn_hood_min_width_mm: int = 600  # the CNN's boxes on the hood are dropped (cnn_hood_drop)
-    cnn_ego_iou_permille: int = 0  # an ego box a CNN box overlaps at IoU >= this / 1000 goes
+    cnn_ego_iou_permille: int = 302  # an ego box is reported with its CNN box of IoU >= this / 1000
 
 
 def cnn_hood_drop(rows: np.ndarray, cam, w: int, min_w_mm: int) -> np.ndarray:
@@ -657,8 +659,8 @@ class Pipeline:
         boxes NMS would not suppress against one of them (the detector's IoU /
         containment limits); an ego box scores the highest of itself and the boxes it
         suppresses (unscored and suppressing none: the detector's threshold). With a CNN and
-        cfg.cnn_ego_iou_permille > 0, an ego box that a CNN box overlaps at IoU >= that limit
-        is dropped first. Its
+        cfg.cnn_ego_iou_permille > 0, an ego box is reported with the CNN box it drops of the
+        highest IoU with it, when that IoU is >= the limit (the tracker keeps the ego box). Its
         hypotheses before the detector's shadow hypotheses (to the capacity)."""
         c = self.cfg
         h, w = gray.shape
@@ -690,13 +692,8 @@ class Pipeline:
         if self.cnn is not None:
             rows = cnn_hood_drop(np.asarray(self.cnn(gray), np.int64).reshape(-1, 6), cam, w,
                                  c.cnn_hood_min_width_mm)
-            if c.cnn_ego_iou_permille > 0 and len(ego_boxes):
-                # an ego box a CNN box overlaps at IoU >= the limit goes
-                keep = [j for j, e in enumerate(ego_boxes)
-                        if not any(rw.iou_at_least(e, r[:4], c.cnn_ego_iou_permille) for r in rows)]
-                ego_boxes = np.asarray(ego_boxes, np.int64).reshape(-1, 4)[keep]
-                ego_scores = [ego_scores[j] for j in keep]
-            return self._merge_whole(gray, road, source, ego_hyp, ego_boxes, ego_scores, fc, rows, None, stats)
+            return self._merge_whole(gray, road, source, ego_hyp, ego_boxes, ego_scores, fc, rows, None, stats,
+                                     cnn_iou=c.cnn_ego_iou_permille)
         arr, st = rfd.detect(gray, road, cam, fc, self.score, max_windows=self.caps.max_windows,
                              max_cand=self.caps.max_cand, max_boxes=self.caps.max_boxes,
                              max_hyp=self.caps.max_hypotheses,
@@ -728,13 +725,17 @@ class Pipeline:
             hyp = np.concatenate([hyp, np.asarray(more, np.int64).reshape(-1, 3)])[:self.caps.max_hypotheses]
         return self._merge_whole(gray, road, source, hyp, ego_boxes, ego_scores, fc, arr, raw, stats)
 
-    def _merge_whole(self, gray, road, source, hyp, ego_boxes, ego_scores, fc, arr, raw, stats):
+    def _merge_whole(self, gray, road, source, hyp, ego_boxes, ego_scores, fc, arr, raw, stats, cnn_iou=0):
         """The whole-road boxes arr (rows [l, t, r, b, score, source]; raw: the boxes as
         detected, the tracker's input, None when arr's are) after the ego boxes: a box one of
-        them suppresses is dropped and raises that ego box's score (c/pipeline.c)."""
+        them suppresses is dropped and raises that ego box's score (c/pipeline.c). cnn_iou > 0
+        (the CNN's boxes, cnn_ego_iou_permille): an ego box is reported with the box it dropped
+        of the highest IoU with it (the first of equals) when that IoU is >= cnn_iou / 1000;
+        the tracker's list keeps the ego box."""
         raw = np.asarray(arr, np.int64).reshape(-1, 6)[:, :4] if raw is None else raw
         boxes, src, scores = [list(b) for b in ego_boxes], [SRC_EGO] * len(ego_boxes), list(ego_scores)
         tboxes = [list(b) for b in ego_boxes]
+        best = [None] * len(ego_boxes)   # per ego box: (IoU as a Fraction, its reported box)
         for i, row in enumerate(arr):
             # b: the box as detected (the tracker's input, tested against the ego boxes);
             # reported: the regressed one
@@ -743,6 +744,11 @@ class Pipeline:
                         if rw.suppresses(e, b, fc.nms_iou_permille, fc.nms_contain_permille)), None)
             if hit is not None:   # the ego box's score: the best the classifier gave the same vehicle
                 scores[hit] = int(row[4]) if scores[hit] is None else max(scores[hit], int(row[4]))
+                if cnn_iou:
+                    inter, union, _, _ = rw._iou_parts([int(v) for v in ego_boxes[hit]], b)
+                    v = Fraction(inter, union)
+                    if best[hit] is None or v > best[hit][0]:
+                        best[hit] = (v, [int(x) for x in row[:4]])
                 continue
             if len(boxes) >= self.caps.max_boxes:
                 continue
@@ -752,6 +758,9 @@ class Pipeline:
             scores.append(int(row[4]))
         # an ego box the classifier did not see scores at the detector's threshold
         scores = [fc.window_score_min if v is None else v for v in scores]
+        for j, bj in enumerate(best):   # reported with the CNN's box of the same car
+            if bj is not None and bj[0] * 1000 >= cnn_iou:
+                boxes[j] = bj[1]
         self._trk_whole = np.asarray(tboxes, np.int64).reshape(-1, 4)
         return road, source, np.asarray(hyp, np.int64).reshape(-1, 3), np.asarray(boxes, np.int64).reshape(-1, 4), \
             src, scores, stats
