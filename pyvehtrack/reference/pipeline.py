@@ -22,7 +22,6 @@ oracle drops what C drops.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-
 from fractions import Fraction
 
 import numpy as np

@@ -141,17 +141,6 @@ def suppresses(a, b, iou_permille: int, contain_permille: int) -> bool:
     return bool(inter) and (inter * 1000 > iou_permille * union or inter * 1000 > contain_permille * min(aa, ab))
 
 
-def iou_at_least(a, b, permille: int) -> bool:
-    """IoU >= permille / 1000, exactly as c/pipeline.c's vt__iou_at_least: inter x 1000 >=
-    permille x union in integers (boxes inclusive; disjoint boxes have inter 0)."""
-    a, b = [int(v) for v in a], [int(v) for v in b]
-    iw = max(0, min(a[2], b[2]) - max(a[0], b[0]) + 1)
-    ih = max(0, min(a[3], b[3]) - max(a[1], b[1]) + 1)
-    inter = iw * ih
-    union = (a[2] - a[0] + 1) * (a[3] - a[1] + 1) + (b[2] - b[0] + 1) * (b[3] - b[1] + 1) - inter
-    return inter * 1000 >= permille * union
-
-
 def nms(boxes, scores, iou_max: float, contain_max: float = 1.0) -> list:
     """Indices of the boxes kept by greedy NMS, in keeping order: highest score first
     (equal scores in input order); a box is dropped if, with a kept box, its IoU exceeds
