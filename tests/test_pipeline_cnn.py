@@ -205,6 +205,39 @@ def test_pipeline_cnn_ego_iou(seed, pair_iou, limit):
     assert (got["c", limit] != got["c", 0]) == (pair_iou * 1000 >= limit)
 
 
+@pytest.mark.parametrize("seed,limit", [(19, 302), (67, 100)])
+def test_pipeline_cnn_ego_iou_best_of_several(seed, limit):
+    """cnn_ego_iou_permille where one ego box drops several CNN boxes: it is reported with the one
+    of the highest IoU with it (exact Fractions), the first in detect_frame's order among equals.
+    Seed 19: three dropped boxes at IoU 0.276 / 0.447 / 0.503; seed 67: two (0.102 each at three
+    decimals) and another ego box with three under 0.05 (kept as it is at 100). C = reference."""
+    from fractions import Fraction
+
+    from pyvehtrack.reference import windows as rw
+    m = tiny_model(seed)
+    gray = scene(seed=seed)
+    want = [w[0] for w in _expected(m, gray)]
+    kw = dict(model=m, cnn_cfg=CFG, sources=("ego", "classifier"), road="fixed", detect_every=1, track=False,
+              cnn_hood_min_width_mm=0)
+    base = _got(Pipeline("c", cnn_ego_iou_permille=0, **kw).step(gray))
+    got = _got(Pipeline("c", cnn_ego_iou_permille=limit, **kw).step(gray))
+    assert got == _got(Pipeline("reference", cnn_ego_iou_permille=limit, **kw).step(gray))
+    fd = Pipeline("c", model=m, cnn_cfg=CFG)._ccfg.fulldet
+    ego = [g[0] for g in base if g[1] == "ego"]
+    owner = [next((j for j, e in enumerate(ego)
+                   if rw.suppresses(e, w, int(fd.nms_iou_permille), int(fd.nms_contain_permille))), None)
+             for w in want]
+    expect, several = list(base), 0
+    for j, e in enumerate(ego):
+        dropped = [w for w, o in zip(want, owner) if o == j]
+        several += len(dropped) >= 2
+        if dropped:
+            ious = [Fraction(*rw._iou_parts(e, d)[:2]) for d in dropped]
+            if max(ious) * 1000 >= limit:
+                expect[j] = (dropped[ious.index(max(ious))], "ego", base[j][2])
+    assert several >= 1 and got == expect and got != base
+
+
 def test_pipeline_tracks_cnn_boxes_and_grows_its_work():
     """Tracking on: the CNN's boxes reach the tracker (tracks start from source "classifier");
     a larger frame after a smaller one grows the work buffer (re-attached), the boxes stay
