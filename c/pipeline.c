@@ -1203,23 +1203,25 @@ static vt_status vt__flow(vt_pipeline *p, const vt_image_u8 *frame, vt_frame_out
     return VT_OK;
 }
 
+/* A box's area (inclusive), int64. */
+static int64_t vt__area_of(const vt_box *a)
+{
+    return ((int64_t)a->right - a->left + 1) * ((int64_t)a->bottom - a->top + 1);
+}
+
 /* IoU(a, b) >= permille / 1000, exact in int64. */
 static int32_t vt__iou_at_least(const vt_box *a, const vt_box *b, int32_t permille)
 {
     int64_t in = vt__inter(a, b);
-    int64_t ua = ((int64_t)a->right - a->left + 1) * ((int64_t)a->bottom - a->top + 1);
-    int64_t ub = ((int64_t)b->right - b->left + 1) * ((int64_t)b->bottom - b->top + 1);
-    return in * 1000 >= (int64_t)permille * (ua + ub - in);
+    return in * 1000 >= (int64_t)permille * (vt__area_of(a) + vt__area_of(b) - in);
 }
 
 /* IoU(e, a) > IoU(e, b), exactly: the two fractions compared as int64 cross products
  * (areas <= w h <= 2^22, config.h, so every product stays under 2^45). */
 static int32_t vt__iou_more(const vt_box *e, const vt_box *a, const vt_box *b)
 {
-    int64_t ie = ((int64_t)e->right - e->left + 1) * ((int64_t)e->bottom - e->top + 1);
     int64_t ia = vt__inter(e, a), ib = vt__inter(e, b);
-    int64_t ua = ie + ((int64_t)a->right - a->left + 1) * ((int64_t)a->bottom - a->top + 1) - ia;
-    int64_t ub = ie + ((int64_t)b->right - b->left + 1) * ((int64_t)b->bottom - b->top + 1) - ib;
+    int64_t ua = vt__area_of(e) + vt__area_of(a) - ia, ub = vt__area_of(e) + vt__area_of(b) - ib;
     return ia * ub > ib * ua;
 }
 
