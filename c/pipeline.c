@@ -119,7 +119,8 @@ vt_status vt_pipeline_cfg_check(const vt_pipeline_cfg *cfg)
                        (cfg->auto_hood != 0 && cfg->auto_hood != 1) ||
                        (cfg->fcw_fused != 0 && cfg->fcw_fused != 1) ||
                        cfg->cnn_hood_min_width_mm < 0 || cfg->cnn_hood_min_width_mm > 10000 ||
-                       cfg->cnn_ego_iou_permille < 0 || cfg->cnn_ego_iou_permille > 1000)) {
+                       cfg->cnn_ego_iou_permille < 0 || cfg->cnn_ego_iou_permille > 1000 ||
+                       (cfg->cnn_track_top != 0 && cfg->cnn_track_top != 1))) {
         s = VT_E_ARG;
     }
     if (s == VT_OK) {
@@ -183,6 +184,7 @@ vt_status vt_pipeline_init(vt_pipeline *p, const vt_pipeline_cfg *cfg,
     memset(&p->det, 0, sizeof(p->det));
     memset(p->tracks, 0, sizeof(p->tracks));
     p->n_src = 0;
+    p->n_top = 0;
     p->n_trk = 0;
     p->n_ho = 0;
     memset(p->ho_tid, 0, sizeof(p->ho_tid));
@@ -558,6 +560,59 @@ static void vt__track_sources(vt_pipeline *p, vt_frame_out *out)
     p->n_src = out->n_tracks;
 }
 
+static int32_t vt__iou_at_least(const vt_box *a, const vt_box *b, int32_t permille);
+static int32_t vt__iou_more(const vt_box *e, const vt_box *a, const vt_box *b);
+
+/* cfg.cnn_track_top (pipeline.h): each of the tracker's n boxes e[k] of this frame that is
+ * an ego box reported with a CNN box (t[k], that box's top row; VT_UNKNOWN: any other box)
+ * sets the height of the tracker's track that overlaps e[k] most (IoU >= the tracker's
+ * match_iou_permille, the first of equals; a later box wins); other tracks keep theirs by
+ * id. The tracker's tracks (the first n_trk output tracks, hand-overs follow) are then
+ * reported with that top, and the table is rewritten with them only. */
+static void vt__track_tops(vt_pipeline *p, int32_t n_trk, const vt_box *e, const int32_t *t, int32_t n,
+                           vt_frame_out *out)
+{
+    int32_t q[VT_MAX_TRACKS], i, k, best;
+    n_trk = n_trk < out->n_tracks ? n_trk : out->n_tracks;
+    for (i = 0; i < n_trk; ++i) {
+        q[i] = 0;
+        for (k = 0; k < p->n_top; ++k) {
+            if (p->top_id[k] == out->tracks[i].id) {
+                q[i] = p->top_q8[k];
+                break;
+            }
+        }
+    }
+    for (k = 0; k < n; ++k) {
+        int32_t ew = e[k].right - e[k].left + 1;
+        int64_t num = (int64_t)e[k].bottom - t[k] + 1; /* >= 1: the two boxes overlap */
+        if (t[k] == VT_UNKNOWN) {
+            continue;
+        }
+        best = -1;
+        for (i = 0; i < n_trk; ++i) {
+            if (vt__iou_at_least(&e[k], &out->tracks[i].box, p->cfg.tracker.match_iou_permille) &&
+                (best < 0 || vt__iou_more(&e[k], &out->tracks[i].box, &out->tracks[best].box))) {
+                best = i;
+            }
+        }
+        if (best >= 0) {
+            int64_t v = (num * 256 + ew / 2) / ew; /* rounded half up, as the tracker's aspect */
+            q[best] = v < 1 ? 1 : (int32_t)v;
+        }
+    }
+    for (i = 0; i < n_trk; ++i) {
+        vt_box *b = &out->tracks[i].box;
+        if (q[i] > 0) {
+            int64_t h = vt__floor_shr64((int64_t)(b->right - b->left + 1) * q[i] + 128, 8);
+            b->top = b->bottom - (int32_t)(h < 1 ? 1 : h) + 1;
+        }
+        p->top_id[i] = out->tracks[i].id;
+        p->top_q8[i] = q[i];
+    }
+    p->n_top = n_trk;
+}
+
 /* vt_pipe_track.ttc_fused_q16 from the block-scale TTC pts and the distance/rate TTC
  * dist (VT_UNKNOWN: not known): vt_ttc_fuse (camera.h), w permille on dist (checked by
  * vt_pipeline_cfg_check), VT_UNKNOWN when neither is known. */
@@ -766,8 +821,6 @@ static void vt__cnn_hood_drop(vt_fulldet_result *res, const vt_camera_min *cam, 
     res->n_boxes = n;
 }
 
-static int32_t vt__iou_at_least(const vt_box *a, const vt_box *b, int32_t permille);
-static int32_t vt__iou_more(const vt_box *e, const vt_box *a, const vt_box *b);
 
 /* The whole-road detector on a detection frame: its camera (the road camera of the
  * frame's size, the horizon the last lanes' vanishing row once known), the road (the
@@ -780,9 +833,11 @@ static int32_t vt__iou_more(const vt_box *e, const vt_box *a, const vt_box *b);
  * threshold, window_score_min, if it suppresses none); the shadow hypotheses follow
  * the ego ones. With a CNN and cfg.cnn_ego_iou_permille > 0, an ego box is reported with
  * the box of the CNN boxes it drops that overlaps it most, when that IoU is >= the limit;
- * p->det (the tracker's input) keeps the ego box. */
+ * p->det (the tracker's input) keeps the ego box. top_of[j] (n0 of them): that reported
+ * box's top row for ego box j, VT_UNKNOWN when it is reported as it is. */
 static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
-                                  const vt_road_area *given, vt_frame_out *out, int32_t n0)
+                                  const vt_road_area *given, vt_frame_out *out, int32_t n0,
+                                  int32_t *top_of)
 {
     int32_t k, j, n_hyp0 = out->n_hyp; /* the ego hypotheses (0 without VT_SRC_EGO) */
     int32_t n_raw, cnn_iou;
@@ -794,6 +849,9 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
     const vt_road_camera *rc = &p->cfg.road_camera;
     int32_t i, fx;
     vt_status s;
+    for (j = 0; j < n0; ++j) {
+        top_of[j] = VT_UNKNOWN; /* so on every return, the early ones too */
+    }
     vt__fulldet_cfg(&p->cfg, &fc);
     if (n0 > 0 && p->cfg.verify) {
         /* the ego boxes through the second stage too (the detector's result is scratch
@@ -956,6 +1014,7 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
         if (cnn_iou && best[j] >= 0 &&
             vt__iou_at_least(&p->det.box[j], &raw[best[j]], p->cfg.cnn_ego_iou_permille)) {
             out->boxes[j].box = ws->res.box[best[j]].box;
+            top_of[j] = out->boxes[j].box.top;
         }
     }
     p->det.n_boxes = k;
@@ -1217,7 +1276,8 @@ static int32_t vt__iou_at_least(const vt_box *a, const vt_box *b, int32_t permil
 }
 
 /* IoU(e, a) > IoU(e, b), exactly: the two fractions compared as int64 cross products
- * (areas <= w h <= 2^22, config.h, so every product stays under 2^45). */
+ * (areas <= w h <= 2^22, config.h, so every product stays under 2^45; with e in the
+ * frame and a, b tracker boxes, sides < 2^14 (tracker.c's bounds), under 2^52). */
 static int32_t vt__iou_more(const vt_box *e, const vt_box *a, const vt_box *b)
 {
     int64_t ia = vt__inter(e, a), ib = vt__inter(e, b);
@@ -1309,6 +1369,8 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
     vt_status s;
     int32_t det_frame, run_lanes, lanes_ok = 0, n_boxes = 0, n_tracks = 0, n_ranges = 0, i;
     int32_t whole, n_in, fresh = 0, trk_det, n_model = 0;
+    int32_t top_of[VT_MAX_BOXES]; /* per tracker box: the top of the CNN box it was
+                                     reported with (an ego box), else VT_UNKNOWN */
     const vt_box *boxes = p->det.box;
     if (frame->px == NULL) {
         return VT_E_ARG;
@@ -1360,6 +1422,9 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
     out->model_fits = 0;
     out->n_tracks = 0;
     memset(&out->lanes, 0, sizeof(out->lanes));
+    for (i = 0; i < VT_MAX_BOXES; ++i) {
+        top_of[i] = VT_UNKNOWN;
+    }
 
     if (run_lanes) {
         out->lane_status = vt_lane_detect(&p->lane, &p->cfg.lane, frame, &out->lanes, &out->road);
@@ -1393,7 +1458,8 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
         if (s == VT_OK) {
             /* with the ego detector, a caller's road is its road (the fixed one of the
              * policy); the whole-road detector keeps the camera road */
-            s = vt__detect_whole(p, frame, (p->cfg.sources & VT_SRC_EGO) != 0 ? NULL : road, out, n_ego);
+            s = vt__detect_whole(p, frame, (p->cfg.sources & VT_SRC_EGO) != 0 ? NULL : road, out, n_ego,
+                                 top_of);
         }
         if (s != VT_OK) {
             out->n_boxes = 0;
@@ -1448,6 +1514,7 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
             int32_t j = 0;
             for (i = 0; i < n_boxes; ++i) {
                 if (!vt__ho_covers(p, &p->det.box[i])) {
+                    top_of[j] = top_of[i];
                     p->det.box[j++] = p->det.box[i];
                 }
             }
@@ -1494,6 +1561,9 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
     vt__out_tracks(p, n_tracks, n_ranges, out);
     vt__out_handovers(p, out);
     vt__track_sources(p, out);
+    /* a caller's boxes (ext) are never reported with a CNN box */
+    vt__track_tops(p, n_tracks, p->det.box, top_of,
+                   p->cfg.cnn_track_top && !ext ? (n_boxes < VT_MAX_BOXES ? n_boxes : VT_MAX_BOXES) : 0, out);
     return s;
 }
 

@@ -15,7 +15,8 @@
  * short), whose boxes pass the hood rule (cfg.cnn_hood_min_width_mm, in the mutated tail):
  * every box kept is not one the rule drops, and no ego box and CNN box the tracker gets name the
  * same vehicle (the detector's NMS test between them fails), an ego box being reported as it
- * is or with a box it overlaps at IoU >= cfg.cnn_ego_iou_permille. fuzz.mk
+ * is or with a box it overlaps at IoU >= cfg.cnn_ego_iou_permille; the tracks are the
+ * tracker's, only their tops moved by cfg.cnn_track_top's heights. fuzz.mk
  * builds this harness only where the header exists. */
 #include "fuzz.h"
 #include "vehtrack/pipeline.h"
@@ -34,11 +35,12 @@ static uint8_t g_cnn_work[1u << 20];
 #ifdef PIPE_FUZZ_STATS /* -DPIPE_FUZZ_STATS: how often the CNN path runs (a harness check) */
 #include <stdio.h>
 #include <stdlib.h>
-static long g_st[6];
+static long g_st[7];
 static void st_print(void)
 {
     fprintf(stderr, "stats: cnn_inputs %ld cnn_detect_ok %ld cnn_boxes %ld below_hood_kept %ld ego_beside_cnn %ld "
-            "ego_reported_as_cnn_box %ld\n", g_st[0], g_st[1], g_st[2], g_st[3], g_st[4], g_st[5]);
+            "ego_reported_as_cnn_box %ld track_top_moved %ld\n", g_st[0], g_st[1], g_st[2], g_st[3], g_st[4],
+            g_st[5], g_st[6]);
 }
 #define STAT(i, c) (g_st[i] += (c))
 #else
@@ -100,6 +102,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         ccfg.thr_offset = fz_range(&f, -40, 8); /* low: many boxes, some on the frame's last rows */
         cfg.cnn_ego_iou_permille = fz_range(&f, 0, 1000);
     }
+    cfg.cnn_track_top = fz_u8(&f) & 1;
     fz_status(vt_pipeline_cfg_check(fz_u8(&f) == 0xFF ? NULL : &cfg));
     fz_status(vt_camera_cfg_default(&g_cam));
     s = vt_pipeline_init(fz_u8(&f) == 0xFF ? NULL : &g_p, &cfg, (fz_u8(&f) & 1) ? &g_cam : NULL, model);
@@ -224,6 +227,23 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                 FZ_ASSERT(g_p.camera != NULL ? (g_out.tracks[i].ttc_fused_q16 == VT_UNKNOWN ||
                                                 g_out.tracks[i].ttc_fused_q16 > 0)
                                              : g_out.tracks[i].ttc_fused_q16 == t);
+            }
+            for (i = 0; g_p.cfg.track && i < g_p.n_trk && i < g_out.n_tracks; i++) {
+                /* cfg.cnn_track_top: the tracker's track with only its top moved, by the
+                 * height its id holds in the table (0: none), which holds the live tracks */
+                const vt_box *o = &g_out.tracks[i].box, *t = &g_p.tracks[i].box;
+                const int32_t q = g_p.top_q8[i];
+                FZ_ASSERT(g_p.n_top == g_p.n_trk && g_p.top_id[i] == g_out.tracks[i].id &&
+                          g_p.tracks[i].id == g_out.tracks[i].id);
+                FZ_ASSERT(o->left == t->left && o->right == t->right && o->bottom == t->bottom);
+                FZ_ASSERT(q >= 0 && (q == 0 || g_p.cfg.cnn_track_top));
+                if (q == 0) {
+                    FZ_ASSERT(o->top == t->top);
+                } else {
+                    const int64_t h = ((int64_t)(t->right - t->left + 1) * q + 128) >> 8;
+                    STAT(6, o->top != t->top);
+                    FZ_ASSERT(o->top == t->bottom - (h < 1 ? 1 : h) + 1);
+                }
             }
         }
     }

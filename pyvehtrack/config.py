@@ -130,7 +130,7 @@ def _policy_defaults():
     road = next(k for k, v in ROAD_POLICIES.items() if getattr(lib, v) == c.road_policy)
     src = tuple(k for k, v in SOURCES.items() if c.sources & getattr(lib, v))
     return (int(c.detect_every), road, bool(c.lanes_every_frame), src, bool(c.track), bool(c.auto_hood),
-            int(c.cnn_hood_min_width_mm), int(c.cnn_ego_iou_permille))
+            int(c.cnn_hood_min_width_mm), int(c.cnn_ego_iou_permille), bool(c.cnn_track_top))
 
 
 _PD = _policy_defaults()
@@ -152,7 +152,9 @@ class PipelineConfig:
     vt_pipeline_cfg.cnn_hood_min_width_mm); cnn_ego_iou_permille (0..1000): with "ego" and a CNN
     detector, an ego-lane box is reported with the CNN box it replaced that overlaps it most, when
     that IoU is >= this / 1000; the tracker keeps the ego box (0: off;
-    vt_pipeline_cfg.cnn_ego_iou_permille)."""
+    vt_pipeline_cfg.cnn_ego_iou_permille); cnn_track_top: the track that ego box feeds is
+    reported with that CNN box's top, as a height in widths kept by track id; the tracker, the
+    distance and the TTC keep the tracker's box (vt_pipeline_cfg.cnn_track_top)."""
     lane: LaneConfig = field(default_factory=LaneConfig)
     shadow: ShadowConfig = field(default_factory=ShadowConfig)
     verify: VerifyConfig = field(default_factory=VerifyConfig)
@@ -167,6 +169,7 @@ class PipelineConfig:
     hood: HoodConfig = field(default_factory=HoodConfig)
     cnn_hood_min_width_mm: int = _PD[6]
     cnn_ego_iou_permille: int = _PD[7]
+    cnn_track_top: bool = _PD[8]
 
     def replace(self, **changes) -> "PipelineConfig":
         return dataclasses.replace(self, **changes)
@@ -285,6 +288,9 @@ def to_c(cfg: PipelineConfig):
     c.cnn_ego_iou_permille = _int(cfg.cnn_ego_iou_permille, "cnn_ego_iou_permille")
     if not 0 <= c.cnn_ego_iou_permille <= 1000:
         raise ValueError(f"cnn_ego_iou_permille: {cfg.cnn_ego_iou_permille} must be in 0..1000 (0: off)")
+    if not isinstance(cfg.cnn_track_top, (bool, np.bool_)):
+        raise TypeError(f"cnn_track_top: expected a bool, got {type(cfg.cnn_track_top).__name__}")
+    c.cnn_track_top = int(bool(cfg.cnn_track_top))
     _native.check("vt_hood_cfg_check", lib.vt_hood_cfg_check(ffi.addressof(c, "hood")), f"hood config {cfg.hood}")
     src = tuple(cfg.sources) if isinstance(cfg.sources, (tuple, list)) else None
     if src is None or any(s not in SOURCES for s in src):
@@ -327,7 +333,8 @@ def from_c(c) -> PipelineConfig:
         detect_every=int(c.detect_every), road=road, lanes_every_frame=bool(c.lanes_every_frame),
         sources=tuple(k for k, v in SOURCES.items() if c.sources & getattr(lib, v)),
         track=bool(c.track), auto_hood=bool(c.auto_hood), hood=ints(c.hood, HoodConfig),
-        cnn_hood_min_width_mm=int(c.cnn_hood_min_width_mm), cnn_ego_iou_permille=int(c.cnn_ego_iou_permille))
+        cnn_hood_min_width_mm=int(c.cnn_hood_min_width_mm), cnn_ego_iou_permille=int(c.cnn_ego_iou_permille),
+        cnn_track_top=bool(c.cnn_track_top))
 
 
 # ---------------------------------------------------------------- to the oracle
@@ -363,7 +370,7 @@ def to_reference(cfg: PipelineConfig, quantize: bool = True):
         detect_every=q.detect_every, road_policy=q.road, lanes_every_frame=q.lanes_every_frame,
         sources=q.sources, track=q.track, auto_hood=q.auto_hood,
         hood=rhood.HoodConfig(**dataclasses.asdict(q.hood)), cnn_hood_min_width_mm=q.cnn_hood_min_width_mm,
-        cnn_ego_iou_permille=q.cnn_ego_iou_permille)
+        cnn_ego_iou_permille=q.cnn_ego_iou_permille, cnn_track_top=q.cnn_track_top)
 
 
 def reference_capacities():

@@ -256,6 +256,21 @@ typedef struct {
                                 the ego detector's square one. Default 302: the NMS's IoU
                                 limit, 0.301, as a >= test (README, "Whose box names a
                                 vehicle both detectors found")                          */
+    int32_t cnn_track_top; /* 0 or 1, with cnn_ego_iou_permille: the top of a track's
+                                reported box. 1: on a detection frame, an ego box reported
+                                with a CNN box gives the output track that overlaps it most
+                                (IoU >= tracker.match_iou_permille, int64; the first of
+                                equals; later boxes win) the height q = round(256 (b - t + 1)
+                                / w) (Q8, at least 1; b, w the ego box's bottom row and
+                                width, t the CNN box's top), kept by track id until the next
+                                one. That track's output box is the tracker's with top =
+                                bottom - max(1, floor((w q + 128) / 256)) + 1 (w its own
+                                width). The tracker, its ROI search, the distance, TTC,
+                                warning and source read the tracker's box: unchanged. 0,
+                                the default: the tracker's box (square for an ego box).
+                                Opt-in: on KITTI it lifts the lead's mean IoU 0.66 -> 0.77
+                                but through mp4v 5 frames fall under IoU 0.6 (README, "The
+                                top of a track's box")                                  */
 } vt_pipeline_cfg;
 
 #define VT_PIPELINE_CFG_DEFAULT                                   \
@@ -290,6 +305,7 @@ typedef struct {
         .fcw_fused = 0,                                           \
         .cnn_hood_min_width_mm = 600,                             \
         .cnn_ego_iou_permille = 302,                              \
+        .cnn_track_top = 0,                                       \
     }
 
 /* The whole-road detector's scratch, owned by the caller and attached with
@@ -344,6 +360,9 @@ typedef struct {
     int32_t n_src;                      /* the source that started each live track:   */
     int32_t src_id[VT_MAX_TRACKS];      /* track ids ...                               */
     int32_t src_of[VT_MAX_TRACKS];      /* ... and their VT_SRC_* (0: not known)       */
+    int32_t n_top;                      /* cfg.cnn_track_top's heights of live tracks: */
+    int32_t top_id[VT_MAX_TRACKS];      /* track ids ...                               */
+    int32_t top_q8[VT_MAX_TRACKS];      /* ... and their heights in widths, Q8 (0: none) */
     vt_ttc_state *ttc_st;               /* the block-scale TTC's state (NULL: none)    */
     int32_t n_ttc;                      /* its outputs of the last step ...            */
     vt_ttc_out ttc_out[VT_MAX_TRACKS];  /* ... (kept here, not on the stack)           */

@@ -66,6 +66,7 @@ typedef struct {
     int32_t fcw_fused;
     int32_t cnn_hood_min_width_mm;
     int32_t cnn_ego_iou_permille;
+    int32_t cnn_track_top;
 } vt_pipeline_cfg;
 
 typedef struct {

@@ -2,7 +2,7 @@
 
     pyvehtrack report INPUT --out REPORT_DIR [--camera CAMERA.json] [--truth TRUTH ...]
                       [--engine c|reference] [--detect-every N] [--fps F]
-                      [--measurement auto|roi|edges|roi+edges] [--rear-offset M]
+                      [--measurement auto|roi|edges|roi+edges] [--box-top tracker|cnn] [--rear-offset M]
                       [--bottom-height M] [--path-half-width M] [--no-progress]
 """
 from __future__ import annotations
@@ -51,6 +51,8 @@ def register(sub) -> None:
     p.add_argument("--measurement", choices=("auto", "roi", "edges", "roi+edges"), default="auto",
                    help="the tracker's per-frame measurement, as `track --measurement` (default auto: "
                         "roi+edges for a lossy video or JPEG frames, roi otherwise)")
+    p.add_argument("--box-top", choices=("tracker", "cnn"), default="tracker",
+                   help="the top of a track's box, as `track --box-top` (default: the tracker's)")
     add_range_args(p)           # as `track`'s (they need a camera)
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
@@ -78,7 +80,7 @@ def run(args) -> int:
                            detect_every=args.detect_every, progress=not args.no_progress, fps=args.fps,
                            model=model, measurement=args.measurement, rear_offset=args.rear_offset,
                            bottom_height=args.bottom_height, path_half_width=args.path_half_width,
-                           ego_speed=args.ego_speed, warn_ttc=args.warn_ttc)
+                           ego_speed=args.ego_speed, warn_ttc=args.warn_ttc, box_top=args.box_top)
     except (ValueError, TypeError, VtError) as e:
         raise CliError(str(e)) from None
     print(f"report: {page}")

@@ -163,6 +163,7 @@ class PipelineRefConfig:
     hood: rhood.HoodConfig = field(default_factory=rhood.HoodConfig)
     cnn_hood_min_width_mm: int = 600  # the CNN's boxes on the hood are dropped (cnn_hood_drop)
     cnn_ego_iou_permille: int = 302  # an ego box is reported with its CNN box of IoU >= this / 1000
+    cnn_track_top: bool = False  # the track that ego box feeds is reported with that box's top (_track_tops)
 
 
 def cnn_hood_drop(rows: np.ndarray, cam, w: int, min_w_mm: int) -> np.ndarray:
@@ -294,6 +295,8 @@ class Pipeline:
             self.ttc = rttc.TtcScaleTracker(self.cfg.ttc_points, self.caps.ttc_tracks, self.caps.ttc_hist)
         self.frame = 0
         self.track_src = {}        # id -> the source of the box that started the track
+        self.track_top = {}        # id -> its height in widths, Q8 (cnn_track_top)
+        self._top_pairs = []       # this frame's (ego box, top of the CNN box it was reported with)
 
     def _track_sources(self, tracks, boxes, box_source) -> list:
         """The source that started each track (c/pipeline.c's vt__track_sources): kept
@@ -313,6 +316,33 @@ class Pipeline:
                     best, src = iw * ih, s
             out.append(src)
         self.track_src = {t[0]: s for t, s in zip(tracks, out)}
+        return out
+
+    def _track_tops(self, tracks) -> list:
+        """cnn_track_top (c/pipeline.c's vt__track_tops): each of this frame's pairs (ego box
+        e the tracker got, top row t of the CNN box it was reported with) gives the track that overlaps e most
+        (IoU >= the tracker's match_iou_permille, the first of equals; a later pair wins) the
+        height q = max(1, round half up 256 (e.bottom - t + 1) / e's width); other tracks keep
+        theirs by id. tracks (the tracker's, hand-overs excluded) come back with
+        top = bottom - max(1, (w q + 128) // 256) + 1."""
+        q = [self.track_top.get(t[0], 0) for t in tracks]
+        lim = self.cfg.tracker.match_iou_permille
+        for e, top in self._top_pairs:
+            best, bv = None, None
+            for i, t in enumerate(tracks):
+                inter, union, _, _ = rw._iou_parts(list(e), list(t[2]))
+                if inter * 1000 >= lim * union and (bv is None or Fraction(inter, union) > bv):
+                    best, bv = i, Fraction(inter, union)
+            if best is not None:
+                ew = e[2] - e[0] + 1
+                q[best] = max(1, ((e[3] - top + 1) * 256 + ew // 2) // ew)
+        out = []
+        for t, qi in zip(tracks, q):
+            if qi > 0:
+                l, _tp, r, b = t[2]
+                t = (t[0], t[1], (l, b - max(1, ((r - l + 1) * qi + 128) // 256) + 1, r, b)) + tuple(t[3:])
+            out.append(t)
+        self.track_top = {t[0]: qi for t, qi in zip(tracks, q)}
         return out
 
     def step(self, gray: np.ndarray, road=None, detections=None) -> RefFrame:
@@ -345,6 +375,7 @@ class Pipeline:
         hyp = np.zeros((0, 3), np.int64)
         boxes = np.zeros((0, 4), np.int64)
         stats = {}
+        self._top_pairs = []
         self._hood_row = -1   # _detect_ego's finding (vt_frame_out.hood_row)
         box_source = SRC_SHADOW
         scores = None
@@ -396,6 +427,7 @@ class Pipeline:
                 # a handed-over vehicle keeps its one id: its boxes do not reach the tracker
                 trk_boxes = np.asarray([b for b in trk_boxes if not self._ho_covers(b)],
                                        np.int64).reshape(-1, 4)
+                self._top_pairs = [(e, t) for e, t in self._top_pairs if not self._ho_covers(e)]
         if c.track:
             # the tracker's scale check: the whole-road detector's horizon (C's rule)
             self.tracker.set_horizon(self._horizon(h, w))
@@ -424,9 +456,10 @@ class Pipeline:
         if isinstance(box_source, str):
             box_source = [box_source] * len(boxes)
         tsrc = self._track_sources(tracks, boxes[:self.caps.max_boxes], box_source[:self.caps.max_boxes])
+        shown = (self._track_tops(tracks[:n_trk]) if c.track else []) + tracks[n_trk:]
         out = RefFrame(self.frame, det_frame, bool(run_lanes), lanes_ok, lanes, source, road,
                        np.asarray(hyp, np.int64).reshape(-1, 3), boxes, box_source,
-                       tracks, stats, [None] * len(boxes) if scores is None else scores, tsrc,
+                       shown, stats, [None] * len(boxes) if scores is None else scores, tsrc,
                        [pts.get(int(t[0])) for t in tracks])
         out.track_ttc_fused = [ttc_fuse(p, t[6], c.ttc_fuse_permille)
                                for p, t in zip(out.track_ttc_points, tracks)]
@@ -760,6 +793,8 @@ class Pipeline:
         for j, bj in enumerate(best):   # reported with the CNN's box of the same car
             if bj is not None and bj[0] * 1000 >= cnn_iou:
                 boxes[j] = bj[1]
+                if self.cfg.cnn_track_top:
+                    self._top_pairs.append(([int(v) for v in ego_boxes[j]], int(bj[1][1])))
         self._trk_whole = np.asarray(tboxes, np.int64).reshape(-1, 4)
         return road, source, np.asarray(hyp, np.int64).reshape(-1, 3), np.asarray(boxes, np.int64).reshape(-1, 4), \
             src, scores, stats

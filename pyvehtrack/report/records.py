@@ -173,17 +173,19 @@ class PythonPipeline:
     range_params: keyword arguments of the RangeEstimator (rear_offset, bottom_height,
     path_half_width; _check.range_options checks them), None: its defaults. ego_speed (m/s,
     None: unknown) and warn_ttc ("distance" / "fused": the TTC the warning decides on), as
-    `track --ego-speed / --warn-ttc`."""
+    `track --ego-speed / --warn-ttc`; box_top ("tracker" / "cnn") as `track --box-top`."""
 
     def __init__(self, engine: str = "c", detect_every: int = 10, camera: dict | None = None,
                  fps: float = 10.0, geometry=None, model=None, measurement: str = "roi",
                  range_params: dict | None = None, ego_speed: float | None = None,
-                 warn_ttc: str = "distance"):
+                 warn_ttc: str = "distance", box_top: str = "tracker"):
         from ..detector import Detector
         from ..lane import LaneDetector
         from ..tracker import Tracker
         if isinstance(detect_every, bool) or not isinstance(detect_every, (int, np.integer)):
             raise TypeError(f"detect_every must be an int, got {type(detect_every).__name__}")
+        if box_top not in ("tracker", "cnn"):
+            raise ValueError(f"box_top must be 'tracker' or 'cnn', got {box_top!r}")
         if detect_every < 1:
             raise ValueError(f"detect_every must be >= 1, got {detect_every}")
         if isinstance(fps, bool) or not isinstance(fps, (int, float)) or not math.isfinite(fps) or fps <= 0:
@@ -207,7 +209,8 @@ class PythonPipeline:
         # the distance/rate TTC is what `track` draws (ttc_fused_s)
         self.tracker = Tracker(engine=engine, detect_every=int(detect_every), detector=self.detector,
                                measurement=measurement, ttc_points=file_cam is not None,
-                               fps=float(fps) if file_cam is not None else None)
+                               fps=float(fps) if file_cam is not None else None,
+                               cnn_track_top=box_top == "cnn")
         self.detect_every = int(detect_every)
         self.camera = camera
         self.fps = float(fps)
