@@ -563,12 +563,19 @@ static void vt__track_sources(vt_pipeline *p, vt_frame_out *out)
 static int32_t vt__iou_at_least(const vt_box *a, const vt_box *b, int32_t permille);
 static int32_t vt__iou_more(const vt_box *e, const vt_box *a, const vt_box *b);
 
+/* A tracker box that is an ego box reported as it is (top_of in vt__step; boxes lie
+ * within tracker.c's bounds, so no top row is INT32_MAX). */
+#define VT__TOP_EGO INT32_MAX
+
 /* cfg.cnn_track_top (pipeline.h): each of the tracker's n boxes e[k] of this frame that is
- * an ego box reported with a CNN box (t[k], that box's top row; VT_UNKNOWN: any other box)
- * sets the height of the tracker's track that overlaps e[k] most (IoU >= the tracker's
- * match_iou_permille, the first of equals; a later box wins); other tracks keep theirs by
- * id. The tracker's tracks (the first n_trk output tracks, hand-overs follow) are then
- * reported with that top, and the table is rewritten with them only. */
+ * an ego box (t[k]: the top row of the CNN box it was reported with, VT__TOP_EGO when it
+ * was reported as it is; VT_UNKNOWN: not an ego box) goes to the tracker's track that
+ * overlaps it most (IoU >= the tracker's match_iou_permille, the first of equals; a later
+ * box wins). That track's height becomes q = max(1, round half up 256 (bottom - t[k] + 1)
+ * / width) of its own box, or none (0) for VT__TOP_EGO; other tracks keep theirs by id.
+ * The tracker's tracks (the first n_trk output tracks, hand-overs follow) are then
+ * reported with top = bottom - max(1, floor((w q + 128) / 256)) + 1 where q > 0, and the
+ * table is rewritten with them only. */
 static void vt__track_tops(vt_pipeline *p, int32_t n_trk, const vt_box *e, const int32_t *t, int32_t n,
                            vt_frame_out *out)
 {
@@ -584,8 +591,6 @@ static void vt__track_tops(vt_pipeline *p, int32_t n_trk, const vt_box *e, const
         }
     }
     for (k = 0; k < n; ++k) {
-        int32_t ew = e[k].right - e[k].left + 1;
-        int64_t num = (int64_t)e[k].bottom - t[k] + 1; /* >= 1: the two boxes overlap */
         if (t[k] == VT_UNKNOWN) {
             continue;
         }
@@ -596,8 +601,15 @@ static void vt__track_tops(vt_pipeline *p, int32_t n_trk, const vt_box *e, const
                 best = i;
             }
         }
-        if (best >= 0) {
-            int64_t v = (num * 256 + ew / 2) / ew; /* rounded half up, as the tracker's aspect */
+        if (best >= 0 && t[k] == VT__TOP_EGO) {
+            q[best] = 0; /* detect's latest box of it is the ego box itself */
+        } else if (best >= 0) {
+            /* rounded half up, as the tracker's aspect; a CNN top below the track's bottom
+             * (v <= 0, truncated or floored alike) gives 1. |num| < 2^16 (tracker.c's
+             * bounds), so v < 2^24. */
+            const vt_box *b = &out->tracks[best].box;
+            int64_t w = (int64_t)b->right - b->left + 1, num = (int64_t)b->bottom - t[k] + 1;
+            int64_t v = (num * 256 + w / 2) / w;
             q[best] = v < 1 ? 1 : (int32_t)v;
         }
     }
@@ -833,8 +845,9 @@ static void vt__cnn_hood_drop(vt_fulldet_result *res, const vt_camera_min *cam, 
  * threshold, window_score_min, if it suppresses none); the shadow hypotheses follow
  * the ego ones. With a CNN and cfg.cnn_ego_iou_permille > 0, an ego box is reported with
  * the box of the CNN boxes it drops that overlaps it most, when that IoU is >= the limit;
- * p->det (the tracker's input) keeps the ego box. top_of[j] (n0 of them): that reported
- * box's top row for ego box j, VT_UNKNOWN when it is reported as it is. */
+ * p->det (the tracker's input) keeps the ego box. top_of[j] for each ego box j that
+ * survives (the caller set them all VT_UNKNOWN): that reported box's top row, or
+ * VT__TOP_EGO when it is reported as it is. */
 static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
                                   const vt_road_area *given, vt_frame_out *out, int32_t n0,
                                   int32_t *top_of)
@@ -849,9 +862,6 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
     const vt_road_camera *rc = &p->cfg.road_camera;
     int32_t i, fx;
     vt_status s;
-    for (j = 0; j < n0; ++j) {
-        top_of[j] = VT_UNKNOWN; /* so on every return, the early ones too */
-    }
     vt__fulldet_cfg(&p->cfg, &fc);
     if (n0 > 0 && p->cfg.verify) {
         /* the ego boxes through the second stage too (the detector's result is scratch
@@ -876,6 +886,9 @@ static vt_status vt__detect_whole(vt_pipeline *p, const vt_image_u8 *frame,
             out->boxes[j].box = ws->res.box[j].box;
             out->boxes[j].score = ws->res.box[j].score;
         }
+    }
+    for (j = 0; j < n0; ++j) {
+        top_of[j] = VT__TOP_EGO; /* before the early return below: no road, no CNN box */
     }
     cam.horizon_y = vt__horizon(p, frame->h);
     cam.hood_y = vt__frac_q16(frame->h, rc->hood_q16);

@@ -152,9 +152,10 @@ class PipelineConfig:
     vt_pipeline_cfg.cnn_hood_min_width_mm); cnn_ego_iou_permille (0..1000): with "ego" and a CNN
     detector, an ego-lane box is reported with the CNN box it replaced that overlaps it most, when
     that IoU is >= this / 1000; the tracker keeps the ego box (0: off;
-    vt_pipeline_cfg.cnn_ego_iou_permille); cnn_track_top: the track that ego box feeds is
-    reported with that CNN box's top, as a height in widths kept by track id; the tracker, the
-    distance and the TTC keep the tracker's box (vt_pipeline_cfg.cnn_track_top)."""
+    vt_pipeline_cfg.cnn_ego_iou_permille); cnn_track_top: the track an ego box goes to is reported
+    with the top of the box detection reported for it (that CNN box's, as a height in widths kept by
+    track id; an ego box reported as it is clears it); the tracker, the distance and the TTC keep
+    the tracker's box (vt_pipeline_cfg.cnn_track_top)."""
     lane: LaneConfig = field(default_factory=LaneConfig)
     shadow: ShadowConfig = field(default_factory=ShadowConfig)
     verify: VerifyConfig = field(default_factory=VerifyConfig)

@@ -134,14 +134,14 @@ class Tracker:
     car the ego car overtakes keeps its id with state "handover" while the flow stage
     follows it out of the frame).
 
-    cnn_track_top: a track the ego-lane detector's box started or fed, where the CNN detector
-    reported that vehicle with its own box, is shown with the CNN box's top
-    (PipelineConfig.cnn_track_top; only the box's top: the tracker, distance and TTC are
-    unchanged). Off by default (README, "The top of a track's box")."""
+    cnn_track_top: a track the ego-lane detector's box goes to, where the CNN detector reported
+    that vehicle with its own box, is shown with the CNN box's top (PipelineConfig.cnn_track_top;
+    only the box's top: the tracker, distance and TTC are unchanged). None (default): the
+    pipeline's default, on; False: the tracker's box (README, "The top of a track's box")."""
 
     def __init__(self, engine: str = "c", cfg: TrackerCfg | None = None,
                  detect_every: int = 10, detector=None, measurement: str | None = None,
-                 ttc_points=None, fps: float | None = None, flow=False, cnn_track_top: bool = False):
+                 ttc_points=None, fps: float | None = None, flow=False, cnn_track_top: bool | None = None):
         from .pipeline import Pipeline  # noqa: PLC0415  (pipeline imports this module's users)
         _check.choice(engine, "engine", ("c", "reference"))
         if measurement is not None:
@@ -188,10 +188,10 @@ class Tracker:
             over["sources"] = tuple(over.get("sources", ("shadow",))) + ("flow",)
             if isinstance(flow, dict):
                 over["flow"] = dict(flow)
-        if not isinstance(cnn_track_top, (bool, np.bool_)):
-            raise TypeError(f"cnn_track_top: expected a bool, got {type(cnn_track_top).__name__}")
-        if cnn_track_top:   # PipelineConfig.cnn_track_top: the CNN's top on the ego detector's tracks
-            over["cnn_track_top"] = True
+        if cnn_track_top is not None and not isinstance(cnn_track_top, (bool, np.bool_)):
+            raise TypeError(f"cnn_track_top: expected a bool or None, got {type(cnn_track_top).__name__}")
+        if cnn_track_top is not None:   # PipelineConfig.cnn_track_top: the CNN's top on the ego detector's tracks
+            over["cnn_track_top"] = bool(cnn_track_top)
         self.pipeline = Pipeline(engine, tracker=tracker_config(self.cfg), detect_every=self.detect_every,
                                  reference_quantized=False, **over)
 

@@ -233,58 +233,77 @@ def test_pipeline_cnn_ego_iou_best_of_several(seed, limit):
     assert any(len(v) >= 2 for v in ious_of) and got == expect and got != base
 
 
-def _track_top_expected(base_boxes, rep_boxes, tracks_off, match_iou, rounding=True, best=True):
+def approach(gray, n=4):
+    """n frames of a scene coming nearer: frame k is gray with 2k rows and 3k columns cut from
+    each side, resized back (OpenCV bilinear), so boxes grow about 2% a frame."""
+    import cv2
+    h, w = gray.shape
+    return [cv2.resize(gray[2 * k:h - 2 * k, 3 * k:w - 3 * k], (w, h), interpolation=cv2.INTER_LINEAR)
+            for k in range(n)]
+
+
+def _track_top_expected(base_boxes, rep_boxes, tracks_off, match_iou, rounding=True, best=True, clear=True):
     """cnn_track_top's tracks worked out from the same steps with it off (tracks_off: per frame
     [(id, state, box)], the tracker's boxes), the ego boxes as the tracker gets them (base_boxes:
     per frame, the limit-0 run's reported boxes) and the boxes reported with the limit on
-    (rep_boxes; None: not a detection frame). On a detection frame each replaced ego box e (its
-    reported box r differs) gives the track of the highest IoU with it, >= match_iou / 1000 (exact,
-    the first of equals), the height q = max(1, round half up 256 (e.bottom - r.top + 1) / e's
-    width), kept by id; a track with q is shown with top = bottom - max(1, (w q + 128) // 256) + 1.
-    rounding / best False: q rounded down / the first track over the bar (the near misses)."""
+    (rep_boxes; None: not a detection frame). On a detection frame each ego box e goes to the track
+    of the highest IoU with it, >= match_iou / 1000 (exact, the first of equals; a later box wins):
+    reported with another box r, it gives that track the height q = max(1, round half up
+    256 (bottom - r.top + 1) / width) of the track's own box; reported as it is, it clears it.
+    Heights are kept by id; a track with one is shown with top = bottom - max(1, (w q + 128) // 256)
+    + 1. rounding / best / clear False: q rounded down / the first track over the bar / an ego box
+    reported as it is leaves the height (the near misses)."""
     from fractions import Fraction
 
     from pyvehtrack.reference import windows as rw
     q, out = {}, []
     for base, rep, tracks in zip(base_boxes, rep_boxes, tracks_off):
         q = {t[0]: q[t[0]] for t in tracks if t[0] in q}
-        pairs = [] if rep is None else [(b[0], r[0]) for b, r in zip(base, rep)
-                                        if b[1] == "ego" and b[0] != r[0]]
-        for e, r in pairs:
+        pairs = [] if rep is None else [(b[0], r[0][1] if r[0] != b[0] else None)
+                                        for b, r in zip(base, rep) if b[1] == "ego"]
+        for e, top in pairs:
             ious = [Fraction(*rw._iou_parts(e, t[2])[:2]) for t in tracks]
             ok = [i for i, v in enumerate(ious) if v * 1000 >= match_iou]
-            if ok:
-                k = max(ok, key=lambda i: (ious[i], -i)) if best else ok[0]
-                ew = e[2] - e[0] + 1
-                q[tracks[k][0]] = max(1, ((e[3] - r[1] + 1) * 256 + (ew // 2 if rounding else 0)) // ew)
+            if not ok:
+                continue
+            k = max(ok, key=lambda i: (ious[i], -i)) if best else ok[0]
+            l, _t, r, b = tracks[k][2]
+            if top is None and not clear:
+                continue
+            q[tracks[k][0]] = 0 if top is None else \
+                max(1, ((b - top + 1) * 256 + ((r - l + 1) // 2 if rounding else 0)) // (r - l + 1))
         shown = []
         for tid, st, (l, tp, r, b) in tracks:
-            if tid in q:
+            if q.get(tid, 0) > 0:
                 tp = b - max(1, ((r - l + 1) * q[tid] + 128) // 256) + 1
             shown.append((tid, st, (l, tp, r, b)))
         out.append(shown)
     return out
 
 
-@pytest.mark.parametrize("seed,limit,match_iou,tells", [(10, 150, 300, ""), (19, 302, 300, ""), (3, 100, 300, ""),
-                                                        (225, 100, 300, "rounding"), (56, 302, 10, "best")])
+@pytest.mark.parametrize("seed,limit,match_iou,tells", [(19, 302, 300, ""), (16, 302, 300, ""),
+                                                        (4, 302, 300, "rounding"), (23, 302, 300, "clear"),
+                                                        (56, 302, 10, "best")])
 def test_pipeline_cnn_track_top(seed, limit, match_iou, tells):
-    """vt_pipeline_cfg.cnn_track_top: the tracker is untouched (ids, states, left, right and bottom
-    equal to the run with it off), and the track an ego box reported with a CNN box feeds is shown
-    with that box's top, as a height in the ego box's widths kept by track id over the frames
-    without detection (detect_every 2, four steps). Exact, C = reference, against the tracks worked
-    out from the run with it off (_track_top_expected). In each scene one of the two ego boxes is
-    replaced (asserted), by a CNN box whose top lies above the ego box's (seed 3: row 95 against
-    114, a taller track box), below it (seed 19: 128 against 119, a shorter one) or above it on a
-    box 3.5 times as wide (seed 10: the height still counts in the ego box's width)."""
+    """vt_pipeline_cfg.cnn_track_top on a scene coming nearer (approach: four frames, detection on 0
+    and 2): the tracker is untouched (ids, states, left, right and bottom equal to the run with it
+    off), and a track an ego box reported with a CNN box goes to is shown with that box's top, as a
+    height in its own widths kept by id over the frame without detection, and cleared by an ego
+    box reported as it is. Exact, C = reference, against the tracks worked out from the run with
+    it off (_track_top_expected). On frame 0 one ego box is reported with a CNN box (asserted). Each
+    of the last three scenes tells the rule from one near miss, and only from it (asserted): q
+    rounded down (the width changes after it is taken), an ego box reported as it is leaving the
+    height (frame 2), the first track over a low association bar instead of the best. With the
+    smallest build's one track slot the moved track may have no slot: there only C = reference =
+    worked out is checked."""
     m = tiny_model(seed)
-    gray = scene(seed=seed)
+    frames = approach(scene(seed=seed))
     kw = dict(model=m, cnn_cfg=CFG, sources=("ego", "classifier"), road="fixed", detect_every=2,
               cnn_hood_min_width_mm=0, tracker=TrackerConfig(match_iou_permille=match_iou))
 
     def run(engine, lim, top):
         pipe = Pipeline(engine, cnn_ego_iou_permille=lim, cnn_track_top=top, **kw)
-        res = [pipe.step(gray) for _ in range(4)]
+        res = [pipe.step(g) for g in frames]
         return ([[(b.box, b.source) for b in r.boxes] if r.detection_frame else None for r in res],
                 [[(t.id, t.state, t.box) for t in r.tracks] for r in res], pipe)
     base, _, _ = run("c", 0, False)
@@ -297,29 +316,30 @@ def test_pipeline_cnn_track_top(seed, limit, match_iou, tells):
         [[(i, s, (b[0], b[2], b[3])) for i, s, b in f] for f in off]
     mi = int(pipe._ccfg.tracker.match_iou_permille)
     want = _track_top_expected(base, rep, off, mi)
-    assert on == want and on != off
-    # the scenes that tell the rule from a near miss: q rounded down, or the first track over the bar
-    assert (_track_top_expected(base, rep, off, mi, rounding=False) != want) == (tells == "rounding")
-    assert (_track_top_expected(base, rep, off, mi, best=False) != want) == (tells == "best")
-    assert on[1] == [(i, s, b) for (i, s, b) in on[0]]   # frame 1 (no detection) keeps frame 0's tops
+    assert on == want
+    if int(lib.VT_MAX_TRACKS) >= 8:
+        assert on[0] != off[0] and on[1] != off[1]   # frame 1 (no detection) keeps frame 0's heights
+        for near in ("rounding", "best", "clear"):
+            assert (_track_top_expected(base, rep, off, mi, **{near: False}) != want) == (tells == near), near
 
 
 @settings(max_examples=25, deadline=None)
 @given(seed=st.integers(0, 10**6), limit=st.sampled_from([1, 100, 302, 600]),
        match_iou=st.sampled_from([1, 10, 300]), every=st.integers(1, 3))
 def test_pipeline_cnn_track_top_c_matches_reference(seed, limit, match_iou, every):
-    """cnn_track_top on random scenes, limits, association bars and detection intervals: C's tracks
-    (id, state, box) equal the reference pipeline's over five steps, exactly (integer rules on both
-    sides), and the tracker is untouched (the same steps with it off differ in tops only). About a
-    third of such examples move a top (9 of 25 drawn when written)."""
+    """cnn_track_top on random scenes coming nearer (approach), limits, association bars and
+    detection intervals: C's tracks (id, state, box) equal the reference pipeline's over five
+    steps, exactly (integer rules on both sides), and the tracker is untouched (the same steps with
+    it off differ in tops only). About half of such examples move a top (13 of 25 drawn when
+    written)."""
     m = tiny_model(seed)
-    gray = scene(seed=seed)
+    frames = approach(scene(seed=seed), 5)
     kw = dict(model=m, cnn_cfg=CFG, sources=("ego", "classifier"), road="fixed", detect_every=every,
               cnn_hood_min_width_mm=0, cnn_ego_iou_permille=limit, tracker=TrackerConfig(match_iou_permille=match_iou))
     got = {}
     for engine, top in (("c", True), ("reference", True), ("c", False)):
         pipe = Pipeline(engine, cnn_track_top=top, **kw)
-        got[engine, top] = [[(t.id, t.state, t.box) for t in pipe.step(gray).tracks] for _ in range(5)]
+        got[engine, top] = [[(t.id, t.state, t.box) for t in pipe.step(g).tracks] for g in frames]
     assert got["c", True] == got["reference", True]
     assert [[(i, s, (b[0], b[2], b[3])) for i, s, b in f] for f in got["c", True]] == \
         [[(i, s, (b[0], b[2], b[3])) for i, s, b in f] for f in got["c", False]]
@@ -332,12 +352,13 @@ def test_pipeline_cnn_track_top_bad_values():
     for bad in (2, "yes", None):
         with pytest.raises(TypeError, match="cnn_track_top"):
             Pipeline(model=m, cnn_cfg=CFG, cnn_track_top=bad)
-        with pytest.raises(TypeError, match="cnn_track_top"):
-            Tracker(cnn_track_top=bad)
+        if bad is not None:   # Tracker's None: the pipeline's default
+            with pytest.raises(TypeError, match="cnn_track_top"):
+                Tracker(cnn_track_top=bad)
     with pytest.raises(ValueError, match="box_top"):
         PythonPipeline(box_top="square")
     cfg = ffi.new("vt_pipeline_cfg *")
-    assert lib.vt_pipeline_cfg_default(cfg) == lib.VT_OK and cfg.cnn_track_top == 0
+    assert lib.vt_pipeline_cfg_default(cfg) == lib.VT_OK and cfg.cnn_track_top == 1
     for bad in (-1, 2, 1 << 30):
         cfg.cnn_track_top = bad
         assert lib.vt_pipeline_cfg_check(cfg) == lib.VT_E_ARG

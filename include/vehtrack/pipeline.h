@@ -257,20 +257,20 @@ typedef struct {
                                 limit, 0.301, as a >= test (README, "Whose box names a
                                 vehicle both detectors found")                          */
     int32_t cnn_track_top; /* 0 or 1, with cnn_ego_iou_permille: the top of a track's
-                                reported box. 1: on a detection frame, an ego box reported
-                                with a CNN box gives the output track that overlaps it most
+                                reported box. 1: on a detection frame, each ego box the
+                                tracker gets goes to the output track that overlaps it most
                                 (IoU >= tracker.match_iou_permille, int64; the first of
-                                equals; later boxes win) the height q = round(256 (b - t + 1)
-                                / w) (Q8, at least 1; b, w the ego box's bottom row and
-                                width, t the CNN box's top), kept by track id until the next
-                                one. That track's output box is the tracker's with top =
-                                bottom - max(1, floor((w q + 128) / 256)) + 1 (w its own
-                                width). The tracker, its ROI search, the distance, TTC,
-                                warning and source read the tracker's box: unchanged. 0,
-                                the default: the tracker's box (square for an ego box).
-                                Opt-in: on KITTI it lifts the lead's mean IoU 0.66 -> 0.77
-                                but through mp4v 5 frames fall under IoU 0.6 (README, "The
-                                top of a track's box")                                  */
+                                equals; later boxes win). Reported with a CNN box, it gives
+                                that track the height q = max(1, round(256 (b - t + 1) / w))
+                                (Q8; b, w the track's own bottom row and width there, t the
+                                CNN box's top); reported as it is, it clears the track's
+                                height. The track keeps it by id until its next ego box, and
+                                its output box is the tracker's with top = bottom - max(1,
+                                floor((w q + 128) / 256)) + 1 (w its own width now) while it
+                                has one. The tracker, its ROI search, the distance, TTC,
+                                warning and source read the tracker's box: unchanged. 0:
+                                the tracker's box (square for an ego box). Default 1 (README,
+                                "The top of a track's box")                             */
 } vt_pipeline_cfg;
 
 #define VT_PIPELINE_CFG_DEFAULT                                   \
@@ -305,7 +305,7 @@ typedef struct {
         .fcw_fused = 0,                                           \
         .cnn_hood_min_width_mm = 600,                             \
         .cnn_ego_iou_permille = 302,                              \
-        .cnn_track_top = 0,                                       \
+        .cnn_track_top = 1,                                       \
     }
 
 /* The whole-road detector's scratch, owned by the caller and attached with

@@ -2,7 +2,7 @@
 
     pyvehtrack report INPUT --out REPORT_DIR [--camera CAMERA.json] [--truth TRUTH ...]
                       [--engine c|reference] [--detect-every N] [--fps F]
-                      [--measurement auto|roi|edges|roi+edges] [--box-top tracker|cnn] [--rear-offset M]
+                      [--measurement auto|roi|edges|roi+edges] [--box-top cnn|tracker] [--rear-offset M]
                       [--bottom-height M] [--path-half-width M] [--no-progress]
 """
 from __future__ import annotations
@@ -51,8 +51,8 @@ def register(sub) -> None:
     p.add_argument("--measurement", choices=("auto", "roi", "edges", "roi+edges"), default="auto",
                    help="the tracker's per-frame measurement, as `track --measurement` (default auto: "
                         "roi+edges for a lossy video or JPEG frames, roi otherwise)")
-    p.add_argument("--box-top", choices=("tracker", "cnn"), default="tracker",
-                   help="the top of a track's box, as `track --box-top` (default: the tracker's)")
+    p.add_argument("--box-top", choices=("cnn", "tracker"), default="cnn",
+                   help="the top of a track's box, as `track --box-top` (default cnn)")
     add_range_args(p)           # as `track`'s (they need a camera)
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)

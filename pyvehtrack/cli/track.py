@@ -2,7 +2,7 @@
 
     pyvehtrack track INPUT... --out annotated.mp4 [--tracks tracks.txt] [--engine c|reference]
                      [--detect-every N] [--road auto|lanes|fixed] [--all-states]
-                     [--measurement auto|roi|edges|roi+edges] [--box-top tracker|cnn]
+                     [--measurement auto|roi|edges|roi+edges] [--box-top cnn|tracker]
                      [--camera CAMERA.json [--fps F] [--ego-speed V]] [--json TRACKS.json]
                      [--skip-bad-frames] [--no-progress]
 
@@ -138,11 +138,12 @@ def register(sub) -> None:
                         "roi+edges when the input is a lossy video (H.264, MPEG-4, ...) or JPEG/WebP "
                         "frames, roi for PNG/BMP/TIFF frames or lossless video (until 2026-11-30 the "
                         "default was roi)")
-    p.add_argument("--box-top", choices=("tracker", "cnn"), default="tracker",
-                   help="the top of a track's box: the tracker's (default; for a vehicle the ego-lane "
-                        "detector found, a square box) or, where the CNN model also boxed that vehicle, "
-                        "the CNN box's top, kept as a height in box widths (vt_pipeline_cfg.cnn_track_top; "
-                        "the tracker, distance and TTC are unchanged)")
+    p.add_argument("--box-top", choices=("cnn", "tracker"), default="cnn",
+                   help="the top of a track's box: cnn (default), for a track the ego-lane detector's box "
+                        "goes to, the top of the CNN box `detect` reported for it on the last detection "
+                        "frame, kept as a height in box widths (vt_pipeline_cfg.cnn_track_top); tracker: "
+                        "the tracker's box, square for those tracks (the default before 2026-11-30). The "
+                        "tracker, distance and TTC are the same either way")
     p.add_argument("--flow", action="store_true",
                    help="also run the overtaking flow stage (sources 'flow'): overtaking cars from the "
                         "side, and the reverse hand-over of cars the ego car overtakes (state 'handover')")
@@ -216,7 +217,7 @@ def run(args) -> int:
         trk = Tracker(engine=args.engine, detect_every=args.detect_every, detector=det,
                       measurement=measurement, ttc_points=cam is not None,
                       fps=fps, flow=bool(getattr(args, "flow", False)),
-                      cnn_track_top=getattr(args, "box_top", "tracker") == "cnn")
+                      cnn_track_top=getattr(args, "box_top", "cnn") == "cnn")
     except (RuntimeError, ValueError, TypeError) as e:
         raise CliError(str(e)) from None
     ranger = lanes = None

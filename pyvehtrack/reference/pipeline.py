@@ -163,7 +163,7 @@ class PipelineRefConfig:
     hood: rhood.HoodConfig = field(default_factory=rhood.HoodConfig)
     cnn_hood_min_width_mm: int = 600  # the CNN's boxes on the hood are dropped (cnn_hood_drop)
     cnn_ego_iou_permille: int = 302  # an ego box is reported with its CNN box of IoU >= this / 1000
-    cnn_track_top: bool = False  # the track that ego box feeds is reported with that box's top (_track_tops)
+    cnn_track_top: bool = True  # the track an ego box goes to shows detect's top of it (_track_tops)
 
 
 def cnn_hood_drop(rows: np.ndarray, cam, w: int, min_w_mm: int) -> np.ndarray:
@@ -296,7 +296,7 @@ class Pipeline:
         self.frame = 0
         self.track_src = {}        # id -> the source of the box that started the track
         self.track_top = {}        # id -> its height in widths, Q8 (cnn_track_top)
-        self._top_pairs = []       # this frame's (ego box, top of the CNN box it was reported with)
+        self._top_pairs = []       # this frame's (ego box, top of the CNN box it was reported with or None)
 
     def _track_sources(self, tracks, boxes, box_source) -> list:
         """The source that started each track (c/pipeline.c's vt__track_sources): kept
@@ -319,12 +319,13 @@ class Pipeline:
         return out
 
     def _track_tops(self, tracks) -> list:
-        """cnn_track_top (c/pipeline.c's vt__track_tops): each of this frame's pairs (ego box
-        e the tracker got, top row t of the CNN box it was reported with) gives the track that overlaps e most
-        (IoU >= the tracker's match_iou_permille, the first of equals; a later pair wins) the
-        height q = max(1, round half up 256 (e.bottom - t + 1) / e's width); other tracks keep
-        theirs by id. tracks (the tracker's, hand-overs excluded) come back with
-        top = bottom - max(1, (w q + 128) // 256) + 1."""
+        """cnn_track_top (c/pipeline.c's vt__track_tops): each of this frame's pairs (ego box e
+        the tracker got, top row t of the CNN box it was reported with, None when it was reported
+        as it is) goes to the track that overlaps e most (IoU >= the tracker's
+        match_iou_permille, the first of equals; a later pair wins): t gives it the height
+        q = max(1, round half up 256 (bottom - t + 1) / width) of its own box, None clears
+        it; other tracks keep theirs by id. tracks (the tracker's, hand-overs excluded) come
+        back with top = bottom - max(1, (w q + 128) // 256) + 1 where q > 0."""
         q = [self.track_top.get(t[0], 0) for t in tracks]
         lim = self.cfg.tracker.match_iou_permille
         for e, top in self._top_pairs:
@@ -333,9 +334,11 @@ class Pipeline:
                 inter, union, _, _ = rw._iou_parts(list(e), list(t[2]))
                 if inter * 1000 >= lim * union and (bv is None or Fraction(inter, union) > bv):
                     best, bv = i, Fraction(inter, union)
-            if best is not None:
-                ew = e[2] - e[0] + 1
-                q[best] = max(1, ((e[3] - top + 1) * 256 + ew // 2) // ew)
+            if best is not None and top is None:
+                q[best] = 0     # detect's latest box of it is the ego box itself
+            elif best is not None:
+                l, _tp, r, b = tracks[best][2]
+                q[best] = max(1, ((b - top + 1) * 256 + (r - l + 1) // 2) // (r - l + 1))
         out = []
         for t, qi in zip(tracks, q):
             if qi > 0:
@@ -707,8 +710,11 @@ class Pipeline:
             kept = rfd.verify_boxes(rows, lambda l, t, r, b: self.box_score(gray, l, t, r, b), c.verify_min)
             ego_boxes, ego_scores = kept[:, :4], [int(v) for v in kept[:, 4]]
         empty = (ego_hyp, ego_boxes, [SRC_EGO] * len(ego_boxes), list(ego_scores))
-        # the tracker's boxes when no road is left for the windows: the ego boxes alone
+        # the tracker's boxes when no road is left for the windows: the ego boxes alone,
+        # reported as they are (cnn_track_top's pairs)
         self._trk_whole = np.asarray(ego_boxes, np.int64).reshape(-1, 4)
+        if c.cnn_track_top:
+            self._top_pairs = [([int(v) for v in e], None) for e in ego_boxes]
         if given is not None:
             if not getattr(given, "valid", True):
                 return (None, "none") + empty + (stats,)
@@ -790,11 +796,13 @@ class Pipeline:
             scores.append(int(row[4]))
         # an ego box the classifier did not see scores at the detector's threshold
         scores = [fc.window_score_min if v is None else v for v in scores]
+        tops = [None] * len(ego_boxes)
         for j, bj in enumerate(best):   # reported with the CNN's box of the same car
             if bj is not None and bj[0] * 1000 >= cnn_iou:
                 boxes[j] = bj[1]
-                if self.cfg.cnn_track_top:
-                    self._top_pairs.append(([int(v) for v in ego_boxes[j]], int(bj[1][1])))
+                tops[j] = int(bj[1][1])
+        if self.cfg.cnn_track_top:
+            self._top_pairs = [([int(v) for v in e], t) for e, t in zip(ego_boxes, tops)]
         self._trk_whole = np.asarray(tboxes, np.int64).reshape(-1, 4)
         return road, source, np.asarray(hyp, np.int64).reshape(-1, 3), np.asarray(boxes, np.int64).reshape(-1, 4), \
             src, scores, stats

@@ -34,7 +34,7 @@ def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "
                 progress: bool = True, records_json: bool = True, fps: float | None = None,
                 model="default", measurement: str = "auto", rear_offset: float = 0.0,
                 bottom_height: float = 0.0, path_half_width: float = 1.5, ego_speed: float | None = None,
-                warn_ttc: str = "distance", box_top: str = "tracker") -> Path:
+                warn_ttc: str = "distance", box_top: str = "cnn") -> Path:
     """Run the pipeline over one recording (a video, a folder of frames or an image) and
     write out_dir/index.html (and out_dir/tracks.json, the records, when records_json).
     truth: truth file paths (see records.load_truth), or "auto": the files the naming rule
@@ -51,7 +51,7 @@ def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "
     (camera.RangeEstimator); anything but their defaults needs a camera.
     ego_speed (m/s, None: unknown) and warn_ttc ("distance" or "fused"): as `pyvehtrack track
     --ego-speed / --warn-ttc`, the warning's lead class and the TTC it decides on; need a camera.
-    box_top: "tracker" or "cnn", as `pyvehtrack track --box-top` (Tracker(cnn_track_top=...)).
+    box_top: "cnn" (default) or "tracker", as `pyvehtrack track --box-top` (Tracker(cnn_track_top=...)).
     Returns the page path. ValueError / TypeError naming the argument for bad input."""
     from tqdm import tqdm
 

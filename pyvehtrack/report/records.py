@@ -173,12 +173,12 @@ class PythonPipeline:
     range_params: keyword arguments of the RangeEstimator (rear_offset, bottom_height,
     path_half_width; _check.range_options checks them), None: its defaults. ego_speed (m/s,
     None: unknown) and warn_ttc ("distance" / "fused": the TTC the warning decides on), as
-    `track --ego-speed / --warn-ttc`; box_top ("tracker" / "cnn") as `track --box-top`."""
+    `track --ego-speed / --warn-ttc`; box_top ("cnn" / "tracker") as `track --box-top`."""
 
     def __init__(self, engine: str = "c", detect_every: int = 10, camera: dict | None = None,
                  fps: float = 10.0, geometry=None, model=None, measurement: str = "roi",
                  range_params: dict | None = None, ego_speed: float | None = None,
-                 warn_ttc: str = "distance", box_top: str = "tracker"):
+                 warn_ttc: str = "distance", box_top: str = "cnn"):
         from ..detector import Detector
         from ..lane import LaneDetector
         from ..tracker import Tracker
