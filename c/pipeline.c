@@ -833,7 +833,6 @@ static void vt__cnn_hood_drop(vt_fulldet_result *res, const vt_camera_min *cam, 
     res->n_boxes = n;
 }
 
-
 /* The whole-road detector on a detection frame: its camera (the road camera of the
  * frame's size, the horizon the last lanes' vanishing row once known), the road (the
  * caller's when given, else the camera road), vt_fulldet, and its boxes into out and
@@ -1382,8 +1381,8 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
     vt_status s;
     int32_t det_frame, run_lanes, lanes_ok = 0, n_boxes = 0, n_tracks = 0, n_ranges = 0, i;
     int32_t whole, n_in, fresh = 0, trk_det, n_model = 0;
-    int32_t top_of[VT_MAX_BOXES]; /* per tracker box: the top of the CNN box it was
-                                     reported with (an ego box), else VT_UNKNOWN */
+    int32_t top_of[VT_MAX_BOXES]; /* per tracker box, for cfg.cnn_track_top: an ego box's
+                                     reported CNN top or VT__TOP_EGO, else VT_UNKNOWN */
     const vt_box *boxes = p->det.box;
     if (frame->px == NULL) {
         return VT_E_ARG;

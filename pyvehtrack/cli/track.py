@@ -17,6 +17,8 @@ TRACKS.json (--json) is a list of per-frame records
 `{"frame": n, "tracks": [{"id", "box": [l, t, r, b], "state", "velocity_px": [vx, vy],
 "distance_m", "ttc_s", "warning": bool, "source": "shadow"|"classifier"|"flow"|"model"|"ego"}]}`
 with null where a value is unknown (no --camera: distance_m, ttc_s null and warning false).
+"box" is the tracker's box; with `--box-top cnn` (the default since 2026-11-30) its top is the one
+`detect` last reported for the track (the CNN box's, for a track the ego-lane detector's box goes to).
 distance_m is the filtered distance, ttc_s the TTC from it and its rate (pyvehtrack.camera);
 "ttc_points_s" (added field) is the TTC from the scale change of SAD-matched blocks inside the
 box over 5 frames (c/ttc_scale.c run inside vt_pipeline_step after the tracker:
