@@ -191,6 +191,8 @@ def process_recording(rec: str, out_dir: str, opts: dict, fp: str) -> dict:
                 "--engine", opts["engine"], "--detect-every", str(opts["detect_every"]), "--no-progress"]
         if opts.get("skip_bad_frames"):
             argv.append("--skip-bad-frames")
+        if opts.get("box_top"):
+            argv += ["--box-top", opts["box_top"]]
         native_json = _track_parser_has("--json")
         if native_json:
             argv += ["--json", str(out / "tracks.json")]
@@ -220,7 +222,7 @@ def process_recording(rec: str, out_dir: str, opts: dict, fp: str) -> dict:
         if opts.get("reports"):
             from .report import make_report
             make_report(src, out / "report", truth=comp["truth"], camera=comp["camera"], engine=opts["engine"],
-                        detect_every=opts["detect_every"], progress=False,
+                        detect_every=opts["detect_every"], progress=False, box_top=opts.get("box_top", "cnn"),
                         **({k: opts.get(k, d) for k, d in RANGE_DEFAULTS.items()} if comp["camera"] else {}))
         row["status"] = "ok"
     except TrackFailed as e:
@@ -293,13 +295,14 @@ def run_batch(recordings, out, *, scheduler: str | None = None, workers: int = 2
               engine: str = "c", detect_every: int = 10, retry_failed: bool = False,
               skip_bad_frames: bool = False, progress: bool = True, rear_offset: float = 0.0,
               bottom_height: float = 0.0, path_half_width: float = 1.5, ego_speed: float | None = None,
-              warn_ttc: str = "distance") -> BatchSummary:
+              warn_ttc: str = "distance", box_top: str = "cnn") -> BatchSummary:
     """Run every recording (see the module doc); returns the table rows and figures.
     rear_offset (m, 0..5), bottom_height (m, >= 0; below each camera file's height_m, which
     `track` checks per recording), path_half_width (m, 0..10), ego_speed (m/s >= 0, None:
     unknown) and warn_ttc ("distance" or "fused"): `track`'s options of the same names (and
     the report's), for the recordings that have a camera file; the others run without them.
     One ego speed serves every recording (a fleet driven at one speed, or a rough bound).
+    box_top ("cnn", the default, or "tracker"): `track --box-top` for every recording.
     ValueError / TypeError naming the argument for bad arguments; a bad recording is a
     failed row, never an exception."""
     from tqdm import tqdm
@@ -316,6 +319,8 @@ def run_batch(recordings, out, *, scheduler: str | None = None, workers: int = 2
     if isinstance(detect_every, bool) or not isinstance(detect_every, int) or detect_every < 1:
         raise ValueError(f"detect_every must be an integer >= 1, got {detect_every!r}")
     range_opts = _range_opts(rear_offset, bottom_height, path_half_width, ego_speed, warn_ttc)
+    if box_top not in ("cnn", "tracker"):
+        raise ValueError(f"box_top must be 'cnn' or 'tracker', got {box_top!r}")
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise ValueError(f"out {out}: exists and is not a folder")
@@ -323,6 +328,8 @@ def run_batch(recordings, out, *, scheduler: str | None = None, workers: int = 2
     opts = {"engine": engine, "detect_every": detect_every, "reports": bool(reports),
             "skip_bad_frames": bool(skip_bad_frames)}
     opts.update(range_opts)
+    if box_top != "cnn":   # only when not the default: earlier runs' fingerprints stay valid
+        opts["box_top"] = box_top
     t_start = time.perf_counter()
     rows: dict = {}
     todo = []

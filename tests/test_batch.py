@@ -142,6 +142,8 @@ def test_bad_arguments(tmp_path):
         run_batch(["a"], tmp_path, workers=0)
     with pytest.raises(ValueError, match="detect_every"):
         run_batch(["a"], tmp_path, detect_every=0)
+    with pytest.raises(ValueError, match="box_top"):
+        run_batch(["a"], tmp_path, box_top="square")
     (tmp_path / "file").write_text("")
     with pytest.raises(ValueError, match="not a folder"):
         run_batch(["a"], tmp_path / "file")
@@ -191,3 +193,19 @@ def test_range_options_reach_track_and_report(cluster, recordings, first_run, tm
     for flag, val in (("--ego-speed", "-1"), ("--warn-ttc", "x"), ("--path-half-width", "11")):
         assert main(["batch", str(rec), "--out", str(tmp_path / "o4"), flag, val]) == 2, flag
     assert main(["batch", str(rec), "--out", str(tmp_path / "o3"), "--rear-offset", "9"]) == 2
+
+
+def test_box_top_reaches_track(cluster, tmp_path):
+    """`batch --box-top tracker` runs `track --box-top tracker` on each recording: the batch's
+    tracks.json is that command's, byte for byte, and not the default's (the KITTI clip's lead car
+    has boxes whose top the default takes from the CNN)."""
+    import shutil
+    rec = tmp_path / "kitti"
+    shutil.copytree(Path(__file__).parent / "data" / "kitti_clip", rec)
+    assert main(["batch", str(rec), "--out", str(tmp_path / "out"), "--scheduler", cluster, "--box-top", "tracker",
+                 "--no-progress"]) == 0
+    got = (tmp_path / "out" / "kitti" / "tracks.json").read_text()
+    for top in ("tracker", "cnn"):
+        assert main(["track", str(rec), "--box-top", top, "--out", str(tmp_path / f"{top}.mp4"),
+                     "--json", str(tmp_path / f"{top}.json"), "--no-progress"]) == 0
+    assert got == (tmp_path / "tracker.json").read_text() != (tmp_path / "cnn.json").read_text()

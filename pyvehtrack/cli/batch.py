@@ -3,7 +3,7 @@
     pyvehtrack batch RECORDINGS... --out RESULTS_DIR [--scheduler tcp://host:port] [--workers N]
                      [--reports] [--engine c|reference] [--detect-every N] [--retry-failed]
                      [--ego-speed M/S] [--rear-offset M] [--bottom-height M] [--path-half-width M]
-                     [--warn-ttc distance|fused]
+                     [--warn-ttc distance|fused] [--box-top cnn|tracker]
 
 The naming rule for truth and camera files and the output layout: pyvehtrack.batch."""
 from __future__ import annotations
@@ -41,6 +41,8 @@ def register(sub) -> None:
     p.add_argument("--skip-bad-frames", action="store_true",
                    help="passed to track: skip frames that cannot be decoded instead of failing the recording")
     add_range_args(p)
+    p.add_argument("--box-top", choices=("cnn", "tracker"), default="cnn",
+                   help="passed to track: the top of a track's box (default cnn)")
     p.add_argument("--retry-failed", action="store_true", help="rerun recordings that failed before")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
@@ -61,7 +63,8 @@ def run(args) -> int:
                       reports=args.reports, engine=args.engine, detect_every=args.detect_every,
                       retry_failed=args.retry_failed, skip_bad_frames=args.skip_bad_frames, progress=not args.no_progress,
                       rear_offset=args.rear_offset, bottom_height=args.bottom_height,
-                      path_half_width=args.path_half_width, ego_speed=args.ego_speed, warn_ttc=args.warn_ttc)
+                      path_half_width=args.path_half_width, ego_speed=args.ego_speed, warn_ttc=args.warn_ttc,
+                      box_top=args.box_top)
     except (ValueError, TypeError) as e:
         raise CliError(str(e)) from None
     a = s.aggregate
