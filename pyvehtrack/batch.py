@@ -50,7 +50,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ._check import warning_options
+from ._check import choice, warning_options
 from .report.records import IMAGE_EXTS, VIDEO_EXTS, companion_files
 
 MARK_DONE, MARK_FAILED = "DONE", "FAILED"
@@ -319,8 +319,7 @@ def run_batch(recordings, out, *, scheduler: str | None = None, workers: int = 2
     if isinstance(detect_every, bool) or not isinstance(detect_every, int) or detect_every < 1:
         raise ValueError(f"detect_every must be an integer >= 1, got {detect_every!r}")
     range_opts = _range_opts(rear_offset, bottom_height, path_half_width, ego_speed, warn_ttc)
-    if box_top not in ("cnn", "tracker"):
-        raise ValueError(f"box_top must be 'cnn' or 'tracker', got {box_top!r}")
+    choice(box_top, "box_top", ("cnn", "tracker"))
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise ValueError(f"out {out}: exists and is not a folder")

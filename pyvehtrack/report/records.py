@@ -184,8 +184,8 @@ class PythonPipeline:
         from ..tracker import Tracker
         if isinstance(detect_every, bool) or not isinstance(detect_every, (int, np.integer)):
             raise TypeError(f"detect_every must be an int, got {type(detect_every).__name__}")
-        if box_top not in ("tracker", "cnn"):
-            raise ValueError(f"box_top must be 'tracker' or 'cnn', got {box_top!r}")
+        from .._check import choice  # noqa: PLC0415
+        choice(box_top, "box_top", ("cnn", "tracker"))
         if detect_every < 1:
             raise ValueError(f"detect_every must be >= 1, got {detect_every}")
         if isinstance(fps, bool) or not isinstance(fps, (int, float)) or not math.isfinite(fps) or fps <= 0:
