@@ -19,6 +19,17 @@
 #else
 #define VT_CNN_SSE2 0
 #endif
+/* AVX2, where the CPU has it (asked at run time, so the library still runs on any
+ * x86-64): two neighbouring output pixels share each widened weight vector and
+ * sixteen int16 products go into one vpmaddwd. gcc and clang only (a per-function
+ * target attribute); -DVT_NO_AVX2 keeps the SSE2 path, which `make test`'s gcc
+ * sanitized suite runs. The same bits again: integer sums in any order. */
+#if VT_CNN_SSE2 && defined(__x86_64__) && defined(__GNUC__) && !defined(VT_NO_AVX2)
+#define VT_CNN_AVX2 1
+#include <immintrin.h>
+#else
+#define VT_CNN_AVX2 0
+#endif
 
 vt_status vt_cnn_check_model(const vt_cnn_model *m)
 {
@@ -230,6 +241,161 @@ static void vt__cnn_dot4_k9(const int8_t *w0, const int32_t *px, int32_t *acc)
 }
 #endif
 
+#if VT_CNN_AVX2
+/* 1 when this CPU runs AVX2 (cpuid, read by the compiler's runtime once). */
+static int vt__cnn_avx2(void)
+{
+    return __builtin_cpu_supports("avx2") ? 1 : 0;
+}
+
+/* vt__cnn_store for output channels co .. co + 3 of the pixel at o, acc without the
+ * bias: the same q in 64-bit lanes. |acc + bias| <= 2^31 and mult < 2^31 keep
+ * (acc + bias) mult + 2^(shift - 1) inside int63; the floor shift of a negative p
+ * is ~((~p) >> shift) with a logical shift, as vt__floor_shr64's -1 - ((-1 - p) >> n). */
+__attribute__((target("avx2"))) static inline void vt__cnn_store4(const vt_cnn_layer *L,
+                                                            const int32_t *acc, int32_t co,
+                                                            size_t o, uint8_t *out_u8,
+                                                            int8_t *out_s8)
+{
+    const __m256i zero = _mm256_setzero_si256(), one = _mm256_set1_epi64x(1);
+    __m128i a32 = _mm_add_epi32(_mm_loadu_si128((const __m128i *)(const void *)acc),
+                                _mm_loadu_si128((const __m128i *)(const void *)(L->bias + co)));
+    __m256i p = _mm256_mul_epi32(_mm256_cvtepi32_epi64(a32),
+                                 _mm256_cvtepi32_epi64(
+                                     _mm_loadu_si128((const __m128i *)(const void *)(L->mult + co))));
+    __m256i sh, sg, q, lo, hi;
+    int32_t sh4, b4;
+    memcpy(&sh4, L->shift + co, 4);
+    sh = _mm256_cvtepu8_epi64(_mm_cvtsi32_si128(sh4));
+    p = _mm256_add_epi64(p, _mm256_sllv_epi64(one, _mm256_sub_epi64(sh, one)));
+    sg = _mm256_cmpgt_epi64(zero, p);
+    q = _mm256_xor_si256(_mm256_srlv_epi64(_mm256_xor_si256(p, sg), sh), sg);
+    lo = _mm256_set1_epi64x(out_s8 != NULL ? -128 : 0);
+    hi = _mm256_set1_epi64x(out_s8 != NULL ? 127 : 255);
+    q = _mm256_blendv_epi8(q, lo, _mm256_cmpgt_epi64(lo, q));
+    q = _mm256_blendv_epi8(q, hi, _mm256_cmpgt_epi64(q, hi));
+    /* each lane's low byte (the value, -128..255) into bytes 0..3 */
+    q = _mm256_permutevar8x32_epi32(q, _mm256_setr_epi32(0, 2, 4, 6, 0, 2, 4, 6));
+    b4 = _mm_cvtsi128_si32(_mm_shuffle_epi8(_mm256_castsi256_si128(q),
+                                            _mm_setr_epi8(0, 4, 8, 12, -1, -1, -1, -1, -1, -1,
+                                                          -1, -1, -1, -1, -1, -1)));
+    memcpy(out_s8 != NULL ? (void *)(out_s8 + o + (size_t)co) : (void *)(out_u8 + o + (size_t)co),
+           &b4, 4);
+}
+
+/* vt__cnn_dot4 for two output pixels whose taps are the same runs dx bytes apart
+ * (two interior neighbours): acc[4 p + j] = the sum of output channel j's products
+ * with pixel p's taps (pixel 1's input bytes at in + ioff[t] + dx), p = 0..1,
+ * j = 0..3. Each vpmaddwd lane is x y + x' y', |.| <= 2 x 128 x 255, and every
+ * lane's running sum is a part of one accumulator's sum (cnn.h's int32 bound). */
+__attribute__((target("avx2"))) static void vt__cnn_dot4x2(const int8_t *w0, size_t wtaps,
+                                                             const uint8_t *in, size_t dx,
+                                                             const size_t *ioff,
+                                                             const size_t *woff,
+                                                             const int32_t *tlen, int32_t nt,
+                                                             int32_t *acc)
+{
+    const int8_t *w1 = w0 + wtaps, *w2 = w1 + wtaps, *w3 = w2 + wtaps;
+    __m256i a0 = _mm256_setzero_si256(), a1 = a0, a2 = a0, a3 = a0;
+    __m256i b0 = a0, b1 = a0, b2 = a0, b3 = a0;
+    __m128i s0, s1;
+    int32_t t, ci, j, tail[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+    for (t = 0; t < nt; ++t) {
+        const int8_t *p0 = w0 + woff[t], *p1 = w1 + woff[t], *p2 = w2 + woff[t], *p3 = w3 + woff[t];
+        const uint8_t *ap = in + ioff[t], *bp = ap + dx;
+        int32_t n = tlen[t];
+        for (ci = 0; ci + 16 <= n; ci += 16) {
+            __m256i x = _mm256_cvtepu8_epi16(_mm_loadu_si128((const __m128i *)(const void *)(ap + ci)));
+            __m256i y = _mm256_cvtepu8_epi16(_mm_loadu_si128((const __m128i *)(const void *)(bp + ci)));
+            __m256i w;
+#define VT__CNN_MADD2(p, a, b)                                                                \
+    w = _mm256_cvtepi8_epi16(_mm_loadu_si128((const __m128i *)(const void *)((p) + ci)));      \
+    a = _mm256_add_epi32(a, _mm256_madd_epi16(x, w));                                          \
+    b = _mm256_add_epi32(b, _mm256_madd_epi16(y, w))
+            VT__CNN_MADD2(p0, a0, b0);
+            VT__CNN_MADD2(p1, a1, b1);
+            VT__CNN_MADD2(p2, a2, b2);
+            VT__CNN_MADD2(p3, a3, b3);
+#undef VT__CNN_MADD2
+        }
+        for (; ci < n; ++ci) {
+            int32_t x = ap[ci], y = bp[ci];
+            tail[0] += (int32_t)p0[ci] * x;
+            tail[1] += (int32_t)p1[ci] * x;
+            tail[2] += (int32_t)p2[ci] * x;
+            tail[3] += (int32_t)p3[ci] * x;
+            tail[4] += (int32_t)p0[ci] * y;
+            tail[5] += (int32_t)p1[ci] * y;
+            tail[6] += (int32_t)p2[ci] * y;
+            tail[7] += (int32_t)p3[ci] * y;
+        }
+    }
+    /* hadd twice leaves channel j's sums of each 128-bit half in lane j of that half */
+    a0 = _mm256_hadd_epi32(_mm256_hadd_epi32(a0, a1), _mm256_hadd_epi32(a2, a3));
+    b0 = _mm256_hadd_epi32(_mm256_hadd_epi32(b0, b1), _mm256_hadd_epi32(b2, b3));
+    s0 = _mm_add_epi32(_mm256_castsi256_si128(a0), _mm256_extracti128_si256(a0, 1));
+    s1 = _mm_add_epi32(_mm256_castsi256_si128(b0), _mm256_extracti128_si256(b0, 1));
+    _mm_storeu_si128((__m128i *)(void *)acc, s0);
+    _mm_storeu_si128((__m128i *)(void *)(acc + 4), s1);
+    for (j = 0; j < 8; ++j) {
+        acc[j] += tail[j];
+    }
+}
+#endif
+
+/* The in-frame taps of output pixel (ox, oy): runs of tlen[t] input bytes at
+ * ioff[t] against the weights at woff[t] (per output channel); returns how many. A
+ * 3x3 layer of dilation 1 away from the left and right borders reads each kernel
+ * row as one run of k cin bytes. */
+static int32_t vt__cnn_taps(const vt_cnn_layer *L, int32_t iw, int32_t ih, size_t rs, int32_t ox,
+                            int32_t oy, size_t *ioff, size_t *woff, int32_t *tlen)
+{
+    int32_t k = L->ksize, st = L->stride, d = L->dilation, cin = L->cin;
+    int32_t half = k / 2, ky, kx, nt = 0;
+    for (ky = 0; ky < k; ++ky) {
+        int32_t iy = oy * st + (ky - half) * d;
+        if (iy < 0 || iy >= ih) {
+            continue;
+        }
+        if (d == 1 && ox * st - half >= 0 && ox * st + half < iw) {
+            ioff[nt] = (size_t)iy * rs + (size_t)(ox * st - half) * (size_t)cin;
+            woff[nt] = (size_t)(ky * k) * (size_t)cin;
+            tlen[nt] = k * cin;
+            ++nt;
+            continue;
+        }
+        for (kx = 0; kx < k; ++kx) {
+            int32_t ix = ox * st + (kx - half) * d;
+            if (ix < 0 || ix >= iw) {
+                continue;
+            }
+            ioff[nt] = (size_t)iy * rs + (size_t)ix * (size_t)cin;
+            woff[nt] = (size_t)(ky * k + kx) * (size_t)cin;
+            tlen[nt] = cin;
+            ++nt;
+        }
+    }
+    return nt;
+}
+
+/* Output channel co's sum over the taps, bias included (the channels past the last
+ * block of four). */
+static int32_t vt__cnn_dot1(const vt_cnn_layer *L, int32_t co, size_t wtaps, const uint8_t *in,
+                            const size_t *ioff, const size_t *woff, const int32_t *tlen,
+                            int32_t nt)
+{
+    const int8_t *wc = L->w + (size_t)co * wtaps;
+    int32_t acc = L->bias[co], t, ci;
+    for (t = 0; t < nt; ++t) {
+        const int8_t *wp = wc + woff[t];
+        const uint8_t *ap = in + ioff[t];
+        for (ci = 0; ci < tlen[t]; ++ci) {
+            acc += (int32_t)wp[ci] * (int32_t)ap[ci];
+        }
+    }
+    return acc;
+}
+
 /* One layer (arguments checked): input iw x ih x cin at in, row stride rs bytes
  * (pixel stride cin); output ow x oh x cout to out_u8 (relu) or out_s8 (last).
  * Loop order: output pixel -> its in-bounds taps (found once per pixel, so the
@@ -241,43 +407,52 @@ static void vt__cnn_dot4_k9(const int8_t *w0, const int32_t *px, int32_t *acc)
 static void vt__cnn_layer(const vt_cnn_layer *L, const uint8_t *in, int32_t iw, int32_t ih,
                           size_t rs, int32_t ow, int32_t oh, uint8_t *out_u8, int8_t *out_s8)
 {
-    int32_t k = L->ksize, st = L->stride, d = L->dilation, cin = L->cin, cout = L->cout;
-    int32_t half = k / 2, ox, oy, ky, kx, co, t, ci;
+    int32_t k = L->ksize, cin = L->cin, cout = L->cout;
+    int32_t ox, oy, co;
     size_t wtaps = (size_t)k * (size_t)k * (size_t)cin;
     size_t ioff[9], woff[9];
     int32_t tlen[9];
 #if VT_CNN_SSE2
-    int32_t px[9], k9;
+    int32_t px[9], k9, t, ci;
+#endif
+#if VT_CNN_AVX2
+    /* pixel ox + 1's taps: when they are pixel ox's kernel positions in the same runs
+     * (two interior neighbours), its input offsets are pixel ox's plus dx = st cin
+     * bytes, and both pixels are summed in one pass */
+    size_t ioff2[9], woff2[9], dx = (size_t)L->stride * (size_t)cin;
+    int32_t tlen2[9], avx2 = vt__cnn_avx2();
 #endif
     for (oy = 0; oy < oh; ++oy) {
         for (ox = 0; ox < ow; ++ox) {
             size_t o = ((size_t)oy * (size_t)ow + (size_t)ox) * (size_t)cout;
-            int32_t nt = 0;
-            for (ky = 0; ky < k; ++ky) {
-                int32_t iy = oy * st + (ky - half) * d;
-                if (iy < 0 || iy >= ih) {
-                    continue;
+            int32_t nt = vt__cnn_taps(L, iw, ih, rs, ox, oy, ioff, woff, tlen);
+#if VT_CNN_AVX2
+            if (avx2 && cin > 1 && ox + 1 < ow &&
+                vt__cnn_taps(L, iw, ih, rs, ox + 1, oy, ioff2, woff2, tlen2) == nt) {
+                int32_t same = 1;
+                for (t = 0; t < nt; ++t) {
+                    same &= woff2[t] == woff[t] && tlen2[t] == tlen[t];
                 }
-                if (d == 1 && ox * st - half >= 0 && ox * st + half < iw) {
-                    /* the row's k taps side by side: one run of k cin bytes in both
-                     * the input and the weights */
-                    ioff[nt] = (size_t)iy * rs + (size_t)(ox * st - half) * (size_t)cin;
-                    woff[nt] = (size_t)(ky * k) * (size_t)cin;
-                    tlen[nt] = k * cin;
-                    ++nt;
-                    continue;
-                }
-                for (kx = 0; kx < k; ++kx) {
-                    int32_t ix = ox * st + (kx - half) * d;
-                    if (ix < 0 || ix >= iw) {
-                        continue;
+                if (same) {
+                    size_t o2 = o + (size_t)cout;
+                    for (co = 0; co + 4 <= cout; co += 4) {
+                        int32_t acc[8];
+                        vt__cnn_dot4x2(L->w + (size_t)co * wtaps, wtaps, in, dx, ioff, woff, tlen,
+                                       nt, acc);
+                        vt__cnn_store4(L, acc, co, o, out_u8, out_s8);
+                        vt__cnn_store4(L, acc + 4, co, o2, out_u8, out_s8);
                     }
-                    ioff[nt] = (size_t)iy * rs + (size_t)ix * (size_t)cin;
-                    woff[nt] = (size_t)(ky * k + kx) * (size_t)cin;
-                    tlen[nt] = cin;
-                    ++nt;
+                    for (; co < cout; ++co) {
+                        vt__cnn_store(L, vt__cnn_dot1(L, co, wtaps, in, ioff, woff, tlen, nt), co,
+                                      o, out_u8, out_s8);
+                        vt__cnn_store(L, vt__cnn_dot1(L, co, wtaps, in, ioff2, woff2, tlen2, nt),
+                                      co, o2, out_u8, out_s8);
+                    }
+                    ++ox;
+                    continue;
                 }
             }
+#endif
 #if VT_CNN_SSE2
             /* a single-channel input with all nine taps in the frame: the first layer
              * away from the borders (d = 1: three merged rows; d = 2: nine taps) */
@@ -301,22 +476,20 @@ static void vt__cnn_layer(const vt_cnn_layer *L, const uint8_t *in, int32_t iw, 
                 {
                     vt__cnn_dot4(L->w + (size_t)co * wtaps, wtaps, in, ioff, woff, tlen, nt, acc);
                 }
+#if VT_CNN_AVX2
+                if (avx2) {
+                    vt__cnn_store4(L, acc, co, o, out_u8, out_s8);
+                    continue;
+                }
+#endif
                 vt__cnn_store(L, L->bias[co] + acc[0], co, o, out_u8, out_s8);
                 vt__cnn_store(L, L->bias[co + 1] + acc[1], co + 1, o, out_u8, out_s8);
                 vt__cnn_store(L, L->bias[co + 2] + acc[2], co + 2, o, out_u8, out_s8);
                 vt__cnn_store(L, L->bias[co + 3] + acc[3], co + 3, o, out_u8, out_s8);
             }
             for (; co < cout; ++co) {
-                const int8_t *wc = L->w + (size_t)co * wtaps;
-                int32_t acc = L->bias[co];
-                for (t = 0; t < nt; ++t) {
-                    const int8_t *wp = wc + woff[t];
-                    const uint8_t *ap = in + ioff[t];
-                    for (ci = 0; ci < tlen[t]; ++ci) {
-                        acc += (int32_t)wp[ci] * (int32_t)ap[ci];
-                    }
-                }
-                vt__cnn_store(L, acc, co, o, out_u8, out_s8);
+                vt__cnn_store(L, vt__cnn_dot1(L, co, wtaps, in, ioff, woff, tlen, nt), co, o,
+                              out_u8, out_s8);
             }
         }
     }
