@@ -57,17 +57,19 @@ tables:
 	$(PY) tools/gen_cnn_table.py
 
 # The smallest sensible build: one track slot, VGA-sized frames at most; and the
-# portable C loops where the x86 builds take SSE2 / AVX2 (c/cnn.c), so the suite runs all three.
+# portable C loops where the x86 builds take SSE2 / AVX2 / AVX-VNNI (c/cnn.c), so the suite runs all four.
 SMALL_DEFS := -DVT_MAX_TRACKS=1 -DVT_MAX_WIDTH=700 -DVT_MAX_HEIGHT=500 -DVT_NO_SIMD
 
 # The sanitized suite runs once per compiler in SAN_COMPILERS (about a minute
 # each): clang's UBSan catches signed negations gcc 12's misses, gcc's ASan
 # differs in its interceptors. Then the fuzzers, FUZZ_SECONDS each.
 SAN_COMPILERS ?= gcc clang
-# c/cnn.c takes AVX2 where the CPU has it, else SSE2: the gcc sanitized suite is built
-# without the AVX2 path so the SSE2 one keeps being run (the smallest build runs the
-# portable loops).
+# c/cnn.c takes AVX-VNNI, AVX2 or SSE2, whichever the CPU has (the main suite: the
+# best). The gcc sanitized suite is built without the AVX2 paths, the clang one
+# without AVX-VNNI, so the SSE2 and AVX2 paths keep being run (the smallest build
+# runs the portable loops).
 SAN_GCC_DEFS    ?= -DVT_NO_AVX2
+SAN_CLANG_DEFS  ?= -DVT_NO_AVXVNNI
 # The first suite runs everything; the sanitized (gcc and clang side by side, one core
 # each) and small-configuration runs are "secondary": they leave out the modules that do
 # not depend on the extension's build (tests/conftest.py, BUILD_INDEPENDENT) and draw
@@ -77,7 +79,7 @@ CI_FUZZ_SECONDS    ?= 6
 test: lib
 	$(PY) -m pytest -q
 	@set -e; pids=""; for c in $(SAN_COMPILERS); do \
-	  defs=""; [ $$c = gcc ] && defs="$(SAN_GCC_DEFS)"; \
+	  defs=""; [ $$c = gcc ] && defs="$(SAN_GCC_DEFS)"; [ $$c = clang ] && defs="$(SAN_CLANG_DEFS)"; \
 	  $(MAKE) --no-print-directory check SAN=1 CC=$$c SECONDARY=1 CHECK_DEFS="$$defs" > $(BUILD)/test-san-$$c.log 2>&1 & pids="$$pids $$!"; done; \
 	  rc=0; for p in $$pids; do wait $$p || rc=1; done; \
 	  for c in $(SAN_COMPILERS); do echo "== sanitized suite ($$c)"; grep -v '^\.*  *\[' $(BUILD)/test-san-$$c.log | tail -n 40; done; \

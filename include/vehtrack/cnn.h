@@ -40,8 +40,11 @@
  * 32 channels on a 640x256 frame) and one int64 multiply per output value; the
  * decode is two passes over the grid with 1 KB of stack. The sums are taken four
  * output channels at a time (each input byte loaded once for four), a 3x3 layer of
- * dilation 1 reads each kernel row as one run of 3 cin bytes, and on x86 (SSE2,
- * unless built with -DVT_NO_SIMD) eight int16-widened products per pmaddwd; the
+ * dilation 1 reads each kernel row as one run of 3 cin bytes, and on x86 (unless
+ * built with -DVT_NO_SIMD) eight int16-widened products per pmaddwd (SSE2); where
+ * the CPU has AVX2 (asked at run time; -DVT_NO_AVX2 to leave it out) two
+ * neighbouring output pixels in one pass with sixteen per vpmaddwd, and with
+ * AVX-VNNI (-DVT_NO_AVXVNNI) 32 uint8 x int8 products per vpdpbusd; the
  * order of integer sums does not change them, so every build gives the same bits. Work buffer
  * (vt_cnn_work_bytes): the largest even-indexed plus the largest odd-indexed
  * layer output (the last layer writes the caller's out). */
