@@ -26,6 +26,7 @@
  * sanitized suite runs. The same bits again: integer sums in any order. */
 #if VT_CNN_SSE2 && defined(__x86_64__) && defined(__GNUC__) && !defined(VT_NO_AVX2)
 #define VT_CNN_AVX2 1
+#define VT__CNN_FIRST8_MAX_CH 32 /* vt__cnn_first8's weight pairs: 768 B of stack */
 #include <immintrin.h>
 #else
 #define VT_CNN_AVX2 0
@@ -438,6 +439,69 @@ vt__cnn_dot4x2_vnni(const int8_t *w0, size_t wtaps, const uint8_t *in, size_t dx
 #endif
 #endif
 
+#if VT_CNN_AVX2
+/* The first layer's usual shape (cin 1, 3x3, stride 2, dilation 1) across eight
+ * output pixels ox .. ox + 7 of row oy, all nine taps of each in the frame and
+ * input column 2 ox + 16 still in the row (the last 16-byte load's end). Output
+ * pixel x's taps on one kernel row are the input bytes (2x - 1, 2x) and (2x + 1,
+ * 2x + 2): two neighbouring int16 pairs, so one vpmaddwd against the broadcast
+ * weight pairs (w0, w1) and (w2, 0) sums a kernel row for eight pixels at once.
+ * wp[6 j + 2 ky + h]: channel j's pair h of kernel row ky, two int16 in an int32.
+ * The requantisation is vt__cnn_store's, on eight 64-bit products (even and odd
+ * lanes); the same bits as the per-pixel path. */
+__attribute__((target("avx2"))) static void vt__cnn_first8(const vt_cnn_layer *L,
+                                                            const int32_t *wp, const uint8_t *in,
+                                                            size_t rs, int32_t ox, int32_t oy,
+                                                            int32_t ow, uint8_t *out_u8,
+                                                            int8_t *out_s8)
+{
+    const __m256i zero = _mm256_setzero_si256();
+    const __m256i lo = _mm256_set1_epi64x(out_s8 != NULL ? -128 : 0);
+    const __m256i hi = _mm256_set1_epi64x(out_s8 != NULL ? 127 : 255);
+    __m256i r0[3], r1[3];
+    int32_t ky, j, i, cout = L->cout, v[8];
+    size_t o = ((size_t)oy * (size_t)ow + (size_t)ox) * (size_t)cout;
+    for (ky = 0; ky < 3; ++ky) {
+        const uint8_t *row = in + (size_t)(2 * oy - 1 + ky) * rs + (size_t)(2 * ox);
+        r0[ky] = _mm256_cvtepu8_epi16(_mm_loadu_si128((const __m128i *)(const void *)(row - 1)));
+        r1[ky] = _mm256_cvtepu8_epi16(_mm_loadu_si128((const __m128i *)(const void *)(row + 1)));
+    }
+    for (j = 0; j < cout; ++j) {
+        const int32_t *q = wp + 6 * j;
+        int32_t sh = L->shift[j];
+        __m256i a = _mm256_set1_epi32(L->bias[j]), m = _mm256_set1_epi32(L->mult[j]);
+        __m256i half = _mm256_set1_epi64x((int64_t)1 << (sh - 1)), pe, po, sg;
+        __m128i cnt = _mm_cvtsi32_si128(sh);
+        for (ky = 0; ky < 3; ++ky) {
+            a = _mm256_add_epi32(a, _mm256_madd_epi16(r0[ky], _mm256_set1_epi32(q[2 * ky])));
+            a = _mm256_add_epi32(a, _mm256_madd_epi16(r1[ky], _mm256_set1_epi32(q[2 * ky + 1])));
+        }
+        /* lanes 0, 2, 4, 6 and 1, 3, 5, 7 as int64 products, each floor-shifted */
+        pe = _mm256_add_epi64(_mm256_mul_epi32(a, m), half);
+        po = _mm256_add_epi64(_mm256_mul_epi32(_mm256_srli_epi64(a, 32), m), half);
+        sg = _mm256_cmpgt_epi64(zero, pe);
+        pe = _mm256_xor_si256(_mm256_srl_epi64(_mm256_xor_si256(pe, sg), cnt), sg);
+        sg = _mm256_cmpgt_epi64(zero, po);
+        po = _mm256_xor_si256(_mm256_srl_epi64(_mm256_xor_si256(po, sg), cnt), sg);
+        pe = _mm256_blendv_epi8(pe, lo, _mm256_cmpgt_epi64(lo, pe));
+        pe = _mm256_blendv_epi8(pe, hi, _mm256_cmpgt_epi64(pe, hi));
+        po = _mm256_blendv_epi8(po, lo, _mm256_cmpgt_epi64(lo, po));
+        po = _mm256_blendv_epi8(po, hi, _mm256_cmpgt_epi64(po, hi));
+        /* -128..255 fits the low dword: even pixels' from pe, odd pixels' from po */
+        _mm256_storeu_si256((__m256i *)(void *)v,
+                            _mm256_blend_epi32(pe, _mm256_slli_epi64(po, 32), 0xAA));
+        for (i = 0; i < 8; ++i) {
+            size_t at = o + (size_t)i * (size_t)cout + (size_t)j;
+            if (out_s8 != NULL) {
+                out_s8[at] = (int8_t)v[i];
+            } else {
+                out_u8[at] = (uint8_t)v[i];
+            }
+        }
+    }
+}
+#endif
+
 /* The in-frame taps of output pixel (ox, oy): runs of tlen[t] input bytes at
  * ioff[t] against the weights at woff[t] (per output channel); returns how many. A
  * 3x3 layer of dilation 1 away from the left and right borders reads each kernel
@@ -516,11 +580,34 @@ static void vt__cnn_layer(const vt_cnn_layer *L, const uint8_t *in, int32_t iw, 
      * bytes, and both pixels are summed in one pass */
     size_t ioff2[9], woff2[9], dx = (size_t)L->stride * (size_t)cin;
     int32_t tlen2[9], isa = vt__cnn_isa(), avx2 = isa >= 1;
+    /* the first layer's usual shape, eight pixels at a time (vt__cnn_first8) */
+    int32_t wp[6 * VT__CNN_FIRST8_MAX_CH];
+    int32_t first8 = avx2 && cin == 1 && k == 3 && L->stride == 2 && L->dilation == 1 &&
+                     cout <= VT__CNN_FIRST8_MAX_CH;
+    if (first8) {
+        for (co = 0; co < cout; ++co) {
+            const int8_t *w = L->w + 9 * co;
+            int32_t ky;
+            for (ky = 0; ky < 3; ++ky) {
+                wp[6 * co + 2 * ky] = (int32_t)((uint32_t)(uint16_t)w[3 * ky] |
+                                                ((uint32_t)(uint16_t)w[3 * ky + 1] << 16));
+                wp[6 * co + 2 * ky + 1] = (int32_t)(uint32_t)(uint16_t)w[3 * ky + 2];
+            }
+        }
+    }
 #endif
     for (oy = 0; oy < oh; ++oy) {
         for (ox = 0; ox < ow; ++ox) {
             size_t o = ((size_t)oy * (size_t)ow + (size_t)ox) * (size_t)cout;
-            int32_t nt = vt__cnn_taps(L, iw, ih, rs, ox, oy, ioff, woff, tlen);
+            int32_t nt;
+#if VT_CNN_AVX2
+            if (first8 && ox >= 1 && 2 * ox + 16 < iw && oy >= 1 && 2 * oy + 1 < ih) {
+                vt__cnn_first8(L, wp, in, rs, ox, oy, ow, out_u8, out_s8);
+                ox += 7;
+                continue;
+            }
+#endif
+            nt = vt__cnn_taps(L, iw, ih, rs, ox, oy, ioff, woff, tlen);
 #if VT_CNN_AVX2
             if (avx2 && cin > 1 && ox + 1 < ow &&
                 vt__cnn_taps(L, iw, ih, rs, ox + 1, oy, ioff2, woff2, tlen2) == nt) {
