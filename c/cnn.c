@@ -274,18 +274,18 @@ static int vt__cnn_isa(void)
     return 1;
 }
 
-/* vt__cnn_store for output channels co .. co + 3 of the pixel at o, acc without the
- * bias: the same q in 64-bit lanes. |acc + bias| <= 2^31 and mult < 2^31 keep
+/* vt__cnn_store for output channels co .. co + 3 of the pixel at o, acc (four int32
+ * lanes) without the bias: the same q in 64-bit lanes. The sums stay in registers:
+ * reloading lanes just written one by one would stall on store forwarding. |acc + bias| <= 2^31 and mult < 2^31 keep
  * (acc + bias) mult + 2^(shift - 1) inside int63; the floor shift of a negative p
  * is ~((~p) >> shift) with a logical shift, as vt__floor_shr64's -1 - ((-1 - p) >> n). */
 __attribute__((target("avx2"))) static inline void vt__cnn_store4(const vt_cnn_layer *L,
-                                                            const int32_t *acc, int32_t co,
-                                                            size_t o, uint8_t *out_u8,
-                                                            int8_t *out_s8)
+                                                                   __m128i acc, int32_t co,
+                                                                   size_t o, uint8_t *out_u8,
+                                                                   int8_t *out_s8)
 {
     const __m256i zero = _mm256_setzero_si256(), one = _mm256_set1_epi64x(1);
-    __m128i a32 = _mm_add_epi32(_mm_loadu_si128((const __m128i *)(const void *)acc),
-                                _mm_loadu_si128((const __m128i *)(const void *)(L->bias + co)));
+    __m128i a32 = _mm_add_epi32(acc, _mm_loadu_si128((const __m128i *)(const void *)(L->bias + co)));
     __m256i p = _mm256_mul_epi32(_mm256_cvtepi32_epi64(a32),
                                  _mm256_cvtepi32_epi64(
                                      _mm_loadu_si128((const __m128i *)(const void *)(L->mult + co))));
@@ -309,23 +309,21 @@ __attribute__((target("avx2"))) static inline void vt__cnn_store4(const vt_cnn_l
            &b4, 4);
 }
 
-/* vt__cnn_dot4 for two output pixels whose taps are the same runs dx bytes apart
- * (two interior neighbours): acc[4 p + j] = the sum of output channel j's products
- * with pixel p's taps (pixel 1's input bytes at in + ioff[t] + dx), p = 0..1,
- * j = 0..3. Each vpmaddwd lane is x y + x' y', |.| <= 2 x 128 x 255, and every
+/* Output channels co .. co + 3 of two output pixels whose taps are the same runs dx
+ * bytes apart (two interior neighbours; pixel 1's input bytes at in + ioff[t] + dx,
+ * its output at o + cout): the sums of vt__cnn_dot4, stored as vt__cnn_store4 does. Each vpmaddwd lane is x y + x' y', |.| <= 2 x 128 x 255, and every
  * lane's running sum is a part of one accumulator's sum (cnn.h's int32 bound). */
-__attribute__((target("avx2"))) static void vt__cnn_dot4x2(const int8_t *w0, size_t wtaps,
-                                                             const uint8_t *in, size_t dx,
-                                                             const size_t *ioff,
-                                                             const size_t *woff,
-                                                             const int32_t *tlen, int32_t nt,
-                                                             int32_t *acc)
+__attribute__((target("avx2"))) static void
+vt__cnn_dot4x2(const vt_cnn_layer *L, int32_t co, size_t wtaps, const uint8_t *in, size_t dx,
+               const size_t *ioff, const size_t *woff, const int32_t *tlen, int32_t nt, size_t o,
+               uint8_t *out_u8, int8_t *out_s8)
 {
-    const int8_t *w1 = w0 + wtaps, *w2 = w1 + wtaps, *w3 = w2 + wtaps;
+    const int8_t *w0 = L->w + (size_t)co * wtaps, *w1 = w0 + wtaps, *w2 = w1 + wtaps;
+    const int8_t *w3 = w2 + wtaps;
     __m256i a0 = _mm256_setzero_si256(), a1 = a0, a2 = a0, a3 = a0;
     __m256i b0 = a0, b1 = a0, b2 = a0, b3 = a0;
     __m128i s0, s1;
-    int32_t t, ci, j, tail[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+    int32_t t, ci, tail[8] = {0, 0, 0, 0, 0, 0, 0, 0};
     for (t = 0; t < nt; ++t) {
         const int8_t *p0 = w0 + woff[t], *p1 = w1 + woff[t], *p2 = w2 + woff[t], *p3 = w3 + woff[t];
         const uint8_t *ap = in + ioff[t], *bp = ap + dx;
@@ -361,25 +359,26 @@ __attribute__((target("avx2"))) static void vt__cnn_dot4x2(const int8_t *w0, siz
     b0 = _mm256_hadd_epi32(_mm256_hadd_epi32(b0, b1), _mm256_hadd_epi32(b2, b3));
     s0 = _mm_add_epi32(_mm256_castsi256_si128(a0), _mm256_extracti128_si256(a0, 1));
     s1 = _mm_add_epi32(_mm256_castsi256_si128(b0), _mm256_extracti128_si256(b0, 1));
-    _mm_storeu_si128((__m128i *)(void *)acc, s0);
-    _mm_storeu_si128((__m128i *)(void *)(acc + 4), s1);
-    for (j = 0; j < 8; ++j) {
-        acc[j] += tail[j];
-    }
+    s0 = _mm_add_epi32(s0, _mm_setr_epi32(tail[0], tail[1], tail[2], tail[3]));
+    s1 = _mm_add_epi32(s1, _mm_setr_epi32(tail[4], tail[5], tail[6], tail[7]));
+    vt__cnn_store4(L, s0, co, o, out_u8, out_s8);
+    vt__cnn_store4(L, s1, co, o + (size_t)L->cout, out_u8, out_s8);
 }
 
 #if VT_CNN_VNNI
 /* vt__cnn_dot4x2 with AVX-VNNI: 32 bytes a step, each vpdpbusd lane adding four
  * products to its running sum; then vt__cnn_dot4x2's 16-byte step and tail. */
 __attribute__((target("avx2,avxvnni"))) static void
-vt__cnn_dot4x2_vnni(const int8_t *w0, size_t wtaps, const uint8_t *in, size_t dx, const size_t *ioff,
-                    const size_t *woff, const int32_t *tlen, int32_t nt, int32_t *acc)
+vt__cnn_dot4x2_vnni(const vt_cnn_layer *L, int32_t co, size_t wtaps, const uint8_t *in, size_t dx,
+                    const size_t *ioff, const size_t *woff, const int32_t *tlen, int32_t nt,
+                    size_t o, uint8_t *out_u8, int8_t *out_s8)
 {
-    const int8_t *w1 = w0 + wtaps, *w2 = w1 + wtaps, *w3 = w2 + wtaps;
+    const int8_t *w0 = L->w + (size_t)co * wtaps, *w1 = w0 + wtaps, *w2 = w1 + wtaps;
+    const int8_t *w3 = w2 + wtaps;
     __m256i a0 = _mm256_setzero_si256(), a1 = a0, a2 = a0, a3 = a0;
     __m256i b0 = a0, b1 = a0, b2 = a0, b3 = a0;
     __m128i s0, s1;
-    int32_t t, ci, j, tail[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+    int32_t t, ci, tail[8] = {0, 0, 0, 0, 0, 0, 0, 0};
     for (t = 0; t < nt; ++t) {
         const int8_t *p0 = w0 + woff[t], *p1 = w1 + woff[t], *p2 = w2 + woff[t], *p3 = w3 + woff[t];
         const uint8_t *ap = in + ioff[t], *bp = ap + dx;
@@ -430,11 +429,10 @@ vt__cnn_dot4x2_vnni(const int8_t *w0, size_t wtaps, const uint8_t *in, size_t dx
     b0 = _mm256_hadd_epi32(_mm256_hadd_epi32(b0, b1), _mm256_hadd_epi32(b2, b3));
     s0 = _mm_add_epi32(_mm256_castsi256_si128(a0), _mm256_extracti128_si256(a0, 1));
     s1 = _mm_add_epi32(_mm256_castsi256_si128(b0), _mm256_extracti128_si256(b0, 1));
-    _mm_storeu_si128((__m128i *)(void *)acc, s0);
-    _mm_storeu_si128((__m128i *)(void *)(acc + 4), s1);
-    for (j = 0; j < 8; ++j) {
-        acc[j] += tail[j];
-    }
+    s0 = _mm_add_epi32(s0, _mm_setr_epi32(tail[0], tail[1], tail[2], tail[3]));
+    s1 = _mm_add_epi32(s1, _mm_setr_epi32(tail[4], tail[5], tail[6], tail[7]));
+    vt__cnn_store4(L, s0, co, o, out_u8, out_s8);
+    vt__cnn_store4(L, s1, co, o + (size_t)L->cout, out_u8, out_s8);
 }
 #endif
 #endif
@@ -618,19 +616,15 @@ static void vt__cnn_layer(const vt_cnn_layer *L, const uint8_t *in, int32_t iw, 
                 if (same) {
                     size_t o2 = o + (size_t)cout;
                     for (co = 0; co + 4 <= cout; co += 4) {
-                        int32_t acc[8];
 #if VT_CNN_VNNI
                         if (isa == 2) {
-                            vt__cnn_dot4x2_vnni(L->w + (size_t)co * wtaps, wtaps, in, dx, ioff,
-                                                woff, tlen, nt, acc);
-                        } else
-#endif
-                        {
-                            vt__cnn_dot4x2(L->w + (size_t)co * wtaps, wtaps, in, dx, ioff, woff,
-                                           tlen, nt, acc);
+                            vt__cnn_dot4x2_vnni(L, co, wtaps, in, dx, ioff, woff, tlen, nt, o,
+                                                out_u8, out_s8);
+                            continue;
                         }
-                        vt__cnn_store4(L, acc, co, o, out_u8, out_s8);
-                        vt__cnn_store4(L, acc + 4, co, o2, out_u8, out_s8);
+#endif
+                        vt__cnn_dot4x2(L, co, wtaps, in, dx, ioff, woff, tlen, nt, o, out_u8,
+                                       out_s8);
                     }
                     for (; co < cout; ++co) {
                         vt__cnn_store(L, vt__cnn_dot1(L, co, wtaps, in, ioff, woff, tlen, nt), co,
@@ -666,12 +660,6 @@ static void vt__cnn_layer(const vt_cnn_layer *L, const uint8_t *in, int32_t iw, 
                 {
                     vt__cnn_dot4(L->w + (size_t)co * wtaps, wtaps, in, ioff, woff, tlen, nt, acc);
                 }
-#if VT_CNN_AVX2
-                if (avx2) {
-                    vt__cnn_store4(L, acc, co, o, out_u8, out_s8);
-                    continue;
-                }
-#endif
                 vt__cnn_store(L, L->bias[co] + acc[0], co, o, out_u8, out_s8);
                 vt__cnn_store(L, L->bias[co + 1] + acc[1], co + 1, o, out_u8, out_s8);
                 vt__cnn_store(L, L->bias[co + 2] + acc[2], co + 2, o, out_u8, out_s8);
