@@ -1172,6 +1172,15 @@ def _first_line(cmd: list[str]) -> str:
         return "unknown"
 
 
+def _cnn_path() -> str:
+    """The CNN stages' inner loops in the timed extension; callgrind's may differ: valgrind
+    3.19 does not report AVX-VNNI to the program, so there the CNN counts the AVX2 loops'
+    instructions (the same bits)."""
+    from pyvehtrack import cnn  # noqa: PLC0415
+    path = cnn.simd_path()
+    return path + ("; under callgrind avx2 (valgrind does not report AVX-VNNI)" if path == "avx-vnni" else "")
+
+
 def machine_info(cc: str, cflags: str, valgrind: str | None) -> dict[str, str]:
     cpu = platform.processor() or platform.machine()
     try:
@@ -1203,6 +1212,7 @@ def machine_info(cc: str, cflags: str, valgrind: str | None) -> dict[str, str]:
         "valgrind": _first_line([valgrind, "--version"]) if valgrind else "not found",
         "extension": os.environ.get("PYVEHTRACK_FFI", "installed pyvehtrack._vtffi"),
         "commit": commit,
+        "cnn inner loops (vt_cnn_simd_path)": _cnn_path(),
     }
     return info
 

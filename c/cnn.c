@@ -500,6 +500,21 @@ __attribute__((target("avx2"))) static void vt__cnn_first8(const vt_cnn_layer *L
 }
 #endif
 
+vt_status vt_cnn_simd_path(int32_t *path)
+{
+    if (path == NULL) {
+        return VT_E_ARG;
+    }
+#if VT_CNN_AVX2
+    *path = VT_CNN_SIMD_SSE2 + vt__cnn_isa();
+#elif VT_CNN_SSE2
+    *path = VT_CNN_SIMD_SSE2;
+#else
+    *path = VT_CNN_SIMD_PORTABLE;
+#endif
+    return VT_OK;
+}
+
 /* The in-frame taps of output pixel (ox, oy): runs of tlen[t] input bytes at
  * ioff[t] against the weights at woff[t] (per output channel); returns how many. A
  * 3x3 layer of dilation 1 away from the left and right borders reads each kernel

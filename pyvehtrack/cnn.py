@@ -293,6 +293,17 @@ def work_bytes(model: CnnModel, w: int, h: int) -> int:
     return int(b[0])
 
 
+SIMD_PATHS = ("portable", "sse2", "avx2", "avx-vnni")
+
+
+def simd_path() -> str:
+    """vt_cnn_simd_path: which inner loops vt_cnn_forward takes in this build on this CPU,
+    one of SIMD_PATHS (the same bits on every path, only the speed differs)."""
+    p = ffi.new("int32_t *")
+    check("vt_cnn_simd_path", lib.vt_cnn_simd_path(p))
+    return SIMD_PATHS[int(p[0])]
+
+
 def forward(model: CnnModel, gray: np.ndarray) -> np.ndarray:
     """vt_cnn_forward: (gh, gw, 5) int8 (heat, then the l, t, r, b side codes) of a uint8 gray
     image (rows may be padded: any row stride, contiguous columns)."""

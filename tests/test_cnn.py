@@ -626,3 +626,42 @@ def test_python_odd_but_fine_inputs():
     assert n == n2 and (b == b2).all()
     b3, n3 = C.decode(m, out, cap=10 ** 9)          # a huge cap is fine (no bigger than the grid)
     assert n3 == n2 and (b3 == b2).all()
+
+
+# ---------------------------------------------------------------- which inner loops run
+def _cpu_flags() -> set[str]:
+    import pathlib  # noqa: PLC0415
+    try:
+        for line in pathlib.Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("flags"):
+                return set(line.split(":", 1)[1].split())
+    except OSError:
+        pass
+    return set()
+
+
+def test_simd_path_is_one_this_cpu_runs():
+    """vt_cnn_simd_path names a path the CPU has (every path gives the same bits: the suite
+    runs once per path, `make test`). The main suite's build (meson, no -D flags, gcc >= 11)
+    on an x86-64 CPU takes the best path the CPU offers, so a dispatch that silently fell
+    back to a slower loop fails here; the other builds leave paths out on purpose."""
+    import os  # noqa: PLC0415
+    import platform  # noqa: PLC0415
+    import subprocess  # noqa: PLC0415
+    p = ffi.new("int32_t *")
+    assert lib.vt_cnn_simd_path(ffi.NULL) == lib.VT_E_ARG
+    assert lib.vt_cnn_simd_path(p) == lib.VT_OK
+    name = C.simd_path()
+    assert name == C.SIMD_PATHS[p[0]]
+    flags = _cpu_flags()
+    if platform.machine() not in ("x86_64", "AMD64"):
+        assert name == "portable"
+        return
+    assert name != "avx-vnni" or "avx_vnni" in flags
+    assert name not in ("avx2", "avx-vnni") or "avx2" in flags
+    if os.environ.get("PYVEHTRACK_FFI") is None and flags:
+        cc = subprocess.run(["cc", "-dumpversion"], capture_output=True, text=True).stdout.strip()
+        gcc11 = cc.split(".")[0].isdigit() and int(cc.split(".")[0]) >= 11
+        want = ("avx-vnni" if "avx_vnni" in flags and gcc11 else
+                "avx2" if "avx2" in flags else "sse2")
+        assert name == want, f"cpu flags {sorted(flags & {'avx2', 'avx_vnni'})}, cc {cc}"

@@ -135,6 +135,17 @@ vt_status vt_cnn_out_size(const vt_cnn_model *m, int32_t w, int32_t h, int32_t *
  * VT_E_ARG). */
 vt_status vt_cnn_work_bytes(const vt_cnn_model *m, int32_t w, int32_t h, size_t *bytes);
 
+/* Which inner loops vt_cnn_forward takes in this build on this CPU (the same bits on
+ * every path; the speed differs): *path = VT_CNN_SIMD_PORTABLE (non-x86 targets,
+ * -DVT_NO_SIMD), VT_CNN_SIMD_SSE2 (x86-64 without AVX2, or -DVT_NO_AVX2),
+ * VT_CNN_SIMD_AVX2 (or -DVT_NO_AVXVNNI) or VT_CNN_SIMD_AVXVNNI; the CPU is asked
+ * (cpuid) on every call, as vt_cnn_forward does per layer. NULL path -> VT_E_ARG. */
+#define VT_CNN_SIMD_PORTABLE 0
+#define VT_CNN_SIMD_SSE2 1
+#define VT_CNN_SIMD_AVX2 2
+#define VT_CNN_SIMD_AVXVNNI 3
+vt_status vt_cnn_simd_path(int32_t *path);
+
 /* The forward pass over a gray image img (w x h, row stride `stride` bytes):
  * out = the last layer's gh x gw x 5 int8 (HWC, vt_cnn_out_size). Layer i < the
  * last writes its uint8 output at work (i even) or at work + the largest even

@@ -58,6 +58,11 @@ typedef struct {
 vt_status vt_cnn_check_model(const vt_cnn_model *m);
 vt_status vt_cnn_out_size(const vt_cnn_model *m, int32_t w, int32_t h, int32_t *gw, int32_t *gh);
 vt_status vt_cnn_work_bytes(const vt_cnn_model *m, int32_t w, int32_t h, size_t *bytes);
+#define VT_CNN_SIMD_PORTABLE 0
+#define VT_CNN_SIMD_SSE2 1
+#define VT_CNN_SIMD_AVX2 2
+#define VT_CNN_SIMD_AVXVNNI 3
+vt_status vt_cnn_simd_path(int32_t *path);
 vt_status vt_cnn_forward(const vt_cnn_model *m, const uint8_t *img, int32_t w, int32_t h,
                          int32_t stride, uint8_t *work, size_t work_bytes, int8_t *out,
                          size_t out_len);
