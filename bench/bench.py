@@ -1177,7 +1177,10 @@ def _cnn_path() -> str:
     3.19 does not report AVX-VNNI to the program, so there the CNN counts the AVX2 loops'
     instructions (the same bits)."""
     from pyvehtrack import cnn  # noqa: PLC0415
-    path = cnn.simd_path()
+    try:
+        path = cnn.simd_path()
+    except AttributeError:   # an extension built before vt_cnn_simd_path (2026-12-01)
+        return "not reported by this extension"
     return path + ("; under callgrind avx2 (valgrind does not report AVX-VNNI)" if path == "avx-vnni" else "")
 
 

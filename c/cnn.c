@@ -309,82 +309,94 @@ __attribute__((target("avx2"))) static inline void vt__cnn_store4(const vt_cnn_l
            &b4, 4);
 }
 
+/* The two pair kernels below share their 16-byte steps, tail and store as macros over
+ * named locals (p0..p3 the four channels' weights at this tap, ap / bp the two pixels'
+ * input bytes, a0..a3 / b0..b3 their running sums, tail[8]): written as inline
+ * functions over arrays, gcc kept the sums in memory and the frame took 10-70% longer.
+ *
+ * VT__CNN_PAIR16: bytes ci .. n - 1 of one tap, 16 a step widened to int16, each
+ * vpmaddwd lane x y + x' y' (|.| <= 2 x 128 x 255); the bytes past the last step into
+ * tail[4 p + j]. Every lane's running sum is a part of one accumulator's sum (cnn.h's
+ * int32 bound). */
+#define VT__CNN_MADD2(p, a, b)                                                                \
+    w = _mm256_cvtepi8_epi16(_mm_loadu_si128((const __m128i *)(const void *)((p) + ci)));      \
+    a = _mm256_add_epi32(a, _mm256_madd_epi16(x, w));                                          \
+    b = _mm256_add_epi32(b, _mm256_madd_epi16(y, w))
+#define VT__CNN_PAIR16()                                                                      \
+    for (; ci + 16 <= n; ci += 16) {                                                           \
+        __m256i x = _mm256_cvtepu8_epi16(_mm_loadu_si128((const __m128i *)(const void *)(ap + ci))); \
+        __m256i y = _mm256_cvtepu8_epi16(_mm_loadu_si128((const __m128i *)(const void *)(bp + ci))); \
+        __m256i w;                                                                             \
+        VT__CNN_MADD2(p0, a0, b0);                                                             \
+        VT__CNN_MADD2(p1, a1, b1);                                                             \
+        VT__CNN_MADD2(p2, a2, b2);                                                             \
+        VT__CNN_MADD2(p3, a3, b3);                                                             \
+    }                                                                                          \
+    for (; ci < n; ++ci) {                                                                     \
+        int32_t x = ap[ci], y = bp[ci];                                                        \
+        tail[0] += (int32_t)p0[ci] * x;                                                        \
+        tail[1] += (int32_t)p1[ci] * x;                                                        \
+        tail[2] += (int32_t)p2[ci] * x;                                                        \
+        tail[3] += (int32_t)p3[ci] * x;                                                        \
+        tail[4] += (int32_t)p0[ci] * y;                                                        \
+        tail[5] += (int32_t)p1[ci] * y;                                                        \
+        tail[6] += (int32_t)p2[ci] * y;                                                        \
+        tail[7] += (int32_t)p3[ci] * y;                                                        \
+    }
+/* VT__CNN_PAIR_STORE: hadd twice leaves channel j's sums of each 128-bit half in lane
+ * j of that half; plus the tails; vt__cnn_store4 at o and o + cout. */
+#define VT__CNN_PAIR_STORE()                                                                  \
+    do {                                                                                       \
+        __m256i ha = _mm256_hadd_epi32(_mm256_hadd_epi32(a0, a1), _mm256_hadd_epi32(a2, a3));  \
+        __m256i hb = _mm256_hadd_epi32(_mm256_hadd_epi32(b0, b1), _mm256_hadd_epi32(b2, b3));  \
+        __m128i s0 = _mm_add_epi32(_mm256_castsi256_si128(ha), _mm256_extracti128_si256(ha, 1)); \
+        __m128i s1 = _mm_add_epi32(_mm256_castsi256_si128(hb), _mm256_extracti128_si256(hb, 1)); \
+        s0 = _mm_add_epi32(s0, _mm_setr_epi32(tail[0], tail[1], tail[2], tail[3]));          \
+        s1 = _mm_add_epi32(s1, _mm_setr_epi32(tail[4], tail[5], tail[6], tail[7]));          \
+        vt__cnn_store4(L, s0, co, o, out_u8, out_s8);                                          \
+        vt__cnn_store4(L, s1, co, o + (size_t)L->cout, out_u8, out_s8);                        \
+    } while (0)
+/* The locals both kernels start from. */
+#define VT__CNN_PAIR_LOCALS()                                                                 \
+    const int8_t *w0 = L->w + (size_t)co * wtaps, *w1 = w0 + wtaps, *w2 = w1 + wtaps;         \
+    const int8_t *w3 = w2 + wtaps;                                                             \
+    __m256i a0 = _mm256_setzero_si256(), a1 = a0, a2 = a0, a3 = a0;                            \
+    __m256i b0 = a0, b1 = a0, b2 = a0, b3 = a0;                                                \
+    int32_t t, ci, tail[8] = {0, 0, 0, 0, 0, 0, 0, 0}
+#define VT__CNN_PAIR_TAP()                                                                    \
+    const int8_t *p0 = w0 + woff[t], *p1 = w1 + woff[t], *p2 = w2 + woff[t], *p3 = w3 + woff[t]; \
+    const uint8_t *ap = in + ioff[t], *bp = ap + dx;                                           \
+    int32_t n = tlen[t]
+
 /* Output channels co .. co + 3 of two output pixels whose taps are the same runs dx
  * bytes apart (two interior neighbours; pixel 1's input bytes at in + ioff[t] + dx,
- * its output at o + cout): the sums of vt__cnn_dot4, stored as vt__cnn_store4 does. Each vpmaddwd lane is x y + x' y', |.| <= 2 x 128 x 255, and every
- * lane's running sum is a part of one accumulator's sum (cnn.h's int32 bound). */
+ * its output at o + cout): the sums of vt__cnn_dot4, stored as vt__cnn_store4 does. */
 __attribute__((target("avx2"))) static void
 vt__cnn_dot4x2(const vt_cnn_layer *L, int32_t co, size_t wtaps, const uint8_t *in, size_t dx,
                const size_t *ioff, const size_t *woff, const int32_t *tlen, int32_t nt, size_t o,
                uint8_t *out_u8, int8_t *out_s8)
 {
-    const int8_t *w0 = L->w + (size_t)co * wtaps, *w1 = w0 + wtaps, *w2 = w1 + wtaps;
-    const int8_t *w3 = w2 + wtaps;
-    __m256i a0 = _mm256_setzero_si256(), a1 = a0, a2 = a0, a3 = a0;
-    __m256i b0 = a0, b1 = a0, b2 = a0, b3 = a0;
-    __m128i s0, s1;
-    int32_t t, ci, tail[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+    VT__CNN_PAIR_LOCALS();
     for (t = 0; t < nt; ++t) {
-        const int8_t *p0 = w0 + woff[t], *p1 = w1 + woff[t], *p2 = w2 + woff[t], *p3 = w3 + woff[t];
-        const uint8_t *ap = in + ioff[t], *bp = ap + dx;
-        int32_t n = tlen[t];
-        for (ci = 0; ci + 16 <= n; ci += 16) {
-            __m256i x = _mm256_cvtepu8_epi16(_mm_loadu_si128((const __m128i *)(const void *)(ap + ci)));
-            __m256i y = _mm256_cvtepu8_epi16(_mm_loadu_si128((const __m128i *)(const void *)(bp + ci)));
-            __m256i w;
-#define VT__CNN_MADD2(p, a, b)                                                                \
-    w = _mm256_cvtepi8_epi16(_mm_loadu_si128((const __m128i *)(const void *)((p) + ci)));      \
-    a = _mm256_add_epi32(a, _mm256_madd_epi16(x, w));                                          \
-    b = _mm256_add_epi32(b, _mm256_madd_epi16(y, w))
-            VT__CNN_MADD2(p0, a0, b0);
-            VT__CNN_MADD2(p1, a1, b1);
-            VT__CNN_MADD2(p2, a2, b2);
-            VT__CNN_MADD2(p3, a3, b3);
-#undef VT__CNN_MADD2
-        }
-        for (; ci < n; ++ci) {
-            int32_t x = ap[ci], y = bp[ci];
-            tail[0] += (int32_t)p0[ci] * x;
-            tail[1] += (int32_t)p1[ci] * x;
-            tail[2] += (int32_t)p2[ci] * x;
-            tail[3] += (int32_t)p3[ci] * x;
-            tail[4] += (int32_t)p0[ci] * y;
-            tail[5] += (int32_t)p1[ci] * y;
-            tail[6] += (int32_t)p2[ci] * y;
-            tail[7] += (int32_t)p3[ci] * y;
-        }
+        VT__CNN_PAIR_TAP();
+        ci = 0;
+        VT__CNN_PAIR16()
     }
-    /* hadd twice leaves channel j's sums of each 128-bit half in lane j of that half */
-    a0 = _mm256_hadd_epi32(_mm256_hadd_epi32(a0, a1), _mm256_hadd_epi32(a2, a3));
-    b0 = _mm256_hadd_epi32(_mm256_hadd_epi32(b0, b1), _mm256_hadd_epi32(b2, b3));
-    s0 = _mm_add_epi32(_mm256_castsi256_si128(a0), _mm256_extracti128_si256(a0, 1));
-    s1 = _mm_add_epi32(_mm256_castsi256_si128(b0), _mm256_extracti128_si256(b0, 1));
-    s0 = _mm_add_epi32(s0, _mm_setr_epi32(tail[0], tail[1], tail[2], tail[3]));
-    s1 = _mm_add_epi32(s1, _mm_setr_epi32(tail[4], tail[5], tail[6], tail[7]));
-    vt__cnn_store4(L, s0, co, o, out_u8, out_s8);
-    vt__cnn_store4(L, s1, co, o + (size_t)L->cout, out_u8, out_s8);
+    VT__CNN_PAIR_STORE();
 }
 
 #if VT_CNN_VNNI
 /* vt__cnn_dot4x2 with AVX-VNNI: 32 bytes a step, each vpdpbusd lane adding four
- * products to its running sum; then vt__cnn_dot4x2's 16-byte step and tail. */
+ * uint8 x int8 products to its running sum; then the 16-byte steps and the tail. */
 __attribute__((target("avx2,avxvnni"))) static void
 vt__cnn_dot4x2_vnni(const vt_cnn_layer *L, int32_t co, size_t wtaps, const uint8_t *in, size_t dx,
                     const size_t *ioff, const size_t *woff, const int32_t *tlen, int32_t nt,
                     size_t o, uint8_t *out_u8, int8_t *out_s8)
 {
-    const int8_t *w0 = L->w + (size_t)co * wtaps, *w1 = w0 + wtaps, *w2 = w1 + wtaps;
-    const int8_t *w3 = w2 + wtaps;
-    __m256i a0 = _mm256_setzero_si256(), a1 = a0, a2 = a0, a3 = a0;
-    __m256i b0 = a0, b1 = a0, b2 = a0, b3 = a0;
-    __m128i s0, s1;
-    int32_t t, ci, tail[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+    VT__CNN_PAIR_LOCALS();
     for (t = 0; t < nt; ++t) {
-        const int8_t *p0 = w0 + woff[t], *p1 = w1 + woff[t], *p2 = w2 + woff[t], *p3 = w3 + woff[t];
-        const uint8_t *ap = in + ioff[t], *bp = ap + dx;
-        int32_t n = tlen[t];
-        ci = 0;
-        for (; ci + 32 <= n; ci += 32) {
+        VT__CNN_PAIR_TAP();
+        for (ci = 0; ci + 32 <= n; ci += 32) {
             __m256i x = _mm256_loadu_si256((const __m256i *)(const void *)(ap + ci));
             __m256i y = _mm256_loadu_si256((const __m256i *)(const void *)(bp + ci));
             __m256i w;
@@ -398,43 +410,16 @@ vt__cnn_dot4x2_vnni(const vt_cnn_layer *L, int32_t co, size_t wtaps, const uint8
             VT__CNN_DP2(p3, a3, b3);
 #undef VT__CNN_DP2
         }
-        for (; ci + 16 <= n; ci += 16) {
-            __m256i x = _mm256_cvtepu8_epi16(_mm_loadu_si128((const __m128i *)(const void *)(ap + ci)));
-            __m256i y = _mm256_cvtepu8_epi16(_mm_loadu_si128((const __m128i *)(const void *)(bp + ci)));
-            __m256i w;
-#define VT__CNN_MADD2(p, a, b)                                                                \
-    w = _mm256_cvtepi8_epi16(_mm_loadu_si128((const __m128i *)(const void *)((p) + ci)));      \
-    a = _mm256_add_epi32(a, _mm256_madd_epi16(x, w));                                          \
-    b = _mm256_add_epi32(b, _mm256_madd_epi16(y, w))
-            VT__CNN_MADD2(p0, a0, b0);
-            VT__CNN_MADD2(p1, a1, b1);
-            VT__CNN_MADD2(p2, a2, b2);
-            VT__CNN_MADD2(p3, a3, b3);
-#undef VT__CNN_MADD2
-        }
-        for (; ci < n; ++ci) {
-            int32_t x = ap[ci], y = bp[ci];
-            tail[0] += (int32_t)p0[ci] * x;
-            tail[1] += (int32_t)p1[ci] * x;
-            tail[2] += (int32_t)p2[ci] * x;
-            tail[3] += (int32_t)p3[ci] * x;
-            tail[4] += (int32_t)p0[ci] * y;
-            tail[5] += (int32_t)p1[ci] * y;
-            tail[6] += (int32_t)p2[ci] * y;
-            tail[7] += (int32_t)p3[ci] * y;
-        }
+        VT__CNN_PAIR16()
     }
-    /* hadd twice leaves channel j's sums of each 128-bit half in lane j of that half */
-    a0 = _mm256_hadd_epi32(_mm256_hadd_epi32(a0, a1), _mm256_hadd_epi32(a2, a3));
-    b0 = _mm256_hadd_epi32(_mm256_hadd_epi32(b0, b1), _mm256_hadd_epi32(b2, b3));
-    s0 = _mm_add_epi32(_mm256_castsi256_si128(a0), _mm256_extracti128_si256(a0, 1));
-    s1 = _mm_add_epi32(_mm256_castsi256_si128(b0), _mm256_extracti128_si256(b0, 1));
-    s0 = _mm_add_epi32(s0, _mm_setr_epi32(tail[0], tail[1], tail[2], tail[3]));
-    s1 = _mm_add_epi32(s1, _mm_setr_epi32(tail[4], tail[5], tail[6], tail[7]));
-    vt__cnn_store4(L, s0, co, o, out_u8, out_s8);
-    vt__cnn_store4(L, s1, co, o + (size_t)L->cout, out_u8, out_s8);
+    VT__CNN_PAIR_STORE();
 }
 #endif
+#undef VT__CNN_PAIR_TAP
+#undef VT__CNN_PAIR_LOCALS
+#undef VT__CNN_PAIR_STORE
+#undef VT__CNN_PAIR16
+#undef VT__CNN_MADD2
 #endif
 
 #if VT_CNN_AVX2
