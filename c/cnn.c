@@ -276,9 +276,10 @@ static int vt__cnn_isa(void)
 
 /* vt__cnn_store for output channels co .. co + 3 of the pixel at o, acc (four int32
  * lanes) without the bias: the same q in 64-bit lanes. The sums stay in registers:
- * reloading lanes just written one by one would stall on store forwarding. |acc + bias| <= 2^31 and mult < 2^31 keep
- * (acc + bias) mult + 2^(shift - 1) inside int63; the floor shift of a negative p
- * is ~((~p) >> shift) with a logical shift, as vt__floor_shr64's -1 - ((-1 - p) >> n). */
+ * reloading lanes just written one by one would stall on store forwarding.
+ * |acc + bias| <= 2^31 and mult < 2^31 keep (acc + bias) mult + 2^(shift - 1) inside
+ * int63; the floor shift of a negative p is ~((~p) >> shift) with a logical shift, as
+ * vt__floor_shr64's -1 - ((-1 - p) >> n). */
 __attribute__((target("avx2"))) static inline void vt__cnn_store4(const vt_cnn_layer *L,
                                                                    __m128i acc, int32_t co,
                                                                    size_t o, uint8_t *out_u8,
