@@ -57,19 +57,21 @@ tables:
 	$(PY) tools/gen_cnn_table.py
 
 # The smallest sensible build: one track slot, VGA-sized frames at most; and the
-# portable C loops where the x86 builds take SSE2 / AVX2 / AVX-VNNI (c/cnn.c), so the suite runs all four.
+# portable C loops where the x86 builds take SSE2 / AVX2 / AVX-VNNI / AVX-512 VNNI (c/cnn.c), so the suite runs all five.
 SMALL_DEFS := -DVT_MAX_TRACKS=1 -DVT_MAX_WIDTH=700 -DVT_MAX_HEIGHT=500 -DVT_NO_SIMD
 
 # The sanitized suite runs once per compiler in SAN_COMPILERS (about a minute
 # each): clang's UBSan catches signed negations gcc 12's misses, gcc's ASan
 # differs in its interceptors. Then the fuzzers, FUZZ_SECONDS each.
 SAN_COMPILERS ?= gcc clang
-# c/cnn.c takes AVX-VNNI, AVX2 or SSE2, whichever the CPU has (the main suite: the
-# best). The gcc sanitized suite is built without the AVX2 paths, the clang one
-# without AVX-VNNI, so the SSE2 and AVX2 paths keep being run (the smallest build
-# runs the portable loops).
+# c/cnn.c takes AVX-512 VNNI, AVX-VNNI, AVX2 or SSE2, whichever the CPU has (the main
+# suite: the best). The gcc sanitized suite is built without the AVX2 paths, the clang
+# one without the VNNI ones, and the CNN's tests run once more without AVX-512, so the
+# SSE2, AVX2 and 256-bit AVX-VNNI paths keep being run (the smallest build runs the
+# portable loops).
 SAN_GCC_DEFS    ?= -DVT_NO_AVX2
 SAN_CLANG_DEFS  ?= -DVT_NO_AVXVNNI
+CNN_TESTS       ?= tests/test_cnn.py tests/test_cnn_band.py tests/test_cnn_upband.py
 # The first suite runs everything; the sanitized (gcc and clang side by side, one core
 # each) and small-configuration runs are "secondary": they leave out the modules that do
 # not depend on the extension's build (tests/conftest.py, BUILD_INDEPENDENT) and draw
@@ -85,6 +87,7 @@ test: lib
 	  for c in $(SAN_COMPILERS); do echo "== sanitized suite ($$c)"; grep -v '^\.*  *\[' $(BUILD)/test-san-$$c.log | tail -n 40; done; \
 	  exit $$rc
 	$(MAKE) check CHECK_DEFS="$(SMALL_DEFS)" SECONDARY=1
+	$(MAKE) check CHECK_DEFS=-DVT_NO_AVX512 TESTS="$(CNN_TESTS)"
 	$(MAKE) -j2 fuzz-build
 	$(MAKE) fuzz FUZZ_SECONDS=$(CI_FUZZ_SECONDS)
 

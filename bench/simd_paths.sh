@@ -1,7 +1,8 @@
 #!/bin/sh
 # One detection frame through every CNN inner-loop path, in one sequence of runs:
 # the extension built portable (-DVT_NO_SIMD), SSE2 (-DVT_NO_AVX2), AVX2
-# (-DVT_NO_AVXVNNI) and with no flag (the best the CPU has), plus, when BEFORE names a
+# (-DVT_NO_AVXVNNI), 256-bit AVX-VNNI (-DVT_NO_AVX512) and with no flag (the best the
+# CPU has), plus, when BEFORE names a
 # commit, that commit's code. bench.py's stages detect_default, cnn_l0big_detect and
 # cnn_detect; tables in OUT/<build>/b.md.
 #
@@ -19,7 +20,7 @@ build() { # name source-dir defines
   (cd "$2" && python3 tools/build_ffi.py "$OUT/$1/_vtffi.c" >/dev/null &&
    cc -shared -fPIC -O2 $3 -Iinclude -I"$PYINC" c/*.c "$OUT/$1/_vtffi.c" -o "$OUT/$1/_vtffi$SUF")
 }
-NAMES="portable sse2 avx2 best"
+NAMES="portable sse2 avx2 vnni256 best"
 if [ -n "$BEFORE" ]; then
   rm -rf "$OUT/src-before"
   git worktree add -f --detach "$OUT/src-before" "$BEFORE" >/dev/null
@@ -30,6 +31,7 @@ fi
 build portable . "-DVT_NO_SIMD"
 build sse2 . "-DVT_NO_AVX2"
 build avx2 . "-DVT_NO_AVXVNNI"
+build vnni256 . "-DVT_NO_AVX512"
 build best . ""
 for n in $NAMES; do
   PYTHONPATH="$ROOT" PYVEHTRACK_FFI="$OUT/$n/_vtffi$SUF" python3 bench/bench.py --workdir "$OUT/work" \

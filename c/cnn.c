@@ -35,14 +35,25 @@
  * uint8 x int8 products into each int32 lane with no widening and no saturation
  * (each product fits int16, the sum wraps only past int32, which cnn.h's bound
  * excludes): 32 products per instruction. Compilers that know the target: gcc 11,
- * clang 12 on. -DVT_NO_AVXVNNI keeps plain AVX2 (`make test`'s clang sanitized
- * suite); valgrind does not report the feature, so callgrind counts the AVX2 path. */
+ * clang 12 on. -DVT_NO_AVXVNNI keeps plain AVX2 (both VNNI kinds off: `make test`'s
+ * clang sanitized suite); valgrind does not report the feature, so callgrind counts
+ * the AVX2 path. */
 #if VT_CNN_AVX2 && !defined(VT_NO_AVXVNNI) &&                                            \
     ((defined(__clang__) && __clang_major__ >= 12) || (!defined(__clang__) && __GNUC__ >= 11))
 #define VT_CNN_VNNI 1
 #include <cpuid.h>
 #else
 #define VT_CNN_VNNI 0
+#endif
+/* AVX-512 with VNNI on top of that (Intel servers since Cascade Lake, AMD since Zen 4):
+ * 64 products per vpdpbusd and 32 registers, so a pass takes eight output channels of
+ * two pixels, and masked loads read a tap's last partial step without a tail loop
+ * (masked-off bytes are neither read nor faulted). -DVT_NO_AVX512 keeps AVX-VNNI on
+ * 256 bits (`make test` runs the CNN tests once that way); valgrind reports neither. */
+#if VT_CNN_VNNI && !defined(VT_NO_AVX512)
+#define VT_CNN_AVX512 1
+#else
+#define VT_CNN_AVX512 0
 #endif
 
 vt_status vt_cnn_check_model(const vt_cnn_model *m)
@@ -256,22 +267,36 @@ static void vt__cnn_dot4_k9(const int8_t *w0, const int32_t *px, int32_t *acc)
 #endif
 
 #if VT_CNN_AVX2
-/* What this CPU runs: 0 SSE2 only, 1 AVX2, 2 AVX2 and AVX-VNNI (cpuid leaf 7
- * sub-leaf 1, EAX bit 4; AVX2 already means the OS saves the ymm registers). */
+/* What this CPU runs, as bits: VT__ISA_AVX2; VT__ISA_VNNI, AVX-VNNI (cpuid leaf 7
+ * sub-leaf 1, EAX bit 4; AVX2 already means the OS saves the ymm registers);
+ * VT__ISA_512, AVX-512 F, BW and VNNI (the compiler's runtime checks that the OS saves
+ * the zmm state). The two VNNI kinds are independent: Intel's Cascade and Ice Lake
+ * have the 512-bit one only, its Alder Lake clients the 256-bit one only. */
+#define VT__ISA_AVX2 1
+#define VT__ISA_VNNI 2
+#define VT__ISA_512 4
 static int vt__cnn_isa(void)
 {
+    int isa = 0;
     if (!__builtin_cpu_supports("avx2")) {
         return 0;
     }
+    isa = VT__ISA_AVX2;
 #if VT_CNN_VNNI
     {
         unsigned int a, b, c, d;
         if (__get_cpuid_count(7, 1, &a, &b, &c, &d) && ((a >> 4) & 1u) != 0) {
-            return 2;
+            isa |= VT__ISA_VNNI;
         }
     }
 #endif
-    return 1;
+#if VT_CNN_AVX512
+    if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+        __builtin_cpu_supports("avx512vnni")) {
+        isa |= VT__ISA_512;
+    }
+#endif
+    return isa;
 }
 
 /* vt__cnn_store for output channels co .. co + 3 of the pixel at o, acc (four int32
@@ -416,6 +441,64 @@ vt__cnn_dot4x2_vnni(const vt_cnn_layer *L, int32_t co, size_t wtaps, const uint8
     VT__CNN_PAIR_STORE();
 }
 #endif
+#if VT_CNN_AVX512
+/* Output channels co .. co + 7 of the pixel pair (as vt__cnn_dot4x2), AVX-512 VNNI:
+ * 64 bytes a step, the last step of a tap masked. Each lane's running sum is a part
+ * of one accumulator's sum. The sums fold to 256 bits, then the hadd tree leaves
+ * channels 0..3 in the low and 4..7 in the high 128 bits. */
+__attribute__((target("avx2,avx512f,avx512bw,avx512vnni"))) static void
+vt__cnn_dot8x2_512(const vt_cnn_layer *L, int32_t co, size_t wtaps, const uint8_t *in, size_t dx,
+                   const size_t *ioff, const size_t *woff, const int32_t *tlen, int32_t nt,
+                   size_t o, uint8_t *out_u8, int8_t *out_s8)
+{
+    const int8_t *w0 = L->w + (size_t)co * wtaps;
+    __m512i a0 = _mm512_setzero_si512(), a1 = a0, a2 = a0, a3 = a0, a4 = a0, a5 = a0, a6 = a0;
+    __m512i a7 = a0, b0 = a0, b1 = a0, b2 = a0, b3 = a0, b4 = a0, b5 = a0, b6 = a0, b7 = a0;
+    __m256i ha, hb;
+    int32_t t, ci;
+    for (t = 0; t < nt; ++t) {
+        const int8_t *p = w0 + woff[t];
+        const uint8_t *ap = in + ioff[t], *bp = ap + dx;
+        int32_t n = tlen[t];
+        for (ci = 0; ci < n; ci += 64) {
+            __mmask64 m = n - ci >= 64 ? ~(__mmask64)0 : (((__mmask64)1 << (n - ci)) - 1);
+            __m512i x = _mm512_maskz_loadu_epi8(m, ap + ci), y = _mm512_maskz_loadu_epi8(m, bp + ci);
+            __m512i w;
+#define VT__CNN_DP512(j, a, b)                                                                \
+    w = _mm512_maskz_loadu_epi8(m, p + (size_t)(j) * wtaps + (size_t)ci);                      \
+    a = _mm512_dpbusd_epi32(a, x, w);                                                          \
+    b = _mm512_dpbusd_epi32(b, y, w)
+            VT__CNN_DP512(0, a0, b0);
+            VT__CNN_DP512(1, a1, b1);
+            VT__CNN_DP512(2, a2, b2);
+            VT__CNN_DP512(3, a3, b3);
+            VT__CNN_DP512(4, a4, b4);
+            VT__CNN_DP512(5, a5, b5);
+            VT__CNN_DP512(6, a6, b6);
+            VT__CNN_DP512(7, a7, b7);
+#undef VT__CNN_DP512
+        }
+    }
+#define VT__CNN_FOLD(v) _mm256_add_epi32(_mm512_castsi512_si256(v), _mm512_extracti64x4_epi64(v, 1))
+#define VT__CNN_HSUM8(h, v0, v1, v2, v3, v4, v5, v6, v7)                                      \
+    do {                                                                                       \
+        __m256i lo4 = _mm256_hadd_epi32(_mm256_hadd_epi32(VT__CNN_FOLD(v0), VT__CNN_FOLD(v1)), \
+                                        _mm256_hadd_epi32(VT__CNN_FOLD(v2), VT__CNN_FOLD(v3))); \
+        __m256i hi4 = _mm256_hadd_epi32(_mm256_hadd_epi32(VT__CNN_FOLD(v4), VT__CNN_FOLD(v5)), \
+                                        _mm256_hadd_epi32(VT__CNN_FOLD(v6), VT__CNN_FOLD(v7))); \
+        h = _mm256_add_epi32(_mm256_permute2x128_si256(lo4, hi4, 0x20),                        \
+                             _mm256_permute2x128_si256(lo4, hi4, 0x31));                       \
+    } while (0)
+    VT__CNN_HSUM8(ha, a0, a1, a2, a3, a4, a5, a6, a7);
+    VT__CNN_HSUM8(hb, b0, b1, b2, b3, b4, b5, b6, b7);
+#undef VT__CNN_HSUM8
+#undef VT__CNN_FOLD
+    vt__cnn_store4(L, _mm256_castsi256_si128(ha), co, o, out_u8, out_s8);
+    vt__cnn_store4(L, _mm256_extracti128_si256(ha, 1), co + 4, o, out_u8, out_s8);
+    vt__cnn_store4(L, _mm256_castsi256_si128(hb), co, o + (size_t)L->cout, out_u8, out_s8);
+    vt__cnn_store4(L, _mm256_extracti128_si256(hb, 1), co + 4, o + (size_t)L->cout, out_u8, out_s8);
+}
+#endif
 #undef VT__CNN_PAIR_TAP
 #undef VT__CNN_PAIR_LOCALS
 #undef VT__CNN_PAIR_STORE
@@ -492,7 +575,13 @@ vt_status vt_cnn_simd_path(int32_t *path)
         return VT_E_ARG;
     }
 #if VT_CNN_AVX2
-    *path = VT_CNN_SIMD_SSE2 + vt__cnn_isa();
+    {
+        int isa = vt__cnn_isa();
+        *path = (isa & VT__ISA_512) != 0    ? VT_CNN_SIMD_AVX512VNNI
+                : (isa & VT__ISA_VNNI) != 0 ? VT_CNN_SIMD_AVXVNNI
+                : isa != 0                  ? VT_CNN_SIMD_AVX2
+                                            : VT_CNN_SIMD_SSE2;
+    }
 #elif VT_CNN_SSE2
     *path = VT_CNN_SIMD_SSE2;
 #else
@@ -578,7 +667,7 @@ static void vt__cnn_layer(const vt_cnn_layer *L, const uint8_t *in, int32_t iw, 
      * (two interior neighbours), its input offsets are pixel ox's plus dx = st cin
      * bytes, and both pixels are summed in one pass */
     size_t ioff2[9], woff2[9], dx = (size_t)L->stride * (size_t)cin;
-    int32_t tlen2[9], isa = vt__cnn_isa(), avx2 = isa >= 1;
+    int32_t tlen2[9], isa = vt__cnn_isa(), avx2 = isa != 0;
     /* the first layer's usual shape, eight pixels at a time (vt__cnn_first8) */
     int32_t wp[6 * VT__CNN_FIRST8_MAX_CH];
     int32_t first8 = avx2 && cin == 1 && k == 3 && L->stride == 2 && L->dilation == 1 &&
@@ -616,9 +705,18 @@ static void vt__cnn_layer(const vt_cnn_layer *L, const uint8_t *in, int32_t iw, 
                 }
                 if (same) {
                     size_t o2 = o + (size_t)cout;
-                    for (co = 0; co + 4 <= cout; co += 4) {
+                    co = 0;
+#if VT_CNN_AVX512
+                    if ((isa & VT__ISA_512) != 0) {
+                        for (; co + 8 <= cout; co += 8) {
+                            vt__cnn_dot8x2_512(L, co, wtaps, in, dx, ioff, woff, tlen, nt, o,
+                                               out_u8, out_s8);
+                        }
+                    }
+#endif
+                    for (; co + 4 <= cout; co += 4) {
 #if VT_CNN_VNNI
-                        if (isa == 2) {
+                        if ((isa & VT__ISA_VNNI) != 0) {
                             vt__cnn_dot4x2_vnni(L, co, wtaps, in, dx, ioff, woff, tlen, nt, o,
                                                 out_u8, out_s8);
                             continue;

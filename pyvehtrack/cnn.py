@@ -293,7 +293,7 @@ def work_bytes(model: CnnModel, w: int, h: int) -> int:
     return int(b[0])
 
 
-SIMD_PATHS = ("portable", "sse2", "avx2", "avx-vnni")
+SIMD_PATHS = ("portable", "sse2", "avx2", "avx-vnni", "avx512-vnni")
 
 
 def simd_path() -> str:

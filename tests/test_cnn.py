@@ -657,11 +657,14 @@ def test_simd_path_is_one_this_cpu_runs():
     if platform.machine() not in ("x86_64", "AMD64"):
         assert name == "portable"
         return
+    avx512 = {"avx512f", "avx512bw", "avx512_vnni"} <= flags
+    assert name != "avx512-vnni" or avx512
     assert name != "avx-vnni" or "avx_vnni" in flags
-    assert name not in ("avx2", "avx-vnni") or "avx2" in flags
+    assert name not in ("avx2", "avx-vnni", "avx512-vnni") or "avx2" in flags
     if os.environ.get("PYVEHTRACK_FFI") is None and flags:
         cc = subprocess.run(["cc", "-dumpversion"], capture_output=True, text=True).stdout.strip()
         gcc11 = cc.split(".")[0].isdigit() and int(cc.split(".")[0]) >= 11
-        want = ("avx-vnni" if "avx_vnni" in flags and gcc11 else
+        want = ("avx512-vnni" if avx512 and gcc11 else
+                "avx-vnni" if "avx_vnni" in flags and gcc11 else
                 "avx2" if "avx2" in flags else "sse2")
-        assert name == want, f"cpu flags {sorted(flags & {'avx2', 'avx_vnni'})}, cc {cc}"
+        assert name == want, f"cpu flags {sorted(flags & {'avx2', 'avx_vnni', 'avx512_vnni'})}, cc {cc}"

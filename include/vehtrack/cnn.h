@@ -44,7 +44,8 @@
  * built with -DVT_NO_SIMD) eight int16-widened products per pmaddwd (SSE2); where
  * the CPU has AVX2 (asked at run time; -DVT_NO_AVX2 to leave it out) two
  * neighbouring output pixels in one pass with sixteen per vpmaddwd, and with
- * AVX-VNNI (-DVT_NO_AVXVNNI) 32 uint8 x int8 products per vpdpbusd; the
+ * AVX-VNNI (-DVT_NO_AVXVNNI) 32 uint8 x int8 products per vpdpbusd (64 and eight
+ * channels a pass with AVX-512 VNNI, -DVT_NO_AVX512); the
  * order of integer sums does not change them, so every build gives the same bits. Work buffer
  * (vt_cnn_work_bytes): the largest even-indexed plus the largest odd-indexed
  * layer output (the last layer writes the caller's out). */
@@ -138,12 +139,14 @@ vt_status vt_cnn_work_bytes(const vt_cnn_model *m, int32_t w, int32_t h, size_t 
 /* Which inner loops vt_cnn_forward takes in this build on this CPU (the same bits on
  * every path; the speed differs): *path = VT_CNN_SIMD_PORTABLE (non-x86 targets,
  * -DVT_NO_SIMD), VT_CNN_SIMD_SSE2 (x86-64 without AVX2, or -DVT_NO_AVX2),
- * VT_CNN_SIMD_AVX2 (or -DVT_NO_AVXVNNI) or VT_CNN_SIMD_AVXVNNI; the CPU is asked
- * (cpuid) on every call, as vt_cnn_forward does per layer. NULL path -> VT_E_ARG. */
+ * VT_CNN_SIMD_AVX2 (or -DVT_NO_AVXVNNI), VT_CNN_SIMD_AVXVNNI (256 bits; or
+ * -DVT_NO_AVX512) or VT_CNN_SIMD_AVX512VNNI; the CPU is asked (cpuid) on every
+ * call, as vt_cnn_forward does per layer. NULL path -> VT_E_ARG. */
 #define VT_CNN_SIMD_PORTABLE 0
 #define VT_CNN_SIMD_SSE2 1
 #define VT_CNN_SIMD_AVX2 2
 #define VT_CNN_SIMD_AVXVNNI 3
+#define VT_CNN_SIMD_AVX512VNNI 4
 vt_status vt_cnn_simd_path(int32_t *path);
 
 /* The forward pass over a gray image img (w x h, row stride `stride` bytes):

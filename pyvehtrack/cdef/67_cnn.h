@@ -62,6 +62,7 @@ vt_status vt_cnn_work_bytes(const vt_cnn_model *m, int32_t w, int32_t h, size_t 
 #define VT_CNN_SIMD_SSE2 1
 #define VT_CNN_SIMD_AVX2 2
 #define VT_CNN_SIMD_AVXVNNI 3
+#define VT_CNN_SIMD_AVX512VNNI 4
 vt_status vt_cnn_simd_path(int32_t *path);
 vt_status vt_cnn_forward(const vt_cnn_model *m, const uint8_t *img, int32_t w, int32_t h,
                          int32_t stride, uint8_t *work, size_t work_bytes, int8_t *out,
