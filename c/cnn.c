@@ -299,33 +299,41 @@ static int vt__cnn_isa(void)
     return isa;
 }
 
+/* vt__cnn_store's last steps on four int64 lanes: p (the product plus 2^(shift - 1))
+ * floor-shifted by sh (per lane), then clamped to -128..127 (s8) or 0..255. The floor
+ * shift of a negative p is ~((~p) >> sh) with a logical shift, as vt__floor_shr64's
+ * -1 - ((-1 - p) >> n). */
+__attribute__((target("avx2"))) static inline __m256i vt__cnn_shift_clamp(__m256i p, __m256i sh,
+                                                                           int s8)
+{
+    const __m256i lo = _mm256_set1_epi64x(s8 ? -128 : 0), hi = _mm256_set1_epi64x(s8 ? 127 : 255);
+    __m256i sg = _mm256_cmpgt_epi64(_mm256_setzero_si256(), p);
+    __m256i q = _mm256_xor_si256(_mm256_srlv_epi64(_mm256_xor_si256(p, sg), sh), sg);
+    q = _mm256_blendv_epi8(q, lo, _mm256_cmpgt_epi64(lo, q));
+    return _mm256_blendv_epi8(q, hi, _mm256_cmpgt_epi64(q, hi));
+}
+
 /* vt__cnn_store for output channels co .. co + 3 of the pixel at o, acc (four int32
  * lanes) without the bias: the same q in 64-bit lanes. The sums stay in registers:
  * reloading lanes just written one by one would stall on store forwarding.
  * |acc + bias| <= 2^31 and mult < 2^31 keep (acc + bias) mult + 2^(shift - 1) inside
- * int63; the floor shift of a negative p is ~((~p) >> shift) with a logical shift, as
- * vt__floor_shr64's -1 - ((-1 - p) >> n). */
+ * int63. */
 __attribute__((target("avx2"))) static inline void vt__cnn_store4(const vt_cnn_layer *L,
                                                                    __m128i acc, int32_t co,
                                                                    size_t o, uint8_t *out_u8,
                                                                    int8_t *out_s8)
 {
-    const __m256i zero = _mm256_setzero_si256(), one = _mm256_set1_epi64x(1);
+    const __m256i one = _mm256_set1_epi64x(1);
     __m128i a32 = _mm_add_epi32(acc, _mm_loadu_si128((const __m128i *)(const void *)(L->bias + co)));
     __m256i p = _mm256_mul_epi32(_mm256_cvtepi32_epi64(a32),
                                  _mm256_cvtepi32_epi64(
                                      _mm_loadu_si128((const __m128i *)(const void *)(L->mult + co))));
-    __m256i sh, sg, q, lo, hi;
+    __m256i sh, q;
     int32_t sh4, b4;
     memcpy(&sh4, L->shift + co, 4);
     sh = _mm256_cvtepu8_epi64(_mm_cvtsi32_si128(sh4));
     p = _mm256_add_epi64(p, _mm256_sllv_epi64(one, _mm256_sub_epi64(sh, one)));
-    sg = _mm256_cmpgt_epi64(zero, p);
-    q = _mm256_xor_si256(_mm256_srlv_epi64(_mm256_xor_si256(p, sg), sh), sg);
-    lo = _mm256_set1_epi64x(out_s8 != NULL ? -128 : 0);
-    hi = _mm256_set1_epi64x(out_s8 != NULL ? 127 : 255);
-    q = _mm256_blendv_epi8(q, lo, _mm256_cmpgt_epi64(lo, q));
-    q = _mm256_blendv_epi8(q, hi, _mm256_cmpgt_epi64(q, hi));
+    q = vt__cnn_shift_clamp(p, sh, out_s8 != NULL);
     /* each lane's low byte (the value, -128..255) into bytes 0..3 */
     q = _mm256_permutevar8x32_epi32(q, _mm256_setr_epi32(0, 2, 4, 6, 0, 2, 4, 6));
     b4 = _mm_cvtsi128_si32(_mm_shuffle_epi8(_mm256_castsi256_si128(q),
@@ -522,9 +530,6 @@ __attribute__((target("avx2"))) static void vt__cnn_first8(const vt_cnn_layer *L
                                                             int32_t ow, uint8_t *out_u8,
                                                             int8_t *out_s8)
 {
-    const __m256i zero = _mm256_setzero_si256();
-    const __m256i lo = _mm256_set1_epi64x(out_s8 != NULL ? -128 : 0);
-    const __m256i hi = _mm256_set1_epi64x(out_s8 != NULL ? 127 : 255);
     __m256i r0[3], r1[3];
     int32_t ky, j, i, cout = L->cout, v[8];
     size_t o = ((size_t)oy * (size_t)ow + (size_t)ox) * (size_t)cout;
@@ -537,8 +542,8 @@ __attribute__((target("avx2"))) static void vt__cnn_first8(const vt_cnn_layer *L
         const int32_t *q = wp + 6 * j;
         int32_t sh = L->shift[j];
         __m256i a = _mm256_set1_epi32(L->bias[j]), m = _mm256_set1_epi32(L->mult[j]);
-        __m256i half = _mm256_set1_epi64x((int64_t)1 << (sh - 1)), pe, po, sg;
-        __m128i cnt = _mm_cvtsi32_si128(sh);
+        __m256i half = _mm256_set1_epi64x((int64_t)1 << (sh - 1)), shv = _mm256_set1_epi64x(sh);
+        __m256i pe, po;
         for (ky = 0; ky < 3; ++ky) {
             a = _mm256_add_epi32(a, _mm256_madd_epi16(r0[ky], _mm256_set1_epi32(q[2 * ky])));
             a = _mm256_add_epi32(a, _mm256_madd_epi16(r1[ky], _mm256_set1_epi32(q[2 * ky + 1])));
@@ -546,14 +551,8 @@ __attribute__((target("avx2"))) static void vt__cnn_first8(const vt_cnn_layer *L
         /* lanes 0, 2, 4, 6 and 1, 3, 5, 7 as int64 products, each floor-shifted */
         pe = _mm256_add_epi64(_mm256_mul_epi32(a, m), half);
         po = _mm256_add_epi64(_mm256_mul_epi32(_mm256_srli_epi64(a, 32), m), half);
-        sg = _mm256_cmpgt_epi64(zero, pe);
-        pe = _mm256_xor_si256(_mm256_srl_epi64(_mm256_xor_si256(pe, sg), cnt), sg);
-        sg = _mm256_cmpgt_epi64(zero, po);
-        po = _mm256_xor_si256(_mm256_srl_epi64(_mm256_xor_si256(po, sg), cnt), sg);
-        pe = _mm256_blendv_epi8(pe, lo, _mm256_cmpgt_epi64(lo, pe));
-        pe = _mm256_blendv_epi8(pe, hi, _mm256_cmpgt_epi64(pe, hi));
-        po = _mm256_blendv_epi8(po, lo, _mm256_cmpgt_epi64(lo, po));
-        po = _mm256_blendv_epi8(po, hi, _mm256_cmpgt_epi64(po, hi));
+        pe = vt__cnn_shift_clamp(pe, shv, out_s8 != NULL);
+        po = vt__cnn_shift_clamp(po, shv, out_s8 != NULL);
         /* -128..255 fits the low dword: even pixels' from pe, odd pixels' from po */
         _mm256_storeu_si256((__m256i *)(void *)v,
                             _mm256_blend_epi32(pe, _mm256_slli_epi64(po, 32), 0xAA));
