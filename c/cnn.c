@@ -568,6 +568,208 @@ __attribute__((target("avx2"))) static void vt__cnn_first8(const vt_cnn_layer *L
 }
 #endif
 
+#if VT_CNN_AVX512
+/* Channels in lanes (AVX-512 VNNI): for a layer with cin a multiple of 4, a zmm holds
+ * 16 output channels' int32 sums of one pixel, and one vpdpbusd adds the products of
+ * 4 input channels (their bytes broadcast to every lane) with those 16 channels'
+ * weights. Each tap's weights for a pass of VT__CNN_CIL_NB blocks of 16 channels are
+ * repacked once per layer so that the 64 bytes one vpdpbusd needs lie together:
+ * wr[((t ng + g) nb + b) 64 + 4 j + i] = weight of channel co0 + 16 b + j, tap t, input
+ * channel 4 g + i (ng = cin / 4). A tile of VT__CNN_CIL_P interior pixels of one row
+ * shares every weight vector, so a step loads nb weight vectors and P broadcasts for
+ * nb P vpdpbusd, and no sum needs a horizontal add. The sums are those of the other
+ * paths (cnn.h's int32 bound covers every partial sum in any order). */
+#define VT__CNN_CIL_NB 2
+#define VT__CNN_CIL_P 8
+#define VT__CNN_CIL_WR (9 * VT_CNN_MAX_CH * 16 * VT__CNN_CIL_NB) /* 36,864 B of stack */
+
+static inline int32_t vt__cnn_ld32(const uint8_t *p)
+{
+    int32_t v;
+    memcpy(&v, p, 4);
+    return v;
+}
+
+/* Requantise 16 channels' sums (bias not yet added) of one pixel and store them: the
+ * 64-bit product of even and odd lanes, plus 2^(shift - 1), arithmetic (floor) shift
+ * right by shift, clamp; vt__cnn_store's q exactly. The per-block constants: bias,
+ * mult (16 lanes), half and shift of the even (he, se) and odd (ho, so) channels in
+ * 64-bit lanes. */
+#define VT__CNN_CIL_STORE(acc, dst)                                                           \
+    do {                                                                                       \
+        __m512i s_ = _mm512_add_epi32(acc, bias);                                              \
+        __m512i pe_ = _mm512_add_epi64(_mm512_mul_epi32(s_, mult), he);                        \
+        __m512i po_ = _mm512_add_epi64(                                                        \
+            _mm512_mul_epi32(_mm512_srli_epi64(s_, 32), _mm512_srli_epi64(mult, 32)), ho);     \
+        pe_ = _mm512_min_epi64(_mm512_max_epi64(_mm512_srav_epi64(pe_, se), lo), hi);          \
+        po_ = _mm512_min_epi64(_mm512_max_epi64(_mm512_srav_epi64(po_, so), lo), hi);          \
+        _mm_storeu_si128((__m128i *)(void *)(dst),                                             \
+                         _mm512_cvtepi32_epi8(_mm512_mask_blend_epi32(                         \
+                             (__mmask16)0xAAAA, pe_, _mm512_slli_epi64(po_, 32))));            \
+    } while (0)
+
+/* One pass over the interior pixels ox0 .. ox1 - 1 of rows oy0 .. oy1 - 1 for output
+ * channels co0 .. co0 + 16 nb - 1 (nb 1 or 2). base(ox, oy) = the input byte of the
+ * pixel's first tap (ky = kx = 0); toff[t] the other taps' offsets from it. */
+__attribute__((target("avx2,avx512f,avx512bw,avx512vnni"))) static void
+vt__cnn_cil_pass(const vt_cnn_layer *L, int32_t co0, int32_t nb, int8_t *wr, const uint8_t *in,
+                 size_t rs, int32_t ow, int32_t ox0, int32_t ox1, int32_t oy0, int32_t oy1,
+                 uint8_t *out_u8, int8_t *out_s8)
+{
+    int32_t k = L->ksize, cin = L->cin, cout = L->cout, st = L->stride, d = L->dilation;
+    int32_t half = k / 2, nt = k * k, ng = cin / 4, t, g, b, j, i, ox, oy;
+    size_t wtaps = (size_t)nt * (size_t)cin, toff[9], ps = (size_t)st * (size_t)cin;
+    size_t wstep = (size_t)nb * 64;
+    __m512i bias0, bias1, mult0, mult1, he0, he1, ho0, ho1, se0, se1, so0, so1;
+    const __m512i lo = _mm512_set1_epi64(out_s8 != NULL ? -128 : 0);
+    const __m512i hi = _mm512_set1_epi64(out_s8 != NULL ? 127 : 255);
+    uint8_t *ob = out_s8 != NULL ? (uint8_t *)(void *)out_s8 : out_u8;
+    for (t = 0; t < nt; ++t) {
+        toff[t] = (size_t)((t / k) * d) * rs + (size_t)((t % k) * d) * (size_t)cin;
+        for (g = 0; g < ng; ++g) {
+            for (b = 0; b < nb; ++b) {
+                for (j = 0; j < 16; ++j) {
+                    const int8_t *src =
+                        L->w + (size_t)(co0 + 16 * b + j) * wtaps + (size_t)t * (size_t)cin + 4 * (size_t)g;
+                    int8_t *dst = wr + ((size_t)(t * ng + g) * (size_t)nb + (size_t)b) * 64 + 4 * (size_t)j;
+                    for (i = 0; i < 4; ++i) {
+                        dst[i] = src[i];
+                    }
+                }
+            }
+        }
+    }
+    {
+        /* per-block constants: channel c's shift and 2^(shift - 1) in the 64-bit lane
+         * of its pair (even channels: lanes' low halves, odd: high halves) */
+        int64_t sh[2][16], hf[2][16];
+        for (b = 0; b < 2; ++b) {
+            for (j = 0; j < 16; ++j) {
+                int32_t c = co0 + 16 * (b < nb ? b : 0) + j;
+                sh[b][j] = L->shift[c];
+                hf[b][j] = (int64_t)1 << (L->shift[c] - 1);
+            }
+        }
+#define VT__CNN_CIL_EO(v, a, par)                                                             \
+    v = _mm512_setr_epi64(a[par], a[par + 2], a[par + 4], a[par + 6], a[par + 8], a[par + 10], \
+                          a[par + 12], a[par + 14])
+        VT__CNN_CIL_EO(se0, sh[0], 0);
+        VT__CNN_CIL_EO(so0, sh[0], 1);
+        VT__CNN_CIL_EO(he0, hf[0], 0);
+        VT__CNN_CIL_EO(ho0, hf[0], 1);
+        VT__CNN_CIL_EO(se1, sh[1], 0);
+        VT__CNN_CIL_EO(so1, sh[1], 1);
+        VT__CNN_CIL_EO(he1, hf[1], 0);
+        VT__CNN_CIL_EO(ho1, hf[1], 1);
+#undef VT__CNN_CIL_EO
+        bias0 = _mm512_loadu_si512((const void *)(L->bias + co0));
+        mult0 = _mm512_loadu_si512((const void *)(L->mult + co0));
+        bias1 = nb > 1 ? _mm512_loadu_si512((const void *)(L->bias + co0 + 16)) : bias0;
+        mult1 = nb > 1 ? _mm512_loadu_si512((const void *)(L->mult + co0 + 16)) : mult0;
+    }
+#define VT__CNN_CIL_BC(p) _mm512_set1_epi32(vt__cnn_ld32(x + (size_t)(p) * ps))
+    for (oy = oy0; oy < oy1; ++oy) {
+        const uint8_t *row = in + (size_t)(oy * st - half * d) * rs;
+        uint8_t *orow = ob + (size_t)oy * (size_t)ow * (size_t)cout + (size_t)co0;
+        for (ox = ox0; ox < ox1;) {
+            const uint8_t *px0 = row + (size_t)(ox * st - half * d) * (size_t)cin;
+            if (ox + VT__CNN_CIL_P <= ox1) {
+                __m512i a0 = _mm512_setzero_si512(), a1 = a0, a2 = a0, a3 = a0, a4 = a0, a5 = a0;
+                __m512i a6 = a0, a7 = a0, c0 = a0, c1 = a0, c2 = a0, c3 = a0, c4 = a0, c5 = a0;
+                __m512i c6 = a0, c7 = a0;
+                for (t = 0; t < nt; ++t) {
+                    const uint8_t *x = px0 + toff[t];
+                    const int8_t *wp = wr + (size_t)t * (size_t)ng * wstep;
+                    if (nb == 2) {
+                        for (g = 0; g < ng; ++g, x += 4, wp += 128) {
+                            __m512i w0 = _mm512_loadu_si512((const void *)wp);
+                            __m512i w1 = _mm512_loadu_si512((const void *)(wp + 64)), v;
+#define VT__CNN_CIL_DP2(p, a, c)                                                              \
+    v = VT__CNN_CIL_BC(p);                                                                     \
+    a = _mm512_dpbusd_epi32(a, v, w0);                                                         \
+    c = _mm512_dpbusd_epi32(c, v, w1)
+                            VT__CNN_CIL_DP2(0, a0, c0);
+                            VT__CNN_CIL_DP2(1, a1, c1);
+                            VT__CNN_CIL_DP2(2, a2, c2);
+                            VT__CNN_CIL_DP2(3, a3, c3);
+                            VT__CNN_CIL_DP2(4, a4, c4);
+                            VT__CNN_CIL_DP2(5, a5, c5);
+                            VT__CNN_CIL_DP2(6, a6, c6);
+                            VT__CNN_CIL_DP2(7, a7, c7);
+#undef VT__CNN_CIL_DP2
+                        }
+                    } else {
+                        for (g = 0; g < ng; ++g, x += 4, wp += 64) {
+                            __m512i w0 = _mm512_loadu_si512((const void *)wp);
+                            a0 = _mm512_dpbusd_epi32(a0, VT__CNN_CIL_BC(0), w0);
+                            a1 = _mm512_dpbusd_epi32(a1, VT__CNN_CIL_BC(1), w0);
+                            a2 = _mm512_dpbusd_epi32(a2, VT__CNN_CIL_BC(2), w0);
+                            a3 = _mm512_dpbusd_epi32(a3, VT__CNN_CIL_BC(3), w0);
+                            a4 = _mm512_dpbusd_epi32(a4, VT__CNN_CIL_BC(4), w0);
+                            a5 = _mm512_dpbusd_epi32(a5, VT__CNN_CIL_BC(5), w0);
+                            a6 = _mm512_dpbusd_epi32(a6, VT__CNN_CIL_BC(6), w0);
+                            a7 = _mm512_dpbusd_epi32(a7, VT__CNN_CIL_BC(7), w0);
+                        }
+                    }
+                }
+                {
+                    uint8_t *o = orow + (size_t)ox * (size_t)cout;
+                    size_t oc = (size_t)cout;
+                    __m512i bias = bias0, mult = mult0, he = he0, ho = ho0, se = se0, so = so0;
+                    VT__CNN_CIL_STORE(a0, o);
+                    VT__CNN_CIL_STORE(a1, o + oc);
+                    VT__CNN_CIL_STORE(a2, o + 2 * oc);
+                    VT__CNN_CIL_STORE(a3, o + 3 * oc);
+                    VT__CNN_CIL_STORE(a4, o + 4 * oc);
+                    VT__CNN_CIL_STORE(a5, o + 5 * oc);
+                    VT__CNN_CIL_STORE(a6, o + 6 * oc);
+                    VT__CNN_CIL_STORE(a7, o + 7 * oc);
+                    if (nb == 2) {
+                        bias = bias1, mult = mult1, he = he1, ho = ho1, se = se1, so = so1;
+                        o += 16;
+                        VT__CNN_CIL_STORE(c0, o);
+                        VT__CNN_CIL_STORE(c1, o + oc);
+                        VT__CNN_CIL_STORE(c2, o + 2 * oc);
+                        VT__CNN_CIL_STORE(c3, o + 3 * oc);
+                        VT__CNN_CIL_STORE(c4, o + 4 * oc);
+                        VT__CNN_CIL_STORE(c5, o + 5 * oc);
+                        VT__CNN_CIL_STORE(c6, o + 6 * oc);
+                        VT__CNN_CIL_STORE(c7, o + 7 * oc);
+                    }
+                }
+                ox += VT__CNN_CIL_P;
+            } else {
+                /* the row's last pixels, one at a time */
+                __m512i a0 = _mm512_setzero_si512(), c0 = a0;
+                for (t = 0; t < nt; ++t) {
+                    const uint8_t *x = px0 + toff[t];
+                    const int8_t *wp = wr + (size_t)t * (size_t)ng * wstep;
+                    for (g = 0; g < ng; ++g, x += 4, wp += wstep) {
+                        __m512i v = VT__CNN_CIL_BC(0);
+                        a0 = _mm512_dpbusd_epi32(a0, v, _mm512_loadu_si512((const void *)wp));
+                        if (nb == 2) {
+                            c0 = _mm512_dpbusd_epi32(c0, v, _mm512_loadu_si512((const void *)(wp + 64)));
+                        }
+                    }
+                }
+                {
+                    uint8_t *o = orow + (size_t)ox * (size_t)cout;
+                    __m512i bias = bias0, mult = mult0, he = he0, ho = ho0, se = se0, so = so0;
+                    VT__CNN_CIL_STORE(a0, o);
+                    if (nb == 2) {
+                        bias = bias1, mult = mult1, he = he1, ho = ho1, se = se1, so = so1;
+                        VT__CNN_CIL_STORE(c0, o + 16);
+                    }
+                }
+                ++ox;
+            }
+        }
+    }
+#undef VT__CNN_CIL_BC
+}
+#undef VT__CNN_CIL_STORE
+#endif
+
 vt_status vt_cnn_simd_path(int32_t *path)
 {
     if (path == NULL) {
@@ -683,10 +885,42 @@ static void vt__cnn_layer(const vt_cnn_layer *L, const uint8_t *in, int32_t iw, 
         }
     }
 #endif
+#if VT_CNN_AVX512
+    /* channels 0 .. cil_n - 1 of the interior pixels (all taps in the frame: columns
+     * cx0 .. cx1 - 1, rows cy0 .. cy1 - 1) by channels in lanes, the rest below */
+    int32_t cil_n = 0, cx0 = 0, cx1 = 0, cy0 = 0, cy1 = 0;
+    if ((isa & VT__ISA_512) != 0 && cin % 4 == 0 && cout >= 16) {
+        int32_t r = (k / 2) * L->dilation, st = L->stride;
+        cx0 = (r + st - 1) / st;
+        cy0 = cx0;
+        cx1 = iw - 1 - r < 0 ? 0 : (iw - 1 - r) / st + 1;
+        cy1 = ih - 1 - r < 0 ? 0 : (ih - 1 - r) / st + 1;
+        cx1 = cx1 > ow ? ow : cx1;
+        cy1 = cy1 > oh ? oh : cy1;
+        if (cx0 < cx1 && cy0 < cy1) {
+            int8_t wr[VT__CNN_CIL_WR];
+            cil_n = cout / 16 * 16;
+            for (co = 0; co < cil_n; co += 16 * VT__CNN_CIL_NB) {
+                vt__cnn_cil_pass(L, co, cil_n - co >= 32 ? 2 : 1, wr, in, rs, ow, cx0, cx1, cy0,
+                                 cy1, out_u8, out_s8);
+            }
+        }
+    }
+#define VT__CNN_CIL_C0(x, y)                                                                  \
+    (cil_n > 0 && (y) >= cy0 && (y) < cy1 && (x) >= cx0 && (x) < cx1 ? cil_n : 0)
+#else
+#define VT__CNN_CIL_C0(x, y) 0
+#endif
     for (oy = 0; oy < oh; ++oy) {
         for (ox = 0; ox < ow; ++ox) {
             size_t o = ((size_t)oy * (size_t)ow + (size_t)ox) * (size_t)cout;
-            int32_t nt;
+            int32_t nt, c0 = VT__CNN_CIL_C0(ox, oy);
+            if (c0 == cout) {
+#if VT_CNN_AVX512
+                ox = cx1 - 1;
+#endif
+                continue;
+            }
 #if VT_CNN_AVX2
             if (first8 && ox >= 1 && 2 * ox + 16 < iw && oy >= 1 && 2 * oy + 1 < ih) {
                 vt__cnn_first8(L, wp, in, rs, ox, oy, ow, out_u8, out_s8);
@@ -696,7 +930,7 @@ static void vt__cnn_layer(const vt_cnn_layer *L, const uint8_t *in, int32_t iw, 
 #endif
             nt = vt__cnn_taps(L, iw, ih, rs, ox, oy, ioff, woff, tlen);
 #if VT_CNN_AVX2
-            if (avx2 && cin > 1 && ox + 1 < ow &&
+            if (avx2 && cin > 1 && ox + 1 < ow && VT__CNN_CIL_C0(ox + 1, oy) == c0 &&
                 vt__cnn_taps(L, iw, ih, rs, ox + 1, oy, ioff2, woff2, tlen2) == nt) {
                 int32_t same = 1;
                 for (t = 0; t < nt; ++t) {
@@ -704,7 +938,7 @@ static void vt__cnn_layer(const vt_cnn_layer *L, const uint8_t *in, int32_t iw, 
                 }
                 if (same) {
                     size_t o2 = o + (size_t)cout;
-                    co = 0;
+                    co = c0;
 #if VT_CNN_AVX512
                     if ((isa & VT__ISA_512) != 0) {
                         for (; co + 8 <= cout; co += 8) {
@@ -748,7 +982,7 @@ static void vt__cnn_layer(const vt_cnn_layer *L, const uint8_t *in, int32_t iw, 
                 }
             }
 #endif
-            for (co = 0; co + 4 <= cout; co += 4) {
+            for (co = c0; co + 4 <= cout; co += 4) {
                 int32_t acc[4];
 #if VT_CNN_SSE2
                 if (k9) {
@@ -770,6 +1004,8 @@ static void vt__cnn_layer(const vt_cnn_layer *L, const uint8_t *in, int32_t iw, 
         }
     }
 }
+
+#undef VT__CNN_CIL_C0
 
 vt_status vt_cnn_forward(const vt_cnn_model *m, const uint8_t *img, int32_t w, int32_t h,
                          int32_t stride, uint8_t *work, size_t work_bytes, int8_t *out,
