@@ -608,32 +608,43 @@ static inline int32_t vt__cnn_ld32(const uint8_t *p)
                              (__mmask16)0xAAAA, pe_, _mm512_slli_epi64(po_, 32))));            \
     } while (0)
 
-/* One pass over the interior pixels ox0 .. ox1 - 1 of rows oy0 .. oy1 - 1 for output
- * channels co0 .. co0 + 16 nb - 1 (nb 1 or 2). base(ox, oy) = the input byte of the
- * pixel's first tap (ky = kx = 0); toff[t] the other taps' offsets from it. */
+/* One pass over every output pixel of the layer (ow x oh) for output channels co0 ..
+ * co0 + 16 nb - 1 (nb 1 or 2). Tiles of VT__CNN_CIL_P pixels where all taps lie in
+ * the frame; one pixel at a time elsewhere, over its in-frame taps only.
+ * The first layer's shape (cin 1, 3x3, dilation 1) is taken as three taps of four
+ * bytes, a kernel row and the byte after it, whose weight is 0: tiles only where that
+ * byte is inside the row, and single pixels build the four bytes with 0 for the
+ * bytes outside the frame (0 x weight adds nothing). */
 __attribute__((target("avx2,avx512f,avx512bw,avx512vnni"))) static void
 vt__cnn_cil_pass(const vt_cnn_layer *L, int32_t co0, int32_t nb, int8_t *wr, const uint8_t *in,
-                 size_t rs, int32_t ow, int32_t ox0, int32_t ox1, int32_t oy0, int32_t oy1,
-                 uint8_t *out_u8, int8_t *out_s8)
+                 int32_t iw, int32_t ih, size_t rs, int32_t ow, int32_t oh, uint8_t *out_u8,
+                 int8_t *out_s8)
 {
     int32_t k = L->ksize, cin = L->cin, cout = L->cout, st = L->stride, d = L->dilation;
-    int32_t half = k / 2, nt = k * k, ng = cin / 4, t, g, b, j, i, ox, oy;
-    size_t wtaps = (size_t)nt * (size_t)cin, toff[9], ps = (size_t)st * (size_t)cin;
+    int32_t first = cin == 1, half = k / 2, r = half * d, nt = first ? 3 : k * k;
+    int32_t ng = first ? 1 : cin / 4, t, g, b, j, i, ox, oy, cx0, cx1, cy0, cy1;
+    size_t wtaps = (size_t)k * (size_t)k * (size_t)cin, toff[9], ps = (size_t)st * (size_t)cin;
     size_t wstep = (size_t)nb * 64;
     __m512i bias0, bias1, mult0, mult1, he0, he1, ho0, ho1, se0, se1, so0, so1;
     const __m512i lo = _mm512_set1_epi64(out_s8 != NULL ? -128 : 0);
     const __m512i hi = _mm512_set1_epi64(out_s8 != NULL ? 127 : 255);
     uint8_t *ob = out_s8 != NULL ? (uint8_t *)(void *)out_s8 : out_u8;
+    /* the tiles' pixels: every tap in the frame (first: the fourth byte too) */
+    cx0 = (r + st - 1) / st;
+    cy0 = cx0;
+    cx1 = iw - 1 - r - first < 0 ? 0 : (iw - 1 - r - first) / st + 1;
+    cy1 = ih - 1 - r < 0 ? 0 : (ih - 1 - r) / st + 1;
     for (t = 0; t < nt; ++t) {
-        toff[t] = (size_t)((t / k) * d) * rs + (size_t)((t % k) * d) * (size_t)cin;
+        toff[t] = first ? (size_t)t * rs
+                        : (size_t)((t / k) * d) * rs + (size_t)((t % k) * d) * (size_t)cin;
         for (g = 0; g < ng; ++g) {
             for (b = 0; b < nb; ++b) {
                 for (j = 0; j < 16; ++j) {
-                    const int8_t *src =
-                        L->w + (size_t)(co0 + 16 * b + j) * wtaps + (size_t)t * (size_t)cin + 4 * (size_t)g;
+                    const int8_t *src = L->w + (size_t)(co0 + 16 * b + j) * wtaps +
+                                        (size_t)t * (first ? 3 : (size_t)cin) + 4 * (size_t)g;
                     int8_t *dst = wr + ((size_t)(t * ng + g) * (size_t)nb + (size_t)b) * 64 + 4 * (size_t)j;
                     for (i = 0; i < 4; ++i) {
-                        dst[i] = src[i];
+                        dst[i] = first && i == 3 ? 0 : src[i];
                     }
                 }
             }
@@ -668,12 +679,13 @@ vt__cnn_cil_pass(const vt_cnn_layer *L, int32_t co0, int32_t nb, int8_t *wr, con
         mult1 = nb > 1 ? _mm512_loadu_si512((const void *)(L->mult + co0 + 16)) : mult0;
     }
 #define VT__CNN_CIL_BC(p) _mm512_set1_epi32(vt__cnn_ld32(x + (size_t)(p) * ps))
-    for (oy = oy0; oy < oy1; ++oy) {
-        const uint8_t *row = in + (size_t)(oy * st - half * d) * rs;
+    for (oy = 0; oy < oh; ++oy) {
+        int32_t tiles = oy >= cy0 && oy < cy1;
         uint8_t *orow = ob + (size_t)oy * (size_t)ow * (size_t)cout + (size_t)co0;
-        for (ox = ox0; ox < ox1;) {
-            const uint8_t *px0 = row + (size_t)(ox * st - half * d) * (size_t)cin;
-            if (ox + VT__CNN_CIL_P <= ox1) {
+        for (ox = 0; ox < ow;) {
+            if (tiles && ox >= cx0 && ox + VT__CNN_CIL_P <= cx1) {
+                const uint8_t *px0 =
+                    in + (size_t)(oy * st - r) * rs + (size_t)(ox * st - r) * (size_t)cin;
                 __m512i a0 = _mm512_setzero_si512(), a1 = a0, a2 = a0, a3 = a0, a4 = a0, a5 = a0;
                 __m512i a6 = a0, a7 = a0, c0 = a0, c1 = a0, c2 = a0, c3 = a0, c4 = a0, c5 = a0;
                 __m512i c6 = a0, c7 = a0;
@@ -739,11 +751,26 @@ vt__cnn_cil_pass(const vt_cnn_layer *L, int32_t co0, int32_t nb, int8_t *wr, con
                 }
                 ox += VT__CNN_CIL_P;
             } else {
-                /* the row's last pixels, one at a time */
+                /* one pixel, over its in-frame taps */
                 __m512i a0 = _mm512_setzero_si512(), c0 = a0;
                 for (t = 0; t < nt; ++t) {
-                    const uint8_t *x = px0 + toff[t];
+                    int32_t iy = oy * st + (first ? t - 1 : (t / k - half) * d);
+                    int32_t ix = ox * st + (first ? -1 : (t % k - half) * d);
                     const int8_t *wp = wr + (size_t)t * (size_t)ng * wstep;
+                    const uint8_t *x;
+                    uint8_t q[4] = {0, 0, 0, 0};
+                    if (iy < 0 || iy >= ih || (!first && (ix < 0 || ix >= iw))) {
+                        continue;
+                    }
+                    x = in + (size_t)iy * rs;
+                    if (first) {
+                        for (i = 0; i < 3; ++i) {
+                            q[i] = ix + i >= 0 && ix + i < iw ? x[ix + i] : 0;
+                        }
+                        x = q;
+                    } else {
+                        x += (size_t)ix * (size_t)cin;
+                    }
                     for (g = 0; g < ng; ++g, x += 4, wp += wstep) {
                         __m512i v = VT__CNN_CIL_BC(0);
                         a0 = _mm512_dpbusd_epi32(a0, v, _mm512_loadu_si512((const void *)wp));
@@ -885,42 +912,28 @@ static void vt__cnn_layer(const vt_cnn_layer *L, const uint8_t *in, int32_t iw, 
         }
     }
 #endif
+    /* channels 0 .. cil_n - 1 of every pixel by channels in lanes (AVX-512 VNNI), the
+     * rest (cout past the last block of 16) by the loops below */
+    int32_t cil_n = 0;
 #if VT_CNN_AVX512
-    /* channels 0 .. cil_n - 1 of the interior pixels (all taps in the frame: columns
-     * cx0 .. cx1 - 1, rows cy0 .. cy1 - 1) by channels in lanes, the rest below */
-    int32_t cil_n = 0, cx0 = 0, cx1 = 0, cy0 = 0, cy1 = 0;
-    if ((isa & VT__ISA_512) != 0 && cin % 4 == 0 && cout >= 16) {
-        int32_t r = (k / 2) * L->dilation, st = L->stride;
-        cx0 = (r + st - 1) / st;
-        cy0 = cx0;
-        cx1 = iw - 1 - r < 0 ? 0 : (iw - 1 - r) / st + 1;
-        cy1 = ih - 1 - r < 0 ? 0 : (ih - 1 - r) / st + 1;
-        cx1 = cx1 > ow ? ow : cx1;
-        cy1 = cy1 > oh ? oh : cy1;
-        if (cx0 < cx1 && cy0 < cy1) {
-            int8_t wr[VT__CNN_CIL_WR];
-            cil_n = cout / 16 * 16;
-            for (co = 0; co < cil_n; co += 16 * VT__CNN_CIL_NB) {
-                vt__cnn_cil_pass(L, co, cil_n - co >= 32 ? 2 : 1, wr, in, rs, ow, cx0, cx1, cy0,
-                                 cy1, out_u8, out_s8);
-            }
+    if ((isa & VT__ISA_512) != 0 && cout >= 16 &&
+        (cin % 4 == 0 || (cin == 1 && k == 3 && L->dilation == 1))) {
+        int8_t wr[VT__CNN_CIL_WR];
+        cil_n = cout / 16 * 16;
+        first8 = 0;
+        for (co = 0; co < cil_n; co += 16 * VT__CNN_CIL_NB) {
+            vt__cnn_cil_pass(L, co, cil_n - co >= 32 ? 2 : 1, wr, in, iw, ih, rs, ow, oh, out_u8,
+                             out_s8);
+        }
+        if (cil_n == cout) {
+            return;
         }
     }
-#define VT__CNN_CIL_C0(x, y)                                                                  \
-    (cil_n > 0 && (y) >= cy0 && (y) < cy1 && (x) >= cx0 && (x) < cx1 ? cil_n : 0)
-#else
-#define VT__CNN_CIL_C0(x, y) 0
 #endif
     for (oy = 0; oy < oh; ++oy) {
         for (ox = 0; ox < ow; ++ox) {
             size_t o = ((size_t)oy * (size_t)ow + (size_t)ox) * (size_t)cout;
-            int32_t nt, c0 = VT__CNN_CIL_C0(ox, oy);
-            if (c0 == cout) {
-#if VT_CNN_AVX512
-                ox = cx1 - 1;
-#endif
-                continue;
-            }
+            int32_t nt, c0 = cil_n;
 #if VT_CNN_AVX2
             if (first8 && ox >= 1 && 2 * ox + 16 < iw && oy >= 1 && 2 * oy + 1 < ih) {
                 vt__cnn_first8(L, wp, in, rs, ox, oy, ow, out_u8, out_s8);
@@ -930,7 +943,7 @@ static void vt__cnn_layer(const vt_cnn_layer *L, const uint8_t *in, int32_t iw, 
 #endif
             nt = vt__cnn_taps(L, iw, ih, rs, ox, oy, ioff, woff, tlen);
 #if VT_CNN_AVX2
-            if (avx2 && cin > 1 && ox + 1 < ow && VT__CNN_CIL_C0(ox + 1, oy) == c0 &&
+            if (avx2 && cin > 1 && ox + 1 < ow &&
                 vt__cnn_taps(L, iw, ih, rs, ox + 1, oy, ioff2, woff2, tlen2) == nt) {
                 int32_t same = 1;
                 for (t = 0; t < nt; ++t) {
@@ -1004,8 +1017,6 @@ static void vt__cnn_layer(const vt_cnn_layer *L, const uint8_t *in, int32_t iw, 
         }
     }
 }
-
-#undef VT__CNN_CIL_C0
 
 vt_status vt_cnn_forward(const vt_cnn_model *m, const uint8_t *img, int32_t w, int32_t h,
                          int32_t stride, uint8_t *work, size_t work_bytes, int8_t *out,

@@ -126,21 +126,24 @@ def test_forward_equals_twin(hidden, last, w, h, pad, seed, gain, kind):
 
 
 # Channels in lanes (c/cnn.c vt__cnn_cil_pass, AVX-512 VNNI): a layer whose cin is a
-# multiple of 4 puts 16 output channels in the lanes of a register, two blocks a pass and
-# eight interior pixels a tile. The first layer has cin 1, so a fixed 8-channel layer
-# comes first; then cout 16, 32, 48 (passes of two blocks and of one), 35 (two blocks by
-# lanes, the last 3 channels by the pixel-pair path) and 4; frames up to 48 px wide, so
-# rows hold whole tiles, tails of 1..7 pixels, or borders only. Test
-# test_forward_equals_twin draws these shapes too rarely to catch every slip in them.
+# multiple of 4, or the first layer's 3x3 of dilation 1 on cin 1, puts 16 output channels
+# in the lanes of a register, two blocks a pass and eight pixels a tile; the other pixels
+# one at a time over their in-frame taps. The first layer: 8 channels (the other loops),
+# 16, 32 or 19 (16 in lanes, 3 by the other loops), any stride and dilation; then cout 16,
+# 32, 48 (passes of two blocks and of one), 35 (two blocks in lanes, the last 3 channels
+# by the pixel-pair path) and 4; frames up to 48 px wide, so rows hold whole tiles, tails
+# of 1..7 pixels, or borders only. test_forward_equals_twin draws these shapes too rarely
+# to catch every slip in them.
 cil_layer = st.tuples(st.sampled_from([1, 3]), st.sampled_from([1, 2]), st.sampled_from([1, 2]),
                       st.sampled_from([4, 16, 32, 35, 48]))
 
 
-@given(st.lists(cil_layer, min_size=1, max_size=3), st.integers(1, 48), st.integers(1, 30),
+@given(st.tuples(st.sampled_from([1, 2]), st.sampled_from([1, 2]), st.sampled_from([8, 16, 19, 32])),
+       st.lists(cil_layer, min_size=1, max_size=3), st.integers(1, 48), st.integers(1, 30),
        st.integers(0, 2 ** 32 - 1), st.sampled_from([60.0, 5.0, 1000.0]))
-def test_forward_equals_twin_channel_blocks(hidden, w, h, seed, gain):
+def test_forward_equals_twin_channel_blocks(head, hidden, w, h, seed, gain):
     rng = np.random.default_rng(seed)
-    spec = [(3, 1, 1, 8)] + [(k, s, d if k == 3 else 1, c) for k, s, d, c in hidden] + [(1, 1, 1, 5)]
+    spec = [(3, *head)] + [(k, s, d if k == 3 else 1, c) for k, s, d, c in hidden] + [(1, 1, 1, 5)]
     img = rng.integers(0, 256, (h, w)).astype(np.uint8)
     model = random_model(rng, spec, img, gain)
     got, intact = c_forward_guarded(model, img)
