@@ -603,26 +603,29 @@ static inline int32_t vt__cnn_ld32(const uint8_t *p)
             _mm512_mul_epi32(_mm512_srli_epi64(s_, 32), _mm512_srli_epi64(mult, 32)), ho);     \
         pe_ = _mm512_min_epi64(_mm512_max_epi64(_mm512_srav_epi64(pe_, se), lo), hi);          \
         po_ = _mm512_min_epi64(_mm512_max_epi64(_mm512_srav_epi64(po_, so), lo), hi);          \
-        _mm_storeu_si128((__m128i *)(void *)(dst),                                             \
-                         _mm512_cvtepi32_epi8(_mm512_mask_blend_epi32(                         \
-                             (__mmask16)0xAAAA, pe_, _mm512_slli_epi64(po_, 32))));            \
+        _mm512_mask_cvtepi32_storeu_epi8((void *)(dst), (__mmask16)sm,                         \
+                                         _mm512_mask_blend_epi32((__mmask16)0xAAAA, pe_,       \
+                                                                 _mm512_slli_epi64(po_, 32))); \
     } while (0)
 
 /* One pass over every output pixel of the layer (ow x oh) for output channels co0 ..
- * co0 + 16 nb - 1 (nb 1 or 2). Tiles of VT__CNN_CIL_P pixels where all taps lie in
+ * co0 + n - 1 (n = 1..32, so nb = 1 or 2 blocks; a block's lanes past n repeat
+ * channel co0 and are not stored). Tiles of VT__CNN_CIL_P pixels where all taps lie in
  * the frame; one pixel at a time elsewhere, over its in-frame taps only.
  * The first layer's shape (cin 1, 3x3, dilation 1) is taken as three taps of four
  * bytes, a kernel row and the byte after it, whose weight is 0: tiles only where that
  * byte is inside the row, and single pixels build the four bytes with 0 for the
  * bytes outside the frame (0 x weight adds nothing). */
 __attribute__((target("avx2,avx512f,avx512bw,avx512vnni"))) static void
-vt__cnn_cil_pass(const vt_cnn_layer *L, int32_t co0, int32_t nb, int8_t *wr, const uint8_t *in,
+vt__cnn_cil_pass(const vt_cnn_layer *L, int32_t co0, int32_t n, int8_t *wr, const uint8_t *in,
                  int32_t iw, int32_t ih, size_t rs, int32_t ow, int32_t oh, uint8_t *out_u8,
                  int8_t *out_s8)
 {
     int32_t k = L->ksize, cin = L->cin, cout = L->cout, st = L->stride, d = L->dilation;
     int32_t first = cin == 1, half = k / 2, r = half * d, nt = first ? 3 : k * k;
-    int32_t ng = first ? 1 : cin / 4, t, g, b, j, i, ox, oy, cx0, cx1, cy0, cy1;
+    int32_t ng = first ? 1 : cin / 4, nb = n > 16 ? 2 : 1, t, g, b, j, i, ox, oy, cx0, cx1, cy0, cy1;
+    /* the lanes of block 0 and 1 that hold channels */
+    uint32_t m0 = n >= 16 ? 0xFFFFu : (1u << n) - 1u, m1 = n >= 32 ? 0xFFFFu : (1u << (n - 16 > 0 ? n - 16 : 0)) - 1u;
     size_t wtaps = (size_t)k * (size_t)k * (size_t)cin, toff[9], ps = (size_t)st * (size_t)cin;
     size_t wstep = (size_t)nb * 64;
     __m512i bias0, bias1, mult0, mult1, he0, he1, ho0, ho1, se0, se1, so0, so1;
@@ -640,7 +643,8 @@ vt__cnn_cil_pass(const vt_cnn_layer *L, int32_t co0, int32_t nb, int8_t *wr, con
         for (g = 0; g < ng; ++g) {
             for (b = 0; b < nb; ++b) {
                 for (j = 0; j < 16; ++j) {
-                    const int8_t *src = L->w + (size_t)(co0 + 16 * b + j) * wtaps +
+                    int32_t c = 16 * b + j;
+                    const int8_t *src = L->w + (size_t)(co0 + (c < n ? c : 0)) * wtaps +
                                         (size_t)t * (first ? 3 : (size_t)cin) + 4 * (size_t)g;
                     int8_t *dst = wr + ((size_t)(t * ng + g) * (size_t)nb + (size_t)b) * 64 + 4 * (size_t)j;
                     for (i = 0; i < 4; ++i) {
@@ -656,7 +660,7 @@ vt__cnn_cil_pass(const vt_cnn_layer *L, int32_t co0, int32_t nb, int8_t *wr, con
         int64_t sh[2][16], hf[2][16];
         for (b = 0; b < 2; ++b) {
             for (j = 0; j < 16; ++j) {
-                int32_t c = co0 + 16 * (b < nb ? b : 0) + j;
+                int32_t c = 16 * b + j < n ? co0 + 16 * b + j : co0; /* any valid shift */
                 sh[b][j] = L->shift[c];
                 hf[b][j] = (int64_t)1 << (L->shift[c] - 1);
             }
@@ -673,10 +677,10 @@ vt__cnn_cil_pass(const vt_cnn_layer *L, int32_t co0, int32_t nb, int8_t *wr, con
         VT__CNN_CIL_EO(he1, hf[1], 0);
         VT__CNN_CIL_EO(ho1, hf[1], 1);
 #undef VT__CNN_CIL_EO
-        bias0 = _mm512_loadu_si512((const void *)(L->bias + co0));
-        mult0 = _mm512_loadu_si512((const void *)(L->mult + co0));
-        bias1 = nb > 1 ? _mm512_loadu_si512((const void *)(L->bias + co0 + 16)) : bias0;
-        mult1 = nb > 1 ? _mm512_loadu_si512((const void *)(L->mult + co0 + 16)) : mult0;
+        bias0 = _mm512_maskz_loadu_epi32((__mmask16)m0, (const void *)(L->bias + co0));
+        mult0 = _mm512_maskz_loadu_epi32((__mmask16)m0, (const void *)(L->mult + co0));
+        bias1 = _mm512_maskz_loadu_epi32((__mmask16)m1, (const void *)(L->bias + co0 + 16));
+        mult1 = _mm512_maskz_loadu_epi32((__mmask16)m1, (const void *)(L->mult + co0 + 16));
     }
 #define VT__CNN_CIL_BC(p) _mm512_set1_epi32(vt__cnn_ld32(x + (size_t)(p) * ps))
     for (oy = 0; oy < oh; ++oy) {
@@ -728,6 +732,7 @@ vt__cnn_cil_pass(const vt_cnn_layer *L, int32_t co0, int32_t nb, int8_t *wr, con
                     uint8_t *o = orow + (size_t)ox * (size_t)cout;
                     size_t oc = (size_t)cout;
                     __m512i bias = bias0, mult = mult0, he = he0, ho = ho0, se = se0, so = so0;
+                    uint32_t sm = m0;
                     VT__CNN_CIL_STORE(a0, o);
                     VT__CNN_CIL_STORE(a1, o + oc);
                     VT__CNN_CIL_STORE(a2, o + 2 * oc);
@@ -737,7 +742,7 @@ vt__cnn_cil_pass(const vt_cnn_layer *L, int32_t co0, int32_t nb, int8_t *wr, con
                     VT__CNN_CIL_STORE(a6, o + 6 * oc);
                     VT__CNN_CIL_STORE(a7, o + 7 * oc);
                     if (nb == 2) {
-                        bias = bias1, mult = mult1, he = he1, ho = ho1, se = se1, so = so1;
+                        bias = bias1, mult = mult1, he = he1, ho = ho1, se = se1, so = so1, sm = m1;
                         o += 16;
                         VT__CNN_CIL_STORE(c0, o);
                         VT__CNN_CIL_STORE(c1, o + oc);
@@ -782,9 +787,10 @@ vt__cnn_cil_pass(const vt_cnn_layer *L, int32_t co0, int32_t nb, int8_t *wr, con
                 {
                     uint8_t *o = orow + (size_t)ox * (size_t)cout;
                     __m512i bias = bias0, mult = mult0, he = he0, ho = ho0, se = se0, so = so0;
+                    uint32_t sm = m0;
                     VT__CNN_CIL_STORE(a0, o);
                     if (nb == 2) {
-                        bias = bias1, mult = mult1, he = he1, ho = ho1, se = se1, so = so1;
+                        bias = bias1, mult = mult1, he = he1, ho = ho1, se = se1, so = so1, sm = m1;
                         VT__CNN_CIL_STORE(c0, o + 16);
                     }
                 }
@@ -912,28 +918,22 @@ static void vt__cnn_layer(const vt_cnn_layer *L, const uint8_t *in, int32_t iw, 
         }
     }
 #endif
-    /* channels 0 .. cil_n - 1 of every pixel by channels in lanes (AVX-512 VNNI), the
-     * rest (cout past the last block of 16) by the loops below */
-    int32_t cil_n = 0;
+    /* AVX-512 VNNI: every pixel and channel by channels in lanes (vt__cnn_cil_pass) where
+     * the layer's cin is a multiple of 4 or it has the first layer's shape */
 #if VT_CNN_AVX512
-    if ((isa & VT__ISA_512) != 0 && cout >= 16 &&
-        (cin % 4 == 0 || (cin == 1 && k == 3 && L->dilation == 1))) {
+    if ((isa & VT__ISA_512) != 0 && (cin % 4 == 0 || (cin == 1 && k == 3 && L->dilation == 1))) {
         int8_t wr[VT__CNN_CIL_WR];
-        cil_n = cout / 16 * 16;
-        first8 = 0;
-        for (co = 0; co < cil_n; co += 16 * VT__CNN_CIL_NB) {
-            vt__cnn_cil_pass(L, co, cil_n - co >= 32 ? 2 : 1, wr, in, iw, ih, rs, ow, oh, out_u8,
-                             out_s8);
+        for (co = 0; co < cout; co += 16 * VT__CNN_CIL_NB) {
+            vt__cnn_cil_pass(L, co, cout - co < 32 ? cout - co : 32, wr, in, iw, ih, rs, ow, oh,
+                             out_u8, out_s8);
         }
-        if (cil_n == cout) {
-            return;
-        }
+        return;
     }
 #endif
     for (oy = 0; oy < oh; ++oy) {
         for (ox = 0; ox < ow; ++ox) {
             size_t o = ((size_t)oy * (size_t)ow + (size_t)ox) * (size_t)cout;
-            int32_t nt, c0 = cil_n;
+            int32_t nt;
 #if VT_CNN_AVX2
             if (first8 && ox >= 1 && 2 * ox + 16 < iw && oy >= 1 && 2 * oy + 1 < ih) {
                 vt__cnn_first8(L, wp, in, rs, ox, oy, ow, out_u8, out_s8);
@@ -951,7 +951,7 @@ static void vt__cnn_layer(const vt_cnn_layer *L, const uint8_t *in, int32_t iw, 
                 }
                 if (same) {
                     size_t o2 = o + (size_t)cout;
-                    co = c0;
+                    co = 0;
 #if VT_CNN_AVX512
                     if ((isa & VT__ISA_512) != 0) {
                         for (; co + 8 <= cout; co += 8) {
@@ -995,7 +995,7 @@ static void vt__cnn_layer(const vt_cnn_layer *L, const uint8_t *in, int32_t iw, 
                 }
             }
 #endif
-            for (co = c0; co + 4 <= cout; co += 4) {
+            for (co = 0; co + 4 <= cout; co += 4) {
                 int32_t acc[4];
 #if VT_CNN_SSE2
                 if (k9) {
