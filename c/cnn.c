@@ -878,7 +878,8 @@ static int32_t vt__cnn_dot1(const vt_cnn_layer *L, int32_t co, size_t wtaps, con
 }
 
 /* One layer (arguments checked): input iw x ih x cin at in, row stride rs bytes
- * (pixel stride cin); output ow x oh x cout to out_u8 (relu) or out_s8 (last).
+ * (pixel stride cin); output ow x oh x cout to out_u8 (relu) or out_s8 (last); isa
+ * vt__cnn_isa()'s bits (0 without AVX2).
  * Loop order: output pixel -> its in-bounds taps (found once per pixel, so the
  * border test is per tap, not per multiply-add) -> four output channels at a time
  * (each input byte loaded once for four multiply-adds) -> a dot product over cin,
@@ -886,7 +887,8 @@ static int32_t vt__cnn_dot1(const vt_cnn_layer *L, int32_t co, size_t wtaps, con
  * The order of the integer sums does not change them: |bias| <= 2^30 and at most
  * 9 x VT_CNN_MAX_CH (128) products of at most 128 x 255 keep every partial sum inside int32. */
 static void vt__cnn_layer(const vt_cnn_layer *L, const uint8_t *in, int32_t iw, int32_t ih,
-                          size_t rs, int32_t ow, int32_t oh, uint8_t *out_u8, int8_t *out_s8)
+                          size_t rs, int32_t ow, int32_t oh, uint8_t *out_u8, int8_t *out_s8,
+                          int isa)
 {
     int32_t k = L->ksize, cin = L->cin, cout = L->cout;
     int32_t ox, oy, co;
@@ -896,12 +898,15 @@ static void vt__cnn_layer(const vt_cnn_layer *L, const uint8_t *in, int32_t iw, 
 #if VT_CNN_SSE2
     int32_t px[9], k9, t, ci;
 #endif
+#if !VT_CNN_AVX2
+    (void)isa;
+#endif
 #if VT_CNN_AVX2
     /* pixel ox + 1's taps: when they are pixel ox's kernel positions in the same runs
      * (two interior neighbours), its input offsets are pixel ox's plus dx = st cin
      * bytes, and both pixels are summed in one pass */
     size_t ioff2[9], woff2[9], dx = (size_t)L->stride * (size_t)cin;
-    int32_t tlen2[9], isa = vt__cnn_isa(), avx2 = isa != 0;
+    int32_t tlen2[9], avx2 = isa != 0;
     /* the first layer's usual shape, eight pixels at a time (vt__cnn_first8) */
     int32_t wp[6 * VT__CNN_FIRST8_MAX_CH];
     int32_t first8 = avx2 && cin == 1 && k == 3 && L->stride == 2 && L->dilation == 1 &&
@@ -1026,6 +1031,12 @@ vt_status vt_cnn_forward(const vt_cnn_model *m, const uint8_t *img, int32_t w, i
     int32_t gw, gh, i, iw, ih;
     const uint8_t *in;
     vt_status s;
+    /* the CPU asked once a pass, not once a layer: cpuid is slow under a hypervisor */
+#if VT_CNN_AVX2
+    int isa = vt__cnn_isa();
+#else
+    int isa = 0;
+#endif
     if (img == NULL || out == NULL) {
         return VT_E_ARG;
     }
@@ -1051,10 +1062,10 @@ vt_status vt_cnn_forward(const vt_cnn_model *m, const uint8_t *img, int32_t w, i
         const vt_cnn_layer *L = &m->layer[i];
         int32_t ow = (iw + L->stride - 1) / L->stride, oh = (ih + L->stride - 1) / L->stride;
         if (i == m->n_layers - 1) {
-            vt__cnn_layer(L, in, iw, ih, rs, ow, oh, NULL, out);
+            vt__cnn_layer(L, in, iw, ih, rs, ow, oh, NULL, out, isa);
         } else {
             uint8_t *dst = (i & 1) ? work + r0 : work;
-            vt__cnn_layer(L, in, iw, ih, rs, ow, oh, dst, NULL);
+            vt__cnn_layer(L, in, iw, ih, rs, ow, oh, dst, NULL, isa);
             in = dst;
             rs = (size_t)ow * (size_t)L->cout;
         }
