@@ -1414,6 +1414,29 @@ static void vt__cnn_stretch(const uint8_t *img, int32_t w, int32_t h, int32_t st
     uint8_t lut[256];
     int64_t k = (int64_t)w * h * tail / 1000, c;
     int32_t x, y, lo, hi, span;
+#if VT_CNN_SSE2
+    /* x86: four partial histograms, so that runs of equal pixels do not wait on one
+     * counter's store (4 KB of stack, which the firmware's targets do not spend) */
+    uint32_t h4[4][256];
+    for (x = 0; x < 256; ++x) {
+        h4[0][x] = h4[1][x] = h4[2][x] = h4[3][x] = 0;
+    }
+    for (y = 0; y < h; ++y) {
+        const uint8_t *row = img + (size_t)y * (size_t)stride;
+        for (x = 0; x + 4 <= w; x += 4) {
+            h4[0][row[x]] += 1;
+            h4[1][row[x + 1]] += 1;
+            h4[2][row[x + 2]] += 1;
+            h4[3][row[x + 3]] += 1;
+        }
+        for (; x < w; ++x) {
+            h4[0][row[x]] += 1;
+        }
+    }
+    for (x = 0; x < 256; ++x) {
+        hist[x] = h4[0][x] + h4[1][x] + h4[2][x] + h4[3][x];
+    }
+#else
     for (x = 0; x < 256; ++x) {
         hist[x] = 0;
     }
@@ -1423,6 +1446,7 @@ static void vt__cnn_stretch(const uint8_t *img, int32_t w, int32_t h, int32_t st
             hist[row[x]] += 1;
         }
     }
+#endif
     for (lo = 0, c = 0; lo < 255; ++lo) {
         c += hist[lo];
         if (c > k) {
