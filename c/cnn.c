@@ -575,7 +575,7 @@ __attribute__((target("avx2"))) static void vt__cnn_first8(const vt_cnn_layer *L
  * weights. Each tap's weights for a pass of VT__CNN_CIL_NB blocks of 16 channels are
  * repacked once per layer so that the 64 bytes one vpdpbusd needs lie together:
  * wr[((t ng + g) nb + b) 64 + 4 j + i] = weight of channel co0 + 16 b + j, tap t, input
- * channel 4 g + i (ng = cin / 4). A tile of VT__CNN_CIL_P interior pixels of one row
+ * channel 4 g + i (ng = cin / 4). A tile of VT__CNN_CIL_P pixels of one row
  * shares every weight vector, so a step loads nb weight vectors and P broadcasts for
  * nb P vpdpbusd, and no sum needs a horizontal add. The sums are those of the other
  * paths (cnn.h's int32 bound covers every partial sum in any order). */
@@ -610,8 +610,9 @@ static inline int32_t vt__cnn_ld32(const uint8_t *p)
 
 /* One pass over every output pixel of the layer (ow x oh) for output channels co0 ..
  * co0 + n - 1 (n = 1..32, so nb = 1 or 2 blocks; a block's lanes past n repeat
- * channel co0 and are not stored). Tiles of VT__CNN_CIL_P pixels where all taps lie in
- * the frame; one pixel at a time elsewhere, over its in-frame taps only.
+ * channel co0 and are not stored). Tiles of VT__CNN_CIL_P pixels where every tap's
+ * column lies in the frame (a kernel row outside it is skipped for the whole tile); one
+ * pixel at a time elsewhere, over its in-frame taps only.
  * The first layer's shape (cin 1, 3x3, dilation 1) is taken as three taps of four
  * bytes, a kernel row and the byte after it, whose weight is 0: tiles only where that
  * byte is inside the row, and single pixels build the four bytes with 0 for the
@@ -623,23 +624,21 @@ vt__cnn_cil_pass(const vt_cnn_layer *L, int32_t co0, int32_t n, int8_t *wr, cons
 {
     int32_t k = L->ksize, cin = L->cin, cout = L->cout, st = L->stride, d = L->dilation;
     int32_t first = cin == 1, half = k / 2, r = half * d, nt = first ? 3 : k * k;
-    int32_t ng = first ? 1 : cin / 4, nb = n > 16 ? 2 : 1, t, g, b, j, i, ox, oy, cx0, cx1, cy0, cy1;
+    int32_t ng = first ? 1 : cin / 4, nb = n > 16 ? 2 : 1, t, g, b, j, i, ox, oy, cx0, cx1;
     /* the lanes of block 0 and 1 that hold channels */
     uint32_t m0 = n >= 16 ? 0xFFFFu : (1u << n) - 1u, m1 = n >= 32 ? 0xFFFFu : (1u << (n - 16 > 0 ? n - 16 : 0)) - 1u;
-    size_t wtaps = (size_t)k * (size_t)k * (size_t)cin, toff[9], ps = (size_t)st * (size_t)cin;
+    size_t wtaps = (size_t)k * (size_t)k * (size_t)cin, coff[9], ps = (size_t)st * (size_t)cin;
     size_t wstep = (size_t)nb * 64;
     __m512i bias0, bias1, mult0, mult1, he0, he1, ho0, ho1, se0, se1, so0, so1;
     const __m512i lo = _mm512_set1_epi64(out_s8 != NULL ? -128 : 0);
     const __m512i hi = _mm512_set1_epi64(out_s8 != NULL ? 127 : 255);
     uint8_t *ob = out_s8 != NULL ? (uint8_t *)(void *)out_s8 : out_u8;
-    /* the tiles' pixels: every tap in the frame (first: the fourth byte too) */
+    /* the tiles' columns: every tap's column in the frame (first: the fourth byte too);
+     * a tile skips the kernel rows outside the frame */
     cx0 = (r + st - 1) / st;
-    cy0 = cx0;
     cx1 = iw - 1 - r - first < 0 ? 0 : (iw - 1 - r - first) / st + 1;
-    cy1 = ih - 1 - r < 0 ? 0 : (ih - 1 - r) / st + 1;
     for (t = 0; t < nt; ++t) {
-        toff[t] = first ? (size_t)t * rs
-                        : (size_t)((t / k) * d) * rs + (size_t)((t % k) * d) * (size_t)cin;
+        coff[t] = first ? 0 : (size_t)((t % k) * d) * (size_t)cin;
         for (g = 0; g < ng; ++g) {
             for (b = 0; b < nb; ++b) {
                 for (j = 0; j < 16; ++j) {
@@ -684,18 +683,25 @@ vt__cnn_cil_pass(const vt_cnn_layer *L, int32_t co0, int32_t n, int8_t *wr, cons
     }
 #define VT__CNN_CIL_BC(p) _mm512_set1_epi32(vt__cnn_ld32(x + (size_t)(p) * ps))
     for (oy = 0; oy < oh; ++oy) {
-        int32_t tiles = oy >= cy0 && oy < cy1;
         uint8_t *orow = ob + (size_t)oy * (size_t)ow * (size_t)cout + (size_t)co0;
         for (ox = 0; ox < ow;) {
-            if (tiles && ox >= cx0 && ox + VT__CNN_CIL_P <= cx1) {
-                const uint8_t *px0 =
-                    in + (size_t)(oy * st - r) * rs + (size_t)(ox * st - r) * (size_t)cin;
+            if (ox >= cx0 && ox < cx1 && cx1 - cx0 >= VT__CNN_CIL_P) {
+                /* the row's last tile ends at cx1 and may overlap the one before: its
+                 * pixels are computed twice, to the same bytes */
                 __m512i a0 = _mm512_setzero_si512(), a1 = a0, a2 = a0, a3 = a0, a4 = a0, a5 = a0;
                 __m512i a6 = a0, a7 = a0, c0 = a0, c1 = a0, c2 = a0, c3 = a0, c4 = a0, c5 = a0;
                 __m512i c6 = a0, c7 = a0;
+                if (ox > cx1 - VT__CNN_CIL_P) {
+                    ox = cx1 - VT__CNN_CIL_P;
+                }
                 for (t = 0; t < nt; ++t) {
-                    const uint8_t *x = px0 + toff[t];
+                    int32_t iy = oy * st - r + (first ? t : (t / k) * d);
+                    const uint8_t *x;
                     const int8_t *wp = wr + (size_t)t * (size_t)ng * wstep;
+                    if (iy < 0 || iy >= ih) {
+                        continue;
+                    }
+                    x = in + (size_t)iy * rs + (size_t)(ox * st - r) * (size_t)cin + coff[t];
                     if (nb == 2) {
                         for (g = 0; g < ng; ++g, x += 4, wp += 128) {
                             __m512i w0 = _mm512_loadu_si512((const void *)wp);
@@ -756,8 +762,9 @@ vt__cnn_cil_pass(const vt_cnn_layer *L, int32_t co0, int32_t n, int8_t *wr, cons
                 }
                 ox += VT__CNN_CIL_P;
             } else {
-                /* one pixel, over its in-frame taps */
-                __m512i a0 = _mm512_setzero_si512(), c0 = a0;
+                /* one pixel, over its in-frame taps; even and odd steps in separate sums
+                 * so that each waits on half the vpdpbusd latency chain */
+                __m512i a0 = _mm512_setzero_si512(), c0 = a0, a1 = a0, c1 = a0;
                 for (t = 0; t < nt; ++t) {
                     int32_t iy = oy * st + (first ? t - 1 : (t / k - half) * d);
                     int32_t ix = ox * st + (first ? -1 : (t % k - half) * d);
@@ -776,7 +783,16 @@ vt__cnn_cil_pass(const vt_cnn_layer *L, int32_t co0, int32_t n, int8_t *wr, cons
                     } else {
                         x += (size_t)ix * (size_t)cin;
                     }
-                    for (g = 0; g < ng; ++g, x += 4, wp += wstep) {
+                    for (g = 0; g + 2 <= ng; g += 2, x += 8, wp += 2 * wstep) {
+                        __m512i v = VT__CNN_CIL_BC(0), u = _mm512_set1_epi32(vt__cnn_ld32(x + 4));
+                        a0 = _mm512_dpbusd_epi32(a0, v, _mm512_loadu_si512((const void *)wp));
+                        a1 = _mm512_dpbusd_epi32(a1, u, _mm512_loadu_si512((const void *)(wp + wstep)));
+                        if (nb == 2) {
+                            c0 = _mm512_dpbusd_epi32(c0, v, _mm512_loadu_si512((const void *)(wp + 64)));
+                            c1 = _mm512_dpbusd_epi32(c1, u, _mm512_loadu_si512((const void *)(wp + wstep + 64)));
+                        }
+                    }
+                    if (g < ng) {
                         __m512i v = VT__CNN_CIL_BC(0);
                         a0 = _mm512_dpbusd_epi32(a0, v, _mm512_loadu_si512((const void *)wp));
                         if (nb == 2) {
@@ -784,6 +800,8 @@ vt__cnn_cil_pass(const vt_cnn_layer *L, int32_t co0, int32_t n, int8_t *wr, cons
                         }
                     }
                 }
+                a0 = _mm512_add_epi32(a0, a1);
+                c0 = _mm512_add_epi32(c0, c1);
                 {
                     uint8_t *o = orow + (size_t)ox * (size_t)cout;
                     __m512i bias = bias0, mult = mult0, he = he0, ho = ho0, se = se0, so = so0;
