@@ -568,6 +568,54 @@ __attribute__((target("avx2"))) static void vt__cnn_first8(const vt_cnn_layer *L
 }
 #endif
 
+#if VT_CNN_VNNI
+static inline int32_t vt__cnn_ld32(const uint8_t *p)
+{
+    int32_t v;
+    memcpy(&v, p, 4);
+    return v;
+}
+
+/* The channels-in-lanes weights of one pass (below): for blocks of bw channels (16:
+ * zmm, 8: ymm), nb blocks, n channels from co0 (lanes past n repeat channel co0),
+ * wr[((t ng + g) nb + b) 4 bw + 4 j + i] = weight of channel co0 + bw b + j, tap t,
+ * input channel 4 g + i; nt taps of ng steps (first: a kernel row and a zero byte). */
+static void vt__cnn_cil_repack(const vt_cnn_layer *L, int32_t co0, int32_t n, int32_t bw,
+                               int32_t nb, int32_t first, int32_t nt, int32_t ng, int8_t *wr)
+{
+    size_t wtaps = (size_t)L->ksize * (size_t)L->ksize * (size_t)L->cin;
+    int32_t t, g, b, j, i;
+    for (t = 0; t < nt; ++t) {
+        for (g = 0; g < ng; ++g) {
+            for (b = 0; b < nb; ++b) {
+                for (j = 0; j < bw; ++j) {
+                    int32_t c = bw * b + j;
+                    const int8_t *src = L->w + (size_t)(co0 + (c < n ? c : 0)) * wtaps +
+                                        (size_t)t * (first ? 3 : (size_t)L->cin) + 4 * (size_t)g;
+                    int8_t *dst = wr + ((size_t)(t * ng + g) * (size_t)nb + (size_t)b) * 4 * (size_t)bw +
+                                  4 * (size_t)j;
+                    for (i = 0; i < 4; ++i) {
+                        dst[i] = first && i == 3 ? 0 : src[i];
+                    }
+                }
+            }
+        }
+    }
+}
+
+/* Channel co0 + c's shift and 2^(shift - 1) for c = 0..nc - 1 (channel co0's past n). */
+static void vt__cnn_cil_shifts(const vt_cnn_layer *L, int32_t co0, int32_t n, int32_t nc,
+                               int64_t *sh, int64_t *hf)
+{
+    int32_t c;
+    for (c = 0; c < nc; ++c) {
+        int32_t ch = c < n ? co0 + c : co0;
+        sh[c] = L->shift[ch];
+        hf[c] = (int64_t)1 << (L->shift[ch] - 1);
+    }
+}
+#endif
+
 #if VT_CNN_AVX512
 /* Channels in lanes (AVX-512 VNNI): for a layer with cin a multiple of 4, a zmm holds
  * 16 output channels' int32 sums of one pixel, and one vpdpbusd adds the products of
@@ -582,13 +630,6 @@ __attribute__((target("avx2"))) static void vt__cnn_first8(const vt_cnn_layer *L
 #define VT__CNN_CIL_NB 2
 #define VT__CNN_CIL_P 8
 #define VT__CNN_CIL_WR (9 * VT_CNN_MAX_CH * 16 * VT__CNN_CIL_NB) /* 36,864 B of stack */
-
-static inline int32_t vt__cnn_ld32(const uint8_t *p)
-{
-    int32_t v;
-    memcpy(&v, p, 4);
-    return v;
-}
 
 /* Requantise 16 channels' sums (bias not yet added) of one pixel and store them: the
  * 64-bit product of even and odd lanes, plus 2^(shift - 1), arithmetic (floor) shift
@@ -624,11 +665,10 @@ vt__cnn_cil_pass(const vt_cnn_layer *L, int32_t co0, int32_t n, int8_t *wr, cons
 {
     int32_t k = L->ksize, cin = L->cin, cout = L->cout, st = L->stride, d = L->dilation;
     int32_t first = cin == 1, half = k / 2, r = half * d, nt = first ? 3 : k * k;
-    int32_t ng = first ? 1 : cin / 4, nb = n > 16 ? 2 : 1, t, g, b, j, i, ox, oy, cx0, cx1;
+    int32_t ng = first ? 1 : cin / 4, nb = n > 16 ? 2 : 1, t, g, i, ox, oy, cx0, cx1;
     /* the lanes of block 0 and 1 that hold channels */
     uint32_t m0 = n >= 16 ? 0xFFFFu : (1u << n) - 1u, m1 = n >= 32 ? 0xFFFFu : (1u << (n - 16 > 0 ? n - 16 : 0)) - 1u;
-    size_t wtaps = (size_t)k * (size_t)k * (size_t)cin, coff[9], ps = (size_t)st * (size_t)cin;
-    size_t wstep = (size_t)nb * 64;
+    size_t coff[9], ps = (size_t)st * (size_t)cin, wstep = (size_t)nb * 64;
     __m512i bias0, bias1, mult0, mult1, he0, he1, ho0, ho1, se0, se1, so0, so1;
     const __m512i lo = _mm512_set1_epi64(out_s8 != NULL ? -128 : 0);
     const __m512i hi = _mm512_set1_epi64(out_s8 != NULL ? 127 : 255);
@@ -639,42 +679,24 @@ vt__cnn_cil_pass(const vt_cnn_layer *L, int32_t co0, int32_t n, int8_t *wr, cons
     cx1 = iw - 1 - r - first < 0 ? 0 : (iw - 1 - r - first) / st + 1;
     for (t = 0; t < nt; ++t) {
         coff[t] = first ? 0 : (size_t)((t % k) * d) * (size_t)cin;
-        for (g = 0; g < ng; ++g) {
-            for (b = 0; b < nb; ++b) {
-                for (j = 0; j < 16; ++j) {
-                    int32_t c = 16 * b + j;
-                    const int8_t *src = L->w + (size_t)(co0 + (c < n ? c : 0)) * wtaps +
-                                        (size_t)t * (first ? 3 : (size_t)cin) + 4 * (size_t)g;
-                    int8_t *dst = wr + ((size_t)(t * ng + g) * (size_t)nb + (size_t)b) * 64 + 4 * (size_t)j;
-                    for (i = 0; i < 4; ++i) {
-                        dst[i] = first && i == 3 ? 0 : src[i];
-                    }
-                }
-            }
-        }
     }
+    vt__cnn_cil_repack(L, co0, n, 16, nb, first, nt, ng, wr);
     {
         /* per-block constants: channel c's shift and 2^(shift - 1) in the 64-bit lane
          * of its pair (even channels: lanes' low halves, odd: high halves) */
-        int64_t sh[2][16], hf[2][16];
-        for (b = 0; b < 2; ++b) {
-            for (j = 0; j < 16; ++j) {
-                int32_t c = 16 * b + j < n ? co0 + 16 * b + j : co0; /* any valid shift */
-                sh[b][j] = L->shift[c];
-                hf[b][j] = (int64_t)1 << (L->shift[c] - 1);
-            }
-        }
+        int64_t sh[32], hf[32];
+        vt__cnn_cil_shifts(L, co0, n, 32, sh, hf);
 #define VT__CNN_CIL_EO(v, a, par)                                                             \
     v = _mm512_setr_epi64(a[par], a[par + 2], a[par + 4], a[par + 6], a[par + 8], a[par + 10], \
                           a[par + 12], a[par + 14])
-        VT__CNN_CIL_EO(se0, sh[0], 0);
-        VT__CNN_CIL_EO(so0, sh[0], 1);
-        VT__CNN_CIL_EO(he0, hf[0], 0);
-        VT__CNN_CIL_EO(ho0, hf[0], 1);
-        VT__CNN_CIL_EO(se1, sh[1], 0);
-        VT__CNN_CIL_EO(so1, sh[1], 1);
-        VT__CNN_CIL_EO(he1, hf[1], 0);
-        VT__CNN_CIL_EO(ho1, hf[1], 1);
+        VT__CNN_CIL_EO(se0, sh, 0);
+        VT__CNN_CIL_EO(so0, sh, 1);
+        VT__CNN_CIL_EO(he0, hf, 0);
+        VT__CNN_CIL_EO(ho0, hf, 1);
+        VT__CNN_CIL_EO(se1, sh, 16);
+        VT__CNN_CIL_EO(so1, sh, 17);
+        VT__CNN_CIL_EO(he1, hf, 16);
+        VT__CNN_CIL_EO(ho1, hf, 17);
 #undef VT__CNN_CIL_EO
         bias0 = _mm512_maskz_loadu_epi32((__mmask16)m0, (const void *)(L->bias + co0));
         mult0 = _mm512_maskz_loadu_epi32((__mmask16)m0, (const void *)(L->mult + co0));
@@ -821,6 +843,177 @@ vt__cnn_cil_pass(const vt_cnn_layer *L, int32_t co0, int32_t n, int8_t *wr, cons
 #undef VT__CNN_CIL_STORE
 #endif
 
+#if VT_CNN_VNNI
+/* vt__cnn_cil_pass with AVX-VNNI on 256 bits (CPUs without AVX-512): blocks of 8
+ * channels, two a pass, tiles of VT__CNN_CIL256_P pixels (12 sums, two weight vectors
+ * and a broadcast in the 16 ymm registers); layers with cin a multiple of 4 (the first
+ * layer keeps vt__cnn_first8). The sums and the requantisation are the same as there. */
+#define VT__CNN_CIL256_P 6
+
+/* 8 channels' sums (bias not yet added) of one pixel requantised (vt__cnn_store's q)
+ * and their nv (1..8) low bytes stored at dst. */
+__attribute__((target("avx2"))) static inline void
+vt__cnn_cil_store8(__m256i acc, __m256i bias, __m256i mult, __m256i he, __m256i ho, __m256i se,
+                   __m256i so, int s8, uint8_t *dst, int32_t nv)
+{
+    __m256i sm = _mm256_add_epi32(acc, bias);
+    __m256i pe = _mm256_add_epi64(_mm256_mul_epi32(sm, mult), he);
+    __m256i po = _mm256_add_epi64(
+        _mm256_mul_epi32(_mm256_srli_epi64(sm, 32), _mm256_srli_epi64(mult, 32)), ho);
+    __m256i v = _mm256_blend_epi32(vt__cnn_shift_clamp(pe, se, s8),
+                                   _mm256_slli_epi64(vt__cnn_shift_clamp(po, so, s8), 32), 0xAA);
+    uint64_t q;
+    /* each lane's low byte: bytes 0..3 of each 128-bit half */
+    v = _mm256_shuffle_epi8(v, _mm256_setr_epi8(0, 4, 8, 12, -1, -1, -1, -1, -1, -1, -1, -1, -1,
+                                                -1, -1, -1, 0, 4, 8, 12, -1, -1, -1, -1, -1, -1,
+                                                -1, -1, -1, -1, -1, -1));
+    q = (uint64_t)(uint32_t)_mm_cvtsi128_si32(_mm256_castsi256_si128(v)) |
+        ((uint64_t)(uint32_t)_mm_cvtsi128_si32(_mm256_extracti128_si256(v, 1)) << 32);
+    if (nv == 8) {
+        memcpy(dst, &q, 8);
+    } else {
+        int32_t i;
+        for (i = 0; i < nv; ++i) {
+            dst[i] = (uint8_t)(q >> (8 * i));
+        }
+    }
+}
+
+/* Output channels co0 .. co0 + n - 1 (n = 1..16) of every pixel, as vt__cnn_cil_pass. */
+__attribute__((target("avx2,avxvnni"))) static void
+vt__cnn_cil_pass256(const vt_cnn_layer *L, int32_t co0, int32_t n, int8_t *wr, const uint8_t *in,
+                    int32_t iw, int32_t ih, size_t rs, int32_t ow, int32_t oh, uint8_t *out_u8,
+                    int8_t *out_s8)
+{
+    int32_t k = L->ksize, cin = L->cin, cout = L->cout, st = L->stride, d = L->dilation;
+    int32_t half = k / 2, r = half * d, nt = k * k, ng = cin / 4, nb = n > 8 ? 2 : 1;
+    int32_t n0 = n < 8 ? n : 8, n1 = n - n0, s8 = out_s8 != NULL, t, g, p, ox, oy, cx0, cx1;
+    size_t coff[9], ps = (size_t)st * (size_t)cin, wstep = (size_t)nb * 32;
+    uint8_t *ob = s8 ? (uint8_t *)(void *)out_s8 : out_u8;
+    __m256i bias0, bias1, mult0, mult1, he0, he1, ho0, ho1, se0, se1, so0, so1;
+    cx0 = (r + st - 1) / st;
+    cx1 = iw - 1 - r < 0 ? 0 : (iw - 1 - r) / st + 1;
+    for (t = 0; t < nt; ++t) {
+        coff[t] = (size_t)((t % k) * d) * (size_t)cin;
+    }
+    vt__cnn_cil_repack(L, co0, n, 8, nb, 0, nt, ng, wr);
+    {
+        int64_t sh[16], hf[16];
+        int32_t bi[16], mu[16], c;
+        vt__cnn_cil_shifts(L, co0, n, 16, sh, hf);
+        for (c = 0; c < 16; ++c) {
+            bi[c] = L->bias[c < n ? co0 + c : co0];
+            mu[c] = L->mult[c < n ? co0 + c : co0];
+        }
+#define VT__CNN_CIL_EO4(v, a, par) v = _mm256_setr_epi64x(a[par], a[par + 2], a[par + 4], a[par + 6])
+        VT__CNN_CIL_EO4(se0, sh, 0);
+        VT__CNN_CIL_EO4(so0, sh, 1);
+        VT__CNN_CIL_EO4(he0, hf, 0);
+        VT__CNN_CIL_EO4(ho0, hf, 1);
+        VT__CNN_CIL_EO4(se1, sh, 8);
+        VT__CNN_CIL_EO4(so1, sh, 9);
+        VT__CNN_CIL_EO4(he1, hf, 8);
+        VT__CNN_CIL_EO4(ho1, hf, 9);
+#undef VT__CNN_CIL_EO4
+        bias0 = _mm256_loadu_si256((const __m256i *)(const void *)bi);
+        bias1 = _mm256_loadu_si256((const __m256i *)(const void *)(bi + 8));
+        mult0 = _mm256_loadu_si256((const __m256i *)(const void *)mu);
+        mult1 = _mm256_loadu_si256((const __m256i *)(const void *)(mu + 8));
+    }
+#define VT__CNN_CIL_BC8(q) _mm256_set1_epi32(vt__cnn_ld32(x + (size_t)(q) * ps))
+#define VT__CNN_CIL_ST8(acc, b, dst, nv)                                                      \
+    vt__cnn_cil_store8(acc, bias##b, mult##b, he##b, ho##b, se##b, so##b, s8, dst, nv)
+    for (oy = 0; oy < oh; ++oy) {
+        uint8_t *orow = ob + (size_t)oy * (size_t)ow * (size_t)cout + (size_t)co0;
+        for (ox = 0; ox < ow;) {
+            uint8_t *o;
+            if (ox >= cx0 && ox < cx1 && cx1 - cx0 >= VT__CNN_CIL256_P) {
+                /* as vt__cnn_cil_pass: kernel rows outside the frame skipped, the row's
+                 * last tile overlapping the one before */
+                __m256i a0 = _mm256_setzero_si256(), a1 = a0, a2 = a0, a3 = a0, a4 = a0, a5 = a0;
+                __m256i c0 = a0, c1 = a0, c2 = a0, c3 = a0, c4 = a0, c5 = a0;
+                if (ox > cx1 - VT__CNN_CIL256_P) {
+                    ox = cx1 - VT__CNN_CIL256_P;
+                }
+                for (t = 0; t < nt; ++t) {
+                    int32_t iy = oy * st - r + (t / k) * d;
+                    const uint8_t *x;
+                    const int8_t *wp = wr + (size_t)t * (size_t)ng * wstep;
+                    if (iy < 0 || iy >= ih) {
+                        continue;
+                    }
+                    x = in + (size_t)iy * rs + (size_t)(ox * st - r) * (size_t)cin + coff[t];
+                    for (g = 0; g < ng; ++g, x += 4, wp += wstep) {
+                        __m256i w0 = _mm256_loadu_si256((const __m256i *)(const void *)wp);
+                        __m256i w1 = _mm256_loadu_si256((const __m256i *)(const void *)(wp + 32)), v;
+#define VT__CNN_CIL_DP8(q, a, c)                                                              \
+    v = VT__CNN_CIL_BC8(q);                                                                    \
+    a = _mm256_dpbusd_avx_epi32(a, v, w0);                                                     \
+    c = _mm256_dpbusd_avx_epi32(c, v, w1)
+                        VT__CNN_CIL_DP8(0, a0, c0);
+                        VT__CNN_CIL_DP8(1, a1, c1);
+                        VT__CNN_CIL_DP8(2, a2, c2);
+                        VT__CNN_CIL_DP8(3, a3, c3);
+                        VT__CNN_CIL_DP8(4, a4, c4);
+                        VT__CNN_CIL_DP8(5, a5, c5);
+#undef VT__CNN_CIL_DP8
+                    }
+                }
+                o = orow + (size_t)ox * (size_t)cout;
+                VT__CNN_CIL_ST8(a0, 0, o, n0);
+                VT__CNN_CIL_ST8(a1, 0, o + (size_t)cout, n0);
+                VT__CNN_CIL_ST8(a2, 0, o + 2 * (size_t)cout, n0);
+                VT__CNN_CIL_ST8(a3, 0, o + 3 * (size_t)cout, n0);
+                VT__CNN_CIL_ST8(a4, 0, o + 4 * (size_t)cout, n0);
+                VT__CNN_CIL_ST8(a5, 0, o + 5 * (size_t)cout, n0);
+                if (nb == 2) {
+                    o += 8;
+                    VT__CNN_CIL_ST8(c0, 1, o, n1);
+                    VT__CNN_CIL_ST8(c1, 1, o + (size_t)cout, n1);
+                    VT__CNN_CIL_ST8(c2, 1, o + 2 * (size_t)cout, n1);
+                    VT__CNN_CIL_ST8(c3, 1, o + 3 * (size_t)cout, n1);
+                    VT__CNN_CIL_ST8(c4, 1, o + 4 * (size_t)cout, n1);
+                    VT__CNN_CIL_ST8(c5, 1, o + 5 * (size_t)cout, n1);
+                }
+                ox += VT__CNN_CIL256_P;
+            } else {
+                /* one pixel, over its in-frame taps, even and odd steps in separate sums */
+                __m256i a0 = _mm256_setzero_si256(), a1 = a0, c0 = a0, c1 = a0;
+                for (t = 0; t < nt; ++t) {
+                    int32_t iy = oy * st + (t / k - half) * d, ix = ox * st + (t % k - half) * d;
+                    const int8_t *wp = wr + (size_t)t * (size_t)ng * wstep;
+                    const uint8_t *x;
+                    if (iy < 0 || iy >= ih || ix < 0 || ix >= iw) {
+                        continue;
+                    }
+                    x = in + (size_t)iy * rs + (size_t)ix * (size_t)cin;
+                    for (g = 0, p = 0; g < ng; ++g, x += 4, wp += wstep, p ^= 1) {
+                        __m256i v = VT__CNN_CIL_BC8(0);
+                        __m256i w0 = _mm256_loadu_si256((const __m256i *)(const void *)wp);
+                        __m256i w1 = _mm256_loadu_si256((const __m256i *)(const void *)(wp + 32));
+                        if (p == 0) {
+                            a0 = _mm256_dpbusd_avx_epi32(a0, v, w0);
+                            c0 = _mm256_dpbusd_avx_epi32(c0, v, w1);
+                        } else {
+                            a1 = _mm256_dpbusd_avx_epi32(a1, v, w0);
+                            c1 = _mm256_dpbusd_avx_epi32(c1, v, w1);
+                        }
+                    }
+                }
+                o = orow + (size_t)ox * (size_t)cout;
+                VT__CNN_CIL_ST8(_mm256_add_epi32(a0, a1), 0, o, n0);
+                if (nb == 2) {
+                    VT__CNN_CIL_ST8(_mm256_add_epi32(c0, c1), 1, o + 8, n1);
+                }
+                ++ox;
+            }
+        }
+    }
+#undef VT__CNN_CIL_ST8
+#undef VT__CNN_CIL_BC8
+}
+#endif
+
 vt_status vt_cnn_simd_path(int32_t *path)
 {
     if (path == NULL) {
@@ -949,6 +1142,16 @@ static void vt__cnn_layer(const vt_cnn_layer *L, const uint8_t *in, int32_t iw, 
         for (co = 0; co < cout; co += 16 * VT__CNN_CIL_NB) {
             vt__cnn_cil_pass(L, co, cout - co < 32 ? cout - co : 32, wr, in, iw, ih, rs, ow, oh,
                              out_u8, out_s8);
+        }
+        return;
+    }
+#endif
+#if VT_CNN_VNNI
+    if ((isa & VT__ISA_512) == 0 && (isa & VT__ISA_VNNI) != 0 && cin % 4 == 0) {
+        int8_t wr[9 * VT_CNN_MAX_CH * 16]; /* 18,432 B of stack */
+        for (co = 0; co < cout; co += 16) {
+            vt__cnn_cil_pass256(L, co, cout - co < 16 ? cout - co : 16, wr, in, iw, ih, rs, ow, oh,
+                                out_u8, out_s8);
         }
         return;
     }
