@@ -275,6 +275,7 @@ static void vt__cnn_dot4_k9(const int8_t *w0, const int32_t *px, int32_t *acc)
 #define VT__ISA_AVX2 1
 #define VT__ISA_VNNI 2
 #define VT__ISA_512 4
+#define VT__ISA_VBMI 8 /* AVX-512 VBMI, with VT__ISA_512: the stretch's table lookups */
 static int vt__cnn_isa(void)
 {
     int isa = 0;
@@ -294,6 +295,9 @@ static int vt__cnn_isa(void)
     if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
         __builtin_cpu_supports("avx512vnni")) {
         isa |= VT__ISA_512;
+        if (__builtin_cpu_supports("avx512vbmi")) {
+            isa |= VT__ISA_VBMI;
+        }
     }
 #endif
     return isa;
@@ -1628,6 +1632,25 @@ static int32_t vt__cnn_thr(const vt_cnn_model *m, const vt_cnn_cfg *cfg)
 /* The contrast stretch (cnn.h, vt_cnn_cfg.stretch_tail_permille) of img into dst (w x h,
  * stride w). n <= 4096^2 fits the uint32 histogram; k < n / 2 (tail <= 100 permille), so
  * both scans stop at a level. */
+#if VT_CNN_AVX512
+/* out[x] = lut[row[x]] for x = 0 .. 64 floor(w / 64) - 1 (AVX-512 VBMI): vpermi2b looks
+ * 64 bytes up in 128 entries by their low 7 bits, once in each half of the table, and
+ * the high bit picks the half. Returns how many bytes it did. */
+__attribute__((target("avx512f,avx512bw,avx512vbmi"))) static int32_t
+vt__cnn_lut64(const uint8_t *lut, const uint8_t *row, uint8_t *out, int32_t w)
+{
+    const __m512i t0 = _mm512_loadu_si512((const void *)lut), t1 = _mm512_loadu_si512((const void *)(lut + 64));
+    const __m512i t2 = _mm512_loadu_si512((const void *)(lut + 128)), t3 = _mm512_loadu_si512((const void *)(lut + 192));
+    int32_t x;
+    for (x = 0; x + 64 <= w; x += 64) {
+        __m512i v = _mm512_loadu_si512((const void *)(row + x));
+        __m512i lo = _mm512_permutex2var_epi8(t0, v, t1), hi = _mm512_permutex2var_epi8(t2, v, t3);
+        _mm512_storeu_si512((void *)(out + x), _mm512_mask_blend_epi8(_mm512_movepi8_mask(v), lo, hi));
+    }
+    return x;
+}
+#endif
+
 static void vt__cnn_stretch(const uint8_t *img, int32_t w, int32_t h, int32_t stride, int32_t tail,
                             uint8_t *dst)
 {
@@ -1635,6 +1658,9 @@ static void vt__cnn_stretch(const uint8_t *img, int32_t w, int32_t h, int32_t st
     uint8_t lut[256];
     int64_t k = (int64_t)w * h * tail / 1000, c;
     int32_t x, y, lo, hi, span;
+#if VT_CNN_AVX512
+    int isa = vt__cnn_isa();
+#endif
 #if VT_CNN_SSE2
     /* x86: four partial histograms, so that runs of equal pixels do not wait on one
      * counter's store (4 KB of stack, which the firmware's targets do not spend) */
@@ -1689,7 +1715,13 @@ static void vt__cnn_stretch(const uint8_t *img, int32_t w, int32_t h, int32_t st
     for (y = 0; y < h; ++y) {
         const uint8_t *row = img + (size_t)y * (size_t)stride;
         uint8_t *out = dst + (size_t)y * (size_t)w;
-        for (x = 0; x < w; ++x) {
+        x = 0;
+#if VT_CNN_AVX512
+        if ((isa & VT__ISA_VBMI) != 0) {
+            x = vt__cnn_lut64(lut, row, out, w);
+        }
+#endif
+        for (; x < w; ++x) {
             out[x] = lut[row[x]];
         }
     }
