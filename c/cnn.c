@@ -669,6 +669,7 @@ vt__cnn_cil_pass(const vt_cnn_layer *L, int32_t co0, int32_t n, int8_t *wr, cons
 {
     int32_t k = L->ksize, cin = L->cin, cout = L->cout, st = L->stride, d = L->dilation;
     int32_t first = cin == 1, half = k / 2, r = half * d, nt = first ? 3 : k * k;
+    int32_t ky[9], kx[9];
     int32_t ng = first ? 1 : cin / 4, nb = n > 16 ? 2 : 1, t, g, i, ox, oy, cx0, cx1;
     /* the lanes of block 0 and 1 that hold channels */
     uint32_t m0 = n >= 16 ? 0xFFFFu : (1u << n) - 1u, m1 = n >= 32 ? 0xFFFFu : (1u << (n - 16 > 0 ? n - 16 : 0)) - 1u;
@@ -683,6 +684,8 @@ vt__cnn_cil_pass(const vt_cnn_layer *L, int32_t co0, int32_t n, int8_t *wr, cons
     cx1 = iw - 1 - r - first < 0 ? 0 : (iw - 1 - r - first) / st + 1;
     for (t = 0; t < nt; ++t) {
         coff[t] = first ? 0 : (size_t)((t % k) * d) * (size_t)cin;
+        ky[t] = first ? t : (t / k) * d; /* the tap's row and column from the first's */
+        kx[t] = first ? 0 : (t % k) * d;
     }
     vt__cnn_cil_repack(L, co0, n, 16, nb, first, nt, ng, wr);
     {
@@ -721,7 +724,7 @@ vt__cnn_cil_pass(const vt_cnn_layer *L, int32_t co0, int32_t n, int8_t *wr, cons
                     ox = cx1 - VT__CNN_CIL_P;
                 }
                 for (t = 0; t < nt; ++t) {
-                    int32_t iy = oy * st - r + (first ? t : (t / k) * d);
+                    int32_t iy = oy * st - r + ky[t];
                     const uint8_t *x;
                     const int8_t *wp = wr + (size_t)t * (size_t)ng * wstep;
                     if (iy < 0 || iy >= ih) {
@@ -792,8 +795,7 @@ vt__cnn_cil_pass(const vt_cnn_layer *L, int32_t co0, int32_t n, int8_t *wr, cons
                  * so that each waits on half the vpdpbusd latency chain */
                 __m512i a0 = _mm512_setzero_si512(), c0 = a0, a1 = a0, c1 = a0;
                 for (t = 0; t < nt; ++t) {
-                    int32_t iy = oy * st + (first ? t - 1 : (t / k - half) * d);
-                    int32_t ix = ox * st + (first ? -1 : (t % k - half) * d);
+                    int32_t iy = oy * st - r + ky[t], ix = ox * st - r + kx[t];
                     const int8_t *wp = wr + (size_t)t * (size_t)ng * wstep;
                     const uint8_t *x;
                     uint8_t q[4] = {0, 0, 0, 0};
@@ -891,6 +893,7 @@ vt__cnn_cil_pass256(const vt_cnn_layer *L, int32_t co0, int32_t n, int8_t *wr, c
 {
     int32_t k = L->ksize, cin = L->cin, cout = L->cout, st = L->stride, d = L->dilation;
     int32_t half = k / 2, r = half * d, nt = k * k, ng = cin / 4, nb = n > 8 ? 2 : 1;
+    int32_t ky[9], kx[9];
     int32_t n0 = n < 8 ? n : 8, n1 = n - n0, s8 = out_s8 != NULL, t, g, p, ox, oy, cx0, cx1;
     size_t coff[9], ps = (size_t)st * (size_t)cin, wstep = (size_t)nb * 32;
     uint8_t *ob = s8 ? (uint8_t *)(void *)out_s8 : out_u8;
@@ -899,6 +902,8 @@ vt__cnn_cil_pass256(const vt_cnn_layer *L, int32_t co0, int32_t n, int8_t *wr, c
     cx1 = iw - 1 - r < 0 ? 0 : (iw - 1 - r) / st + 1;
     for (t = 0; t < nt; ++t) {
         coff[t] = (size_t)((t % k) * d) * (size_t)cin;
+        ky[t] = (t / k) * d;
+        kx[t] = (t % k) * d;
     }
     vt__cnn_cil_repack(L, co0, n, 8, nb, 0, nt, ng, wr);
     {
@@ -940,7 +945,7 @@ vt__cnn_cil_pass256(const vt_cnn_layer *L, int32_t co0, int32_t n, int8_t *wr, c
                     ox = cx1 - VT__CNN_CIL256_P;
                 }
                 for (t = 0; t < nt; ++t) {
-                    int32_t iy = oy * st - r + (t / k) * d;
+                    int32_t iy = oy * st - r + ky[t];
                     const uint8_t *x;
                     const int8_t *wp = wr + (size_t)t * (size_t)ng * wstep;
                     if (iy < 0 || iy >= ih) {
@@ -984,7 +989,7 @@ vt__cnn_cil_pass256(const vt_cnn_layer *L, int32_t co0, int32_t n, int8_t *wr, c
                 /* one pixel, over its in-frame taps, even and odd steps in separate sums */
                 __m256i a0 = _mm256_setzero_si256(), a1 = a0, c0 = a0, c1 = a0;
                 for (t = 0; t < nt; ++t) {
-                    int32_t iy = oy * st + (t / k - half) * d, ix = ox * st + (t % k - half) * d;
+                    int32_t iy = oy * st - r + ky[t], ix = ox * st - r + kx[t];
                     const int8_t *wp = wr + (size_t)t * (size_t)ng * wstep;
                     const uint8_t *x;
                     if (iy < 0 || iy >= ih || ix < 0 || ix >= iw) {
