@@ -42,10 +42,14 @@
  * output channels at a time (each input byte loaded once for four), a 3x3 layer of
  * dilation 1 reads each kernel row as one run of 3 cin bytes, and on x86 (unless
  * built with -DVT_NO_SIMD) eight int16-widened products per pmaddwd (SSE2); where
- * the CPU has AVX2 (asked at run time; -DVT_NO_AVX2 to leave it out) two
- * neighbouring output pixels in one pass with sixteen per vpmaddwd, and with
- * AVX-VNNI (-DVT_NO_AVXVNNI) 32 uint8 x int8 products per vpdpbusd (64 and eight
- * channels a pass with AVX-512 VNNI, -DVT_NO_AVX512); the
+ * the CPU has AVX2 (asked at run time, once a vt_cnn_forward; -DVT_NO_AVX2 to leave
+ * it out) two neighbouring output pixels in one pass with sixteen per vpmaddwd. With
+ * AVX-VNNI (-DVT_NO_AVXVNNI) or AVX-512 VNNI (-DVT_NO_AVX512) a layer whose cin is a
+ * multiple of 4 (with AVX-512 also the first layer's 3x3 of dilation 1 on one
+ * channel) holds output channels in the lanes: one vpdpbusd adds 4 input channels'
+ * products for 8 (256 bits) or 16 (512 bits) output channels, a tile of 6 or 8 pixels
+ * of a row shares each weight vector, the weights of a pass are repacked on the stack
+ * (18,432 or 36,864 bytes, x86 only) and a pixel's sums need no horizontal add. The
  * order of integer sums does not change them, so every build gives the same bits. Work buffer
  * (vt_cnn_work_bytes): the largest even-indexed plus the largest odd-indexed
  * layer output (the last layer writes the caller's out). */
@@ -141,7 +145,7 @@ vt_status vt_cnn_work_bytes(const vt_cnn_model *m, int32_t w, int32_t h, size_t 
  * -DVT_NO_SIMD), VT_CNN_SIMD_SSE2 (x86-64 without AVX2, or -DVT_NO_AVX2),
  * VT_CNN_SIMD_AVX2 (or -DVT_NO_AVXVNNI), VT_CNN_SIMD_AVXVNNI (256 bits; or
  * -DVT_NO_AVX512) or VT_CNN_SIMD_AVX512VNNI; the CPU is asked (cpuid) on every
- * call, as vt_cnn_forward does per layer. NULL path -> VT_E_ARG. */
+ * call, as vt_cnn_forward does once a call. NULL path -> VT_E_ARG. */
 #define VT_CNN_SIMD_PORTABLE 0
 #define VT_CNN_SIMD_SSE2 1
 #define VT_CNN_SIMD_AVX2 2
