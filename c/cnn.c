@@ -46,10 +46,10 @@
 #define VT_CNN_VNNI 0
 #endif
 /* AVX-512 with VNNI on top of that (Intel servers since Cascade Lake, AMD since Zen 4):
- * 64 products per vpdpbusd and 32 registers, so a pass takes eight output channels of
- * two pixels, and masked loads read a tap's last partial step without a tail loop
- * (masked-off bytes are neither read nor faulted). -DVT_NO_AVX512 keeps AVX-VNNI on
- * 256 bits (`make test` runs the CNN tests once that way); valgrind reports neither. */
+ * 64 products per vpdpbusd and 32 registers, for the channels-in-lanes passes
+ * (vt__cnn_cil_pass; a layer with cin not a multiple of 4 takes the pixel pairs below).
+ * -DVT_NO_AVX512 keeps AVX-VNNI on 256 bits (`make test` runs the CNN tests once that
+ * way); valgrind reports neither. */
 #if VT_CNN_VNNI && !defined(VT_NO_AVX512)
 #define VT_CNN_AVX512 1
 #else
@@ -453,64 +453,6 @@ vt__cnn_dot4x2_vnni(const vt_cnn_layer *L, int32_t co, size_t wtaps, const uint8
     VT__CNN_PAIR_STORE();
 }
 #endif
-#if VT_CNN_AVX512
-/* Output channels co .. co + 7 of the pixel pair (as vt__cnn_dot4x2), AVX-512 VNNI:
- * 64 bytes a step, the last step of a tap masked. Each lane's running sum is a part
- * of one accumulator's sum. The sums fold to 256 bits, then the hadd tree leaves
- * channels 0..3 in the low and 4..7 in the high 128 bits. */
-__attribute__((target("avx2,avx512f,avx512bw,avx512vnni"))) static void
-vt__cnn_dot8x2_512(const vt_cnn_layer *L, int32_t co, size_t wtaps, const uint8_t *in, size_t dx,
-                   const size_t *ioff, const size_t *woff, const int32_t *tlen, int32_t nt,
-                   size_t o, uint8_t *out_u8, int8_t *out_s8)
-{
-    const int8_t *w0 = L->w + (size_t)co * wtaps;
-    __m512i a0 = _mm512_setzero_si512(), a1 = a0, a2 = a0, a3 = a0, a4 = a0, a5 = a0, a6 = a0;
-    __m512i a7 = a0, b0 = a0, b1 = a0, b2 = a0, b3 = a0, b4 = a0, b5 = a0, b6 = a0, b7 = a0;
-    __m256i ha, hb;
-    int32_t t, ci;
-    for (t = 0; t < nt; ++t) {
-        const int8_t *p = w0 + woff[t];
-        const uint8_t *ap = in + ioff[t], *bp = ap + dx;
-        int32_t n = tlen[t];
-        for (ci = 0; ci < n; ci += 64) {
-            __mmask64 m = n - ci >= 64 ? ~(__mmask64)0 : (((__mmask64)1 << (n - ci)) - 1);
-            __m512i x = _mm512_maskz_loadu_epi8(m, ap + ci), y = _mm512_maskz_loadu_epi8(m, bp + ci);
-            __m512i w;
-#define VT__CNN_DP512(j, a, b)                                                                \
-    w = _mm512_maskz_loadu_epi8(m, p + (size_t)(j) * wtaps + (size_t)ci);                      \
-    a = _mm512_dpbusd_epi32(a, x, w);                                                          \
-    b = _mm512_dpbusd_epi32(b, y, w)
-            VT__CNN_DP512(0, a0, b0);
-            VT__CNN_DP512(1, a1, b1);
-            VT__CNN_DP512(2, a2, b2);
-            VT__CNN_DP512(3, a3, b3);
-            VT__CNN_DP512(4, a4, b4);
-            VT__CNN_DP512(5, a5, b5);
-            VT__CNN_DP512(6, a6, b6);
-            VT__CNN_DP512(7, a7, b7);
-#undef VT__CNN_DP512
-        }
-    }
-#define VT__CNN_FOLD(v) _mm256_add_epi32(_mm512_castsi512_si256(v), _mm512_extracti64x4_epi64(v, 1))
-#define VT__CNN_HSUM8(h, v0, v1, v2, v3, v4, v5, v6, v7)                                      \
-    do {                                                                                       \
-        __m256i lo4 = _mm256_hadd_epi32(_mm256_hadd_epi32(VT__CNN_FOLD(v0), VT__CNN_FOLD(v1)), \
-                                        _mm256_hadd_epi32(VT__CNN_FOLD(v2), VT__CNN_FOLD(v3))); \
-        __m256i hi4 = _mm256_hadd_epi32(_mm256_hadd_epi32(VT__CNN_FOLD(v4), VT__CNN_FOLD(v5)), \
-                                        _mm256_hadd_epi32(VT__CNN_FOLD(v6), VT__CNN_FOLD(v7))); \
-        h = _mm256_add_epi32(_mm256_permute2x128_si256(lo4, hi4, 0x20),                        \
-                             _mm256_permute2x128_si256(lo4, hi4, 0x31));                       \
-    } while (0)
-    VT__CNN_HSUM8(ha, a0, a1, a2, a3, a4, a5, a6, a7);
-    VT__CNN_HSUM8(hb, b0, b1, b2, b3, b4, b5, b6, b7);
-#undef VT__CNN_HSUM8
-#undef VT__CNN_FOLD
-    vt__cnn_store4(L, _mm256_castsi256_si128(ha), co, o, out_u8, out_s8);
-    vt__cnn_store4(L, _mm256_extracti128_si256(ha, 1), co + 4, o, out_u8, out_s8);
-    vt__cnn_store4(L, _mm256_castsi256_si128(hb), co, o + (size_t)L->cout, out_u8, out_s8);
-    vt__cnn_store4(L, _mm256_extracti128_si256(hb, 1), co + 4, o + (size_t)L->cout, out_u8, out_s8);
-}
-#endif
 #undef VT__CNN_PAIR_TAP
 #undef VT__CNN_PAIR_LOCALS
 #undef VT__CNN_PAIR_STORE
@@ -618,6 +560,25 @@ static void vt__cnn_cil_shifts(const vt_cnn_layer *L, int32_t co0, int32_t n, in
         hf[c] = (int64_t)1 << (L->shift[ch] - 1);
     }
 }
+
+/* A pass's taps (first: the first layer's three rows of four bytes): tap t's row and
+ * column from the pixel's top-left tap (ky[t], kx[t]) and its byte offset along the row
+ * (coff[t]); the tiles' columns cx0 .. cx1 - 1 (every tap's column in the frame, first:
+ * the fourth byte too). Returns the number of taps. */
+static int32_t vt__cnn_cil_taps(const vt_cnn_layer *L, int32_t first, int32_t iw, size_t *coff,
+                                int32_t *ky, int32_t *kx, int32_t *cx0, int32_t *cx1)
+{
+    int32_t k = L->ksize, d = L->dilation, st = L->stride, r = (k / 2) * d, t;
+    int32_t nt = first ? 3 : k * k;
+    for (t = 0; t < nt; ++t) {
+        ky[t] = first ? t : (t / k) * d;
+        kx[t] = first ? 0 : (t % k) * d;
+        coff[t] = (size_t)kx[t] * (size_t)L->cin;
+    }
+    *cx0 = (r + st - 1) / st;
+    *cx1 = iw - 1 - r - first < 0 ? 0 : (iw - 1 - r - first) / st + 1;
+    return nt;
+}
 #endif
 
 #if VT_CNN_AVX512
@@ -668,25 +629,17 @@ vt__cnn_cil_pass(const vt_cnn_layer *L, int32_t co0, int32_t n, int8_t *wr, cons
                  int8_t *out_s8)
 {
     int32_t k = L->ksize, cin = L->cin, cout = L->cout, st = L->stride, d = L->dilation;
-    int32_t first = cin == 1, half = k / 2, r = half * d, nt = first ? 3 : k * k;
-    int32_t ky[9], kx[9];
-    int32_t ng = first ? 1 : cin / 4, nb = n > 16 ? 2 : 1, t, g, i, ox, oy, cx0, cx1;
+    size_t coff[9];
+    int32_t first = cin == 1, r = (k / 2) * d, ky[9], kx[9], cx0, cx1;
+    int32_t nt = vt__cnn_cil_taps(L, first, iw, coff, ky, kx, &cx0, &cx1);
+    int32_t ng = first ? 1 : cin / 4, nb = n > 16 ? 2 : 1, t, g, i, ox, oy;
     /* the lanes of block 0 and 1 that hold channels */
     uint32_t m0 = n >= 16 ? 0xFFFFu : (1u << n) - 1u, m1 = n >= 32 ? 0xFFFFu : (1u << (n - 16 > 0 ? n - 16 : 0)) - 1u;
-    size_t coff[9], ps = (size_t)st * (size_t)cin, wstep = (size_t)nb * 64;
+    size_t ps = (size_t)st * (size_t)cin, wstep = (size_t)nb * 64;
     __m512i bias0, bias1, mult0, mult1, he0, he1, ho0, ho1, se0, se1, so0, so1;
     const __m512i lo = _mm512_set1_epi64(out_s8 != NULL ? -128 : 0);
     const __m512i hi = _mm512_set1_epi64(out_s8 != NULL ? 127 : 255);
     uint8_t *ob = out_s8 != NULL ? (uint8_t *)(void *)out_s8 : out_u8;
-    /* the tiles' columns: every tap's column in the frame (first: the fourth byte too);
-     * a tile skips the kernel rows outside the frame */
-    cx0 = (r + st - 1) / st;
-    cx1 = iw - 1 - r - first < 0 ? 0 : (iw - 1 - r - first) / st + 1;
-    for (t = 0; t < nt; ++t) {
-        coff[t] = first ? 0 : (size_t)((t % k) * d) * (size_t)cin;
-        ky[t] = first ? t : (t / k) * d; /* the tap's row and column from the first's */
-        kx[t] = first ? 0 : (t % k) * d;
-    }
     vt__cnn_cil_repack(L, co0, n, 16, nb, first, nt, ng, wr);
     {
         /* per-block constants: channel c's shift and 2^(shift - 1) in the 64-bit lane
@@ -892,19 +845,13 @@ vt__cnn_cil_pass256(const vt_cnn_layer *L, int32_t co0, int32_t n, int8_t *wr, c
                     int8_t *out_s8)
 {
     int32_t k = L->ksize, cin = L->cin, cout = L->cout, st = L->stride, d = L->dilation;
-    int32_t half = k / 2, r = half * d, nt = k * k, ng = cin / 4, nb = n > 8 ? 2 : 1;
-    int32_t ky[9], kx[9];
-    int32_t n0 = n < 8 ? n : 8, n1 = n - n0, s8 = out_s8 != NULL, t, g, p, ox, oy, cx0, cx1;
-    size_t coff[9], ps = (size_t)st * (size_t)cin, wstep = (size_t)nb * 32;
+    size_t coff[9];
+    int32_t r = (k / 2) * d, ky[9], kx[9], cx0, cx1;
+    int32_t nt = vt__cnn_cil_taps(L, 0, iw, coff, ky, kx, &cx0, &cx1), ng = cin / 4, nb = n > 8 ? 2 : 1;
+    int32_t n0 = n < 8 ? n : 8, n1 = n - n0, s8 = out_s8 != NULL, t, g, p, ox, oy;
+    size_t ps = (size_t)st * (size_t)cin, wstep = (size_t)nb * 32;
     uint8_t *ob = s8 ? (uint8_t *)(void *)out_s8 : out_u8;
     __m256i bias0, bias1, mult0, mult1, he0, he1, ho0, ho1, se0, se1, so0, so1;
-    cx0 = (r + st - 1) / st;
-    cx1 = iw - 1 - r < 0 ? 0 : (iw - 1 - r) / st + 1;
-    for (t = 0; t < nt; ++t) {
-        coff[t] = (size_t)((t % k) * d) * (size_t)cin;
-        ky[t] = (t / k) * d;
-        kx[t] = (t % k) * d;
-    }
     vt__cnn_cil_repack(L, co0, n, 8, nb, 0, nt, ng, wr);
     {
         int64_t sh[16], hf[16];
@@ -1187,14 +1134,6 @@ static void vt__cnn_layer(const vt_cnn_layer *L, const uint8_t *in, int32_t iw, 
                 if (same) {
                     size_t o2 = o + (size_t)cout;
                     co = 0;
-#if VT_CNN_AVX512
-                    if ((isa & VT__ISA_512) != 0) {
-                        for (; co + 8 <= cout; co += 8) {
-                            vt__cnn_dot8x2_512(L, co, wtaps, in, dx, ioff, woff, tlen, nt, o,
-                                               out_u8, out_s8);
-                        }
-                    }
-#endif
                     for (; co + 4 <= cout; co += 4) {
 #if VT_CNN_VNNI
                         if ((isa & VT__ISA_VNNI) != 0) {
@@ -1253,20 +1192,27 @@ static void vt__cnn_layer(const vt_cnn_layer *L, const uint8_t *in, int32_t iw, 
     }
 }
 
-vt_status vt_cnn_forward(const vt_cnn_model *m, const uint8_t *img, int32_t w, int32_t h,
-                         int32_t stride, uint8_t *work, size_t work_bytes, int8_t *out,
-                         size_t out_len)
+/* vt__cnn_isa()'s bits, 0 in a build without the AVX2 loops. Asked once a forward pass
+ * (once a frame in vt_cnn_detect_frame), not once a layer: cpuid is slow under a
+ * hypervisor. */
+static int vt__cnn_cpu(void)
+{
+#if VT_CNN_AVX2
+    return vt__cnn_isa();
+#else
+    return 0;
+#endif
+}
+
+/* vt_cnn_forward with the CPU's bits given. */
+static vt_status vt__cnn_forward(const vt_cnn_model *m, const uint8_t *img, int32_t w, int32_t h,
+                                 int32_t stride, uint8_t *work, size_t work_bytes, int8_t *out,
+                                 size_t out_len, int isa)
 {
     size_t sizes[VT_CNN_MAX_LAYERS], r0, r1, rs;
     int32_t gw, gh, i, iw, ih;
     const uint8_t *in;
     vt_status s;
-    /* the CPU asked once a pass, not once a layer: cpuid is slow under a hypervisor */
-#if VT_CNN_AVX2
-    int isa = vt__cnn_isa();
-#else
-    int isa = 0;
-#endif
     if (img == NULL || out == NULL) {
         return VT_E_ARG;
     }
@@ -1303,6 +1249,13 @@ vt_status vt_cnn_forward(const vt_cnn_model *m, const uint8_t *img, int32_t w, i
         ih = oh;
     }
     return VT_OK;
+}
+
+vt_status vt_cnn_forward(const vt_cnn_model *m, const uint8_t *img, int32_t w, int32_t h,
+                         int32_t stride, uint8_t *work, size_t work_bytes, int8_t *out,
+                         size_t out_len)
+{
+    return vt__cnn_forward(m, img, w, h, stride, work, work_bytes, out, out_len, vt__cnn_cpu());
 }
 
 /* 1 if cell (x, y) is a peak: heat >= thr and >= every in-grid neighbour's. */
@@ -1657,14 +1610,14 @@ vt__cnn_lut64(const uint8_t *lut, const uint8_t *row, uint8_t *out, int32_t w)
 #endif
 
 static void vt__cnn_stretch(const uint8_t *img, int32_t w, int32_t h, int32_t stride, int32_t tail,
-                            uint8_t *dst)
+                            uint8_t *dst, int isa)
 {
     uint32_t hist[256];
     uint8_t lut[256];
     int64_t k = (int64_t)w * h * tail / 1000, c;
     int32_t x, y, lo, hi, span;
-#if VT_CNN_AVX512
-    int isa = vt__cnn_isa();
+#if !VT_CNN_AVX512
+    (void)isa;
 #endif
 #if VT_CNN_SSE2
     /* x86: four partial histograms, so that runs of equal pixels do not wait on one
@@ -1768,6 +1721,7 @@ vt_status vt_cnn_detect_frame(const vt_cnn_model *m, const vt_cnn_cfg *cfg, cons
     uint8_t *base;
     size_t pad;
     int32_t k, i, last, total = 0, peaks = 0, kept = 0, thr;
+    int isa = vt__cnn_cpu();
     vt_image_u8 src;
     vt_status s;
     if (n != NULL) {
@@ -1800,7 +1754,7 @@ vt_status vt_cnn_detect_frame(const vt_cnn_model *m, const vt_cnn_cfg *cfg, cons
     last = cfg->first_level + cfg->n_levels - 1;
     if (cfg->stretch_tail_permille > 0) {
         /* everything below reads the stretched copy; the boxes are the same pixels */
-        vt__cnn_stretch(img, w, h, stride, cfg->stretch_tail_permille, base + pl.str);
+        vt__cnn_stretch(img, w, h, stride, cfg->stretch_tail_permille, base + pl.str, isa);
         img = base + pl.str;
         stride = w;
     }
@@ -1852,8 +1806,8 @@ vt_status vt_cnn_detect_frame(const vt_cnn_model *m, const vt_cnn_cfg *cfg, cons
             run.px = img + (size_t)pl.y0 * (size_t)stride;
             run.h = pl.bh;
         }
-        s = vt_cnn_forward(m, run.px, run.w, run.h, run.stride, base + pl.fwd, pl.fwd_bytes, out,
-                           pl.out_bytes);
+        s = vt__cnn_forward(m, run.px, run.w, run.h, run.stride, base + pl.fwd, pl.fwd_bytes, out,
+                            pl.out_bytes, isa);
         if (s == VT_OK) {
             s = vt_cnn_out_size(m, run.w, run.h, &gw, &gh);
         }

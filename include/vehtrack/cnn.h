@@ -145,7 +145,8 @@ vt_status vt_cnn_work_bytes(const vt_cnn_model *m, int32_t w, int32_t h, size_t 
  * -DVT_NO_SIMD), VT_CNN_SIMD_SSE2 (x86-64 without AVX2, or -DVT_NO_AVX2),
  * VT_CNN_SIMD_AVX2 (or -DVT_NO_AVXVNNI), VT_CNN_SIMD_AVXVNNI (256 bits; or
  * -DVT_NO_AVX512) or VT_CNN_SIMD_AVX512VNNI; the CPU is asked (cpuid) on every
- * call, as vt_cnn_forward does once a call. NULL path -> VT_E_ARG. */
+ * call, as vt_cnn_forward does once a call (vt_cnn_detect_frame once a frame). NULL
+ * path -> VT_E_ARG. */
 #define VT_CNN_SIMD_PORTABLE 0
 #define VT_CNN_SIMD_SSE2 1
 #define VT_CNN_SIMD_AVX2 2
