@@ -201,10 +201,10 @@ vt_status vt_lane_vanishing_row(const vt_lane_result *res, int32_t img_h, vt_q16
 {
     const vt_lane_line *l, *r;
     int64_t dx, ds, dy, yw, yin;
-    if (res == NULL || vp_row == NULL || valid == NULL || !VT__IN(res->shift, 0, 3)) {
+    if (res == NULL || vp_row == NULL || valid == NULL || !VT__IN(res->scale, 1, VT_LANE_MAX_SCALE)) {
         return VT_E_ARG;
     }
-    if (img_h < 1 || img_h > VT_MAX_HEIGHT || res->h < 1 || (img_h >> res->shift) != res->h) {
+    if (img_h < 1 || img_h > VT_MAX_HEIGHT || res->h < 1 || img_h / res->scale != res->h) {
         return VT_E_SIZE;
     }
     *vp_row = 0;
@@ -225,8 +225,8 @@ vt_status vt_lane_vanishing_row(const vt_lane_result *res, int32_t img_h, vt_q16
         return VT_OK;
     }
     yw = ((int64_t)res->h - 1) * VT_Q16_ONE + dy;
-    /* working row -> input row: (y + 1/2) 2^s - 1/2 */
-    yin = (yw + VT_Q16_ONE / 2) * ((int64_t)1 << res->shift) - VT_Q16_ONE / 2;
+    /* working row -> input row: (y + 1/2) k - 1/2 */
+    yin = (yw + VT_Q16_ONE / 2) * res->scale - VT_Q16_ONE / 2;
     if (yin < -(int64_t)VT_MAX_HEIGHT * 4 * VT_Q16_ONE) {
         return VT_OK; /* meets absurdly far above the frame: no usable point */
     }

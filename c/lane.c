@@ -175,7 +175,7 @@ vt_status vt_lane_reset(vt_lane_state *st)
 /* ------------------------------------------------------------------ geometry of a frame */
 
 typedef struct {
-    int32_t s, W, H, cx, roi_top, band_top;
+    int32_t k, s, W, H, cx, roi_top, band_top; /* k: downscale factor; s: log2 k, or -1 */
     int32_t vp_low; /* lowest plausible vanishing row */
 } vt__geom;
 
@@ -200,28 +200,30 @@ static int32_t vt__lerp_rows(int32_t y, int32_t W, int32_t H, int32_t top, int32
 
 /* ------------------------------------------------------------------ marking centres */
 
-/* Working row y into st->colsum (values 0..255): mean of 2^s x 2^s blocks, half up.
+/* Working row y into st->colsum (values 0..255): mean of k x k blocks, half up. A power
+ * of two takes its own loop (a shift); any other k (3, 5, 6, 7: 960, 1600 and 1920 px
+ * wide frames come to the same 320 working columns as 1280) divides by a reciprocal.
  * One pass per input row; the inner loops are plain sums the compiler vectorises. */
 static void vt__working_row(vt_lane_state *st, const vt_image_u8 *img, const vt__geom *g,
                             int32_t y)
 {
-    int32_t x, r, j, n = 1 << g->s, W = g->W;
+    int32_t x, r, j, n = g->k, W = g->W;
     uint16_t *cs = st->colsum;
-    const uint8_t *p0 = img->px + (size_t)(y << g->s) * (size_t)img->stride;
-    if (g->s == 0) {
+    const uint8_t *p0 = img->px + (size_t)y * (size_t)n * (size_t)img->stride;
+    if (n == 1) {
         for (x = 0; x < W; ++x) {
             cs[x] = p0[x];
         }
         return;
     }
-    if (g->s == 1) {
+    if (n == 2) {
         const uint8_t *p1 = p0 + img->stride;
         for (x = 0; x < W; ++x) {
             cs[x] = (uint16_t)((p0[2 * x] + p0[2 * x + 1] + p1[2 * x] + p1[2 * x + 1] + 2) >> 2);
         }
         return;
     }
-    if (g->s == 2) {
+    if (n == 4) {
         for (x = 0; x < W; ++x) {
             cs[x] = 0;
         }
@@ -250,9 +252,20 @@ static void vt__working_row(vt_lane_state *st, const vt_image_u8 *img, const vt_
             cs[x] = (uint16_t)(cs[x] + acc);
         }
     }
-    r = 2 * g->s;
-    for (x = 0; x < W; ++x) {
-        cs[x] = (uint16_t)((cs[x] + (1 << (r - 1))) >> r);
+    if (n == 8) {
+        for (x = 0; x < W; ++x) {
+            cs[x] = (uint16_t)((cs[x] + 32) >> 6);
+        }
+        return;
+    }
+    {
+        /* floor(v / d) = (v m) >> 20 with m = ceil(2^20 / d), d = k^2 <= 49: the error
+         * v (m d - 2^20) / (d 2^20) stays under 1/d while v d < 2^20, and v (the sum
+         * plus d/2) <= 49 * 255 + 24 = 12,519 gives v d <= 613,431. v m < 2^31. */
+        const uint32_t d = (uint32_t)(n * n), m = ((1u << 20) + d - 1u) / d, half = d / 2u;
+        for (x = 0; x < W; ++x) {
+            cs[x] = (uint16_t)(((cs[x] + half) * m) >> 20);
+        }
     }
 }
 
@@ -886,10 +899,10 @@ vt_status vt_lane_line_x(const vt_lane_line *ln, vt_q16 y, vt_q16 *x)
 
 /* ------------------------------------------------------------------ road area */
 
-/* The area between lines l and r (input frame img_w x img_h, working shift s); the
+/* The area between lines l and r (input frame img_w x img_h, working scale k); the
  * lane width per row is their distance / gaps. */
 static void vt__road_between(const vt_lane_line *l, const vt_lane_line *r, int32_t gaps,
-                             int32_t s, int32_t img_w, int32_t img_h, vt_road_area *road)
+                             int32_t k, int32_t img_w, int32_t img_h, vt_road_area *road)
 {
     int32_t y, y_first, top_w, good_top = -1;
     memset(road, 0, sizeof(*road));
@@ -898,20 +911,21 @@ static void vt__road_between(const vt_lane_line *l, const vt_lane_line *r, int32
         return;
     }
     top_w = l->y_top > r->y_top ? l->y_top : r->y_top;
-    y_first = top_w * (1 << s) + ((1 << s) >> 1); /* ceil((top + 1/2) 2^s - 1/2) */
+    y_first = top_w * k + (k >> 1); /* ceil((top + 1/2) k - 1/2) */
     y_first = y_first < 0 ? 0 : y_first;
     for (y = img_h - 1; y >= y_first; --y) {
-        /* working row of input row y: (y + 1/2) / 2^s - 1/2, exact in Q16 for s <= 3 */
-        vt_q16 yw = (vt_q16)(((int64_t)(2 * y + 1) << 15 >> s) - 32768), xl = 0, xr = 0;
+        /* working row of input row y: (y + 1/2) / k - 1/2 in Q16, floored (exact when k
+         * is a power of two) */
+        vt_q16 yw = (vt_q16)((int64_t)(2 * y + 1) * 32768 / k - 32768), xl = 0, xr = 0;
         int64_t il, ir, cl, cr;
         /* both lines are set (checked above), so this fails only on a corrupted
          * result: stop the area there rather than use an unset x */
         if (vt_lane_line_x(l, yw, &xl) != VT_OK || vt_lane_line_x(r, yw, &xr) != VT_OK) {
             break;
         }
-        /* input x = (x + 1/2) 2^s - 1/2, rounded half up */
-        il = vt__floor_shr64(((int64_t)xl + 32768) * ((int64_t)1 << s), 16);
-        ir = vt__floor_shr64(((int64_t)xr + 32768) * ((int64_t)1 << s), 16);
+        /* input x = (x + 1/2) k - 1/2, rounded half up */
+        il = vt__floor_shr64(((int64_t)xl + 32768) * k, 16);
+        ir = vt__floor_shr64(((int64_t)xr + 32768) * k, 16);
         cl = vt__clamp64(il, 0, img_w - 1);
         cr = vt__clamp64(ir, 0, img_w - 1);
         if (il > ir || cl > cr) {
@@ -941,7 +955,7 @@ static void vt__road(const vt_lane_result *res, const vt_image_u8 *img, vt_road_
         r = &res->lines[VT_LANE_RIGHT_MOST];
         ++gaps;
     }
-    vt__road_between(l, r, gaps, res->shift, img->w, img->h, road);
+    vt__road_between(l, r, gaps, res->scale, img->w, img->h, road);
 }
 
 vt_status vt_lane_road_all(const vt_lane_result *res, int32_t img_w, int32_t img_h,
@@ -955,7 +969,7 @@ vt_status vt_lane_road_all(const vt_lane_result *res, int32_t img_w, int32_t img
         return VT_E_SIZE;
     }
     n = res->n_lines_all;
-    if (n < 0 || n > VT_LANE_MAX_LINES || res->shift < 0 || res->shift > 3) {
+    if (n < 0 || n > VT_LANE_MAX_LINES || res->scale < 1 || res->scale > VT_LANE_MAX_SCALE) {
         return VT_E_ARG;
     }
     for (i = 0; i < n; ++i) {
@@ -969,7 +983,7 @@ vt_status vt_lane_road_all(const vt_lane_result *res, int32_t img_w, int32_t img
         road->height = img_h;
         return VT_OK;
     }
-    vt__road_between(&res->lines_all[0], &res->lines_all[n - 1], n - 1, res->shift, img_w,
+    vt__road_between(&res->lines_all[0], &res->lines_all[n - 1], n - 1, res->scale, img_w,
                      img_h, road);
     return VT_OK;
 }
@@ -1046,13 +1060,17 @@ vt_status vt_lane_detect(vt_lane_state *st, const vt_lane_cfg *cfg, const vt_ima
     if (img->w < 16 || img->h < 16) {
         return VT_E_SIZE;
     }
-    g.s = 0;
-    while (g.s < 3 && ((img->w >> g.s) > cfg->work_width_max ||
-                       (img->h >> g.s) > cfg->work_height_max)) {
-        ++g.s;
+    /* The smallest integer factor that fits (not only powers of two): the defaults were
+     * tuned on 320 x 180 working frames, which 640, 960, 1280, 1600 and 1920 px wide
+     * 16:9 frames all give. */
+    g.k = 1;
+    while (g.k < VT_LANE_MAX_SCALE && (img->w / g.k > cfg->work_width_max ||
+                                       img->h / g.k > cfg->work_height_max)) {
+        ++g.k;
     }
-    g.W = img->w >> g.s;
-    g.H = img->h >> g.s;
+    g.s = (g.k & (g.k - 1)) == 0 ? (g.k >= 8 ? 3 : g.k >= 4 ? 2 : g.k >= 2 ? 1 : 0) : -1;
+    g.W = img->w / g.k;
+    g.H = img->h / g.k;
     if (g.W > cfg->work_width_max || g.H > cfg->work_height_max || g.W < 8 || g.H < 8) {
         return VT_E_SIZE;
     }
@@ -1074,7 +1092,7 @@ vt_status vt_lane_detect(vt_lane_state *st, const vt_lane_cfg *cfg, const vt_ima
     }
     vt__select(st, cfg, &g, found, extra, &n_extra, &pair_y);
 
-    prev_ok = st->prev_valid == 1 && st->prev_shift == g.s && st->prev_w == g.W &&
+    prev_ok = st->prev_valid == 1 && st->prev_scale == g.k && st->prev_w == g.W &&
               st->prev_h == g.H;
     for (i = 0; i < VT_LANE_SLOTS; ++i) {
         const vt_lane_line *prev = NULL;
@@ -1123,6 +1141,7 @@ vt_status vt_lane_detect(vt_lane_state *st, const vt_lane_cfg *cfg, const vt_ima
 
     memset(res, 0, sizeof(*res));
     res->shift = g.s;
+    res->scale = g.k;
     res->w = g.W;
     res->h = g.H;
     res->roi_top = g.roi_top;
@@ -1170,7 +1189,7 @@ vt_status vt_lane_detect(vt_lane_state *st, const vt_lane_cfg *cfg, const vt_ima
         res->n_lines_all = n + 1;
     }
     st->prev_valid = 1;
-    st->prev_shift = g.s;
+    st->prev_scale = g.k;
     st->prev_w = g.W;
     st->prev_h = g.H;
     if (road != NULL) {

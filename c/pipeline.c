@@ -1443,10 +1443,11 @@ static vt_status vt__step(vt_pipeline *p, const vt_image_u8 *frame, const vt_roa
         lanes_ok = out->lane_status == VT_OK;
         /* The horizon of the whole-road detector and the vehicle model: the lane
          * stage's own vanishing row (the two ego lines meeting inside its plausible
-         * rows, vp_known), in input rows (vp_y + 1/2) 2^shift - 1/2 rounded half up,
+         * rows, vp_known), in input rows (vp_y + 1/2) scale - 1/2 rounded half up,
          * held while the lanes are lost (the camera's pitch changes slowly). */
-        if (lanes_ok && out->lanes.vp_known && out->lanes.shift >= 0 && out->lanes.shift <= 3) {
-            p->horizon_y = vt__clamp_i32(((2 * out->lanes.vp_y + 1) << out->lanes.shift) >> 1,
+        if (lanes_ok && out->lanes.vp_known && out->lanes.scale >= 1 &&
+            out->lanes.scale <= VT_LANE_MAX_SCALE) {
+            p->horizon_y = vt__clamp_i32((2 * out->lanes.vp_y + 1) * out->lanes.scale >> 1,
                                          -VT_MAX_HEIGHT, VT_MAX_HEIGHT);
             p->horizon_known = 1;
         }

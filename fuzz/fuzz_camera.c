@@ -79,7 +79,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         vt_q16 vp = -1;
         int32_t valid = -1, k;
         memset(&g_lanes, 0, sizeof g_lanes);
-        g_lanes.shift = fz_u8(&f) < 220 ? fz_range(&f, 0, 3) : fz_edge(&f, 3);
+        g_lanes.scale = fz_u8(&f) < 220 ? fz_range(&f, 1, VT_LANE_MAX_SCALE) : fz_edge(&f, VT_LANE_MAX_SCALE);
         g_lanes.w = fz_u8(&f) < 220 ? fz_range(&f, 1, 640) : fz_edge(&f, VT_MAX_WIDTH);
         g_lanes.h = fz_u8(&f) < 220 ? fz_range(&f, 1, 480) : fz_edge(&f, VT_MAX_HEIGHT);
         g_lanes.roi_top = fz_edge(&f, g_lanes.h);
@@ -93,7 +93,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             ln->y_top = fz_edge(&f, g_lanes.h);
         }
         s = vt_lane_vanishing_row((nulls & 1) ? NULL : &g_lanes,
-                                  fz_u8(&f) < 200 ? (int32_t)((int64_t)(g_lanes.h & 0xFFFF) << (g_lanes.shift & 3)) : fz_edge(&f, 480),
+                                  fz_u8(&f) < 200 ? (int32_t)((int64_t)(g_lanes.h & 0xFFFF) * (g_lanes.scale & 7 ? g_lanes.scale & 7 : 8) + fz_range(&f, 0, 7)) : fz_edge(&f, 480),
                                   (nulls & 2) ? NULL : &vp, (nulls & 4) ? NULL : &valid);
         fz_status(s);
         if (s == VT_OK) {

@@ -563,7 +563,7 @@ def pitch_update(cam, st, vp_valid: int, vp_row: int) -> None:
 def lane_vanishing_row(res, img_h: int) -> tuple[int, int]:
     row, ok = ffi.new("vt_q16 *"), ffi.new("int32_t *")
     check("vt_lane_vanishing_row", lib.vt_lane_vanishing_row(res, img_h, row, ok),
-          f"img_h={img_h}, lane result {res.w}x{res.h} shift {res.shift}")
+          f"img_h={img_h}, lane result {res.w}x{res.h} scale {res.scale}")
     return int(row[0]), int(ok[0])
 
 

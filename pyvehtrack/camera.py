@@ -253,14 +253,15 @@ def lane_vanishing_row(lanes) -> float | None:
         ln = raw.lines
         left, right = (None if k >= len(ln) or ln[k] is None else (ln[k].xb, ln[k].slope) for k in (1, 2))
         from .reference import camera as rcam   # the oracle's lines: the oracle's arithmetic
-        row = rcam.vanishing_row(left, right, int(raw.H), int(raw.shift))
+        row = rcam.vanishing_row(left, right, int(raw.H), int(raw.scale))
         return None if row is None else (row + 0.5) / f - 0.5
-    if raw is None or not hasattr(raw, "shift") or not hasattr(raw, "lines"):
+    if raw is None or not hasattr(raw, "scale") or not hasattr(raw, "lines"):
         return lanes.vanishing_row
-    h_seen = int(raw.h) << int(raw.shift)
-    # the frame the lane stage saw: its height is h << shift plus the rows the downscale dropped
+    k = int(raw.scale)
+    h_seen = int(raw.h) * k
+    # the frame the lane stage saw: its height is h k plus the rows the downscale dropped
     h_full = int(round(len(lanes.x_left) * f))
-    if (h_full >> int(raw.shift)) == int(raw.h):
+    if h_full // k == int(raw.h):
         h_seen = h_full
     row, ok = _native.lane_vanishing_row(raw, h_seen)
     if not ok:

@@ -57,7 +57,8 @@ class LaneResult:
     lane_width: np.ndarray            # (h,) ego lane width per input row
     vanishing_row: float | None       # input row where the two ego lines meet
     origin: tuple                     # Hough origin (x, y), input pixels
-    work_shift: int                   # the core worked on the frame box-downscaled by 2^this
+    work_shift: int                   # log2(work_scale) if that is a power of two, else -1
+    work_scale: int = 1               # the core worked on the frame box-downscaled by this
     input_scale: float = 1.0          # < 1 when the frame was downscaled to fit the core
     engine: str = "c"
     note: str = ""
@@ -187,7 +188,7 @@ def from_c(r, road, shape) -> LaneResult:
     _native.lane_road_all(r, w, h, road_all)
     # Copies: the next call overwrites the core's buffers.
     raw = ffi.new("vt_lane_result *", r[0])
-    return _build(shape, int(r.shift), int(r.w), int(r.h), lines,
+    return _build(shape, int(r.scale), int(r.w), int(r.h), lines,
                   int(r.vp_y) if r.vp_known else None, *c_road(road), raw,
                   lines_all, c_road(road_all))
 
@@ -208,8 +209,8 @@ def from_reference(fr, shape) -> LaneResult:
         return bool(road["valid"]), int(road["y_top"]), int(road["y_bottom"]), arrs
 
     from .reference import lane as _ref   # only the reference engine has a LaneFrame
-    road_all = _ref.road_area_all(fr.lines_all, w, h, fr.shift, len(fr.road["x_left"]))
-    return _build(shape, fr.shift, fr.W, fr.H, lines, fr.vp_y if fr.vp_known else None,
+    road_all = _ref.road_area_all(fr.lines_all, w, h, fr.scale, len(fr.road["x_left"]))
+    return _build(shape, fr.scale, fr.W, fr.H, lines, fr.vp_y if fr.vp_known else None,
                   *r_road(fr.road), fr, lines_all, r_road(road_all))
 
 
@@ -221,10 +222,9 @@ def _polygon(valid, y_top, y_bottom, x_left, x_right) -> np.ndarray:
                            np.stack([x_right[ys[::-1]], ys[::-1]], 1)]).astype(np.int32)
 
 
-def _build(shape, s, W, H, lines, vp_y, road_valid, y_top, y_bottom, arrs, raw,
+def _build(shape, n, W, H, lines, vp_y, road_valid, y_top, y_bottom, arrs, raw,
            lines_all=(), road_all=None) -> LaneResult:
     h, w = shape
-    n = 1 << s
 
     def to_in(v):
         return (v + 0.5) * n - 0.5
@@ -243,7 +243,8 @@ def _build(shape, s, W, H, lines, vp_y, road_valid, y_top, y_bottom, arrs, raw,
     poly = _polygon(road_valid, y_top, y_bottom, x_left, x_right)
     out = LaneResult(lanes, poly, road_valid, y_top, y_bottom, x_left, x_right, lane_width,
                      None if vp_y is None else to_in(float(vp_y)),
-                     (to_in(float(W // 2)), to_in(float(H - 1))), s, raw=raw)
+                     (to_in(float(W // 2)), to_in(float(H - 1))), n.bit_length() - 1 if n & (n - 1) == 0 else -1,
+                     work_scale=n, raw=raw)
     out.lanes_all = [lane(*t) for t in lines_all]
     if road_all is not None:
         valid, top, bottom, (xl, xr, lw) = road_all

@@ -380,7 +380,7 @@ def test_camera_cfg_bad_values():
 
 def test_vanishing_row_from_lanes_and_size_change():
     res = ffi.new("vt_lane_result *")
-    res.shift, res.w, res.h = 1, 320, 240
+    res.shift, res.scale, res.w, res.h = 1, 2, 320, 240
     L, R = res.lines[lib.VT_LANE_LEFT], res.lines[lib.VT_LANE_RIGHT]
     # left line x = 100 - 1 * (y - 239), right x = 220 + 1 * (y - 239): meet at dy = -60
     L.state, L.xb, L.slope = 1, 100 * 65536, -65536
@@ -389,13 +389,26 @@ def test_vanishing_row_from_lanes_and_size_change():
     assert ok == 1
     yw = 239 - 60
     assert row == round(((yw + 0.5) * 2 - 0.5) * 65536)
-    assert rc.vanishing_row((100, -1), (220, 1), 240, 1) == (yw + 0.5) * 2 - 0.5
+    assert rc.vanishing_row((100, -1), (220, 1), 240, 2) == (yw + 0.5) * 2 - 0.5
     with pytest.raises(VtError, match="size"):
         _native.lane_vanishing_row(res, 640)           # the lanes were found in another frame size
     R.state = 0
     assert _native.lane_vanishing_row(res, 480) == (0, 0)
     R.state, R.slope = 1, -65536                       # parallel: no vanishing point
     assert _native.lane_vanishing_row(res, 481)[1] == 0
+    # a scale that is not a power of two (a 1920 x 1080 frame at 320 x 180 is 6): the same
+    # mapping, (y + 1/2) k - 1/2, exact in Q16 as yw is a whole row here
+    R.slope = 65536
+    res.shift, res.scale = -1, 3
+    row, ok = _native.lane_vanishing_row(res, 722)       # 722 // 3 = 240 working rows
+    assert ok == 1 and row == round(((yw + 0.5) * 3 - 0.5) * 65536)
+    assert rc.vanishing_row((100, -1), (220, 1), 240, 3) == (yw + 0.5) * 3 - 0.5
+    with pytest.raises(VtError, match="size"):
+        _native.lane_vanishing_row(res, 723)
+    for bad in (0, 9, -1):
+        res.scale = bad
+        with pytest.raises(VtError):
+            _native.lane_vanishing_row(res, 720)
 
 
 # ------------------------------------------------------------------ the camera file

@@ -144,7 +144,7 @@ def compare_all(a, b, where=""):
         tols.append(t)
     if any(t is None for t in tols):
         return
-    m = 1 << ra.shift
+    m = ra.scale
     xtol = 1 + max(tols) * m
     ya = max(ra.lines_all[0].y_top, ra.lines_all[n - 1].y_top)
     first = max(a.road_all_y_top, b.road_all_y_top, (ya + 2) * m)
@@ -248,9 +248,9 @@ def test_road_all_bad_arguments():
     with pytest.raises(VtError, match="vt_lane_road_all"):
         N.lane_road_all(res, 0, 180, road)
     assert lib.vt_lane_road_all(res, 320, 180, road) == lib.VT_OK and road.valid == 1
-    # A corrupted result: counts, shift, vertex counts out of range.
+    # A corrupted result: counts, scale, vertex counts out of range.
     for field, val in (("n_lines_all", -1), ("n_lines_all", lib.VT_LANE_MAX_LINES + 1),
-                       ("shift", 4), ("shift", -1)):
+                       ("scale", 0), ("scale", lib.VT_LANE_MAX_SCALE + 1), ("scale", -1)):
         bad = ffi.new("vt_lane_result *", res[0])
         setattr(bad, field, val)
         assert lib.vt_lane_road_all(bad, 320, 180, road) == E, field
@@ -371,9 +371,9 @@ def test_downscaled_frame_maps_all_lines_back():
     # The same lines, left to right (which of them is an outer slot and which a further
     # line can change with the working width: the slots are picked by votes and angle).
     assert len(res.lanes_all) == len(small.lanes_all)
-    # One working pixel of the big frame is 2^shift / input_scale input px; the lines'
+    # One working pixel of the big frame is work_scale / input_scale input px; the lines'
     # bottom points agree within that (the small frame's times f).
-    px = (1 << res.work_shift) / res.input_scale
+    px = res.work_scale / res.input_scale
     for a, b in zip(small.lanes_all, res.lanes_all):
         pa = a.points[np.argmax(a.points[:, 1])]
         pb = b.points[np.argmax(b.points[:, 1])]

@@ -198,11 +198,11 @@ vt_status vt_pitch_update(vt_pitch_state *st, const vt_camera_cfg *cam, int32_t 
 
 /* The vanishing row (Q16, input px) where the two ego lane lines (slots LEFT and
  * RIGHT, both not NONE) meet, from their refined straight lines x = xb + slope
- * (y - (H-1)) in working px, mapped to input rows by (y + 1/2) 2^shift - 1/2.
+ * (y - (H-1)) in working px, mapped to input rows by (y + 1/2) scale - 1/2.
  * *valid = 0 (and *vp_row = 0) when a line is missing or they do not meet above the
  * band (parallel or diverging). img_h must be the input height the lanes were found
  * in: VT_E_SIZE if the working frame does not match it (frame size changed), VT_E_ARG
- * for NULL or a result with shift outside 0..3. */
+ * for NULL or a result with scale outside 1..VT_LANE_MAX_SCALE. */
 vt_status vt_lane_vanishing_row(const vt_lane_result *res, int32_t img_h, vt_q16 *vp_row,
                                 int32_t *valid);
 

@@ -7,9 +7,11 @@
  * row buffers and per-row indices 4.4 KB, the extension histogram 3.8 KB; no frame
  * buffer: the frame is read once, one working row at a time. vt_lane_result is 2,908
  * bytes (1.9 KB of it lines_all), vt_road_area 6.5 KB. Work per frame, W x H the working frame (the input
- * box-downscaled by 2^s so that W <= work_width_max, H <= work_height_max; 320 x 240
- * by default):
- *   - 4^s adds per working pixel below roi_top (downscale), then ~6 operations per
+ * box-downscaled by the smallest integer k (1..VT_LANE_MAX_SCALE) such that W = w / k
+ * <= work_width_max and H = h / k <= work_height_max; 320 x 240 by default, so 640,
+ * 960, 1280, 1600 and 1920 px wide 16:9 frames all work at 320 x 180, where the
+ * defaults were tuned):
+ *   - k^2 adds per working pixel below roi_top (downscale), then ~6 operations per
  *     working pixel for the filter, threshold and edge pairing;
  *   - n_theta (77) votes per marking centre in the Hough band, a window test per
  *     accumulator cell above the vote floor;
@@ -21,7 +23,7 @@
  * The algorithm, step by step, with the reasons for each addition to the thesis, is in
  * the first comment of c/lane.c and in pyvehtrack/reference/lane.py (the float oracle
  * it is tested against). Coordinates in vt_lane_result are working-frame pixels:
- * input x = (x + 1/2) * 2^s - 1/2, likewise y. The road area is in input pixels.
+ * input x = (x + 1/2) * k - 1/2, likewise y. The road area is in input pixels.
  *
  * Usage (firmware):
  *     static const vt_lane_cfg cfg = VT_LANE_CFG_DEFAULT;
@@ -40,6 +42,10 @@
 #include "vehtrack/road.h"
 #include "vehtrack/status.h"
 #include "vehtrack/trig.h"
+
+/* The largest working-frame downscale factor (VT_MAX_WIDTH / 8 fits any work_width_max
+ * of 240 or more). */
+#define VT_LANE_MAX_SCALE 8
 
 /* Line slots, left to right. */
 typedef enum {
@@ -63,7 +69,7 @@ typedef enum {
  * (tools/tune_lanes.py) lost the KITTI lead car (tracking IoU >= 0.6 96.2% -> 70.5%), so
  * it is not the default (see c/lane.c). vt_lane_cfg_check() states the valid ranges. */
 typedef struct {
-    int32_t work_width_max;       /* box-downscale by 2^s (s <= 3) until W <= this ...   */
+    int32_t work_width_max;       /* box-downscale by k (k <= 8) until W <= this ...     */
     int32_t work_height_max;      /* ... and H <= this                                   */
     int32_t roi_top_permille;     /* rows above H*this/1000 are never looked at          */
     int32_t hough_top_permille;   /* Hough votes come from rows >= H*this/1000           */
@@ -194,7 +200,8 @@ typedef struct {
 
 /* The output of one frame. */
 typedef struct {
-    int32_t shift;         /* working frame = input box-downscaled by 2^shift        */
+    int32_t shift;         /* log2(scale) if scale is a power of two, else -1         */
+    int32_t scale;         /* working frame = input box-downscaled by this (1..8)     */
     int32_t w;             /* working width and height                               */
     int32_t h;
     int32_t roi_top;       /* first working row looked at                            */
@@ -239,7 +246,7 @@ typedef struct {
 typedef struct {
     /* tracker: last frame's lines and the working geometry they belong to */
     int32_t prev_valid;
-    int32_t prev_shift;
+    int32_t prev_scale;
     int32_t prev_w;
     int32_t prev_h;
     vt_lane_line prev[VT_LANE_SLOTS];
@@ -285,7 +292,7 @@ vt_status vt_lane_reset(vt_lane_state *st);
 /* Detect the lane lines of one gray frame and update the tracker.
  *   cfg: vt_lane_cfg_check() must pass; st: the state (tracker + scratch);
  *   img: the frame, 16x16 .. VT_MAX_WIDTH x VT_MAX_HEIGHT, and small enough that a
- *        shift s <= 3 brings it within work_width_max x work_height_max (else
+ *        factor k <= VT_LANE_MAX_SCALE brings it within work_width_max x work_height_max (else
  *        VT_E_SIZE); res: the lines; road: the road area in input pixels, or NULL.
  * The road area (thesis fig. 2.8, the lines grouped): between the left boundary (the
  * left ego line, else the left-most line) and the right one (right, else right-most),
@@ -306,7 +313,7 @@ vt_status vt_lane_detect(vt_lane_state *st, const vt_lane_cfg *cfg, const vt_ima
  * frame, ends above the first crossing row); lane_width = the span divided by
  * n_lines_all - 1 (the mean lane width). img_w x img_h: the input frame res was made
  * from (1..VT_MAX_WIDTH x 1..VT_MAX_HEIGHT, else VT_E_SIZE). valid = 0 with fewer than
- * two lines. VT_E_ARG for NULL pointers or a result whose counts or shift are out of
+ * two lines. VT_E_ARG for NULL pointers or a result whose counts or scale are out of
  * range. */
 vt_status vt_lane_road_all(const vt_lane_result *res, int32_t img_w, int32_t img_h,
                            vt_road_area *road);

@@ -11,6 +11,8 @@
 
 typedef enum { VT_LANE_LEFT_MOST, VT_LANE_LEFT, VT_LANE_RIGHT, VT_LANE_RIGHT_MOST,
                VT_LANE_SLOTS, ... } vt_lane_side;
+#define VT_LANE_MAX_SCALE ...
+
 typedef enum { VT_LANE_NONE, VT_LANE_FOUND, VT_LANE_HELD, ... } vt_lane_state_code;
 
 typedef struct {
@@ -83,6 +85,7 @@ typedef struct {
 
 typedef struct {
     int32_t shift;
+    int32_t scale;
     int32_t w;
     int32_t h;
     int32_t roi_top;

@@ -117,7 +117,7 @@ class PitchEstimator:
 
 
 def vanishing_row(left: tuple[float, float] | None, right: tuple[float, float] | None,
-                  work_h: int, shift: int) -> float | None:
+                  work_h: int, scale: int) -> float | None:
     """Row (input px) where the ego lines x = xb + slope (y - (H-1)) (working px) meet,
     or None when one is missing or they do not meet above the bottom row."""
     if left is None or right is None:
@@ -129,7 +129,7 @@ def vanishing_row(left: tuple[float, float] | None, right: tuple[float, float] |
     if dy >= 0:
         return None
     yw = work_h - 1 + dy
-    return (yw + 0.5) * (1 << shift) - 0.5
+    return (yw + 0.5) * scale - 0.5
 
 
 @dataclass

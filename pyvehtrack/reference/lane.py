@@ -69,22 +69,29 @@ DEFAULT = LaneConfig()
 
 
 # ------------------------------------------------------------------ working frame
-def choose_shift(w: int, h: int, cfg: LaneConfig) -> int:
-    s = 0
-    while s < 3 and ((w >> s) > cfg.work_width_max or (h >> s) > cfg.work_height_max):
-        s += 1
-    return s
+MAX_SCALE = 8   # VT_LANE_MAX_SCALE
 
 
-def working_image(gray: np.ndarray, s: int) -> np.ndarray:
-    """Mean of each 2^s x 2^s block, rounded half up; the partial block at the right
-    and bottom edges is dropped (W = w >> s, H = h >> s). Exact."""
+def choose_scale(w: int, h: int, cfg: LaneConfig) -> int:
+    """The working frame's downscale factor: the smallest integer k (<= 8) with
+    w // k <= work_width_max and h // k <= work_height_max (not only powers of two:
+    960, 1280, 1600 and 1920 px wide 16:9 frames all work at 320 x 180)."""
+    k = 1
+    while k < MAX_SCALE and (w // k > cfg.work_width_max or h // k > cfg.work_height_max):
+        k += 1
+    return k
+
+
+def working_image(gray: np.ndarray, k: int) -> np.ndarray:
+    """Mean of each k x k block, rounded half up (floor((sum + k^2 // 2) / k^2)); the
+    partial block at the right and bottom edges is dropped (W = w // k, H = h // k).
+    Exact."""
     h, w = gray.shape
-    H, W, n = h >> s, w >> s, 1 << s
-    if s == 0:
+    H, W = h // k, w // k
+    if k == 1:
         return gray[:H, :W].astype(np.int32)
-    blk = gray[:H * n, :W * n].astype(np.int64).reshape(H, n, W, n).sum(axis=(1, 3))
-    return ((blk + (1 << (2 * s - 1))) >> (2 * s)).astype(np.int32)
+    blk = gray[:H * k, :W * k].astype(np.int64).reshape(H, k, W, k).sum(axis=(1, 3))
+    return ((blk + (k * k) // 2) // (k * k)).astype(np.int32)
 
 
 def row_limits(H: int, cfg: LaneConfig) -> tuple[int, int]:
@@ -452,7 +459,7 @@ def extend(line: LaneLine, marks, W: int, H: int, vp_known: bool, y_v: int,
 # ------------------------------------------------------------------ frame + tracker
 @dataclass
 class LaneFrame:
-    shift: int
+    scale: int                       # the working frame is the input box-downscaled by this
     W: int
     H: int
     roi_top: int
@@ -480,48 +487,48 @@ def polyline_x(verts, yw: float) -> float:
     return verts[-1][1]
 
 
-def line_points(line: LaneLine, s: int) -> np.ndarray:
-    """(x, y) input-pixel points of a line, one per working row from y_top to H-1."""
+def line_points(line: LaneLine, n: int) -> np.ndarray:
+    """(x, y) input-pixel points of a line, one per working row from y_top to H-1
+    (working scale n)."""
     ys = np.arange(line.y_top, line.verts[0][0] + 1)
     xs = np.array([polyline_x(line.verts, y) for y in ys])
-    n = 1 << s
     return np.stack([(xs + 0.5) * n - 0.5, (ys + 0.5) * n - 0.5], axis=1)
 
 
-def road_area(lines, frame_w: int, frame_h: int, s: int, max_height: int) -> dict:
+def road_area(lines, frame_w: int, frame_h: int, k: int, max_height: int) -> dict:
     """The road area in input pixels (vt_road_area): between the inner-most found line on
     each side (ego line, else the outer one), from where both lines exist down to the
     bottom row; lane_width = ego lane width (the span / number of lanes it covers)."""
     lft = lines[LEFT] or lines[LEFT_MOST]
     rgt = lines[RIGHT] or lines[RIGHT_MOST]
     gaps = 1 + (lines[LEFT] is None) + (lines[RIGHT] is None)
-    return road_between(lft, rgt, gaps, frame_w, frame_h, s, max_height)
+    return road_between(lft, rgt, gaps, frame_w, frame_h, k, max_height)
 
 
-def road_area_all(lines_all, frame_w: int, frame_h: int, s: int, max_height: int) -> dict:
+def road_area_all(lines_all, frame_w: int, frame_h: int, k: int, max_height: int) -> dict:
     """The road area over all lanes (vt_lane_road_all): between the left-most and the
     right-most of all lines; lane_width = the span / (number of lines - 1)."""
     if len(lines_all) < 2:
-        return road_between(None, None, 1, frame_w, frame_h, s, max_height)
-    return road_between(lines_all[0], lines_all[-1], len(lines_all) - 1, frame_w, frame_h, s,
+        return road_between(None, None, 1, frame_w, frame_h, k, max_height)
+    return road_between(lines_all[0], lines_all[-1], len(lines_all) - 1, frame_w, frame_h, k,
                         max_height)
 
 
-def road_between(lft, rgt, gaps: int, frame_w: int, frame_h: int, s: int,
+def road_between(lft, rgt, gaps: int, frame_w: int, frame_h: int, n: int,
                  max_height: int) -> dict:
-    """The area between lines lft and rgt (either None: not valid), lane width per row
-    = their distance // gaps."""
+    """The area between lines lft and rgt (either None: not valid), working scale n,
+    lane width per row = their distance // gaps."""
     road = dict(valid=0, y_top=0, y_bottom=0, height=frame_h,
                 x_left=np.zeros(max_height, np.int64), x_right=np.zeros(max_height, np.int64),
                 lane_width=np.zeros(max_height, np.int64))
     if lft is None or rgt is None:
         return road
-    n = 1 << s
     top_w = max(lft.y_top, rgt.y_top)
     y_first = max(0, math.ceil((top_w + 0.5) * n - 0.5))
     good = []
     for yi in range(frame_h - 1, y_first - 1, -1):
-        yw = (yi + 0.5) / n - 0.5
+        # C's Q16 working row, floor((2 y + 1) 2^15 / n) - 2^15 (exact for a power of two)
+        yw = (((2 * yi + 1) * 32768) // n - 32768) / 65536.0
         xl = math.floor((polyline_x(lft.verts, yw) + 0.5) * n - 0.5 + 0.5)
         xr = math.floor((polyline_x(rgt.verts, yw) + 0.5) * n - 0.5 + 0.5)
         cl, cr = min(max(xl, 0), frame_w - 1), min(max(xr, 0), frame_w - 1)
@@ -572,7 +579,7 @@ class LaneDetector:
     def detect(self, gray: np.ndarray) -> LaneFrame:
         cfg = self.cfg
         h, w = gray.shape
-        s = choose_shift(w, h, cfg)
+        s = choose_scale(w, h, cfg)
         work = working_image(gray, s)
         H, W = work.shape
         if self.geom != (s, W, H):
@@ -612,4 +619,4 @@ class LaneDetector:
 
     def road_all(self, frame: LaneFrame, frame_w: int, frame_h: int) -> dict:
         """The road area over all lanes of a frame this detector returned."""
-        return road_area_all(frame.lines_all, frame_w, frame_h, frame.shift, self.max_height)
+        return road_area_all(frame.lines_all, frame_w, frame_h, frame.scale, self.max_height)

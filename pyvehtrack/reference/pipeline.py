@@ -208,11 +208,11 @@ ttc_fuse = rcam.ttc_fuse
 
 def _lane_fits(h: int, w: int, cfg: rlane.LaneConfig) -> bool:
     """The lane stage's size rule (vt_lane_detect): 16x16 at least, and a box
-    downscale by 2^s, s <= 3, brings the frame within the working maximum (>= 8x8)."""
+    downscale by an integer k <= 8 brings the frame within the working maximum (>= 8x8)."""
     if w < 16 or h < 16:
         return False
-    s = rlane.choose_shift(w, h, cfg)
-    W, H = w >> s, h >> s
+    k = rlane.choose_scale(w, h, cfg)
+    W, H = w // k, h // k
     return W <= cfg.work_width_max and H <= cfg.work_height_max and W >= 8 and H >= 8
 
 
@@ -372,8 +372,8 @@ class Pipeline:
         lane_road = _road_from_lane_frame(lanes) if lanes_ok else None
         whole = self.score is not None or self.cnn is not None
         if lanes_ok and lanes.vp_known:
-            # the lane stage's own vanishing row in input rows, (vp + 1/2) 2^s - 1/2 half up
-            vp = (lanes.vp_y + 0.5) * 2 ** lanes.shift - 0.5
+            # the lane stage's own vanishing row in input rows, (vp + 1/2) k - 1/2 half up
+            vp = (lanes.vp_y + 0.5) * lanes.scale - 0.5
             self.horizon_y = int(min(max(np.floor(vp + 0.5), -self.caps.max_height), self.caps.max_height))
         hyp = np.zeros((0, 3), np.int64)
         boxes = np.zeros((0, 4), np.int64)
@@ -648,7 +648,7 @@ class Pipeline:
         left, right = lane_frame.lines[rlane.LEFT], lane_frame.lines[rlane.RIGHT]
         return rcam.vanishing_row(None if left is None else (left.xb, left.slope),
                                   None if right is None else (right.xb, right.slope),
-                                  lane_frame.H, lane_frame.shift)
+                                  lane_frame.H, lane_frame.scale)
 
     def _detect_ego(self, gray: np.ndarray, lane_road, given, h: int, w: int):
         """The ego-lane detector on a detection frame (c/pipeline.c's vt__detect_ego):
@@ -817,7 +817,7 @@ class Pipeline:
             left, right = lane_frame.lines[rlane.LEFT], lane_frame.lines[rlane.RIGHT]
             vp = rcam.vanishing_row(None if left is None else (left.xb, left.slope),
                                     None if right is None else (right.xb, right.slope),
-                                    lane_frame.H, lane_frame.shift)
+                                    lane_frame.H, lane_frame.scale)
         self.pitch.update(vp)
         outs = self.ranges.step([(int(i), [int(v) for v in b]) for i, _s, b, _vx, _vy in rows],
                                 self.pitch.tan_pitch, self.ego_speed,

@@ -138,8 +138,8 @@ def lane_vanishing_row(lr) -> float | None:
         return stage_vp(lr)
     from .. import _native
     raw = getattr(lr, "raw", None)
-    if hasattr(_native, "lane_vanishing_row") and raw is not None and hasattr(raw, "shift"):
-        h_seen = max(int(round(lr.x_left.shape[0] * lr.input_scale)), int(raw.h) << int(raw.shift))
+    if hasattr(_native, "lane_vanishing_row") and raw is not None and hasattr(raw, "scale"):
+        h_seen = max(int(round(lr.x_left.shape[0] * lr.input_scale)), int(raw.h) * int(raw.scale))
         try:
             row, ok = _native.lane_vanishing_row(raw, h_seen)
         except _native.VtError:
