@@ -26,6 +26,7 @@ import numpy as np
 
 from . import _check, _native
 from ._native import ffi, lib
+from .shared import WORK_WIDTH as _WORK_WIDTH
 from .shared import RoadArea, ShadowConfig, VerifyConfig, road_polygon, trapezoid_road
 from .frames import to_gray  # noqa: F401  (re-exported: pyvehtrack.detector.to_gray)
 
@@ -147,11 +148,14 @@ class Detector:
     the horizon follows the lanes' vanishing row when the lane stage finds one);
     score_offset: added to the model's score threshold (float, the SVM's units);
     auto_hood: without a known hood row (camera), the ego-lane detector's road ends above
-    the hood found in the frame (pyvehtrack.config.PipelineConfig.auto_hood), if any."""
+    the hood found in the frame (pyvehtrack.config.PipelineConfig.auto_hood), if any;
+    work_width: frames wider than this are downscaled to it first (Pipeline's work_width,
+    default pipeline.WORK_WIDTH = 1280; None: only past the core's maximum)."""
 
     def __init__(self, engine: str = "c", cfg: DetectConfig | None = None, *, road="auto",
                  fixed_road: FixedRoad | None = None, lane_detector=None, model=None,
-                 sources=None, camera=None, score_offset: float = 0.0, auto_hood: bool = True):
+                 sources=None, camera=None, score_offset: float = 0.0, auto_hood: bool = True,
+                 work_width=_WORK_WIDTH):
         if engine not in ENGINES:
             raise ValueError(f"engine: expected one of {ENGINES}, got {engine!r}")
         # "ego" beside whole-road sources: the ego-lane detector's boxes ahead of the
@@ -195,6 +199,8 @@ class Detector:
             elif road == "lanes":
                 raise RuntimeError("road='lanes': the lane stage (pyvehtrack.lane) is not available")
         self.max_h, self.max_w = int(lib.VT_MAX_HEIGHT), int(lib.VT_MAX_WIDTH)
+        from .pipeline import check_work_width  # noqa: PLC0415
+        self.work_width = check_work_width(work_width)
         self._warned = False
         if engine == "c":
             self._state = ffi.new("vt_detect_state *")
@@ -206,7 +212,7 @@ class Detector:
         self._lanes_inside = self.pipeline_overrides() is not None
         over = dict(self._stage_overrides())
         over["road"] = self.road if self._lanes_inside else "fixed"
-        self.pipeline = Pipeline(engine, detect_every=1, track=False, **over)
+        self.pipeline = Pipeline(engine, detect_every=1, track=False, work_width=self.work_width, **over)
 
     def reset(self) -> None:
         """Forget the lane tracker's lines (call between unrelated frames or videos)."""
@@ -231,6 +237,7 @@ class Detector:
             return None
         over = self._stage_overrides()
         over["road"] = self.road
+        over["work_width"] = self.work_width   # a Pipeline keyword, not a config field
         if self.full is not None:
             # full-road mode: the pipeline's classifier source with this Detector's model
             over.update(model=self.full.model if self.full.model is not None else "default",

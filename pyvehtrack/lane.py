@@ -23,7 +23,7 @@ import numpy as np
 
 from . import _check, _native
 from .frames import to_gray
-from .shared import QDEG, SIDE_NAMES, LaneConfig, lane_config_from
+from .shared import QDEG, SIDE_NAMES, WORK_WIDTH, LaneConfig, lane_config_from
 
 SIDES = SIDE_NAMES
 FURTHER = "further"   # side of a line of lanes_all that is in no slot
@@ -103,9 +103,13 @@ class LaneDetector:
 
     engine: "c" (the fixed-point core, default) or "reference" (the float oracle).
     cfg: a pyvehtrack.shared.LaneConfig (the oracle re-exports it; default: the core's defaults);
-    keyword arguments override single fields, e.g. LaneDetector(work_width_max=320)."""
+    keyword arguments override single fields, e.g. LaneDetector(work_width_max=320).
+    work_width: frames wider than this are downscaled to it first, as the pipeline does
+    (default 1280, pyvehtrack.pipeline.WORK_WIDTH; None: only past the core's maximum);
+    the result is in the input frame's pixels either way."""
 
-    def __init__(self, engine: str = "c", cfg: LaneConfig | None = None, **overrides):
+    def __init__(self, engine: str = "c", cfg: LaneConfig | None = None, *, work_width=WORK_WIDTH,
+                 **overrides):
         if engine not in ("c", "reference"):
             raise ValueError(f"engine must be 'c' or 'reference', got {engine!r}")
         cfg = cfg if cfg is not None else default_config()
@@ -125,7 +129,7 @@ class LaneDetector:
         from .pipeline import Pipeline  # noqa: PLC0415
         lane = config.LaneConfig(**{f.name: getattr(self.cfg, f.name) for f in fields(LaneConfig)})
         self.pipeline = Pipeline(engine, lane=lane, road="lanes", sources=(), lanes_every_frame=True,
-                                 track=False)
+                                 track=False, work_width=work_width)
 
     def reset(self) -> None:
         """Forget the tracked lines (call between unrelated frames or videos)."""
@@ -143,10 +147,11 @@ class LaneDetector:
         if (w1, h1) != (w0, h0):
             gray = cv2.resize(gray, (w1, h1), interpolation=cv2.INTER_AREA)
             scale = w1 / w0
-            note = (f"frame {w0}x{h0} is larger than the core's maximum "
-                    f"{self.max_w}x{self.max_h}: it was downscaled to {w1}x{h1} before "
-                    f"detection; coordinates are given in the input frame")
-            if not self._warned:
+            past = w0 > self.max_w or h0 > self.max_h
+            note = (f"frame {w0}x{h0} is larger than the core's maximum {self.max_w}x{self.max_h}"
+                    if past else f"frame {w0}x{h0} is wider than work_width {self.pipeline.work_width}")
+            note += f": it was downscaled to {w1}x{h1} before detection; coordinates are given in the input frame"
+            if past and not self._warned:
                 warnings.warn(note, stacklevel=2)
                 self._warned = True
         res = self.pipeline.step_gray(gray)

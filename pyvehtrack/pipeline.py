@@ -11,11 +11,17 @@ same order.
             print(t.id, t.state, t.box, t.velocity, t.distance, t.ttc, t.warning)
 
 Coordinates in a result are the INPUT frame's pixels, boxes inclusive. The one
-downscale rule of the library lives here: a frame larger than the core's
-compile-time maximum (pyvehtrack.MAX_WIDTH x MAX_HEIGHT) is resampled (cv2
-INTER_AREA) to the size vt_pipeline_work_size gives (same aspect ratio, the limiting
-side at its maximum), a warning says so once, and results are mapped back
-(x_in = floor((x + 0.5) * sx) for box corners, velocities times sx, sy).
+downscale rule of the library lives here: a frame wider than work_width (default
+WORK_WIDTH, 1280 px) or larger than the core's compile-time maximum
+(pyvehtrack.MAX_WIDTH x MAX_HEIGHT) is resampled (cv2 INTER_AREA) to the size
+vt_pipeline_work_size gives for a maximum of min(work_width, MAX_WIDTH) x MAX_HEIGHT
+(same aspect ratio, the limiting side at its maximum), and results are mapped back
+(x_in = floor((x + 0.5) * sx) for box corners, velocities times sx, sy); a warning
+says so once when the frame is past the core's maximum. The stages' pixel settings
+(the ego-lane detector's shadow and edges, the tracker's ROI) were chosen on frames
+1,242-1,280 px wide, the shipped networks trained on 1280 x 720: a 1920 x 1080
+dashcam frame is processed at 1280 x 720. work_width=None keeps every frame the
+core takes at its own size. Frames are never upscaled.
 
 With a camera (pyvehtrack.camera.Camera, and the frame rate: Pipeline(camera=cam,
 fps=10)) each track gets its filtered distance (m), the TTC from it and its rate (s)
@@ -88,12 +94,24 @@ from . import lane as _lane
 from ._native import ffi, lib
 from .config import PipelineConfig
 from .frames import to_gray
-from .shared import TrackBase
+from .shared import WORK_WIDTH, TrackBase
 
 ENGINES = ("c", "reference")
 STATES = {1: "tentative", 2: "confirmed", 3: "coasting", 4: "handover"}
 HANDOVER_KEYS = ("handover", "handover_frames", "handover_dy_permille", "handover_edge_permille")
 ROAD_SOURCES = {0: "none", 1: "lanes", 2: "fixed", 3: "camera"}
+
+
+def check_work_width(work_width):
+    """work_width as given (None or an int 16..MAX_WIDTH), else a clear error."""
+    if work_width is None:
+        return None
+    if isinstance(work_width, bool) or not isinstance(work_width, (int, np.integer)):
+        raise TypeError(f"work_width: expected an int or None, got {type(work_width).__name__}")
+    if not 16 <= int(work_width) <= int(lib.VT_MAX_WIDTH):
+        raise ValueError(f"work_width: expected 16..{int(lib.VT_MAX_WIDTH)} px (or None: the core's "
+                         f"maximum), got {work_width}")
+    return int(work_width)
 SOURCE_NAMES = {1: "shadow", 2: "classifier", 4: "flow", 8: "model", 16: "external", 32: "ego"}
 
 
@@ -192,7 +210,7 @@ class Pipeline:
                  cfg: PipelineConfig | None = None, *, fps: float | None = None,
                  ego_speed: float | None = None, reference_quantized: bool = True,
                  road_camera=None, fullroad=None, flow=None, vehicle_model=None, ttc_points=None,
-                 cnn_cfg=None, **config):
+                 cnn_cfg=None, work_width=WORK_WIDTH, **config):
         if engine not in ENGINES:
             raise ValueError(f"engine: expected one of {ENGINES}, got {engine!r}")
         if camera is not None:
@@ -224,6 +242,7 @@ class Pipeline:
         self._setup_vehicle_model(vehicle_model)
         self._setup_ttc_points(ttc_points, fps)
         self.max_w, self.max_h = int(lib.VT_MAX_WIDTH), int(lib.VT_MAX_HEIGHT)
+        self.work_width = check_work_width(work_width)
         self._warned = False
         self.reset()
 
@@ -653,8 +672,10 @@ class Pipeline:
 
     # ------------------------------------------------------------------ the one downscale rule
     def work_size(self, w: int, h: int) -> tuple[int, int]:
-        """The (w, h) a w x h frame is processed at (vt_pipeline_work_size)."""
-        return _native.pipeline_work_size(int(w), int(h), self.max_w, self.max_h)
+        """The (w, h) a w x h frame is processed at (vt_pipeline_work_size, for a maximum
+        width of min(work_width, MAX_WIDTH))."""
+        mw = self.max_w if self.work_width is None else min(self.max_w, self.work_width)
+        return _native.pipeline_work_size(int(w), int(h), mw, self.max_h)
 
     def prepare(self, frame) -> tuple[np.ndarray, tuple[float, float]]:
         """The gray frame the core processes and (sx, sy), input pixels per processed pixel."""
@@ -662,7 +683,7 @@ class Pipeline:
         h, w = gray.shape
         pw, ph = self.work_size(w, h)
         if (pw, ph) != (w, h):
-            if not self._warned:
+            if not self._warned and (w > self.max_w or h > self.max_h):
                 warnings.warn(f"frame {w}x{h} is larger than the core's maximum "
                               f"{self.max_w}x{self.max_h}: downscaled to {pw}x{ph}", stacklevel=3)
                 self._warned = True

@@ -15,6 +15,11 @@ from fractions import Fraction
 
 import numpy as np
 
+# The frame width the stages' pixel settings were chosen at and the shipped networks trained
+# at: the friendly layer (pyvehtrack.pipeline.Pipeline's work_width) downscales wider frames
+# to it (README, "Any camera size").
+WORK_WIDTH = 1280
+
 FIXED = 0
 ADAPTIVE = 1
 DARK_ABOVE = 0

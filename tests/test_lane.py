@@ -346,8 +346,10 @@ def test_real_tusimple_frames_at_other_resolutions(item, size, k):
     C must agree with the oracle."""
     small = cv2.imread(str(DATA / item["file"]), cv2.IMREAD_GRAYSCALE)
     img = cv2.resize(small, size, interpolation=cv2.INTER_LINEAR)
-    a = LaneDetector("c").detect(img)
-    b = LaneDetector("reference").detect(img)
+    # work_width=None: the lane stage at the frame's own size (the pipeline's default would
+    # first downscale frames wider than 1280 px to 1280)
+    a = LaneDetector("c", work_width=None).detect(img)
+    b = LaneDetector("reference", work_width=None).detect(img)
     assert (a.work_scale, a.raw.w, a.raw.h) == (k, 320, 180) and b.work_scale == k
     assert a.work_shift == -1
     compare_frames(a, b, f"{item['file']} at {size}")
@@ -370,8 +372,8 @@ def test_scale_seven_c_matches_oracle():
     integer mean, through the whole lane stage."""
     small = cv2.imread(str(DATA / _labels()[0]["file"]), cv2.IMREAD_GRAYSCALE)
     img = cv2.resize(small, (1920, 1080), interpolation=cv2.INTER_LINEAR)
-    a = LaneDetector("c", work_width_max=280).detect(img)
-    b = LaneDetector("reference", work_width_max=280).detect(img)
+    a = LaneDetector("c", work_width=None, work_width_max=280).detect(img)
+    b = LaneDetector("reference", work_width=None, work_width_max=280).detect(img)
     assert (a.work_scale, a.raw.w, a.raw.h) == (7, 274, 154)
     compare_frames(a, b, "scale 7")
 

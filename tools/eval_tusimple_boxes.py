@@ -4,7 +4,7 @@
     python tools/eval_tusimple_boxes.py --split test|train [--model M.npz] [--sources shadow windows]
                                         [--offset F] [--limit N] [--out pred.json] [--draw DIR]
                                         [--mp4 | --jpeg Q | --h264 [CRF]] [--light dusk|overcast]
-                                        [--scale F] [--gray]
+                                        [--scale F] [--gray] [--work-width PX]
 
 The split is pyvehtrack.datasets.tusimple_split (TEST: (NNNN // 10) % 5 == 0, 102 frames).
 Tune on --split train only (choices on --split val, the TRAIN frames the
@@ -86,6 +86,9 @@ def main(argv=None) -> int:
                     help="detect on the frames resized by F (another camera resolution); boxes are mapped "
                          "back by 1 / F for scoring")
     ap.add_argument("--gray", action="store_true", help="detect on gray frames (default: the colour files)")
+    ap.add_argument("--work-width", type=int, default=1280, metavar="PX",
+                    help="Detector(work_width=...): frames wider are downscaled to it first (default 1280, as "
+                         "`pyvehtrack detect`; 0: only past the core's maximum)")
     ap.add_argument("--out", default=None, help="write the predictions (detect --json format)")
     ap.add_argument("--draw", default=None, help="folder for annotated frames (green: found, red: truth)")
     args = ap.parse_args(argv)
@@ -139,7 +142,7 @@ def main(argv=None) -> int:
         from pyvehtrack.shared import ShadowConfig
         cfg = DetectConfig(shadow=ShadowConfig(reduce_verified=args.reduce_verified))
     det = Detector(cfg=cfg, model=args.model, sources=tuple(args.sources) if args.sources else None,
-                   score_offset=args.offset)
+                   score_offset=args.offset, work_width=args.work_width or None)
     if args.reduce_verified is not None and det.full is not None:
         from dataclasses import replace
 

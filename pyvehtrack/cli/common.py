@@ -74,6 +74,11 @@ def add_model_arg(p) -> None:
                         "windows = classifier sliding windows; ego beside them = the ego-lane detector's "
                         "boxes first, e.g. --sources ego shadow windows); without --model the built-in "
                         "classifier is used")
+    p.add_argument("--work-width", type=int, default=1280, metavar="PX",
+                   help="frames wider than this are processed downscaled to it, results in the input's "
+                        "pixels (default 1280: the width the stages were tuned and the networks trained at; "
+                        "a 1920x1080 frame is processed at 1280x720); 0: only frames past the core's "
+                        "maximum are downscaled")
     p.add_argument("--no-hood-finder", action="store_true",
                    help="do not look for the ego car's hood in the frame (by default, without a camera file's "
                         "hood_row, the ego-lane detector's road ends above a hood found as a level edge across "
@@ -125,6 +130,17 @@ def resolve_model(model, sources=None, engine="c"):
     return model
 
 
+def work_width_arg(args):
+    """--work-width as the Pipeline's work_width (0 -> None); CliError outside 16..MAX_WIDTH."""
+    from .._native import lib
+    ww = getattr(args, "work_width", 1280)
+    if ww == 0:
+        return None
+    if not 16 <= ww <= int(lib.VT_MAX_WIDTH):
+        raise CliError(f"--work-width {ww}: expected 16..{int(lib.VT_MAX_WIDTH)} px, or 0")
+    return ww
+
+
 def make_detector(args, cam=None):
     """The Detector of `detect` and `track`, with the user's mistakes as CliError. cam: the
     --camera file's Camera; its geometry (horizon, focal length, height) places the
@@ -136,7 +152,8 @@ def make_detector(args, cam=None):
         road_cam = cam.road_camera() if cam is not None else None
         return Detector(engine=args.engine, road=args.road, model=model,
                         sources=tuple(srcs) if srcs else None, camera=road_cam,
-                        auto_hood=not getattr(args, "no_hood_finder", False))
+                        auto_hood=not getattr(args, "no_hood_finder", False),
+                        work_width=work_width_arg(args))
     except (RuntimeError, ValueError, TypeError) as e:
         raise CliError(f"--model {model}: {e}" if model else str(e)) from None
 

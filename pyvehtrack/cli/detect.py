@@ -143,7 +143,7 @@ def run(args) -> int:
                             if ranger is None or ranger.size != (w, h):
                                 # a picture of another size: the camera file says whether it fits
                                 ranger = RangeEstimator(cam, (w, h), 10.0, engine=args.engine)
-                                lanes = LaneDetector(engine=args.engine)
+                                lanes = LaneDetector(engine=args.engine, work_width=det.work_width)
                             ranger.update_pitch(lane_vanishing_row(lanes.detect(frame)))
                             dists = [ranger.box_distance(cam.undistort_box(b)) for b in res.boxes]
                             entry["distance_m"] = [round(d.distance, 3) if d.valid else None for d in dists]

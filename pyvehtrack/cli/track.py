@@ -299,9 +299,10 @@ def _range_stage(cam, frame, args, sources):
     from .common import video_fps
     h, w = frame.shape[:2]
     fps = args.fps if args.fps is not None else video_fps(sources)
+    from .common import work_width_arg
     return (RangeEstimator(cam, (w, h), fps, engine=args.engine, rear_offset=args.rear_offset,
                            bottom_height=args.bottom_height, path_half_width=args.path_half_width),
-            LaneDetector(engine=args.engine))
+            LaneDetector(engine=args.engine, work_width=work_width_arg(args)))
 
 
 def _location(cam, t, r):

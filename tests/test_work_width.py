@@ -1,0 +1,130 @@
+"""Any camera size (issue 8 item 5): frames wider than the pipeline's work_width (default
+1280, the width the stages' pixel settings were chosen and the networks trained at) are
+processed downscaled to it, and the results come back in the input frame's pixels.
+
+The rule is vt_pipeline_work_size for a maximum width of min(work_width, MAX_WIDTH), so
+these tests check the plumbing, exactly: the same boxes as the frame downscaled by hand
+(cv2 INTER_AREA, what Pipeline.prepare does) with the boxes mapped back by the pipeline's
+own rule; frames no wider than work_width untouched; clear errors for bad values."""
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from pyvehtrack import Pipeline
+from pyvehtrack.cli import main as cli_main
+from pyvehtrack.detector import Detector
+from pyvehtrack.lane import LaneDetector
+from pyvehtrack.shared import WORK_WIDTH
+
+DATA = Path(__file__).parent / "data"
+MODEL = Path(__file__).resolve().parent.parent / "pyvehtrack" / "models" / "cnn_gray_l0_big.npz"
+
+
+def _frame():
+    # a real road frame, 640x360, upscaled to the most common dashcam size
+    small = cv2.imread(str(DATA / "udacity_test1_640x360.jpg"), cv2.IMREAD_GRAYSCALE)
+    return small, cv2.resize(small, (1920, 1080), interpolation=cv2.INTER_LINEAR)
+
+
+def test_default_is_1280_and_sizes_follow_the_core_rule():
+    assert WORK_WIDTH == 1280
+    p = Pipeline()
+    assert p.work_width == 1280
+    assert p.work_size(1920, 1080) == (1280, 720)
+    assert p.work_size(1600, 900) == (1280, 720)
+    assert p.work_size(1280, 720) == (1280, 720)
+    assert p.work_size(1242, 375) == (1242, 375)        # KITTI: no wider than 1280, untouched
+    assert p.work_size(640, 360) == (640, 360)          # never upscaled
+    assert p.work_size(720, 1280) == (607, 1080)        # portrait: the core's height limits it
+    assert Pipeline(work_width=None).work_size(1920, 1080) == (1920, 1080)
+    assert Pipeline(work_width=640).work_size(1280, 720) == (640, 360)
+
+
+@pytest.mark.parametrize("bad, err", [(15, ValueError), (0, ValueError), (1921, ValueError),
+                                      (-1, ValueError), (1280.0, TypeError), (True, TypeError),
+                                      ("1280", TypeError)])
+def test_bad_work_width_is_a_clear_error(bad, err):
+    for make in (lambda: Pipeline(work_width=bad), lambda: Detector(work_width=bad),
+                 lambda: LaneDetector(work_width=bad)):
+        with pytest.raises(err, match="work_width"):
+            make()
+
+
+def test_wide_frame_gives_the_boxes_of_the_frame_downscaled_by_hand():
+    """1920x1080 through Detector() = the 1280x720 INTER_AREA copy through Detector, its
+    boxes' corners mapped back by floor((x + 0.5) * 1.5) (the pipeline's rule); no warning, as the
+    frame fits the core."""
+    _small, big = _frame()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        r = Detector(model=str(MODEL)).detect(big)
+    ref = Detector(model=str(MODEL), work_width=None).detect(
+        cv2.resize(big, (1280, 720), interpolation=cv2.INTER_AREA))
+    assert len(r.boxes) >= 2 and len(r.boxes) == len(ref.boxes)     # test1's two cars at least
+    back = np.floor((np.asarray(ref.boxes, float) + 0.5) * 1.5).astype(np.int64)   # every corner
+    assert np.array_equal(np.asarray(r.boxes), back)
+    assert np.array_equal(r.scores, ref.scores)
+
+
+def test_frames_no_wider_than_work_width_are_untouched():
+    small, _big = _frame()
+    a = Detector(model=str(MODEL)).detect(small)
+    b = Detector(model=str(MODEL), work_width=None).detect(small)
+    assert np.array_equal(a.boxes, b.boxes) and np.array_equal(a.scores, b.scores)
+    la, lb = LaneDetector().detect(small), LaneDetector(work_width=None).detect(small)
+    assert la.input_scale == 1.0 and [ln.points.tolist() for ln in la.lanes] == \
+        [ln.points.tolist() for ln in lb.lanes]
+
+
+def test_lanes_of_a_wide_frame_come_back_in_its_pixels():
+    _small, big = _frame()
+    res = LaneDetector().detect(big)
+    assert res.input_scale == pytest.approx(1280 / 1920) and res.note.startswith("frame 1920x1080 is wider")
+    assert res.x_left.shape == (1080,)
+    for ln in res.lanes:
+        assert ln.points[:, 1].max() <= 1079 and ln.points[:, 0].max() <= 1919
+
+
+def test_past_the_core_maximum_still_warns():
+    big = np.zeros((1080, 2400), np.uint8)
+    with pytest.warns(UserWarning, match="larger than the core's maximum"):
+        Pipeline().prepare(big)
+
+
+@pytest.mark.parametrize("val, msg", [("5", "--work-width 5: expected 16..1920 px, or 0"),
+                                      ("4000", "--work-width 4000")])
+def test_cli_bad_work_width(val, msg, capsys, tmp_path):
+    img = tmp_path / "f.png"
+    cv2.imwrite(str(img), _frame()[0])
+    assert cli_main(["detect", str(img), "--json", str(tmp_path / "o.json"), "--work-width", val]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and msg in err[0], err
+
+
+def test_cli_work_width_zero_keeps_the_frame(tmp_path):
+    """--work-width 0: the frame as it comes (the lanes' working frame is then 320x180 with
+    k = 6, c/lane.c), not the same boxes as the default's 1280-wide processing."""
+    img = tmp_path / "f.png"
+    cv2.imwrite(str(img), _frame()[1])
+    import json
+    for ww in ("1280", "0"):
+        assert cli_main(["detect", str(img), "--json", str(tmp_path / f"{ww}.json"), "--work-width", ww,
+                         "--no-progress"]) == 0
+    a = json.loads((tmp_path / "1280.json").read_text())[0]
+    b = json.loads((tmp_path / "0.json").read_text())[0]
+    assert a["boxes"] and b["boxes"] and a["boxes"] != b["boxes"]
+
+
+@pytest.mark.parametrize("ww", [None, 640, 1280])
+def test_tracker_takes_its_detectors_work_width(ww):
+    from pyvehtrack.tracker import Tracker
+    t = Tracker(detector=Detector(model=str(MODEL), work_width=ww))
+    assert t.pipeline.work_width == ww
+    big = _frame()[1]
+    tracks = t.step(big)            # a detection frame: boxes in the 1920x1080 frame's pixels
+    assert tracks and all(0 <= tr.box[0] <= tr.box[2] <= 1919 and 0 <= tr.box[1] <= tr.box[3] <= 1079 for tr in tracks)
