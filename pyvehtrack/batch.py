@@ -51,6 +51,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ._check import choice, warning_options
+from .shared import WORK_WIDTH
 from .report.records import IMAGE_EXTS, VIDEO_EXTS, companion_files
 
 MARK_DONE, MARK_FAILED = "DONE", "FAILED"
@@ -193,6 +194,8 @@ def process_recording(rec: str, out_dir: str, opts: dict, fp: str) -> dict:
             argv.append("--skip-bad-frames")
         if opts.get("box_top"):
             argv += ["--box-top", opts["box_top"]]
+        if "work_width" in opts:
+            argv += ["--work-width", str(opts["work_width"] or 0)]
         native_json = _track_parser_has("--json")
         if native_json:
             argv += ["--json", str(out / "tracks.json")]
@@ -223,6 +226,7 @@ def process_recording(rec: str, out_dir: str, opts: dict, fp: str) -> dict:
             from .report import make_report
             make_report(src, out / "report", truth=comp["truth"], camera=comp["camera"], engine=opts["engine"],
                         detect_every=opts["detect_every"], progress=False, box_top=opts.get("box_top", "cnn"),
+                        work_width=opts.get("work_width", WORK_WIDTH),
                         **({k: opts.get(k, d) for k, d in RANGE_DEFAULTS.items()} if comp["camera"] else {}))
         row["status"] = "ok"
     except TrackFailed as e:
@@ -295,7 +299,7 @@ def run_batch(recordings, out, *, scheduler: str | None = None, workers: int = 2
               engine: str = "c", detect_every: int = 10, retry_failed: bool = False,
               skip_bad_frames: bool = False, progress: bool = True, rear_offset: float = 0.0,
               bottom_height: float = 0.0, path_half_width: float = 1.5, ego_speed: float | None = None,
-              warn_ttc: str = "distance", box_top: str = "cnn") -> BatchSummary:
+              warn_ttc: str = "distance", box_top: str = "cnn", work_width=WORK_WIDTH) -> BatchSummary:
     """Run every recording (see the module doc); returns the table rows and figures.
     rear_offset (m, 0..5), bottom_height (m, >= 0; below each camera file's height_m, which
     `track` checks per recording), path_half_width (m, 0..10), ego_speed (m/s >= 0, None:
@@ -303,6 +307,8 @@ def run_batch(recordings, out, *, scheduler: str | None = None, workers: int = 2
     the report's), for the recordings that have a camera file; the others run without them.
     One ego speed serves every recording (a fleet driven at one speed, or a rough bound).
     box_top ("cnn", the default, or "tracker"): `track --box-top` for every recording.
+    work_width (default 1280; None: only past the core's maximum): `track --work-width` for every
+    recording.
     ValueError / TypeError naming the argument for bad arguments; a bad recording is a
     failed row, never an exception."""
     from tqdm import tqdm
@@ -320,6 +326,8 @@ def run_batch(recordings, out, *, scheduler: str | None = None, workers: int = 2
         raise ValueError(f"detect_every must be an integer >= 1, got {detect_every!r}")
     range_opts = _range_opts(rear_offset, bottom_height, path_half_width, ego_speed, warn_ttc)
     choice(box_top, "box_top", ("cnn", "tracker"))
+    from .pipeline import check_work_width  # noqa: PLC0415
+    work_width = check_work_width(work_width)
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise ValueError(f"out {out}: exists and is not a folder")
@@ -329,6 +337,8 @@ def run_batch(recordings, out, *, scheduler: str | None = None, workers: int = 2
     opts.update(range_opts)
     if box_top != "cnn":   # only when not the default: earlier runs' fingerprints stay valid
         opts["box_top"] = box_top
+    if work_width != WORK_WIDTH:   # likewise
+        opts["work_width"] = work_width
     t_start = time.perf_counter()
     rows: dict = {}
     todo = []

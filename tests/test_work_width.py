@@ -128,3 +128,21 @@ def test_tracker_takes_its_detectors_work_width(ww):
     big = _frame()[1]
     tracks = t.step(big)            # a detection frame: boxes in the 1920x1080 frame's pixels
     assert tracks and all(0 <= tr.box[0] <= tr.box[2] <= 1919 and 0 <= tr.box[1] <= tr.box[3] <= 1079 for tr in tracks)
+
+
+def test_report_and_batch_take_work_width(tmp_path):
+    from pyvehtrack.batch import run_batch
+    from pyvehtrack.report import make_report
+    img = tmp_path / "f.png"
+    cv2.imwrite(str(img), _frame()[0])
+    with pytest.raises(ValueError, match="work_width"):
+        make_report(str(img), tmp_path / "r", work_width=5, progress=False)
+    with pytest.raises(TypeError, match="work_width"):
+        run_batch([str(img)], tmp_path / "b", work_width="1280", progress=False)
+    # the page's stages take the given width: a 1920x1080 frame is processed at 640x360
+    from pyvehtrack.report.records import PythonPipeline
+    big = _frame()[1]
+    p = PythonPipeline(work_width=640)
+    assert p.lanes.pipeline.work_width == 640 and p.detector.work_width == 640
+    assert p.tracker.pipeline.work_width == 640
+    assert p.lanes.detect(big).input_scale == pytest.approx(640 / 1920)

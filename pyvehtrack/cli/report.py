@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .common import CliError, add_command, add_range_args, out_folder, resolve_model
+from .common import CliError, add_command, add_range_args, out_folder, resolve_model, work_width_arg
 
 EXAMPLES = """examples:
   pyvehtrack report tests/data/kitti_clip --out r/
@@ -53,6 +53,7 @@ def register(sub) -> None:
                         "roi+edges for a lossy video or JPEG frames, roi otherwise)")
     p.add_argument("--box-top", choices=("cnn", "tracker"), default="cnn",
                    help="the top of a track's box, as `track --box-top` (default cnn)")
+    p.add_argument("--work-width", type=int, default=1280, metavar="PX", help="frames wider than this are processed downscaled to it, as `track --work-width` (default 1280; 0: only frames past the core's maximum)")
     add_range_args(p)           # as `track`'s (they need a camera)
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
@@ -80,7 +81,8 @@ def run(args) -> int:
                            detect_every=args.detect_every, progress=not args.no_progress, fps=args.fps,
                            model=model, measurement=args.measurement, rear_offset=args.rear_offset,
                            bottom_height=args.bottom_height, path_half_width=args.path_half_width,
-                           ego_speed=args.ego_speed, warn_ttc=args.warn_ttc, box_top=args.box_top)
+                           ego_speed=args.ego_speed, warn_ttc=args.warn_ttc, box_top=args.box_top,
+                           work_width=work_width_arg(args))
     except (ValueError, TypeError, VtError) as e:
         raise CliError(str(e)) from None
     print(f"report: {page}")

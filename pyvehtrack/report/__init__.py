@@ -34,7 +34,7 @@ def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "
                 progress: bool = True, records_json: bool = True, fps: float | None = None,
                 model="default", measurement: str = "auto", rear_offset: float = 0.0,
                 bottom_height: float = 0.0, path_half_width: float = 1.5, ego_speed: float | None = None,
-                warn_ttc: str = "distance", box_top: str = "cnn") -> Path:
+                warn_ttc: str = "distance", box_top: str = "cnn", work_width=1280) -> Path:
     """Run the pipeline over one recording (a video, a folder of frames or an image) and
     write out_dir/index.html (and out_dir/tracks.json, the records, when records_json).
     truth: truth file paths (see records.load_truth), or "auto": the files the naming rule
@@ -52,6 +52,8 @@ def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "
     ego_speed (m/s, None: unknown) and warn_ttc ("distance" or "fused"): as `pyvehtrack track
     --ego-speed / --warn-ttc`, the warning's lead class and the TTC it decides on; need a camera.
     box_top: "cnn" (default) or "tracker", as `pyvehtrack track --box-top` (Tracker(cnn_track_top=...)).
+    work_width: frames wider than this are processed downscaled to it (Pipeline's work_width; None:
+    only past the core's maximum), as `pyvehtrack track --work-width`.
     Returns the page path. ValueError / TypeError naming the argument for bad input."""
     from tqdm import tqdm
 
@@ -91,7 +93,7 @@ def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "
         measurement, why = auto_measurement(inputs)
     pipe = PythonPipeline(engine=engine, detect_every=detect_every, camera=cam, fps=fps, model=model,
                           measurement=measurement, range_params=rng, ego_speed=ego_speed, warn_ttc=warn_ttc,
-                          box_top=box_top)
+                          box_top=box_top, work_width=work_width)
     want = set(pick_thumbs(total)) if total is not None else None
     stride, kept = 1, {}
     records, infos = [], []

@@ -178,7 +178,7 @@ class PythonPipeline:
     def __init__(self, engine: str = "c", detect_every: int = 10, camera: dict | None = None,
                  fps: float = 10.0, geometry=None, model=None, measurement: str = "roi",
                  range_params: dict | None = None, ego_speed: float | None = None,
-                 warn_ttc: str = "distance", box_top: str = "cnn"):
+                 warn_ttc: str = "distance", box_top: str = "cnn", work_width=1280):
         from ..detector import Detector
         from ..lane import LaneDetector
         from ..tracker import Tracker
@@ -191,7 +191,7 @@ class PythonPipeline:
         if isinstance(fps, bool) or not isinstance(fps, (int, float)) or not math.isfinite(fps) or fps <= 0:
             raise ValueError(f"fps must be a number > 0, got {fps!r}")
         self.engine = engine
-        self.lanes = LaneDetector(engine=engine)
+        self.lanes = LaneDetector(engine=engine, work_width=work_width)
         stage = camera_stage()
         file_cam = None
         if camera is not None and stage is not None and (geometry is None or model is not None):
@@ -204,7 +204,7 @@ class PythonPipeline:
         # lane plots come from self.lanes).
         self.detector = Detector(engine=engine, road="auto", model=None if model is None else str(model),
                                  camera=file_cam.road_camera() if file_cam is not None and model is not None
-                                 else None)
+                                 else None, work_width=work_width)
         # with a camera, as `track --camera`: the pipeline's block-scale TTC too, whose fusion with
         # the distance/rate TTC is what `track` draws (ttc_fused_s)
         self.tracker = Tracker(engine=engine, detect_every=int(detect_every), detector=self.detector,
