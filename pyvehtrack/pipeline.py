@@ -103,14 +103,14 @@ ROAD_SOURCES = {0: "none", 1: "lanes", 2: "fixed", 3: "camera"}
 
 
 def check_work_width(work_width):
-    """work_width as given (None or an int 16..MAX_WIDTH), else a clear error."""
+    """work_width as given (None or an int 16..65535; one past the core's MAX_WIDTH means
+    that maximum, so the default suits a core built for smaller frames), else a clear error."""
     if work_width is None:
         return None
     if isinstance(work_width, bool) or not isinstance(work_width, (int, np.integer)):
         raise TypeError(f"work_width: expected an int or None, got {type(work_width).__name__}")
-    if not 16 <= int(work_width) <= int(lib.VT_MAX_WIDTH):
-        raise ValueError(f"work_width: expected 16..{int(lib.VT_MAX_WIDTH)} px (or None: the core's "
-                         f"maximum), got {work_width}")
+    if not 16 <= int(work_width) <= 65535:
+        raise ValueError(f"work_width: expected 16..65535 px (or None: the core's maximum), got {work_width}")
     return int(work_width)
 SOURCE_NAMES = {1: "shadow", 2: "classifier", 4: "flow", 8: "model", 16: "external", 32: "ego"}
 

@@ -399,12 +399,13 @@ def test_vanishing_row_from_lanes_and_size_change():
     # a scale that is not a power of two (a 1920 x 1080 frame at 320 x 180 is 6): the same
     # mapping, (y + 1/2) k - 1/2, exact in Q16 as yw is a whole row here
     R.slope = 65536
-    res.shift, res.scale = -1, 3
-    row, ok = _native.lane_vanishing_row(res, 722)       # 722 // 3 = 240 working rows
+    res.shift, res.scale, res.h = -1, 3, 160
+    yw = 159 - 60
+    row, ok = _native.lane_vanishing_row(res, 482)       # 482 // 3 = 160 working rows
     assert ok == 1 and row == round(((yw + 0.5) * 3 - 0.5) * 65536)
-    assert rc.vanishing_row((100, -1), (220, 1), 240, 3) == (yw + 0.5) * 3 - 0.5
+    assert rc.vanishing_row((100, -1), (220, 1), 160, 3) == (yw + 0.5) * 3 - 0.5
     with pytest.raises(VtError, match="size"):
-        _native.lane_vanishing_row(res, 723)
+        _native.lane_vanishing_row(res, 483)
     for bad in (0, 9, -1):
         res.scale = bad
         with pytest.raises(VtError):

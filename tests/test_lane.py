@@ -335,6 +335,8 @@ def test_real_tusimple_frames(item):
     assert fp == 0 and fn == 0 and acc >= 0.90, (acc, fp, fn)
 
 
+@pytest.mark.skipif(int(N.lib.VT_MAX_WIDTH) < 1920 or int(N.lib.VT_MAX_HEIGHT) < 1080,
+                    reason="needs VT_MAX_WIDTH x VT_MAX_HEIGHT >= 1920 x 1080")
 @pytest.mark.parametrize("size, k", [((960, 540), 3), ((1600, 900), 5), ((1920, 1080), 6)])
 @pytest.mark.parametrize("item", _labels(), ids=lambda it: it["file"][14:33])
 def test_real_tusimple_frames_at_other_resolutions(item, size, k):
@@ -366,6 +368,8 @@ def test_real_tusimple_frames_at_other_resolutions(item, size, k):
     assert fp == 0 and fn == 0 and acc >= 0.90, (acc, fp, fn)
 
 
+@pytest.mark.skipif(int(N.lib.VT_MAX_WIDTH) < 1920 or int(N.lib.VT_MAX_HEIGHT) < 1080,
+                    reason="needs VT_MAX_WIDTH x VT_MAX_HEIGHT >= 1920 x 1080")
 def test_scale_seven_c_matches_oracle():
     """k = 7 (a 1920 px frame with work_width_max 280: 1920 / 6 = 320 is too wide): the
     reciprocal division's largest block, 49 pixels, in C against the oracle's exact

@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from pyvehtrack import Pipeline
+from pyvehtrack._native import lib
 from pyvehtrack.cli import main as cli_main
 from pyvehtrack.detector import Detector
 from pyvehtrack.lane import LaneDetector
@@ -23,6 +24,9 @@ from pyvehtrack.shared import WORK_WIDTH
 
 DATA = Path(__file__).parent / "data"
 MODEL = Path(__file__).resolve().parent.parent / "pyvehtrack" / "models" / "cnn_gray_l0_big.npz"
+# the 1920 x 1080 frames need the full-size core (the smallest build takes 700 x 500)
+FULL_SIZE = pytest.mark.skipif(int(lib.VT_MAX_WIDTH) < 1920 or int(lib.VT_MAX_HEIGHT) < 1080,
+                               reason="needs VT_MAX_WIDTH x VT_MAX_HEIGHT >= 1920 x 1080")
 
 
 def _frame():
@@ -31,6 +35,7 @@ def _frame():
     return small, cv2.resize(small, (1920, 1080), interpolation=cv2.INTER_LINEAR)
 
 
+@FULL_SIZE
 def test_default_is_1280_and_sizes_follow_the_core_rule():
     assert WORK_WIDTH == 1280
     p = Pipeline()
@@ -45,7 +50,16 @@ def test_default_is_1280_and_sizes_follow_the_core_rule():
     assert Pipeline(work_width=640).work_size(1280, 720) == (640, 360)
 
 
-@pytest.mark.parametrize("bad, err", [(15, ValueError), (0, ValueError), (1921, ValueError),
+def test_a_width_past_the_core_maximum_means_the_maximum():
+    mw, mh = int(lib.VT_MAX_WIDTH), int(lib.VT_MAX_HEIGHT)
+    assert Pipeline(work_width=65535).work_size(mw, mh) == (mw, mh)
+    assert Pipeline(work_width=65535).work_size(2 * mw, 2 * mh) == Pipeline(work_width=None).work_size(2 * mw, 2 * mh)
+    # the default on any core: no wider than min(1280, MAX_WIDTH), and a frame that fits both untouched
+    assert Pipeline().work_size(4 * mw, 4 * mh)[0] == min(1280, mw)
+    assert Pipeline().work_size(min(1280, mw), min(720, mh)) == (min(1280, mw), min(720, mh))
+
+
+@pytest.mark.parametrize("bad, err", [(15, ValueError), (0, ValueError), (65536, ValueError),
                                       (-1, ValueError), (1280.0, TypeError), (True, TypeError),
                                       ("1280", TypeError)])
 def test_bad_work_width_is_a_clear_error(bad, err):
@@ -55,6 +69,7 @@ def test_bad_work_width_is_a_clear_error(bad, err):
             make()
 
 
+@FULL_SIZE
 def test_wide_frame_gives_the_boxes_of_the_frame_downscaled_by_hand():
     """1920x1080 through Detector() = the 1280x720 INTER_AREA copy through Detector, its
     boxes' corners mapped back by floor((x + 0.5) * 1.5) (the pipeline's rule); no warning, as the
@@ -81,6 +96,7 @@ def test_frames_no_wider_than_work_width_are_untouched():
         [ln.points.tolist() for ln in lb.lanes]
 
 
+@FULL_SIZE
 def test_lanes_of_a_wide_frame_come_back_in_its_pixels():
     _small, big = _frame()
     res = LaneDetector().detect(big)
@@ -91,13 +107,13 @@ def test_lanes_of_a_wide_frame_come_back_in_its_pixels():
 
 
 def test_past_the_core_maximum_still_warns():
-    big = np.zeros((1080, 2400), np.uint8)
+    big = np.zeros((int(lib.VT_MAX_HEIGHT), int(lib.VT_MAX_WIDTH) + 100), np.uint8)
     with pytest.warns(UserWarning, match="larger than the core's maximum"):
         Pipeline().prepare(big)
 
 
-@pytest.mark.parametrize("val, msg", [("5", "--work-width 5: expected 16..1920 px, or 0"),
-                                      ("4000", "--work-width 4000")])
+@pytest.mark.parametrize("val, msg", [("5", "--work-width 5: expected 16..65535 px, or 0"),
+                                      ("70000", "--work-width 70000")])
 def test_cli_bad_work_width(val, msg, capsys, tmp_path):
     img = tmp_path / "f.png"
     cv2.imwrite(str(img), _frame()[0])
@@ -106,6 +122,7 @@ def test_cli_bad_work_width(val, msg, capsys, tmp_path):
     assert len(err) == 1 and msg in err[0], err
 
 
+@FULL_SIZE
 def test_cli_work_width_zero_keeps_the_frame(tmp_path):
     """--work-width 0: the frame as it comes (the lanes' working frame is then 320x180 with
     k = 6, c/lane.c), not the same boxes as the default's 1280-wide processing."""
@@ -120,6 +137,7 @@ def test_cli_work_width_zero_keeps_the_frame(tmp_path):
     assert a["boxes"] and b["boxes"] and a["boxes"] != b["boxes"]
 
 
+@FULL_SIZE
 @pytest.mark.parametrize("ww", [None, 640, 1280])
 def test_tracker_takes_its_detectors_work_width(ww):
     from pyvehtrack.tracker import Tracker
@@ -130,6 +148,7 @@ def test_tracker_takes_its_detectors_work_width(ww):
     assert tracks and all(0 <= tr.box[0] <= tr.box[2] <= 1919 and 0 <= tr.box[1] <= tr.box[3] <= 1079 for tr in tracks)
 
 
+@FULL_SIZE
 def test_report_and_batch_take_work_width(tmp_path):
     from pyvehtrack.batch import run_batch
     from pyvehtrack.report import make_report

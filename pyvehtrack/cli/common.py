@@ -131,13 +131,12 @@ def resolve_model(model, sources=None, engine="c"):
 
 
 def work_width_arg(args):
-    """--work-width as the Pipeline's work_width (0 -> None); CliError outside 16..MAX_WIDTH."""
-    from .._native import lib
+    """--work-width as the Pipeline's work_width (0 -> None); CliError outside 16..65535."""
     ww = getattr(args, "work_width", 1280)
     if ww == 0:
         return None
-    if not 16 <= ww <= int(lib.VT_MAX_WIDTH):
-        raise CliError(f"--work-width {ww}: expected 16..{int(lib.VT_MAX_WIDTH)} px, or 0")
+    if not 16 <= ww <= 65535:
+        raise CliError(f"--work-width {ww}: expected 16..65535 px, or 0")
     return ww
 
 
