@@ -259,6 +259,69 @@ vt_status vt_pyr_down_rect(const vt_image_u8 *src, vt_image_u8_mut *dst, int32_t
     return VT_OK;
 }
 
+vt_status vt_resize_area(const vt_image_u8 *src, vt_image_u8_mut *dst)
+{
+    uint32_t acc[VT_MAX_WIDTH];
+    int32_t W, H, w, h, x, y, i, j;
+    uint64_t d, m, half;
+    vt_status s = vt_image_u8_check(src);
+    if (s != VT_OK) {
+        return s;
+    }
+    if (dst == NULL || dst->px == NULL) {
+        return VT_E_ARG;
+    }
+    if (dst->w < 1 || dst->h < 1 || dst->w > src->w || dst->h > src->h || dst->stride < dst->w) {
+        return VT_E_SIZE;
+    }
+    W = src->w;
+    H = src->h;
+    w = dst->w;
+    h = dst->h;
+    d = (uint64_t)W * (uint64_t)H;
+    m = (((uint64_t)1 << 52) + d - 1) / d;
+    half = d / 2;
+    for (y = 0; y < h; ++y) {
+        /* the input rows overlapping [y H, (y + 1) H) of the row axis (units of 1/h row) */
+        const int64_t r0 = (int64_t)y * H, r1 = r0 + H;
+        for (x = 0; x < w; ++x) {
+            acc[x] = 0;
+        }
+        for (j = (int32_t)(r0 / h); (int64_t)j * h < r1; ++j) {
+            const int64_t lo = (int64_t)j * h, hi = lo + h;
+            const uint32_t wy = (uint32_t)((hi < r1 ? hi : r1) - (lo > r0 ? lo : r0));
+            const uint8_t *p = src->px + (size_t)j * (size_t)src->stride;
+            /* input pixel i spans [i w, (i + 1) w): within output x = i w / W, or split at
+             * (x + 1) W with the next (an input pixel is no wider than an output one) */
+            int64_t edge = W; /* (x + 1) W */
+            x = 0;
+            for (i = 0; i < W; ++i) {
+                const int64_t a = (int64_t)i * w, b = a + w;
+                const uint32_t v = wy * p[i];
+                if (b <= edge) {
+                    acc[x] += v * (uint32_t)w;
+                    if (b == edge) {
+                        ++x;
+                        edge += W;
+                    }
+                } else {
+                    acc[x] += v * (uint32_t)(edge - a);
+                    acc[x + 1] += v * (uint32_t)(b - edge);
+                    ++x;
+                    edge += W;
+                }
+            }
+        }
+        {
+            uint8_t *o = dst->px + (size_t)y * (size_t)dst->stride;
+            for (x = 0; x < w; ++x) {
+                o[x] = (uint8_t)((((uint64_t)acc[x] + half) * m) >> 52);
+            }
+        }
+    }
+    return VT_OK;
+}
+
 vt_status vt_integral(const vt_image_u8 *src, vt_image_u32 *dst)
 {
     int32_t x, y, w, h;

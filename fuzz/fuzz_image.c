@@ -1,6 +1,7 @@
 /* fuzz_image.c -- the pixel primitives of vehtrack/image.h (thesis sec. 2.4,
  * IVVI paper): [-1 0 1], Sobel x/y, pyramid (whole or a rectangle of it),
- * integral + box sums, NCC, SAD, the
+ * the area downscale (against a plain per-pixel sum and division here, for sources up
+ * to 64 K pixels), integral + box sums, NCC, SAD, the
  * view check. Sizes, strides and NULLs come from the bytes; outputs are exact
  * heap blocks (ASan sees any write past them); a successful call is checked
  * against the documented bounds of its output. */
@@ -125,6 +126,49 @@ static void patches(fz *f, const vt_image_u8 *a)
     fz_status(vt_sad_u8(a, &b, fz_u8(f) == 0xFF ? NULL : &sad));
 }
 
+static int64_t resize_overlap(int64_t a0, int64_t a1, int64_t b0, int64_t b1)
+{
+    int64_t lo = a0 > b0 ? a0 : b0, hi = a1 < b1 ? a1 : b1;
+    return hi > lo ? hi - lo : 0;
+}
+
+static void resize(fz *f, const vt_image_u8 *src)
+{
+    vt_image_u8_mut dst;
+    vt_status s;
+    int own = 0;
+    if (fz_u8(f) < 220 && src->w > 0 && src->h > 0 && src->w <= VT_MAX_WIDTH && src->h <= VT_MAX_HEIGHT) {
+        dst.w = fz_range(f, 1, src->w);
+        dst.h = fz_range(f, 1, src->h);
+        dst.stride = dst.w + (fz_u8(f) & 3);
+        dst.px = (uint8_t *)fz_alloc(f, (size_t)(dst.h - 1) * (size_t)dst.stride + (size_t)dst.w);
+        own = 1;
+    } else {
+        dst.px = (uint8_t *)fz_out_view(f, VT_MAX_WIDTH, VT_MAX_HEIGHT, 1, &dst.w, &dst.h, &dst.stride);
+    }
+    s = vt_resize_area(src, &dst);
+    fz_status(s);
+    if (s == VT_OK && own && (int64_t)src->w * src->h <= 65536) {
+        const int64_t W = src->w, H = src->h, d = W * H;
+        int32_t x, y, i, j;
+        for (y = 0; y < dst.h; y++) {
+            for (x = 0; x < dst.w; x++) {
+                int64_t sum = 0;
+                for (j = 0; j < src->h; j++) {
+                    int64_t oy = resize_overlap((int64_t)y * H, (int64_t)(y + 1) * H, (int64_t)j * dst.h,
+                                                (int64_t)(j + 1) * dst.h);
+                    for (i = 0; oy > 0 && i < src->w; i++) {
+                        sum += oy * resize_overlap((int64_t)x * W, (int64_t)(x + 1) * W, (int64_t)i * dst.w,
+                                                   (int64_t)(i + 1) * dst.w) *
+                               src->px[(size_t)j * (size_t)src->stride + (size_t)i];
+                    }
+                }
+                FZ_ASSERT(dst.px[(size_t)y * (size_t)dst.stride + (size_t)x] == (uint8_t)((sum + d / 2) / d));
+            }
+        }
+    }
+}
+
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
@@ -132,12 +176,13 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     uint8_t op = fz_u8(&f);
     vt_image_u8 src = fz_image_u8(&f, VT_MAX_WIDTH, VT_MAX_HEIGHT);
     fz_status(vt_image_u8_check(fz_u8(&f) == 0xFF ? NULL : &src));
-    switch (op % 6u) {
+    switch (op % 7u) {
     case 0: grad(&f, &src, 0); break;
     case 1: grad(&f, &src, 1); break;
     case 2: grad(&f, &src, 2); break;
     case 3: pyr(&f, &src); break;
     case 4: integral(&f, &src); break;
+    case 5: resize(&f, &src); break;
     default: patches(&f, &src); break;
     }
     fz_close(&f);

@@ -152,6 +152,10 @@ def pyr_down(src: np.ndarray, dst: np.ndarray) -> None:
     _unary("vt_pyr_down", src, dst, np.uint8)
 
 
+def resize_area(src: np.ndarray, dst: np.ndarray) -> None:
+    _unary("vt_resize_area", src, dst, np.uint8)
+
+
 def pyr_down_rect(src: np.ndarray, dst: np.ndarray, x0: int, y0: int, x1: int, y1: int) -> None:
     """vt_pyr_down_rect: the level-image pixels [x0, x1) x [y0, y1) of dst only."""
     vs = view(src, "src")

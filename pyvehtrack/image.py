@@ -52,6 +52,22 @@ def pyr_down(img: np.ndarray) -> np.ndarray:
     return out
 
 
+def resize_area(img: np.ndarray, size) -> np.ndarray:
+    """Area downscale to size = (w, h), 1 <= w <= width, 1 <= h <= height: OpenCV's
+    INTER_AREA rule in exact integers (vt_resize_area; at most 1 level from cv2.resize's
+    float rounding). For firmware the same bytes as here."""
+    h, w = _shape(img)
+    if not isinstance(size, (tuple, list)) or len(size) != 2:
+        raise TypeError(f"size: expected (w, h), got {size!r}")
+    ow, oh = (_check.integer(v, "size") for v in size)
+    if not (1 <= ow <= w and 1 <= oh <= h):
+        raise ValueError(f"size: {tuple(size)} is not a downscale of the {w}x{h} image "
+                         f"(1 <= w <= {w}, 1 <= h <= {h})")
+    out = _new((oh, ow), np.uint8)
+    _native.resize_area(img, out)
+    return out
+
+
 def pyr_down_rect(img: np.ndarray, rect, out: np.ndarray | None = None) -> np.ndarray:
     """The pixels [x0, x1) x [y0, y1) of pyr_down(img), rect = (x0, y0, x1, y1) in level
     pixels, written into `out` (a ((h+1)//2, (w+1)//2) uint8 array, zeros if None; its

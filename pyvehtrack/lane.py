@@ -145,7 +145,8 @@ class LaneDetector:
         scale, note = 1.0, ""
         w1, h1 = self.pipeline.work_size(w0, h0)
         if (w1, h1) != (w0, h0):
-            gray = cv2.resize(gray, (w1, h1), interpolation=cv2.INTER_AREA)
+            from .pipeline import resample  # noqa: PLC0415
+            gray = resample(gray, (w1, h1), self.engine)
             scale = w1 / w0
             past = w0 > self.max_w or h0 > self.max_h
             note = (f"frame {w0}x{h0} is larger than the core's maximum {self.max_w}x{self.max_h}"

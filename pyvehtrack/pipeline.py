@@ -13,7 +13,8 @@ same order.
 Coordinates in a result are the INPUT frame's pixels, boxes inclusive. The one
 downscale rule of the library lives here: a frame wider than work_width (default
 WORK_WIDTH, 1280 px) or larger than the core's compile-time maximum
-(pyvehtrack.MAX_WIDTH x MAX_HEIGHT) is resampled (cv2 INTER_AREA) to the size
+(pyvehtrack.MAX_WIDTH x MAX_HEIGHT) is resampled by area (the core's vt_resize_area
+on the C engine, which firmware can call the same way; cv2 INTER_AREA on the oracle's) to the size
 vt_pipeline_work_size gives for a maximum of min(work_width, MAX_WIDTH) x MAX_HEIGHT
 (same aspect ratio, the limiting side at its maximum), and results are mapped back
 (x_in = floor((x + 0.5) * sx) for box corners, velocities times sx, sy); a warning
@@ -100,6 +101,19 @@ ENGINES = ("c", "reference")
 STATES = {1: "tentative", 2: "confirmed", 3: "coasting", 4: "handover"}
 HANDOVER_KEYS = ("handover", "handover_frames", "handover_dy_permille", "handover_edge_permille")
 ROAD_SOURCES = {0: "none", 1: "lanes", 2: "fixed", 3: "camera"}
+
+
+def resample(gray: np.ndarray, size, engine: str = "c") -> np.ndarray:
+    """gray downscaled to size = (w, h) by area: the C core's vt_resize_area on the C engine
+    (so a firmware build that resamples with it gets the same bytes), cv2.INTER_AREA, the
+    same rule in float (at most 1 level apart), on the oracle's and for a frame past the
+    core's maximum, which the core cannot take."""
+    h, w = gray.shape
+    if engine == "c" and w <= int(lib.VT_MAX_WIDTH) and h <= int(lib.VT_MAX_HEIGHT):
+        out = np.empty((size[1], size[0]), np.uint8)
+        _native.resize_area(np.ascontiguousarray(gray), out)
+        return out
+    return cv2.resize(gray, tuple(size), interpolation=cv2.INTER_AREA)
 
 
 def check_work_width(work_width):
@@ -687,7 +701,7 @@ class Pipeline:
                 warnings.warn(f"frame {w}x{h} is larger than the core's maximum "
                               f"{self.max_w}x{self.max_h}: downscaled to {pw}x{ph}", stacklevel=3)
                 self._warned = True
-            gray = cv2.resize(gray, (pw, ph), interpolation=cv2.INTER_AREA)
+            gray = resample(gray, (pw, ph), self.engine)
         return gray, (w / pw, h / ph)
 
     # ------------------------------------------------------------------ step

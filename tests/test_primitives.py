@@ -71,6 +71,72 @@ def test_pyr_down_matches_opencv(img):
     np.testing.assert_array_equal(vt.image.pyr_down(img), cv2.pyrDown(np.ascontiguousarray(img)))
 
 
+# resize_area: the oracle computes the same overlap-weighted integer sum with NumPy
+# (weights from area_weights, products and sums exact in int64) and the same rounding,
+# (sum + W H // 2) // (W H); the C division is a 2^52 reciprocal proven exact for sums
+# below 255.5 W H. Tolerance: 0 LSB. Against cv2.INTER_AREA, which weights and rounds in
+# float: at most 1 LSB.
+@given(img=images(), data=st.data())
+def test_resize_area_exact(img, data):
+    h, w = img.shape
+    ow, oh = data.draw(st.integers(1, w)), data.draw(st.integers(1, h))
+    g = Guarded(oh, ow, np.uint8)
+    _native.resize_area(img, g.view)
+    assert g.intact()
+    np.testing.assert_array_equal(g.view, ref.resize_area(np.ascontiguousarray(img), (ow, oh)))
+    import cv2
+    d = np.abs(g.view.astype(np.int16) - cv2.resize(np.ascontiguousarray(img), (ow, oh),
+                                                    interpolation=cv2.INTER_AREA))
+    assert d.max() <= 1
+
+
+def test_resize_area_extremes():
+    # the largest weight sum this build takes (the division's bound), a flat image of 255
+    # and of 0 at every size; a ramp keeps its order; the same size is a copy
+    mw, mh = int(vt.MAX_WIDTH), int(vt.MAX_HEIGHT)
+    for v in (0, 1, 254, 255):
+        img = np.full((mh, mw), v, np.uint8)
+        for size in ((1, 1), (mw, 1), (1, mh), (max(1, mw * 2 // 3), max(1, mh * 2 // 3)), (mw, mh)):
+            assert (vt.image.resize_area(img, size) == v).all(), (v, size)
+    rng = np.random.default_rng(5)
+    img = rng.integers(0, 256, (mh, mw), dtype=np.uint8)
+    assert np.array_equal(vt.image.resize_area(img, (mw, mh)), img)
+    one = vt.image.resize_area(img, (1, 1))
+    assert one[0, 0] == (int(img.astype(np.int64).sum()) + img.size // 2) // img.size
+    ramp = np.tile(np.arange(mw, dtype=np.int64) * 255 // max(1, mw - 1), (4, 1)).astype(np.uint8)
+    r = vt.image.resize_area(ramp, (max(1, mw * 2 // 3), 2))
+    assert (np.diff(r[0].astype(int)) >= 0).all()
+
+
+def test_resize_area_bad_arguments():
+    from pyvehtrack._native import ffi, lib
+    img = np.full((6, 8), 9, np.uint8)
+    for size in ((9, 6), (8, 7), (0, 3), (3, 0)):
+        with pytest.raises(ValueError, match="size"):
+            vt.image.resize_area(img, size)
+    with pytest.raises(TypeError, match="size"):
+        vt.image.resize_area(img, (3,))
+    with pytest.raises(TypeError):
+        vt.image.resize_area([[1]], (1, 1))
+    src = _native.view(img, "src")
+    out = np.zeros((3, 4), np.uint8)
+    dst = _native.view(out, "dst", writable=True)
+    assert lib.vt_resize_area(ffi.NULL, dst) == lib.VT_E_ARG
+    assert lib.vt_resize_area(src, ffi.NULL) == lib.VT_E_ARG
+    for field, val, err in (("w", 9, lib.VT_E_SIZE), ("h", 7, lib.VT_E_SIZE), ("w", 0, lib.VT_E_SIZE),
+                            ("h", -1, lib.VT_E_SIZE), ("stride", 3, lib.VT_E_SIZE)):
+        bad = ffi.new("vt_image_u8_mut *", dst[0])
+        if field == "w" and val == 9:
+            bad.w, bad.stride = 9, 9
+        else:
+            setattr(bad, field, val)
+        assert lib.vt_resize_area(src, bad) == err, (field, val)
+    bad = ffi.new("vt_image_u8_mut *", dst[0])
+    bad.px = ffi.NULL
+    assert lib.vt_resize_area(src, bad) == lib.VT_E_ARG
+    assert (out == 0).all()            # nothing written on an error
+
+
 # pyr_down_rect: the pixels of the rectangle must equal cv2.pyrDown's there (the same
 # integer sums and rounding: 0 LSB), every other pixel of the level image and the guard
 # around it must keep what it held (a sentinel), whatever rectangle: empty ones, ones

@@ -97,6 +97,19 @@ def test_frames_no_wider_than_work_width_are_untouched():
 
 
 @FULL_SIZE
+def test_the_c_engine_resamples_with_the_core():
+    """Pipeline.prepare on the C engine is vt_resize_area (what a firmware build calls), the
+    oracle's cv2.INTER_AREA (the same rule in float, at most 1 level apart)."""
+    _small, big = _frame()
+    g, (sx, sy) = Pipeline().prepare(big)
+    assert g.shape == (720, 1280) and (sx, sy) == (1.5, 1.5)
+    from pyvehtrack.image import resize_area
+    assert np.array_equal(g, resize_area(big, (1280, 720)))
+    gr, _ = Pipeline("reference").prepare(big)
+    assert np.abs(gr.astype(int) - g).max() <= 1
+
+
+@FULL_SIZE
 def test_lanes_of_a_wide_frame_come_back_in_its_pixels():
     _small, big = _frame()
     res = LaneDetector().detect(big)

@@ -76,6 +76,19 @@ vt_status vt_sobel_y(const vt_image_u8 *src, vt_image_s16 *dst);
  * width; build with a smaller VT_MAX_WIDTH for a small firmware stack). */
 vt_status vt_pyr_down(const vt_image_u8 *src, vt_image_u8_mut *dst);
 
+/* Area downscale (OpenCV's INTER_AREA rule, in exact integers) of src into dst's size,
+ * for a camera wider than the stages were tuned at: vt_pipeline_work_size gives the
+ * size (pyvehtrack's work_width, 1280 by default), this makes the frame. With W x H the
+ * source and w x h the output (1 <= w <= W, 1 <= h <= H), input pixel i spans [i w,
+ * (i+1) w) and output pixel x spans [x W, (x+1) W) of a common axis; each output is the
+ * overlap-weighted sum of the inputs it covers (weights sum to W H), rounded half up:
+ * out = floor((sum + W H / 2) / (W H)). The sum is below 255.5 W H <= 2^30 (W H <=
+ * 2^22, config.h) and the division is a 2^52 reciprocal, exact because (sum + W H / 2)
+ * W H < 2^52. VT_E_ARG for NULL or a NULL dst->px, VT_E_SIZE for a dst larger than src in
+ * either side, < 1, or with stride < w. dst must not overlap src. Stack: one row of
+ * uint32 sums, 4 * VT_MAX_WIDTH bytes (7.5 KB at the default width). */
+vt_status vt_resize_area(const vt_image_u8 *src, vt_image_u8_mut *dst);
+
 /* vt_pyr_down restricted to the output pixels (ox, oy) with x0 <= ox < x1 and
  * y0 <= oy < y1 of dst (the whole ((w+1)/2) x ((h+1)/2) level image, checked as
  * for vt_pyr_down): each gets exactly the value vt_pyr_down gives it (same sums,

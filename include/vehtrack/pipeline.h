@@ -719,7 +719,11 @@ vt_status vt_pipeline_step_dets(vt_pipeline *p, const vt_image_u8 *frame, const 
  * fits, else the largest size with the same aspect ratio that fits (each side
  * >= 1): the limiting side becomes its maximum, the other is scaled by the same
  * ratio and rounded down (integer arithmetic, no rounding ambiguity). The one
- * downscale rule of the library; callers resample the frame to it. VT_E_ARG for
+ * downscale rule of the library; callers resample the frame to it (vt_resize_area,
+ * image.h). pyvehtrack passes max_w = min(work_width, VT_MAX_WIDTH), work_width 1280 by
+ * default: the stages' pixel settings were chosen on frames 1,242-1,280 px wide, so a
+ * firmware with a 1920 x 1080 camera does best to call this with max_w 1280 and
+ * vt_resize_area before vt_pipeline_step, as pyvehtrack does. VT_E_ARG for
  * NULL outputs, VT_E_SIZE for w, h, max_w or max_h < 1. */
 vt_status vt_pipeline_work_size(int32_t w, int32_t h, int32_t max_w, int32_t max_h,
                                 int32_t *work_w, int32_t *work_h);

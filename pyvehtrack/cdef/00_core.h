@@ -57,6 +57,7 @@ vt_status vt_filter_h101(const vt_image_u8 *src, vt_image_s16 *dst);
 vt_status vt_sobel_x(const vt_image_u8 *src, vt_image_s16 *dst);
 vt_status vt_sobel_y(const vt_image_u8 *src, vt_image_s16 *dst);
 vt_status vt_pyr_down(const vt_image_u8 *src, vt_image_u8_mut *dst);
+vt_status vt_resize_area(const vt_image_u8 *src, vt_image_u8_mut *dst);
 vt_status vt_pyr_down_rect(const vt_image_u8 *src, vt_image_u8_mut *dst, int32_t x0, int32_t y0,
                            int32_t x1, int32_t y1);
 vt_status vt_integral(const vt_image_u8 *src, vt_image_u32 *dst);

@@ -57,6 +57,26 @@ def pyr_down(img: np.ndarray) -> np.ndarray:
     return np.floor(pyr_down_float(img) + 0.5).astype(np.uint8)
 
 
+def area_weights(n_in: int, n_out: int) -> np.ndarray:
+    """(n_out, n_in) integer overlaps of output pixel x = [x n_in, (x+1) n_in) with input
+    pixel i = [i n_out, (i+1) n_out) on a common axis; each row sums to n_in."""
+    x = np.arange(n_out, dtype=np.int64)[:, None]
+    i = np.arange(n_in, dtype=np.int64)[None, :]
+    lo = np.maximum(x * n_in, i * n_out)
+    hi = np.minimum((x + 1) * n_in, (i + 1) * n_out)
+    return np.maximum(hi - lo, 0)
+
+
+def resize_area(img: np.ndarray, size) -> np.ndarray:
+    """vt_resize_area: the overlap-weighted mean, (sum + W H // 2) // (W H), in exact
+    integers (the area rule of cv2.INTER_AREA, which rounds in float)."""
+    a = np.asarray(img, np.int64)
+    H, W = a.shape
+    w, h = size
+    s = area_weights(H, h) @ a @ area_weights(W, w).T
+    return ((s + (W * H) // 2) // (W * H)).astype(np.uint8)
+
+
 def integral(img: np.ndarray) -> np.ndarray:
     a = _f(img)
     out = np.zeros((a.shape[0] + 1, a.shape[1] + 1))
