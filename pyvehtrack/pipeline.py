@@ -110,9 +110,8 @@ def resample(gray: np.ndarray, size, engine: str = "c") -> np.ndarray:
     core's maximum, which the core cannot take."""
     h, w = gray.shape
     if engine == "c" and w <= int(lib.VT_MAX_WIDTH) and h <= int(lib.VT_MAX_HEIGHT):
-        out = np.empty((size[1], size[0]), np.uint8)
-        _native.resize_area(np.ascontiguousarray(gray), out)
-        return out
+        from .image import resize_area  # noqa: PLC0415
+        return resize_area(gray, size)
     return cv2.resize(gray, tuple(size), interpolation=cv2.INTER_AREA)
 
 

@@ -8,7 +8,7 @@
 The naming rule for truth and camera files and the output layout: pyvehtrack.batch."""
 from __future__ import annotations
 
-from .common import CliError, add_command, add_range_args, out_folder, work_width_arg
+from .common import CliError, add_command, add_range_args, add_work_width_arg, out_folder, work_width_arg
 
 EXAMPLES = """examples:
   pyvehtrack batch recordings/* --out results/                 # LocalCluster, 2 workers
@@ -43,9 +43,7 @@ def register(sub) -> None:
     add_range_args(p)
     p.add_argument("--box-top", choices=("cnn", "tracker"), default="cnn",
                    help="passed to track: the top of a track's box (default cnn)")
-    p.add_argument("--work-width", type=int, default=1280, metavar="PX",
-                   help="passed to track (and the reports): frames wider are processed downscaled to it "
-                        "(default 1280; 0: only frames past the core's maximum)")
+    add_work_width_arg(p, "passed to track (and the reports): ")
     p.add_argument("--retry-failed", action="store_true", help="rerun recordings that failed before")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)

@@ -74,11 +74,7 @@ def add_model_arg(p) -> None:
                         "windows = classifier sliding windows; ego beside them = the ego-lane detector's "
                         "boxes first, e.g. --sources ego shadow windows); without --model the built-in "
                         "classifier is used")
-    p.add_argument("--work-width", type=int, default=1280, metavar="PX",
-                   help="frames wider than this are processed downscaled to it, results in the input's "
-                        "pixels (default 1280: the width the stages were tuned and the networks trained at; "
-                        "a 1920x1080 frame is processed at 1280x720); 0: only frames past the core's "
-                        "maximum are downscaled")
+    add_work_width_arg(p)
     p.add_argument("--no-hood-finder", action="store_true",
                    help="do not look for the ego car's hood in the frame (by default, without a camera file's "
                         "hood_row, the ego-lane detector's road ends above a hood found as a level edge across "
@@ -130,9 +126,21 @@ def resolve_model(model, sources=None, engine="c"):
     return model
 
 
+def add_work_width_arg(p, prefix: str = "") -> None:
+    """--work-width of `detect`, `track`, `report` and `batch` (prefix: what the command does
+    with it, e.g. "passed to track: ")."""
+    from ..shared import WORK_WIDTH
+    p.add_argument("--work-width", type=int, default=WORK_WIDTH, metavar="PX",
+                   help=f"{prefix}frames wider than this are processed downscaled to it, results in the "
+                        f"input's pixels (default {WORK_WIDTH}: the width the stages were tuned and the networks "
+                        f"trained at; a 1920x1080 frame is processed at 1280x720); 0: only frames past the "
+                        f"core's maximum are downscaled")
+
+
 def work_width_arg(args):
     """--work-width as the Pipeline's work_width (0 -> None); CliError outside 16..65535."""
-    ww = getattr(args, "work_width", 1280)
+    from ..shared import WORK_WIDTH
+    ww = getattr(args, "work_width", WORK_WIDTH)
     if ww == 0:
         return None
     if not 16 <= ww <= 65535:

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .common import CliError, add_command, add_range_args, out_folder, resolve_model, work_width_arg
+from .common import (CliError, add_command, add_range_args, add_work_width_arg, out_folder, resolve_model,
+                     work_width_arg)
 
 EXAMPLES = """examples:
   pyvehtrack report tests/data/kitti_clip --out r/
@@ -53,7 +54,7 @@ def register(sub) -> None:
                         "roi+edges for a lossy video or JPEG frames, roi otherwise)")
     p.add_argument("--box-top", choices=("cnn", "tracker"), default="cnn",
                    help="the top of a track's box, as `track --box-top` (default cnn)")
-    p.add_argument("--work-width", type=int, default=1280, metavar="PX", help="frames wider than this are processed downscaled to it, as `track --work-width` (default 1280; 0: only frames past the core's maximum)")
+    add_work_width_arg(p, "as `track --work-width`: ")
     add_range_args(p)           # as `track`'s (they need a camera)
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)

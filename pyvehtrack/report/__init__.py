@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 from .._check import range_options, warning_options
+from ..shared import WORK_WIDTH
 from .records import (FrameInfo, PythonPipeline, Truth, companion_files, load_truth, read_camera,  # noqa: F401
                       read_records, recording_frames, track_record, write_records)
 from .render import MAX_THUMBS, TrackTiles, annotate, pick_thumbs, render_html, thumbnail, write_page
@@ -34,7 +35,7 @@ def make_report(inputs, out_dir, *, truth="auto", camera="auto", engine: str = "
                 progress: bool = True, records_json: bool = True, fps: float | None = None,
                 model="default", measurement: str = "auto", rear_offset: float = 0.0,
                 bottom_height: float = 0.0, path_half_width: float = 1.5, ego_speed: float | None = None,
-                warn_ttc: str = "distance", box_top: str = "cnn", work_width=1280) -> Path:
+                warn_ttc: str = "distance", box_top: str = "cnn", work_width=WORK_WIDTH) -> Path:
     """Run the pipeline over one recording (a video, a folder of frames or an image) and
     write out_dir/index.html (and out_dir/tracks.json, the records, when records_json).
     truth: truth file paths (see records.load_truth), or "auto": the files the naming rule

@@ -31,6 +31,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..shared import WORK_WIDTH
+
 # The lidar sits about 0.27 m behind the camera along x (kitti-raw-sfnd-ttc README): lidar
 # ranges are moved to the camera by this much before they are compared with a camera range.
 LIDAR_BEHIND_CAMERA_M = 0.27
@@ -178,7 +180,7 @@ class PythonPipeline:
     def __init__(self, engine: str = "c", detect_every: int = 10, camera: dict | None = None,
                  fps: float = 10.0, geometry=None, model=None, measurement: str = "roi",
                  range_params: dict | None = None, ego_speed: float | None = None,
-                 warn_ttc: str = "distance", box_top: str = "cnn", work_width=1280):
+                 warn_ttc: str = "distance", box_top: str = "cnn", work_width=WORK_WIDTH):
         from ..detector import Detector
         from ..lane import LaneDetector
         from ..tracker import Tracker
